@@ -1,0 +1,1 @@
+"""gna package."""

@@ -1,0 +1,231 @@
+"""Aerodynamic coefficient models stored as term tables.
+
+The Grauer--Morelli generic nonlinear aerodynamic (GNA) model (paper eq.
+(GNA)) is a sum of polynomial terms ``theta_i * monomial_i``.  Here the model
+is *data*: a :class:`TermTable` lists, for each term, the coefficient it
+belongs to, the monomial (exponents of the aerodynamic variables) and the
+parameter value, so any structure (the 45-term GNA one, or an extended one
+produced by ``gflat fit``) evaluates through the same code.
+
+Conventions (see ``docs/conventions.md``):
+
+* ``CD``, ``CL``: drag and lift coefficients in **stability axes** (drag along
+  -x_s, lift along -z_s; the stability frame is the body frame rotated by
+  alpha about y_b);
+* ``CY``, ``Cl``, ``Cm``, ``Cn``: side-force and rolling, pitching, yawing
+  moment coefficients in **body axes**, moments about the model's moment
+  reference point;
+* variables: ``alpha``, ``beta`` [rad]; ``phat = p b / (2V)``,
+  ``qhat = q cbar / (2V)``, ``rhat = r b / (2V)``; ``dl``, ``dm``, ``dn``
+  aileron, elevator, rudder [rad], positive trailing edge down (right
+  aileron) / down / left, which gives ``Cl_dl < 0``, ``Cm_dm < 0``,
+  ``Cn_dn < 0``.
+
+Evaluation uses only ``+`` and ``*`` on its inputs, so it runs on floats,
+numpy arrays (many states at once) and truncated power series alike.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Iterable, Mapping, NamedTuple
+
+import numpy as np
+
+from .errors import InputError
+
+#: The aerodynamic variables a monomial may contain, in this order.
+AERO_VARIABLES: tuple[str, ...] = ("alpha", "beta", "phat", "qhat", "rhat", "dl", "dm", "dn")
+
+#: Aerodynamic variables that the flat ("simple") model drops from the force
+#: coefficients: rates and surfaces (the paper's H terms).
+H_VARIABLES: tuple[str, ...] = ("phat", "qhat", "rhat", "dl", "dm", "dn")
+
+#: Coefficient names, in the order of :class:`Coefficients`.
+COEFFICIENTS: tuple[str, ...] = ("CD", "CY", "CL", "Cl", "Cm", "Cn")
+
+#: Other spellings accepted in term tables (Grauer--Morelli use de, da, dr).
+_ALIASES = {"a": "alpha", "b": "beta", "de": "dm", "da": "dl", "dr": "dn",
+            "ptilde": "phat", "qtilde": "qhat", "rtilde": "rhat"}
+
+
+class Coefficients(NamedTuple):
+    """The six aerodynamic coefficients (any numeric type)."""
+
+    CD: object
+    CY: object
+    CL: object
+    Cl: object
+    Cm: object
+    Cn: object
+
+
+class AeroState(NamedTuple):
+    """Values of the aerodynamic variables (any numeric type)."""
+
+    alpha: object
+    beta: object
+    phat: object
+    qhat: object
+    rhat: object
+    dl: object
+    dm: object
+    dn: object
+
+
+def parse_monomial(text: str) -> tuple[int, ...]:
+    """Parse ``"alpha^2*qhat"`` into exponents over :data:`AERO_VARIABLES`.
+
+    ``"1"`` (or an empty string) is the constant monomial.
+    """
+    exps = [0] * len(AERO_VARIABLES)
+    text = text.strip().replace(" ", "").replace("**", "^")
+    if text in ("", "1"):
+        return tuple(exps)
+    for factor in text.split("*"):
+        m = re.fullmatch(r"([A-Za-z_]+)(?:\^(\d+))?", factor)
+        if not m:
+            raise InputError(f"malformed monomial {text!r} (factor {factor!r})")
+        name = _ALIASES.get(m.group(1), m.group(1))
+        if name not in AERO_VARIABLES:
+            raise InputError(f"unknown aerodynamic variable {m.group(1)!r} in monomial {text!r}; "
+                             f"known: {', '.join(AERO_VARIABLES)}")
+        exps[AERO_VARIABLES.index(name)] += int(m.group(2) or 1)
+    return tuple(exps)
+
+
+def format_monomial(exponents: Iterable[int]) -> str:
+    """Inverse of :func:`parse_monomial`."""
+    parts = []
+    for name, e in zip(AERO_VARIABLES, exponents):
+        if e == 1:
+            parts.append(name)
+        elif e > 1:
+            parts.append(f"{name}^{e}")
+    return "*".join(parts) if parts else "1"
+
+
+@dataclass(frozen=True)
+class Term:
+    """One term ``value * monomial`` of a coefficient."""
+
+    index: int
+    coefficient: str
+    exponents: tuple[int, ...]
+    value: float
+    source: str = ""
+
+    @property
+    def monomial(self) -> str:
+        return format_monomial(self.exponents)
+
+    @property
+    def is_flat(self) -> bool:
+        """True when the monomial involves alpha and beta only."""
+        return all(self.exponents[AERO_VARIABLES.index(v)] == 0 for v in H_VARIABLES)
+
+
+@dataclass(frozen=True)
+class TermTable:
+    """An aerodynamic model given as a table of polynomial terms.
+
+    Parameters
+    ----------
+    terms : sequence of Term
+    structure : str
+        Name of the structure (``"gna45"`` for the paper's 45 terms).
+    """
+
+    terms: tuple[Term, ...]
+    structure: str = "custom"
+    _powers: tuple[int, ...] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        for t in self.terms:
+            if t.coefficient not in COEFFICIENTS:
+                raise InputError(f"term {t.index}: unknown coefficient {t.coefficient!r}; "
+                                 f"known: {', '.join(COEFFICIENTS)}")
+            if not np.isfinite(t.value):
+                raise InputError(f"term {t.index} ({t.coefficient}, {t.monomial}): value is {t.value}")
+        object.__setattr__(self, "_powers", tuple(
+            max((t.exponents[i] for t in self.terms), default=0) for i in range(len(AERO_VARIABLES))))
+
+    @classmethod
+    def from_records(cls, records: Iterable[Mapping], structure: str = "custom") -> "TermTable":
+        """Build from mappings with keys ``theta``/``index``, ``coef``, ``monomial``, ``value``, ``source``."""
+        terms = []
+        for i, r in enumerate(records, start=1):
+            try:
+                terms.append(Term(index=int(r.get("theta", r.get("index", i))),
+                                  coefficient=str(r.get("coef", r.get("coefficient"))),
+                                  exponents=parse_monomial(str(r["monomial"])),
+                                  value=float(r["value"]),
+                                  source=str(r.get("source", ""))))
+            except KeyError as exc:
+                raise InputError(f"aerodynamic term #{i}: missing key {exc.args[0]!r}") from None
+        return cls(tuple(terms), structure)
+
+    def to_records(self) -> list[dict]:
+        """Records suitable for a TOML aircraft file."""
+        out = []
+        for t in self.terms:
+            rec = {"theta": t.index, "coef": t.coefficient, "monomial": t.monomial, "value": t.value}
+            if t.source:
+                rec["source"] = t.source
+            out.append(rec)
+        return out
+
+    def with_values(self, values: Mapping[int, float] | Iterable[float], source: str = "") -> "TermTable":
+        """A copy with new parameter values (by term index, or in table order)."""
+        if isinstance(values, Mapping):
+            new = [Term(t.index, t.coefficient, t.exponents, float(values.get(t.index, t.value)),
+                        source if t.index in values else t.source) for t in self.terms]
+        else:
+            vals = list(values)
+            if len(vals) != len(self.terms):
+                raise InputError(f"{len(vals)} values for {len(self.terms)} terms")
+            new = [Term(t.index, t.coefficient, t.exponents, float(v), source or t.source)
+                   for t, v in zip(self.terms, vals)]
+        return TermTable(tuple(new), self.structure)
+
+    def terms_of(self, coefficient: str) -> tuple[Term, ...]:
+        return tuple(t for t in self.terms if t.coefficient == coefficient)
+
+    def monomials(self, state: AeroState) -> list:
+        """Values of every term's monomial (without its parameter), in table order."""
+        cache: dict[tuple[int, int], object] = {}
+        values = list(state)
+
+        def power(i: int, e: int):
+            key = (i, e)
+            if key not in cache:
+                cache[key] = values[i] if e == 1 else power(i, e - 1) * values[i]
+            return cache[key]
+
+        out = []
+        for t in self.terms:
+            m = None
+            for i, e in enumerate(t.exponents):
+                if e:
+                    m = power(i, e) if m is None else m * power(i, e)
+            out.append(1.0 if m is None else m)
+        return out
+
+    def coefficients(self, state: AeroState) -> Coefficients:
+        """Evaluate the six coefficients (paper eq. (GNA)).
+
+        Parameters
+        ----------
+        state : AeroState
+            alpha, beta [rad], phat, qhat, rhat [-], dl, dm, dn [rad]; floats,
+            arrays (broadcast together) or truncated power series.
+        """
+        sums: dict[str, object] = {c: 0.0 for c in COEFFICIENTS}
+        for t, m in zip(self.terms, self.monomials(state)):
+            if t.value != 0.0:
+                sums[t.coefficient] = sums[t.coefficient] + t.value * m
+        return Coefficients(*(sums[c] for c in COEFFICIENTS))
+
+    def __len__(self) -> int:
+        return len(self.terms)

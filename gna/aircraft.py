@@ -1,0 +1,295 @@
+"""Aircraft definitions: geometry, mass, inertia, engines, envelope, aerodynamics.
+
+An aircraft is a TOML file in ``gna/data/aircraft/`` (or any path given by the
+user).  Each quantity may be written in SI or in the units it was published
+in, the unit being part of the key (``mass_kg`` or ``weight_lb``, ``S_m2`` or
+``S_ft2``, ...); conversion to SI uses the exact factors of
+:mod:`gna.units`.  Every section carries a ``source`` string and the file a
+``[provenance]`` table, so the numbers never travel without their origin.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from . import units
+from .aero import TermTable
+from .errors import InputError, UnknownAircraftError
+
+#: Accepted unit suffixes, with their factor to SI.
+_UNITS: dict[str, dict[str, float]] = {
+    "mass": {"kg": 1.0, "slug": units.SLUG},
+    "weight": {"lb": units.LBM, "N": 1.0 / units.G0},  # -> mass in kg (W/g0)
+    "inertia": {"kgm2": 1.0, "slugft2": units.SLUG_FT2},
+    "length": {"m": 1.0, "ft": units.FT, "in": units.IN},
+    "area": {"m2": 1.0, "ft2": units.FT2},
+    "angle": {"rad": 1.0, "deg": units.DEG},
+    "force": {"N": 1.0, "lbf": units.LBF},
+    "speed": {"ms": 1.0, "kt": units.KT, "fps": units.FT},
+}
+
+
+def _get(table: Mapping[str, Any], name: str, kind: str, where: str, default: Any = ...) -> float:
+    """Read ``name_<unit>`` from ``table`` and convert to SI."""
+    found = [(u, f) for u, f in _UNITS[kind].items() if f"{name}_{u}" in table]
+    if kind == "mass" and not found:
+        found = [("weight_" + u, f) for u, f in _UNITS["weight"].items() if f"weight_{u}" in table]
+        if found:
+            key, factor = found[0]
+            return _check(float(table[key]) * factor, key, where)
+    if not found:
+        if default is ...:
+            keys = ", ".join(f"{name}_{u}" for u in _UNITS[kind])
+            raise InputError(f"{where}: missing {name!r} (one of {keys})")
+        return default
+    if len(found) > 1:
+        raise InputError(f"{where}: {name!r} given in several units")
+    u, factor = found[0]
+    return _check(float(table[f"{name}_{u}"]) * factor, f"{name}_{u}", where)
+
+
+def _check(value: float, key: str, where: str) -> float:
+    if not math.isfinite(value):
+        raise InputError(f"{where}: {key} is {value}")
+    return value
+
+
+@dataclass(frozen=True)
+class MassProperties:
+    """Mass [kg] and inertia [kg m^2] in body axes (xz plane of symmetry).
+
+    ``Ixz`` follows the flight-dynamics convention ``Ixz = integral(x z dm)``
+    (positive for most aircraft), as in paper eq. (aircraft2).
+    """
+
+    mass: float
+    Ixx: float
+    Iyy: float
+    Izz: float
+    Ixz: float
+    source: str = ""
+
+    def __post_init__(self):
+        if not self.mass > 0:
+            raise InputError(f"mass must be positive, got {self.mass} kg")
+        for k in ("Ixx", "Iyy", "Izz"):
+            if not getattr(self, k) > 0:
+                raise InputError(f"{k} must be positive, got {getattr(self, k)} kg m^2")
+        det = self.Ixx * self.Izz - self.Ixz ** 2
+        if not det > 0:
+            raise InputError(f"inertia matrix not positive definite (Ixx Izz - Ixz^2 = {det})")
+        # Triangle inequalities of a physical body.
+        a, b, c = self.Ixx, self.Iyy, self.Izz
+        if a + b < c * (1 - 1e-9) or a + c < b * (1 - 1e-9) or b + c < a * (1 - 1e-9):
+            raise InputError(f"inertias violate the triangle inequality: Ixx={a}, Iyy={b}, Izz={c}")
+
+    @property
+    def inertia_matrix(self) -> np.ndarray:
+        return np.array([[self.Ixx, 0.0, -self.Ixz], [0.0, self.Iyy, 0.0], [-self.Ixz, 0.0, self.Izz]])
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Reference geometry.
+
+    ``x_cg`` and ``x_ref`` are positions along the body x axis, measured *aft*
+    of the leading edge of the mean aerodynamic chord, in metres; the moments
+    of the aerodynamic model are about ``x_ref`` and are transferred to the
+    centre of gravity ``x_cg``.
+    """
+
+    S: float
+    b: float
+    cbar: float
+    x_cg: float = 0.0
+    x_ref: float = 0.0
+    source: str = ""
+
+    def __post_init__(self):
+        for k in ("S", "b", "cbar"):
+            if not getattr(self, k) > 0:
+                raise InputError(f"{k} must be positive, got {getattr(self, k)}")
+
+
+@dataclass(frozen=True)
+class Engines:
+    """Propulsion layout.
+
+    ``count`` is 1 (on the symmetry plane) or 2 (at ``y = -y_p`` for engine 1,
+    left, and ``y = +y_p`` for engine 2, right).  The thrust line is tilted by
+    ``epsilon`` nose-up from the body x axis: body-axis direction
+    ``(cos eps, 0, -sin eps)``.
+    """
+
+    count: int = 1
+    y_p: float = 0.0
+    epsilon: float = 0.0
+    max_thrust: float | None = None
+    source: str = ""
+
+    def __post_init__(self):
+        if self.count not in (1, 2):
+            raise InputError(f"engine count must be 1 or 2, got {self.count}")
+        if self.y_p < 0:
+            raise InputError(f"engine lateral offset y_p must be >= 0, got {self.y_p}")
+        if self.count == 1 and self.y_p != 0:
+            raise InputError("a single engine sits on the symmetry plane (y_p = 0)")
+        if self.max_thrust is not None and not self.max_thrust > 0:
+            raise InputError(f"max thrust must be positive, got {self.max_thrust}")
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """Validity domain of the aerodynamic model [rad], and control limits."""
+
+    alpha_min: float = math.radians(-10.0)
+    alpha_max: float = math.radians(30.0)
+    beta_max: float = math.radians(20.0)
+    control_limits: Mapping[str, float] = field(default_factory=dict)
+    source: str = ""
+
+    def violations(self, alpha, beta) -> list[str]:
+        """Human-readable list of envelope violations (empty when inside)."""
+        out = []
+        a, b = np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float)
+        if np.any(a < self.alpha_min) or np.any(a > self.alpha_max):
+            out.append(f"alpha outside [{math.degrees(self.alpha_min):.1f}, {math.degrees(self.alpha_max):.1f}] deg "
+                       f"(reached {math.degrees(float(np.min(a))):.2f} .. {math.degrees(float(np.max(a))):.2f} deg)")
+        if np.any(np.abs(b) > self.beta_max):
+            out.append(f"|beta| above {math.degrees(self.beta_max):.1f} deg "
+                       f"(reached {math.degrees(float(np.max(np.abs(b)))):.2f} deg)")
+        return out
+
+
+@dataclass(frozen=True)
+class Aircraft:
+    """A complete aircraft: the stateless vehicle model's parameters.
+
+    Attributes
+    ----------
+    id : str
+        Short identifier (``f16c``).
+    name : str
+    mass : MassProperties
+    geometry : Geometry
+    engines : Engines
+    envelope : Envelope
+    aero : TermTable
+        The aerodynamic model (any object with ``coefficients(AeroState)``).
+    provenance : dict
+        Source, transformation and date of the data set.
+    """
+
+    id: str
+    name: str
+    mass: MassProperties
+    geometry: Geometry
+    engines: Engines
+    envelope: Envelope
+    aero: TermTable
+    provenance: Mapping[str, str] = field(default_factory=dict)
+    path: str | None = None
+
+    def summary(self) -> str:
+        return (f"{self.id}: {self.name}; m = {self.mass.mass:.1f} kg, S = {self.geometry.S:.3f} m^2, "
+                f"b = {self.geometry.b:.3f} m, cbar = {self.geometry.cbar:.3f} m, "
+                f"{self.engines.count} engine(s), {len(self.aero)} aero terms ({self.aero.structure})")
+
+
+def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", path: str | None = None) -> Aircraft:
+    """Build an :class:`Aircraft` from the parsed TOML structure."""
+    try:
+        ident = str(data["id"])
+    except KeyError:
+        raise InputError(f"{where}: missing 'id'") from None
+    where = f"{where} ({ident})"
+    for sec in ("mass", "geometry", "aero"):
+        if sec not in data:
+            raise InputError(f"{where}: missing [{sec}] section")
+    m = data["mass"]
+    mass = MassProperties(
+        mass=_get(m, "mass", "mass", where + " [mass]"),
+        Ixx=_get(m, "Ixx", "inertia", where + " [mass]"),
+        Iyy=_get(m, "Iyy", "inertia", where + " [mass]"),
+        Izz=_get(m, "Izz", "inertia", where + " [mass]"),
+        Ixz=_get(m, "Ixz", "inertia", where + " [mass]", 0.0),
+        source=str(m.get("source", "")))
+    g = data["geometry"]
+    cbar = _get(g, "cbar", "length", where + " [geometry]")
+    if "x_cg_cbar" in g or "x_ref_cbar" in g:
+        x_cg = float(g.get("x_cg_cbar", g.get("x_ref_cbar", 0.0))) * cbar
+        x_ref = float(g.get("x_ref_cbar", g.get("x_cg_cbar", 0.0))) * cbar
+    else:
+        x_cg = _get(g, "x_cg", "length", where + " [geometry]", 0.0)
+        x_ref = _get(g, "x_ref", "length", where + " [geometry]", x_cg)
+    geometry = Geometry(S=_get(g, "S", "area", where + " [geometry]"), b=_get(g, "b", "length", where + " [geometry]"),
+                        cbar=cbar, x_cg=x_cg, x_ref=x_ref, source=str(g.get("source", "")))
+    e = data.get("engines", {})
+    engines = Engines(count=int(e.get("count", 1)), y_p=_get(e, "y_p", "length", where + " [engines]", 0.0),
+                      epsilon=_get(e, "epsilon", "angle", where + " [engines]", 0.0),
+                      max_thrust=_get(e, "max_thrust", "force", where + " [engines]", None),
+                      source=str(e.get("source", "")))
+    v = data.get("envelope", {})
+    limits = {}
+    for name in ("dl", "dm", "dn"):
+        lim = _get(v, f"{name}_max", "angle", where + " [envelope]", None)
+        if lim is not None:
+            limits[name] = lim
+    envelope = Envelope(alpha_min=_get(v, "alpha_min", "angle", where + " [envelope]", math.radians(-10.0)),
+                        alpha_max=_get(v, "alpha_max", "angle", where + " [envelope]", math.radians(30.0)),
+                        beta_max=_get(v, "beta_max", "angle", where + " [envelope]", math.radians(20.0)),
+                        control_limits=limits, source=str(v.get("source", "")))
+    a = data["aero"]
+    if "terms" not in a:
+        raise InputError(f"{where}: [aero] has no 'terms'")
+    aero = TermTable.from_records(a["terms"], structure=str(a.get("structure", "custom")))
+    prov = {k: str(val) for k, val in data.get("provenance", {}).items()}
+    return Aircraft(id=ident, name=str(data.get("name", ident)), mass=mass, geometry=geometry, engines=engines,
+                    envelope=envelope, aero=aero, provenance=prov, path=path)
+
+
+def _catalogue() -> dict[str, Path]:
+    root = resources.files("gna") / "data" / "aircraft"
+    out = {}
+    for entry in root.iterdir():
+        if entry.name.endswith(".toml"):
+            out[entry.name[:-5]] = Path(str(entry))
+    return dict(sorted(out.items()))
+
+
+def list_aircraft() -> list[str]:
+    """Identifiers of the bundled aircraft."""
+    return list(_catalogue())
+
+
+def load_aircraft(name_or_path: str | Path) -> Aircraft:
+    """Load a bundled aircraft by identifier, or an aircraft TOML file by path.
+
+    Raises
+    ------
+    UnknownAircraftError
+        If ``name_or_path`` is neither a bundled identifier nor an existing file.
+    InputError
+        If the file is malformed.
+    """
+    cat = _catalogue()
+    key = str(name_or_path)
+    if key in cat:
+        path = cat[key]
+    else:
+        path = Path(key)
+        if not (path.suffix == ".toml" and path.is_file()):
+            raise UnknownAircraftError(key, list(cat))
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML ({exc})") from None
+    return aircraft_from_dict(data, where=str(path.name), path=str(path))

@@ -1,0 +1,258 @@
+"""Twelve-state wind-frame equations of motion (paper section "The shape of the equations").
+
+States ``x, y, z`` (north-east-down, m), ``V`` (airspeed, m/s), ``gamma``
+(flight-path angle), ``chi`` (track angle), ``alpha``, ``beta`` (angle of
+attack, sideslip), ``mu`` (wind-axis bank angle), ``p, q, r`` (body rates,
+rad/s).  Controls ``F`` (total thrust, N), ``eta = (F1 - F2)/(F1 + F2)``,
+``dl, dm, dn`` (aileron, elevator, rudder, rad).  Flat, non-rotating Earth,
+uniform gravity, no wind.
+
+This is the **one definition** of the model: every function here uses only
+arithmetic and numpy ufuncs on its inputs, so it evaluates on floats, on numpy
+arrays (many states at once, broadcast together) and on truncated power series
+(:mod:`planners.series`) alike.  Nothing here branches on values.
+
+Equations and where they come from
+----------------------------------
+* Kinematics, paper eqs. (aircraft1:x)-(aircraft1:z).
+* Force equations, paper eqs. (aircraft1:V)-(aircraft1:chi): with the total
+  force ``(X, Y, Z)`` in wind axes,
+  ``V' = X/m``, ``gamma' = -(Y sin mu + Z cos mu)/(m V)``,
+  ``chi' = (Y cos mu - Z sin mu)/(m V cos gamma)``.
+* Forces, paper eqs. (X)-(Z), re-derived (see :func:`wind_forces`): the paper's
+  eq. (LDtoXY) rotates C_D and C_L through alpha as if they were body-axis
+  coefficients; here stability-axis C_D, C_L and body-axis C_Y are rotated
+  through beta into wind axes.  The paper's eq. (Z) writes the gravity term
+  ``-g m cos(gamma) cos(mu)``; with z down (as its thrust and lift terms and
+  eq. (aircraft1:gamma) require) it is ``+g m cos(gamma) cos(mu)``.
+* Moments, paper eqs. (L)-(N): the thrust moments follow from the engine
+  positions ``(0, -+y_p, 0)`` and direction ``(cos eps, 0, -sin eps)``; this
+  gives ``L = +y_p sin(eps) (F1 - F2)`` where the paper prints a minus sign
+  (the two differ only when eps != 0).  Aerodynamic moments are transferred
+  from the moment reference to the centre of gravity.
+* Rotational dynamics, paper eq. (aircraft2).
+* G3 (the alpha', beta', mu' equations), derived in :func:`derivatives`'
+  notes below and in ``docs/equations.md``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .aero import AeroState, Coefficients
+from .aircraft import Aircraft
+from .atmosphere import Environment
+
+STATE_NAMES: tuple[str, ...] = ("x", "y", "z", "V", "gamma", "chi", "alpha", "beta", "mu", "p", "q", "r")
+CONTROL_NAMES: tuple[str, ...] = ("F", "eta", "dl", "dm", "dn")
+H_NAMES: tuple[str, ...] = ("p", "q", "r", "dl", "dm", "dn")
+
+
+class State(NamedTuple):
+    """The 12 wind-frame states (any numeric type, broadcast together)."""
+
+    x: object
+    y: object
+    z: object
+    V: object
+    gamma: object
+    chi: object
+    alpha: object
+    beta: object
+    mu: object
+    p: object
+    q: object
+    r: object
+
+
+class Controls(NamedTuple):
+    """The 5 controls."""
+
+    F: object
+    eta: object
+    dl: object
+    dm: object
+    dn: object
+
+
+class HValues(NamedTuple):
+    """Values of the rates and surfaces used in the *force* coefficients of the
+    simple (flat) model: the paper's neglected terms H, evaluated at given
+    values (zero, calibration constants, or a previous plan iterate)."""
+
+    p: object = 0.0
+    q: object = 0.0
+    r: object = 0.0
+    dl: object = 0.0
+    dm: object = 0.0
+    dn: object = 0.0
+
+
+class Loads(NamedTuple):
+    """Everything the equations need, and the derived quantities users plot."""
+
+    qbar: object        #: dynamic pressure [Pa]
+    rho: object         #: air density [kg/m^3]
+    force_coeffs: Coefficients  #: coefficients used for the forces
+    moment_coeffs: Coefficients  #: coefficients used for the moments (always full)
+    X: object           #: total force along x_w (aero + thrust + gravity) [N]
+    Y: object           #: total force along y_w [N]
+    Z: object           #: total force along z_w [N]
+    L: object           #: total rolling moment about the CG, body axes [N m]
+    M: object           #: total pitching moment [N m]
+    N: object           #: total yawing moment [N m]
+    Xa: object          #: aerodynamic + thrust force in wind axes (no gravity) [N]
+    Ya: object
+    Za: object
+
+
+def aero_state(aircraft: Aircraft, V, alpha, beta, p, q, r, dl, dm, dn) -> AeroState:
+    """Nondimensional aerodynamic variables: ``phat = p b/(2V)``, ``qhat = q cbar/(2V)``, ``rhat = r b/(2V)``."""
+    g = aircraft.geometry
+    half_over_V = 0.5 / V
+    return AeroState(alpha, beta, p * (g.b * half_over_V), q * (g.cbar * half_over_V),
+                     r * (g.b * half_over_V), dl, dm, dn)
+
+
+def loads(aircraft: Aircraft, env: Environment, s: State, u: Controls,
+          model: str = "full", h: HValues | None = None) -> Loads:
+    """Forces (wind axes) and moments (body axes, about the CG).
+
+    Parameters
+    ----------
+    aircraft, env
+    s : State
+    u : Controls
+    model : {"full", "simple"}
+        ``"simple"``: the force coefficients keep only their alpha, beta
+        dependence, the rate and surface variables being replaced by ``h``
+        (zero when ``h`` is None).  Moments always use the full model.
+    h : HValues, optional
+    """
+    geo = aircraft.geometry
+    m = aircraft.mass.mass
+    rho = env.density(s.z)
+    qbar = 0.5 * rho * s.V * s.V
+    qS = qbar * geo.S
+
+    full = aircraft.aero.coefficients(aero_state(aircraft, s.V, s.alpha, s.beta, s.p, s.q, s.r, u.dl, u.dm, u.dn))
+    if model == "full":
+        fc = full
+    elif model == "simple":
+        hv = h if h is not None else HValues()
+        fc = aircraft.aero.coefficients(aero_state(aircraft, s.V, s.alpha, s.beta, hv.p, hv.q, hv.r,
+                                                   hv.dl, hv.dm, hv.dn))
+    else:
+        raise ValueError(f"model must be 'full' or 'simple', got {model!r}")
+
+    ca, sa = np.cos(s.alpha), np.sin(s.alpha)
+    cb, sb = np.cos(s.beta), np.sin(s.beta)
+    cg, sg = np.cos(s.gamma), np.sin(s.gamma)
+    cm, sm = np.cos(s.mu), np.sin(s.mu)
+
+    # Aerodynamic force: stability axes (-CD, CY, -CL) rotated by beta into wind axes.
+    Xaero = qS * (sb * fc.CY - cb * fc.CD)
+    Yaero = qS * (sb * fc.CD + cb * fc.CY)
+    Zaero = -qS * fc.CL
+    # Thrust F (cos eps, 0, -sin eps) in body axes, in wind axes (paper eqs. X-Z).
+    eps = aircraft.engines.epsilon
+    cae, sae = np.cos(s.alpha + eps), np.sin(s.alpha + eps)
+    Xa = Xaero + u.F * cb * cae
+    Ya = Yaero - u.F * sb * cae
+    Za = Zaero - u.F * sae
+    # Gravity (0, 0, m g) NED, in wind axes.
+    mg = m * env.g
+    X = Xa - mg * sg
+    Y = Ya + mg * cg * sm
+    Z = Za + mg * cg * cm
+
+    # Moments: aerodynamic about x_ref, transferred to the CG; thrust from engine geometry.
+    L = qS * geo.b * full.Cl
+    M = qS * geo.cbar * full.Cm
+    N = qS * geo.b * full.Cn
+    d = geo.x_cg - geo.x_ref  # body-x position of the CG relative to the reference, sign: x aft
+    if d != 0.0:
+        # Full aerodynamic force in body axes (moment transfer always with full coefficients).
+        Fby = qS * full.CY
+        Fbz = -qS * (sa * full.CD + ca * full.CL)
+        # r = (x_ref - x_cg) along body x (forward) = (d, 0, 0) with d = x_cg - x_ref.
+        M = M - d * Fbz
+        N = N + d * Fby
+    yp = aircraft.engines.y_p
+    if yp != 0.0:
+        dF = u.F * u.eta  # F1 - F2
+        L = L + yp * np.sin(eps) * dF
+        N = N + yp * np.cos(eps) * dF
+    return Loads(qbar, rho, fc, full, X, Y, Z, L, M, N, Xa, Ya, Za)
+
+
+def angular_acceleration(aircraft: Aircraft, p, q, r, L, M, N):
+    """Body angular accelerations, paper eq. (aircraft2), inverse inertia written out."""
+    I = aircraft.mass
+    Lp = (I.Iyy - I.Izz) * q * r + I.Ixz * p * q + L
+    Mp = (I.Izz - I.Ixx) * p * r + I.Ixz * (r * r - p * p) + M
+    Np = (I.Ixx - I.Iyy) * p * q - I.Ixz * q * r + N
+    gam = I.Ixx * I.Izz - I.Ixz ** 2
+    return (I.Izz * Lp + I.Ixz * Np) / gam, Mp / I.Iyy, (I.Ixz * Lp + I.Ixx * Np) / gam
+
+
+def derivatives(aircraft: Aircraft, env: Environment, s: State, u: Controls,
+                model: str = "full", h: HValues | None = None, ld: Loads | None = None) -> State:
+    """Time derivatives of the 12 states.
+
+    Notes
+    -----
+    G3 derivation.  Let ``w_w`` be the angular velocity of the wind frame
+    relative to the (inertial, flat-Earth) NED frame, in wind axes.  From
+    ``C_wn = R1(mu) R2(gamma) R3(chi)``::
+
+        w_wx = mu' - chi' sin(gamma)
+        w_wy = gamma' cos(mu) + chi' cos(gamma) sin(mu)
+        w_wz = -gamma' sin(mu) + chi' cos(gamma) cos(mu)
+
+    and the acceleration of the velocity vector ``V x_w`` is
+    ``(V', V w_wz, -V w_wy) = (X, Y, Z)/m``, whence ``w_wy = -Z/(m V)``,
+    ``w_wz = Y/(m V)`` (this also gives eqs. (aircraft1:gamma, chi)).
+    The body frame is the wind frame turned by ``-beta`` about ``z_w`` then by
+    ``alpha`` about ``y``, so ``C_wb (p, q, r) = w_w + alpha' (sin beta, cos beta, 0) - beta' z_w``.
+    Its three components give::
+
+        alpha' = q - tan(beta) (p cos alpha + r sin alpha) + Z / (m V cos beta)
+        beta'  = p sin alpha - r cos alpha + Y / (m V)
+        mu'    = (p cos alpha + r sin alpha)/cos beta - tan(beta) Z/(m V) + chi' sin gamma
+
+    (Stevens, Lewis & Johnson, *Aircraft Control and Simulation*, 3rd ed.,
+    sec. 2.5 give the same result in another notation.)  The test
+    ``tests/gna/test_eom.py`` checks all twelve equations against an
+    independent body-axis quaternion 6-DoF to 1e-7 relative.
+    """
+    if ld is None:
+        ld = loads(aircraft, env, s, u, model, h)
+    m = aircraft.mass.mass
+    ca, sa = np.cos(s.alpha), np.sin(s.alpha)
+    cb, sb = np.cos(s.beta), np.sin(s.beta)
+    cg, sg = np.cos(s.gamma), np.sin(s.gamma)
+    cm, sm = np.cos(s.mu), np.sin(s.mu)
+    cc, sc = np.cos(s.chi), np.sin(s.chi)
+    mV = m * s.V
+
+    xd = s.V * cc * cg
+    yd = s.V * sc * cg
+    zd = -s.V * sg
+    Vd = ld.X / m
+    gd = -(ld.Y * sm + ld.Z * cm) / mV
+    chid = (ld.Y * cm - ld.Z * sm) / (mV * cg)
+    pcr = s.p * ca + s.r * sa
+    ad = s.q - sb / cb * pcr + ld.Z / (mV * cb)
+    bd = s.p * sa - s.r * ca + ld.Y / mV
+    mud = pcr / cb - sb / cb * ld.Z / mV + chid * sg
+    pd, qd, rd = angular_acceleration(aircraft, s.p, s.q, s.r, ld.L, ld.M, ld.N)
+    return State(xd, yd, zd, Vd, gd, chid, ad, bd, mud, pd, qd, rd)
+
+
+def state_vector_derivative(aircraft: Aircraft, env: Environment, x: np.ndarray, u: Controls,
+                            model: str = "full", h: HValues | None = None) -> np.ndarray:
+    """Array form: ``x`` of shape ``(12, ...)`` -> derivative of the same shape."""
+    return np.stack(np.broadcast_arrays(*derivatives(aircraft, env, State(*x), u, model, h)))

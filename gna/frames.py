@@ -1,0 +1,107 @@
+"""Frames and attitude conversions (NED earth frame, wind, stability and body axes).
+
+Rotation matrices ``C_ab`` map components in frame b to components in frame a.
+``R1, R2, R3`` are the elementary frame rotations about x, y, z.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def R1(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])
+
+
+def R2(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+
+
+def R3(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def C_wind_ned(gamma: float, chi: float, mu: float) -> np.ndarray:
+    """NED -> wind axes: ``R1(mu) R2(gamma) R3(chi)``."""
+    return R1(mu) @ R2(gamma) @ R3(chi)
+
+
+def C_body_wind(alpha: float, beta: float) -> np.ndarray:
+    """Wind -> body axes: ``R2(alpha) R3(-beta)`` (velocity V(cos a cos b, sin b, sin a cos b) in body)."""
+    return R2(alpha) @ R3(-beta)
+
+
+def C_body_ned(gamma, chi, mu, alpha, beta) -> np.ndarray:
+    return C_body_wind(alpha, beta) @ C_wind_ned(gamma, chi, mu)
+
+
+def euler_from_dcm(C_bn: np.ndarray) -> tuple[float, float, float]:
+    """(phi, theta, psi) of ``C_bn = R1(phi) R2(theta) R3(psi)``."""
+    phi = np.arctan2(C_bn[1, 2], C_bn[2, 2])
+    theta = -np.arcsin(np.clip(C_bn[0, 2], -1.0, 1.0))
+    psi = np.arctan2(C_bn[0, 1], C_bn[0, 0])
+    return float(phi), float(theta), float(psi)
+
+
+def euler_from_wind(gamma, chi, mu, alpha, beta) -> tuple[float, float, float]:
+    """Body Euler angles (phi, theta, psi) from the wind-frame angles."""
+    return euler_from_dcm(C_body_ned(gamma, chi, mu, alpha, beta))
+
+
+def quaternion_from_dcm(C: np.ndarray) -> np.ndarray:
+    """Unit quaternion (q0, q1, q2, q3), scalar first, of a rotation ``C_bn``."""
+    tr = np.trace(C)
+    cand = np.array([tr, C[0, 0], C[1, 1], C[2, 2]])
+    i = int(np.argmax(cand))
+    if i == 0:
+        q0 = 0.5 * np.sqrt(1 + tr)
+        q = [q0, (C[1, 2] - C[2, 1]) / (4 * q0), (C[2, 0] - C[0, 2]) / (4 * q0), (C[0, 1] - C[1, 0]) / (4 * q0)]
+    elif i == 1:
+        q1 = 0.5 * np.sqrt(1 + 2 * C[0, 0] - tr)
+        q = [(C[1, 2] - C[2, 1]) / (4 * q1), q1, (C[0, 1] + C[1, 0]) / (4 * q1), (C[2, 0] + C[0, 2]) / (4 * q1)]
+    elif i == 2:
+        q2 = 0.5 * np.sqrt(1 + 2 * C[1, 1] - tr)
+        q = [(C[2, 0] - C[0, 2]) / (4 * q2), (C[0, 1] + C[1, 0]) / (4 * q2), q2, (C[1, 2] + C[2, 1]) / (4 * q2)]
+    else:
+        q3 = 0.5 * np.sqrt(1 + 2 * C[2, 2] - tr)
+        q = [(C[0, 1] - C[1, 0]) / (4 * q3), (C[2, 0] + C[0, 2]) / (4 * q3), (C[1, 2] + C[2, 1]) / (4 * q3), q3]
+    q = np.array(q)
+    return q / np.linalg.norm(q) * (1 if q[0] >= 0 else -1)
+
+
+def dcm_from_quaternion(q) -> np.ndarray:
+    """``C_bn`` from a (not necessarily unit) quaternion, scalar first; arrays of shape (4, ...) allowed."""
+    q0, q1, q2, q3 = q / np.sqrt(np.sum(np.asarray(q) ** 2, axis=0))
+    return np.array([
+        [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 + q0 * q3), 2 * (q1 * q3 - q0 * q2)],
+        [2 * (q1 * q2 - q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 + q0 * q1)],
+        [2 * (q1 * q3 + q0 * q2), 2 * (q2 * q3 - q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3]])
+
+
+def wind_angles_from_body(uvw, C_bn):
+    """(V, gamma, chi, alpha, beta, mu) from body velocity and attitude (no wind).
+
+    ``uvw`` has shape (3, ...), ``C_bn`` shape (3, 3, ...).
+    """
+    u, v, w = uvw
+    V = np.sqrt(u * u + v * v + w * w)
+    alpha = np.arctan2(w, u)
+    beta = np.arcsin(v / V)
+    # NED velocity = C_bn^T uvw
+    vn = C_bn[0, 0] * u + C_bn[1, 0] * v + C_bn[2, 0] * w
+    ve = C_bn[0, 1] * u + C_bn[1, 1] * v + C_bn[2, 1] * w
+    vd = C_bn[0, 2] * u + C_bn[1, 2] * v + C_bn[2, 2] * w
+    gamma = np.arctan2(-vd, np.hypot(vn, ve))
+    chi = np.arctan2(ve, vn)
+    # C_wn = C_wb C_bn, mu = atan2(C_wn[1,2], C_wn[2,2])
+    ca, sa, cb, sb = np.cos(alpha), np.sin(alpha), np.cos(beta), np.sin(beta)
+    # rows 1, 2 of C_wb = C_body_wind^T
+    w1 = (-ca * sb, cb, -sa * sb)
+    w2 = (-sa, 0.0 * sa, ca)
+    c12 = w1[0] * C_bn[0, 2] + w1[1] * C_bn[1, 2] + w1[2] * C_bn[2, 2]
+    c22 = w2[0] * C_bn[0, 2] + w2[1] * C_bn[1, 2] + w2[2] * C_bn[2, 2]
+    mu = np.arctan2(c12, c22)
+    return V, gamma, chi, alpha, beta, mu

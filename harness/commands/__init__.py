@@ -1,0 +1,1 @@
+"""Sub-commands of the ``gflat`` tool (one module each, with ``register(subparsers)``)."""
