@@ -196,7 +196,9 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
         d = derivatives(aircraft, cenv, s, u, model, h)
         return np.array([d.V, d.gamma, d.chi - v["chi_dot"], d.alpha, d.beta, d.mu, d.p, d.q, d.r])
 
-    res = newton(residual, x0, tol=tol, maxiter=maxiter)
+    # Complex step needs an analytic aerodynamic model; tabulated sources set analytic = False.
+    jac = "complex" if getattr(aircraft.aero, "analytic", True) else "central"
+    res = newton(residual, x0, tol=tol, maxiter=maxiter, jac=jac)
     if not res.all_converged:
         fx = ", ".join(f"{k} = {v:.6g}" for k, v in fixed.items())
         raise ConvergenceError(
