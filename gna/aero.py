@@ -140,6 +140,8 @@ class TermTable:
     terms: tuple[Term, ...]
     structure: str = "custom"
     _powers: tuple[int, ...] = field(init=False, repr=False, compare=False)
+    _unique: tuple[tuple[int, ...], ...] = field(init=False, repr=False, compare=False)
+    _theta: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         for t in self.terms:
@@ -150,6 +152,12 @@ class TermTable:
                 raise InputError(f"term {t.index} ({t.coefficient}, {t.monomial}): value is {t.value}")
         object.__setattr__(self, "_powers", tuple(
             max((t.exponents[i] for t in self.terms), default=0) for i in range(len(AERO_VARIABLES))))
+        unique = tuple(sorted({t.exponents for t in self.terms}))
+        theta = np.zeros((len(COEFFICIENTS), len(unique)))
+        for t in self.terms:
+            theta[COEFFICIENTS.index(t.coefficient), unique.index(t.exponents)] += t.value
+        object.__setattr__(self, "_unique", unique)
+        object.__setattr__(self, "_theta", theta)
 
     @classmethod
     def from_records(cls, records: Iterable[Mapping], structure: str = "custom") -> "TermTable":
@@ -194,6 +202,9 @@ class TermTable:
 
     def monomials(self, state: AeroState) -> list:
         """Values of every term's monomial (without its parameter), in table order."""
+        return self._monomial_values(state, [t.exponents for t in self.terms])
+
+    def _monomial_values(self, state: AeroState, exponent_list) -> list:
         cache: dict[tuple[int, int], object] = {}
         values = list(state)
 
@@ -204,9 +215,9 @@ class TermTable:
             return cache[key]
 
         out = []
-        for t in self.terms:
+        for exps in exponent_list:
             m = None
-            for i, e in enumerate(t.exponents):
+            for i, e in enumerate(exps):
                 if e:
                     m = power(i, e) if m is None else m * power(i, e)
             out.append(1.0 if m is None else m)
@@ -221,11 +232,32 @@ class TermTable:
             alpha, beta [rad], phat, qhat, rhat [-], dl, dm, dn [rad]; floats,
             arrays (broadcast together) or truncated power series.
         """
-        sums: dict[str, object] = {c: 0.0 for c in COEFFICIENTS}
-        for t, m in zip(self.terms, self.monomials(state)):
-            if t.value != 0.0:
-                sums[t.coefficient] = sums[t.coefficient] + t.value * m
-        return Coefficients(*(sums[c] for c in COEFFICIENTS))
+        mons = self._monomial_values(state, self._unique)
+        series = [m for m in mons if hasattr(m, "coeffs") and hasattr(m, "batch_shape")]
+        if series:
+            # Truncated power series: one tensor contraction instead of 45 scalings and additions.
+            cls = type(series[0])
+            order = min(m.order for m in series)
+            batch = np.broadcast_shapes(*(m.batch_shape for m in series),
+                                        *(np.shape(m) for m in mons if not hasattr(m, "coeffs")))
+            dtype = np.result_type(*(m.dtype for m in series), *(np.asarray(m).dtype for m in mons
+                                                                  if not hasattr(m, "coeffs")))
+            stack = np.zeros((len(mons),) + batch + (order + 1,), dtype)
+            for i, m in enumerate(mons):
+                if hasattr(m, "coeffs"):
+                    stack[i] = np.asarray(m.coeffs)[..., :order + 1]
+                else:
+                    stack[i, ..., 0] = m
+            out = np.tensordot(self._theta, stack, axes=(1, 0))
+            return Coefficients(*(cls(out[i]) for i in range(len(COEFFICIENTS))))
+        sums = []
+        for row in self._theta:
+            acc = 0.0
+            for w, m in zip(row, mons):
+                if w != 0.0:
+                    acc = acc + w * m
+            sums.append(acc)
+        return Coefficients(*sums)
 
     def __len__(self) -> int:
         return len(self.terms)

@@ -116,6 +116,67 @@ def aero_state(aircraft: Aircraft, V, alpha, beta, p, q, r, dl, dm, dn) -> AeroS
                      r * (g.b * half_over_V), dl, dm, dn)
 
 
+def _coefficients(aircraft: Aircraft, s: State, u: Controls, h: HValues | None) -> Coefficients:
+    """Aerodynamic coefficients with the actual rates and surfaces, or with the H values ``h``."""
+    if h is None:
+        return aircraft.aero.coefficients(aero_state(aircraft, s.V, s.alpha, s.beta, s.p, s.q, s.r,
+                                                     u.dl, u.dm, u.dn))
+    return aircraft.aero.coefficients(aero_state(aircraft, s.V, s.alpha, s.beta, h.p, h.q, h.r, h.dl, h.dm, h.dn))
+
+
+def wind_forces(aircraft: Aircraft, env: Environment, s: State, u: Controls, fc: Coefficients, qbar):
+    """Total force in wind axes (paper eqs. X, Y, Z, re-derived; see module notes).
+
+    Returns ``(X, Y, Z, Xa, Ya, Za)``: with and without gravity.
+    """
+    qS = qbar * aircraft.geometry.S
+    cb, sb = np.cos(s.beta), np.sin(s.beta)
+    # Aerodynamic force: stability axes (-CD, CY, -CL) rotated by beta into wind axes.
+    Xaero = qS * (sb * fc.CY - cb * fc.CD)
+    Yaero = qS * (sb * fc.CD + cb * fc.CY)
+    Zaero = -qS * fc.CL
+    # Thrust F (cos eps, 0, -sin eps) in body axes, in wind axes.
+    eps = aircraft.engines.epsilon
+    cae, sae = np.cos(s.alpha + eps), np.sin(s.alpha + eps)
+    Xa = Xaero + u.F * cb * cae
+    Ya = Yaero - u.F * sb * cae
+    Za = Zaero - u.F * sae
+    # Gravity (0, 0, m g) NED, in wind axes.
+    mg = aircraft.mass.mass * env.g
+    cg = np.cos(s.gamma)
+    X = Xa - mg * np.sin(s.gamma)
+    Y = Ya + mg * cg * np.sin(s.mu)
+    Z = Za + mg * cg * np.cos(s.mu)
+    return X, Y, Z, Xa, Ya, Za
+
+
+def body_moments(aircraft: Aircraft, s: State, u: Controls, full: Coefficients, qbar):
+    """Total moment about the CG in body axes (paper eqs. L, M, N, re-derived).
+
+    Aerodynamic moments about ``x_ref`` are transferred to ``x_cg`` with the
+    full aerodynamic force; the thrust moments follow from the engine geometry.
+    """
+    geo = aircraft.geometry
+    qS = qbar * geo.S
+    L = qS * geo.b * full.Cl
+    M = qS * geo.cbar * full.Cm
+    N = qS * geo.b * full.Cn
+    d = geo.x_cg - geo.x_ref  # a parameter, not a state: no branching on values
+    if d != 0.0:
+        Fby = qS * full.CY
+        Fbz = -qS * (np.sin(s.alpha) * full.CD + np.cos(s.alpha) * full.CL)
+        # The reference sits at body x = d (x forward) from the CG: M_cg = M_ref + (d, 0, 0) x F.
+        M = M - d * Fbz
+        N = N + d * Fby
+    yp = aircraft.engines.y_p
+    if yp != 0.0:
+        eps = aircraft.engines.epsilon
+        dF = u.F * u.eta  # F1 - F2
+        L = L + yp * np.sin(eps) * dF
+        N = N + yp * np.cos(eps) * dF
+    return L, M, N
+
+
 def loads(aircraft: Aircraft, env: Environment, s: State, u: Controls,
           model: str = "full", h: HValues | None = None) -> Loads:
     """Forces (wind axes) and moments (body axes, about the CG).
@@ -131,60 +192,14 @@ def loads(aircraft: Aircraft, env: Environment, s: State, u: Controls,
         (zero when ``h`` is None).  Moments always use the full model.
     h : HValues, optional
     """
-    geo = aircraft.geometry
-    m = aircraft.mass.mass
+    if model not in ("full", "simple"):
+        raise ValueError(f"model must be 'full' or 'simple', got {model!r}")
     rho = env.density(s.z)
     qbar = 0.5 * rho * s.V * s.V
-    qS = qbar * geo.S
-
-    full = aircraft.aero.coefficients(aero_state(aircraft, s.V, s.alpha, s.beta, s.p, s.q, s.r, u.dl, u.dm, u.dn))
-    if model == "full":
-        fc = full
-    elif model == "simple":
-        hv = h if h is not None else HValues()
-        fc = aircraft.aero.coefficients(aero_state(aircraft, s.V, s.alpha, s.beta, hv.p, hv.q, hv.r,
-                                                   hv.dl, hv.dm, hv.dn))
-    else:
-        raise ValueError(f"model must be 'full' or 'simple', got {model!r}")
-
-    ca, sa = np.cos(s.alpha), np.sin(s.alpha)
-    cb, sb = np.cos(s.beta), np.sin(s.beta)
-    cg, sg = np.cos(s.gamma), np.sin(s.gamma)
-    cm, sm = np.cos(s.mu), np.sin(s.mu)
-
-    # Aerodynamic force: stability axes (-CD, CY, -CL) rotated by beta into wind axes.
-    Xaero = qS * (sb * fc.CY - cb * fc.CD)
-    Yaero = qS * (sb * fc.CD + cb * fc.CY)
-    Zaero = -qS * fc.CL
-    # Thrust F (cos eps, 0, -sin eps) in body axes, in wind axes (paper eqs. X-Z).
-    eps = aircraft.engines.epsilon
-    cae, sae = np.cos(s.alpha + eps), np.sin(s.alpha + eps)
-    Xa = Xaero + u.F * cb * cae
-    Ya = Yaero - u.F * sb * cae
-    Za = Zaero - u.F * sae
-    # Gravity (0, 0, m g) NED, in wind axes.
-    mg = m * env.g
-    X = Xa - mg * sg
-    Y = Ya + mg * cg * sm
-    Z = Za + mg * cg * cm
-
-    # Moments: aerodynamic about x_ref, transferred to the CG; thrust from engine geometry.
-    L = qS * geo.b * full.Cl
-    M = qS * geo.cbar * full.Cm
-    N = qS * geo.b * full.Cn
-    d = geo.x_cg - geo.x_ref  # body-x position of the CG relative to the reference, sign: x aft
-    if d != 0.0:
-        # Full aerodynamic force in body axes (moment transfer always with full coefficients).
-        Fby = qS * full.CY
-        Fbz = -qS * (sa * full.CD + ca * full.CL)
-        # r = (x_ref - x_cg) along body x (forward) = (d, 0, 0) with d = x_cg - x_ref.
-        M = M - d * Fbz
-        N = N + d * Fby
-    yp = aircraft.engines.y_p
-    if yp != 0.0:
-        dF = u.F * u.eta  # F1 - F2
-        L = L + yp * np.sin(eps) * dF
-        N = N + yp * np.cos(eps) * dF
+    full = _coefficients(aircraft, s, u, None)
+    fc = full if model == "full" else _coefficients(aircraft, s, u, h if h is not None else HValues())
+    X, Y, Z, Xa, Ya, Za = wind_forces(aircraft, env, s, u, fc, qbar)
+    L, M, N = body_moments(aircraft, s, u, full, qbar)
     return Loads(qbar, rho, fc, full, X, Y, Z, L, M, N, Xa, Ya, Za)
 
 

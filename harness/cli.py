@@ -19,6 +19,7 @@ from gna.errors import GflatError
 COMMAND_MODULES: tuple[str, ...] = (
     "aircraft",
     "trim",
+    "plan",
 )
 
 

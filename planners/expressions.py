@@ -1,0 +1,129 @@
+"""Safe arithmetic expressions of time for scenario files.
+
+Flat outputs and prescribed inputs are written as text such as
+``"29.10852587*t + 50*sin(t/60)"``.  The text is parsed with :mod:`ast` and
+only numbers, the variable ``t``, named constants, ``+ - * / **`` and a fixed
+set of functions are accepted -- never ``eval`` of arbitrary code.  The
+compiled expression evaluates on floats, numpy arrays and truncated power
+series (through numpy's ufunc dispatch).
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+import operator
+from dataclasses import dataclass
+from typing import Callable, Mapping
+
+import numpy as np
+
+from gna.errors import InputError
+from gna.units import DEG, G0, KT
+
+FUNCTIONS: dict[str, Callable] = {
+    "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log, "sqrt": np.sqrt,
+    "arctan": np.arctan, "atan": np.arctan, "arcsin": np.arcsin, "asin": np.arcsin,
+    "arccos": np.arccos, "acos": np.arccos, "arctan2": np.arctan2, "atan2": np.arctan2,
+    "sinh": np.sinh, "cosh": np.cosh, "tanh": np.tanh,
+}
+
+#: Constants every expression may use (SI): kt converts knots to m/s, deg degrees to rad.
+CONSTANTS: dict[str, float] = {"pi": math.pi, "e": math.e, "g0": G0, "kt": KT, "deg": DEG,
+                               "kmh": 1000.0 / 3600.0, "ft": 0.3048}
+
+_BINOPS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
+           ast.Div: operator.truediv, ast.Pow: operator.pow}
+_UNOPS = {ast.USub: operator.neg, ast.UAdd: operator.pos}
+
+
+@dataclass(frozen=True)
+class Expression:
+    """A compiled expression of ``t``.
+
+    Call it with ``t`` (float, array or Series).  ``text`` keeps the source.
+    """
+
+    text: str
+    _fn: Callable = None  # type: ignore[assignment]
+    depends_on_t: bool = True
+
+    def __call__(self, t):
+        return self._fn(t)
+
+    def __str__(self) -> str:
+        return self.text
+
+
+def compile_expression(text: str | float | int, constants: Mapping[str, float] | None = None,
+                       where: str = "expression") -> Expression:
+    """Parse ``text`` into an :class:`Expression`.
+
+    Raises
+    ------
+    InputError
+        Syntax error, unknown name or function, or a forbidden construct
+        (attribute access, subscripts, comprehensions, ...), naming ``where``.
+    """
+    if isinstance(text, (int, float)) and not isinstance(text, bool):
+        value = float(text)
+        if not math.isfinite(value):
+            raise InputError(f"{where}: value is {value}")
+        return Expression(repr(value), lambda t, v=value: v + 0.0 * t, depends_on_t=False)
+    if not isinstance(text, str):
+        raise InputError(f"{where}: expected a number or an expression string, got {type(text).__name__}")
+    names = dict(CONSTANTS)
+    if constants:
+        names.update({k: float(v) for k, v in constants.items()})
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError as exc:
+        raise InputError(f"{where}: cannot parse {text!r} ({exc.msg})") from None
+    uses_t = False
+
+    def build(node) -> Callable:
+        nonlocal uses_t
+        if isinstance(node, ast.Expression):
+            return build(node.body)
+        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
+            v = float(node.value)
+            return lambda t: v
+        if isinstance(node, ast.Name):
+            if node.id == "t":
+                uses_t = True
+                return lambda t: t
+            if node.id in names:
+                v = names[node.id]
+                return lambda t: v
+            raise InputError(f"{where}: unknown name {node.id!r} in {text!r}; "
+                             f"use t, {', '.join(sorted(names))}")
+        if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
+            op, a, b = _BINOPS[type(node.op)], build(node.left), build(node.right)
+            return lambda t: op(a(t), b(t))
+        if isinstance(node, ast.UnaryOp) and type(node.op) in _UNOPS:
+            op, a = _UNOPS[type(node.op)], build(node.operand)
+            return lambda t: op(a(t))
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and not node.keywords:
+            if node.func.id not in FUNCTIONS:
+                raise InputError(f"{where}: unknown function {node.func.id!r} in {text!r}; "
+                                 f"allowed: {', '.join(sorted(FUNCTIONS))}")
+            f = FUNCTIONS[node.func.id]
+            args = [build(a) for a in node.args]
+            nargs = 2 if f is np.arctan2 else 1
+            if len(args) != nargs:
+                raise InputError(f"{where}: {node.func.id} takes {nargs} argument(s) in {text!r}")
+            if nargs == 1:
+                a0 = args[0]
+                return lambda t: f(a0(t))
+            a0, a1 = args
+            return lambda t: f(a0(t), a1(t))
+        raise InputError(f"{where}: construct {type(node).__name__} not allowed in {text!r} "
+                         f"(numbers, t, constants, + - * / **, and functions only)")
+
+    fn = build(tree)
+    if not uses_t:
+        const = fn(0.0)
+        fn0 = fn
+        fn = lambda t, c=const: c + 0.0 * t  # noqa: E731  keep the shape/type of t
+        del fn0
+    return Expression(text.strip(), fn, depends_on_t=uses_t)

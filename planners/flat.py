@@ -1,0 +1,362 @@
+"""Flat parametrization of the aircraft at the nodes of a time grid.
+
+Paper section "The shape of the equations": with flat outputs ``x, y, z``
+and a fourth output ``zeta`` (beta, mu, F, or ``f1(t) beta + f2(t) mu``),
+
+* stage 1 gives ``V, gamma, chi`` from ``x', y', z'`` (closed form),
+* stage 2 gives ``alpha, beta, mu, F`` (three of them besides the one fixed
+  by ``zeta``) from the force equations ``V', gamma', chi'`` -- solved by
+  Newton's method on power series (:func:`planners.newton.newton_series`),
+* stage 3 gives ``p, q, r`` from ``alpha', beta', mu'`` (the G3 equations are
+  linear in the rates: closed form),
+* stage 4 gives ``dl, dm, dn`` (or ``dl, dm, eta`` when the rudder is fixed:
+  rudder failure, differential thrust as fourth control) from ``p', q', r'``
+  -- Newton on series of the moment equations.
+
+Every stage works on truncated power series batched over all nodes at once.
+Stage 2 uses the force coefficients with the neglected rate and surface
+terms H evaluated at given values (zero, calibration constants, or the
+previous iterate of generalized flatness), i.e. ``gna.eom`` with
+``model="simple"``; stages 3--4 use the full moments.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+from gna.aircraft import Aircraft
+from gna.atmosphere import Environment
+from gna.eom import Controls, HValues, State, _coefficients, angular_acceleration, body_moments, wind_forces
+from gna.errors import InputError
+
+from .expressions import Expression
+from .newton import SeriesNewtonReport, newton_series
+from .series import Series
+
+FLAT_KINDS = ("beta", "mu", "F", "mix")
+STAGE2_UNKNOWNS = ("alpha", "beta", "mu", "F")
+
+#: Order lost at each stage relative to the flat outputs x, y, z.
+STAGE_OF = {"x": 0, "y": 0, "z": 0, "V": 1, "gamma": 1, "chi": 1, "alpha": 2, "beta": 2, "mu": 2, "F": 2,
+            "p": 3, "q": 3, "r": 3, "dl": 4, "dm": 4, "dn": 4, "eta": 4}
+
+
+@dataclass(frozen=True)
+class FlatOutput:
+    """The fourth flat output ``zeta``.
+
+    ``kind`` is ``"beta"``, ``"mu"``, ``"F"`` or ``"mix"`` (``f1(t) beta +
+    f2(t) mu = value(t)``).
+    """
+
+    kind: str
+    value: Expression
+    f1: Expression | None = None
+    f2: Expression | None = None
+
+    def __post_init__(self):
+        if self.kind not in FLAT_KINDS:
+            raise InputError(f"flat output must be one of {', '.join(FLAT_KINDS)}, got {self.kind!r}")
+        if self.kind == "mix" and (self.f1 is None or self.f2 is None):
+            raise InputError("a mixed flat output needs f1(t) and f2(t): f1*beta + f2*mu = value")
+
+
+@dataclass(frozen=True)
+class FlatProblem:
+    """What a flat parametrization needs besides the grid.
+
+    Parameters
+    ----------
+    aircraft, env
+    x, y, z : Expression
+        Flat outputs (NED, m) as functions of t.
+    zeta : FlatOutput
+    eta : Expression or None
+        Prescribed thrust asymmetry; ``None`` makes eta the fourth control
+        (rudder failure), with the rudder fixed at ``dn``.
+    dn : Expression or None
+        Fixed rudder (only with ``eta = None``).
+    h : HValues
+        Constant values of the neglected terms for the first iterate (zero, or
+        calibration values).
+    """
+
+    aircraft: Aircraft
+    env: Environment
+    x: Expression
+    y: Expression
+    z: Expression
+    zeta: FlatOutput
+    eta: Expression | None
+    dn: Expression | None = None
+    h: HValues = HValues()
+
+    def __post_init__(self):
+        if (self.eta is None) == (self.dn is None):
+            raise InputError("give either eta(t) (rudder is a control) or a fixed rudder dn(t) (eta becomes "
+                             "the fourth control), not both or neither")
+
+
+@dataclass
+class NodeSolution:
+    """Series of every state and control at every node, for one iterate.
+
+    Attributes
+    ----------
+    series : dict of str -> Series
+        Batch shape (nodes,); the order of each depends on its stage.
+    order : int
+        Order kappa of the flat outputs for this iterate.
+    reports : dict of str -> SeriesNewtonReport
+        Newton diagnostics of stages 2 and 4.
+    """
+
+    series: dict
+    order: int
+    reports: dict = field(default_factory=dict)
+
+    def __getitem__(self, name: str) -> Series:
+        return self.series[name]
+
+    def h_values(self) -> HValues:
+        """The rates and surfaces of this iterate, as H values for the next one."""
+        s = self.series
+        return HValues(s["p"], s["q"], s["r"], s["dl"], s["dm"], s["dn"])
+
+
+class _OrderCache:
+    """Given series truncated to each working order; order 0 gives plain constant arrays.
+
+    Newton on series evaluates its residual at increasing orders; the
+    constant-term iterations run on plain numpy arrays, much faster than
+    order-0 series.
+    """
+
+    def __init__(self, data: dict):
+        self._data = data
+        self._cache: dict[int, dict] = {}
+
+    def __getitem__(self, k: int) -> dict:
+        if k not in self._cache:
+            out = {}
+            for name, v in self._data.items():
+                if isinstance(v, Series):
+                    out[name] = np.asarray(v.constant_term) if k == 0 else v.truncate(min(k, v.order))
+                else:
+                    out[name] = v
+            self._cache[k] = out
+        return self._cache[k]
+
+
+def _unwrap_constant(angle: Series) -> Series:
+    """Make the constant terms of an angle continuous along the node axis."""
+    c0 = np.real(angle.constant_term)
+    shift = np.unwrap(c0) - c0
+    if np.any(shift != 0):
+        return angle + shift
+    return angle
+
+
+def stage1(x: Series, y: Series, z: Series):
+    """V, gamma, chi from the flat outputs (paper eqs. aircraft1:x-z)."""
+    xd, yd, zd = x.derivative(), y.derivative(), z.derivative()
+    vh = np.sqrt(xd * xd + yd * yd)
+    V = np.sqrt(xd * xd + yd * yd + zd * zd)
+    gamma = np.arctan2(-zd, vh)
+    chi = _unwrap_constant(np.arctan2(yd, xd))
+    return V, gamma, chi, vh
+
+
+def stage3(alpha, beta, mu, gamma, chi):
+    """p, q, r from alpha', beta', mu' (G3 solved for the rates; see docs/equations.md).
+
+    With ``w_wy = gamma' cos mu + chi' cos gamma sin mu`` and
+    ``w_wz = -gamma' sin mu + chi' cos gamma cos mu`` (wind-frame rates, which
+    the stage-2 force equations make equal to ``-Z/(mV)`` and ``Y/(mV)``):
+    ``P = p cos a + r sin a = cos b (mu' - tan b w_wy - chi' sin gamma)``,
+    ``R = -p sin a + r cos a = w_wz - beta'``,
+    ``q = alpha' + tan b P + w_wy / cos b``.
+    """
+    gd, chid = gamma.derivative(), chi.derivative()
+    ad, bd, mud = alpha.derivative(), beta.derivative(), mu.derivative()
+    cm, sm = np.cos(mu), np.sin(mu)
+    cg, sg = np.cos(gamma), np.sin(gamma)
+    cb, sb = np.cos(beta), np.sin(beta)
+    ca, sa = np.cos(alpha), np.sin(alpha)
+    wy = gd * cm + chid * cg * sm
+    wz = -gd * sm + chid * cg * cm
+    P = cb * (mud - sb / cb * wy - chid * sg)
+    R = wz - bd
+    q = ad + sb / cb * P + wy / cb
+    p = P * ca - R * sa
+    r = P * sa + R * ca
+    return p, q, r
+
+
+def force_residuals(ac: Aircraft, env: Environment, z, V, gamma, chi, Vd, gd, chid, eta, h: HValues,
+                    alpha, beta, mu, F):
+    """The three stage-2 force equations (paper eqs. aircraft1:V, gamma, chi), divided by g.
+
+    Residuals of ``V' = X/m``, ``-m V gamma' = Y sin mu + Z cos mu`` and
+    ``m V cos(gamma) chi' = Y cos mu - Z sin mu`` with the force coefficients
+    evaluated with the H values ``h`` for the rates and surfaces.
+    """
+    m, g = ac.mass.mass, env.g
+    s = State(0.0, 0.0, z, V, gamma, chi, alpha, beta, mu, 0.0, 0.0, 0.0)
+    ctl = Controls(F, eta, 0.0, 0.0, 0.0)
+    rho = env.density(z)
+    qbar = 0.5 * rho * V * V
+    fc = _coefficients(ac, s, ctl, h)
+    X, Y, Z, *_ = wind_forces(ac, env, s, ctl, fc, qbar)
+    sm, cm = np.sin(mu), np.cos(mu)
+    r1 = (Vd - X / m) / g
+    r2 = (V * gd + (Y * sm + Z * cm) / m) / g
+    r3 = (V * np.cos(gamma) * chid - (Y * cm - Z * sm) / m) / g
+    return r1, r2, r3
+
+
+def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValues | None = None,
+                guess: Mapping[str, Series] | None = None, newton_tol: float = 1e-12) -> NodeSolution:
+    """Flat parametrization at all nodes, flat outputs at ``order`` (kappa).
+
+    Parameters
+    ----------
+    problem : FlatProblem
+    t_nodes : array (nodes,)
+    order : int
+        Order of x, y, z; the controls come out at ``order - 4``.
+    h : HValues, optional
+        Values (constants or series) of the neglected terms; default ``problem.h``.
+    guess : mapping, optional
+        Previous solution (series) used as the starting point of the Newton iterations.
+
+    Returns
+    -------
+    NodeSolution
+    """
+    if order < 4:
+        raise InputError(f"the flat parametrization needs order >= 4 to reach the controls, got {order}")
+    ac, env = problem.aircraft, problem.env
+    m, g = ac.mass.mass, env.g
+    t = Series.variable(np.asarray(t_nodes, dtype=float), order)
+    x, y, z = problem.x(t), problem.y(t), problem.z(t)
+    V, gamma, chi, vh = stage1(x, y, z)
+    hv = h if h is not None else problem.h
+    k2 = order - 2
+    Vd, gd, chid = V.derivative(), gamma.derivative(), chi.derivative()
+    zeta = problem.zeta
+    zv = zeta.value(Series.variable(t_nodes, k2))
+    f1 = zeta.f1(Series.variable(t_nodes, k2)) if zeta.kind == "mix" else None
+    f2 = zeta.f2(Series.variable(t_nodes, k2)) if zeta.kind == "mix" else None
+    eta_pres = problem.eta(Series.variable(t_nodes, order)) if problem.eta is not None else None
+    dn_fixed = problem.dn(Series.variable(t_nodes, order)) if problem.dn is not None else None
+    z2, V2, gamma2, chi2 = z.truncate(k2), V.truncate(k2), gamma.truncate(k2), chi.truncate(k2)
+    eta2 = eta_pres.truncate(k2) if eta_pres is not None else 0.0
+
+    d2 = _OrderCache(dict(z=z2, V=V2, gamma=gamma2, chi=chi2, Vd=Vd, gd=gd, chid=chid, eta=eta2, zv=zv,
+                          f1=f1, f2=f2, hp=hv.p, hq=hv.q, hr=hv.r, hdl=hv.dl, hdm=hv.dm, hdn=hv.dn))
+
+    def stage2_residual(u, k):
+        alpha, beta, mu, F = u
+        d = d2[k]
+        h_k = HValues(d["hp"], d["hq"], d["hr"], d["hdl"], d["hdm"], d["hdn"])
+        r1, r2, r3 = force_residuals(ac, env, d["z"], d["V"], d["gamma"], d["chi"], d["Vd"], d["gd"], d["chid"],
+                                     d["eta"], h_k, alpha, beta, mu, F)
+        if zeta.kind == "beta":
+            r4 = beta - d["zv"]
+        elif zeta.kind == "mu":
+            r4 = mu - d["zv"]
+        elif zeta.kind == "F":
+            r4 = (F - d["zv"]) / (m * g)
+        else:
+            r4 = d["f1"] * beta + d["f2"] * mu - d["zv"]
+        return [r1, r2, r3, r4]
+
+    if guess is not None:
+        u0 = [guess[k] for k in STAGE2_UNKNOWNS]
+    else:
+        u0 = _stage2_guess(problem, t_nodes, V2, gamma2, hv)
+    u2, rep2 = newton_series(stage2_residual, u0, k2, tol=newton_tol, names=STAGE2_UNKNOWNS, t_nodes=t_nodes)
+    alpha, beta, mu, F = u2
+
+    # Stage 3: rates.
+    p, q, r = stage3(alpha, beta, mu, gamma.truncate(k2), chi.truncate(k2))
+    k4 = order - 4
+    pd, qd, rd = p.derivative(), q.derivative(), r.derivative()
+    s4 = State(0.0, 0.0, z.truncate(k4), V.truncate(k4), gamma.truncate(k4), chi.truncate(k4),
+               alpha.truncate(k4), beta.truncate(k4), mu.truncate(k4), p.truncate(k4), q.truncate(k4),
+               r.truncate(k4))
+    F4 = F.truncate(k4)
+    rho4 = env.density(s4.z)
+    qbar4 = 0.5 * rho4 * s4.V * s4.V
+
+    d4 = _OrderCache(dict(z=s4.z, V=s4.V, gamma=s4.gamma, chi=s4.chi, alpha=s4.alpha, beta=s4.beta, mu=s4.mu,
+                          p=s4.p, q=s4.q, r=s4.r, pd=pd, qd=qd, rd=rd, F=F4, qbar=qbar4,
+                          eta=eta_pres.truncate(k4) if problem.eta is not None else None,
+                          dn=dn_fixed.truncate(k4) if problem.dn is not None else None))
+    names4 = ("dl", "dm", "dn") if problem.eta is not None else ("dl", "dm", "eta")
+
+    def controls_of(u, d):
+        if problem.eta is not None:
+            return Controls(d["F"], d["eta"], u[0], u[1], u[2])
+        return Controls(d["F"], u[2], u[0], u[1], d["dn"])
+
+    def stage4_residual(u, k):
+        d = d4[k]
+        st = State(0.0, 0.0, d["z"], d["V"], d["gamma"], d["chi"], d["alpha"], d["beta"], d["mu"],
+                   d["p"], d["q"], d["r"])
+        ctl = controls_of(u, d)
+        full = _coefficients(ac, st, ctl, None)
+        L, M, N = body_moments(ac, st, ctl, full, d["qbar"])
+        a_p, a_q, a_r = angular_acceleration(ac, st.p, st.q, st.r, L, M, N)
+        return [a_p - d["pd"], a_q - d["qd"], a_r - d["rd"]]
+
+    if guess is not None:
+        v0 = [guess[n] for n in names4]
+    else:
+        v0 = [Series.constant(np.zeros(len(t_nodes)), 0) for _ in names4]
+    u4, rep4 = newton_series(stage4_residual, v0, k4, tol=newton_tol, names=names4, t_nodes=t_nodes)
+    ctl = controls_of(u4, d4[k4])
+    out = {"x": x, "y": y, "z": z, "V": V, "gamma": gamma, "chi": chi,
+           "alpha": alpha, "beta": beta, "mu": mu, "F": F, "p": p, "q": q, "r": r,
+           "dl": ctl.dl, "dm": ctl.dm, "dn": ctl.dn, "eta": ctl.eta}
+    for k, v in out.items():
+        if not isinstance(v, Series):
+            out[k] = Series.constant(np.broadcast_to(np.asarray(v, dtype=float), (len(t_nodes),)), k4)
+    return NodeSolution(out, order, {"stage2": rep2, "stage4": rep4})
+
+
+def _stage2_guess(problem: FlatProblem, t_nodes, V, gamma, hv) -> list:
+    """Starting values for stage 2: a steady straight-flight calibration at the mean speed and slope."""
+    from gna.trim import trim
+    from gna.errors import GflatError
+
+    ac = problem.aircraft
+    n = len(t_nodes)
+    V0 = float(np.mean(np.real(V.constant_term)))
+    g0 = float(np.mean(np.real(gamma.constant_term)))
+    zeta = problem.zeta
+    z_mid = float(np.real(np.mean(problem.zeta.value(np.asarray(t_nodes, dtype=float)))))
+    fixed = {"V": V0, "gamma": g0, "chi_dot": 0.0}
+    if zeta.kind == "beta":
+        fixed["beta"] = z_mid
+    elif zeta.kind == "mu":
+        fixed["mu"] = z_mid
+    elif zeta.kind == "F":
+        fixed = {"F": z_mid, "gamma": g0, "chi_dot": 0.0, "beta": 0.0}
+        # With F fixed, steady flight at this slope needs a given speed: fix V instead of beta when gliding.
+        fixed = {"F": z_mid, "V": V0, "gamma": g0, "chi_dot": 0.0}
+    else:
+        fixed["beta"] = 0.0
+    vals = {"alpha": 0.05, "beta": 0.0, "mu": 0.0, "F": 0.0}
+    try:
+        alt = -float(np.mean(np.real(problem.z(np.asarray(t_nodes, dtype=float)))))
+        tr = trim(ac, fixed, altitude=alt, env=problem.env, model="simple", h=HValues(*(
+            float(np.mean(np.real(getattr(v, "constant_term", v)))) for v in hv)), check_envelope=False)
+        vals.update({k: tr.values[k] for k in STAGE2_UNKNOWNS})
+    except GflatError:
+        pass
+    return [Series.constant(np.full(n, vals[k]), 0) for k in STAGE2_UNKNOWNS]

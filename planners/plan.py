@@ -1,0 +1,248 @@
+"""The result of motion planning: every node's series, evaluated anywhere.
+
+Between nodes ``t_i <= t <= t_{i+1}`` a variable is evaluated with the
+paper's two-sided formula (section "Motion planning")::
+
+    [(t_{i+1} - t) s_i(t - t_i) + (t - t_i) s_{i+1}(t - t_{i+1})] / (t_{i+1} - t_i)
+
+and its k-th derivative is the exact k-th derivative of that expression
+(Leibniz rule).  Everything is vectorised over the evaluation times.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from gna.aircraft import Aircraft
+from gna.atmosphere import Environment
+from gna.eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, derivatives
+from gna.errors import InputError
+
+from .flat import FlatProblem, NodeSolution
+
+PLAN_VARIABLES = STATE_NAMES + CONTROL_NAMES
+
+
+def _taylor_derivative(coeffs: np.ndarray, dt: np.ndarray, k: int) -> np.ndarray:
+    """k-th derivative at offsets ``dt`` (N,) of polynomials with coefficients ``coeffs`` (..., N, K)."""
+    K = coeffs.shape[-1]
+    if k >= K:
+        return np.zeros(coeffs.shape[:-2] + dt.shape)
+    m = np.arange(k, K)
+    fall = np.ones(K - k)
+    for j in range(k):
+        fall = fall * (m - j)
+    c = np.real(coeffs[..., k:]) * fall
+    out = c[..., -1].copy()
+    for i in range(c.shape[-1] - 2, -1, -1):
+        out = out * dt + c[..., i]
+    return out
+
+
+@dataclass
+class Plan:
+    """A planned manoeuvre: the iterates j = 0..J of the (generalized) flat parametrization.
+
+    Attributes
+    ----------
+    problem : FlatProblem
+    t_nodes : ndarray
+    iterates : list of NodeSolution
+        ``iterates[0]`` is the plain flat plan (H at given values), ``iterates[-1]`` the J-th
+        generalized-flatness iterate.
+    warnings : list of str
+    name : str
+    timings : dict
+    """
+
+    problem: FlatProblem
+    t_nodes: np.ndarray
+    iterates: list
+    warnings: list = field(default_factory=list)
+    name: str = "plan"
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def aircraft(self) -> Aircraft:
+        return self.problem.aircraft
+
+    @property
+    def env(self) -> Environment:
+        return self.problem.env
+
+    @property
+    def J(self) -> int:
+        return len(self.iterates) - 1
+
+    @property
+    def t0(self) -> float:
+        return float(self.t_nodes[0])
+
+    @property
+    def t1(self) -> float:
+        return float(self.t_nodes[-1])
+
+    def _iterate(self, j: int) -> NodeSolution:
+        try:
+            return self.iterates[j]
+        except IndexError:
+            raise InputError(f"iterate j = {j} not in the plan (J = {self.J})") from None
+
+    def evaluate(self, name: str, t, j: int = -1, derivative: int = 0) -> np.ndarray:
+        """Value (or ``derivative``-th derivative) of a variable at times ``t``.
+
+        Parameters
+        ----------
+        name : str
+            A state or control name (``"alpha"``, ``"dm"``, ...).
+        t : float or array
+            Times within ``[t0, t1]``.
+        j : int
+            Iterate (default: the last).
+        derivative : int
+        """
+        out = self._evaluate_many((name,), t, j, derivative)[0]
+        return out if np.ndim(t) else out[0]
+
+    def _stack(self, names: tuple, j: int) -> np.ndarray:
+        """Coefficients of several variables, zero-padded to a common order: (len(names), nodes, K)."""
+        cache = self.__dict__.setdefault("_stack_cache", {})
+        key = (names, j % len(self.iterates))
+        if key not in cache:
+            sol = self._iterate(j)
+            for n in names:
+                if n not in sol.series:
+                    raise InputError(f"unknown plan variable {n!r}; known: {', '.join(sol.series)}")
+            arrs = [np.real(np.asarray(sol.series[n].coeffs)) for n in names]
+            K = max(a.shape[-1] for a in arrs)
+            st = np.zeros((len(names), len(self.t_nodes), K))
+            for i, a in enumerate(arrs):
+                st[i, :, :a.shape[-1]] = a
+            cache[key] = st
+        return cache[key]
+
+    def _evaluate_many(self, names: tuple, t, j: int = -1, derivative: int = 0) -> np.ndarray:
+        """(len(names), N) values at times ``t`` by the two-sided formula."""
+        c = self._stack(tuple(names), j)
+        t_arr = np.atleast_1d(np.asarray(t, dtype=float))
+        lo, hi = self.t0, self.t1
+        if np.any(t_arr < lo - 1e-9 * max(1.0, abs(lo))) or np.any(t_arr > hi + 1e-9 * max(1.0, abs(hi))):
+            raise InputError(f"time outside the plan [{lo:g}, {hi:g}] s: "
+                             f"{float(t_arr.min()):g} .. {float(t_arr.max()):g}")
+        tn = self.t_nodes
+        i = np.clip(np.searchsorted(tn, t_arr, side="right") - 1, 0, len(tn) - 2)
+        ti, tj = tn[i], tn[i + 1]
+        dt = tj - ti
+        w = (t_arr - ti) / dt
+        A = _taylor_derivative(c[:, i], t_arr - ti, derivative)
+        B = _taylor_derivative(c[:, i + 1], t_arr - tj, derivative)
+        out = (1 - w) * A + w * B
+        if derivative > 0:
+            A1 = _taylor_derivative(c[:, i], t_arr - ti, derivative - 1)
+            B1 = _taylor_derivative(c[:, i + 1], t_arr - tj, derivative - 1)
+            out = out + derivative * (B1 - A1) / dt
+        return out
+
+    def state(self, t, j: int = -1) -> np.ndarray:
+        """The 12 states at ``t`` (shape (12,) or (12, N))."""
+        out = self._evaluate_many(STATE_NAMES, t, j)
+        return out if np.ndim(t) else out[:, 0]
+
+    def controls(self, t, j: int = -1) -> np.ndarray:
+        """The 5 controls (F, eta, dl, dm, dn) at ``t``."""
+        out = self._evaluate_many(CONTROL_NAMES, t, j)
+        return out if np.ndim(t) else out[:, 0]
+
+    def control_function(self, j: int = -1):
+        """``f(t) -> 5 controls``, for the simulators."""
+        return lambda t: self.controls(t, j)
+
+    def initial_state(self, j: int = -1) -> np.ndarray:
+        return self.state(self.t0, j)
+
+    def to_dataframe(self, t=None, j: int = -1, step: float | None = None) -> pd.DataFrame:
+        """States and controls of iterate ``j`` on a time grid (default: the nodes)."""
+        if t is None:
+            t = self.t_nodes if step is None else np.arange(self.t0, self.t1 + 0.5 * step, step)
+        t = np.asarray(t, dtype=float)
+        vals = self._evaluate_many(PLAN_VARIABLES, t, j)
+        data = dict(zip(PLAN_VARIABLES, vals))
+        return pd.DataFrame(data, index=pd.Index(t, name="t"))
+
+    def node_values(self, j: int = -1) -> tuple[State, Controls]:
+        """States and controls at the nodes (constant terms)."""
+        s = self._iterate(j).series
+        v = {n: np.real(s[n].constant_term) for n in PLAN_VARIABLES}
+        return State(*(v[n] for n in STATE_NAMES)), Controls(*(v[n] for n in CONTROL_NAMES))
+
+    def node_derivatives(self, j: int = -1) -> State:
+        """Time derivatives of the states at the nodes, from the series (first coefficients)."""
+        s = self._iterate(j).series
+        return State(*(np.real(s[n].coeffs[..., 1]) for n in STATE_NAMES))
+
+    def equation_residuals(self, model: str = "full", j: int = -1, h: HValues | None = None) -> pd.DataFrame:
+        """Residual ``d/dt state - f(state, controls)`` of the model's 12 equations at the nodes.
+
+        ``model="simple"`` uses the H values the iterate was computed with
+        (``h``; default the problem's for j = 0 or the previous iterate's).
+        """
+        st, ct = self.node_values(j)
+        if model == "simple" and h is None:
+            jj = j % len(self.iterates)
+            if jj == 0:
+                h = self.problem.h
+            else:
+                prev = self.iterates[jj - 1].series
+                h = HValues(*(np.real(prev[n].constant_term) for n in ("p", "q", "r", "dl", "dm", "dn")))
+        f = derivatives(self.aircraft, self.env, st, ct, model, h)
+        d = self.node_derivatives(j)
+        return pd.DataFrame({n: np.asarray(a) - np.asarray(b) for n, a, b in zip(STATE_NAMES, d, f)},
+                            index=pd.Index(self.t_nodes, name="t"))
+
+    def convergence_table(self, variables=("F", "dl", "dm", "dn"), times=None) -> pd.DataFrame:
+        """Values of ``variables`` at ``times`` for every iterate j = 0..J (the paper's aileron-roll table)."""
+        times = [self.t0] if times is None else list(times)
+        rows = {}
+        for tt in times:
+            for v in variables:
+                rows[(tt, v)] = [float(self.evaluate(v, tt, j)) for j in range(len(self.iterates))]
+        df = pd.DataFrame.from_dict(rows, orient="index", columns=[f"J={j}" for j in range(len(self.iterates))])
+        df.index = pd.MultiIndex.from_tuples(df.index, names=["t", "variable"])
+        return df
+
+    def worst_newton_residual(self) -> float:
+        return max(r.worst_residual for it in self.iterates for r in it.reports.values())
+
+
+def save_plan(plan: Plan, out_dir, step: float | None = None) -> dict:
+    """Write a plan to ``out_dir``: node series (npz), CSV tables of every iterate, singularity table.
+
+    Returns the mapping of what was written to its path.
+    """
+    from pathlib import Path
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = {}
+    arrays = {"t_nodes": plan.t_nodes}
+    for j, it in enumerate(plan.iterates):
+        for name, s in it.series.items():
+            arrays[f"j{j}/{name}"] = np.real(np.asarray(s.coeffs))
+    p = out / "plan_series.npz"
+    np.savez_compressed(p, **arrays)
+    written["series"] = str(p)
+    step = step if step is not None else float(np.min(np.diff(plan.t_nodes))) / 4
+    for j in sorted({0, plan.J}):
+        p = out / f"plan_j{j}.csv"
+        plan.to_dataframe(step=step, j=j).to_csv(p, float_format="%.10g")
+        written[f"plan_j{j}"] = str(p)
+    sing = getattr(plan, "singularities", None)
+    if sing is not None:
+        p = out / "singularities.csv"
+        sing.table.to_csv(p, float_format="%.8g")
+        written["singularities"] = str(p)
+    return written

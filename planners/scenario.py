@@ -1,0 +1,216 @@
+"""Scenario files: a manoeuvre to plan, as TOML.
+
+A scenario names the aircraft, the time span and grid, the flat outputs as
+expressions of ``t`` (parsed safely, :mod:`planners.expressions`), the fourth
+flat output, the thrust asymmetry (or a fixed rudder), the number J of
+generalized-flatness iterations and the values of the neglected terms for the
+first iterate (zero or a full-model calibration).  Bundled scenarios live in
+``planners/scenarios/``; any path to a ``.toml`` file works too.
+
+Example (the paper's forward slip)::
+
+    name = "gtm-forward-slip"
+    aircraft = "gtm"
+    [time]
+    t0 = 0.0
+    t1 = 120.0
+    step = 1.0
+    [flat_outputs]
+    x = "29.10852587*t + 50*sin(t/60)"
+    y = "60*cos(t/100 + 2)"
+    z = "-1000 + 5.983293200*t + 70*sin(t/70)"
+    zeta = "F"
+    zeta_value = "0"
+    eta = "0"
+    [generalized]
+    J = 4
+    [calibration]          # H values of the first iterate from a full-model trim
+    alpha = 0.15
+    beta = 0.35
+    F = 0.0
+    chi_dot = 0.0
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from gna.aircraft import Aircraft, load_aircraft
+from gna.atmosphere import ConstantDensity, Environment, ISA
+from gna.eom import HValues
+from gna.errors import GflatError, InputError
+
+from .expressions import Expression, compile_expression
+from .flat import FLAT_KINDS, FlatOutput, FlatProblem
+
+
+@dataclass
+class Scenario:
+    """A parsed scenario (see module docstring for the file format)."""
+
+    name: str
+    description: str
+    aircraft: Aircraft
+    env: Environment
+    t0: float
+    t1: float
+    step: float
+    x: Expression
+    y: Expression
+    z: Expression
+    zeta: FlatOutput
+    eta: Expression | None
+    dn: Expression | None
+    J: int
+    h: HValues
+    calibration: dict | None
+    report_times: list = field(default_factory=list)
+    report_variables: list = field(default_factory=list)
+    raw: dict = field(default_factory=dict, repr=False)
+    path: str | None = None
+
+    @property
+    def t_nodes(self) -> np.ndarray:
+        n = int(round((self.t1 - self.t0) / self.step))
+        return np.linspace(self.t0, self.t1, n + 1)
+
+    def problem(self) -> FlatProblem:
+        return FlatProblem(self.aircraft, self.env, self.x, self.y, self.z, self.zeta, self.eta, self.dn, self.h)
+
+
+def _catalogue() -> dict[str, Path]:
+    root = resources.files("planners") / "scenarios"
+    return {e.name[:-5]: Path(str(e)) for e in sorted(root.iterdir(), key=lambda e: e.name)
+            if e.name.endswith(".toml")}
+
+
+def list_scenarios() -> list[str]:
+    """Names of the bundled scenarios."""
+    return list(_catalogue())
+
+
+def _num(table: Mapping, key: str, where: str, default: Any = ...) -> float:
+    if key not in table:
+        if default is ...:
+            raise InputError(f"{where}: missing {key!r}")
+        return default
+    v = table[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)):
+        raise InputError(f"{where}: {key} must be a finite number, got {v!r}")
+    return float(v)
+
+
+def load_scenario(name_or_path: str | Path, J: int | None = None) -> Scenario:
+    """Load a bundled scenario by name, or a scenario TOML file by path.
+
+    Raises
+    ------
+    InputError
+        Unknown scenario, malformed file, bad expression, inconsistent options.
+    """
+    cat = _catalogue()
+    key = str(name_or_path)
+    if key in cat:
+        path = cat[key]
+    else:
+        path = Path(key)
+        if not (path.suffix == ".toml" and path.is_file()):
+            raise InputError(f"unknown scenario {key!r}; bundled scenarios: {', '.join(cat)} "
+                             f"(or give the path of a .toml file)")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path.name}: not valid TOML ({exc})") from None
+    return scenario_from_dict(data, where=path.name, J=J, path=str(path))
+
+
+def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int | None = None,
+                       path: str | None = None) -> Scenario:
+    """Build a :class:`Scenario` from the parsed TOML structure."""
+    for sec in ("time", "flat_outputs"):
+        if sec not in data:
+            raise InputError(f"{where}: missing [{sec}] section")
+    if "aircraft" not in data:
+        raise InputError(f"{where}: missing 'aircraft'")
+    aircraft = load_aircraft(str(data["aircraft"]))
+    consts = data.get("constants", {})
+    for k, v in consts.items():
+        _num(consts, k, f"{where} [constants]")
+    tm = data["time"]
+    t0, t1 = _num(tm, "t0", f"{where} [time]"), _num(tm, "t1", f"{where} [time]")
+    step = _num(tm, "step", f"{where} [time]")
+    if not t1 > t0:
+        raise InputError(f"{where} [time]: t1 = {t1} must be after t0 = {t0}")
+    if not step > 0 or step > t1 - t0:
+        raise InputError(f"{where} [time]: step must be in (0, t1 - t0], got {step}")
+    fo = data["flat_outputs"]
+
+    def expr(key, default=...):
+        if key not in fo:
+            if default is ...:
+                raise InputError(f"{where} [flat_outputs]: missing {key!r}")
+            return default
+        return compile_expression(fo[key], consts, where=f"{where} [flat_outputs] {key}")
+
+    kind = str(fo.get("zeta", "beta"))
+    if kind not in FLAT_KINDS:
+        raise InputError(f"{where} [flat_outputs]: zeta must be one of {', '.join(FLAT_KINDS)}, got {kind!r}")
+    zeta = FlatOutput(kind, expr("zeta_value", compile_expression(0.0)),
+                      expr("f1", None) if kind == "mix" else None, expr("f2", None) if kind == "mix" else None)
+    eta = expr("eta", None)
+    dn = expr("dn", None)
+    if eta is None and dn is None:
+        eta = compile_expression(0.0)
+    gen = data.get("generalized", {})
+    J_file = int(gen.get("J", 0))
+    J = J_file if J is None else int(J)
+    if J < 0 or J > 30:
+        raise InputError(f"{where}: J must be between 0 and 30, got {J}")
+    env = _environment(data.get("environment", {}), f"{where} [environment]")
+    cal = data.get("calibration")
+    h = HValues()
+    if "h" in data:
+        hv = data["h"]
+        h = HValues(*(_num(hv, k, f"{where} [h]", 0.0) for k in ("p", "q", "r", "dl", "dm", "dn")))
+    if cal is not None:
+        h = _calibrate(aircraft, env, cal, f"{where} [calibration]", -float(np.mean(
+            np.broadcast_to(expr("z")(np.linspace(t0, t1, 5)), (5,)))))
+    rep = data.get("report", {})
+    return Scenario(name=str(data.get("name", Path(path).stem if path else "scenario")),
+                    description=str(data.get("description", "")), aircraft=aircraft, env=env, t0=t0, t1=t1,
+                    step=step, x=expr("x"), y=expr("y"), z=expr("z"), zeta=zeta, eta=eta, dn=dn, J=J, h=h,
+                    calibration=dict(cal) if cal is not None else None,
+                    report_times=[float(v) for v in rep.get("times", [])],
+                    report_variables=[str(v) for v in rep.get("variables", ["F", "dl", "dm", "dn"])],
+                    raw=dict(data), path=path)
+
+
+def _environment(table: Mapping[str, Any], where: str) -> Environment:
+    kind = str(table.get("density", "isa")).lower()
+    g = _num(table, "g", where, 9.80665)
+    if kind == "isa":
+        return Environment(ISA(), g)
+    if kind == "constant":
+        return Environment(ConstantDensity(_num(table, "rho", where)), g)
+    raise InputError(f"{where}: density must be 'isa' or 'constant', got {kind!r}")
+
+
+def _calibrate(aircraft: Aircraft, env: Environment, cal: Mapping[str, Any], where: str, altitude: float) -> HValues:
+    """H values from a full-model steady-flight calibration (paper: "calibration functions")."""
+    from gna.trim import trim
+
+    fixed = {k: _num(cal, k, where) for k in cal if k not in ("altitude",)}
+    alt = _num(cal, "altitude", where, altitude)
+    try:
+        t = trim(aircraft, fixed, altitude=alt, env=env, model="full", check_envelope=False)
+    except GflatError as exc:
+        raise InputError(f"{where}: calibration failed: {exc}") from None
+    v = t.values
+    return HValues(v["p"], v["q"], v["r"], v["dl"], v["dm"], v["dn"])

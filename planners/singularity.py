@@ -1,0 +1,131 @@
+"""Singularity monitor of the flat parametrization along a plan.
+
+Paper section "Flat outputs and their singularities": the stage-2 system
+(three force equations plus the fourth flat output) is solvable for the
+remaining unknowns only where a determinant does not vanish:
+
+* flat output beta: eq. (cond_beta), the (alpha, mu) Jacobian after F is
+  eliminated with eq. (X);
+* flat output mu: eq. (stalling_cond), the (alpha, beta) Jacobian after F is
+  eliminated -- a lift maximum;
+* flat output F: eq. (cond_F), the (alpha, mu) Jacobian after beta is
+  eliminated with eq. (chi) -- vanishes for beta = mu = 0 in a vertical plane;
+* mixed output: the full 4 x 4 Jacobian.
+
+Eliminating a variable with one equation is a Schur complement, so each
+determinant equals ``det(J3) / dR_k/dv`` with ``J3`` the Jacobian of the three
+force equations in the three free unknowns.  The monitor also watches
+``V cos(gamma)`` (stage 1) and ``cos(beta)`` (stage 3), and warns at the
+times where any of them comes near zero or changes sign.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from planners.newton import jacobian
+
+from .flat import force_residuals
+
+#: A determinant below this fraction of its largest magnitude along the plan is reported.
+NEAR_ZERO = 0.02
+
+
+@dataclass
+class SingularityReport:
+    """Conditions along the plan, at the nodes.
+
+    Attributes
+    ----------
+    table : DataFrame
+        Columns: the flat output's determinant (``cond_beta``, ``stalling_cond``,
+        ``cond_F`` or ``det4``), ``V_cos_gamma``, ``cos_beta``.
+    warnings : list of str
+    """
+
+    table: pd.DataFrame
+    condition: str
+    warnings: list = field(default_factory=list)
+
+
+def _near_zero_times(t, v, name, what) -> list[str]:
+    out = []
+    scale = np.max(np.abs(v))
+    if not np.isfinite(scale) or scale == 0:
+        return [f"{name} ({what}) is zero or undefined along the whole plan"]
+    small = np.abs(v) < NEAR_ZERO * scale
+    flips = np.flatnonzero(np.sign(v[1:]) != np.sign(v[:-1]))
+    if np.any(small):
+        ts = t[small]
+        out.append(f"{name} ({what}) near zero (< {NEAR_ZERO:g} of its maximum {scale:.3g}) at "
+                   f"t = {_ranges(ts)} s; minimum {v[small][np.argmin(np.abs(v[small]))]:.3g} at "
+                   f"t = {ts[np.argmin(np.abs(v[small]))]:.4g} s")
+    for i in flips:
+        out.append(f"{name} ({what}) changes sign between t = {t[i]:.4g} s and t = {t[i + 1]:.4g} s "
+                   f"({v[i]:.3g} -> {v[i + 1]:.3g}): the flat output is singular there")
+    return out
+
+
+def _ranges(ts) -> str:
+    if len(ts) <= 4:
+        return ", ".join(f"{x:.4g}" for x in ts)
+    return f"{ts[0]:.4g} .. {ts[-1]:.4g} ({len(ts)} nodes)"
+
+
+def monitor(plan, j: int = 0) -> SingularityReport:
+    """Evaluate the singularity conditions at the nodes of iterate ``j`` (default: the flat plan)."""
+    prob = plan.problem
+    ac, env = prob.aircraft, prob.env
+    sol = plan.iterates[j]
+    s = {k: np.real(v.coeffs[..., 0]) for k, v in sol.series.items()}
+    d1 = {k: np.real(sol.series[k].coeffs[..., 1]) for k in ("V", "gamma", "chi")}
+    if j == 0:
+        h = prob.h
+    else:
+        h = plan.iterates[j - 1].h_values()
+        h = type(h)(*(np.real(v.constant_term) if hasattr(v, "constant_term") else v for v in h))
+    kind = prob.zeta.kind
+
+    def fun(u):
+        alpha, beta, mu, F = u
+        return np.stack(np.broadcast_arrays(*force_residuals(ac, env, s["z"], s["V"], s["gamma"], s["chi"],
+                                                              d1["V"], d1["gamma"], d1["chi"], s["eta"], h,
+                                                              alpha, beta, mu, F)))
+
+    u = np.stack([s["alpha"], s["beta"], s["mu"], s["F"]])
+    Jm = jacobian(lambda x: fun(x), u)   # (3, 4, nodes)
+    idx = {"alpha": 0, "beta": 1, "mu": 2, "F": 3}
+    if kind in ("beta", "mu", "F"):
+        free = [v for v in ("alpha", "beta", "mu", "F") if v != kind]
+        J3 = Jm[:, [idx[v] for v in free]]
+        det3 = np.linalg.det(np.moveaxis(J3, -1, 0))
+        if kind == "F":
+            name, what, pivot = "cond_F", "eq. cond_F: (alpha, mu) Jacobian with beta eliminated", Jm[2, idx["beta"]]
+        elif kind == "beta":
+            name, what, pivot = "cond_beta", "eq. cond_beta: (alpha, mu) Jacobian with F eliminated", Jm[0, idx["F"]]
+        else:
+            name, what, pivot = "stalling_cond", "eq. stalling_cond: (alpha, beta) Jacobian with F eliminated", \
+                Jm[0, idx["F"]]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cond = det3 / pivot
+    else:
+        t_nodes = plan.t_nodes
+        f1, f2 = prob.zeta.f1(t_nodes), prob.zeta.f2(t_nodes)
+        row = np.stack(np.broadcast_arrays(0.0 * t_nodes, f1 + 0 * t_nodes, f2 + 0 * t_nodes, 0.0 * t_nodes))
+        J4 = np.concatenate([Jm, row[None]], axis=0)
+        cond = np.linalg.det(np.moveaxis(J4, -1, 0))
+        name, what = "det4", "4x4 Jacobian of the mixed flat output"
+    vcg = s["V"] * np.cos(s["gamma"])
+    cb = np.cos(s["beta"])
+    t = plan.t_nodes
+    table = pd.DataFrame({name: cond, "V_cos_gamma": vcg, "cos_beta": cb}, index=pd.Index(t, name="t"))
+    warnings = _near_zero_times(t, cond, name, what)
+    if np.min(np.abs(vcg)) < 1.0:
+        warnings.append(f"V cos(gamma) below 1 m/s at t = {_ranges(t[np.abs(vcg) < 1.0])} s (stage 1 singular: "
+                        f"vertical flight path)")
+    if np.min(cb) < 0.2:
+        warnings.append(f"cos(beta) below 0.2 at t = {_ranges(t[cb < 0.2])} s (stage 3 singular)")
+    return SingularityReport(table, name, warnings)
