@@ -57,7 +57,9 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
     for j in range(J + 1):
         t_start = time.perf_counter()
         h = None if prev is None else prev.h_values()
-        sol = parametrize(problem, t_nodes, kappa, h=h, guess=None if prev is None else prev.series)
+        # Near a singularity Newton may overflow: reported through the Newton and monitor warnings.
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            sol = parametrize(problem, t_nodes, kappa, h=h, guess=None if prev is None else prev.series)
         timings[j] = time.perf_counter() - t_start
         for rep in sol.reports.values():
             warnings.extend(f"iterate j = {j}: {w}" for w in rep.warnings)

@@ -200,7 +200,11 @@ def _series_solve(Jc: np.ndarray, Gc: np.ndarray) -> np.ndarray:
     K = Gc.shape[-1]
     batch = Gc.shape[1:-1]
     J0 = np.moveaxis(Jc[..., 0].reshape(n, n, -1), -1, 0)           # (B, n, n)
-    J0inv = np.linalg.inv(J0)
+    try:
+        J0inv = np.linalg.inv(J0)
+    except np.linalg.LinAlgError:
+        # A singular node (reported by the caller's warnings): least-squares step there.
+        J0inv = np.linalg.pinv(J0)
     Jr = np.moveaxis(Jc.reshape(n, n, -1, K), 2, 0)                  # (B, n, n, K)
     Gr = np.moveaxis(Gc.reshape(n, -1, K), 1, 0)                     # (B, n, K)
     D = np.zeros_like(Gr)

@@ -110,10 +110,10 @@ class Plan:
 
     def _stack(self, names: tuple, j: int) -> np.ndarray:
         """Coefficients of several variables, zero-padded to a common order: (len(names), nodes, K)."""
+        sol = self._iterate(j)
         cache = self.__dict__.setdefault("_stack_cache", {})
         key = (names, j % len(self.iterates))
         if key not in cache:
-            sol = self._iterate(j)
             for n in names:
                 if n not in sol.series:
                     raise InputError(f"unknown plan variable {n!r}; known: {', '.join(sol.series)}")

@@ -30,8 +30,12 @@ from planners.newton import jacobian
 
 from .flat import force_residuals
 
-#: A determinant below this fraction of its largest magnitude along the plan is reported.
+#: A determinant below this fraction of its largest magnitude along the plan is reported ...
 NEAR_ZERO = 0.02
+#: ... and so is one below this absolute value.  The determinants are built from the stage-2
+#: residuals divided by g (dimensionless, per rad or per unit thrust/weight): in ordinary flight
+#: they are of order 0.1 to 100.
+ABS_TINY = 1e-3
 
 
 @dataclass
@@ -56,8 +60,9 @@ def _near_zero_times(t, v, name, what) -> list[str]:
     scale = np.max(np.abs(v))
     if not np.isfinite(scale) or scale == 0:
         return [f"{name} ({what}) is zero or undefined along the whole plan"]
-    small = np.abs(v) < NEAR_ZERO * scale
-    flips = np.flatnonzero(np.sign(v[1:]) != np.sign(v[:-1]))
+    small = np.abs(v) < max(NEAR_ZERO * scale, ABS_TINY)
+    big = np.abs(v) >= ABS_TINY
+    flips = np.flatnonzero((np.sign(v[1:]) != np.sign(v[:-1])) & big[1:] & big[:-1])
     if np.any(small):
         ts = t[small]
         out.append(f"{name} ({what}) near zero (< {NEAR_ZERO:g} of its maximum {scale:.3g}) at "

@@ -1,0 +1,63 @@
+"""Vector Newton (batched, complex-step Jacobian) and Newton on power series."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planners.newton import PAPER_MAXITER, jacobian, newton, newton_series
+from planners.series import Series
+
+
+def test_batched_newton_solves_each_problem():
+    a = np.array([1.0, 4.0, 9.0, 2.0])
+
+    def f(x):
+        return np.stack([x[0] ** 2 - a, x[0] * x[1] - 1.0])
+
+    r = newton(f, np.ones((2, 4)), tol=1e-14)
+    assert r.all_converged
+    np.testing.assert_allclose(r.x[0], np.sqrt(a), rtol=1e-14)
+    np.testing.assert_allclose(r.x[1], 1 / np.sqrt(a), rtol=1e-14)
+
+
+def test_complex_step_jacobian_exact():
+    f = lambda x: np.stack([np.sin(x[0]) * x[1], np.exp(x[1])])
+    x = np.array([[0.3], [0.7]])
+    J = jacobian(f, x)[..., 0]
+    np.testing.assert_allclose(J, [[np.cos(0.3) * 0.7, np.sin(0.3)], [0.0, np.exp(0.7)]], rtol=1e-15)
+
+
+def test_newton_reports_failure_without_raising():
+    r = newton(lambda x: x ** 2 + 1.0, np.ones((1, 3)), maxiter=PAPER_MAXITER)
+    assert not r.all_converged and r.iterations == PAPER_MAXITER
+    assert np.all(r.residual >= 1.0)
+
+
+def test_newton_series_sqrt_and_arctan():
+    """Solve u^2 = 1 + t and tan(v) = t as series at three nodes; compare with known expansions."""
+    t0 = np.array([0.0, 0.5, 1.0])
+    order = 9
+    t = Series.variable(t0, order)
+
+    def residual(u, k):
+        tk = t.truncate(k) if k else t0
+        return [u[0] * u[0] - (1 + tk), np.tan(u[1]) - tk]
+
+    (u, v), rep = newton_series(residual, [Series.constant(np.ones(3), 0), Series.constant(np.zeros(3), 0)],
+                                order, names=("u", "v"), t_nodes=t0)
+    np.testing.assert_allclose(np.real(u.coeffs), np.sqrt(1 + t).coeffs, atol=1e-13)
+    np.testing.assert_allclose(np.real(v.coeffs), np.arctan(t).coeffs, atol=1e-13)
+    assert rep.doubling_orders == [1, 3, 7, 9]
+    assert rep.worst_residual < 1e-12 and rep.warnings == []
+
+
+def test_newton_series_paper_warning_names_time():
+    t0 = np.array([0.0, 1.0, 2.0])
+
+    def residual(u, k):
+        return [u[0] * u[0] + 1.0 + 0 * u[0]]   # no real solution
+
+    _, rep = newton_series(residual, [Series.constant(np.ones(3), 0)], 3, names=("u",), t_nodes=t0)
+    assert len(rep.warnings) == 3
+    assert "did not reach 1e-3 after 20 iterations at t = 1 s" in rep.warnings[1]

@@ -1,0 +1,47 @@
+"""Scenario files: bundled scenarios, malformed input, calibration."""
+
+from __future__ import annotations
+
+import pytest
+
+from gna.errors import InputError
+from planners.scenario import list_scenarios, load_scenario, scenario_from_dict
+
+from .conftest import WEAVE, make_scenario
+
+
+def test_bundled_paper_scenarios_listed():
+    assert {"twin-otter-single-engine", "gtm-forward-slip", "gtm-aileron-roll"} <= set(list_scenarios())
+
+
+def test_grid_and_J_override():
+    sc = make_scenario()
+    assert sc.t_nodes[0] == 0.0 and sc.t_nodes[-1] == 30.0 and len(sc.t_nodes) == 61
+    assert scenario_from_dict(WEAVE, J=2).J == 2
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"time": {"t1": -1.0}}, "must be after"),
+    ({"time": {"step": 0.0}}, "step must be"),
+    ({"flat_outputs": {"x": "import os"}}, "cannot parse"),
+    ({"flat_outputs": {"zeta": "alpha"}}, "zeta must be one of"),
+    ({"aircraft": "concorde"}, "unknown aircraft"),
+    ({"generalized": {"J": -1}}, "J must be"),
+    ({"environment": {"density": "mars"}}, "density must be"),
+    ({"calibration": {"alpha": 0.1}}, "calibration failed"),
+])
+def test_malformed(change, message):
+    with pytest.raises(Exception, match=message) as exc:
+        make_scenario(**change)
+    assert hasattr(exc.value, "args")
+
+
+def test_unknown_scenario_lists_bundled():
+    with pytest.raises(InputError, match="bundled scenarios: .*gtm-forward-slip"):
+        load_scenario("loop-the-loop")
+
+
+def test_calibration_gives_h_values():
+    sc = make_scenario(calibration={"V": 150.0, "gamma": 0.0, "chi_dot": 0.05, "beta": 0.0})
+    # a steady turn: nonzero rates and surfaces become the first iterate's H values
+    assert sc.h.q > 0 and sc.h.r > 0 and sc.h.dm < 0

@@ -1,0 +1,49 @@
+"""Singularity monitor: the paper's determinants vanish where it says they do."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from planners.generalized import plan_scenario
+
+from .conftest import make_scenario
+
+
+def test_regular_plan_has_no_warning(weave_plan):
+    _, plan = weave_plan
+    rep = plan.singularities
+    assert rep.condition == "cond_beta" and rep.warnings == []
+    assert np.all(np.abs(rep.table["cond_beta"]) > 0)
+    assert np.all(rep.table["cos_beta"] > 0.99)
+
+
+def test_thrust_output_singular_in_vertical_plane():
+    """Flat output F in a vertical plane with beta = mu = 0: eq. (cond_F) vanishes (paper, 'The thrust choice').
+
+    Straight level flight with F prescribed at exactly the drag of beta = 0 flight: the solution is
+    beta = mu = 0, where d/dmu of the forces vanishes by symmetry.
+    """
+    from gna.trim import trim_level
+    sc0 = make_scenario()
+    tr = trim_level(sc0.aircraft, 150.0, 3000.0, env=sc0.env)
+    sc = make_scenario(flat_outputs={"x": "150*t", "y": "0", "z": "-3000", "zeta": "F",
+                                     "zeta_value": repr(tr.values["F"])}, time={"t1": 5.0})
+    plan = plan_scenario(sc, J=0)
+    rep = plan.singularities
+    assert rep.condition == "cond_F"
+    assert any("cond_F" in w for w in plan.warnings)
+
+
+def test_sideslip_output_singular_at_zero_g():
+    """Flat output beta in a zero-g parabola: eq. (cond_beta) vanishes (paper: it 'excludes 0-g flight'),
+    whereas the bank-angle output mu is regular there (the paper's choice for the aileron roll)."""
+    fo = {"x": "150*t", "y": "0", "z": "-3000 + 0.5*g0*t**2"}
+    tm = {"t0": -3.0, "t1": 3.0, "step": 0.25}
+    plan = plan_scenario(make_scenario(flat_outputs=dict(fo, zeta="beta", zeta_value="0"), time=tm), J=0)
+    assert plan.singularities.condition == "cond_beta"
+    assert np.max(np.abs(plan.singularities.table["cond_beta"])) < 1e-9
+    assert any("cond_beta" in w and "near zero" in w for w in plan.warnings)
+    plan = plan_scenario(make_scenario(flat_outputs=dict(fo, zeta="mu", zeta_value="1.5*t"), time=tm), J=0)
+    assert plan.singularities.condition == "stalling_cond"
+    assert np.min(np.abs(plan.singularities.table["stalling_cond"])) > 1.0
+    assert plan.singularities.warnings == []
