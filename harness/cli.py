@@ -20,6 +20,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "aircraft",
     "trim",
     "plan",
+    "export_jsbsim",
+    "fit",
 )
 
 

@@ -82,6 +82,9 @@ class FlatProblem:
     h : HValues
         Constant values of the neglected terms for the first iterate (zero, or
         calibration values).
+    start : mapping, optional
+        Starting values of stage 2 (alpha, beta, mu) where the kinematics do not
+        fix them -- e.g. the sideslip branch of a thrust flat output, from a calibration.
     """
 
     aircraft: Aircraft
@@ -93,6 +96,7 @@ class FlatProblem:
     eta: Expression | None
     dn: Expression | None = None
     h: HValues = HValues()
+    start: Mapping[str, float] | None = None
 
     def __post_init__(self):
         if (self.eta is None) == (self.dn is None):
@@ -278,7 +282,7 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
     if guess is not None:
         u0 = [guess[k] for k in STAGE2_UNKNOWNS]
     else:
-        u0 = _stage2_guess(problem, t_nodes, V2, gamma2, hv)
+        u0 = _stage2_guess(problem, t_nodes, d2[0], hv)
     u2, rep2 = newton_series(stage2_residual, u0, k2, tol=newton_tol, names=STAGE2_UNKNOWNS, t_nodes=t_nodes)
     alpha, beta, mu, F = u2
 
@@ -329,34 +333,68 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
     return NodeSolution(out, order, {"stage2": rep2, "stage4": rep4})
 
 
-def _stage2_guess(problem: FlatProblem, t_nodes, V, gamma, hv) -> list:
-    """Starting values for stage 2: a steady straight-flight calibration at the mean speed and slope."""
-    from gna.trim import trim
-    from gna.errors import GflatError
+def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:
+    """Node-wise starting values for stage 2, from the kinematics of the flat outputs.
 
-    ac = problem.aircraft
-    n = len(t_nodes)
-    V0 = float(np.mean(np.real(V.constant_term)))
-    g0 = float(np.mean(np.real(gamma.constant_term)))
-    zeta = problem.zeta
-    z_mid = float(np.real(np.mean(problem.zeta.value(np.asarray(t_nodes, dtype=float)))))
-    fixed = {"V": V0, "gamma": g0, "chi_dot": 0.0}
-    if zeta.kind == "beta":
-        fixed["beta"] = z_mid
-    elif zeta.kind == "mu":
-        fixed["mu"] = z_mid
-    elif zeta.kind == "F":
-        fixed = {"F": z_mid, "gamma": g0, "chi_dot": 0.0, "beta": 0.0}
-        # With F fixed, steady flight at this slope needs a given speed: fix V instead of beta when gliding.
-        fixed = {"F": z_mid, "V": V0, "gamma": g0, "chi_dot": 0.0}
+    The specific force the airframe must produce follows from the flat outputs:
+    in the path frame (x along the velocity, y horizontal, wind frame with
+    mu = 0) it is ``f = (V' + g sin gamma, V cos gamma chi', -V gamma' - g cos gamma)``.
+    Lift supplies its normal part: the bank angle is ``atan2(f_y, -f_z)`` and the
+    lift coefficient ``m |f_n| / (qbar S)``, from which alpha is read on the
+    rising branch of the model's C_L(alpha) within the envelope; the thrust
+    balances drag and ``f_x``.  Starting each node there picks the physical
+    root (a polynomial C_L has other, spurious ones).  For the thrust output the
+    sideslip sign is taken from ``problem.start`` (a calibration) when given.
+    """
+    from gna.aero import AeroState
+
+    ac, env = problem.aircraft, problem.env
+    m, g, S = ac.mass.mass, env.g, ac.geometry.S
+    V, gam, Vd, gd, chid = (np.real(np.asarray(d[k], dtype=complex)) for k in ("V", "gamma", "Vd", "gd", "chid"))
+    rho = np.real(env.density(np.real(np.asarray(d["z"], dtype=complex))))
+    qS = 0.5 * rho * V * V * S
+    fx = Vd + g * np.sin(gam)
+    fy = V * np.cos(gam) * chid
+    fz = -V * gd - g * np.cos(gam)
+    kind = problem.zeta.kind
+    zv = np.real(np.asarray(d["zv"], dtype=complex)) + 0 * V
+    start = dict(problem.start or {})
+    if kind == "mu":
+        mu = zv
+    elif kind == "F" and "mu" in start:
+        mu = np.full_like(V, start["mu"])
     else:
-        fixed["beta"] = 0.0
-    vals = {"alpha": 0.05, "beta": 0.0, "mu": 0.0, "F": 0.0}
-    try:
-        alt = -float(np.mean(np.real(problem.z(np.asarray(t_nodes, dtype=float)))))
-        tr = trim(ac, fixed, altitude=alt, env=problem.env, model="simple", h=HValues(*(
-            float(np.mean(np.real(getattr(v, "constant_term", v)))) for v in hv)), check_envelope=False)
-        vals.update({k: tr.values[k] for k in STAGE2_UNKNOWNS})
-    except GflatError:
-        pass
-    return [Series.constant(np.full(n, vals[k]), 0) for k in STAGE2_UNKNOWNS]
+        mu = np.arctan2(fy, -fz)
+    lift = m * (fy * np.sin(mu) - fz * np.cos(mu))
+    CL_req = lift / qS
+    # C_L(alpha) of the stage-2 model (H at its mean values) on the envelope.
+    hconst = [float(np.mean(np.real(getattr(v, "constant_term", v)))) for v in hv]
+    env_ = ac.envelope
+    a_grid = np.linspace(env_.alpha_min, env_.alpha_max, 401)
+    b0 = float(np.mean(zv)) if kind == "beta" else float(start.get("beta", 0.0))
+    half = 0.5 / float(np.mean(V))
+    c = ac.aero.coefficients(AeroState(a_grid, b0, hconst[0] * ac.geometry.b * half,
+                                       hconst[1] * ac.geometry.cbar * half, hconst[2] * ac.geometry.b * half,
+                                       hconst[3], hconst[4], hconst[5]))
+    CL = np.broadcast_to(np.asarray(c.CL, dtype=float), a_grid.shape)
+    CD = np.broadcast_to(np.asarray(c.CD, dtype=float), a_grid.shape)
+    top = int(np.argmax(CL))
+    rising_a, rising_CL = a_grid[: top + 1], CL[: top + 1]
+    order = np.argsort(rising_CL)
+    alpha = np.interp(CL_req, rising_CL[order], rising_a[order])
+    F = m * fx + qS * np.interp(alpha, a_grid, CD)
+    if kind == "beta":
+        beta = zv
+    elif kind == "mix":
+        f1 = np.real(np.asarray(d["f1"], dtype=complex)) + 0 * V
+        f2 = np.real(np.asarray(d["f2"], dtype=complex)) + 0 * V
+        beta = (zv - f2 * mu) / np.where(f1 != 0, f1, 1.0) * (f1 != 0)
+    else:
+        # thrust output: beta = 0 is singular (eq. cond_F); without a calibration start on the beta > 0 branch
+        beta = np.full_like(V, start.get("beta", 0.1))
+    if kind == "F":
+        F = zv
+        if "alpha" in start:
+            alpha = np.full_like(V, start["alpha"])
+    out = {"alpha": alpha, "beta": beta, "mu": mu, "F": F}
+    return [Series.constant(out[k], 0) for k in STAGE2_UNKNOWNS]

@@ -71,6 +71,7 @@ class Scenario:
     J: int
     h: HValues
     calibration: dict | None
+    start: dict | None = None
     report_times: list = field(default_factory=list)
     report_variables: list = field(default_factory=list)
     raw: dict = field(default_factory=dict, repr=False)
@@ -82,7 +83,8 @@ class Scenario:
         return np.linspace(self.t0, self.t1, n + 1)
 
     def problem(self) -> FlatProblem:
-        return FlatProblem(self.aircraft, self.env, self.x, self.y, self.z, self.zeta, self.eta, self.dn, self.h)
+        return FlatProblem(self.aircraft, self.env, self.x, self.y, self.z, self.zeta, self.eta, self.dn, self.h,
+                           self.start)
 
 
 def _catalogue() -> dict[str, Path]:
@@ -176,17 +178,18 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
     env = _environment(data.get("environment", {}), f"{where} [environment]")
     cal = data.get("calibration")
     h = HValues()
+    start = None
     if "h" in data:
         hv = data["h"]
         h = HValues(*(_num(hv, k, f"{where} [h]", 0.0) for k in ("p", "q", "r", "dl", "dm", "dn")))
     if cal is not None:
-        h = _calibrate(aircraft, env, cal, f"{where} [calibration]", -float(np.mean(
+        h, start = _calibrate(aircraft, env, cal, f"{where} [calibration]", -float(np.mean(
             np.broadcast_to(expr("z")(np.linspace(t0, t1, 5)), (5,)))))
     rep = data.get("report", {})
     return Scenario(name=str(data.get("name", Path(path).stem if path else "scenario")),
                     description=str(data.get("description", "")), aircraft=aircraft, env=env, t0=t0, t1=t1,
                     step=step, x=expr("x"), y=expr("y"), z=expr("z"), zeta=zeta, eta=eta, dn=dn, J=J, h=h,
-                    calibration=dict(cal) if cal is not None else None,
+                    calibration=dict(cal) if cal is not None else None, start=start,
                     report_times=[float(v) for v in rep.get("times", [])],
                     report_variables=[str(v) for v in rep.get("variables", ["F", "dl", "dm", "dn"])],
                     raw=dict(data), path=path)
@@ -202,8 +205,10 @@ def _environment(table: Mapping[str, Any], where: str) -> Environment:
     raise InputError(f"{where}: density must be 'isa' or 'constant', got {kind!r}")
 
 
-def _calibrate(aircraft: Aircraft, env: Environment, cal: Mapping[str, Any], where: str, altitude: float) -> HValues:
-    """H values from a full-model steady-flight calibration (paper: "calibration functions")."""
+def _calibrate(aircraft: Aircraft, env: Environment, cal: Mapping[str, Any], where: str,
+               altitude: float) -> tuple[HValues, dict]:
+    """H values from a full-model steady-flight calibration (paper: "calibration functions"),
+    and the calibration's alpha, beta, mu as stage-2 starting values."""
     from gna.trim import trim
 
     fixed = {k: _num(cal, k, where) for k in cal if k not in ("altitude",)}
@@ -213,4 +218,5 @@ def _calibrate(aircraft: Aircraft, env: Environment, cal: Mapping[str, Any], whe
     except GflatError as exc:
         raise InputError(f"{where}: calibration failed: {exc}") from None
     v = t.values
-    return HValues(v["p"], v["q"], v["r"], v["dl"], v["dm"], v["dn"])
+    return (HValues(v["p"], v["q"], v["r"], v["dl"], v["dm"], v["dn"]),
+            {k: v[k] for k in ("alpha", "beta", "mu")})

@@ -1,0 +1,192 @@
+"""Speed of the coupled JSBSim engine against bare ``fdm.run()``, and its accuracy (no assertions).
+
+Speed (default).  The coupled run is :meth:`harness.engines.JSBSimEngine.simulate`: control
+writes every step, divergence check, output reads, conversion to the 12
+wind-frame states and the DataFrame.  The bare loop is ``fdm.run()`` alone on
+the same aircraft file, settings and step.  Timings are medians of interleaved
+repetitions (expect +-15 % scatter on a shared 2-core machine)::
+
+    python benchmarks/bench_jsbsim.py [--aircraft f16c] [--seconds 20] [--repeats 5]
+
+Accuracy (``--accuracy``): largest differences JSBSim - in-house (DOP853 at
+1e-10) over 10 s of a smooth manoeuvre from trim (f16c, 150 m/s, 3000 m), for
+four integrator sets and five steps (the convergence study of
+``docs/jsbsim.md``), the same with the controls shifted by one step, then every
+bundled aircraft (trim at 1.6 V_stall, 1000 m, 12 s manoeuvre; trimmed flight
+10 s) and the cost of JSBSim's rotating WGS84 Earth::
+
+    python benchmarks/bench_jsbsim.py --accuracy
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+from gna.aircraft import list_aircraft, load_aircraft
+from gna.atmosphere import ISA, Environment
+from gna.trim import stall_speed, trim_level
+from harness.compare import difference_table
+from harness.engines import (JSBSIM_DEFAULT_INTEGRATORS, InHouseEngine, Integrators, JSBSimEngine, fly,
+                             initial_condition_properties, load_fdm)
+
+ANGLES = ("gamma", "chi", "alpha", "beta", "mu")
+
+
+def bare_steps_per_second(engine: JSBSimEngine, aircraft, env, x0, u0, steps: int) -> float:
+    """``fdm.run()`` alone, same file, integrators, step and initial condition."""
+    fdm, _, capture = load_fdm(engine.xml(aircraft, env, x0), aircraft.id)
+    with capture:
+        fdm.set_debug_level(0)
+        fdm["simulation/gravity-model"] = 0
+        for prop, code in engine.integrators.properties().items():
+            fdm[prop] = code
+        fdm.set_dt(engine.dt)
+        for prop, value in initial_condition_properties(x0):
+            fdm[prop] = value
+        fdm["external_reactions/engine1/magnitude"] = u0[0] / 2 / 4.4482216152605
+        fdm["external_reactions/engine2/magnitude"] = u0[0] / 2 / 4.4482216152605
+        fdm["ctrl/delta-m-rad"] = u0[3]
+        fdm.run_ic()
+        run = fdm.run
+        t = time.perf_counter()
+        for _ in range(steps):
+            run()
+        return steps / (time.perf_counter() - t)
+
+
+def manoeuvre(u0: np.ndarray, twin: bool):
+    """Smooth inputs around a trim: thrust +-10 %, asymmetry (twins), aileron, elevator, rudder."""
+    def u(t):
+        t = np.asarray(t, dtype=float)
+        return [u0[0] * (1 + 0.1 * np.sin(0.5 * t)), u0[1] + (0.3 * np.sin(0.7 * t) if twin else 0 * t),
+                u0[2] + 0.02 * np.sin(1.3 * t) * (1 - np.cos(0.8 * t)),
+                u0[3] + 0.02 * np.sin(0.9 * t) * (1 - np.cos(0.7 * t)),
+                u0[4] + 0.01 * np.sin(1.1 * t) * (1 - np.cos(0.6 * t))]
+    return u
+
+
+def _summary(table) -> str:
+    ang = max(table.row(v).max_abs for v in ANGLES)
+    rates = max(table.row(v).max_abs for v in ("p", "q", "r"))
+    return (f"{table.row('position').max_abs:9.1e} {table.row('V').max_abs:9.1e} {ang:9.1e} {rates:9.1e}")
+
+
+def accuracy() -> None:
+    """Print the convergence study and the per-aircraft cross-engine differences."""
+    a = load_aircraft("f16c")
+    tr = trim_level(a, 150.0, 3000.0)
+    x0, u0 = np.array(tr.state, dtype=float), np.array(tr.controls, dtype=float)
+    u = manoeuvre(u0, False)
+    ref = InHouseEngine().simulate(a, u, (0.0, 10.0), x0)
+    head = f"{'pos [m]':>9} {'V [m/s]':>9} {'ang [rad]':>9} {'pqr[r/s]':>9}"
+    print("Convergence: f16c, smooth manoeuvre from trim (150 m/s, 3000 m), 10 s; max |JSBSim - in-house|")
+    sets = {"JSBSim default (Euler, AB2, Euler, AB3)": JSBSIM_DEFAULT_INTEGRATORS,
+            "AB2 everywhere": Integrators("AB2", "AB2", "AB2", "AB2"),
+            "AB4 + Buss1 quaternion": Integrators("AB4", "AB4", "Buss1", "AB4"),
+            "AB4 + Buss2 quaternion (gflat default)": Integrators()}
+    for name, ig in sets.items():
+        print(f"  {name}")
+        print(f"    {'dt [s]':<8} {head}")
+        for hz in (60, 120, 240, 480, 960):
+            r = JSBSimEngine(dt=1.0 / hz, integrators=ig).simulate(a, u, (0.0, 10.0), x0)
+            print(f"    1/{hz:<6} {_summary(difference_table(ref, r))}")
+    print("  AB4 + Buss2 with the controls shifted by one step (wrong timing)")
+    for hz in (120, 480):
+        r = JSBSimEngine(dt=1.0 / hz).simulate(a, lambda t, h=hz: u(np.asarray(t) - 1.0 / h), (0.0, 10.0), x0)
+        print(f"    1/{hz:<6} {_summary(difference_table(ref, r))}")
+
+    print("Every aircraft, gflat default (AB4 + Buss2, dt = 1/480 s): max |JSBSim - in-house|")
+    print(f"  {'aircraft':<11} {'case':<24} {head}")
+    for name in list_aircraft():
+        craft = load_aircraft(name)
+        V = 1.6 * stall_speed(craft, 1000.0).V_stall
+        t = trim_level(craft, V, 1000.0)
+        x, uu = np.array(t.state, dtype=float), np.array(t.controls, dtype=float)
+        r = fly(["inhouse", "jsbsim"], craft, x, uu, (0.0, 10.0))
+        print(f"  {name:<11} {'trim 10 s':<24} {_summary(difference_table(r['inhouse'], r['jsbsim']))}")
+        r = fly(["inhouse", "jsbsim"], craft, x, manoeuvre(uu, craft.engines.count == 2), (0.0, 12.0))
+        tab = difference_table(r["inhouse"], r["jsbsim"])
+        print(f"  {'':<11} {'manoeuvre 12 s':<24} {_summary(tab)}")
+    print("Long span: f16c, 120 s, max |JSBSim - in-house| (flat-earth sphere curvature and ECEF round-off)")
+    print(f"  {'case':<36} {head}")
+    for name, src in (("trim", u0), ("manoeuvre", u)):
+        r = fly(["inhouse", "jsbsim"], a, x0, src, (0.0, 120.0))
+        print(f"  {name + ' 120 s':<36} {_summary(difference_table(r['inhouse'], r['jsbsim']))}")
+    print("Cost of the flat earth: f16c trim, 10 s, |JSBSim rotating WGS84 Earth - JSBSim flat|")
+    print(f"  {'initial latitude':<36} {head}")
+    for lat in (0.0, 45.0):
+        r = fly({"flat": JSBSimEngine(), "wgs84": JSBSimEngine(earth="wgs84", latitude=np.radians(lat))},
+                a, x0, u0, (0.0, 10.0))
+        print(f"  {lat:<36.0f} {_summary(difference_table(r['flat'], r['wgs84']))}")
+
+
+def main() -> None:
+    """Run the benchmark and print a table."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--aircraft", default="f16c")
+    parser.add_argument("--seconds", type=float, default=20.0, help="simulated time per run [s]")
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--accuracy", action="store_true", help="print the accuracy study instead of the speed")
+    args = parser.parse_args()
+    if args.accuracy:
+        accuracy()
+        return
+
+    a = load_aircraft(args.aircraft)
+    env = Environment(ISA())
+    tr = trim_level(a, 150.0, 3000.0, env=env)
+    x0, u0 = np.array(tr.state, dtype=float), np.array(tr.controls, dtype=float)
+    engine = JSBSimEngine()
+    k = np.array([0.05 * u0[0], 0.0, 0.01, 0.01, 0.005])
+
+    def smooth(t):  # vectorisable: evaluated once on the whole step grid
+        s = np.sin(0.8 * np.asarray(t))
+        return [u0[i] + k[i] * s for i in range(5)]
+
+    def scalar(t):  # not vectorisable: called at every step
+        s = np.sin(0.8 * float(t))
+        return u0 + k * s
+
+    gains = np.zeros((5, 12))
+    gains[3, 10], gains[2, 9], gains[4, 11] = -0.3, 0.1, 0.2
+    xref = x0.copy()
+
+    def controller(t, x):
+        e = x - xref
+        e[:6] = 0.0
+        return gains @ e
+
+    cases = {
+        "coupled, controls vectorised": dict(controls=smooth),
+        "coupled, controls called each step": dict(controls=scalar),
+        "coupled, with controller (2 evaluations/step)": dict(controls=smooth, controller=controller),
+    }
+    steps = int(round(args.seconds / engine.dt))
+    bare, coupled, loop = [], {c: [] for c in cases}, {c: [] for c in cases}
+    for _ in range(args.repeats):
+        bare.append(bare_steps_per_second(engine, a, env, x0, u0, steps))
+        for name, kw in cases.items():
+            t = time.perf_counter()
+            res = engine.simulate(a, kw["controls"], (0.0, args.seconds), x0, env=env,
+                                  controller=kw.get("controller"), dt_out=0.02)
+            wall = time.perf_counter() - t
+            assert res.status == "completed", res.message
+            coupled[name].append(res.settings["steps"] / wall)
+            loop[name].append(res.settings["steps"] / res.settings["wall_time_s"]["stepping"])
+    b = statistics.median(bare)
+    print(f"JSBSim speed, {a.id}, {args.seconds:g} s simulated at dt = {engine.dt:.6g} s ({steps} steps), "
+          f"integrators {engine.integrators.as_dict()}, median of {args.repeats}")
+    print(f"  {'run':<56} {'steps/s':>10} {'vs bare':>8} {'x real time':>12}")
+    print(f"  {'bare fdm.run()':<56} {b:10.0f} {100.0:7.0f}% {b * engine.dt:12.0f}")
+    for name in cases:
+        c, lo = statistics.median(coupled[name]), statistics.median(loop[name])
+        print(f"  {name + ', end to end':<56} {c:10.0f} {100 * c / b:7.0f}% {c * engine.dt:12.0f}")
+        print(f"  {name + ', stepping loop':<56} {lo:10.0f} {100 * lo / b:7.0f}% {lo * engine.dt:12.0f}")
+
+
+if __name__ == "__main__":
+    main()
