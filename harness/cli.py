@@ -20,6 +20,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "aircraft",
     "trim",
     "plan",
+    "compare",
+    "paper",
     "export_jsbsim",
     "fit",
 )

@@ -399,7 +399,8 @@ def compare_engines(aircraft, controls, t_span=None, x0=None, *, engines=("inhou
     for other in labels[1:]:
         per = {}
         for name, dur in windows.items():
-            win = (t0, None if dur is None else t0 + float(dur))
+            # a window longer than the run is clipped to the run's span
+            win = (t0, None if dur is None else min(t0 + float(dur), float(t_span[1])))
             per[name] = difference_table(results[ref], results[other], tolerances, window=win, labels=(ref, other))
         tables[other] = per
     comp = EngineComparison(results=results, tables=tables, reference_engine=ref)

@@ -52,3 +52,28 @@ def test_aircraft_lists_with_provenance(capsys):
 def test_console_script_installed():
     r = subprocess.run([sys.executable, "-m", "harness.cli", "aircraft"], capture_output=True, text=True)
     assert r.returncode == 0 and "f16c" in r.stdout
+
+
+def test_plan_command_writes_outputs(tmp_path, capsys):
+    assert main(["plan", "gtm-aileron-roll", "--J", "2", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "convergence table" in out and "worst Newton residual" in out and "J=2" in out
+    for f in ("plan_series.npz", "plan_j0.csv", "plan_j2.csv", "convergence.csv", "summary.json", "singularities.csv"):
+        assert (tmp_path / f).is_file(), f
+
+
+def test_plan_unknown_scenario(capsys):
+    assert main(["plan", "barrel-roll"]) == 2
+    assert "unknown scenario 'barrel-roll'" in capsys.readouterr().err
+
+
+def test_compare_command_prints_tables(tmp_path, capsys):
+    scen = tmp_path / "short.toml"
+    scen.write_text('name = "short"\naircraft = "a7"\n[time]\nt0 = 0.0\nt1 = 4.0\nstep = 0.5\n'
+                    '[flat_outputs]\nx = "130*t"\ny = "20*sin(t/3)"\nz = "-1500"\nzeta = "beta"\n'
+                    'zeta_value = "0"\n[generalized]\nJ = 2\n')
+    assert main(["compare", str(scen), "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "[first 10 s]" in out and "[whole span]" in out and "overall: PASS" in out
+    assert (tmp_path / "out" / "states.png").is_file()
+    assert main(["compare", str(scen), "--engines", "inhouse"]) == 2
