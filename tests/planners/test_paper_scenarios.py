@@ -54,11 +54,14 @@ def test_8c_open_loop_follows_generalized_plan(paper_plan):
     assert ang < BOUNDS[sc.name][1], (sc.name, ang)
 
 
-#: (position [m], angle [rad]) bounds of test 8(c); measured values are in docs/planning.md.
+#: (position [m], angle [rad]) bounds of test 8(c), about 3x the measured deviations
+#: (``python scripts/planning_report.py``; docs/planning.md explains them): the forward slip's 0.72 m
+#: over 120 s is its J = 4 full-model residual (1.3e-4 m/s^2) integrated twice (~0.9 m); the Twin Otter
+#: (6 mm) and the roll (4 cm) are dominated by the order-1 control series blended between nodes.
 BOUNDS = {
-    "twin-otter-single-engine": (1.0, 1e-2),
-    "gtm-forward-slip": (1.0, 1e-2),
-    "gtm-aileron-roll": (0.1, 1e-2),
+    "twin-otter-single-engine": (0.02, 2e-5),
+    "gtm-forward-slip": (2.0, 3e-3),
+    "gtm-aileron-roll": (0.12, 3e-3),
 }
 
 
