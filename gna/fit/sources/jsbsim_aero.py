@@ -1,0 +1,407 @@
+"""The aerodynamics of any JSBSim aircraft, evaluated through JSBSim itself.
+
+Method (measured in ``shared/notes/jsbsim_aero_sampling.md``):
+
+1. Load the model, **switch the flight-control system off**
+   (``simulation/models/FGFCS/enabled = 0``) so that surface positions written
+   from Python are not overwritten, and hold every configuration property the
+   aerodynamics reads (``fcs/*``, ``gear/*``, ``systems/*`` other than the
+   three surfaces: flaps, speedbrake, spoilers, LEF, gear, BLC, propeller
+   thrust coefficient...) at 0 -- clean configuration, gear up (the FCS
+   would otherwise leave ``gear/gear-pos-norm`` at 1).
+2. For each point: Euler angles (0, alpha, 0), body velocities
+   ``V (cos a cos b, sin b, sin a cos b)`` at the reference Mach and altitude,
+   body rates from the nondimensional ones, surface positions; ``run_ic()``.
+3. Read the body-axis aerodynamic forces and moments about the CG, remove
+   the alpha-dot / beta-dot functions (inside ``run_ic`` alpha-dot comes from
+   non-trimmed accelerations; the GNA structure has no such term) and divide
+   by ``qbar S`` (``b``, ``cbar``).
+
+Surfaces: ``dm`` is the elevator property (trailing edge down positive),
+``dn`` the rudder property (trailing edge left positive), ``dl`` minus the
+aileron property: JSBSim's positive aileron rolls right (``Cl > 0``), the
+project's positive ``dl`` (right aileron trailing edge down) rolls left.
+
+Coefficients are per reference Mach: Mach effects, power effects, flaps,
+gear, speedbrake and ground effect are outside the GNA structure.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from . import jsbsim_xml as jx
+from .base import SourceModel, broadcast_state, stability_from_body
+from ...aero import AeroState, Coefficients
+from ...errors import InputError, UnknownAircraftError
+from ... import units
+
+#: Candidate properties for each surface, with the sign that maps them to the project's variable.
+SURFACE_CANDIDATES: dict[str, tuple[tuple[str, float], ...]] = {
+    "dm": (("fcs/elevator-pos-rad", 1.0),),
+    "dl": (("fcs/left-aileron-pos-rad", -1.0), ("fcs/aileron-pos-rad", -1.0)),
+    "dn": (("fcs/rudder-pos-rad", 1.0),),
+}
+
+#: Properties the FCS model derives from the surfaces (not held at 0).
+DERIVED_SURFACE_PROPERTIES = ("fcs/mag-elevator-pos-rad", "fcs/mag-aileron-pos-rad", "fcs/mag-rudder-pos-rad")
+
+_FORCE_AXES = {"DRAG": (-1.0, 0), "SIDE": (1.0, 1), "LIFT": (-1.0, 2)}
+_MOMENT_AXES = {"ROLL": 0, "PITCH": 1, "YAW": 2}
+
+
+class UnknownJSBSimAircraftError(UnknownAircraftError):
+    """A JSBSim aircraft name or path that does not exist."""
+
+    def __init__(self, name: str, known: list[str], root: str):
+        self.root = root
+        super().__init__(name, known)
+
+    def __str__(self) -> str:
+        return (f"unknown JSBSim aircraft {self.name!r} (no aircraft/{self.name}/{self.name}.xml under {self.root}); "
+                f"available: {', '.join(self.known)}")
+
+
+@contextlib.contextmanager
+def _quiet():
+    """JSBSim's message level is process-wide: silence it while we drive JSBSim, then restore it."""
+    import jsbsim
+    base = jsbsim.FGJSBBase()
+    level = base.debug_lvl
+    base.debug_lvl = 0
+    try:
+        yield
+    finally:
+        base.debug_lvl = level
+
+
+def default_root() -> Path:
+    import jsbsim
+    return Path(jsbsim.get_default_root_dir())
+
+
+def available_aircraft(root: Path) -> list[str]:
+    """Aircraft under ``root/aircraft`` (folders holding ``<name>/<name>.xml``)."""
+    d = root / "aircraft"
+    if not d.is_dir():
+        return []
+    return sorted(p.name for p in d.iterdir() if (p / f"{p.name}.xml").is_file())
+
+
+def resolve(model: str, root: str | Path | None = None) -> tuple[str, Path, Path]:
+    """``(name, aircraft_dir, jsbsim_root)`` for a bundled name, a name under ``root``, or a path
+    ``.../<name>/<name>.xml``.
+
+    Raises
+    ------
+    UnknownJSBSimAircraftError
+    """
+    base = Path(root) if root is not None else default_root()
+    p = Path(model)
+    if p.suffix == ".xml":
+        if not p.is_file():
+            raise UnknownJSBSimAircraftError(str(model), available_aircraft(base), str(p.parent))
+        if p.parent.name != p.stem:
+            raise InputError(f"JSBSim expects an aircraft file as <dir>/<name>/<name>.xml; got {p}")
+        return p.stem, p.parent, base
+    if not (base / "aircraft" / model / f"{model}.xml").is_file():
+        raise UnknownJSBSimAircraftError(str(model), available_aircraft(base), str(base))
+    return model, base / "aircraft" / model, base
+
+
+class JSBSimAeroSource(SourceModel):
+    """A JSBSim aircraft's aerodynamics at a reference Mach and altitude.
+
+    Parameters
+    ----------
+    model : str
+        Bundled aircraft name (``"F4N"``), name under ``root``, or path to
+        ``<name>/<name>.xml``.
+    mach : float
+        Reference Mach number (the coefficients are evaluated at it).
+    altitude : float
+        Reference altitude [m] (ISA of JSBSim).
+    root : path, optional
+        JSBSim root directory (``aircraft/``, ``engine/``, ``systems/``);
+        default: the one of the installed jsbsim package.
+    surfaces : mapping, optional
+        ``{"dl"|"dm"|"dn": (property, sign)}`` overriding the detected surface
+        properties (project variable = sign * property).
+    configuration : mapping, optional
+        Property -> value overriding the default 0 of the configuration properties.
+    """
+
+    def __init__(self, model: str, *, mach: float, altitude: float, root: str | Path | None = None,
+                 surfaces: Mapping[str, tuple[str, float]] | None = None,
+                 configuration: Mapping[str, float] | None = None):
+        import jsbsim
+        if not (math.isfinite(mach) and 0 < mach < 5):
+            raise InputError(f"reference Mach must be in (0, 5), got {mach}")
+        if not (math.isfinite(altitude) and -500 <= altitude <= 30000):
+            raise InputError(f"reference altitude must be in [-500, 30000] m, got {altitude}")
+        self.model, self.aircraft_dir, self.root = resolve(model, root)
+        self.mach, self.altitude = float(mach), float(altitude)
+        self._xml = jx.parse(self.aircraft_dir / f"{self.model}.xml")
+        aero = jx.aerodynamics_element(self._xml, self.aircraft_dir)
+        functions = jx.aero_functions(aero)
+        reads = set().union(*(f.reads for f in functions)) if functions else set()
+        self.surface_map = self._surfaces(reads, surfaces or {})
+        self.removed = jx.angle_rate_functions(functions)
+        for f in self.removed:
+            if f.axis not in _FORCE_AXES and f.axis not in _MOMENT_AXES:
+                raise InputError(f"JSBSim {self.model}: alpha-dot/beta-dot function {f.name} in axis {f.axis} "
+                                 f"is not supported (only DRAG, SIDE, LIFT, ROLL, PITCH, YAW)")
+        used = {p for p, _ in self.surface_map.values()}
+        config = {p: 0.0 for p in sorted(reads) if p.startswith(("fcs/", "gear/", "systems/"))
+                  and p not in used and p not in DERIVED_SURFACE_PROPERTIES}
+        for k, v in (configuration or {}).items():
+            config[str(k)] = float(v)
+        self.configuration = config
+
+        with _quiet():
+            fdm = jsbsim.FGFDMExec(str(self.root))
+            fdm.set_debug_level(0)
+            ok = fdm.load_model_with_paths(self.model, str(self.aircraft_dir.parent), str(self.root / "engine"),
+                                           str(self.root / "systems"))
+        if not ok:
+            raise InputError(f"JSBSim could not load {self.aircraft_dir / (self.model + '.xml')}")
+        self._fdm = fdm
+        fdm["simulation/models/FGFCS/enabled"] = 0
+        for k, v in self.configuration.items():
+            fdm[k] = v
+        fdm["ic/lat-geod-rad"] = 0.0
+        fdm["ic/long-gc-rad"] = 0.0
+        fdm["ic/h-sl-ft"] = self.altitude / units.FT
+        fdm["ic/mach"] = self.mach
+        with _quiet():
+            fdm.run_ic()
+        self.V_fps = self.mach * fdm["atmosphere/a-fps"]
+        self.V_ref = self.V_fps * units.FT
+        self.S = fdm["metrics/Sw-sqft"]
+        self.b = fdm["metrics/bw-ft"]
+        self.cbar = fdm["metrics/cbarw-ft"]
+        self.cg_in = np.array([fdm["inertia/cg-x-in"], fdm["inertia/cg-y-in"], fdm["inertia/cg-z-in"]])
+        self.rp_in = np.array([fdm["metrics/aero-rp-x-in"], fdm["metrics/aero-rp-y-in"], fdm["metrics/aero-rp-z-in"]])
+        self.name = f"JSBSim {self.model} at Mach {self.mach:g}, {self.altitude:g} m"
+        self.envelope = self._envelope(aero)
+
+    # -- set-up helpers -------------------------------------------------------------------------
+    def _surfaces(self, reads: set[str], override: Mapping[str, tuple[str, float]]) -> dict[str, tuple[str, float]]:
+        out = {}
+        for var, cands in SURFACE_CANDIDATES.items():
+            if var in override:
+                prop, sign = override[var]
+                out[var] = (str(prop), float(sign))
+                continue
+            found = [(p, s) for p, s in cands if p in reads]
+            if not found:
+                raise InputError(f"JSBSim {self.model}: its aerodynamics read none of "
+                                 f"{', '.join(p for p, _ in cands)} for {var}; give the property explicitly")
+            out[var] = found[0]
+        unknown = [k for k in override if k not in SURFACE_CANDIDATES]
+        if unknown:
+            raise InputError(f"unknown surface variable(s) {', '.join(unknown)}; use dl, dm, dn")
+        return out
+
+    def _envelope(self, aero) -> dict[str, tuple[float, float]]:
+        """Domain covered by the tables (JSBSim holds end values beyond) and the FCS surface ranges;
+        the tables of the removed alpha-dot/beta-dot functions do not count.
+
+        Also sets :attr:`envelope_origin`: variable -> what limits it.
+        """
+        ranges = jx.table_ranges(aero, frozenset(f.name for f in self.removed))
+        env: dict[str, tuple[float, float]] = {}
+        origin: dict[str, str] = {}
+
+        def meet(var, lo, hi, why):
+            if var in env:
+                if lo > env[var][0] or hi < env[var][1]:
+                    origin[var] = why if (lo >= env[var][0] and hi <= env[var][1]) else f"{origin[var]}; {why}"
+                lo, hi = max(lo, env[var][0]), min(hi, env[var][1])
+            else:
+                origin[var] = why
+            env[var] = (lo, hi)
+
+        deg = math.pi / 180.0
+        for prop, (lo, hi, where) in ranges.items():
+            f = deg if prop.endswith("deg") else 1.0
+            why = f"tables of {where} over {prop}"
+            if prop in ("aero/alpha-rad", "aero/alpha-deg"):
+                meet("alpha", lo * f, hi * f, why)
+            elif prop in ("aero/beta-rad", "aero/beta-deg"):
+                meet("beta", lo * f, hi * f, why)
+            elif prop in ("aero/mag-beta-rad", "aero/mag-beta-deg"):
+                meet("beta", -hi * f, hi * f, why)
+        for var, (prop, sign) in self.surface_map.items():
+            if prop in ranges:
+                lo, hi, where = ranges[prop]
+                a, b = sorted((sign * lo, sign * hi))
+                meet(var, a, b, f"tables of {where} over {prop}")
+            lim = jx.surface_limit(self._xml, self.aircraft_dir, self.root, prop)
+            if lim is not None:
+                a, b = sorted((sign * lim[0], sign * lim[1]))
+                meet(var, a, b, f"flight-control output range of {prop}")
+        self.envelope_origin = origin
+        return env
+
+    # -- evaluation -----------------------------------------------------------------------------
+    def body_forces(self, alpha: float, beta: float, p: float, q: float, r: float,
+                    surfaces: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray, float]:
+        """One JSBSim evaluation: body force [lbf], moment about the CG [lbf ft] without the
+        alpha-dot/beta-dot functions, and qbar [psf].  Angles rad, rates rad/s, surfaces as
+        the JSBSim properties (rad)."""
+        fdm = self._fdm
+        V = self.V_fps
+        fdm["ic/phi-rad"] = 0.0
+        fdm["ic/theta-rad"] = alpha
+        fdm["ic/psi-true-rad"] = 0.0
+        fdm["ic/u-fps"] = V * math.cos(alpha) * math.cos(beta)
+        fdm["ic/v-fps"] = V * math.sin(beta)
+        fdm["ic/w-fps"] = V * math.sin(alpha) * math.cos(beta)
+        fdm["ic/p-rad_sec"] = p
+        fdm["ic/q-rad_sec"] = q
+        fdm["ic/r-rad_sec"] = r
+        for prop, val in surfaces.items():
+            fdm[prop] = val
+        fdm.run_ic()
+        F = np.array([fdm["forces/fbx-aero-lbs"], fdm["forces/fby-aero-lbs"], fdm["forces/fbz-aero-lbs"]])
+        M = np.array([fdm["moments/l-aero-lbsft"], fdm["moments/m-aero-lbsft"], fdm["moments/n-aero-lbsft"]])
+        if self.removed:
+            a, b = fdm["aero/alpha-rad"], fdm["aero/beta-rad"]
+            ca, sa, cb, sb = math.cos(a), math.sin(a), math.cos(b), math.sin(b)
+            wind_to_body = np.array([[ca * cb, -ca * sb, -sa], [sb, cb, 0.0], [sa * cb, -sa * sb, ca]])
+            arm = np.array([(self.cg_in[0] - self.rp_in[0]) / 12.0, (self.rp_in[1] - self.cg_in[1]) / 12.0,
+                            (self.cg_in[2] - self.rp_in[2]) / 12.0])
+            for f in self.removed:
+                v = fdm[f.name]
+                if f.axis in _MOMENT_AXES:
+                    M[_MOMENT_AXES[f.axis]] -= v
+                else:
+                    sign, k = _FORCE_AXES[f.axis]
+                    fw = np.zeros(3)
+                    fw[k] = sign * v
+                    fb = wind_to_body @ fw
+                    F -= fb
+                    M -= np.cross(arm, fb)
+        return F, M, fdm["aero/qbar-psf"]
+
+    def body_coefficients(self, state: AeroState) -> np.ndarray:
+        """Body-axis ``[CX, CY, CZ, Cl, Cm, Cn]`` about the JSBSim CG (last axis)."""
+        st, shape = broadcast_state(state)
+        flat = [np.ravel(v) for v in st]
+        n = flat[0].size
+        out = np.empty((n, 6))
+        two_V = 2.0 * self.V_fps
+        with _quiet():
+            self._evaluate(flat, out, two_V)
+        return out.reshape(shape + (6,))
+
+    def _evaluate(self, flat, out, two_V) -> None:
+        for i in range(out.shape[0]):
+            a, b, ph, qh, rh, dl, dm, dn = (float(v[i]) for v in flat)
+            surf = {}
+            for var, val in (("dl", dl), ("dm", dm), ("dn", dn)):
+                prop, sign = self.surface_map[var]
+                surf[prop] = sign * val
+            F, M, qbar = self.body_forces(a, b, ph * two_V / self.b, qh * two_V / self.cbar, rh * two_V / self.b,
+                                          surf)
+            qS = qbar * self.S
+            out[i, :3] = F / qS
+            out[i, 3:] = M / (qS * np.array([self.b, self.cbar, self.b]))
+
+    def coefficients(self, state: AeroState) -> Coefficients:
+        st, _ = broadcast_state(state)
+        c = self.body_coefficients(st)
+        CD, CL = stability_from_body(st.alpha, c[..., 0], c[..., 2])
+        return Coefficients(CD, c[..., 1], CL, c[..., 3], c[..., 4], c[..., 5])
+
+    # -- vehicle data -------------------------------------------------------------------------
+    def vehicle(self) -> dict:
+        """Mass, inertia, geometry and engines as the JSBSim definition gives them (English units)."""
+        fdm = self._fdm
+        thr = jx.engines(self._xml)
+        eng: dict = {"count": len(thr), "thrusters": thr}
+        ratings = [jx.turbine_static_thrust(t.engine_file, self.aircraft_dir, self.root) for t in thr]
+        if thr and all(r is not None for r in ratings):
+            eng["max_thrust_lbf"] = sum(r[0] for r in ratings)
+            eng["max_thrust_source"] = ", ".join(sorted({r[1] for r in ratings}))
+        return {
+            "mass_slug": fdm["inertia/mass-slugs"],
+            "Ixx_slugft2": fdm["inertia/ixx-slugs_ft2"], "Iyy_slugft2": fdm["inertia/iyy-slugs_ft2"],
+            "Izz_slugft2": fdm["inertia/izz-slugs_ft2"], "Ixz_slugft2": 0.0 - fdm["inertia/ixz-slugs_ft2"],
+            "S_ft2": self.S, "b_ft": self.b, "cbar_ft": self.cbar,
+            "cg_in": tuple(float(x) for x in self.cg_in), "aero_rp_in": tuple(float(x) for x in self.rp_in),
+            "engines": eng,
+        }
+
+    def provenance(self) -> dict[str, str]:
+        import jsbsim
+        removed = ", ".join(f.name for f in self.removed) or "none"
+        cfg = ", ".join(f"{k} = {v:g}" for k, v in self.configuration.items()) or "none"
+        surf = ", ".join(f"{var} = {'-' if s < 0 else ''}{p}" for var, (p, s) in self.surface_map.items())
+        bundled = self.aircraft_dir.parent == default_root() / "aircraft"
+        where = (f"{self.aircraft_dir.name}/{self.model}.xml of the jsbsim package" if bundled
+                 else str(self.aircraft_dir / f"{self.model}.xml"))
+        return {"source": f"JSBSim {jsbsim.__version__} aircraft {self.model} ({where})",
+                "source_model": f"aerodynamic forces and moments read from JSBSim (FCS disabled, run_ic per "
+                                f"point) at Mach {self.mach:g}, {self.altitude:g} m (V = {self.V_ref:.6g} m/s); "
+                                f"surfaces: {surf}; "
+                                f"configuration held: {cfg}; functions removed (alpha-dot/beta-dot): {removed}; "
+                                f"moments about the JSBSim CG"}
+
+
+def vehicle_sections(source: JSBSimAeroSource) -> dict[str, dict]:
+    """``[mass]``, ``[geometry]``, ``[engines]`` of a JSBSim aircraft as loaded (default fuel and payload).
+
+    x positions are measured aft of the JSBSim aerodynamic reference point
+    (JSBSim files give no MAC leading edge); the coefficients are sampled
+    about the CG, so ``x_ref = x_cg``.
+
+    Raises
+    ------
+    InputError
+        More than two engines, or an engine layout the project's model cannot
+        represent (one engine off the symmetry plane, two not symmetric).
+    """
+    v = source.vehicle()
+    thr = v["engines"]["thrusters"]
+    where = f"JSBSim {source.model}"
+    if not thr:
+        raise InputError(f"{where} has no engine")
+    if len(thr) > 2:
+        raise InputError(f"{where} has {len(thr)} engines; the project's aircraft model has 1 or 2")
+    if len(thr) == 1 and abs(thr[0].y) > 1e-9:
+        raise InputError(f"{where}: its single engine is off the symmetry plane (y = {thr[0].y} in)")
+    if len(thr) == 2 and (abs(thr[0].y + thr[1].y) > 1e-6 or abs(thr[0].x - thr[1].x) > 1e-6
+                          or abs(thr[0].z - thr[1].z) > 1e-6):
+        raise InputError(f"{where}: its two engines are not symmetric about the symmetry plane")
+    cg_x, _, cg_z = v["cg_in"]
+    rp_x = v["aero_rp_in"][0]
+    dz_ft = (thr[0].z - cg_z) / 12.0
+    eps = sum(t.pitch for t in thr) / len(thr)
+    eng = {"count": len(thr), "y_p_in": abs(thr[0].y), "epsilon_rad": eps}
+    if "max_thrust_lbf" in v["engines"]:
+        eng["max_thrust_lbf"] = v["engines"]["max_thrust_lbf"]
+    yaw = ", ".join(f"{math.degrees(t.yaw):g}" for t in thr)
+    eng["source"] = (f"{where}: thrusters at y = {', '.join(f'{t.y:g}' for t in thr)} in, pitch "
+                     f"{', '.join(f'{math.degrees(t.pitch):g}' for t in thr)} deg, yaw {yaw} deg; the thrust line "
+                     f"is {abs(dz_ft):.3g} ft {'above' if dz_ft > 0 else 'below'} the CG (its pitching moment is "
+                     f"not represented); max thrust: sum of "
+                     f"{v['engines'].get('max_thrust_source', 'unknown (not a turbine engine file)')}")
+    return {
+        "mass": {"mass_slug": v["mass_slug"], "Ixx_slugft2": v["Ixx_slugft2"], "Iyy_slugft2": v["Iyy_slugft2"],
+                 "Izz_slugft2": v["Izz_slugft2"], "Ixz_slugft2": v["Ixz_slugft2"],
+                 "source": f"{where} as loaded with its default fuel and point masses, read after run_ic "
+                           f"(inertia/*); Ixz = -inertia/ixz-slugs_ft2 (flight-dynamics sign)"},
+        "geometry": {"S_ft2": v["S_ft2"], "b_ft": v["b_ft"], "cbar_ft": v["cbar_ft"],
+                     "x_cg_in": cg_x - rp_x, "x_ref_in": cg_x - rp_x,
+                     "source": f"{where} metrics; x positions aft of the JSBSim AERORP (no MAC leading edge in the "
+                               f"file); CG at x = {cg_x:.6g} in (structural), AERORP at {rp_x:.6g} in; the "
+                               f"coefficients are about the CG, so x_ref = x_cg"},
+        "engines": eng,
+    }

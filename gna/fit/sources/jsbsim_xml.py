@@ -1,0 +1,249 @@
+"""Reading what a JSBSim aircraft definition says about its aerodynamics, controls and engines.
+
+Only what the fit needs, from the XML files themselves (``xml.etree``):
+
+* the aerodynamic functions of each axis and the properties they read
+  (:func:`aero_functions`), to find the configuration properties to hold at
+  zero and the alpha-dot / beta-dot terms to remove;
+* the breakpoint ranges of every table over alpha, beta and the surfaces
+  (:func:`table_ranges`), the domain covered by the data (JSBSim holds a
+  table's end values outside it);
+* the output range of the flight-control component that drives a surface
+  (:func:`surface_limit`);
+* the engines: thruster positions and orientation, and the sea-level static
+  thrust of turbine engines (:func:`engines`).
+
+Lengths are returned as written (inches unless a unit says otherwise is not
+supported: JSBSim locations here are all ``unit="IN"``); angles in rad.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+from ...errors import InputError
+
+#: Properties whose use in a function marks it as an alpha-dot or beta-dot term.
+RATE_OF_ANGLE = re.compile(r"aero/(alphadot|betadot)-(rad|deg)_sec")
+
+_LENGTH_TO_IN = {"IN": 1.0, "FT": 12.0, "M": 1.0 / 0.0254}
+_ANGLE_TO_RAD = {"RAD": 1.0, "DEG": math.pi / 180.0}
+
+
+@dataclass(frozen=True)
+class AeroFunction:
+    """An aerodynamic function: its property name, axis (None for a pre-function) and what it reads."""
+
+    name: str
+    axis: str | None
+    frame: str | None
+    reads: frozenset[str]
+
+
+@dataclass(frozen=True)
+class Thruster:
+    """Thrust point (structural frame, inches) and orientation (rad) of one engine."""
+
+    x: float
+    y: float
+    z: float
+    pitch: float
+    yaw: float
+    engine_file: str
+
+
+def parse(path: Path) -> ET.Element:
+    try:
+        return ET.parse(path).getroot()
+    except (ET.ParseError, OSError) as exc:
+        raise InputError(f"cannot read JSBSim file {path}: {exc}") from None
+
+
+def _texts(elem: ET.Element) -> set[str]:
+    return {e.text.strip() for e in elem.iter() if e.tag in ("property", "independentVar") and e.text}
+
+
+def aerodynamics_element(root: ET.Element, aircraft_dir: Path) -> ET.Element:
+    """The ``<aerodynamics>`` element (following a ``file=`` reference)."""
+    aero = root.find("aerodynamics")
+    if aero is None:
+        raise InputError(f"the JSBSim aircraft in {aircraft_dir} has no <aerodynamics> section")
+    ref = aero.get("file")
+    if ref:
+        for cand in (aircraft_dir / ref, aircraft_dir / f"{ref}.xml"):
+            if cand.is_file():
+                return parse(cand)
+        raise InputError(f"JSBSim aerodynamics file {ref!r} not found under {aircraft_dir}")
+    return aero
+
+
+def aero_functions(aero: ET.Element) -> list[AeroFunction]:
+    """Every named function of the aerodynamics section (pre-functions have ``axis=None``)."""
+    out = []
+    for fn in aero.findall("function"):
+        out.append(AeroFunction(fn.get("name", ""), None, None, frozenset(_texts(fn))))
+    for ax in aero.findall("axis"):
+        for fn in ax.findall("function"):
+            out.append(AeroFunction(fn.get("name", ""), ax.get("name", "").upper(),
+                                    (ax.get("frame") or "").upper() or None, frozenset(_texts(fn))))
+    return out
+
+
+def angle_rate_functions(functions: list[AeroFunction]) -> list[AeroFunction]:
+    """Axis functions that depend, directly or through pre-functions, on alpha-dot or beta-dot."""
+    tainted: set[str] = set()
+    changed = True
+    while changed:
+        changed = False
+        for f in functions:
+            if f.name not in tainted and (any(RATE_OF_ANGLE.search(p) for p in f.reads) or f.reads & tainted):
+                tainted.add(f.name)
+                changed = True
+    return [f for f in functions if f.axis is not None and f.name in tainted]
+
+
+def _numbers(text: str) -> list[list[float]]:
+    rows = []
+    for line in (text or "").strip().splitlines():
+        line = line.split("<!--")[0].strip()
+        if line:
+            rows.append([float(x) for x in line.split()])
+    return rows
+
+
+def table_ranges(aero: ET.Element, exclude: frozenset[str] = frozenset()) -> dict[str, tuple[float, float, str]]:
+    """Property -> (min, max, where) of the breakpoints of the tables indexed by it: the
+    intersection over the tables, ``where`` naming the functions that set the bounds.
+    Tables inside the functions named in ``exclude`` are ignored."""
+    out: dict[str, tuple[float, float, str]] = {}
+
+    def add(prop: str, values: list[float], owner: str):
+        if not values:
+            return
+        lo, hi = min(values), max(values)
+        if prop in out:
+            plo, phi, pwhere = out[prop]
+            where = pwhere if (lo <= plo and hi >= phi) else (owner if (lo >= plo and hi <= phi)
+                                                                  else f"{pwhere}, {owner}")
+            lo, hi = max(lo, plo), min(hi, phi)
+        else:
+            where = owner
+        out[prop] = (lo, hi, where)
+
+    owners = {}
+    for fn in aero.iter("function"):
+        for table in fn.iter("table"):
+            owners.setdefault(id(table), fn.get("name", "?"))
+    for table in aero.iter("table"):
+        owner = owners.get(id(table), table.get("name", "?"))
+        if owner in exclude:
+            continue
+        ivars = {}
+        for iv in table.findall("independentVar"):
+            ivars[iv.get("lookup", "row")] = iv.text.strip()
+        datas = table.findall("tableData")
+        try:
+            if "table" in ivars:
+                add(ivars["table"], [float(d.get("breakPoint")) for d in datas], owner)
+            for d in datas:
+                rows = _numbers(d.text)
+                if "column" in ivars:
+                    add(ivars["column"], rows[0], owner)
+                    body = rows[1:]
+                else:
+                    body = rows
+                if "row" in ivars:
+                    add(ivars["row"], [r[0] for r in body], owner)
+        except (TypeError, ValueError, IndexError):
+            raise InputError(f"cannot read the JSBSim table of {owner} over {', '.join(ivars.values())}") from None
+    return out
+
+
+def _system_files(root: ET.Element, aircraft_dir: Path, jsbsim_root: Path) -> list[ET.Element]:
+    elems = [e for tag in ("flight_control", "autopilot", "system") for e in root.findall(tag)]
+    out = []
+    for e in elems:
+        ref = e.get("file")
+        if not ref:
+            out.append(e)
+            continue
+        for cand in (aircraft_dir / "Systems" / f"{ref}.xml", aircraft_dir / f"{ref}.xml",
+                     jsbsim_root / "systems" / f"{ref}.xml", aircraft_dir / "Systems" / ref):
+            if cand.is_file():
+                out.append(parse(cand))
+                break
+    return out
+
+
+def surface_limit(root: ET.Element, aircraft_dir: Path, jsbsim_root: Path, prop: str) -> tuple[float, float] | None:
+    """Output range of the flight-control component that writes ``prop`` (its ``<range>`` times its
+    ``<gain>`` for an ``aerosurface_scale``, or its ``<clipto>``)."""
+    for sysroot in _system_files(root, aircraft_dir, jsbsim_root):
+        for comp in sysroot.iter():
+            out = comp.find("output")
+            if out is None or (out.text or "").strip() != prop:
+                continue
+            try:
+                gain = float(comp.findtext("gain", "1")) if comp.tag == "aerosurface_scale" else 1.0
+            except ValueError:
+                gain = 1.0
+            for tag in ("range", "clipto"):
+                r = comp.find(tag)
+                if r is not None and r.findtext("min") is not None and r.findtext("max") is not None:
+                    try:
+                        lo, hi = float(r.findtext("min")) * gain, float(r.findtext("max")) * gain
+                    except ValueError:
+                        continue
+                    return min(lo, hi), max(lo, hi)
+    return None
+
+
+def _location(elem: ET.Element | None, what: str) -> tuple[float, float, float]:
+    if elem is None:
+        raise InputError(f"JSBSim {what} has no <location>")
+    f = _LENGTH_TO_IN.get(elem.get("unit", "IN").upper())
+    if f is None:
+        raise InputError(f"JSBSim {what}: unsupported length unit {elem.get('unit')!r}")
+    return tuple(float(elem.findtext(k, "0")) * f for k in ("x", "y", "z"))
+
+
+def engines(root: ET.Element) -> list[Thruster]:
+    """Thrusters of the propulsion section, in order."""
+    out = []
+    prop = root.find("propulsion")
+    if prop is None:
+        return out
+    for eng in prop.findall("engine"):
+        thr = eng.find("thruster")
+        where = f"engine {eng.get('file')!r}"
+        loc = thr.find("location") if thr is not None else None
+        x, y, z = _location(loc if loc is not None else eng.find("location"), where)
+        orient = thr.find("orient") if thr is not None else None
+        pitch = yaw = 0.0
+        if orient is not None:
+            f = _ANGLE_TO_RAD.get(orient.get("unit", "RAD").upper(), 1.0)
+            pitch = float(orient.findtext("pitch", "0")) * f
+            yaw = float(orient.findtext("yaw", "0")) * f
+        out.append(Thruster(x, y, z, pitch, yaw, eng.get("file", "")))
+    return out
+
+
+def turbine_static_thrust(engine_file: str, aircraft_dir: Path, jsbsim_root: Path) -> tuple[float, str] | None:
+    """Sea-level static thrust [lbf] of a turbine engine file (``maxthrust`` if augmented, else
+    ``milthrust``) and which one it is; None for other engine types."""
+    for cand in (aircraft_dir / "Engines" / f"{engine_file}.xml", jsbsim_root / "engine" / f"{engine_file}.xml"):
+        if cand.is_file():
+            eng = parse(cand)
+            t = eng if eng.tag == "turbine_engine" else eng.find("turbine_engine")
+            if t is None:
+                return None
+            aug = (t.findtext("augmented") or "0").strip() not in ("0", "")
+            key = "maxthrust" if aug and t.findtext("maxthrust") else "milthrust"
+            if t.findtext(key) is None:
+                return None
+            return float(t.findtext(key)), f"{cand.name} <{key}>"
+    return None
