@@ -146,11 +146,19 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     events = _domain_functions()
     segments = []  # (t_lo, t_hi, dense)
     status, message, t_end = "completed", "", t1
+    # A non-finite derivative met inside a step: restart from the last good point with smaller steps
+    # until the failure is bracketed within this span, so the valid part of the run is kept.
+    bracket = 1e-6 * max(1.0, t1 - t0)
     while solver.status == "running":
         t_prev, y_prev = solver.t, solver.y.copy()
         try:
             err = solver.step()
         except _NonFinite as exc:
+            if exc.t - t_prev > bracket:
+                span = 0.5 * (exc.t - t_prev)
+                solver = _SOLVERS[method](rhs, t_prev, y_prev, t1, rtol=rtol, atol=atol,
+                                          max_step=min(max_step, span), first_step=0.5 * span)
+                continue
             status = "domain"
             t_end = t_prev
             message = (f"non-finite derivative ({', '.join(exc.names)}) at t = {exc.t:.6g} s; "
@@ -190,7 +198,7 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
         grid = np.append(grid, t_end)
     Y = _evaluate_segments(segments, grid, y0, t0)
     df = _frame(aircraft, env, grid, Y, applied, model, h)
-    warnings = _envelope_warnings(aircraft, df)
+    warnings = envelope_warnings(aircraft, df)
     settings = dict(method=method, rtol=rtol, atol=atol, max_step=max_step, model=model,
                     environment=env.atmosphere.describe(), g=env.g,
                     h=None if h is None else dict(h._asdict()))
@@ -235,7 +243,9 @@ def _frame(aircraft, env, grid, Y, applied, model, h) -> pd.DataFrame:
     return df
 
 
-def _envelope_warnings(aircraft, df) -> list[str]:
+def envelope_warnings(aircraft, df) -> list[str]:
+    """Excursions of a trajectory DataFrame outside the aircraft's envelope and control limits,
+    each naming the first time, the value and the limit."""
     out = []
     env = aircraft.envelope
     checks = [("alpha", df["alpha"] < env.alpha_min, env.alpha_min), ("alpha", df["alpha"] > env.alpha_max, env.alpha_max),

@@ -36,7 +36,7 @@ from gna.atmosphere import ISA, ConstantDensity, Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.errors import GflatError, InputError
 from gna.frames import euler_from_wind
-from gna.simulate import SimulationResult, _envelope_warnings, simulate
+from gna.simulate import SimulationResult, envelope_warnings, simulate
 
 from . import jsbsim_export as jx
 
@@ -718,7 +718,7 @@ class JSBSimEngine:
         S = to_state.vector(np.array(raw_states, dtype=float).T.reshape(len(pos_nodes) + len(_STATE_NODES), -1))
         D = np.array(raw_derived, dtype=float).T.reshape(len(_DERIVED_NODES), -1)
         df = _frame(aircraft, env, times[idx], S, applied[:, idx], D)
-        warnings = _envelope_warnings(aircraft, df) + [f"JSBSim: {p}" for p in load_problems]
+        warnings = envelope_warnings(aircraft, df) + [f"JSBSim: {p}" for p in load_problems]
         near = np.abs(df["gamma"].to_numpy()) > 0.5 * math.pi - 1e-3
         if near.any():
             warnings.append(f"the flight path came within 1e-3 rad of vertical at t = {df.index[near.argmax()]:.4g} s: "
