@@ -32,6 +32,7 @@ from gna.trim import stall_speed, trim_level
 from harness.compare import difference_table
 from harness.engines import (JSBSIM_DEFAULT_INTEGRATORS, InHouseEngine, Integrators, JSBSimEngine, fly,
                              initial_condition_properties, load_fdm)
+from harness.testing import smooth_inputs
 
 ANGLES = ("gamma", "chi", "alpha", "beta", "mu")
 
@@ -58,15 +59,6 @@ def bare_steps_per_second(engine: JSBSimEngine, aircraft, env, x0, u0, steps: in
         return steps / (time.perf_counter() - t)
 
 
-def manoeuvre(u0: np.ndarray, twin: bool):
-    """Smooth inputs around a trim: thrust +-10 %, asymmetry (twins), aileron, elevator, rudder."""
-    def u(t):
-        t = np.asarray(t, dtype=float)
-        return [u0[0] * (1 + 0.1 * np.sin(0.5 * t)), u0[1] + (0.3 * np.sin(0.7 * t) if twin else 0 * t),
-                u0[2] + 0.02 * np.sin(1.3 * t) * (1 - np.cos(0.8 * t)),
-                u0[3] + 0.02 * np.sin(0.9 * t) * (1 - np.cos(0.7 * t)),
-                u0[4] + 0.01 * np.sin(1.1 * t) * (1 - np.cos(0.6 * t))]
-    return u
 
 
 def _summary(table) -> str:
@@ -80,7 +72,7 @@ def accuracy() -> None:
     a = load_aircraft("f16c")
     tr = trim_level(a, 150.0, 3000.0)
     x0, u0 = np.array(tr.state, dtype=float), np.array(tr.controls, dtype=float)
-    u = manoeuvre(u0, False)
+    u = smooth_inputs(u0, False)
     ref = InHouseEngine().simulate(a, u, (0.0, 10.0), x0)
     head = f"{'pos [m]':>9} {'V [m/s]':>9} {'ang [rad]':>9} {'pqr[r/s]':>9}"
     print("Convergence: f16c, smooth manoeuvre from trim (150 m/s, 3000 m), 10 s; max |JSBSim - in-house|")
@@ -108,7 +100,7 @@ def accuracy() -> None:
         x, uu = np.array(t.state, dtype=float), np.array(t.controls, dtype=float)
         r = fly(["inhouse", "jsbsim"], craft, x, uu, (0.0, 10.0))
         print(f"  {name:<11} {'trim 10 s':<24} {_summary(difference_table(r['inhouse'], r['jsbsim']))}")
-        r = fly(["inhouse", "jsbsim"], craft, x, manoeuvre(uu, craft.engines.count == 2), (0.0, 12.0))
+        r = fly(["inhouse", "jsbsim"], craft, x, smooth_inputs(uu, craft.engines.count == 2), (0.0, 12.0))
         tab = difference_table(r["inhouse"], r["jsbsim"])
         print(f"  {'':<11} {'manoeuvre 12 s':<24} {_summary(tab)}")
     print("Long span: f16c, 120 s, max |JSBSim - in-house| (flat-earth sphere curvature and ECEF round-off)")

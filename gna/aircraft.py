@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -21,6 +20,7 @@ import numpy as np
 
 from . import units
 from .aero import TermTable
+from .catalogue import bundled, resolve
 from .errors import InputError, UnknownAircraftError
 
 #: Accepted unit suffixes, with their factor to SI.
@@ -256,12 +256,7 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
 
 
 def _catalogue() -> dict[str, Path]:
-    root = resources.files("gna") / "data" / "aircraft"
-    out = {}
-    for entry in root.iterdir():
-        if entry.name.endswith(".toml"):
-            out[entry.name[:-5]] = Path(str(entry))
-    return dict(sorted(out.items()))
+    return bundled("gna", "data", "aircraft")
 
 
 def list_aircraft() -> list[str]:
@@ -280,13 +275,9 @@ def load_aircraft(name_or_path: str | Path) -> Aircraft:
         If the file is malformed.
     """
     cat = _catalogue()
-    key = str(name_or_path)
-    if key in cat:
-        path = cat[key]
-    else:
-        path = Path(key)
-        if not (path.suffix == ".toml" and path.is_file()):
-            raise UnknownAircraftError(key, list(cat))
+    path = resolve(name_or_path, cat)
+    if path is None:
+        raise UnknownAircraftError(str(name_or_path), list(cat))
     try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)

@@ -8,7 +8,24 @@ from __future__ import annotations
 
 from typing import Sequence
 
+import numpy as np
+
 from .compare import difference_table
+
+
+def smooth_inputs(u0, twin: bool = False):
+    """Smooth, vectorisable control inputs around a trim ``u0`` (F, eta, dl, dm, dn) for engine checks.
+
+    Thrust +-10 %, differential thrust +-0.3 (twins only), and aileron, elevator and rudder
+    oscillations of 0.01--0.02 rad that start from zero slope.
+    """
+    def u(t):
+        t = np.asarray(t, dtype=float)
+        return [u0[0] * (1 + 0.1 * np.sin(0.5 * t)), u0[1] + (0.3 * np.sin(0.7 * t) if twin else 0 * t),
+                u0[2] + 0.02 * np.sin(1.3 * t) * (1 - np.cos(0.8 * t)),
+                u0[3] + 0.02 * np.sin(0.9 * t) * (1 - np.cos(0.7 * t)),
+                u0[4] + 0.01 * np.sin(1.1 * t) * (1 - np.cos(0.6 * t))]
+    return u
 
 
 def assert_trajectories_close(actual, expected, tol=None, *, variables: Sequence[str] | None = None,

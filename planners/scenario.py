@@ -36,7 +36,6 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -44,6 +43,7 @@ import numpy as np
 
 from gna.aircraft import Aircraft, load_aircraft
 from gna.atmosphere import ConstantDensity, Environment, ISA
+from gna.catalogue import bundled, resolve
 from gna.eom import HValues
 from gna.errors import GflatError, InputError
 
@@ -88,9 +88,7 @@ class Scenario:
 
 
 def _catalogue() -> dict[str, Path]:
-    root = resources.files("planners") / "scenarios"
-    return {e.name[:-5]: Path(str(e)) for e in sorted(root.iterdir(), key=lambda e: e.name)
-            if e.name.endswith(".toml")}
+    return bundled("planners", "scenarios")
 
 
 def list_scenarios() -> list[str]:
@@ -118,14 +116,10 @@ def load_scenario(name_or_path: str | Path, J: int | None = None) -> Scenario:
         Unknown scenario, malformed file, bad expression, inconsistent options.
     """
     cat = _catalogue()
-    key = str(name_or_path)
-    if key in cat:
-        path = cat[key]
-    else:
-        path = Path(key)
-        if not (path.suffix == ".toml" and path.is_file()):
-            raise InputError(f"unknown scenario {key!r}; bundled scenarios: {', '.join(cat)} "
-                             f"(or give the path of a .toml file)")
+    path = resolve(name_or_path, cat)
+    if path is None:
+        raise InputError(f"unknown scenario {str(name_or_path)!r}; bundled scenarios: {', '.join(cat)} "
+                         f"(or give the path of a .toml file)")
     try:
         data = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:

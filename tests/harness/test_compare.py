@@ -14,7 +14,7 @@ from gna.eom import STATE_NAMES
 from gna.errors import InputError
 from gna.trim import stall_speed, trim_level
 from harness.compare import DEFAULT_TOLERANCES, compare_engines, difference_table
-from harness.testing import assert_trajectories_close
+from harness.testing import assert_trajectories_close, smooth_inputs
 
 ANGLES = ("gamma", "chi", "alpha", "beta", "mu")
 
@@ -97,15 +97,6 @@ def _two_engine_aircraft():
     return dataclasses.replace(base, engines=Engines(count=2, y_p=1.8, epsilon=math.radians(3.0)))
 
 
-def _manoeuvre(u0, twin):
-    """Smooth thrust, asymmetry (twins), aileron, elevator and rudder inputs around a trim."""
-    def u(t):
-        t = np.asarray(t, dtype=float)
-        return [u0[0] * (1 + 0.1 * np.sin(0.5 * t)), u0[1] + (0.3 * np.sin(0.7 * t) if twin else 0 * t),
-                u0[2] + 0.02 * np.sin(1.3 * t) * (1 - np.cos(0.8 * t)),
-                u0[3] + 0.02 * np.sin(0.9 * t) * (1 - np.cos(0.7 * t)),
-                u0[4] + 0.01 * np.sin(1.1 * t) * (1 - np.cos(0.6 * t))]
-    return u
 
 
 @pytest.mark.parametrize("which", ["f16c", "a7", "twin"])
@@ -116,7 +107,7 @@ def test_engines_agree_on_smooth_manoeuvres_from_trim(which, tmp_path):
     tr = trim_level(a, V, 1000.0)
     x0, u0 = np.array(tr.state, dtype=float), np.array(tr.controls, dtype=float)
     out = tmp_path / "cmp" if which == "twin" else None
-    c = compare_engines(a, _manoeuvre(u0, a.engines.count == 2), (0.0, 12.0), x0, out_dir=out,
+    c = compare_engines(a, smooth_inputs(u0, a.engines.count == 2), (0.0, 12.0), x0, out_dir=out,
                         reference=lambda t: x0)
     assert set(c.tables["jsbsim"]) == {"first 10 s", "whole span"}
     first, whole = c.table("first 10 s"), c.table("whole span")
