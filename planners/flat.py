@@ -164,6 +164,32 @@ def _unwrap_constant(angle: Series) -> Series:
     return angle
 
 
+def _check_flat_outputs(t_nodes, x: Series, y: Series, z: Series) -> None:
+    """Refuse flat outputs that are not finite or make stage 1 singular (V cos(gamma) = 0)."""
+    from gna.errors import DomainError
+
+    t_nodes = np.asarray(t_nodes, dtype=float)
+    for name, s in (("x", x), ("y", y), ("z", z)):
+        c = np.real(np.asarray(s.coeffs[..., :2]))
+        bad = ~np.all(np.isfinite(c), axis=-1)
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            raise DomainError(f"flat output {name} or its derivative is not finite at t = {t_nodes[i]:.6g} s "
+                              f"({name} = {c[i, 0]:.6g})", time=float(t_nodes[i]), variable=name,
+                              value=float(c[i, 0]))
+    xd, yd = np.real(x.coeffs[..., 1]), np.real(y.coeffs[..., 1])
+    vh = np.hypot(xd, yd)
+    tiny = 1e-6 * max(1.0, float(np.max(np.hypot(vh, np.real(z.coeffs[..., 1])))))
+    bad = vh <= tiny
+    if np.any(bad):
+        idx = np.flatnonzero(bad)
+        raise DomainError(f"the flat outputs give a vertical or zero velocity (V cos(gamma) = {vh[idx[0]]:.3g} m/s) "
+                          f"at t = {', '.join(f'{v:.6g}' for v in t_nodes[idx[:5]])}{' ...' if len(idx) > 5 else ''} s: "
+                          f"stage 1 of the flat parametrization is singular there (chi undefined); "
+                          f"loops and vertical flight need another chart", time=float(t_nodes[idx[0]]),
+                          variable="V cos(gamma)", value=float(vh[idx[0]]))
+
+
 def stage1(x: Series, y: Series, z: Series):
     """V, gamma, chi from the flat outputs (paper eqs. aircraft1:x-z)."""
     xd, yd, zd = x.derivative(), y.derivative(), z.derivative()
@@ -247,6 +273,7 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
     m, g = ac.mass.mass, env.g
     t = Series.variable(np.asarray(t_nodes, dtype=float), order)
     x, y, z = problem.x(t), problem.y(t), problem.z(t)
+    _check_flat_outputs(t_nodes, x, y, z)
     V, gamma, chi, vh = stage1(x, y, z)
     hv = h if h is not None else problem.h
     k2 = order - 2

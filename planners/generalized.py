@@ -68,8 +68,13 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         kappa -= ORDER_LOSS
     plan = Plan(problem, t_nodes, iterates, warnings, name, timings)
     from .singularity import monitor
-    plan.singularities = monitor(plan)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        plan.singularities = monitor(plan)
     plan.warnings.extend(plan.singularities.warnings)
+    if plan.feasible:
+        from gna.simulate import envelope_warnings
+        plan.warnings.extend(f"plan (j = {plan.J}): {w}" for w in envelope_warnings(problem.aircraft,
+                                                                                     plan.to_dataframe()))
     return plan
 
 

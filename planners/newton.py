@@ -190,6 +190,16 @@ class SeriesNewtonReport:
         return float(max(np.max(self.constant_residual), np.max(self.series_residual)))
 
 
+def _time_ranges(t: np.ndarray, idx: np.ndarray) -> str:
+    """'0 .. 2.5, 7' for consecutive runs of node indices."""
+    runs, start = [], idx[0]
+    for a, b in zip(idx, list(idx[1:]) + [None]):
+        if b is None or b != a + 1:
+            runs.append(f"{t[start]:.6g}" if a == start else f"{t[start]:.6g} .. {t[a]:.6g}")
+            start = b
+    return ", ".join(runs)
+
+
 def _series_solve(Jc: np.ndarray, Gc: np.ndarray) -> np.ndarray:
     """Solve the series linear system J(t) D(t) = G(t) mod t^(K).
 
@@ -286,10 +296,13 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         its = max(its, r2.iterations)
     warnings = []
     flat_t = np.ravel(t_nodes)
-    for i in np.flatnonzero(np.ravel(cres) > PAPER_TOL):
+    failed = np.flatnonzero(np.ravel(cres) > PAPER_TOL)
+    if failed.size:
+        worst = int(failed[np.argmax(np.ravel(cres)[failed])])
         warnings.append(f"Newton ({', '.join(names)}) did not reach 1e-3 after {maxiter} iterations at "
-                        f"t = {flat_t[i]:.6g} s: residual {np.ravel(cres)[i]:.3g} (trajectory too close to a "
-                        f"singularity of the flat output?)")
+                        f"{failed.size} node(s), t = {_time_ranges(flat_t, failed)} s; worst residual "
+                        f"{np.ravel(cres)[worst]:.3g} at t = {flat_t[worst]:.6g} s (trajectory too close to a "
+                        f"singularity of the flat output, or outside what the aircraft can fly?)")
 
     # Lift to series by precision doubling.
     def padded(u: Series, k: int) -> Series:

@@ -214,6 +214,16 @@ class Plan:
         df.index = pd.MultiIndex.from_tuples(df.index, names=["t", "variable"])
         return df
 
+    @property
+    def newton_failures(self) -> list[str]:
+        """The warnings of the paper's Newton rule (residual above 1e-3 after 20 iterations)."""
+        return [w for w in self.warnings if "did not reach 1e-3" in w]
+
+    @property
+    def feasible(self) -> bool:
+        """False when Newton failed somewhere: the plan is not a solution of the model there."""
+        return not self.newton_failures
+
     def worst_newton_residual(self) -> float:
         return max(r.worst_residual for it in self.iterates for r in it.reports.values())
 

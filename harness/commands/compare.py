@@ -52,6 +52,9 @@ def compare_scenario(scenario: str, J: int | None = None, engines: str = "inhous
     """Plan and fly one scenario; returns a summary (also written as ``summary.json``)."""
     sc = load_scenario(scenario, J=J)
     plan = plan_scenario(sc)
+    if not plan.feasible:
+        from gna.errors import DomainError
+        raise DomainError(f"{sc.name}: the plan is not feasible, nothing to fly: {plan.newton_failures[0]}")
     Jp = plan.J
     out = Path(out) if out else Path("reports") / "out" / sc.name / "compare"
     comp = compare_engines(sc.aircraft, plan.control_function(Jp), (plan.t0, plan.t1), plan.initial_state(Jp),

@@ -62,4 +62,8 @@ def run(args) -> int:
                "warnings": plan.warnings, "files": written}
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     print(f"  written to {out}/")
+    if not plan.feasible:
+        print(f"gflat plan: the plan is not feasible: Newton failed ({len(plan.newton_failures)} warning(s) "
+              f"above); its values at those times are not a solution of the model")
+        return 1
     return 0
