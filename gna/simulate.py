@@ -243,22 +243,54 @@ def _frame(aircraft, env, grid, Y, applied, model, h) -> pd.DataFrame:
     return df
 
 
+def _excursion(df, mask, name: str, values, worst_index: int, text: str) -> str:
+    t = df.index.to_numpy(dtype=float)
+    m = mask.to_numpy() if hasattr(mask, "to_numpy") else np.asarray(mask)
+    first, last = float(t[m][0]), float(t[m][-1])
+    dt = np.diff(t, append=t[-1])
+    duration = float(np.sum(dt[m]))
+    frac = 100.0 * duration / max(float(t[-1] - t[0]), 1e-300)
+    span = f"at t = {first:.4g} s" if first == last else f"from t = {first:.4g} to {last:.4g} s ({frac:.0f} % of the run)"
+    return f"{text} {span}; worst {values[worst_index]} at t = {t[worst_index]:.4g} s"
+
+
 def envelope_warnings(aircraft, df) -> list[str]:
-    """Excursions of a trajectory DataFrame outside the aircraft's envelope and control limits,
-    each naming the first time, the value and the limit."""
+    """Excursions of a trajectory outside the aircraft's envelope, control limits and thrust range.
+
+    Each warning names the span of times, its share of the run, the worst value and the limit.
+    """
     out = []
     env = aircraft.envelope
-    checks = [("alpha", df["alpha"] < env.alpha_min, env.alpha_min), ("alpha", df["alpha"] > env.alpha_max, env.alpha_max),
-              ("beta", df["beta"].abs() > env.beta_max, env.beta_max)]
-    for name, mask, lim in checks:
-        if mask.any():
-            t = float(df.index[mask.values.argmax()])
-            out.append(f"{name} left the aerodynamic model's envelope at t = {t:.4g} s "
-                       f"({name} = {math.degrees(df[name].loc[t]):.2f} deg, limit {math.degrees(lim):.1f} deg)")
+    deg = lambda v: f"{math.degrees(v):.2f} deg"  # noqa: E731
+    a, b = df["alpha"].to_numpy(), df["beta"].to_numpy()
+    for mask, worst, text in (
+            (a < env.alpha_min, int(np.argmin(a)),
+             f"alpha below the aerodynamic model's envelope ({math.degrees(env.alpha_min):.1f} deg)"),
+            (a > env.alpha_max, int(np.argmax(a)),
+             f"alpha above the aerodynamic model's envelope ({math.degrees(env.alpha_max):.1f} deg)"),
+            (np.abs(b) > env.beta_max, int(np.argmax(np.abs(b))),
+             f"|beta| above the aerodynamic model's envelope ({math.degrees(env.beta_max):.1f} deg)")):
+        if np.any(mask):
+            vals = a if "alpha" in text else b
+            out.append(_excursion(df, mask, "", [deg(v) for v in vals], worst, text))
     for name, lim in env.control_limits.items():
-        mask = df[name].abs() > lim
-        if mask.any():
-            t = float(df.index[mask.values.argmax()])
-            out.append(f"control {name} beyond its limit at t = {t:.4g} s ({math.degrees(df[name].loc[t]):.2f} deg, "
-                       f"limit {math.degrees(lim):.1f} deg)")
+        v = df[name].to_numpy()
+        mask = np.abs(v) > lim
+        if np.any(mask):
+            out.append(_excursion(df, mask, name, [deg(x) for x in v], int(np.argmax(np.abs(v))),
+                                  f"control {name} beyond its limit {math.degrees(lim):.1f} deg"))
+    F = df["F"].to_numpy()
+    if np.any(F < 0):
+        out.append(_excursion(df, F < 0, "F", [f"{x:.4g} N" for x in F], int(np.argmin(F)),
+                              "negative thrust F (drag beyond the airframe's needed)"))
+    fmax = aircraft.engines.max_thrust
+    if fmax is not None and np.any(F > fmax):
+        out.append(_excursion(df, F > fmax, "F", [f"{x:.4g} N" for x in F], int(np.argmax(F)),
+                              f"thrust F above the maximum {fmax:.4g} N"))
+    if aircraft.engines.count == 2:
+        eta = df["eta"].to_numpy()
+        if np.any(np.abs(eta) > 1):
+            out.append(_excursion(df, np.abs(eta) > 1, "eta", [f"{x:.4g}" for x in eta],
+                                  int(np.argmax(np.abs(eta))),
+                                  "|eta| above 1 (one engine would need negative thrust)"))
     return out

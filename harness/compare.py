@@ -127,7 +127,9 @@ class DifferenceTable:
         for n in self.notes:
             lines.append(f"  note: {n}")
         fails = [r.variable for r in self.failures()]
-        if self.passed:
+        if self.passed and all(r.tolerance is None for r in self.rows):
+            lines.append("  overall: - (no tolerances given: informative)")
+        elif self.passed:
             lines.append("  overall: PASS")
         else:
             lines.append("  overall: FAIL" + (f" ({', '.join(fails)})" if fails else " (coverage)"))

@@ -122,7 +122,11 @@ def compile_expression(text: str | float | int, constants: Mapping[str, float] |
 
     fn = build(tree)
     if not uses_t:
-        const = fn(0.0)
+        try:
+            with np.errstate(all="raise"):
+                const = fn(0.0)
+        except (ArithmeticError, ValueError, FloatingPointError) as exc:
+            raise InputError(f"{where}: {text!r} cannot be evaluated ({exc})") from None
         fn0 = fn
         fn = lambda t, c=const: c + 0.0 * t  # noqa: E731  keep the shape/type of t
         del fn0

@@ -284,6 +284,15 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
     f2 = zeta.f2(Series.variable(t_nodes, k2)) if zeta.kind == "mix" else None
     eta_pres = problem.eta(Series.variable(t_nodes, order)) if problem.eta is not None else None
     dn_fixed = problem.dn(Series.variable(t_nodes, order)) if problem.dn is not None else None
+    for label, ser in (("zeta", zv), ("f1", f1), ("f2", f2), ("eta", eta_pres), ("dn", dn_fixed)):
+        if ser is not None and hasattr(ser, "coeffs"):
+            c0 = np.real(np.asarray(ser.constant_term))
+            bad = ~np.isfinite(np.broadcast_to(c0, (len(t_nodes),)))
+            if np.any(bad):
+                from gna.errors import DomainError
+                i = int(np.flatnonzero(bad)[0])
+                raise DomainError(f"{label}(t) is not finite at t = {t_nodes[i]:.6g} s", time=float(t_nodes[i]),
+                                  variable=label, value=float(np.broadcast_to(c0, (len(t_nodes),))[i]))
     z2, V2, gamma2, chi2 = z.truncate(k2), V.truncate(k2), gamma.truncate(k2), chi.truncate(k2)
     eta2 = eta_pres.truncate(k2) if eta_pres is not None else 0.0
 
@@ -312,6 +321,7 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         u0 = _stage2_guess(problem, t_nodes, d2[0], hv)
     u2, rep2 = newton_series(stage2_residual, u0, k2, tol=newton_tol, names=STAGE2_UNKNOWNS, t_nodes=t_nodes)
     alpha, beta, mu, F = u2
+    mu = _unwrap_constant(mu)  # bank angles of neighbouring nodes on the same branch (no 2 pi jumps)
 
     # Stage 3: rates.
     p, q, r = stage3(alpha, beta, mu, gamma.truncate(k2), chi.truncate(k2))
@@ -391,7 +401,7 @@ def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:
     elif kind == "F" and "mu" in start:
         mu = np.full_like(V, start["mu"])
     else:
-        mu = np.arctan2(fy, -fz)
+        mu = np.unwrap(np.arctan2(fy, -fz))
     lift = m * (fy * np.sin(mu) - fz * np.cos(mu))
     CL_req = lift / qS
     # C_L(alpha) of the stage-2 model (H at its mean values) on the envelope.

@@ -73,8 +73,8 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
     plan.warnings.extend(plan.singularities.warnings)
     if plan.feasible:
         from gna.simulate import envelope_warnings
-        plan.warnings.extend(f"plan (j = {plan.J}): {w}" for w in envelope_warnings(problem.aircraft,
-                                                                                     plan.to_dataframe()))
+        fine = plan.to_dataframe(step=float(np.min(np.diff(t_nodes))) / 8)  # between the nodes too
+        plan.warnings.extend(f"plan (j = {plan.J}): {w}" for w in envelope_warnings(problem.aircraft, fine))
     return plan
 
 

@@ -296,7 +296,7 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         its = max(its, r2.iterations)
     warnings = []
     flat_t = np.ravel(t_nodes)
-    failed = np.flatnonzero(np.ravel(cres) > PAPER_TOL)
+    failed = np.flatnonzero(~(np.ravel(cres) <= PAPER_TOL))  # NaN fails too
     if failed.size:
         worst = int(failed[np.argmax(np.ravel(cres)[failed])])
         warnings.append(f"Newton ({', '.join(names)}) did not reach 1e-3 after {maxiter} iterations at "

@@ -51,6 +51,10 @@ from .expressions import Expression, compile_expression
 from .flat import FLAT_KINDS, FlatOutput, FlatProblem
 
 
+#: Largest grid accepted (memory: every node carries ~20 series of order up to 5 + 2J).
+MAX_NODES = 20000
+
+
 @dataclass
 class Scenario:
     """A parsed scenario (see module docstring for the file format)."""
@@ -133,6 +137,9 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
     for sec in ("time", "flat_outputs"):
         if sec not in data:
             raise InputError(f"{where}: missing [{sec}] section")
+    for sec in ("time", "flat_outputs", "generalized", "constants", "calibration", "h", "report", "environment"):
+        if sec in data and not isinstance(data[sec], dict):
+            raise InputError(f"{where}: [{sec}] must be a table, got {data[sec]!r}")
     if "aircraft" not in data:
         raise InputError(f"{where}: missing 'aircraft'")
     aircraft = load_aircraft(str(data["aircraft"]))
@@ -146,6 +153,13 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
         raise InputError(f"{where} [time]: t1 = {t1} must be after t0 = {t0}")
     if not step > 0 or step > t1 - t0:
         raise InputError(f"{where} [time]: step must be in (0, t1 - t0], got {step}")
+    n_steps = (t1 - t0) / step
+    if abs(n_steps - round(n_steps)) > 1e-9 * n_steps:
+        raise InputError(f"{where} [time]: step {step:g} s does not divide the span {t1 - t0:g} s "
+                         f"({n_steps:.6g} steps)")
+    if n_steps > MAX_NODES:
+        raise InputError(f"{where} [time]: {n_steps:.0f} steps exceed the limit of {MAX_NODES} nodes; "
+                         f"use a larger step")
     fo = data["flat_outputs"]
 
     def expr(key, default=...):
@@ -165,8 +179,10 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
     if eta is None and dn is None:
         eta = compile_expression(0.0)
     gen = data.get("generalized", {})
-    J_file = int(gen.get("J", 0))
-    J = J_file if J is None else int(J)
+    J_raw = gen.get("J", 0)
+    if isinstance(J_raw, bool) or not isinstance(J_raw, (int, float)) or float(J_raw) != int(J_raw):
+        raise InputError(f"{where} [generalized]: J must be a whole number, got {J_raw!r}")
+    J = int(J_raw) if J is None else int(J)
     if J < 0 or J > 30:
         raise InputError(f"{where}: J must be between 0 and 30, got {J}")
     env = _environment(data.get("environment", {}), f"{where} [environment]")
@@ -180,12 +196,19 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
         h, start = _calibrate(aircraft, env, cal, f"{where} [calibration]", -float(np.mean(
             np.broadcast_to(expr("z")(np.linspace(t0, t1, 5)), (5,)))))
     rep = data.get("report", {})
+    times = rep.get("times", [])
+    if not isinstance(times, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                              and t0 <= v <= t1 for v in times):
+        raise InputError(f"{where} [report]: times must be a list of numbers within [{t0:g}, {t1:g}], got {times!r}")
+    from .plan import PLAN_VARIABLES
+    rvars = rep.get("variables", ["F", "dl", "dm", "dn"])
+    if not isinstance(rvars, list) or any(v not in PLAN_VARIABLES for v in rvars):
+        raise InputError(f"{where} [report]: variables must be among {', '.join(PLAN_VARIABLES)}, got {rvars!r}")
     return Scenario(name=str(data.get("name", Path(path).stem if path else "scenario")),
                     description=str(data.get("description", "")), aircraft=aircraft, env=env, t0=t0, t1=t1,
                     step=step, x=expr("x"), y=expr("y"), z=expr("z"), zeta=zeta, eta=eta, dn=dn, J=J, h=h,
                     calibration=dict(cal) if cal is not None else None, start=start,
-                    report_times=[float(v) for v in rep.get("times", [])],
-                    report_variables=[str(v) for v in rep.get("variables", ["F", "dl", "dm", "dn"])],
+                    report_times=[float(v) for v in times], report_variables=[str(v) for v in rvars],
                     raw=dict(data), path=path)
 
 

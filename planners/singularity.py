@@ -121,8 +121,10 @@ def monitor(plan, j: int = 0) -> SingularityReport:
         f1, f2 = prob.zeta.f1(t_nodes), prob.zeta.f2(t_nodes)
         row = np.stack(np.broadcast_arrays(0.0 * t_nodes, f1 + 0 * t_nodes, f2 + 0 * t_nodes, 0.0 * t_nodes))
         J4 = np.concatenate([Jm, row[None]], axis=0)
-        cond = np.linalg.det(np.moveaxis(J4, -1, 0))
-        name, what = "det4", "4x4 Jacobian of the mixed flat output"
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # divided by the thrust pivot, as the other conditions: dimensionless like them
+            cond = np.linalg.det(np.moveaxis(J4, -1, 0)) / Jm[0, idx["F"]]
+        name, what = "det4", "4x4 Jacobian of the mixed flat output, F eliminated"
     vcg = s["V"] * np.cos(s["gamma"])
     cb = np.cos(s["beta"])
     t = plan.t_nodes

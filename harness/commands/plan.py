@@ -41,7 +41,8 @@ def run(args) -> int:
     print(f"  orders of x, y, z per iterate: {orders} (controls at order {orders[-1] - 4})")
     print(f"  planning time {elapsed:.3f} s ({', '.join(f'j={j}: {t:.3f}' for j, t in plan.timings.items())})")
     print(f"  worst Newton residual: {plan.worst_newton_residual():.2e}")
-    res = [float(plan.equation_residuals("full", j).abs().max().max()) for j in range(plan.J + 1)]
+    res = [float(plan.equation_residuals("full", j).abs().max(skipna=False).max(skipna=False))
+           for j in range(plan.J + 1)]
     print("  full-model equation residual at the nodes (max over the 12 equations) per iterate: "
           + ", ".join(f"j={j}: {r:.2e}" for j, r in enumerate(res)))
     if plan.warnings:

@@ -74,6 +74,21 @@ def test_compare_command_prints_tables(tmp_path, capsys):
                     'zeta_value = "0"\n[generalized]\nJ = 2\n')
     assert main(["compare", str(scen), "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
-    assert "[first 10 s]" in out and "[whole span]" in out and "overall: PASS" in out
+    assert "[first 10 s]" in out and "[whole span]" in out
+    engine_part = out.split("[inhouse against the plan")[0]
+    assert engine_part.count("overall: PASS") == 2 and "FAIL" not in engine_part
+    assert "no tolerances given" in out      # the tables against the plan are informative
     assert (tmp_path / "out" / "states.png").is_file()
     assert main(["compare", str(scen), "--engines", "inhouse"]) == 2
+
+
+def test_compare_fails_when_engines_diverge(tmp_path, capsys):
+    """A plan that leaves the physical domain open loop: the comparison fails with exit status 1."""
+    scen = tmp_path / "fast.toml"
+    scen.write_text('name = "fast"\naircraft = "f16c"\n[time]\nt0 = 0.0\nt1 = 10.0\nstep = 0.5\n'
+                    '[flat_outputs]\nx = "150*t"\ny = "400*sin(t)"\nz = "-3000 + 300*sin(2*t)"\nzeta = "beta"\n'
+                    'zeta_value = "0"\n')
+    rc = main(["compare", str(scen), "--out", str(tmp_path / "out")])
+    out = capsys.readouterr()
+    assert rc in (1, 2), out.out[-2000:]
+    assert "FAIL" in out.out or "not feasible" in out.err

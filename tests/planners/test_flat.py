@@ -103,3 +103,19 @@ def test_problem_validation():
         parametrize(sc.problem(), sc.t_nodes, 3)
     with pytest.raises(InputError, match="flat output must be"):
         FlatOutput("alpha", compile_expression(0.0))
+
+
+def test_bank_angle_continuous_in_inverted_flight():
+    """Near mu = pi the node values stay on one branch, so the plan between nodes is the inverted attitude."""
+    sc = make_scenario(flat_outputs={"x": "150*t", "y": "3*sin(2*t)", "z": "-3000 + 0.75*g0*t**2"},
+                       time={"t1": 4.0, "step": 0.25})
+    plan = plan_motion(sc.problem(), sc.t_nodes, J=0)
+    st, _ = plan.node_values(0)
+    assert np.all(np.abs(np.diff(st.mu)) < 2.0), st.mu   # no 2 pi jumps between neighbouring nodes
+    assert np.max(np.abs(st.mu)) > 2.0          # inverted: the lift points up only with |mu| > pi/2
+    tn = plan.t_nodes
+    mid = 0.5 * (tn[:-1] + tn[1:])
+    between = plan.evaluate("mu", mid, j=0)
+    left = np.array([np.real(plan.iterates[0]["mu"][i].eval(mid[i] - tn[i])) for i in range(len(mid))])
+    # the blend agrees with each node's own Taylor series (it did not before: they differed by ~pi)
+    np.testing.assert_array_less(np.abs(between - left), 0.3)

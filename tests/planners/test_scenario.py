@@ -29,6 +29,16 @@ def test_grid_and_J_override():
     ({"generalized": {"J": -1}}, "J must be"),
     ({"environment": {"density": "mars"}}, "density must be"),
     ({"calibration": {"alpha": 0.1}}, "calibration failed"),
+    ({"time": 5}, "must be a table"),
+    ({"generalized": {"J": "two"}}, "whole number"),
+    ({"generalized": {"J": 2.7}}, "whole number"),
+    ({"time": {"step": 0.7}}, "does not divide"),
+    ({"time": {"t1": 1e9, "step": 1.0}}, "exceed the limit"),
+    ({"report": {"times": ["abc"]}}, "times must be"),
+    ({"report": {"times": [100.0]}}, "times must be"),
+    ({"report": {"variables": ["theta"]}}, "variables must be"),
+    ({"flat_outputs": {"zeta_value": "1/0"}}, "cannot be evaluated"),
+    ({"flat_outputs": {"zeta_value": "10**400"}}, "cannot be evaluated"),
 ])
 def test_malformed(change, message):
     with pytest.raises(Exception, match=message) as exc:

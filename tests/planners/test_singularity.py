@@ -50,3 +50,12 @@ def test_sideslip_output_singular_at_zero_g():
     assert plan.singularities.condition == "stalling_cond"
     assert np.min(np.abs(plan.singularities.table["stalling_cond"])) > 1.0
     assert plan.singularities.warnings == []
+
+
+def test_mixed_output_condition_is_dimensionless():
+    """The mixed output's determinant is divided by the thrust pivot like the others: regular flight is quiet."""
+    plan = plan_scenario(make_scenario(flat_outputs={"zeta": "mix", "zeta_value": "0", "f1": "1", "f2": "1"},
+                                       time={"t1": 10.0}), J=0)
+    assert plan.singularities.condition == "det4"
+    assert np.min(np.abs(plan.singularities.table["det4"])) > 0.1
+    assert plan.singularities.warnings == []
