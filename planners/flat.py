@@ -30,7 +30,7 @@ import numpy as np
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.eom import Controls, HValues, State, _coefficients, angular_acceleration, body_moments, wind_forces
-from gna.errors import InputError
+from gna.errors import DomainError, InputError
 
 from .expressions import Expression
 from .newton import SeriesNewtonReport, newton_series
@@ -164,22 +164,24 @@ def _unwrap_constant(angle: Series) -> Series:
     return angle
 
 
-def _check_flat_outputs(t_nodes, x: Series, y: Series, z: Series) -> None:
-    """Refuse flat outputs that are not finite or make stage 1 singular (V cos(gamma) = 0)."""
-    from gna.errors import DomainError
-
+def _check_inputs(t_nodes, series: Mapping[str, Series | None]) -> None:
+    """Refuse non-finite flat outputs and prescribed inputs, and flat outputs that make stage 1
+    singular (V cos(gamma) = 0), naming the time and the value."""
     t_nodes = np.asarray(t_nodes, dtype=float)
-    for name, s in (("x", x), ("y", y), ("z", z)):
+    for name, s in series.items():
+        if s is None:
+            continue
         c = np.real(np.asarray(s.coeffs[..., :2]))
+        c = np.broadcast_to(c, (len(t_nodes),) + c.shape[-1:])
         bad = ~np.all(np.isfinite(c), axis=-1)
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
-            raise DomainError(f"flat output {name} or its derivative is not finite at t = {t_nodes[i]:.6g} s "
+            raise DomainError(f"{name}(t) or its derivative is not finite at t = {t_nodes[i]:.6g} s "
                               f"({name} = {c[i, 0]:.6g})", time=float(t_nodes[i]), variable=name,
                               value=float(c[i, 0]))
-    xd, yd = np.real(x.coeffs[..., 1]), np.real(y.coeffs[..., 1])
+    xd, yd, zd = (np.real(series[k].coeffs[..., 1]) for k in ("x", "y", "z"))
     vh = np.hypot(xd, yd)
-    tiny = 1e-6 * max(1.0, float(np.max(np.hypot(vh, np.real(z.coeffs[..., 1])))))
+    tiny = 1e-6 * max(1.0, float(np.max(np.hypot(vh, zd))))
     bad = vh <= tiny
     if np.any(bad):
         idx = np.flatnonzero(bad)
@@ -197,7 +199,7 @@ def stage1(x: Series, y: Series, z: Series):
     V = np.sqrt(xd * xd + yd * yd + zd * zd)
     gamma = np.arctan2(-zd, vh)
     chi = _unwrap_constant(np.arctan2(yd, xd))
-    return V, gamma, chi, vh
+    return V, gamma, chi
 
 
 def stage3(alpha, beta, mu, gamma, chi):
@@ -273,26 +275,18 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
     m, g = ac.mass.mass, env.g
     t = Series.variable(np.asarray(t_nodes, dtype=float), order)
     x, y, z = problem.x(t), problem.y(t), problem.z(t)
-    _check_flat_outputs(t_nodes, x, y, z)
-    V, gamma, chi, vh = stage1(x, y, z)
     hv = h if h is not None else problem.h
     k2 = order - 2
-    Vd, gd, chid = V.derivative(), gamma.derivative(), chi.derivative()
     zeta = problem.zeta
     zv = zeta.value(Series.variable(t_nodes, k2))
     f1 = zeta.f1(Series.variable(t_nodes, k2)) if zeta.kind == "mix" else None
     f2 = zeta.f2(Series.variable(t_nodes, k2)) if zeta.kind == "mix" else None
     eta_pres = problem.eta(Series.variable(t_nodes, order)) if problem.eta is not None else None
     dn_fixed = problem.dn(Series.variable(t_nodes, order)) if problem.dn is not None else None
-    for label, ser in (("zeta", zv), ("f1", f1), ("f2", f2), ("eta", eta_pres), ("dn", dn_fixed)):
-        if ser is not None and hasattr(ser, "coeffs"):
-            c0 = np.real(np.asarray(ser.constant_term))
-            bad = ~np.isfinite(np.broadcast_to(c0, (len(t_nodes),)))
-            if np.any(bad):
-                from gna.errors import DomainError
-                i = int(np.flatnonzero(bad)[0])
-                raise DomainError(f"{label}(t) is not finite at t = {t_nodes[i]:.6g} s", time=float(t_nodes[i]),
-                                  variable=label, value=float(np.broadcast_to(c0, (len(t_nodes),))[i]))
+    _check_inputs(t_nodes, {"x": x, "y": y, "z": z, "zeta": zv, "f1": f1, "f2": f2, "eta": eta_pres,
+                            "dn": dn_fixed})
+    V, gamma, chi = stage1(x, y, z)
+    Vd, gd, chid = V.derivative(), gamma.derivative(), chi.derivative()
     z2, V2, gamma2, chi2 = z.truncate(k2), V.truncate(k2), gamma.truncate(k2), chi.truncate(k2)
     eta2 = eta_pres.truncate(k2) if eta_pres is not None else 0.0
 

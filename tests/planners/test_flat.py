@@ -119,3 +119,15 @@ def test_bank_angle_continuous_in_inverted_flight():
     left = np.array([np.real(plan.iterates[0]["mu"][i].eval(mid[i] - tn[i])) for i in range(len(mid))])
     # the blend agrees with each node's own Taylor series (it did not before: they differed by ~pi)
     np.testing.assert_array_less(np.abs(between - left), 0.3)
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"zeta_value": "log(t - 20)"}, r"zeta\(t\) or its derivative is not finite at t = 0 s"),
+    ({"z": "-3000 + log(t - 5)"}, r"z\(t\) or its derivative is not finite at t = 0 s"),
+    ({"x": "0", "y": "0", "z": "-3000 - 100*t"}, "vertical or zero velocity"),
+])
+def test_non_finite_or_singular_inputs_refused(changes, message):
+    from gna.errors import DomainError
+    sc = make_scenario(flat_outputs=changes)
+    with pytest.raises(DomainError, match=message):
+        plan_motion(sc.problem(), sc.t_nodes, J=0)
