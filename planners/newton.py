@@ -114,8 +114,6 @@ def newton(fun: Callable[[np.ndarray], np.ndarray], x0, *, tol: float = 1e-12, m
         Never raises for non-convergence; callers decide how to report it.
     """
     x = np.array(x0, dtype=float)
-    if x.ndim == 1:
-        pass
     n = x.shape[0]
     w = np.ones(n) if scale is None else np.asarray(scale, dtype=float)
     wexp = w.reshape((n,) + (1,) * (x.ndim - 1))
@@ -334,7 +332,6 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         u = [Series(stacked[j] - D[j]) for j in range(n)]
         u = [Series(np.concatenate([ui.coeffs, padded(base[j], order).coeffs[..., k + 1:]], axis=-1))
              if k < order else ui for j, ui in enumerate(u)]
-        # keep the exact constant terms from the pointwise Newton
     final = residual(u, order)
     sres = np.max(np.stack([np.max(np.abs(np.broadcast_to(r.coeffs, batch + (order + 1,))), axis=-1)
                             for r in final]), axis=0)
