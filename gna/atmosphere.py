@@ -9,7 +9,7 @@ altitude; the difference is below 0.2 % at 10 km and is documented).
 Both models evaluate on floats, numpy arrays and truncated power series (the
 ISA troposphere is a real power of an affine function of ``h``).  The
 stratosphere branch is exponential; inside a power series, the branch is
-chosen from the series' constant term through :func:`_choose`.
+chosen node by node from the series' constant term.
 """
 
 from __future__ import annotations
@@ -79,8 +79,12 @@ class ISA:
             return RHO0 * (1.0 - LAPSE * h / T0) ** _EXP_TROPO
         if np.all(h0 > H_TROPO):
             return RHO_TROPO * np.exp(-G0 * (h - H_TROPO) / (R_AIR * T_TROPO))
-        if hasattr(h, "constant_term"):
-            raise InputError("an ISA density series cannot straddle the tropopause (11 km)")
+        if hasattr(h, "coeffs"):
+            # Series at nodes on both sides of the tropopause: each node takes its own layer's formula.
+            tropo = RHO0 * (1.0 - LAPSE * h / T0) ** _EXP_TROPO
+            strato = RHO_TROPO * np.exp(-G0 * (h - H_TROPO) / (R_AIR * T_TROPO))
+            below = np.asarray(h0 <= H_TROPO)[..., None]
+            return type(h)(np.where(below, np.asarray(tropo.coeffs), np.asarray(strato.coeffs)))
         h = np.asarray(h, dtype=float)
         return np.where(h <= H_TROPO,
                         RHO0 * (1.0 - LAPSE * np.minimum(h, H_TROPO) / T0) ** _EXP_TROPO,
