@@ -20,7 +20,7 @@ from scipy.optimize import brentq
 from .aircraft import Aircraft
 from .atmosphere import Environment
 from .eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, derivatives, loads
-from .errors import DomainError, InputError
+from .errors import InputError
 
 ControlFunction = Callable[[float], Sequence[float]]
 

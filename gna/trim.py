@@ -23,7 +23,7 @@ from planners.newton import newton
 
 from .aircraft import Aircraft
 from .atmosphere import ConstantDensity, Environment
-from .eom import Controls, HValues, State, derivatives, loads
+from .eom import Controls, HValues, State, derivatives
 from .errors import ConvergenceError, DomainError, InputError
 
 TRIM_VARIABLES: tuple[str, ...] = ("V", "gamma", "chi_dot", "F", "alpha", "beta", "mu",

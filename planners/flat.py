@@ -33,7 +33,7 @@ from gna.eom import Controls, HValues, State, _coefficients, angular_acceleratio
 from gna.errors import DomainError, InputError
 
 from .expressions import Expression
-from .newton import SeriesNewtonReport, newton_series
+from .newton import newton_series
 from .series import Series
 
 FLAT_KINDS = ("beta", "mu", "F", "mix")

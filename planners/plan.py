@@ -11,7 +11,6 @@ and its k-th derivative is the exact k-th derivative of that expression
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from planners.newton import PAPER_MAXITER, jacobian, newton, newton_series
 from planners.series import Series
