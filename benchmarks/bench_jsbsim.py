@@ -1,6 +1,6 @@
 """Speed of the coupled JSBSim engine against bare ``fdm.run()``, and its accuracy (no assertions).
 
-Speed (default).  The coupled run is :meth:`harness.engines.JSBSimEngine.simulate`: control
+Speed (default).  The coupled run is :meth:`harness.propulsion.JSBSimEngine.simulate`: control
 writes every step, divergence check, output reads, conversion to the 12
 wind-frame states and the DataFrame.  The bare loop is ``fdm.run()`` alone on
 the same aircraft file, settings and step.  Timings are medians of interleaved
@@ -100,7 +100,7 @@ def accuracy() -> None:
         x, uu = np.array(t.state, dtype=float), np.array(t.controls, dtype=float)
         r = fly(["inhouse", "jsbsim"], craft, x, uu, (0.0, 10.0))
         print(f"  {name:<11} {'trim 10 s':<24} {_summary(difference_table(r['inhouse'], r['jsbsim']))}")
-        r = fly(["inhouse", "jsbsim"], craft, x, smooth_inputs(uu, craft.engines.count == 2), (0.0, 12.0))
+        r = fly(["inhouse", "jsbsim"], craft, x, smooth_inputs(uu, craft.propulsion.count == 2), (0.0, 12.0))
         tab = difference_table(r["inhouse"], r["jsbsim"])
         print(f"  {'':<11} {'manoeuvre 12 s':<24} {_summary(tab)}")
     print("Long span: f16c, 120 s, max |JSBSim - in-house| (flat-earth sphere curvature and ECEF round-off)")

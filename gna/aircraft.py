@@ -119,7 +119,7 @@ class Geometry:
 
 
 @dataclass(frozen=True)
-class Engines:
+class Propulsion:
     """Propulsion layout.
 
     ``count`` is 1 (on the symmetry plane) or 2 (at ``y = -y_p`` for engine 1,
@@ -179,7 +179,7 @@ class Aircraft:
     name : str
     mass : MassProperties
     geometry : Geometry
-    engines : Engines
+    propulsion : Propulsion
     envelope : Envelope
     aero : TermTable
         The aerodynamic model (any object with ``coefficients(AeroState)``).
@@ -191,7 +191,7 @@ class Aircraft:
     name: str
     mass: MassProperties
     geometry: Geometry
-    engines: Engines
+    propulsion: Propulsion
     envelope: Envelope
     aero: TermTable
     provenance: Mapping[str, str] = field(default_factory=dict)
@@ -200,7 +200,7 @@ class Aircraft:
     def summary(self) -> str:
         return (f"{self.id}: {self.name}; m = {self.mass.mass:.1f} kg, S = {self.geometry.S:.3f} m^2, "
                 f"b = {self.geometry.b:.3f} m, cbar = {self.geometry.cbar:.3f} m, "
-                f"{self.engines.count} engine(s), {len(self.aero)} aero terms ({self.aero.structure})")
+                f"{self.propulsion.count} engine(s), {len(self.aero)} aero terms ({self.aero.structure})")
 
 
 def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", path: str | None = None) -> Aircraft:
@@ -232,7 +232,7 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
     geometry = Geometry(S=_get(g, "S", "area", where + " [geometry]"), b=_get(g, "b", "length", where + " [geometry]"),
                         cbar=cbar, x_cg=x_cg, x_ref=x_ref, source=str(g.get("source", "")))
     e = data.get("engines", {})
-    engines = Engines(count=int(e.get("count", 1)), y_p=_get(e, "y_p", "length", where + " [engines]", 0.0),
+    propulsion = Propulsion(count=int(e.get("count", 1)), y_p=_get(e, "y_p", "length", where + " [engines]", 0.0),
                       epsilon=_get(e, "epsilon", "angle", where + " [engines]", 0.0),
                       max_thrust=_get(e, "max_thrust", "force", where + " [engines]", None),
                       source=str(e.get("source", "")))
@@ -251,7 +251,7 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
         raise InputError(f"{where}: [aero] has no 'terms'")
     aero = TermTable.from_records(a["terms"], structure=str(a.get("structure", "custom")))
     prov = {k: str(val) for k, val in data.get("provenance", {}).items()}
-    return Aircraft(id=ident, name=str(data.get("name", ident)), mass=mass, geometry=geometry, engines=engines,
+    return Aircraft(id=ident, name=str(data.get("name", ident)), mass=mass, geometry=geometry, propulsion=propulsion,
                     envelope=envelope, aero=aero, provenance=prov, path=path)
 
 

@@ -60,12 +60,12 @@ def derivative(aircraft: Aircraft, env: Environment, X: np.ndarray, controls) ->
     r_ref = np.array([-(geo.x_ref - geo.x_cg), 0.0, 0.0])  # body x forward, x_ref measured aft
     Ma = Ma + np.cross(r_ref, Fa)
     # Engines: one on the symmetry plane, or two at y = -y_p (1, left) and +y_p (2, right).
-    eps = aircraft.engines.epsilon
+    eps = aircraft.propulsion.epsilon
     d = np.array([np.cos(eps), 0.0, -np.sin(eps)])
-    if aircraft.engines.count == 1:
+    if aircraft.propulsion.count == 1:
         engines = [(np.zeros(3), F)]
     else:
-        yp = aircraft.engines.y_p
+        yp = aircraft.propulsion.y_p
         engines = [(np.array([0.0, -yp, 0.0]), F * (1 + eta) / 2), (np.array([0.0, yp, 0.0]), F * (1 - eta) / 2)]
     Ft = sum(Fi * d for _, Fi in engines)
     Mt = sum(np.cross(ri, Fi * d) for ri, Fi in engines)

@@ -136,7 +136,7 @@ def wind_forces(aircraft: Aircraft, env: Environment, s: State, u: Controls, fc:
     Yaero = qS * (sb * fc.CD + cb * fc.CY)
     Zaero = -qS * fc.CL
     # Thrust F (cos eps, 0, -sin eps) in body axes, in wind axes.
-    eps = aircraft.engines.epsilon
+    eps = aircraft.propulsion.epsilon
     cae, sae = np.cos(s.alpha + eps), np.sin(s.alpha + eps)
     Xa = Xaero + u.F * cb * cae
     Ya = Yaero - u.F * sb * cae
@@ -168,9 +168,9 @@ def body_moments(aircraft: Aircraft, s: State, u: Controls, full: Coefficients, 
         # The reference sits at body x = d (x forward) from the CG: M_cg = M_ref + (d, 0, 0) x F.
         M = M - d * Fbz
         N = N + d * Fby
-    yp = aircraft.engines.y_p
+    yp = aircraft.propulsion.y_p
     if yp != 0.0:
-        eps = aircraft.engines.epsilon
+        eps = aircraft.propulsion.epsilon
         dF = u.F * u.eta  # F1 - F2
         L = L + yp * np.sin(eps) * dF
         N = N + yp * np.cos(eps) * dF

@@ -283,11 +283,11 @@ def envelope_warnings(aircraft, df) -> list[str]:
     if np.any(F < 0):
         out.append(_excursion(df, F < 0, "F", [f"{x:.4g} N" for x in F], int(np.argmin(F)),
                               "negative thrust F (drag beyond the airframe's needed)"))
-    fmax = aircraft.engines.max_thrust
+    fmax = aircraft.propulsion.max_thrust
     if fmax is not None and np.any(F > fmax):
         out.append(_excursion(df, F > fmax, "F", [f"{x:.4g} N" for x in F], int(np.argmax(F)),
                               f"thrust F above the maximum {fmax:.4g} N"))
-    if aircraft.engines.count == 2:
+    if aircraft.propulsion.count == 2:
         eta = df["eta"].to_numpy()
         if np.any(np.abs(eta) > 1):
             out.append(_excursion(df, np.abs(eta) > 1, "eta", [f"{x:.4g}" for x in eta],

@@ -240,8 +240,8 @@ def _envelope_check(aircraft: Aircraft, vals: Mapping[str, float], fixed: Mappin
                             f"{math.degrees(env.control_limits[name]):.1f} deg")
     if vals["F"] < 0:
         warnings.append(f"negative thrust F = {vals['F']:.1f} N (the condition needs drag beyond the airframe's)")
-    elif aircraft.engines.max_thrust is not None and vals["F"] > aircraft.engines.max_thrust:
-        warnings.append(f"thrust F = {vals['F']:.1f} N above the maximum {aircraft.engines.max_thrust:.1f} N")
+    elif aircraft.propulsion.max_thrust is not None and vals["F"] > aircraft.propulsion.max_thrust:
+        warnings.append(f"thrust F = {vals['F']:.1f} N above the maximum {aircraft.propulsion.max_thrust:.1f} N")
     if errors and strict:
         fx = ", ".join(f"{k} = {v:.6g}" for k, v in fixed.items())
         raise DomainError(f"trim of {aircraft.id} with {fx} is outside the model's validity: " + "; ".join(errors),

@@ -7,7 +7,7 @@ per-variable tolerance.  ``"position"`` is the distance ``|(dx, dy, dz)|``;
 angle differences are wrapped into (-pi, pi].
 
 :func:`compare_engines` flies one problem on several engines
-(:func:`harness.engines.fly`), tabulates each engine against the first over
+(:func:`harness.propulsion.fly`), tabulates each engine against the first over
 the first 10 s and the whole span, and writes figures of the engines against
 a reference (the plan).
 """
@@ -364,9 +364,9 @@ def compare_engines(aircraft, controls, t_span=None, x0=None, *, engines=("inhou
     x0 : array of 12, optional
         Default: the control source's ``initial_state``.
     engines : iterable or mapping
-        See :func:`harness.engines.fly`; the first is the reference.
+        See :func:`harness.propulsion.fly`; the first is the reference.
     env, controller, dt_out
-        As in :func:`harness.engines.fly` (``env`` defaults to the plan's).
+        As in :func:`harness.propulsion.fly` (``env`` defaults to the plan's).
     tolerances : None, float or mapping
         See :func:`difference_table` (default :data:`DEFAULT_TOLERANCES`).
     windows : mapping name -> duration from t0 or None

@@ -278,7 +278,7 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
     str
         The XML document; identical inputs give identical bytes.
     """
-    geo, mass, eng = aircraft.geometry, aircraft.mass, aircraft.engines
+    geo, mass, eng = aircraft.geometry, aircraft.mass, aircraft.propulsion
     S_ft2 = geo.S / units.FT2
     b_ft = geo.b / units.FT
     c_ft = geo.cbar / units.FT

@@ -22,14 +22,14 @@ def _describe(a) -> dict:
         "mass_kg": a.mass.mass, "Ixx_kgm2": a.mass.Ixx, "Iyy_kgm2": a.mass.Iyy, "Izz_kgm2": a.mass.Izz,
         "Ixz_kgm2": a.mass.Ixz, "S_m2": a.geometry.S, "b_m": a.geometry.b, "cbar_m": a.geometry.cbar,
         "x_cg_m": a.geometry.x_cg, "x_ref_m": a.geometry.x_ref,
-        "engines": {"count": a.engines.count, "y_p_m": a.engines.y_p, "epsilon_rad": a.engines.epsilon,
-                    "max_thrust_N": a.engines.max_thrust},
+        "engines": {"count": a.propulsion.count, "y_p_m": a.propulsion.y_p, "epsilon_rad": a.propulsion.epsilon,
+                    "max_thrust_N": a.propulsion.max_thrust},
         "envelope_deg": {"alpha_min": math.degrees(a.envelope.alpha_min),
                          "alpha_max": math.degrees(a.envelope.alpha_max),
                          "beta_max": math.degrees(a.envelope.beta_max)},
         "aero": {"structure": a.aero.structure, "terms": len(a.aero)},
         "provenance": dict(a.provenance),
-        "sources": {"mass": a.mass.source, "geometry": a.geometry.source, "engines": a.engines.source,
+        "sources": {"mass": a.mass.source, "geometry": a.geometry.source, "engines": a.propulsion.source,
                     "envelope": a.envelope.source},
     }
 

@@ -8,7 +8,7 @@ import math
 import pytest
 
 from gna import units
-from gna.aircraft import Engines, Geometry, MassProperties, aircraft_from_dict, list_aircraft, load_aircraft
+from gna.aircraft import Propulsion, Geometry, MassProperties, aircraft_from_dict, list_aircraft, load_aircraft
 from gna.errors import InputError, UnknownAircraftError
 
 
@@ -44,7 +44,7 @@ def test_bad_numbers_refused():
     with pytest.raises(InputError, match="S must be positive"):
         Geometry(S=0.0, b=1.0, cbar=1.0)
     with pytest.raises(InputError, match="engine count"):
-        Engines(count=3)
+        Propulsion(count=3)
 
 
 def test_malformed_file_messages(tmp_path):

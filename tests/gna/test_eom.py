@@ -17,7 +17,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from gna import body6dof
-from gna.aircraft import Engines, load_aircraft
+from gna.aircraft import Propulsion, load_aircraft
 from gna.atmosphere import ConstantDensity, Environment, ISA
 from gna.eom import STATE_NAMES, Controls, State, derivatives, state_vector_derivative
 from gna.trim import trim_level
@@ -25,7 +25,7 @@ from gna.trim import trim_level
 
 def _twin(aircraft):
     """A two-engine variant with tilted thrust and an offset CG (exercises every moment term)."""
-    return dataclasses.replace(aircraft, engines=Engines(count=2, y_p=1.8, epsilon=math.radians(3.0)))
+    return dataclasses.replace(aircraft, propulsion=Propulsion(count=2, y_p=1.8, epsilon=math.radians(3.0)))
 
 
 def _cases(n=24, seed=20261122):
@@ -48,7 +48,7 @@ def _cases(n=24, seed=20261122):
         s[8] = rng.uniform(-0.5, 0.5)              # mu
         s[9:12] = rng.uniform(-0.1, 0.1, 3)        # p, q, r
         u0 = np.array(tr.controls, dtype=float)
-        amp = np.array([0.1 * u0[0], 0.3 if craft.engines.count == 2 else 0.0, 0.02, 0.02, 0.02]) * rng.uniform(0.2, 1, 5)
+        amp = np.array([0.1 * u0[0], 0.3 if craft.propulsion.count == 2 else 0.0, 0.02, 0.02, 0.02]) * rng.uniform(0.2, 1, 5)
         w = rng.uniform(0.2, 2.0, 5)
         ph = rng.uniform(0, 2 * math.pi, 5)
         cases.append((craft, env, s, u0, amp, w, ph))

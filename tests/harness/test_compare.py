@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from gna.aircraft import Engines, list_aircraft, load_aircraft
+from gna.aircraft import Propulsion, list_aircraft, load_aircraft
 from gna.eom import STATE_NAMES
 from gna.errors import InputError
 from gna.trim import stall_speed, trim_level
@@ -91,10 +91,10 @@ def test_assert_trajectories_close_message():
 def _two_engine_aircraft():
     for name in list_aircraft():
         a = load_aircraft(name)
-        if a.engines.count == 2:
+        if a.propulsion.count == 2:
             return a
     base = load_aircraft("f16c")
-    return dataclasses.replace(base, engines=Engines(count=2, y_p=1.8, epsilon=math.radians(3.0)))
+    return dataclasses.replace(base, propulsion=Propulsion(count=2, y_p=1.8, epsilon=math.radians(3.0)))
 
 
 
@@ -107,7 +107,7 @@ def test_engines_agree_on_smooth_manoeuvres_from_trim(which, tmp_path):
     tr = trim_level(a, V, 1000.0)
     x0, u0 = np.array(tr.state, dtype=float), np.array(tr.controls, dtype=float)
     out = tmp_path / "cmp" if which == "twin" else None
-    c = compare_engines(a, smooth_inputs(u0, a.engines.count == 2), (0.0, 12.0), x0, out_dir=out,
+    c = compare_engines(a, smooth_inputs(u0, a.propulsion.count == 2), (0.0, 12.0), x0, out_dir=out,
                         reference=lambda t: x0)
     assert set(c.tables["jsbsim"]) == {"first 10 s", "whole span"}
     first, whole = c.table("first 10 s"), c.table("whole span")

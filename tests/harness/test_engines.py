@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from gna.aircraft import Engines, load_aircraft
+from gna.aircraft import Propulsion, load_aircraft
 from gna.atmosphere import ISA, ConstantDensity, Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.errors import InputError
@@ -100,7 +100,7 @@ def test_control_timing_is_second_order_and_one_step_shift_is_detected(f16):
 def test_smooth_manoeuvres_agree_on_single_and_twin_engine_aircraft(f16):
     """Goal of issue 5: <= 1e-2 m in position and <= 1e-4 rad in angles over 10 s with smooth controls."""
     a, x0, u0 = f16
-    twin = dataclasses.replace(a, engines=Engines(count=2, y_p=1.8, epsilon=math.radians(3.0)))
+    twin = dataclasses.replace(a, propulsion=Propulsion(count=2, y_p=1.8, epsilon=math.radians(3.0)))
     for craft, env, amp in ((a, Environment(ISA()), (0.1, 0.0, 0.02, 0.02, 0.01)),
                             (twin, Environment(ConstantDensity(0.9)), (0.1, 0.3, 0.02, 0.02, 0.01))):
         tr = trim_level(craft, 150.0, 3000.0, env=env)

@@ -12,7 +12,7 @@ import pytest
 
 from gna import units
 from gna.aero import AERO_VARIABLES, AeroState, Term, TermTable
-from gna.aircraft import Engines, list_aircraft, load_aircraft
+from gna.aircraft import Propulsion, list_aircraft, load_aircraft
 from harness import jsbsim_export as jx
 from harness.cli import main
 from harness.engines import load_fdm
@@ -95,7 +95,7 @@ def test_file_loads_without_warnings_and_units_are_exact(name):
 
 def test_thrust_geometry_of_a_twin_with_tilted_engines():
     a = load_aircraft(AIRCRAFT[0])
-    twin = dataclasses.replace(a, engines=Engines(count=2, y_p=1.8, epsilon=math.radians(3.0)))
+    twin = dataclasses.replace(a, propulsion=Propulsion(count=2, y_p=1.8, epsilon=math.radians(3.0)))
     root = ET.fromstring(jx.aircraft_xml(twin))
     forces = root.find("external_reactions").findall("force")
     assert [f.get("name") for f in forces] == ["engine1", "engine2"]

@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 
 from gna import units
-from gna.aircraft import Engines, list_aircraft, load_aircraft
+from gna.aircraft import Propulsion, list_aircraft, load_aircraft
 from gna.atmosphere import ISA, ConstantDensity, Environment
 from gna.eom import Controls, State, derivatives, loads
 from gna.frames import C_body_wind
@@ -45,7 +45,7 @@ def _aircraft(name):
     if name != TWIN:
         return load_aircraft(name), jx.xml_path(jx.default_root(), name).read_text(encoding="utf-8")
     base = load_aircraft("f16c" if "f16c" in list_aircraft() else list_aircraft()[0])
-    a = dataclasses.replace(base, id="twin", engines=Engines(count=2, y_p=1.8, epsilon=math.radians(3.0)))
+    a = dataclasses.replace(base, id="twin", propulsion=Propulsion(count=2, y_p=1.8, epsilon=math.radians(3.0)))
     return a, jx.aircraft_xml(a)
 
 
@@ -94,9 +94,9 @@ def test_jsbsim_loads_and_derivatives_equal_inhouse(name):
             ld = loads(a, env, sj, u)
             d = derivatives(a, env, sj, u, ld=ld)
 
-            eps, yp = a.engines.epsilon, a.engines.y_p
+            eps, yp = a.propulsion.epsilon, a.propulsion.y_p
             F_thrust = u.F * np.array([math.cos(eps), 0.0, -math.sin(eps)])
-            dF = u.F * u.eta if a.engines.count == 2 else 0.0
+            dF = u.F * u.eta if a.propulsion.count == 2 else 0.0
             M_thrust = np.array([yp * math.sin(eps) * dF, 0.0, yp * math.cos(eps) * dF])
             F_aero = C_body_wind(sj.alpha, sj.beta) @ np.array([ld.Xa, ld.Ya, ld.Za]) - F_thrust
             M_aero = np.array([ld.L, ld.M, ld.N]) - M_thrust

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from gna.aircraft import Engines
+from gna.aircraft import Propulsion
 from gna.eom import STATE_NAMES, Controls, HValues, State, derivatives
 from planners.expressions import compile_expression
 from planners.flat import FlatOutput, FlatProblem, parametrize
@@ -83,7 +83,7 @@ def test_series_satisfy_equations_beyond_the_nodes():
 def test_rudder_failure_eta_as_control():
     """With the rudder fixed, differential thrust eta is the fourth control (paper: deltan=0, eta=u_4)."""
     sc = make_scenario()
-    twin = dataclasses.replace(sc.aircraft, engines=Engines(count=2, y_p=1.5))
+    twin = dataclasses.replace(sc.aircraft, propulsion=Propulsion(count=2, y_p=1.5))
     prob = FlatProblem(twin, sc.env, sc.x, sc.y, sc.z, FlatOutput("beta", compile_expression(0.0)),
                        eta=None, dn=compile_expression(0.0))
     plan = plan_motion(prob, sc.t_nodes, J=1)

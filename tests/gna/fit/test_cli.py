@@ -19,7 +19,7 @@ def test_fit_linear_model_to_file(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "held-out statistics" in text and "level trim" in text
     a = load_aircraft(str(out))
-    assert a.engines.count == 2 and abs(a.engines.y_p - 2.8) < 1e-12
+    assert a.propulsion.count == 2 and abs(a.propulsion.y_p - 2.8) < 1e-12
     doc = tomllib.loads(out.read_text())
     assert doc["fit"]["design"]["blocks"]["box"]["n_fit"] == 300
     assert doc["provenance"]["regenerate"].startswith("gflat fit linear")

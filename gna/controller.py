@@ -1,0 +1,152 @@
+"""The controller protocol: a feedback block with its own states, flown by every engine.
+
+A controller sees the time ``t`` [s] and the 12 wind-frame states ``x``
+(:data:`gna.eom.STATE_NAMES`, SI units, radians) and adds a correction
+``delta_u`` to the reference controls ``(F, eta, dl, dm, dn)`` [N, -, rad, rad,
+rad].  It may carry ``n_states`` states of its own ``xc`` (integral terms of a
+tracking feedback, filter states), integrated together with the aircraft:
+
+* the in-house engine appends ``xc`` to the 12 aircraft states and integrates
+  ``(x, xc)`` with one integrator (``dxc/dt = derivative(t, x, xc)``);
+* a sampled engine (JSBSim) advances ``xc`` at every one of its steps with an
+  explicit scheme that it records in its result.
+
+This follows python-control's ``create_statefbk_iosystem``: the controller is
+its own block with its own states, not a closure over mutable variables, so
+the same object can be flown by several engines (and pickled for campaigns).
+A stateless feedback ``f(t, x) -> delta_u`` is the zero-state case
+(:class:`StatelessController`, made by :func:`as_controller`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Protocol, runtime_checkable
+
+import numpy as np
+
+from .errors import InputError
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """What an engine needs of a feedback block.
+
+    Attributes
+    ----------
+    n_states : int
+        Number of controller states (0 for a static feedback).
+    """
+
+    n_states: int
+
+    def initial_state(self, t0: float, x0: np.ndarray) -> np.ndarray:
+        """Controller states at the start of a run.
+
+        Parameters
+        ----------
+        t0 : float
+            Start time [s].
+        x0 : ndarray, shape (12,)
+            Initial aircraft state (wind-frame, SI, rad).
+
+        Returns
+        -------
+        ndarray, shape (n_states,)
+        """
+
+    def derivative(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
+        """Time derivative of the controller states.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        x : ndarray, shape (12,)
+            Aircraft state.
+        xc : ndarray, shape (n_states,)
+            Controller state.
+
+        Returns
+        -------
+        ndarray, shape (n_states,)
+        """
+
+    def output(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
+        """Correction added to the reference controls.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        x : ndarray, shape (12,)
+            Aircraft state.
+        xc : ndarray, shape (n_states,)
+            Controller state.
+
+        Returns
+        -------
+        ndarray, shape (5,)
+            ``(dF [N], d_eta [-], d_dl, d_dm, d_dn [rad])``.
+        """
+
+
+_EMPTY = np.zeros(0)
+
+
+@dataclass(frozen=True)
+class StatelessController:
+    """A static feedback ``f(t, x) -> delta_u`` seen as a zero-state :class:`Controller`.
+
+    Parameters
+    ----------
+    function : callable
+        ``function(t, x) -> 5 corrections`` with ``t`` [s] and ``x`` the 12 states.
+    """
+
+    function: Callable
+
+    n_states = 0
+
+    def initial_state(self, t0: float, x0: np.ndarray) -> np.ndarray:
+        """No state: an empty array."""
+        return _EMPTY
+
+    def derivative(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
+        """No state: an empty array."""
+        return _EMPTY
+
+    def output(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
+        """``function(t, x)`` as a float array of shape (5,)."""
+        return np.asarray(self.function(t, x), dtype=float).reshape(5)
+
+
+def as_controller(obj) -> Controller | None:
+    """A :class:`Controller` from ``None``, a controller, or a callable ``(t, x) -> 5 corrections``.
+
+    Parameters
+    ----------
+    obj : None, Controller or callable
+        What a user passed as ``controller=``.
+
+    Returns
+    -------
+    Controller or None
+
+    Raises
+    ------
+    InputError
+        If ``obj`` is neither, or declares a negative number of states.
+    """
+    if obj is None:
+        return None
+    if all(callable(getattr(obj, m, None)) for m in ("initial_state", "derivative", "output")) \
+            and hasattr(obj, "n_states"):
+        n = obj.n_states
+        if not (isinstance(n, (int, np.integer)) and n >= 0):
+            raise InputError(f"a controller's n_states must be a non-negative integer, got {n!r}")
+        return obj
+    if callable(obj):
+        return StatelessController(obj)
+    raise InputError(f"controller must be a Controller (n_states, initial_state, derivative, output) or a "
+                     f"callable (t, x) -> 5 corrections; got {type(obj).__name__}")
