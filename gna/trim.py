@@ -25,12 +25,12 @@ from .aircraft import Aircraft
 from .atmosphere import ConstantDensity, Environment
 from .eom import Controls, HValues, State, derivatives
 from .errors import ConvergenceError, DomainError, InputError
+from .trajectory import UNITS
+from .units import G0
 
 TRIM_VARIABLES: tuple[str, ...] = ("V", "gamma", "chi_dot", "F", "alpha", "beta", "mu",
                                    "p", "q", "r", "dl", "dm", "dn")
 RESIDUAL_NAMES: tuple[str, ...] = ("V'", "gamma'", "chi'-chi_dot", "alpha'", "beta'", "mu'", "p'", "q'", "r'")
-UNITS = {"V": "m/s", "gamma": "rad", "chi_dot": "rad/s", "F": "N", "alpha": "rad", "beta": "rad", "mu": "rad",
-         "p": "rad/s", "q": "rad/s", "r": "rad/s", "dl": "rad", "dm": "rad", "dn": "rad"}
 
 
 @dataclass
@@ -97,7 +97,7 @@ def _check_number(name: str, value) -> float:
 
 def _default_guess(aircraft: Aircraft, rho: float, fixed: Mapping[str, float]) -> dict:
     """Initial values: level flight estimates from the lift and drag polars."""
-    m, g, S = aircraft.mass.mass, 9.80665, aircraft.geometry.S
+    m, g, S = aircraft.mass.mass, G0, aircraft.geometry.S
     V = fixed.get("V")
     alpha = fixed.get("alpha")
     # Lift slope and zero-lift from the model itself (alpha sweep at zero controls).

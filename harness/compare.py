@@ -24,24 +24,9 @@ import pandas as pd
 
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.errors import InputError
+from gna.trajectory import ANGLES, POSITION, UNITS
 
 from .engines import fly
-
-#: Composite variable: Euclidean distance between the positions.
-POSITION = "position"
-
-#: Units of the compared variables.
-UNITS: dict[str, str] = {
-    POSITION: "m", "x": "m", "y": "m", "z": "m", "V": "m/s",
-    "gamma": "rad", "chi": "rad", "alpha": "rad", "beta": "rad", "mu": "rad",
-    "p": "rad/s", "q": "rad/s", "r": "rad/s",
-    "F": "N", "eta": "-", "dl": "rad", "dm": "rad", "dn": "rad",
-    "qbar": "Pa", "rho": "kg/m^3", "nx": "-", "ny": "-", "nz": "-", "X": "N", "Y": "N", "Z": "N",
-    "L": "N m", "M": "N m", "N": "N m", "CD": "-", "CY": "-", "CL": "-", "Cl": "-", "Cm": "-", "Cn": "-",
-}
-
-#: Variables whose differences are wrapped into (-pi, pi].
-ANGLES: frozenset[str] = frozenset({"gamma", "chi", "alpha", "beta", "mu"})
 
 #: Default variables of a table: position, then the 12 states.
 DEFAULT_VARIABLES: tuple[str, ...] = (POSITION,) + STATE_NAMES

@@ -37,17 +37,12 @@ from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.errors import GflatError, InputError
 from gna.frames import euler_from_wind
 from gna.simulate import SimulationResult, envelope_warnings, simulate
+from gna.trajectory import COLUMNS, DERIVED_NAMES
 
 from . import jsbsim_export as jx
 
 ControlFunction = Callable[[float], Sequence[float]]
 Controller = Callable[[float, np.ndarray], Sequence[float]]
-
-#: Columns of every engine's DataFrame, in order.
-DERIVED_NAMES: tuple[str, ...] = ("qbar", "rho", "nx", "ny", "nz", "X", "Y", "Z", "L", "M", "N",
-                                  "CD", "CY", "CL", "Cl", "Cm", "Cn")
-COLUMNS: tuple[str, ...] = STATE_NAMES + CONTROL_NAMES + DERIVED_NAMES
-
 
 class EngineError(GflatError):
     """An engine could not be set up (JSBSim refused the model, bad settings)."""
