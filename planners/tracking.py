@@ -1,0 +1,825 @@
+"""Tracking feedback along a plan (paper section "Design of the feed-back").
+
+The plan gives reference states ``x~(t)`` and controls ``u~(t)``; the
+feedback adds ``delta_u = K(t) [x - x~(t); I]`` to the feedforward ``u~``,
+with the integral states (paper, subsec. "Design of the feed-back")::
+
+    I1 = int  cos(chi~) dx + sin(chi~) dy     (along track)
+    I2 = int -sin(chi~) dx + cos(chi~) dy     (cross track)
+    I3 = int  dz                              (vertical)
+    I4 = int  d(zeta)                         (zeta = beta or mu; absent with the thrust output F)
+
+where ``dxi = xi - xi~`` (angle differences wrapped into (-pi, pi]) and
+``chi~`` is the planned track angle.
+
+Sign convention
+---------------
+The user gives lists of **positive** numbers ``lambda_{p,k}``; the linearized
+closed loop obeys ``prod_k (d/dt + lambda_{p,k}) I_p = 0``, i.e. its poles
+are ``-lambda_{p,k}`` (stable).  The paper writes ``(d/dt - lambda)`` with
+positive lambda and means the same stable design.
+
+Linearization along the plan
+----------------------------
+:func:`linearize` gives, at every node, the Jacobians ``A = df/dx`` (12 x 12)
+and ``B = df/du`` (12 x 5) of :func:`gna.eom.derivatives` as power series at
+the node: one batched complex step on the plan's series (exact to rounding,
+no finite differences in time), as :func:`planners.newton.newton_series`
+obtains its Jacobian series.  The last iterate carries its controls at order
+``e = 1``, so A and B are known to order 1 (value and first derivative).
+
+Design model.  The paper designs the feedback in the differential module of
+the linearized system "using dx, dy, dz as flat outputs", completed with
+d(beta) or d(mu): that is the linearization of the model the plan solves, in
+which the force coefficients depend on the rates and surfaces only through
+the neglected terms H, fixed along the plan (``gna.eom`` with
+``model="simple"`` and H = the plan's own ``p, q, r, dl, dm, dn``; its value
+equals the full model's on the plan, only the Jacobian drops the force
+derivatives with respect to rates and surfaces).  There, and only there, the
+integrals have the relative degrees the paper uses: 3 (I1, through F),
+5 (I2, I3: position -> V, gamma, chi -> alpha, beta, mu -> p, q, r ->
+surfaces), 3 (I4: beta or mu -> p, r -> surfaces); 5, 5, 5 with the thrust
+output (the inputs are then the three surfaces).  In the full model the
+surfaces' and rates' force terms (elevator lift, rudder side force, C_L_q)
+lower these degrees and no such decoupling exists; the gains designed on the
+design model are applied to the full model, where these terms act as a small
+perturbation (:func:`closed_loop_matrix` gives both closed loops).
+
+Gains (frozen-time, per node)
+-----------------------------
+At every node, with the augmented system ``(dx, I)`` (16 or 15 states), the
+gains are obtained by sequential input-output decoupling (the paper's
+construction): first ``dF = k_1 [dx; I]`` so that
+``prod_k (d/dt + lambda_{1,k}) I1 = 0`` (``I1''' = ... + g dF``); with that
+law substituted, ``(I2, I3, I4)`` have relative degrees (5, 5, 3) with
+respect to ``(dl, dm, dn)`` (or ``eta`` for ``dn`` when the rudder is fixed)
+and an invertible 3 x 3 decoupling matrix, which gives the three other rows.
+The augmented closed loop ``A^ + B^ K`` is then similar to the block-diagonal
+of the companion matrices of the requested polynomials: frozen at the node,
+``e_p (A^ + B^ K)^r_p + sum_k a_{p,k} e_p (A^ + B^ K)^k = 0`` exactly
+(``e_p`` selects ``I_p``), which the tests check at every node.
+
+A frozen-time design, not a time-varying one, because the plan's controls
+are known to order 1 only: an exact time-varying design of relative degree 5
+needs the fourth derivative of A.  The order-1 information is used to make
+the gains series of order 1 at each node (their derivative by a complex step
+through the frozen-time formula with ``A + i h A'``), evaluated between nodes
+by the plan's two-sided formula.
+
+Evaluation cost
+---------------
+:class:`TrackingController` precomputes, per interval, the two-sided
+interpolant of the reference (states and controls of the feedforward iterate)
+and of the gains as polynomials in ``t - t_i``: one feedback evaluation is a
+bisection and three small matrix-vector products (no series, no model).
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gna.eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, derivatives
+from gna.errors import DomainError, InputError
+
+from .plan import Plan
+from .series import Series
+
+#: The four integrals, in order (I4 absent with the thrust flat output).
+INTEGRAL_NAMES: tuple[str, ...] = ("I1", "I2", "I3", "I4")
+
+#: The paper's Twin Otter list (section "Single engine", after Martin's thesis).  The paper prints
+#: lambda_{4,5} = 4 where I4 has three factors and lambda_{3,5} is missing: read as lambda_{3,5} = 4.
+TWIN_OTTER_LAMBDAS: tuple = ((1.0, 2.0, 3.0), (1.0, 1.0, 1.0, 2.0, 3.0), (1.5, 1.5, 1.5, 3.0, 4.0),
+                             (1.0, 2.0, 3.0))
+#: The paper's forward slip (eq. GTM_FS): lambda_{i,j} = 0.5 for the three integrals of the thrust output.
+FORWARD_SLIP_LAMBDAS: tuple = ((0.5,) * 5, (0.5,) * 5, (0.5,) * 5)
+#: The aileron roll (the paper gives none).  The roll lasts 8 s and turns at pi/2 rad/s, so the
+#: linearization changes on a time scale of ~0.6 s: the slowest poles are put at 1 rad/s (errors
+#: decay within the manoeuvre, at about the rate the paper's Twin Otter uses), the fastest at 4 rad/s
+#: (faster gains drive the GTM's surfaces into their limits for the 5 m / 1 deg offsets of the tests,
+#: and leave the frozen-time design further from the time-varying loop).
+ROLL_LAMBDAS: tuple = ((1.0, 2.0, 3.0), (1.0, 1.5, 2.0, 3.0, 4.0), (1.0, 1.5, 2.0, 3.0, 4.0),
+                       (1.0, 2.0, 3.0))
+
+#: Indices of the angles among the 12 states (differences wrapped into (-pi, pi]).
+_ANGLE_IDX = np.array([STATE_NAMES.index(n) for n in ("gamma", "chi", "alpha", "beta", "mu")])
+_CHI = STATE_NAMES.index("chi")
+_TWO_PI = 2.0 * math.pi
+
+
+def paper_lambdas(name: str):
+    """The lambda lists the paper gives for a bundled scenario, as plain lists.
+
+    Parameters
+    ----------
+    name : str
+        ``"twin-otter-single-engine"``, ``"gtm-forward-slip"`` or ``"gtm-aileron-roll"``
+        (the last one is this module's choice, :data:`ROLL_LAMBDAS`).
+
+    Returns
+    -------
+    list of list of float
+        One list per integral (4, or 3 with the thrust output).
+
+    Raises
+    ------
+    InputError
+        For another name.
+    """
+    table = {"twin-otter-single-engine": TWIN_OTTER_LAMBDAS, "gtm-forward-slip": FORWARD_SLIP_LAMBDAS,
+             "gtm-aileron-roll": ROLL_LAMBDAS}
+    if name not in table:
+        raise InputError(f"no paper lambdas for {name!r}; known: {', '.join(table)}")
+    return [list(v) for v in table[name]]
+
+
+# --------------------------------------------------------------------------------------------
+# Linearization on series
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Linearization:
+    """Jacobians of the model along a plan, as power series at the nodes.
+
+    Attributes
+    ----------
+    t_nodes : ndarray, shape (N,)
+        Nodes [s].
+    A : ndarray, shape (N, 12, 12, K)
+        ``A[i, a, b, k]``: k-th normalised Taylor coefficient at node i of
+        ``d f_a / d x_b`` (states in :data:`gna.eom.STATE_NAMES` order).
+    B : ndarray, shape (N, 12, 5, K)
+        Same for ``d f_a / d u_b`` (controls ``F, eta, dl, dm, dn``).
+    model : str
+        ``"full"`` or ``"design"`` (force coefficients with rates and surfaces frozen along the plan).
+    iterate : int
+        Plan iterate linearized about.
+    """
+
+    t_nodes: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+    model: str
+    iterate: int
+
+    @property
+    def order(self) -> int:
+        """Order of the series (K - 1)."""
+        return self.A.shape[-1] - 1
+
+
+def linearize(plan: Plan, j: int = -1, *, model: str = "full", order: int = 1) -> Linearization:
+    """Jacobians of :func:`gna.eom.derivatives` along iterate ``j`` of a plan, as series at the nodes.
+
+    One complex step on the plan's series, batched over the 17 variables and
+    all nodes (paper, subsec. "Design of the feed-back": "the state functions
+    replaced at each step i by their power series expansion at t_i").
+
+    Parameters
+    ----------
+    plan : Plan
+    j : int
+        Iterate (default: the last).
+    model : {"full", "design"}
+        ``"full"``: the full model.  ``"design"``: the force coefficients take
+        the rates and surfaces as the neglected terms H fixed at the plan's own
+        values (``gna.eom`` ``model="simple"``), the model the plan solves.
+    order : int
+        Requested order of the series (lowered to the lowest order the iterate
+        carries, 1 for the controls of the last iterate).
+
+    Returns
+    -------
+    Linearization
+
+    Raises
+    ------
+    InputError
+        Unknown model, negative order or iterate not in the plan.
+    """
+    if model not in ("full", "design"):
+        raise InputError(f"model must be 'full' or 'design', got {model!r}")
+    if not (isinstance(order, (int, np.integer)) and order >= 0):
+        raise InputError(f"order must be a non-negative integer, got {order!r}")
+    if not -len(plan.iterates) <= j < len(plan.iterates):
+        raise InputError(f"iterate j = {j} not in the plan (J = {plan.J})")
+    sol = plan.iterates[j]
+    names = STATE_NAMES + CONTROL_NAMES
+    order = int(min(order, min(sol.series[n].order for n in names)))
+    K = order + 1
+    n_nodes = len(plan.t_nodes)
+    base = np.stack([np.broadcast_to(np.real(np.asarray(sol.series[n].coeffs))[..., :K], (n_nodes, K))
+                     for n in names])                                     # (17, N, K)
+    nv = len(names)
+    h = 1e-30
+    pert = np.broadcast_to(base, (nv + 1,) + base.shape).astype(complex)  # (18, 17, N, K)
+    for v in range(nv):
+        pert[v + 1, v, :, 0] += 1j * h
+    s = State(*(Series(pert[:, v]) for v in range(12)))
+    u = Controls(*(Series(pert[:, 12 + v]) for v in range(5)))
+    if model == "design":
+        hv = HValues(*(Series(base[names.index(n)]) for n in ("p", "q", "r", "dl", "dm", "dn")))
+        f = derivatives(plan.aircraft, plan.env, s, u, "simple", hv)
+    else:
+        f = derivatives(plan.aircraft, plan.env, s, u, "full")
+    R = np.stack([np.broadcast_to(fa.coeffs if isinstance(fa, Series) else np.asarray(fa)[..., None],
+                                  (nv + 1, n_nodes, K)) for fa in f])     # (12, 18, N, K)
+    jac = np.imag(R[:, 1:]) / h                                             # (12, 17, N, K)
+    jac = np.moveaxis(jac, 2, 0)                                            # (N, 12, 17, K)
+    return Linearization(np.asarray(plan.t_nodes, dtype=float), np.ascontiguousarray(jac[:, :, :12]),
+                         np.ascontiguousarray(jac[:, :, 12:]), model, j % len(plan.iterates))
+
+
+# --------------------------------------------------------------------------------------------
+# Gains
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class TrackingDesign:
+    """Frozen-time gains at the nodes and what they were computed from.
+
+    Attributes
+    ----------
+    t_nodes : ndarray, shape (N,)
+    A : ndarray, shape (N, n, n, K)
+        Augmented design-model matrix series (``n = 12 + n_I``; states then integrals).
+    B : ndarray, shape (N, n, m, K)
+        Input columns (the ``inputs``) of the augmented design model.
+    K : ndarray, shape (N, m, n, K)
+        Gain series at the nodes: ``delta_u[inputs] = K [dx; I]``.
+    inputs : tuple of str
+        Control names of the feedback inputs.
+    integrals : tuple of str
+    degrees : tuple of int
+        Relative degree of each integral.
+    lambdas : tuple of tuple of float
+    polynomials : list of ndarray
+        Monic polynomial of each integral, coefficients in increasing powers
+        (``a_0, ..., a_{r-1}, 1``) of ``prod_k (s + lambda_k)``.
+    stages : tuple
+        ``((integral indices), (input indices))`` in the order they are decoupled.
+    iterate : int
+    """
+
+    t_nodes: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+    K: np.ndarray
+    inputs: tuple
+    integrals: tuple
+    degrees: tuple
+    lambdas: tuple
+    polynomials: list
+    stages: tuple
+    iterate: int
+
+    @property
+    def n(self) -> int:
+        """Dimension of the augmented state."""
+        return self.A.shape[1]
+
+    def closed_loop(self, k: int = 0) -> np.ndarray:
+        """Frozen-time closed loop ``A^ + B^ K`` at the nodes (k = 0), or its k-th Taylor coefficient.
+
+        Parameters
+        ----------
+        k : int
+            0 for the value; 1 for the first-order coefficient (Leibniz rule).
+
+        Returns
+        -------
+        ndarray, shape (N, n, n)
+        """
+        out = self.A[..., k].copy()
+        for i in range(k + 1):
+            out += np.einsum("Nam,Nmb->Nab", self.B[..., i], self.K[..., k - i])
+        return out
+
+
+def _check_lambdas(lambdas, degrees: tuple) -> tuple:
+    """Plain lists (or one number for all) -> tuple of tuples matching ``degrees``."""
+    n_int = len(degrees)
+    if isinstance(lambdas, (int, float)) and not isinstance(lambdas, bool):
+        lambdas = [[float(lambdas)] * r for r in degrees]
+    try:
+        lam = [tuple(float(v) for v in row) for row in lambdas]
+    except (TypeError, ValueError):
+        raise InputError(f"lambdas must be {n_int} lists of numbers (or one number), got {lambdas!r}") from None
+    if [len(row) for row in lam] != list(degrees):
+        raise InputError(f"lambdas: need {n_int} lists of lengths {', '.join(map(str, degrees))} "
+                         f"(one factor per order of the integral's relative degree), got lengths "
+                         f"{[len(row) for row in lam]}")
+    for p, row in enumerate(lam):
+        for k, v in enumerate(row):
+            if not (math.isfinite(v) and v > 0):
+                raise InputError(f"lambda_{{{p + 1},{k + 1}}} = {v!r}: the lambdas must be positive finite numbers "
+                                 f"(poles at -lambda)")
+    return tuple(lam)
+
+
+def _structure(plan: Plan):
+    """Integrals, their relative degrees, the inputs and the decoupling stages of a plan's flat output."""
+    kind = plan.problem.zeta.kind
+    fourth = "eta" if plan.problem.eta is None else "dn"
+    if kind in ("beta", "mu"):
+        inputs = ("F", "dl", "dm", fourth)
+        return INTEGRAL_NAMES, (3, 5, 5, 3), inputs, (((0,), (0,)), ((1, 2, 3), (1, 2, 3))), kind
+    if kind == "F":
+        inputs = ("dl", "dm", fourth)
+        return INTEGRAL_NAMES[:3], (5, 5, 5), inputs, (((0, 1, 2), (0, 1, 2)),), None
+    raise InputError(f"the tracking feedback supports the flat outputs beta, mu and F (paper, subsec. "
+                     f"'Design of the feed-back'), not {kind!r}")
+
+
+def _place(A: np.ndarray, B: np.ndarray, n_x: int, degrees, polys, stages, t_nodes, check: bool) -> np.ndarray:
+    """Sequential decoupling at every node (batched; real or complex arrays).
+
+    ``A`` (N, n, n), ``B`` (N, n, m); integral p is augmented state ``n_x + p``.
+    Returns K (N, m, n) such that ``e_p (A + B K)^r + sum_k a_k e_p (A + B K)^k = 0``.
+    """
+    N, n, _ = A.shape
+    m = B.shape[2]
+    Kout = np.zeros((N, m, n), dtype=np.result_type(A, B))
+    Acur = A.copy()
+    remaining = list(range(m))
+    for outs, cols in stages:
+        cols = list(cols)
+        later = [c for c in remaining if c not in cols]
+        Bs, Bl = B[:, :, cols], B[:, :, later]
+        G = np.zeros((N, len(outs), len(cols)), dtype=Kout.dtype)
+        M = np.zeros((N, len(outs), n), dtype=Kout.dtype)
+        for row, p in enumerate(outs):
+            r, a = degrees[p], polys[p]
+            R = np.zeros((N, n), dtype=Kout.dtype)
+            R[:, n_x + p] = 1.0
+            acc = a[0] * R
+            for k in range(1, r + 1):
+                if check:
+                    # Relative degree r: e_p A^k B = 0 for k <= r - 2, and the later stages' inputs are
+                    # absent from I_p^(r) too (exact decoupling).
+                    Bk = B[:, :, remaining] if k - 1 <= r - 2 else Bl
+                    if Bk.shape[2]:
+                        lhs = np.abs(np.einsum("Na,Nam->Nm", np.real(R), np.real(Bk)))
+                        scale = (np.linalg.norm(np.real(R), axis=1)[:, None]
+                                 * np.linalg.norm(np.real(Bk), axis=1) + 1e-300)
+                        bad = np.max(lhs / scale, axis=1) > 1e-9
+                        if np.any(bad):
+                            i = int(np.flatnonzero(bad)[0])
+                            raise DomainError(f"integral {INTEGRAL_NAMES[p]}: an input acts on its derivative of "
+                                              f"order {k} at t = {t_nodes[i]:.6g} s (relative degree below {r}): "
+                                              f"the design model does not have the paper's structure there",
+                                              time=float(t_nodes[i]), variable=INTEGRAL_NAMES[p])
+                if k == r:
+                    G[:, row] = np.einsum("Na,Nam->Nm", R, Bs)
+                R = np.einsum("Na,Nab->Nb", R, Acur)
+                acc = acc + (a[k] if k < r else 1.0) * R
+            M[:, row] = acc
+        if check:
+            cond = np.linalg.cond(np.real(G))
+            bad = ~(cond < 1e12)
+            if np.any(bad):
+                i = int(np.flatnonzero(bad)[0])
+                raise DomainError(f"decoupling matrix of {', '.join(INTEGRAL_NAMES[p] for p in outs)} singular at "
+                                  f"t = {t_nodes[i]:.6g} s (condition number {cond[i]:.3g}): these inputs cannot "
+                                  f"steer these integrals independently there", time=float(t_nodes[i]),
+                                  variable="decoupling", value=float(cond[i]))
+        Ks = -np.linalg.solve(G, M)                      # (N, len(cols), n)
+        Kout[:, cols] = Ks
+        Acur = Acur + np.einsum("Nam,Nmb->Nab", Bs, Ks)
+        remaining = later
+    return Kout
+
+
+def design(plan: Plan, lambdas, *, j: int = -1) -> TrackingDesign:
+    """Frozen-time gains at every node of a plan, as series of order 1 (see module notes).
+
+    Parameters
+    ----------
+    plan : Plan
+        Flat output beta, mu or F; the rudder may be fixed (eta is then the fourth input).
+    lambdas : list of list of float, or float
+        Positive pole magnitudes, one list per integral: lengths (3, 5, 5, 3),
+        or (5, 5, 5) with the thrust output; one number sets them all [1/s].
+    j : int
+        Plan iterate linearized about (and tracked).
+
+    Returns
+    -------
+    TrackingDesign
+
+    Raises
+    ------
+    InputError
+        Bad lambdas, unsupported flat output, iterate not in the plan.
+    DomainError
+        A node where the decoupling matrix is singular (time and condition number named).
+    """
+    integrals, degrees, inputs, stages, zeta = _structure(plan)
+    lam = _check_lambdas(lambdas, degrees)
+    lin = linearize(plan, j, model="design", order=1)
+    N, K = len(plan.t_nodes), lin.order + 1
+    n_i = len(integrals)
+    n = 12 + n_i
+    sol = plan.iterates[lin.iterate]
+    chi = sol.series["chi"].truncate(K - 1)
+    c, s_ = (np.broadcast_to(np.real(np.asarray(v.coeffs)), (N, K)) for v in (np.cos(chi), np.sin(chi)))
+    A = np.zeros((N, n, n, K))
+    A[:, :12, :12] = lin.A
+    # Integrands: I1' = cos(chi~) dx + sin(chi~) dy, I2' = -sin dx + cos dy, I3' = dz, I4' = d(zeta).
+    A[:, 12, 0], A[:, 12, 1] = c, s_
+    A[:, 13, 0], A[:, 13, 1] = -s_, c
+    A[:, 14, 2, 0] = 1.0
+    if zeta is not None:
+        A[:, 15, STATE_NAMES.index(zeta), 0] = 1.0
+    cols = [CONTROL_NAMES.index(u) for u in inputs]
+    B = np.zeros((N, n, len(inputs), K))
+    B[:, :12] = lin.B[:, :, cols]
+    polys = [np.poly(-np.asarray(row))[::-1].real for row in lam]       # increasing powers, monic
+    t = plan.t_nodes
+    K0 = _place(A[..., 0], B[..., 0], 12, degrees, polys, stages, t, check=True)
+    gains = np.zeros((N, len(inputs), n, K))
+    gains[..., 0] = K0
+    if K > 1:
+        # d/dt of the frozen-time gains: complex step through the (analytic) design formula.
+        h = 1e-30
+        Kc = _place(A[..., 0] + 1j * h * A[..., 1], B[..., 0] + 1j * h * B[..., 1], 12, degrees, polys, stages, t,
+                    check=False)
+        gains[..., 1] = np.imag(Kc) / h
+    return TrackingDesign(np.asarray(t, dtype=float), A, B, gains, inputs, integrals, degrees, lam, polys, stages,
+                          lin.iterate)
+
+
+def closed_loop_matrix(plan: Plan, des: TrackingDesign, model: str = "full") -> np.ndarray:
+    """Frozen-time augmented closed loop at the nodes with the design's gains, on either linearization.
+
+    Parameters
+    ----------
+    plan : Plan
+    des : TrackingDesign
+    model : {"full", "design"}
+        ``"design"`` reproduces :meth:`TrackingDesign.closed_loop`; ``"full"``
+        puts the full model's Jacobians in place of the design model's.
+
+    Returns
+    -------
+    ndarray, shape (N, n, n)
+    """
+    if model == "design":
+        return des.closed_loop()
+    lin = linearize(plan, des.iterate, model="full", order=0)
+    A = des.A[..., 0].copy()
+    A[:, :12, :12] = lin.A[..., 0]
+    B = np.zeros_like(des.B[..., 0])
+    B[:, :12] = lin.B[:, :, [CONTROL_NAMES.index(u) for u in des.inputs], 0]
+    return A + np.einsum("Nam,Nmb->Nab", B, des.K[..., 0])
+
+
+# --------------------------------------------------------------------------------------------
+# Two-sided interpolants as polynomials per interval
+# --------------------------------------------------------------------------------------------
+
+
+def _two_sided(coeffs: np.ndarray, t_nodes: np.ndarray) -> np.ndarray:
+    """Per-interval polynomial (in ``tau = t - t_i``) of the paper's two-sided formula.
+
+    ``coeffs`` (N, ..., K): series at the nodes.  Returns (N - 1, ..., K + 1) with
+    ``P_i(tau) = [(h - tau) s_i(tau) + tau s_{i+1}(tau - h)] / h``.
+    """
+    N, K = coeffs.shape[0], coeffs.shape[-1]
+    h = np.diff(t_nodes).reshape((N - 1,) + (1,) * (coeffs.ndim - 1))
+    si, sj = coeffs[:-1], coeffs[1:]
+    # s_{i+1}(tau - h) re-expanded in powers of tau: b_m = sum_{k >= m} C(k, m) c_k (-h)^(k - m).
+    sj_shift = np.zeros_like(sj)
+    for m in range(K):
+        for k in range(m, K):
+            sj_shift[..., m] += math.comb(k, m) * sj[..., k] * (-h[..., 0]) ** (k - m)
+    out = np.zeros(si.shape[:-1] + (K + 1,))
+    out[..., :K] += si                       # h s_i / h
+    out[..., 1:] -= si / h                   # -tau s_i / h
+    out[..., 1:] += sj_shift / h             # tau s_j(tau - h) / h
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# The controller
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class TrackingController:
+    """The paper's tracking feedback as a :class:`gna.controller.Controller` (picklable, no closures).
+
+    Built by :func:`tracking_controller`.  States: the integrals ``I1..I4``
+    (``I1..I3`` with the thrust output).  Output: the correction
+    ``sat(u~ + K [dx; I]) - u~`` to the feedforward ``u~`` = :meth:`controls`.
+
+    Attributes
+    ----------
+    t_nodes : ndarray, shape (N,)
+    reference_poly : ndarray, shape (N - 1, 17, Kr)
+        Per-interval polynomials (in ``t - t_i``) of the 12 states and 5 controls of the feedforward iterate.
+    gain_poly : ndarray, shape (N - 1, 5, n, Kg)
+        Per-interval polynomials of the gains mapped onto the 5 controls (zero rows for non-inputs).
+    zeta_index : int
+        State index of zeta (7 for beta, 8 for mu), -1 with the thrust output.
+    lower, upper : ndarray, shape (5,)
+        Limits of the applied controls (``-inf``/``inf`` where none).
+    saturate : bool
+    state_names : tuple of str
+    windup_mask : ndarray of bool, shape (n_states, 5)
+        ``windup_mask[p, k]``: integral p is frozen while control k is held at a limit
+        (the inputs of the integral's decoupling stage).
+    anti_windup : bool
+        Conditional integration of the integrals while saturated (only with ``saturate``).
+    inputs : tuple of str
+    lambdas : tuple
+    feedforward_iterate : int
+    n_states : int
+    """
+
+    t_nodes: np.ndarray
+    reference_poly: np.ndarray
+    gain_poly: np.ndarray
+    zeta_index: int
+    lower: np.ndarray
+    upper: np.ndarray
+    saturate: bool
+    state_names: tuple
+    inputs: tuple
+    lambdas: tuple
+    feedforward_iterate: int
+    n_states: int = field(default=4)
+    windup_mask: np.ndarray = field(default_factory=lambda: np.zeros((4, 5), dtype=bool))
+    anti_windup: bool = True
+
+    def _locate(self, t: float):
+        t0, t1 = self.t_nodes[0], self.t_nodes[-1]
+        t = t0 if t < t0 else (t1 if t > t1 else t)
+        i = bisect.bisect_right(self._nodes_list, t) - 1
+        i = 0 if i < 0 else (len(self.t_nodes) - 2 if i > len(self.t_nodes) - 2 else i)
+        return i, t - self._nodes_list[i]
+
+    @property
+    def _nodes_list(self) -> list:
+        cache = self.__dict__.get("_nl")
+        if cache is None:
+            cache = self.__dict__["_nl"] = [float(v) for v in self.t_nodes]
+        return cache
+
+    def reference(self, t: float) -> np.ndarray:
+        """Reference states and feedforward controls of the plan iterate at ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s] (held at the plan's ends outside it).
+
+        Returns
+        -------
+        ndarray, shape (17,)
+            The 12 states then ``(F, eta, dl, dm, dn)``.
+        """
+        i, tau = self._locate(float(t))
+        pw = tau ** np.arange(self.reference_poly.shape[-1])
+        return self.reference_poly[i] @ pw
+
+    def controls(self, t: float) -> np.ndarray:
+        """Feedforward controls ``(F, eta, dl, dm, dn)`` at ``t`` (the reference the engine flies).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (5,)
+        """
+        return self.reference(t)[12:]
+
+    def initial_state(self, t0: float, x0: np.ndarray) -> np.ndarray:
+        """Integrals at the start: zero.
+
+        Parameters
+        ----------
+        t0 : float
+            Start time [s].
+        x0 : ndarray, shape (12,)
+            Initial aircraft state.
+
+        Returns
+        -------
+        ndarray, shape (n_states,)
+        """
+        return np.zeros(self.n_states)
+
+    def _errors(self, t: float, x: np.ndarray):
+        i, tau = self._locate(float(t))
+        pw = tau ** np.arange(self.reference_poly.shape[-1])
+        ref = self.reference_poly[i] @ pw
+        e = np.asarray(x, dtype=float)[:12] - ref[:12]
+        e[_ANGLE_IDX] = (e[_ANGLE_IDX] + math.pi) % _TWO_PI - math.pi
+        return i, tau, ref, e
+
+    def derivative(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
+        """The integrands ``(cos chi~ dx + sin chi~ dy, -sin chi~ dx + cos chi~ dy, dz[, d zeta])``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        x : ndarray, shape (12,)
+            Aircraft state.
+        xc : ndarray, shape (n_states,)
+            Integrals.
+
+        Returns
+        -------
+        ndarray, shape (n_states,)
+        """
+        i, tau, ref, e = self._errors(t, x)
+        c, s = math.cos(ref[_CHI]), math.sin(ref[_CHI])
+        out = [c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2]]
+        if self.zeta_index >= 0:
+            out.append(e[self.zeta_index])
+        out = np.array(out)
+        if self.saturate and self.anti_windup:
+            # Conditional integration: the integrals of a decoupling stage stop while one of its inputs
+            # is held at a limit (otherwise they wind up and the loop leaves the linear domain).
+            pg = tau ** np.arange(self.gain_poly.shape[-1])
+            gain = self.gain_poly[i] @ pg
+            total = ref[12:] + gain[:, :12] @ e + gain[:, 12:] @ np.asarray(xc, dtype=float)
+            held = (total < self.lower) | (total > self.upper)
+            if held.any():
+                out[(self.windup_mask & held).any(axis=1)] = 0.0
+        return out
+
+    def commanded(self, t: float, x: np.ndarray, xc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Feedforward and unsaturated feedback at ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        x : ndarray, shape (12,)
+            Aircraft state.
+        xc : ndarray, shape (n_states,)
+            Integrals.
+
+        Returns
+        -------
+        (ndarray, ndarray), shapes (5,) and (5,)
+            ``u~(t)`` and ``K(t) [dx; I]`` (before saturation).
+        """
+        i, tau, ref, e = self._errors(t, x)
+        pg = tau ** np.arange(self.gain_poly.shape[-1])
+        gain = self.gain_poly[i] @ pg                              # (5, n)
+        du = gain[:, :12] @ e + gain[:, 12:] @ np.asarray(xc, dtype=float)
+        return ref[12:], du
+
+    def output(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
+        """Correction added to the feedforward: ``sat(u~ + K [dx; I]) - u~``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        x : ndarray, shape (12,)
+            Aircraft state.
+        xc : ndarray, shape (n_states,)
+            Integrals.
+
+        Returns
+        -------
+        ndarray, shape (5,)
+            ``(dF [N], d_eta [-], d_dl, d_dm, d_dn [rad])``.
+        """
+        u, du = self.commanded(t, x, xc)
+        if not self.saturate:
+            return du
+        total = u + du
+        return np.minimum(np.maximum(total, self.lower), self.upper) - u
+
+    def saturated_time(self, df, controller_states=None) -> dict:
+        """Time during which the commanded controls exceed their limits, per control.
+
+        Parameters
+        ----------
+        df : pandas.DataFrame
+            A closed-loop trajectory indexed by time [s] with the 12 state columns.
+        controller_states : array_like, shape (len(df), n_states), optional
+            The integrals along the run; default the columns :attr:`state_names` of ``df``.
+
+        Returns
+        -------
+        dict
+            ``{"F": s, ..., "any": s}``: seconds with the commanded control
+            (feedforward + feedback) outside its limits (rectangle rule on the rows).
+
+        Raises
+        ------
+        InputError
+            When neither ``controller_states`` nor the integral columns are given.
+        """
+        if controller_states is None:
+            missing = [c for c in self.state_names if c not in df.columns]
+            if missing:
+                raise InputError(f"saturated_time needs the controller states ({', '.join(self.state_names)}) as "
+                                 f"columns of the trajectory or as controller_states; missing {', '.join(missing)}")
+            controller_states = df[list(self.state_names)].to_numpy(dtype=float)
+        xc = np.asarray(controller_states, dtype=float).reshape(len(df), self.n_states)
+        t = df.index.to_numpy(dtype=float)
+        X = df[list(STATE_NAMES)].to_numpy(dtype=float)
+        out_of = np.zeros((len(t), 5), dtype=bool)
+        for k in range(len(t)):
+            u, du = self.commanded(t[k], X[k], xc[k])
+            tot = u + du
+            out_of[k] = (tot < self.lower) | (tot > self.upper)
+        dt = np.diff(t, append=t[-1]) if len(t) else t
+        res = {name: float(np.sum(dt[out_of[:, i]])) for i, name in enumerate(CONTROL_NAMES)}
+        res["any"] = float(np.sum(dt[np.any(out_of, axis=1)]))
+        return res
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.pop("_nl", None)
+        return state
+
+
+def tracking_controller(plan: Plan, lambdas, *, feedforward_iterate: int = -1,
+                        saturate: bool = True, anti_windup: bool = True) -> TrackingController:
+    """The paper's tracking feedback for a plan.
+
+    Parameters
+    ----------
+    plan : Plan
+        Flat output beta, mu or F; eta as fourth control when the rudder is fixed.
+    lambdas : list of list of float, or float
+        Positive pole magnitudes [1/s], one list per integral ``I1..I4``
+        (lengths 3, 5, 5, 3; or 5, 5, 5 for ``I1..I3`` with the thrust output),
+        e.g. :func:`paper_lambdas`.  The closed loop obeys ``prod (d/dt + lambda) I_p = 0``.
+    feedforward_iterate : int
+        Plan iterate j whose controls are the feedforward and whose states the
+        reference (default the last; 0 = the flat plan, the paper's dark-blue curve).
+        The gains are designed about the same iterate.
+    saturate : bool
+        Clip the applied controls at the aircraft's surface limits
+        (``aircraft.envelope.control_limits``), the thrust range
+        ``0 .. propulsion.max_thrust`` and ``|eta| <= 1`` for two engines.
+    anti_windup : bool
+        With ``saturate``: the integrals of a decoupling stage (I1 with F; I2..I4
+        with the surfaces) stop integrating while one of that stage's inputs is
+        held at a limit (conditional integration).
+
+    Returns
+    -------
+    TrackingController
+
+    Raises
+    ------
+    InputError
+        Bad lambdas, unsupported flat output, iterate not in the plan.
+    DomainError
+        A node where the decoupling matrix is singular.
+    """
+    des = design(plan, lambdas, j=feedforward_iterate)
+    j = des.iterate
+    names = STATE_NAMES + CONTROL_NAMES
+    sol = plan.iterates[j]
+    Kr = max(sol.series[n].order for n in names) + 1
+    N = len(plan.t_nodes)
+    series = np.zeros((N, len(names), Kr))
+    for v, n in enumerate(names):
+        cf = np.broadcast_to(np.real(np.asarray(sol.series[n].coeffs)), (N, sol.series[n].order + 1))
+        series[:, v, :cf.shape[1]] = cf
+    reference_poly = _two_sided(series, plan.t_nodes)
+    n = des.n
+    gains5 = np.zeros((N, 5, n, des.K.shape[-1]))
+    for k, u in enumerate(des.inputs):
+        gains5[:, CONTROL_NAMES.index(u)] = des.K[:, k]
+    gain_poly = _two_sided(gains5, plan.t_nodes)
+    ac = plan.aircraft
+    lower, upper = np.full(5, -np.inf), np.full(5, np.inf)
+    for name, lim in ac.envelope.control_limits.items():
+        if name in CONTROL_NAMES:
+            lower[CONTROL_NAMES.index(name)], upper[CONTROL_NAMES.index(name)] = -lim, lim
+    lower[0] = 0.0
+    if ac.propulsion.max_thrust is not None:
+        upper[0] = ac.propulsion.max_thrust
+    if ac.propulsion.count == 2:
+        lower[1], upper[1] = -1.0, 1.0
+    zeta = plan.problem.zeta.kind
+    zeta_index = STATE_NAMES.index(zeta) if zeta in ("beta", "mu") else -1
+    mask = np.zeros((len(des.integrals), 5), dtype=bool)
+    for outs, cols in des.stages:
+        for p in outs:
+            mask[p, [CONTROL_NAMES.index(des.inputs[k]) for k in cols]] = True
+    return TrackingController(np.asarray(plan.t_nodes, dtype=float), reference_poly, gain_poly, zeta_index, lower,
+                              upper, bool(saturate), des.integrals, des.inputs, des.lambdas, j, len(des.integrals),
+                              mask, bool(anti_windup))
