@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 import pickle
 import time
-import tomllib
 
 import numpy as np
 import pytest
@@ -16,12 +15,12 @@ from gna.errors import InputError
 from planners import tracking as tr
 from planners.generalized import plan_scenario
 from planners.newton import jacobian
-from planners.scenario import _catalogue, load_scenario, scenario_from_dict
+from planners.scenario import load_scenario, scenario_from_dict
 
 
 def _rudder_failure_scenario():
     """The Twin Otter with the rudder stuck at 0.01 rad: eta (differential thrust) is the fourth control."""
-    data = tomllib.loads(_catalogue()["twin-otter-single-engine"].read_text())
+    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in load_scenario("twin-otter-single-engine").raw.items()}
     data["name"] = "twin-otter-rudder-stuck"
     data["time"] = {"t0": 0.0, "t1": 20.0, "step": 0.5}
     data.pop("report", None)
