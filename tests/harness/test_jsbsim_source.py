@@ -131,3 +131,15 @@ def test_controller_with_states_and_stateless(f16):
                                          dt_out=0.1)
     assert res2.status == "completed" and res2.settings["controller"]["n_states"] == 0
     assert math.isfinite(res2.df["q"].iloc[-1])
+
+
+def test_fitted_source_parses_a_file_outside_the_package():
+    from gna.fit.sources.jsbsim_aero import fitted_source
+    prov = {"source": "JSBSim 1.3.3 aircraft x1 (/tmp/aircraft/x1/x1.xml)",
+            "source_model": "at Mach 0.5; surfaces: dm = fcs/elevator-pos-rad, dl = -fcs/left-aileron-pos-rad, "
+                            "dn = fcs/rudder-pos-rad; configuration held: none; functions removed: none"}
+    src = fitted_source(prov)
+    assert src.model == "/tmp/aircraft/x1/x1.xml" and src.configuration == {}
+    assert src.surfaces["dl"] == ("fcs/left-aileron-pos-rad", -1.0)
+    with pytest.raises(InputError, match="surface mapping"):
+        fitted_source({"source": prov["source"], "source_model": "surfaces: dm = a"})
