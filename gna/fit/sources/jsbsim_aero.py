@@ -30,6 +30,8 @@ from __future__ import annotations
 
 import contextlib
 import math
+import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
 
@@ -405,3 +407,71 @@ def vehicle_sections(source: JSBSimAeroSource) -> dict[str, dict]:
                                f"coefficients are about the CG, so x_ref = x_cg"},
         "engines": eng,
     }
+
+
+@dataclass(frozen=True)
+class FittedSource:
+    """What a GNA set fitted by :class:`JSBSimAeroSource` was sampled from, read back from its provenance.
+
+    Attributes
+    ----------
+    model : str
+        Bundled JSBSim aircraft name (``"f16"``) or path to ``<name>/<name>.xml``
+        (what :func:`resolve` accepts).
+    surfaces : dict
+        ``"dl" | "dm" | "dn" -> (property, sign)``: project variable = sign * property.
+    configuration : dict
+        Property -> value held at every sample (clean configuration).
+    """
+
+    model: str
+    surfaces: dict
+    configuration: dict
+
+
+_PROV_SOURCE = re.compile(r"JSBSim\s+\S+\s+aircraft\s+(\S+)\s+\((.*)\)\s*$")
+_PROV_SURFACES = re.compile(r"surfaces:\s*([^;]+)")
+_PROV_CONFIG = re.compile(r"configuration held:\s*([^;]+)")
+
+
+def fitted_source(provenance: Mapping[str, str], name: str = "aircraft") -> FittedSource:
+    """Parse the ``source`` and ``source_model`` strings that :meth:`JSBSimAeroSource.provenance` writes.
+
+    Parameters
+    ----------
+    provenance : mapping
+        An aircraft's ``[provenance]`` table (:attr:`gna.aircraft.Aircraft.provenance`).
+    name : str
+        The aircraft's id, for messages.
+
+    Returns
+    -------
+    FittedSource
+
+    Raises
+    ------
+    InputError
+        If the provenance names no JSBSim aircraft or lacks the dl, dm, dn surface mapping.
+    """
+    m = _PROV_SOURCE.search(str(provenance.get("source", "")))
+    if m is None:
+        raise InputError(f"{name} was not fitted from a JSBSim aircraft (provenance source: "
+                         f"{provenance.get('source', 'none')!r})")
+    where = m.group(2)
+    model = where if where.endswith(".xml") and not where.endswith("of the jsbsim package") else m.group(1)
+    text = str(provenance.get("source_model", ""))
+    sm = _PROV_SURFACES.search(text)
+    surfaces = {}
+    for item in (sm.group(1).split(",") if sm else []):
+        var, _, prop = (s.strip() for s in item.partition("="))
+        surfaces[var] = (prop.lstrip("-").strip(), -1.0 if prop.startswith("-") else 1.0)
+    if set(surfaces) != {"dl", "dm", "dn"}:
+        raise InputError(f"{name}: the provenance source_model gives no complete surface mapping "
+                         f"('surfaces: dm = <property>, dl = ..., dn = ...'); got {sm.group(1) if sm else 'none'!r}")
+    config = {}
+    cm = _PROV_CONFIG.search(text)
+    if cm is not None and cm.group(1).strip() != "none":
+        for item in cm.group(1).split(","):
+            prop, _, value = (s.strip() for s in item.partition("="))
+            config[prop] = float(value)
+    return FittedSource(model, surfaces, config)
