@@ -19,12 +19,11 @@ from typing import Mapping
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from planners.newton import newton
-
 from .aircraft import Aircraft
 from .atmosphere import ConstantDensity, Environment
 from .eom import Controls, HValues, State, derivatives
 from .errors import ConvergenceError, DomainError, InputError
+from .solve import newton
 from .trajectory import UNITS
 from .units import G0
 

@@ -22,6 +22,7 @@ import numpy as np
 
 from .flat import FlatProblem, parametrize
 from .plan import Plan
+from .singularity import monitor
 
 #: Order lost per iteration (the paper's L = max l_h - 1 = 2 for aircraft).
 ORDER_LOSS = 2
@@ -67,7 +68,6 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         prev = sol
         kappa -= ORDER_LOSS
     plan = Plan(problem, t_nodes, iterates, warnings, name, timings)
-    from .singularity import monitor
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         plan.singularities = monitor(plan)
     plan.warnings.extend(plan.singularities.warnings)

@@ -11,7 +11,7 @@ and its k-th derivative is the exact k-th derivative of that expression
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -22,6 +22,8 @@ from gna.eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, deriva
 from gna.errors import InputError
 
 from .flat import FlatProblem, NodeSolution
+from .newton import NewtonFailure
+from .singularity import SingularityReport
 
 PLAN_VARIABLES = STATE_NAMES + CONTROL_NAMES
 
@@ -54,8 +56,14 @@ class Plan:
         ``iterates[0]`` is the plain flat plan (H at given values), ``iterates[-1]`` the J-th
         generalized-flatness iterate.
     warnings : list of str
+        Everything to report, for printing: Newton failures, singularities, envelope.
     name : str
+        Scenario name.
     timings : dict
+        Wall time [s] of each iterate j.
+    singularities : SingularityReport or None
+        The singularity monitor's conditions along iterate 0 (set by
+        :func:`~planners.generalized.plan_motion`).
     """
 
     problem: FlatProblem
@@ -64,6 +72,7 @@ class Plan:
     warnings: list = field(default_factory=list)
     name: str = "plan"
     timings: dict = field(default_factory=dict)
+    singularities: SingularityReport | None = None
 
     @property
     def aircraft(self) -> Aircraft:
@@ -214,14 +223,26 @@ class Plan:
         return df
 
     @property
+    def newton_failure_records(self) -> list[NewtonFailure]:
+        """Where the paper's Newton rule failed (residual above 1e-3 after 20 iterations), as records.
+
+        One :class:`~planners.newton.NewtonFailure` per iterate and stage that failed, in the
+        order j = 0..J, stage 2 before stage 4, with its ``iterate`` and ``stage`` filled in.
+        """
+        return [replace(f, stage=stage, iterate=j)
+                for j, it in enumerate(self.iterates)
+                for stage, rep in it.reports.items()
+                for f in getattr(rep, "failures", ())]
+
+    @property
     def newton_failures(self) -> list[str]:
-        """The warnings of the paper's Newton rule (residual above 1e-3 after 20 iterations)."""
-        return [w for w in self.warnings if "did not reach 1e-3" in w]
+        """The messages of :attr:`newton_failure_records`, prefixed by their iterate, for printing."""
+        return [f"iterate j = {f.iterate}: {f.message}" for f in self.newton_failure_records]
 
     @property
     def feasible(self) -> bool:
         """False when Newton failed somewhere: the plan is not a solution of the model there."""
-        return not self.newton_failures
+        return not self.newton_failure_records
 
     def worst_newton_residual(self) -> float:
         return max(r.worst_residual for it in self.iterates for r in it.reports.values())
@@ -249,7 +270,7 @@ def save_plan(plan: Plan, out_dir, step: float | None = None) -> dict:
         p = out / f"plan_j{j}.csv"
         plan.to_dataframe(step=step, j=j).to_csv(p, float_format="%.10g")
         written[f"plan_j{j}"] = str(p)
-    sing = getattr(plan, "singularities", None)
+    sing = plan.singularities
     if sing is not None:
         p = out / "singularities.csv"
         sing.table.to_csv(p, float_format="%.8g")

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from planners.newton import jacobian
+from gna.solve import jacobian
 
 from .flat import force_residuals
 
