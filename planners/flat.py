@@ -29,7 +29,8 @@ import numpy as np
 
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
-from gna.eom import Controls, HValues, State, _coefficients, angular_acceleration, body_moments, wind_forces
+from gna.eom import (Controls, HValues, State, aero_coefficients, aero_state, body_moments, force_equations,
+                     rotational_dynamics, wind_forces)
 from gna.errors import DomainError, InputError
 
 from .expressions import Expression
@@ -236,17 +237,18 @@ def force_residuals(ac: Aircraft, env: Environment, z, V, gamma, chi, Vd, gd, ch
     ``m V cos(gamma) chi' = Y cos mu - Z sin mu`` with the force coefficients
     evaluated with the H values ``h`` for the rates and surfaces.
     """
-    m, g = ac.mass.mass, env.g
+    g = env.g
     s = State(0.0, 0.0, z, V, gamma, chi, alpha, beta, mu, 0.0, 0.0, 0.0)
     ctl = Controls(F, eta, 0.0, 0.0, 0.0)
     rho = env.density(z)
     qbar = 0.5 * rho * V * V
-    fc = _coefficients(ac, s, ctl, h)
+    fc = aero_coefficients(ac, s, ctl, h)
     X, Y, Z, *_ = wind_forces(ac, env, s, ctl, fc, qbar)
-    sm, cm = np.sin(mu), np.cos(mu)
-    r1 = (Vd - X / m) / g
-    r2 = (V * gd + (Y * sm + Z * cm) / m) / g
-    r3 = (V * np.cos(gamma) * chid - (Y * cm - Z * sm) / m) / g
+    Vd_m, gd_m, chid_m = force_equations(ac, s, X, Y, Z)
+    # Scaled to specific forces over g (dimensionless): the Newton tolerance is on these.
+    r1 = (Vd - Vd_m) / g
+    r2 = V * (gd - gd_m) / g
+    r3 = V * np.cos(gamma) * (chid - chid_m) / g
     return r1, r2, r3
 
 
@@ -344,9 +346,9 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         st = State(0.0, 0.0, d["z"], d["V"], d["gamma"], d["chi"], d["alpha"], d["beta"], d["mu"],
                    d["p"], d["q"], d["r"])
         ctl = controls_of(u, d)
-        full = _coefficients(ac, st, ctl, None)
+        full = aero_coefficients(ac, st, ctl)
         L, M, N = body_moments(ac, st, ctl, full, d["qbar"])
-        a_p, a_q, a_r = angular_acceleration(ac, st.p, st.q, st.r, L, M, N)
+        a_p, a_q, a_r = rotational_dynamics(ac, st.p, st.q, st.r, L, M, N)
         return [a_p - d["pd"], a_q - d["qd"], a_r - d["rd"]]
 
     if guess is not None:
@@ -377,8 +379,6 @@ def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:
     root (a polynomial C_L has other, spurious ones).  For the thrust output the
     sideslip sign is taken from ``problem.start`` (a calibration) when given.
     """
-    from gna.aero import AeroState
-
     ac, env = problem.aircraft, problem.env
     m, g, S = ac.mass.mass, env.g, ac.geometry.S
     V, gam, Vd, gd, chid = (np.real(np.asarray(d[k], dtype=complex)) for k in ("V", "gamma", "Vd", "gd", "chid"))
@@ -403,10 +403,7 @@ def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:
     env_ = ac.envelope
     a_grid = np.linspace(env_.alpha_min, env_.alpha_max, 401)
     b0 = float(np.mean(zv)) if kind == "beta" else float(start.get("beta", 0.0))
-    half = 0.5 / float(np.mean(V))
-    c = ac.aero.coefficients(AeroState(a_grid, b0, hconst[0] * ac.geometry.b * half,
-                                       hconst[1] * ac.geometry.cbar * half, hconst[2] * ac.geometry.b * half,
-                                       hconst[3], hconst[4], hconst[5]))
+    c = ac.aero.coefficients(aero_state(ac, float(np.mean(V)), a_grid, b0, *hconst))
     CL = np.broadcast_to(np.asarray(c.CL, dtype=float), a_grid.shape)
     CD = np.broadcast_to(np.asarray(c.CD, dtype=float), a_grid.shape)
     top = int(np.argmax(CL))
