@@ -120,7 +120,27 @@ class Loads(NamedTuple):
 
 
 def aero_state(aircraft: Aircraft, V, alpha, beta, p, q, r, dl, dm, dn) -> AeroState:
-    """Nondimensional aerodynamic variables: ``phat = p b/(2V)``, ``qhat = q cbar/(2V)``, ``rhat = r b/(2V)``."""
+    """Nondimensional aerodynamic variables: ``phat = p b/(2V)``, ``qhat = q cbar/(2V)``, ``rhat = r b/(2V)``.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Its span ``b`` and mean chord ``cbar`` [m] are used.
+    V : float, array or Series
+        Airspeed [m/s].
+    alpha, beta : float, array or Series
+        Angle of attack and sideslip [rad].
+    p, q, r : float, array or Series
+        Body rates [rad/s].
+    dl, dm, dn : float, array or Series
+        Aileron, elevator, rudder deflections [rad].
+
+    Returns
+    -------
+    AeroState
+        ``(alpha, beta, phat, qhat, rhat, dl, dm, dn)``, the inputs of the aerodynamic model,
+        broadcast together.
+    """
     g = aircraft.geometry
     half_over_V = 0.5 / V
     return AeroState(alpha, beta, p * (g.b * half_over_V), q * (g.cbar * half_over_V),
@@ -160,7 +180,27 @@ def aero_coefficients(aircraft: Aircraft, s: State, u: Controls, h: HValues | No
 def wind_forces(aircraft: Aircraft, env: Environment, s: State, u: Controls, fc: Coefficients, qbar):
     """Total force in wind axes (paper eqs. X, Y, Z, re-derived; see module notes).
 
-    Returns ``(X, Y, Z, Xa, Ya, Za)``: with and without gravity.
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Wing area, mass and propulsion (thrust inclination ``epsilon``).
+    env : Environment
+        Gravity ``g`` [m/s^2].
+    s : State
+        States (``gamma``, ``alpha``, ``beta``, ``mu`` [rad] are used).
+    u : Controls
+        Controls (total thrust ``F`` [N] is used).
+    fc : Coefficients
+        Force coefficients ``CD, CL`` (stability axes) and ``CY`` (body axes), e.g. from
+        :func:`aero_coefficients`.
+    qbar : float, array or Series
+        Dynamic pressure [Pa].
+
+    Returns
+    -------
+    tuple
+        ``(X, Y, Z, Xa, Ya, Za)`` [N] along ``x_w, y_w, z_w``: total force, then aerodynamic plus
+        thrust force without gravity.
     """
     qS = qbar * aircraft.geometry.S
     cb, sb = np.cos(s.beta), np.sin(s.beta)
@@ -188,6 +228,24 @@ def body_moments(aircraft: Aircraft, s: State, u: Controls, full: Coefficients, 
 
     Aerodynamic moments about ``x_ref`` are transferred to ``x_cg`` with the
     full aerodynamic force; the thrust moments follow from the engine geometry.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Geometry (``S, b, cbar, x_cg, x_ref``) and propulsion (``y_p``, ``epsilon``).
+    s : State
+        States (``alpha`` [rad] is used for the moment transfer).
+    u : Controls
+        Controls (``F`` [N] and ``eta`` for the thrust moments).
+    full : Coefficients
+        Coefficients of the full model (moments and the force for the transfer).
+    qbar : float, array or Series
+        Dynamic pressure [Pa].
+
+    Returns
+    -------
+    tuple
+        ``(L, M, N)`` [N m], rolling, pitching and yawing moments about the CG, body axes.
     """
     geo = aircraft.geometry
     qS = qbar * geo.S
@@ -216,14 +274,30 @@ def loads(aircraft: Aircraft, env: Environment, s: State, u: Controls,
 
     Parameters
     ----------
-    aircraft, env
+    aircraft : Aircraft
+        The aircraft model.
+    env : Environment
+        Atmosphere (density at altitude ``-z``) and gravity.
     s : State
+        The 12 states (SI, rad); floats, arrays or series, broadcast together.
     u : Controls
+        The 5 controls (``F`` [N], ``eta``, surfaces [rad]).
     model : {"full", "simple"}
         ``"simple"``: the force coefficients keep only their alpha, beta
         dependence, the rate and surface variables being replaced by ``h``
         (zero when ``h`` is None).  Moments always use the full model.
     h : HValues, optional
+        Values of the neglected terms for ``model="simple"``.
+
+    Returns
+    -------
+    Loads
+        Dynamic pressure, density, coefficients, forces (wind axes) and moments (body axes).
+
+    Raises
+    ------
+    ValueError
+        ``model`` is neither ``"full"`` nor ``"simple"``.
     """
     if model not in ("full", "simple"):
         raise ValueError(f"model must be 'full' or 'simple', got {model!r}")
@@ -416,5 +490,26 @@ def derivatives(aircraft: Aircraft, env: Environment, s: State, u: Controls,
 
 def state_vector_derivative(aircraft: Aircraft, env: Environment, x: np.ndarray, u: Controls,
                             model: str = "full", h: HValues | None = None) -> np.ndarray:
-    """Array form: ``x`` of shape ``(12, ...)`` -> derivative of the same shape."""
+    """Array form of :func:`derivatives`: ``x`` of shape ``(12, ...)`` -> derivative of the same shape.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        The aircraft model.
+    env : Environment
+        Atmosphere and gravity.
+    x : ndarray, shape (12, ...)
+        The states in the order of :data:`STATE_NAMES` (SI, rad).
+    u : Controls
+        The 5 controls, broadcast against ``x[0]``.
+    model : {"full", "simple"}
+        Force coefficients of the full or the simple model.
+    h : HValues, optional
+        Values of the neglected terms for ``model="simple"``.
+
+    Returns
+    -------
+    ndarray, shape (12, ...)
+        Time derivatives of the states (SI, rad/s, rad/s^2).
+    """
     return np.stack(np.broadcast_arrays(*derivatives(aircraft, env, State(*x), u, model, h)))
