@@ -40,7 +40,7 @@ def _time_ranges(times: np.ndarray, idx: np.ndarray) -> str:
     return ", ".join(runs)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # array fields: compare records by their fields, not with ==
 class NewtonFailure:
     """Nodes where the pointwise Newton broke the paper's rule (residual above ``tol`` after ``maxiter``).
 
