@@ -109,15 +109,58 @@ class StatelessController:
     n_states = 0
 
     def initial_state(self, t0: float, x0: np.ndarray) -> np.ndarray:
-        """No state: an empty array."""
+        """Initial controller state: none.
+
+        Parameters
+        ----------
+        t0 : float
+            Initial time [s].
+        x0 : ndarray, shape (12,)
+            Initial aircraft state (SI, rad).
+
+        Returns
+        -------
+        ndarray, shape (0,)
+            An empty array.
+        """
         return _EMPTY
 
     def derivative(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
-        """No state: an empty array."""
+        """Derivative of the controller state: none.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        x : ndarray, shape (12,)
+            Aircraft state (SI, rad).
+        xc : ndarray, shape (0,)
+            Controller state (empty).
+
+        Returns
+        -------
+        ndarray, shape (0,)
+            An empty array.
+        """
         return _EMPTY
 
     def output(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
-        """``function(t, x)`` as a float array of shape (5,)."""
+        """Control corrections ``function(t, x)``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        x : ndarray, shape (12,)
+            Aircraft state (SI, rad).
+        xc : ndarray, shape (0,)
+            Controller state (empty, unused).
+
+        Returns
+        -------
+        ndarray, shape (5,)
+            Corrections of ``(F, eta, dl, dm, dn)`` [N, -, rad, rad, rad], as floats.
+        """
         return np.asarray(self.function(t, x), dtype=float).reshape(5)
 
 

@@ -14,6 +14,17 @@ arrays (many states at once, broadcast together) and on truncated power series
 
 Equations and where they come from
 ----------------------------------
+:func:`derivatives` is the concatenation of four public equation groups,
+which the planner calls too (on series):
+
+* :func:`kinematics` -- paper eqs. (aircraft1:x)-(aircraft1:z);
+* :func:`force_equations` -- V', gamma', chi', paper eqs. (aircraft1:V)-(aircraft1:chi);
+* :func:`wind_angle_rates` -- alpha', beta', mu', the G3 equations;
+* :func:`rotational_dynamics` -- p', q', r', paper eq. (aircraft2);
+
+given the forces (:func:`wind_forces`) and moments (:func:`body_moments`) of
+:func:`loads`, with the coefficients of :func:`aero_coefficients`.
+
 * Kinematics, paper eqs. (aircraft1:x)-(aircraft1:z).
 * Force equations, paper eqs. (aircraft1:V)-(aircraft1:chi): with the total
   force ``(X, Y, Z)`` in wind axes,
@@ -109,15 +120,57 @@ class Loads(NamedTuple):
 
 
 def aero_state(aircraft: Aircraft, V, alpha, beta, p, q, r, dl, dm, dn) -> AeroState:
-    """Nondimensional aerodynamic variables: ``phat = p b/(2V)``, ``qhat = q cbar/(2V)``, ``rhat = r b/(2V)``."""
+    """Nondimensional aerodynamic variables: ``phat = p b/(2V)``, ``qhat = q cbar/(2V)``, ``rhat = r b/(2V)``.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Its span ``b`` and mean chord ``cbar`` [m] are used.
+    V : float, array or Series
+        Airspeed [m/s].
+    alpha, beta : float, array or Series
+        Angle of attack and sideslip [rad].
+    p, q, r : float, array or Series
+        Body rates [rad/s].
+    dl, dm, dn : float, array or Series
+        Aileron, elevator, rudder deflections [rad].
+
+    Returns
+    -------
+    AeroState
+        ``(alpha, beta, phat, qhat, rhat, dl, dm, dn)``, the inputs of the aerodynamic model,
+        broadcast together.
+    """
     g = aircraft.geometry
     half_over_V = 0.5 / V
     return AeroState(alpha, beta, p * (g.b * half_over_V), q * (g.cbar * half_over_V),
                      r * (g.b * half_over_V), dl, dm, dn)
 
 
-def _coefficients(aircraft: Aircraft, s: State, u: Controls, h: HValues | None) -> Coefficients:
-    """Aerodynamic coefficients with the actual rates and surfaces, or with the H values ``h``."""
+def aero_coefficients(aircraft: Aircraft, s: State, u: Controls, h: HValues | None = None) -> Coefficients:
+    """Aerodynamic coefficients with the actual rates and surfaces, or with the H values ``h``.
+
+    The force coefficients of the paper's simple model are these with ``h`` given: the rate and
+    surface variables (the neglected terms H) replaced by the values in ``h``.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Geometry (b, cbar for the nondimensional rates) and aerodynamic model.
+    s : State
+        States (only ``V`` [m/s], ``alpha``, ``beta`` [rad] and, when ``h`` is None, ``p, q, r``
+        [rad/s] are used); floats, arrays or series, broadcast together.
+    u : Controls
+        Controls (only ``dl, dm, dn`` [rad], when ``h`` is None).
+    h : HValues, optional
+        Values of ``p, q, r, dl, dm, dn`` used instead of the actual ones.
+
+    Returns
+    -------
+    Coefficients
+        ``CD, CY, CL`` (stability/body axes, see :func:`wind_forces`) and ``Cl, Cm, Cn`` (body axes),
+        dimensionless, of the broadcast shape of the inputs.
+    """
     if h is None:
         return aircraft.aero.coefficients(aero_state(aircraft, s.V, s.alpha, s.beta, s.p, s.q, s.r,
                                                      u.dl, u.dm, u.dn))
@@ -127,7 +180,27 @@ def _coefficients(aircraft: Aircraft, s: State, u: Controls, h: HValues | None) 
 def wind_forces(aircraft: Aircraft, env: Environment, s: State, u: Controls, fc: Coefficients, qbar):
     """Total force in wind axes (paper eqs. X, Y, Z, re-derived; see module notes).
 
-    Returns ``(X, Y, Z, Xa, Ya, Za)``: with and without gravity.
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Wing area, mass and propulsion (thrust inclination ``epsilon``).
+    env : Environment
+        Gravity ``g`` [m/s^2].
+    s : State
+        States (``gamma``, ``alpha``, ``beta``, ``mu`` [rad] are used).
+    u : Controls
+        Controls (total thrust ``F`` [N] is used).
+    fc : Coefficients
+        Force coefficients ``CD, CL`` (stability axes) and ``CY`` (body axes), e.g. from
+        :func:`aero_coefficients`.
+    qbar : float, array or Series
+        Dynamic pressure [Pa].
+
+    Returns
+    -------
+    tuple
+        ``(X, Y, Z, Xa, Ya, Za)`` [N] along ``x_w, y_w, z_w``: total force, then aerodynamic plus
+        thrust force without gravity.
     """
     qS = qbar * aircraft.geometry.S
     cb, sb = np.cos(s.beta), np.sin(s.beta)
@@ -155,6 +228,24 @@ def body_moments(aircraft: Aircraft, s: State, u: Controls, full: Coefficients, 
 
     Aerodynamic moments about ``x_ref`` are transferred to ``x_cg`` with the
     full aerodynamic force; the thrust moments follow from the engine geometry.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Geometry (``S, b, cbar, x_cg, x_ref``) and propulsion (``y_p``, ``epsilon``).
+    s : State
+        States (``alpha`` [rad] is used for the moment transfer).
+    u : Controls
+        Controls (``F`` [N] and ``eta`` for the thrust moments).
+    full : Coefficients
+        Coefficients of the full model (moments and the force for the transfer).
+    qbar : float, array or Series
+        Dynamic pressure [Pa].
+
+    Returns
+    -------
+    tuple
+        ``(L, M, N)`` [N m], rolling, pitching and yawing moments about the CG, body axes.
     """
     geo = aircraft.geometry
     qS = qbar * geo.S
@@ -183,28 +274,143 @@ def loads(aircraft: Aircraft, env: Environment, s: State, u: Controls,
 
     Parameters
     ----------
-    aircraft, env
+    aircraft : Aircraft
+        The aircraft model.
+    env : Environment
+        Atmosphere (density at altitude ``-z``) and gravity.
     s : State
+        The 12 states (SI, rad); floats, arrays or series, broadcast together.
     u : Controls
+        The 5 controls (``F`` [N], ``eta``, surfaces [rad]).
     model : {"full", "simple"}
         ``"simple"``: the force coefficients keep only their alpha, beta
         dependence, the rate and surface variables being replaced by ``h``
         (zero when ``h`` is None).  Moments always use the full model.
     h : HValues, optional
+        Values of the neglected terms for ``model="simple"``.
+
+    Returns
+    -------
+    Loads
+        Dynamic pressure, density, coefficients, forces (wind axes) and moments (body axes).
+
+    Raises
+    ------
+    ValueError
+        ``model`` is neither ``"full"`` nor ``"simple"``.
     """
     if model not in ("full", "simple"):
         raise ValueError(f"model must be 'full' or 'simple', got {model!r}")
     rho = env.density(s.z)
     qbar = 0.5 * rho * s.V * s.V
-    full = _coefficients(aircraft, s, u, None)
-    fc = full if model == "full" else _coefficients(aircraft, s, u, h if h is not None else HValues())
+    full = aero_coefficients(aircraft, s, u, None)
+    fc = full if model == "full" else aero_coefficients(aircraft, s, u, h if h is not None else HValues())
     X, Y, Z, Xa, Ya, Za = wind_forces(aircraft, env, s, u, fc, qbar)
     L, M, N = body_moments(aircraft, s, u, full, qbar)
     return Loads(qbar, rho, fc, full, X, Y, Z, L, M, N, Xa, Ya, Za)
 
 
-def angular_acceleration(aircraft: Aircraft, p, q, r, L, M, N):
-    """Body angular accelerations, paper eq. (aircraft2), inverse inertia written out."""
+def kinematics(s: State):
+    """Velocity of the centre of gravity in NED axes, paper eqs. (aircraft1:x)-(aircraft1:z).
+
+    Parameters
+    ----------
+    s : State
+        States (``V`` [m/s], ``gamma``, ``chi`` [rad] are used); floats, arrays or series.
+
+    Returns
+    -------
+    tuple
+        ``(x', y', z')`` [m/s]: ``V cos(chi) cos(gamma)``, ``V sin(chi) cos(gamma)``, ``-V sin(gamma)``.
+    """
+    cg, sg = np.cos(s.gamma), np.sin(s.gamma)
+    cc, sc = np.cos(s.chi), np.sin(s.chi)
+    return s.V * cc * cg, s.V * sc * cg, -s.V * sg
+
+
+def force_equations(aircraft: Aircraft, s: State, X, Y, Z):
+    """Speed and flight-path angle rates, paper eqs. (aircraft1:V), (aircraft1:gamma), (aircraft1:chi).
+
+    ``V' = X/m``, ``gamma' = -(Y sin mu + Z cos mu)/(m V)``,
+    ``chi' = (Y cos mu - Z sin mu)/(m V cos gamma)``.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Its mass ``m`` [kg] is used.
+    s : State
+        States (``V`` [m/s], ``gamma``, ``mu`` [rad] are used); floats, arrays or series.
+    X, Y, Z : float, array or Series
+        Total force (aerodynamic, thrust and gravity) in wind axes [N], e.g. from :func:`wind_forces`.
+
+    Returns
+    -------
+    tuple
+        ``(V', gamma', chi')`` in [m/s^2], [rad/s], [rad/s].
+    """
+    m = aircraft.mass.mass
+    cg = np.cos(s.gamma)
+    cm, sm = np.cos(s.mu), np.sin(s.mu)
+    mV = m * s.V
+    Vd = X / m
+    gd = -(Y * sm + Z * cm) / mV
+    chid = (Y * cm - Z * sm) / (mV * cg)
+    return Vd, gd, chid
+
+
+def wind_angle_rates(aircraft: Aircraft, s: State, Y, Z, chi_dot):
+    """Rates of the wind angles, the G3 equations (derived in :func:`derivatives`' notes).
+
+    ``alpha' = q - tan(beta) (p cos alpha + r sin alpha) + Z/(m V cos beta)``,
+    ``beta' = p sin alpha - r cos alpha + Y/(m V)``,
+    ``mu' = (p cos alpha + r sin alpha)/cos beta - tan(beta) Z/(m V) + chi' sin gamma``.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Its mass ``m`` [kg] is used.
+    s : State
+        States (``V`` [m/s], ``gamma``, ``alpha``, ``beta`` [rad], ``p, q, r`` [rad/s] are used);
+        floats, arrays or series.
+    Y, Z : float, array or Series
+        Total force along ``y_w`` and ``z_w`` (wind axes) [N].
+    chi_dot : float, array or Series
+        Track-angle rate ``chi'`` [rad/s], from :func:`force_equations`.
+
+    Returns
+    -------
+    tuple
+        ``(alpha', beta', mu')`` [rad/s].
+    """
+    m = aircraft.mass.mass
+    ca, sa = np.cos(s.alpha), np.sin(s.alpha)
+    cb, sb = np.cos(s.beta), np.sin(s.beta)
+    sg = np.sin(s.gamma)
+    mV = m * s.V
+    pcr = s.p * ca + s.r * sa
+    ad = s.q - sb / cb * pcr + Z / (mV * cb)
+    bd = s.p * sa - s.r * ca + Y / mV
+    mud = pcr / cb - sb / cb * Z / mV + chi_dot * sg
+    return ad, bd, mud
+
+
+def rotational_dynamics(aircraft: Aircraft, p, q, r, L, M, N):
+    """Body angular accelerations, paper eq. (aircraft2), inverse inertia written out.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Its inertia ``Ixx, Iyy, Izz, Ixz`` [kg m^2] is used.
+    p, q, r : float, array or Series
+        Body rates [rad/s].
+    L, M, N : float, array or Series
+        Total moment about the centre of gravity, body axes [N m], e.g. from :func:`body_moments`.
+
+    Returns
+    -------
+    tuple
+        ``(p', q', r')`` [rad/s^2].
+    """
     I = aircraft.mass
     Lp = (I.Iyy - I.Izz) * q * r + I.Ixz * p * q + L
     Mp = (I.Izz - I.Ixx) * p * r + I.Ixz * (r * r - p * p) + M
@@ -213,9 +419,39 @@ def angular_acceleration(aircraft: Aircraft, p, q, r, L, M, N):
     return (I.Izz * Lp + I.Ixz * Np) / gam, Mp / I.Iyy, (I.Ixz * Lp + I.Ixx * Np) / gam
 
 
+#: Former name of :func:`rotational_dynamics`.
+angular_acceleration = rotational_dynamics
+
+
 def derivatives(aircraft: Aircraft, env: Environment, s: State, u: Controls,
                 model: str = "full", h: HValues | None = None, ld: Loads | None = None) -> State:
-    """Time derivatives of the 12 states.
+    """Time derivatives of the 12 states: the four equation groups, concatenated.
+
+    :func:`kinematics` (x', y', z'), :func:`force_equations` (V', gamma', chi'),
+    :func:`wind_angle_rates` (alpha', beta', mu', the G3 equations) and
+    :func:`rotational_dynamics` (p', q', r'), with the forces and moments of :func:`loads`.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Mass, inertia, geometry, aerodynamics and propulsion.
+    env : Environment
+        Atmosphere (density at ``-z``) and gravity ``g`` [m/s^2].
+    s : State
+        The 12 states (SI, rad); floats, arrays or series, broadcast together.
+    u : Controls
+        The 5 controls (``F`` [N], ``eta``, surfaces [rad]).
+    model : {"full", "simple"}
+        Force coefficients of the full model, or of the simple model with the neglected terms at ``h``.
+    h : HValues, optional
+        Values of the neglected terms for ``model="simple"`` (zero when None).
+    ld : Loads, optional
+        Forces and moments already computed by :func:`loads` (then ``model`` and ``h`` are not used).
+
+    Returns
+    -------
+    State
+        ``(x', y', z', V', gamma', chi', alpha', beta', mu', p', q', r')`` (SI, rad/s, rad/s^2).
 
     Notes
     -----
@@ -245,29 +481,35 @@ def derivatives(aircraft: Aircraft, env: Environment, s: State, u: Controls,
     """
     if ld is None:
         ld = loads(aircraft, env, s, u, model, h)
-    m = aircraft.mass.mass
-    ca, sa = np.cos(s.alpha), np.sin(s.alpha)
-    cb, sb = np.cos(s.beta), np.sin(s.beta)
-    cg, sg = np.cos(s.gamma), np.sin(s.gamma)
-    cm, sm = np.cos(s.mu), np.sin(s.mu)
-    cc, sc = np.cos(s.chi), np.sin(s.chi)
-    mV = m * s.V
-
-    xd = s.V * cc * cg
-    yd = s.V * sc * cg
-    zd = -s.V * sg
-    Vd = ld.X / m
-    gd = -(ld.Y * sm + ld.Z * cm) / mV
-    chid = (ld.Y * cm - ld.Z * sm) / (mV * cg)
-    pcr = s.p * ca + s.r * sa
-    ad = s.q - sb / cb * pcr + ld.Z / (mV * cb)
-    bd = s.p * sa - s.r * ca + ld.Y / mV
-    mud = pcr / cb - sb / cb * ld.Z / mV + chid * sg
-    pd, qd, rd = angular_acceleration(aircraft, s.p, s.q, s.r, ld.L, ld.M, ld.N)
+    xd, yd, zd = kinematics(s)
+    Vd, gd, chid = force_equations(aircraft, s, ld.X, ld.Y, ld.Z)
+    ad, bd, mud = wind_angle_rates(aircraft, s, ld.Y, ld.Z, chid)
+    pd, qd, rd = rotational_dynamics(aircraft, s.p, s.q, s.r, ld.L, ld.M, ld.N)
     return State(xd, yd, zd, Vd, gd, chid, ad, bd, mud, pd, qd, rd)
 
 
 def state_vector_derivative(aircraft: Aircraft, env: Environment, x: np.ndarray, u: Controls,
                             model: str = "full", h: HValues | None = None) -> np.ndarray:
-    """Array form: ``x`` of shape ``(12, ...)`` -> derivative of the same shape."""
+    """Array form of :func:`derivatives`: ``x`` of shape ``(12, ...)`` -> derivative of the same shape.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        The aircraft model.
+    env : Environment
+        Atmosphere and gravity.
+    x : ndarray, shape (12, ...)
+        The states in the order of :data:`STATE_NAMES` (SI, rad).
+    u : Controls
+        The 5 controls, broadcast against ``x[0]``.
+    model : {"full", "simple"}
+        Force coefficients of the full or the simple model.
+    h : HValues, optional
+        Values of the neglected terms for ``model="simple"``.
+
+    Returns
+    -------
+    ndarray, shape (12, ...)
+        Time derivatives of the states (SI, rad/s, rad/s^2).
+    """
     return np.stack(np.broadcast_arrays(*derivatives(aircraft, env, State(*x), u, model, h)))

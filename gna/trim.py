@@ -19,12 +19,11 @@ from typing import Mapping
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from planners.newton import newton
-
 from .aircraft import Aircraft
 from .atmosphere import ConstantDensity, Environment
 from .eom import Controls, HValues, State, derivatives
 from .errors import ConvergenceError, DomainError, InputError
+from .solve import newton
 from .trajectory import UNITS
 from .units import G0
 
@@ -70,6 +69,13 @@ class TrimResult:
         return max(abs(v) for v in self.residuals.values())
 
     def to_dict(self) -> dict:
+        """The solution as plain data (values with units, degrees, residuals, warnings).
+
+        Returns
+        -------
+        dict
+            JSON-serialisable record of the trim.
+        """
         return {
             "aircraft": self.aircraft, "model": self.model, "altitude_m": self.altitude,
             "density_kg_m3": self.density, "eta": self.eta,
@@ -82,6 +88,13 @@ class TrimResult:
         }
 
     def to_json(self) -> str:
+        """The solution as JSON text.
+
+        Returns
+        -------
+        str
+            :meth:`to_dict`, indented.
+        """
         return json.dumps(self.to_dict(), indent=2)
 
 
@@ -147,11 +160,18 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
         Initial values of free variables.
     tol : float
         Newton tolerance on the max-norm of the nine residuals.
+    maxiter : int
+        Maximum number of Newton iterations.
     check_envelope : bool
         Refuse a solution with alpha or beta outside the aerodynamic model's
         envelope or a surface beyond 90 deg (the polynomial model has
         mathematical, non-physical trims there).  Surface limits, negative or
         excessive thrust are reported in ``warnings``.
+
+    Returns
+    -------
+    TrimResult
+        The 13 trim variables, the residuals, the steady state and controls, and warnings.
 
     Raises
     ------
@@ -159,6 +179,8 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
         Wrong set of fixed variables or bad values.
     ConvergenceError
         Newton did not converge (message names the residual, iterations and fixed values).
+    DomainError
+        With ``check_envelope``, the solution lies outside the aerodynamic model's envelope.
     """
     env = env if env is not None else Environment()
     unknown = [k for k in fixed if k not in TRIM_VARIABLES]
@@ -250,18 +272,73 @@ def _envelope_check(aircraft: Aircraft, vals: Mapping[str, float], fixed: Mappin
 
 
 def trim_level(aircraft: Aircraft, V: float, altitude: float = 0.0, **kw) -> TrimResult:
-    """Wings-level, straight and level flight at speed ``V`` (gamma = chi' = beta = 0)."""
+    """Wings-level, straight and level flight at speed ``V`` (gamma = chi' = beta = 0).
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        The aircraft model.
+    V : float
+        Airspeed [m/s].
+    altitude : float
+        Altitude [m].
+    **kw
+        Further keywords of :func:`trim` (``env``, ``model``, ``tol``, ...).
+
+    Returns
+    -------
+    TrimResult
+        The steady-flight solution.
+    """
     return trim(aircraft, {"V": V, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0}, altitude=altitude, **kw)
 
 
 def level_alpha(aircraft: Aircraft, V: float, altitude: float = 0.0, **kw) -> float:
-    """Angle of attack of straight and level flight at speed ``V`` [rad]."""
+    """Angle of attack of straight and level flight at speed ``V``.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        The aircraft model.
+    V : float
+        Airspeed [m/s].
+    altitude : float
+        Altitude [m].
+    **kw
+        Further keywords of :func:`trim` (``env``, ``model``, ``tol``, ...).
+
+    Returns
+    -------
+    float
+        Angle of attack [rad].
+    """
     return trim_level(aircraft, V, altitude, **kw).values["alpha"]
 
 
 def coordinated_turn(aircraft: Aircraft, V: float, turn_rate: float, altitude: float = 0.0,
                      gamma: float = 0.0, **kw) -> TrimResult:
-    """Steady coordinated (beta = 0) turn at ``turn_rate`` = chi' [rad/s]."""
+    """Steady coordinated (beta = 0) turn at ``turn_rate`` = chi'.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        The aircraft model.
+    V : float
+        Airspeed [m/s].
+    turn_rate : float
+        Track-angle rate chi' [rad/s].
+    altitude : float
+        Altitude [m].
+    gamma : float
+        Flight-path angle [rad] (a climbing or descending helix).
+    **kw
+        Further keywords of :func:`trim` (``env``, ``model``, ``tol``, ...).
+
+    Returns
+    -------
+    TrimResult
+        The steady-flight solution.
+    """
     return trim(aircraft, {"V": V, "gamma": gamma, "chi_dot": turn_rate, "beta": 0.0}, altitude=altitude, **kw)
 
 
@@ -270,6 +347,24 @@ def sideslip_glide(aircraft: Aircraft, beta: float, alpha: float, altitude: floa
 
     This is the paper's calibration of the forward slip (its table of
     straight-line trajectories at alpha = 0.15 and beta = 0, 0.2, 0.35).
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        The aircraft model.
+    beta : float
+        Sideslip [rad].
+    alpha : float
+        Angle of attack [rad].
+    altitude : float
+        Altitude [m].
+    **kw
+        Further keywords of :func:`trim` (``env``, ``model``, ``tol``, ...).
+
+    Returns
+    -------
+    TrimResult
+        The steady-flight solution.
     """
     return trim(aircraft, {"F": 0.0, "beta": beta, "alpha": alpha, "chi_dot": 0.0}, altitude=altitude, **kw)
 
@@ -288,6 +383,20 @@ def stall_speed(aircraft: Aircraft, altitude: float = 0.0, **kw) -> StallResult:
 
     Level flight at fixed alpha gives V(alpha); the stall is its minimum over
     the envelope's alpha range.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        The aircraft model.
+    altitude : float
+        Altitude [m].
+    **kw
+        Further keywords of :func:`trim` (``env``, ``model``, ``tol``, ...).
+
+    Returns
+    -------
+    StallResult
+        Stall speed [m/s], its angle of attack [rad] and the trim there.
     """
     env = aircraft.envelope
     cache: dict[float, TrimResult] = {}

@@ -29,7 +29,8 @@ import numpy as np
 
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
-from gna.eom import Controls, HValues, State, _coefficients, angular_acceleration, body_moments, wind_forces
+from gna.eom import (Controls, HValues, State, aero_coefficients, aero_state, body_moments, force_equations,
+                     rotational_dynamics, wind_forces)
 from gna.errors import DomainError, InputError
 
 from .expressions import Expression
@@ -126,7 +127,13 @@ class NodeSolution:
         return self.series[name]
 
     def h_values(self) -> HValues:
-        """The rates and surfaces of this iterate, as H values for the next one."""
+        """The rates and surfaces of this iterate, as H values for the next one.
+
+        Returns
+        -------
+        HValues
+            Series of ``p, q, r`` [rad/s] and ``dl, dm, dn`` [rad].
+        """
         s = self.series
         return HValues(s["p"], s["q"], s["r"], s["dl"], s["dm"], s["dn"])
 
@@ -193,7 +200,19 @@ def _check_inputs(t_nodes, series: Mapping[str, Series | None]) -> None:
 
 
 def stage1(x: Series, y: Series, z: Series):
-    """V, gamma, chi from the flat outputs (paper eqs. aircraft1:x-z)."""
+    """V, gamma, chi from the flat outputs (paper eqs. aircraft1:x-z inverted).
+
+    Parameters
+    ----------
+    x, y, z : Series
+        Flat outputs, NED position [m], batch shape (nodes,).
+
+    Returns
+    -------
+    tuple of Series
+        ``(V, gamma, chi)`` [m/s, rad, rad], one order below the flat outputs; chi is made
+        continuous along the nodes.
+    """
     xd, yd, zd = x.derivative(), y.derivative(), z.derivative()
     vh = np.sqrt(xd * xd + yd * yd)
     V = np.sqrt(xd * xd + yd * yd + zd * zd)
@@ -211,6 +230,18 @@ def stage3(alpha, beta, mu, gamma, chi):
     ``P = p cos a + r sin a = cos b (mu' - tan b w_wy - chi' sin gamma)``,
     ``R = -p sin a + r cos a = w_wz - beta'``,
     ``q = alpha' + tan b P + w_wy / cos b``.
+
+    Parameters
+    ----------
+    alpha, beta, mu : Series
+        Wind angles from stage 2 [rad].
+    gamma, chi : Series
+        Flight-path and track angles from stage 1 [rad], at the order of ``alpha``.
+
+    Returns
+    -------
+    tuple of Series
+        ``(p, q, r)`` [rad/s], one order below the inputs.
     """
     gd, chid = gamma.derivative(), chi.derivative()
     ad, bd, mud = alpha.derivative(), beta.derivative(), mu.derivative()
@@ -230,23 +261,51 @@ def stage3(alpha, beta, mu, gamma, chi):
 
 def force_residuals(ac: Aircraft, env: Environment, z, V, gamma, chi, Vd, gd, chid, eta, h: HValues,
                     alpha, beta, mu, F):
-    """The three stage-2 force equations (paper eqs. aircraft1:V, gamma, chi), divided by g.
+    """The three stage-2 force equations (paper eqs. aircraft1:V, gamma, chi), as specific forces over g.
 
-    Residuals of ``V' = X/m``, ``-m V gamma' = Y sin mu + Z cos mu`` and
-    ``m V cos(gamma) chi' = Y cos mu - Z sin mu`` with the force coefficients
-    evaluated with the H values ``h`` for the rates and surfaces.
+    Residuals ``(V' - X/m)/g``, ``V (gamma' - gamma'_m)/g`` and ``V cos(gamma) (chi' - chi'_m)/g``,
+    with ``gamma'_m, chi'_m`` of :func:`gna.eom.force_equations`, the forces of
+    :func:`gna.eom.wind_forces` and the force coefficients evaluated with the H values ``h``
+    for the rates and surfaces.  Floats, arrays and series alike.
+
+    Parameters
+    ----------
+    ac : Aircraft
+        The aircraft model.
+    env : Environment
+        Atmosphere and gravity ``g`` [m/s^2].
+    z : float, array or Series
+        Down position [m] (altitude ``-z`` for the density).
+    V, gamma, chi : float, array or Series
+        Airspeed [m/s], flight-path and track angles [rad] (stage 1).
+    Vd, gd, chid : float, array or Series
+        Their time derivatives [m/s^2, rad/s, rad/s].
+    eta : float, array or Series
+        Thrust asymmetry ``(F1 - F2)/(F1 + F2)``.
+    h : HValues
+        Values of the rates [rad/s] and surfaces [rad] in the force coefficients.
+    alpha, beta, mu : float, array or Series
+        Wind angles [rad] (the unknowns of stage 2).
+    F : float, array or Series
+        Total thrust [N].
+
+    Returns
+    -------
+    tuple
+        The three residuals, dimensionless.
     """
-    m, g = ac.mass.mass, env.g
+    g = env.g
     s = State(0.0, 0.0, z, V, gamma, chi, alpha, beta, mu, 0.0, 0.0, 0.0)
     ctl = Controls(F, eta, 0.0, 0.0, 0.0)
     rho = env.density(z)
     qbar = 0.5 * rho * V * V
-    fc = _coefficients(ac, s, ctl, h)
+    fc = aero_coefficients(ac, s, ctl, h)
     X, Y, Z, *_ = wind_forces(ac, env, s, ctl, fc, qbar)
-    sm, cm = np.sin(mu), np.cos(mu)
-    r1 = (Vd - X / m) / g
-    r2 = (V * gd + (Y * sm + Z * cm) / m) / g
-    r3 = (V * np.cos(gamma) * chid - (Y * cm - Z * sm) / m) / g
+    Vd_m, gd_m, chid_m = force_equations(ac, s, X, Y, Z)
+    # Scaled to specific forces over g (dimensionless): the Newton tolerance is on these.
+    r1 = (Vd - Vd_m) / g
+    r2 = V * (gd - gd_m) / g
+    r3 = V * np.cos(gamma) * (chid - chid_m) / g
     return r1, r2, r3
 
 
@@ -264,10 +323,20 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         Values (constants or series) of the neglected terms; default ``problem.h``.
     guess : mapping, optional
         Previous solution (series) used as the starting point of the Newton iterations.
+    newton_tol : float
+        Tolerance of the pointwise Newton on the constant terms (stage 2: over g; stage 4: rad/s^2).
 
     Returns
     -------
     NodeSolution
+        Series of every state and control at every node, with the Newton reports of stages 2 and 4.
+
+    Raises
+    ------
+    InputError
+        ``order`` below 4.
+    DomainError
+        Non-finite flat outputs or inputs, or a vertical or zero velocity (stage 1 singular).
     """
     if order < 4:
         raise InputError(f"the flat parametrization needs order >= 4 to reach the controls, got {order}")
@@ -344,9 +413,9 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         st = State(0.0, 0.0, d["z"], d["V"], d["gamma"], d["chi"], d["alpha"], d["beta"], d["mu"],
                    d["p"], d["q"], d["r"])
         ctl = controls_of(u, d)
-        full = _coefficients(ac, st, ctl, None)
+        full = aero_coefficients(ac, st, ctl)
         L, M, N = body_moments(ac, st, ctl, full, d["qbar"])
-        a_p, a_q, a_r = angular_acceleration(ac, st.p, st.q, st.r, L, M, N)
+        a_p, a_q, a_r = rotational_dynamics(ac, st.p, st.q, st.r, L, M, N)
         return [a_p - d["pd"], a_q - d["qd"], a_r - d["rd"]]
 
     if guess is not None:
@@ -377,8 +446,6 @@ def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:
     root (a polynomial C_L has other, spurious ones).  For the thrust output the
     sideslip sign is taken from ``problem.start`` (a calibration) when given.
     """
-    from gna.aero import AeroState
-
     ac, env = problem.aircraft, problem.env
     m, g, S = ac.mass.mass, env.g, ac.geometry.S
     V, gam, Vd, gd, chid = (np.real(np.asarray(d[k], dtype=complex)) for k in ("V", "gamma", "Vd", "gd", "chid"))
@@ -403,10 +470,7 @@ def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:
     env_ = ac.envelope
     a_grid = np.linspace(env_.alpha_min, env_.alpha_max, 401)
     b0 = float(np.mean(zv)) if kind == "beta" else float(start.get("beta", 0.0))
-    half = 0.5 / float(np.mean(V))
-    c = ac.aero.coefficients(AeroState(a_grid, b0, hconst[0] * ac.geometry.b * half,
-                                       hconst[1] * ac.geometry.cbar * half, hconst[2] * ac.geometry.b * half,
-                                       hconst[3], hconst[4], hconst[5]))
+    c = ac.aero.coefficients(aero_state(ac, float(np.mean(V)), a_grid, b0, *hconst))
     CL = np.broadcast_to(np.asarray(c.CL, dtype=float), a_grid.shape)
     CD = np.broadcast_to(np.asarray(c.CD, dtype=float), a_grid.shape)
     top = int(np.argmax(CL))

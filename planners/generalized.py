@@ -22,6 +22,7 @@ import numpy as np
 
 from .flat import FlatProblem, parametrize
 from .plan import Plan
+from .singularity import monitor
 
 #: Order lost per iteration (the paper's L = max l_h - 1 = 2 for aircraft).
 ORDER_LOSS = 2
@@ -42,10 +43,18 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
     e : int
         Order of the controls in the last iterate (>= 1 for the two-sided
         interpolation to carry slopes).
+    name : str
+        Name of the plan (for messages and outputs).
 
     Returns
     -------
     Plan
+        Every iterate, the Newton, singularity and envelope warnings, timings.
+
+    Raises
+    ------
+    InputError
+        A grid of fewer than two increasing nodes.
     """
     t_nodes = np.asarray(t_nodes, dtype=float)
     if t_nodes.ndim != 1 or len(t_nodes) < 2 or np.any(np.diff(t_nodes) <= 0):
@@ -67,7 +76,6 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         prev = sol
         kappa -= ORDER_LOSS
     plan = Plan(problem, t_nodes, iterates, warnings, name, timings)
-    from .singularity import monitor
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         plan.singularities = monitor(plan)
     plan.warnings.extend(plan.singularities.warnings)
@@ -79,5 +87,18 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
 
 
 def plan_scenario(scenario, J: int | None = None) -> Plan:
-    """Plan a :class:`~planners.scenario.Scenario` (J from the scenario unless given)."""
+    """Plan a :class:`~planners.scenario.Scenario`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Flat outputs, aircraft, grid and J.
+    J : int, optional
+        Generalized-flatness iterations (default: the scenario's).
+
+    Returns
+    -------
+    Plan
+        See :func:`plan_motion`.
+    """
     return plan_motion(scenario.problem(), scenario.t_nodes, scenario.J if J is None else J, name=scenario.name)

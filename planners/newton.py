@@ -1,10 +1,9 @@
-"""Newton's method for square nonlinear systems, batched over many problems.
+"""Newton's method on truncated power series (paper section "Newton operator with series").
 
-``fun(x)`` maps an array of shape ``(n, *batch)`` to residuals of the same
-shape; the batch axes are independent problems (e.g. the nodes of a time
-grid) solved together with array code.  The Jacobian is computed by complex
-step (exact to rounding when ``fun`` is complex-analytic, which every model
-function of gflat is) or, on request, by central differences.
+The pointwise batched Newton, its complex-step Jacobian and the batched
+linear solve live in the model package (:mod:`gna.solve`) and are re-exported
+here (``planners.newton.newton`` keeps working); this module adds the Newton
+operator on series (:func:`newton_series`) and its report.
 """
 
 from __future__ import annotations
@@ -14,147 +13,84 @@ from typing import Callable
 
 import numpy as np
 
+from gna.solve import NewtonResult, batched_solve, jacobian, newton
+
+__all__ = ["PAPER_TOL", "PAPER_MAXITER", "NewtonResult", "NewtonFailure", "SeriesNewtonReport", "batched_solve",
+           "jacobian", "newton", "newton_series"]
+
 #: The paper's failure rule (section "Newton operator with series"):
 #: a residual above this after ``PAPER_MAXITER`` iterations is reported.
 PAPER_TOL = 1e-3
 PAPER_MAXITER = 20
 
 
-@dataclass
-class NewtonResult:
-    """Outcome of :func:`newton`.
+def _exponent_form(x: float) -> str:
+    """``1e-3`` rather than ``0.001`` (the paper's way of writing its tolerance)."""
+    mant, exp = f"{x:.0e}".split("e")
+    return f"{mant}e{int(exp)}"
+
+
+def _time_ranges(times: np.ndarray, idx: np.ndarray) -> str:
+    """'0 .. 2.5, 7' for the consecutive runs of node indices ``idx`` (times ``times`` aligned with ``idx``)."""
+    runs, start = [], 0
+    for pos in range(len(idx)):
+        if pos + 1 == len(idx) or idx[pos + 1] != idx[pos] + 1:
+            runs.append(f"{times[start]:.6g}" if pos == start else f"{times[start]:.6g} .. {times[pos]:.6g}")
+            start = pos + 1
+    return ", ".join(runs)
+
+
+@dataclass(frozen=True, eq=False)  # array fields: compare records by their fields, not with ==
+class NewtonFailure:
+    """Nodes where the pointwise Newton broke the paper's rule (residual above ``tol`` after ``maxiter``).
 
     Attributes
     ----------
-    x : ndarray, shape (n, *batch)
-    residual : ndarray, shape batch
-        Max-norm of the residual of each problem at ``x``.
-    iterations : int
-    converged : ndarray of bool, shape batch
-    history : list of float
-        Worst residual after each iteration.
+    names : tuple of str
+        The unknowns of the failed system (e.g. ``("alpha", "beta", "mu", "F")`` for stage 2).
+    nodes : ndarray of int, shape (k,)
+        Indices of the failed nodes in the (flattened) node grid.
+    times : ndarray, shape (k,)
+        Their times [s].
+    residuals : ndarray, shape (k,)
+        Max-norm of the constant-term residual at each failed node (NaN for a diverged node).
+    worst_residual : float
+        Largest of ``residuals``.
+    worst_time : float
+        Time of the node with the worst residual [s].
+    maxiter : int
+        Pointwise Newton iterations allowed (the paper's 20).
+    tol : float
+        The paper's failure threshold (1e-3).
+    stage : str or None
+        Stage of the flat parametrization (``"stage2"``, ``"stage4"``) when known.
+    iterate : int or None
+        Generalized-flatness iterate j when known.
     """
 
-    x: np.ndarray
-    residual: np.ndarray
-    iterations: int
-    converged: np.ndarray
-    history: list = field(default_factory=list)
+    names: tuple
+    nodes: np.ndarray
+    times: np.ndarray
+    residuals: np.ndarray
+    worst_residual: float
+    worst_time: float
+    maxiter: int
+    tol: float
+    stage: str | None = None
+    iterate: int | None = None
 
     @property
-    def all_converged(self) -> bool:
-        return bool(np.all(self.converged))
+    def n_nodes(self) -> int:
+        """Number of failed nodes."""
+        return int(len(self.nodes))
 
-
-def jacobian(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray, method: str = "complex",
-             f0: np.ndarray | None = None) -> np.ndarray:
-    """Jacobian ``J[i, j, *batch] = d f_i / d x_j``.
-
-    Parameters
-    ----------
-    method : {"complex", "central"}
-        Complex step (h = 1e-30, exact for analytic ``fun``) or central
-        differences with a relative step 1e-6.
-    """
-    n = x.shape[0]
-    cols = []
-    if method == "complex":
-        h = 1e-30
-        xc = x.astype(complex)
-        for j in range(n):
-            xj = xc.copy()
-            xj[j] += 1j * h
-            cols.append(np.imag(fun(xj)) / h)
-    elif method == "central":
-        for j in range(n):
-            h = 1e-6 * np.maximum(1.0, np.abs(x[j]))
-            xp, xm = x.astype(float).copy(), x.astype(float).copy()
-            xp[j] += h
-            xm[j] -= h
-            cols.append((fun(xp) - fun(xm)) / (2 * h))
-    else:
-        raise ValueError(f"unknown Jacobian method {method!r}")
-    return np.stack(cols, axis=1)
-
-
-def _solve(J: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """Solve J dx = f for every batch element; J (n, n, *batch), f (n, *batch)."""
-    n = J.shape[0]
-    batch = f.shape[1:]
-    Jm = np.moveaxis(J.reshape(n, n, -1), -1, 0)          # (B, n, n)
-    fm = np.moveaxis(f.reshape(n, -1), -1, 0)[..., None]  # (B, n, 1)
-    try:
-        dx = np.linalg.solve(Jm, fm)[..., 0]
-    except np.linalg.LinAlgError:
-        dx = np.stack([np.linalg.lstsq(Jm[b], fm[b, :, 0], rcond=None)[0] for b in range(Jm.shape[0])])
-    return np.moveaxis(dx, 0, -1).reshape((n,) + batch)
-
-
-def newton(fun: Callable[[np.ndarray], np.ndarray], x0, *, tol: float = 1e-12, maxiter: int = 50,
-           jac: str = "complex", damped: bool = True, scale: np.ndarray | None = None) -> NewtonResult:
-    """Solve ``fun(x) = 0`` by (damped) Newton, for a batch of independent problems.
-
-    Parameters
-    ----------
-    fun : callable
-        ``(n, *batch) -> (n, *batch)``.
-    x0 : array_like, shape (n, *batch)
-    tol : float
-        Convergence when ``max|f| <= tol`` for a problem.
-    maxiter : int
-    jac : {"complex", "central"}
-    damped : bool
-        Backtracking on the residual norm (halving the step up to 10 times).
-    scale : array, shape (n,), optional
-        Residual weights used for the convergence test and the line search.
-
-    Returns
-    -------
-    NewtonResult
-        Never raises for non-convergence; callers decide how to report it.
-    """
-    x = np.array(x0, dtype=float)
-    n = x.shape[0]
-    w = np.ones(n) if scale is None else np.asarray(scale, dtype=float)
-    wexp = w.reshape((n,) + (1,) * (x.ndim - 1))
-
-    def norm(f):
-        return np.max(np.abs(f * wexp), axis=0)
-
-    f = np.real(fun(x))
-    res = norm(f)
-    history = [float(np.max(res))]
-    it = 0
-    while it < maxiter and not np.all(res <= tol):
-        it += 1
-        if not np.all(np.isfinite(f)):
-            break
-        J = jacobian(fun, x, jac)
-        dx = _solve(J, -f)
-        active = res > tol
-        dx = np.where(active, dx, 0.0)
-        step = np.ones_like(res)
-        xn = x + dx
-        fn = np.real(fun(xn))
-        rn = norm(fn)
-        if damped:
-            for _ in range(10):
-                bad = ~(rn < res) & active & ~(rn <= tol)
-                bad &= ~np.isfinite(rn) | (rn >= res)
-                if not np.any(bad):
-                    break
-                step = np.where(bad, step * 0.5, step)
-                xn = x + dx * step
-                fn = np.real(fun(xn))
-                rn = norm(fn)
-        x, f, res = xn, fn, np.where(np.isfinite(rn), rn, np.inf)
-        history.append(float(np.max(res)))
-    return NewtonResult(x=x, residual=res, iterations=it, converged=res <= tol, history=history)
-
-
-# --------------------------------------------------------------------------------------------
-# Newton's method on truncated power series (paper: "Newton operator with series").
-# --------------------------------------------------------------------------------------------
+    @property
+    def message(self) -> str:
+        """The warning text: unknowns, failed times, worst residual and its time."""
+        return (f"Newton ({', '.join(self.names)}) did not reach {_exponent_form(self.tol)} after {self.maxiter} "
+                f"iterations at {self.n_nodes} node(s), t = {_time_ranges(self.times, self.nodes)} s; worst "
+                f"residual {self.worst_residual:.3g} at t = {self.worst_time:.6g} s (trajectory too close to a "
+                f"singularity of the flat output, or outside what the aircraft can fly?)")
 
 
 @dataclass
@@ -166,13 +102,20 @@ class SeriesNewtonReport:
     names : tuple of str
         The unknowns.
     t_nodes : ndarray
+        Times of the nodes [s].
     constant_residual : ndarray (nodes,)
         Max-norm residual of the constant-term (pointwise) Newton at each node.
     constant_iterations : int
+        Pointwise Newton iterations (the largest over the memory restarts).
     series_residual : ndarray (nodes,)
         Max abs coefficient of the residual series at the final order.
+    doubling_orders : list of int
+        Working orders of the precision-doubling steps.
     warnings : list of str
-        The paper's rule: residual above 1e-3 after 20 iterations, with time and residual.
+        Messages of ``failures``, for printing.
+    failures : list of NewtonFailure
+        The paper's rule broken (residual above 1e-3 after 20 iterations): empty, or one
+        record naming the failed nodes, their times and the worst residual.
     """
 
     names: tuple
@@ -182,20 +125,12 @@ class SeriesNewtonReport:
     series_residual: np.ndarray
     doubling_orders: list
     warnings: list = field(default_factory=list)
+    failures: list = field(default_factory=list)
 
     @property
     def worst_residual(self) -> float:
+        """Largest of the constant-term and series residuals over the nodes."""
         return float(max(np.max(self.constant_residual), np.max(self.series_residual)))
-
-
-def _time_ranges(t: np.ndarray, idx: np.ndarray) -> str:
-    """'0 .. 2.5, 7' for consecutive runs of node indices."""
-    runs, start = [], idx[0]
-    for a, b in zip(idx, list(idx[1:]) + [None]):
-        if b is None or b != a + 1:
-            runs.append(f"{t[start]:.6g}" if a == start else f"{t[start]:.6g} .. {t[a]:.6g}")
-            start = b
-    return ", ".join(runs)
 
 
 def _series_solve(Jc: np.ndarray, Gc: np.ndarray) -> np.ndarray:
@@ -292,15 +227,14 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         x = np.where(improved, r2.x, x)
         cres = np.where(improved, r2.residual, cres)
         its = max(its, r2.iterations)
-    warnings = []
+    failures = []
     flat_t = np.ravel(t_nodes)
-    failed = np.flatnonzero(~(np.ravel(cres) <= PAPER_TOL))  # NaN fails too
+    flat_r = np.ravel(cres)
+    failed = np.flatnonzero(~(flat_r <= PAPER_TOL))  # NaN fails too
     if failed.size:
-        worst = int(failed[np.argmax(np.ravel(cres)[failed])])
-        warnings.append(f"Newton ({', '.join(names)}) did not reach 1e-3 after {maxiter} iterations at "
-                        f"{failed.size} node(s), t = {_time_ranges(flat_t, failed)} s; worst residual "
-                        f"{np.ravel(cres)[worst]:.3g} at t = {flat_t[worst]:.6g} s (trajectory too close to a "
-                        f"singularity of the flat output, or outside what the aircraft can fly?)")
+        worst = int(failed[np.argmax(flat_r[failed])])
+        failures.append(NewtonFailure(tuple(names), failed, flat_t[failed], flat_r[failed], float(flat_r[worst]),
+                                      float(flat_t[worst]), maxiter, PAPER_TOL))
 
     # Lift to series by precision doubling.
     def padded(u: Series, k: int) -> Series:
@@ -335,5 +269,6 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
     final = residual(u, order)
     sres = np.max(np.stack([np.max(np.abs(np.broadcast_to(r.coeffs, batch + (order + 1,))), axis=-1)
                             for r in final]), axis=0)
-    rep = SeriesNewtonReport(tuple(names), t_nodes, cres, its, sres, orders, warnings)
+    rep = SeriesNewtonReport(tuple(names), t_nodes, cres, its, sres, orders,
+                             [f.message for f in failures], failures)
     return u, rep

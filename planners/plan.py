@@ -11,7 +11,7 @@ and its k-th derivative is the exact k-th derivative of that expression
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -22,6 +22,8 @@ from gna.eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, deriva
 from gna.errors import InputError
 
 from .flat import FlatProblem, NodeSolution
+from .newton import NewtonFailure
+from .singularity import SingularityReport
 
 PLAN_VARIABLES = STATE_NAMES + CONTROL_NAMES
 
@@ -54,8 +56,14 @@ class Plan:
         ``iterates[0]`` is the plain flat plan (H at given values), ``iterates[-1]`` the J-th
         generalized-flatness iterate.
     warnings : list of str
+        Everything to report, for printing: Newton failures, singularities, envelope.
     name : str
+        Scenario name.
     timings : dict
+        Wall time [s] of each iterate j.
+    singularities : SingularityReport or None
+        The singularity monitor's conditions along iterate 0 (set by
+        :func:`~planners.generalized.plan_motion`).
     """
 
     problem: FlatProblem
@@ -64,6 +72,7 @@ class Plan:
     warnings: list = field(default_factory=list)
     name: str = "plan"
     timings: dict = field(default_factory=dict)
+    singularities: SingularityReport | None = None
 
     @property
     def aircraft(self) -> Aircraft:
@@ -103,6 +112,17 @@ class Plan:
         j : int
             Iterate (default: the last).
         derivative : int
+            Order of the time derivative (0: the value).
+
+        Returns
+        -------
+        float or ndarray, shape (N,)
+            Value at each time, in the variable's unit (per second^derivative); a float for a scalar ``t``.
+
+        Raises
+        ------
+        InputError
+            Unknown variable or iterate, or a time outside the plan.
         """
         out = self._evaluate_many((name,), t, j, derivative)[0]
         return out if np.ndim(t) else out[0]
@@ -147,24 +167,88 @@ class Plan:
         return out
 
     def state(self, t, j: int = -1) -> np.ndarray:
-        """The 12 states at ``t`` (shape (12,) or (12, N))."""
+        """The 12 states at ``t``.
+
+        Parameters
+        ----------
+        t : float or array, shape (N,)
+            Times within ``[t0, t1]`` [s].
+        j : int
+            Iterate (default: the last).
+
+        Returns
+        -------
+        ndarray, shape (12,) or (12, N)
+            States in the order of :data:`gna.eom.STATE_NAMES` (SI, rad).
+        """
         out = self._evaluate_many(STATE_NAMES, t, j)
         return out if np.ndim(t) else out[:, 0]
 
     def controls(self, t, j: int = -1) -> np.ndarray:
-        """The 5 controls (F, eta, dl, dm, dn) at ``t``."""
+        """The 5 controls at ``t``.
+
+        Parameters
+        ----------
+        t : float or array, shape (N,)
+            Times within ``[t0, t1]`` [s].
+        j : int
+            Iterate (default: the last).
+
+        Returns
+        -------
+        ndarray, shape (5,) or (5, N)
+            ``(F, eta, dl, dm, dn)`` [N, -, rad, rad, rad].
+        """
         out = self._evaluate_many(CONTROL_NAMES, t, j)
         return out if np.ndim(t) else out[:, 0]
 
     def control_function(self, j: int = -1):
-        """``f(t) -> 5 controls``, for the simulators."""
+        """The controls of iterate ``j`` as a function of time, for the simulators.
+
+        Parameters
+        ----------
+        j : int
+            Iterate (default: the last).
+
+        Returns
+        -------
+        callable
+            ``f(t) -> ndarray, shape (5,)``: the controls of :meth:`controls` at time ``t`` [s].
+        """
         return lambda t: self.controls(t, j)
 
     def initial_state(self, j: int = -1) -> np.ndarray:
+        """The 12 states at the start of the plan.
+
+        Parameters
+        ----------
+        j : int
+            Iterate (default: the last).
+
+        Returns
+        -------
+        ndarray, shape (12,)
+            States at ``t0`` (SI, rad).
+        """
         return self.state(self.t0, j)
 
     def to_dataframe(self, t=None, j: int = -1, step: float | None = None) -> pd.DataFrame:
-        """States and controls of iterate ``j`` on a time grid (default: the nodes)."""
+        """States and controls of iterate ``j`` on a time grid.
+
+        Parameters
+        ----------
+        t : array, shape (N,), optional
+            Times [s] (default: the nodes, or a regular grid of ``step``).
+        j : int
+            Iterate (default: the last).
+        step : float, optional
+            Step [s] of a regular grid from ``t0`` to ``t1`` when ``t`` is not given.
+
+        Returns
+        -------
+        DataFrame
+            One column per state and control (SI, rad), indexed by ``t``.
+        """
         if t is None:
             t = self.t_nodes if step is None else np.arange(self.t0, self.t1 + 0.5 * step, step)
         t = np.asarray(t, dtype=float)
@@ -173,13 +257,35 @@ class Plan:
         return pd.DataFrame(data, index=pd.Index(t, name="t"))
 
     def node_values(self, j: int = -1) -> tuple[State, Controls]:
-        """States and controls at the nodes (constant terms)."""
+        """States and controls at the nodes (constant terms of the series).
+
+        Parameters
+        ----------
+        j : int
+            Iterate (default: the last).
+
+        Returns
+        -------
+        tuple of (State, Controls)
+            Arrays of shape (nodes,) (SI, rad).
+        """
         s = self._iterate(j).series
         v = {n: np.real(s[n].constant_term) for n in PLAN_VARIABLES}
         return State(*(v[n] for n in STATE_NAMES)), Controls(*(v[n] for n in CONTROL_NAMES))
 
     def node_derivatives(self, j: int = -1) -> State:
-        """Time derivatives of the states at the nodes, from the series (first coefficients)."""
+        """Time derivatives of the states at the nodes, from the series (first coefficients).
+
+        Parameters
+        ----------
+        j : int
+            Iterate (default: the last).
+
+        Returns
+        -------
+        State
+            Arrays of shape (nodes,) (SI units per second).
+        """
         s = self._iterate(j).series
         return State(*(np.real(s[n].coeffs[..., 1]) for n in STATE_NAMES))
 
@@ -188,6 +294,20 @@ class Plan:
 
         ``model="simple"`` uses the H values the iterate was computed with
         (``h``; default the problem's for j = 0 or the previous iterate's).
+
+        Parameters
+        ----------
+        model : {"full", "simple"}
+            Model of :func:`gna.eom.derivatives`.
+        j : int
+            Iterate (default: the last).
+        h : HValues, optional
+            Values of the neglected terms for ``model="simple"``.
+
+        Returns
+        -------
+        DataFrame
+            One column per state (SI units per second), indexed by the node times.
         """
         st, ct = self.node_values(j)
         if model == "simple" and h is None:
@@ -203,7 +323,20 @@ class Plan:
                             index=pd.Index(self.t_nodes, name="t"))
 
     def convergence_table(self, variables=("F", "dl", "dm", "dn"), times=None) -> pd.DataFrame:
-        """Values of ``variables`` at ``times`` for every iterate j = 0..J (the paper's aileron-roll table)."""
+        """Values of ``variables`` at ``times`` for every iterate j = 0..J (the paper's aileron-roll table).
+
+        Parameters
+        ----------
+        variables : sequence of str
+            Plan variables (default the controls ``F, dl, dm, dn``).
+        times : sequence of float, optional
+            Times [s] (default: ``t0``).
+
+        Returns
+        -------
+        DataFrame
+            Index ``(t, variable)``, one column ``J=j`` per iterate.
+        """
         times = [self.t0] if times is None else list(times)
         rows = {}
         for tt in times:
@@ -214,23 +347,54 @@ class Plan:
         return df
 
     @property
+    def newton_failure_records(self) -> list[NewtonFailure]:
+        """Where the paper's Newton rule failed (residual above 1e-3 after 20 iterations), as records.
+
+        One :class:`~planners.newton.NewtonFailure` per iterate and stage that failed, in the
+        order j = 0..J, stage 2 before stage 4, with its ``iterate`` and ``stage`` filled in.
+        """
+        return [replace(f, stage=stage, iterate=j)
+                for j, it in enumerate(self.iterates)
+                for stage, rep in it.reports.items()
+                for f in getattr(rep, "failures", ())]
+
+    @property
     def newton_failures(self) -> list[str]:
-        """The warnings of the paper's Newton rule (residual above 1e-3 after 20 iterations)."""
-        return [w for w in self.warnings if "did not reach 1e-3" in w]
+        """The messages of :attr:`newton_failure_records`, prefixed by their iterate, for printing."""
+        return [f"iterate j = {f.iterate}: {f.message}" for f in self.newton_failure_records]
 
     @property
     def feasible(self) -> bool:
         """False when Newton failed somewhere: the plan is not a solution of the model there."""
-        return not self.newton_failures
+        return not self.newton_failure_records
 
     def worst_newton_residual(self) -> float:
+        """Largest Newton residual (constant terms and series) over iterates and stages.
+
+        Returns
+        -------
+        float
+            Max-norm residual (stage-2 residuals are over g, stage-4 in rad/s^2).
+        """
         return max(r.worst_residual for it in self.iterates for r in it.reports.values())
 
 
 def save_plan(plan: Plan, out_dir, step: float | None = None) -> dict:
-    """Write a plan to ``out_dir``: node series (npz), CSV tables of every iterate, singularity table.
+    """Write a plan to ``out_dir``: node series (npz), CSV tables of iterates 0 and J, singularity table.
 
-    Returns the mapping of what was written to its path.
+    Parameters
+    ----------
+    plan : Plan
+        The plan to write.
+    out_dir : str or Path
+        Folder, created if needed.
+    step : float, optional
+        Step [s] of the CSV time grid (default: a quarter of the smallest node spacing).
+
+    Returns
+    -------
+    dict
+        What was written (``"series"``, ``"plan_j0"``, ...) -> its path.
     """
     from pathlib import Path
 
@@ -249,7 +413,7 @@ def save_plan(plan: Plan, out_dir, step: float | None = None) -> dict:
         p = out / f"plan_j{j}.csv"
         plan.to_dataframe(step=step, j=j).to_csv(p, float_format="%.10g")
         written[f"plan_j{j}"] = str(p)
-    sing = getattr(plan, "singularities", None)
+    sing = plan.singularities
     if sing is not None:
         p = out / "singularities.csv"
         sing.table.to_csv(p, float_format="%.8g")

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from planners.newton import jacobian
+from gna.solve import jacobian
 
 from .flat import force_residuals
 
@@ -81,7 +81,21 @@ def _ranges(ts) -> str:
 
 
 def monitor(plan, j: int = 0) -> SingularityReport:
-    """Evaluate the singularity conditions at the nodes of iterate ``j`` (default: the flat plan)."""
+    """Evaluate the singularity conditions at the nodes of iterate ``j``.
+
+    Parameters
+    ----------
+    plan : Plan
+        The plan (its problem gives the flat output's kind).
+    j : int
+        Iterate (default 0: the flat plan).
+
+    Returns
+    -------
+    SingularityReport
+        The determinant of the flat output's stage-2 system (eq. cond_beta, stalling_cond,
+        cond_F, or the mixed 4x4), ``V cos(gamma)`` [m/s] and ``cos(beta)`` at the nodes, and warnings.
+    """
     prob = plan.problem
     ac, env = prob.aircraft, prob.env
     sol = plan.iterates[j]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planners.newton import PAPER_MAXITER, jacobian, newton, newton_series
+from planners.newton import PAPER_MAXITER, PAPER_TOL, NewtonFailure, jacobian, newton, newton_series
 from planners.series import Series
 
 
@@ -60,3 +60,33 @@ def test_newton_series_paper_warning_names_time():
     _, rep = newton_series(residual, [Series.constant(np.ones(3), 0)], 3, names=("u",), t_nodes=t0)
     assert len(rep.warnings) == 1
     assert "did not reach 1e-3 after 20 iterations at 3 node(s), t = 0 .. 2 s" in rep.warnings[0]
+
+
+def test_newton_series_failure_is_a_record():
+    """The failure is structured: unknowns, node indices and times, worst residual and its time."""
+    t0 = np.array([0.0, 1.0, 2.0, 3.0, 4.0])
+
+    def residual(u, k):
+        # u^2 + c = 0 has a real root only where c <= 0: nodes 1, 2 and 4 fail
+        c = np.array([-1.0, 1.0, 3.0, -4.0, 2.0])
+        return [u[0] * u[0] + c]
+
+    _, rep = newton_series(residual, [Series.constant(np.ones(5), 0)], 2, names=("u",), t_nodes=t0)
+    assert len(rep.failures) == 1
+    f = rep.failures[0]
+    assert isinstance(f, NewtonFailure)
+    assert f.names == ("u",) and f.tol == PAPER_TOL and f.maxiter == PAPER_MAXITER
+    assert list(f.nodes) == [1, 2, 4] and list(f.times) == [1.0, 2.0, 4.0] and f.n_nodes == 3
+    assert f.worst_residual == max(f.residuals) and f.worst_time == f.times[np.argmax(f.residuals)]
+    assert f.stage is None and f.iterate is None
+    assert rep.warnings == [f.message]
+    assert "at 3 node(s), t = 1 .. 2, 4 s" in f.message
+
+
+def test_pointwise_newton_lives_in_the_model_package():
+    import importlib
+
+    import gna.solve
+    pn = importlib.import_module("planners.newton")  # the package re-exports the function ``newton``
+    assert pn.newton is gna.solve.newton and pn.jacobian is gna.solve.jacobian
+    assert pn.NewtonResult is gna.solve.NewtonResult

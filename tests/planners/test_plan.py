@@ -83,3 +83,33 @@ def test_open_loop_full_model_follows_generalized_plan(weave_plan):
     # the blend of order-1 control series between nodes, amplified by the open-loop (unstabilised) dynamics.
     assert devs[plan.J] < 0.2
     assert devs[0] > 1000 * devs[plan.J]
+
+
+def test_infeasible_plan_reports_structured_newton_failures():
+    """Plan.feasible and Plan.newton_failures come from the Newton failure records, not from wording."""
+    from planners.generalized import plan_scenario
+    from planners.newton import NewtonFailure
+    from planners.singularity import SingularityReport
+
+    from .conftest import make_scenario
+
+    sc = make_scenario(name="fast", time={"t0": 0.0, "t1": 10.0, "step": 0.5}, generalized={"J": 1},
+                       flat_outputs={"x": "150*t", "y": "400*sin(t)", "z": "-3000 + 300*sin(2*t)"})
+    plan = plan_scenario(sc)
+    assert not plan.feasible
+    recs = plan.newton_failure_records
+    assert recs and all(isinstance(r, NewtonFailure) for r in recs)
+    assert {(r.iterate, r.stage) for r in recs} >= {(0, "stage2"), (1, "stage2")}
+    r0 = recs[0]
+    assert r0.names == ("alpha", "beta", "mu", "F") and r0.worst_residual > 1e-3
+    assert r0.worst_time in r0.times and set(r0.times) <= set(plan.t_nodes)
+    # the printed messages are those of the records, and are among the plan's warnings
+    assert plan.newton_failures == [f"iterate j = {r.iterate}: {r.message}" for r in recs]
+    assert all(m in plan.warnings for m in plan.newton_failures)
+    assert isinstance(plan.singularities, SingularityReport) and plan.singularities.warnings
+
+
+def test_feasible_plan_has_no_failure_records(weave_plan):
+    _, plan = weave_plan
+    assert plan.feasible and plan.newton_failure_records == [] and plan.newton_failures == []
+    assert "singularities" in {f.name for f in __import__("dataclasses").fields(plan)}
