@@ -7,7 +7,7 @@ from pathlib import Path
 
 from gna.aircraft import list_aircraft, load_aircraft
 from gna.errors import InputError
-from harness import jsbsim_export as jx
+from harness.engines.jsbsim import export as jx
 
 
 def register(sub) -> None:

@@ -89,7 +89,7 @@ def test_bad_inputs(f16_trim):
         simulate(a, np.array(t.controls, dtype=float), (0, 1), np.r_[x0[:3], -1.0, x0[4:]])
     with pytest.raises(InputError, match="non-finite"):
         simulate(a, np.array(t.controls, dtype=float), (0, 1), np.r_[x0[:3], np.nan, x0[4:]])
-    with pytest.raises(InputError, match="5 constants"):
+    with pytest.raises(InputError, match="5 values"):
         simulate(a, [1.0, 2.0], (0, 1), x0)
     with pytest.raises(InputError, match="increasing"):
         simulate(a, np.array(t.controls, dtype=float), (1, 0), x0)

@@ -13,7 +13,7 @@ import pytest
 from gna import units
 from gna.aero import AERO_VARIABLES, AeroState, Term, TermTable
 from gna.aircraft import Propulsion, list_aircraft, load_aircraft
-from harness import jsbsim_export as jx
+from harness.engines.jsbsim import export as jx
 from harness.cli import main
 from harness.engines import load_fdm
 

@@ -32,7 +32,7 @@ from gna.aircraft import Propulsion, list_aircraft, load_aircraft
 from gna.atmosphere import ISA, ConstantDensity, Environment
 from gna.eom import Controls, State, derivatives, loads
 from gna.frames import C_body_wind
-from harness import jsbsim_export as jx
+from harness.engines.jsbsim import export as jx
 from harness.engines import initial_condition_properties, load_fdm
 
 N_SAMPLES = 200
