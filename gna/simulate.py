@@ -127,9 +127,9 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
         if nc:
             d = np.concatenate([d, np.asarray(ctrl.derivative(t, y[:12], y[12:]), dtype=float).reshape(nc)])
         if not np.all(np.isfinite(d)):
-            names_bad = [n for n, v in zip(STATE_NAMES + names, d) if not math.isfinite(v)]
+            names_bad = [f"{n}' = {v}" for n, v in zip(STATE_NAMES + names, d) if not math.isfinite(v)]
             if not np.all(np.isfinite(u)):
-                names_bad += [f"control {n}" for n, v in zip(CONTROL_NAMES, u) if not math.isfinite(v)]
+                names_bad += [f"control {n} = {v}" for n, v in zip(CONTROL_NAMES, u) if not math.isfinite(v)]
             raise _NonFinite(t, names_bad)
         return d
     solver = _SOLVERS[method](rhs, t0, y0, t1, rtol=rtol, atol=atol, max_step=max_step)
