@@ -114,15 +114,56 @@ class StatelessController:
     n_states = 0
 
     def initial_state(self, t0: float, x0: np.ndarray) -> np.ndarray:
-        """No state: an empty array."""
+        """No state: an empty array.
+
+        Parameters
+        ----------
+        t0 : float
+            Start time [s].
+        x0 : ndarray, shape (12,)
+            Initial aircraft state.
+
+        Returns
+        -------
+        ndarray, shape (0,)
+        """
         return _EMPTY
 
     def derivative(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
-        """No state: an empty array."""
+        """No state: an empty array.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        x : ndarray, shape (12,)
+            Aircraft state.
+        xc : ndarray, shape (0,)
+            Controller state (empty).
+
+        Returns
+        -------
+        ndarray, shape (0,)
+        """
         return _EMPTY
 
     def output(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
-        """``function(t, x)`` as a float array of shape (5,)."""
+        """``function(t, x)`` as a float array.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        x : ndarray, shape (12,)
+            Aircraft state.
+        xc : ndarray, shape (0,)
+            Controller state (empty).
+
+        Returns
+        -------
+        ndarray, shape (5,)
+            ``(dF [N], d_eta [-], d_dl, d_dm, d_dn [rad])``.
+        """
         return np.asarray(self.function(t, x), dtype=float).reshape(5)
 
 
@@ -163,6 +204,7 @@ def state_names(controller: Controller | None) -> tuple[str, ...]:
     Parameters
     ----------
     controller : Controller or None
+        The controller (None: no states).
 
     Returns
     -------

@@ -119,7 +119,7 @@ def bank_angle(alpha, beta, down, sin=np.sin, cos=np.cos, atan2=np.arctan2):
     Returns
     -------
     float or ndarray
-        mu [rad] in (-pi, pi].
+        The bank angle mu [rad] in (-pi, pi].
     """
     ca, sa, cb, sb = cos(alpha), sin(alpha), cos(beta), sin(beta)
     d1, d2, d3 = down
@@ -142,7 +142,7 @@ def bank_from_euler(alpha, beta, phi, theta, sin=np.sin, cos=np.cos, atan2=np.ar
     Returns
     -------
     float or ndarray
-        mu [rad].
+        The bank angle mu [rad].
     """
     cth = cos(theta)
     return bank_angle(alpha, beta, (-sin(theta), sin(phi) * cth, cos(phi) * cth), sin, cos, atan2)

@@ -241,7 +241,7 @@ class RunSettings(Mapping):
     ``settings["dt"]`` and ``settings.get("earth")`` work: keys are the field
     names (fields left at None are omitted) followed by the keys of ``extra``.
 
-    Attributes
+    Parameters
     ----------
     engine : str
         Engine name (a registry name such as ``"inhouse"``, ``"jsbsim"``).
@@ -309,7 +309,13 @@ class RunSettings(Mapping):
     __hash__ = None  # extra is a mutable mapping
 
     def as_dict(self) -> dict[str, Any]:
-        """A plain dict of the non-None fields and the extra records (JSON-friendly)."""
+        """A plain dict of the non-None fields and the extra records.
+
+        Returns
+        -------
+        dict
+            Key -> value, in the mapping's order.
+        """
         return {k: self[k] for k in self}
 
 
@@ -317,7 +323,7 @@ class RunSettings(Mapping):
 class SimulationResult:
     """Outcome of a run on any engine.
 
-    Attributes
+    Parameters
     ----------
     df : pandas.DataFrame
         Indexed by time ``t`` [s]; columns exactly :data:`COLUMNS`: the 12
@@ -325,6 +331,7 @@ class SimulationResult:
         quantities (``qbar``, ``rho``, load factors, wind-axis forces ``X, Y,
         Z``, body moments ``L, M, N``, coefficients).
     status : {"completed", "domain", "failed"}
+        How the run ended ("domain": it left the physical domain or diverged).
     message : str
         Empty when completed; otherwise names the time, variable and value.
     warnings : list of str

@@ -40,13 +40,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Iterable
 from xml.sax.saxutils import escape
 
 from gna import units
 from gna.aero import AERO_VARIABLES, COEFFICIENTS
-from gna.aircraft import Aircraft, list_aircraft, load_aircraft
+from gna.aircraft import Aircraft
 from gna.atmosphere import H_TROPO, LAPSE, R_AIR, RHO0, RHO_TROPO, T0, T_TROPO
 from gna.errors import InputError
 
@@ -218,6 +216,7 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
     Parameters
     ----------
     aircraft : Aircraft
+        The aircraft (any, bundled or built in memory).
     planet : FlatPlanet or None
         The flat-earth planet written into the file; ``None`` writes no
         ``<planet>`` (JSBSim then flies its default rotating WGS84 Earth).
@@ -356,57 +355,3 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
     w.line()
     w.close("fdm_config")
     return w.text()
-
-
-def default_root() -> Path:
-    """The repository's ``aircraft_xml/`` folder."""
-    return Path(__file__).resolve().parents[3] / "aircraft_xml"
-
-
-def xml_path(root: str | Path, aircraft_id: str) -> Path:
-    """``root/<id>/<id>.xml``."""
-    return Path(root) / aircraft_id / f"{aircraft_id}.xml"
-
-
-def export_aircraft(aircraft: Aircraft, root: str | Path | None = None,
-                    planet: FlatPlanet | None = FlatPlanet()) -> Path:
-    """Write ``root/<id>/<id>.xml`` and return its path."""
-    path = xml_path(root if root is not None else default_root(), aircraft.id)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    text = aircraft_xml(aircraft, planet)
-    with open(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write(text)
-    return path
-
-
-def export_all(root: str | Path | None = None, ids: Iterable[str] | None = None) -> list[Path]:
-    """Export the given (default: all bundled) aircraft; returns the written paths."""
-    names = list(ids) if ids is not None else list_aircraft()
-    return [export_aircraft(load_aircraft(n), root) for n in names]
-
-
-def stale_files(root: str | Path | None = None, aircraft: Iterable[Aircraft] | None = None) -> list[str]:
-    """Problems of the files under ``root`` (missing, or different from a fresh export); empty when current.
-
-    Parameters
-    ----------
-    root : path, optional
-        Default :func:`default_root`.
-    aircraft : iterable of Aircraft, optional
-        Default: every bundled aircraft.
-
-    Returns
-    -------
-    list of str
-        One line per missing or stale file.
-    """
-    root = Path(root) if root is not None else default_root()
-    crafts = list(aircraft) if aircraft is not None else [load_aircraft(n) for n in list_aircraft()]
-    out = []
-    for a in crafts:
-        path = xml_path(root, a.id)
-        if not path.is_file():
-            out.append(f"{a.id}: {path} is missing")
-        elif path.read_text(encoding="utf-8") != aircraft_xml(a):
-            out.append(f"{a.id}: {path} differs from a fresh export")
-    return out

@@ -41,6 +41,15 @@ class Integrators:
     The default, Adams-Bashforth 4 with Buss's second-order quaternion
     integrator, is second order overall with smooth inputs and the most
     accurate in the convergence study of ``docs/jsbsim.md``.
+
+    Parameters
+    ----------
+    rotational_rate, translational_rate : str
+        Integrators of the body rates and of the velocity.
+    rotational_position : str
+        Integrator of the attitude quaternion (also Buss1, Buss2, local-linearization).
+    translational_position : str
+        Integrator of the position.
     """
 
     rotational_rate: str = "AB4"
@@ -141,6 +150,13 @@ def import_jsbsim():
 def load_fdm(xml_text: str, aircraft_id: str):
     """Load an aircraft file into a new ``jsbsim.FGFDMExec``, its console output captured.
 
+    Parameters
+    ----------
+    xml_text : str
+        The aircraft file.
+    aircraft_id : str
+        Its identifier (file name ``aircraft/<id>/<id>.xml`` in a temporary root).
+
     Returns
     -------
     fdm : jsbsim.FGFDMExec
@@ -157,7 +173,7 @@ def load_fdm(xml_text: str, aircraft_id: str):
     jsbsim = import_jsbsim()
     capture = _LogCapture(jsbsim)
     with tempfile.TemporaryDirectory(prefix="gflat-jsbsim-") as root, capture:
-        path = jx.xml_path(Path(root) / "aircraft", aircraft_id)
+        path = Path(root) / "aircraft" / aircraft_id / f"{aircraft_id}.xml"
         path.parent.mkdir(parents=True)
         path.write_text(xml_text, encoding="utf-8")
         fdm = jsbsim.FGFDMExec(root)
@@ -210,6 +226,20 @@ def initial_condition_properties(x0: np.ndarray, latitude: float = 0.0, longitud
     ``geodetic_altitude`` the altitude is written as ``ic/h-agl-ft`` (height
     above the WGS84 ellipsoid, the terrain being at zero: ``ic/geod-alt-ft``
     is read-only and ``ic/h-sl-ft`` geocentric).
+
+    Parameters
+    ----------
+    x0 : ndarray, shape (12,)
+        Wind-frame state (SI, rad).
+    latitude, longitude : float
+        Initial position [rad].
+    geodetic_altitude : bool
+        Write the altitude above the WGS84 ellipsoid.
+
+    Returns
+    -------
+    list of (str, float)
+        Property and value, in writing order.
     """
     x, y, z, V, gamma, chi, alpha, beta, mu, p, q, r = (float(v) for v in x0)
     phi, theta, psi = euler_from_wind(gamma, chi, mu, alpha, beta)

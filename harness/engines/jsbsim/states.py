@@ -94,7 +94,19 @@ def step_grid(t0: float, t1: float, dt_max: float, dt_out: float, t_eval) -> tup
 
 
 def align(angle: np.ndarray, reference: float) -> np.ndarray:
-    """Unwrap an angle history and shift it by whole turns so that it starts nearest ``reference``."""
+    """Unwrap an angle history and shift it by whole turns so that it starts nearest ``reference``.
+
+    Parameters
+    ----------
+    angle : ndarray, shape (n,)
+        Angles [rad].
+    reference : float
+        Angle [rad] the history should start nearest to.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
     a = np.unwrap(np.asarray(angle, dtype=float))
     if a.size:
         a = a + 2.0 * math.pi * np.round((reference - a[0]) / (2.0 * math.pi))
@@ -102,7 +114,17 @@ def align(angle: np.ndarray, reference: float) -> np.ndarray:
 
 
 class StateConverter:
-    """JSBSim raw outputs -> the 12 wind-frame states (scalar per step, or vectorised)."""
+    """JSBSim raw outputs -> the 12 wind-frame states (scalar per step, or vectorised).
+
+    Parameters
+    ----------
+    x0 : ndarray, shape (12,)
+        Initial state (origin of the NED plane; chi and mu start at its values).
+    radius_ft : float
+        Sea-level radius of the flat planet [ft].
+    wgs84 : pair of float or None
+        Initial (latitude, longitude) [rad] on JSBSim's WGS84 Earth; None on the flat planet.
+    """
 
     def __init__(self, x0: np.ndarray, radius_ft: float, wgs84: tuple[float, float] | None):
         self.x0 = np.asarray(x0, dtype=float)
@@ -129,14 +151,34 @@ class StateConverter:
                 p, q, r]
 
     def vector(self, raw: np.ndarray) -> np.ndarray:
-        """Raw outputs (14, n) -> states (12, n); chi and mu unwrapped from x0's values."""
+        """Raw outputs -> states; chi and mu unwrapped from x0's values.
+
+        Parameters
+        ----------
+        raw : ndarray, shape (14, n)
+            Values of the position nodes and :data:`STATE_NODES`.
+
+        Returns
+        -------
+        ndarray, shape (12, n)
+        """
         s = np.array(self._states(raw, np.sin, np.cos, np.arctan2), dtype=float).reshape(12, -1)
         s[5] = align(s[5], self.x0[5])
         s[8] = align(s[8], self.x0[8])
         return s
 
     def scalar(self, raw: Sequence[float]) -> np.ndarray:
-        """One step (pure-Python arithmetic), chi and mu continued from the previous call."""
+        """One step (pure-Python arithmetic), chi and mu continued from the previous call.
+
+        Parameters
+        ----------
+        raw : sequence of 14 float
+            Values of the position nodes and :data:`STATE_NODES`.
+
+        Returns
+        -------
+        ndarray, shape (12,)
+        """
         s = self._states(raw, math.sin, math.cos, math.atan2)
         s[5] = self._chi + math.remainder(s[5] - self._chi, 2.0 * math.pi)
         s[8] = self._mu + math.remainder(s[8] - self._mu, 2.0 * math.pi)

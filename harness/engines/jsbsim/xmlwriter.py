@@ -8,7 +8,22 @@ from gna.errors import InputError
 
 
 def number_text(v: float) -> str:
-    """Shortest round-trip text of a float (deterministic, exact)."""
+    """Shortest round-trip text of a float (deterministic, exact).
+
+    Parameters
+    ----------
+    v : float
+        A finite number.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InputError
+        For a non-finite number.
+    """
     v = float(v)
     if not math.isfinite(v):
         raise InputError(f"cannot write a non-finite number ({v}) to a JSBSim file")
@@ -20,7 +35,18 @@ def number_text(v: float) -> str:
 
 
 def comment_text(text: str) -> str:
-    """Text safe inside an XML comment."""
+    """Text safe inside an XML comment.
+
+    Parameters
+    ----------
+    text : str
+        Any text.
+
+    Returns
+    -------
+    str
+        One line without ``--``.
+    """
     return " ".join(str(text).replace("--", "- -").split())
 
 
