@@ -1,12 +1,17 @@
 """Speed of the coupled JSBSim engine against bare ``fdm.run()``, and its accuracy (no assertions).
 
-Speed (default).  The coupled run is :meth:`harness.propulsion.JSBSimEngine.simulate`: control
+Speed (default).  The coupled run is :meth:`harness.engines.JSBSimEngine.simulate`: control
 writes every step, divergence check, output reads, conversion to the 12
 wind-frame states and the DataFrame.  The bare loop is ``fdm.run()`` alone on
 the same aircraft file, settings and step.  Timings are medians of interleaved
 repetitions (expect +-15 % scatter on a shared 2-core machine)::
 
     python benchmarks/bench_jsbsim.py [--aircraft f16c] [--seconds 20] [--repeats 5]
+
+It ends with the closed-loop lines: real-time factors of the JSBSim engine open
+loop and with a 1-state controller (PI altitude hold) sampled at every step and
+at ``controller_dt = 1/60 s`` (medians), and of the in-house engine open and
+closed loop.
 
 Accuracy (``--accuracy``): largest differences JSBSim - in-house (DOP853 at
 1e-10) over 10 s of a smooth manoeuvre from trim (f16c, 150 m/s, 3000 m), for
@@ -59,6 +64,55 @@ def bare_steps_per_second(engine: JSBSimEngine, aircraft, env, x0, u0, steps: in
         return steps / (time.perf_counter() - t)
 
 
+
+
+class AltitudeHold:
+    """A 1-state controller: PI altitude hold on the elevator with pitch damping, speed hold on thrust."""
+
+    n_states = 1
+    state_names = ("I_z",)
+
+    def __init__(self, z_ref: float, V_ref: float):
+        self.z_ref, self.V_ref = z_ref, V_ref
+
+    def initial_state(self, t0, x0):
+        return np.zeros(1)
+
+    def derivative(self, t, x, xc):
+        return np.array([x[2] - self.z_ref])
+
+    def output(self, t, x, xc):
+        dm = -2e-3 * (x[2] - self.z_ref) - 4e-4 * xc[0] + 0.5 * x[4] + 0.3 * x[10]
+        return np.array([-2000.0 * (x[3] - self.V_ref), 0.0, 0.0, dm, 0.0])
+
+
+def closed_loop(a, env, x0, u0, seconds: float, repeats: int, controller_dt: float = 1.0 / 60.0) -> None:
+    """Real-time factors open loop and with a 1-state controller (medians of interleaved repetitions)."""
+    c = AltitudeHold(float(x0[2]), float(x0[3]))
+    x1 = x0.copy()
+    x1[2] += 5.0
+    runs = {"JSBSim open loop": (JSBSimEngine(), None),
+            "JSBSim, 1-state controller every step": (JSBSimEngine(), c),
+            f"JSBSim, 1-state controller, controller_dt = {controller_dt:.4g} s":
+                (JSBSimEngine(controller_dt=controller_dt), c),
+            "in-house open loop": (InHouseEngine(), None),
+            "in-house, 1-state controller": (InHouseEngine(), c)}
+    rtf = {k: [] for k in runs}
+    for _ in range(repeats):
+        for name, (eng, ctrl) in runs.items():
+            t = time.perf_counter()
+            res = eng.simulate(a, u0, (0.0, seconds), x1, env=env, controller=ctrl, dt_out=0.02)
+            wall = time.perf_counter() - t
+            assert res.status == "completed", res.message
+            rtf[name].append(seconds / wall)
+    base = {"JSBSim": statistics.median(rtf["JSBSim open loop"]),
+            "in-house": statistics.median(rtf["in-house open loop"])}
+    print(f"Closed loop, {a.id}, {seconds:g} s simulated, end to end, median of {repeats}")
+    print(f"  {'run':<56} {'x real time':>12} {'vs open loop':>13}")
+    for name in runs:
+        m = statistics.median(rtf[name])
+        ref = base["JSBSim" if name.startswith("JSBSim") else "in-house"]
+        print(f"  {name:<56} {m:12.1f} {100 * m / ref:12.0f}%")
 
 
 def _summary(table) -> str:
@@ -178,6 +232,7 @@ def main() -> None:
         c, lo = statistics.median(coupled[name]), statistics.median(loop[name])
         print(f"  {name + ', end to end':<56} {c:10.0f} {100 * c / b:7.0f}% {c * engine.dt:12.0f}")
         print(f"  {name + ', stepping loop':<56} {lo:10.0f} {100 * lo / b:7.0f}% {lo * engine.dt:12.0f}")
+    closed_loop(a, env, x0, u0, args.seconds, args.repeats)
 
 
 if __name__ == "__main__":

@@ -36,6 +36,11 @@ class Controller(Protocol):
     ----------
     n_states : int
         Number of controller states (0 for a static feedback).
+
+    Notes
+    -----
+    An optional attribute ``state_names`` (``n_states`` strings) names the
+    columns of a result's ``controller_states`` (:func:`state_names`).
     """
 
     n_states: int
@@ -193,3 +198,33 @@ def as_controller(obj) -> Controller | None:
         return StatelessController(obj)
     raise InputError(f"controller must be a Controller (n_states, initial_state, derivative, output) or a "
                      f"callable (t, x) -> 5 corrections; got {type(obj).__name__}")
+
+
+def state_names(controller: Controller | None) -> tuple[str, ...]:
+    """Names of a controller's states: its ``state_names`` attribute if any, else ``xc0, xc1, ...``.
+
+    Parameters
+    ----------
+    controller : Controller or None
+        The controller (None: no states).
+
+    Returns
+    -------
+    tuple of str
+        ``n_states`` names (empty for None or a static feedback).
+
+    Raises
+    ------
+    InputError
+        If ``state_names`` does not have ``n_states`` entries.
+    """
+    if controller is None:
+        return ()
+    n = int(controller.n_states)
+    names = getattr(controller, "state_names", None)
+    if names is None:
+        return tuple(f"xc{i}" for i in range(n))
+    names = tuple(str(v) for v in names)
+    if len(names) != n:
+        raise InputError(f"the controller names {len(names)} states ({', '.join(names)}) but has n_states = {n}")
+    return names

@@ -96,12 +96,53 @@ def wind_angles_from_body(uvw, C_bn):
     vd = C_bn[0, 2] * u + C_bn[1, 2] * v + C_bn[2, 2] * w
     gamma = np.arctan2(-vd, np.hypot(vn, ve))
     chi = np.arctan2(ve, vn)
-    # C_wn = C_wb C_bn, mu = atan2(C_wn[1,2], C_wn[2,2])
-    ca, sa, cb, sb = np.cos(alpha), np.sin(alpha), np.cos(beta), np.sin(beta)
-    # rows 1, 2 of C_wb = C_body_wind^T
-    w1 = (-ca * sb, cb, -sa * sb)
-    w2 = (-sa, 0.0 * sa, ca)
-    c12 = w1[0] * C_bn[0, 2] + w1[1] * C_bn[1, 2] + w1[2] * C_bn[2, 2]
-    c22 = w2[0] * C_bn[0, 2] + w2[1] * C_bn[1, 2] + w2[2] * C_bn[2, 2]
-    mu = np.arctan2(c12, c22)
+    mu = bank_angle(alpha, beta, (C_bn[0, 2], C_bn[1, 2], C_bn[2, 2]))
     return V, gamma, chi, alpha, beta, mu
+
+
+def bank_angle(alpha, beta, down, sin=np.sin, cos=np.cos, atan2=np.arctan2):
+    """Wind-axis bank angle mu from alpha, beta and the body components of the local vertical.
+
+    ``C_wn = C_wb C_bn`` and ``mu = atan2(C_wn[1, 2], C_wn[2, 2])`` (``C_wind_ned
+    = R1(mu) R2(gamma) R3(chi)``), with rows 1, 2 of ``C_wb = C_body_wind^T``
+    equal to ``(-ca sb, cb, -sa sb)`` and ``(-sa, 0, ca)``.
+
+    Parameters
+    ----------
+    alpha, beta : float or ndarray
+        Angle of attack and sideslip [rad].
+    down : sequence of 3 float or ndarray
+        Body components of the NED down axis: the third column of ``C_bn``.
+    sin, cos, atan2 : callable
+        Elementary functions (``math``'s for fast scalar use).
+
+    Returns
+    -------
+    float or ndarray
+        The bank angle mu [rad] in (-pi, pi].
+    """
+    ca, sa, cb, sb = cos(alpha), sin(alpha), cos(beta), sin(beta)
+    d1, d2, d3 = down
+    return atan2(-ca * sb * d1 + cb * d2 - sa * sb * d3, -sa * d1 + ca * d3)
+
+
+def bank_from_euler(alpha, beta, phi, theta, sin=np.sin, cos=np.cos, atan2=np.arctan2):
+    """Wind-axis bank angle mu from alpha, beta and the body Euler angles phi, theta.
+
+    The third column of ``C_bn = R1(phi) R2(theta) R3(psi)`` is
+    ``(-sin theta, sin phi cos theta, cos phi cos theta)`` (:func:`bank_angle`).
+
+    Parameters
+    ----------
+    alpha, beta, phi, theta : float or ndarray
+        Angles [rad].
+    sin, cos, atan2 : callable
+        Elementary functions (``math``'s for fast scalar use).
+
+    Returns
+    -------
+    float or ndarray
+        The bank angle mu [rad].
+    """
+    cth = cos(theta)
+    return bank_angle(alpha, beta, (-sin(theta), sin(phi) * cth, cos(phi) * cth), sin, cos, atan2)

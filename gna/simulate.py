@@ -3,14 +3,14 @@
 The integrator is scipy's DOP853 driven step by step, so that leaving the
 physical domain (V <= 0, |beta| >= pi/2, cos(gamma) = 0, non-finite values)
 stops the run at the located time with a message naming the variable, and the
-partial result is kept.
+partial result is kept.  A controller with its own states
+(:class:`gna.controller.Controller`) is integrated together with the aircraft:
+the integrated vector is ``(x, xc)`` with ``12 + n_states`` components.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -19,57 +19,20 @@ from scipy.optimize import brentq
 
 from .aircraft import Aircraft
 from .atmosphere import Environment
+from .controller import as_controller, state_names
 from .eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, derivatives, loads
 from .errors import InputError
+from .trajectory import (ControlFunction, RunSettings, SimulationResult, check_span, control_function,
+                         controller_frames, initial_state)
 
-ControlFunction = Callable[[float], Sequence[float]]
+__all__ = ["ControlFunction", "SimulationResult", "RunSettings", "simulate", "envelope_warnings"]
 
 _SOLVERS = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau}
-
-
-@dataclass
-class SimulationResult:
-    """Outcome of :func:`simulate`.
-
-    Attributes
-    ----------
-    df : pandas.DataFrame
-        Indexed by time ``t`` [s]: the 12 states, the 5 applied controls and
-        derived quantities (``qbar``, ``rho``, load factors ``nx, ny, nz``,
-        wind-axis forces ``X, Y, Z``, body moments ``L, M, N``, coefficients).
-    status : {"completed", "domain", "failed"}
-    message : str
-        Empty when completed; otherwise names the time, variable and value.
-    warnings : list of str
-        Envelope excursions (time, variable, value).
-    settings : dict
-        Integrator, tolerances, model, environment.
-    """
-
-    df: pd.DataFrame
-    status: str
-    message: str = ""
-    warnings: list = field(default_factory=list)
-    settings: dict = field(default_factory=dict)
-    t_end: float = float("nan")
-
-    @property
-    def completed(self) -> bool:
-        return self.status == "completed"
 
 
 class _NonFinite(Exception):
     def __init__(self, t, names):
         self.t, self.names = t, names
-
-
-def _as_control_function(controls) -> ControlFunction:
-    if callable(controls):
-        return controls
-    arr = np.asarray(controls, dtype=float)
-    if arr.shape != (5,):
-        raise InputError(f"controls must be a function of t or 5 constants (F, eta, dl, dm, dn), got shape {arr.shape}")
-    return lambda t: arr
 
 
 def _domain_functions():
@@ -87,61 +50,88 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
              controller=None, dt_out: float = 0.02, t_eval: np.ndarray | None = None,
              rtol: float = 1e-10, atol: float = 1e-10, method: str = "DOP853",
              max_step: float = np.inf) -> SimulationResult:
-    """Integrate the full or simple model.
+    """Integrate the full or simple model, with an optional feedback carrying its own states.
 
     Parameters
     ----------
     aircraft : Aircraft
-    controls : callable or sequence
-        ``controls(t) -> (F, eta, dl, dm, dn)``, or five constants.
-    t_span : (t0, t1)
-    x0 : State or array of 12
+        The aircraft.
+    controls : callable, object with ``controls(t)``, or sequence of 5 floats
+        Reference controls ``t [s] -> (F [N], eta [-], dl, dm, dn [rad])``,
+        a plan, or five constants (:func:`gna.trajectory.control_function`).
+    t_span : pair of float
+        ``(t0, t1)`` [s].
+    x0 : State or array_like, shape (12,)
+        Initial wind-frame state (SI, rad).
     env : Environment, optional
+        Atmosphere and gravity; default the ISA.
     model : {"full", "simple"}
+        Equations of motion.
     h : HValues, optional
         Neglected-term values for the simple model.
-    controller : callable, optional
-        ``controller(t, x) -> correction`` (5 values) added to the reference
-        controls (``x`` the 12-state array).
-    dt_out, t_eval
-        Output grid (``t_eval`` overrides ``dt_out``).
-    rtol, atol, method, max_step
-        Integrator settings (recorded in the result).
+    controller : Controller or callable, optional
+        Anything :func:`gna.controller.as_controller` takes: a controller with
+        ``n_states`` states (integrated with the aircraft), or ``f(t, x) -> 5
+        corrections``.  The applied controls are ``controls(t) +
+        controller.output(t, x, xc)``.
+    dt_out : float
+        Output interval [s] (ignored when ``t_eval`` is given).
+    t_eval : array_like, shape (n,), optional
+        Output times [s].
+    rtol, atol : float
+        Integrator tolerances (on the aircraft and controller states).
+    method : {"DOP853", "RK45", "Radau"}
+        scipy integrator.
+    max_step : float
+        Largest step [s].
 
     Returns
     -------
     SimulationResult
+        ``df`` with the applied controls; with a controller also
+        ``controller_states`` and ``feedback`` on the output grid.  Settings
+        record the integrator, tolerances, model, environment and controller.
+
+    Raises
+    ------
+    InputError
+        Bad span, initial state, controls, controller or integrator name.
     """
     env = env if env is not None else Environment()
-    t0, t1 = (float(v) for v in t_span)
-    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
-        raise InputError(f"t_span must be finite and increasing, got {t_span}")
-    y0 = np.asarray(x0, dtype=float).reshape(12)
-    if not np.all(np.isfinite(y0)):
-        bad = [n for n, v in zip(STATE_NAMES, y0) if not math.isfinite(v)]
-        raise InputError(f"initial state has non-finite values: {', '.join(bad)}")
-    if y0[3] <= 0:
-        raise InputError(f"initial speed must be positive, got V = {y0[3]} m/s")
+    t0, t1 = check_span(t_span)
+    y0 = initial_state(None, x0)
     if method not in _SOLVERS:
         raise InputError(f"unknown integrator {method!r}; choose from {', '.join(_SOLVERS)}")
-    ufun = _as_control_function(controls)
+    ufun = control_function(controls)
+    ctrl = as_controller(controller)
+    nc = 0 if ctrl is None else int(ctrl.n_states)
+    names = state_names(ctrl)
+    if nc:
+        xc0 = np.asarray(ctrl.initial_state(t0, y0.copy()), dtype=float).reshape(-1)
+        if xc0.shape != (nc,) or not np.all(np.isfinite(xc0)):
+            raise InputError(f"the controller's initial state must be {nc} finite values, got {xc0}")
+        y0 = np.concatenate([y0, xc0])
+
+    def feedback(t, y):
+        return ctrl.output(t, y[:12], y[12:])
 
     def applied(t, y):
         u = np.asarray(ufun(t), dtype=float)
-        if controller is not None:
-            u = u + np.asarray(controller(t, y), dtype=float)
+        if ctrl is not None:
+            u = u + np.asarray(feedback(t, y), dtype=float)
         return u
 
     def rhs(t, y):
         u = applied(t, y)
-        d = np.array(derivatives(aircraft, env, State(*y), Controls(*u), model, h), dtype=float)
+        d = np.array(derivatives(aircraft, env, State(*y[:12]), Controls(*u), model, h), dtype=float)
+        if nc:
+            d = np.concatenate([d, np.asarray(ctrl.derivative(t, y[:12], y[12:]), dtype=float).reshape(nc)])
         if not np.all(np.isfinite(d)):
-            names = [n for n, v in zip(STATE_NAMES, d) if not math.isfinite(v)]
+            names_bad = [f"{n}' = {v}" for n, v in zip(STATE_NAMES + names, d) if not math.isfinite(v)]
             if not np.all(np.isfinite(u)):
-                names += [f"control {n}" for n, v in zip(CONTROL_NAMES, u) if not math.isfinite(v)]
-            raise _NonFinite(t, names)
+                names_bad += [f"control {n} = {v}" for n, v in zip(CONTROL_NAMES, u) if not math.isfinite(v)]
+            raise _NonFinite(t, names_bad)
         return d
-
     solver = _SOLVERS[method](rhs, t0, y0, t1, rtol=rtol, atol=atol, max_step=max_step)
     events = _domain_functions()
     segments = []  # (t_lo, t_hi, dense)
@@ -197,17 +187,24 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     if status != "completed" and (grid.size == 0 or grid[-1] < t_end):
         grid = np.append(grid, t_end)
     Y = _evaluate_segments(segments, grid, y0, t0)
-    df = _frame(aircraft, env, grid, Y, applied, model, h)
+    df, dU = _frame(aircraft, env, grid, Y, ufun, feedback if ctrl is not None else None, model, h)
     warnings = envelope_warnings(aircraft, df)
-    settings = dict(method=method, rtol=rtol, atol=atol, max_step=max_step, model=model,
-                    environment=env.atmosphere.describe(), g=env.g,
-                    h=None if h is None else dict(h._asdict()))
-    return SimulationResult(df=df, status=status, message=message, warnings=warnings, settings=settings,
-                            t_end=t_end)
+    settings = RunSettings(
+        engine="gna.simulate", method=method, rtol=rtol, atol=atol, max_step=max_step, model=model,
+        environment=env.atmosphere.describe(), g=env.g,
+        controller=None if ctrl is None else "evaluated continuously on the integrated state",
+        controller_states=nc,
+        controller_scheme=None if ctrl is None else f"{method} (integrated with the aircraft states)",
+        extra={} if h is None else {"h": dict(h._asdict())})
+    result = SimulationResult(df=df, status=status, message=message, warnings=warnings, settings=settings,
+                              t_end=t_end)
+    if ctrl is not None:
+        result.controller_states, result.feedback = controller_frames(grid, names, Y[12:], dU)
+    return result
 
 
 def _evaluate_segments(segments, grid, y0, t0) -> np.ndarray:
-    Y = np.empty((12, grid.size))
+    Y = np.empty((y0.size, grid.size))
     if not segments:
         Y[:] = y0[:, None]
         return Y
@@ -221,8 +218,16 @@ def _evaluate_segments(segments, grid, y0, t0) -> np.ndarray:
     return Y
 
 
-def _frame(aircraft, env, grid, Y, applied, model, h) -> pd.DataFrame:
-    U = np.array([applied(t, Y[:, i]) for i, t in enumerate(grid)]).T.reshape(5, grid.size)
+def _frame(aircraft, env, grid, Y, ufun, feedback, model, h) -> tuple[pd.DataFrame, np.ndarray]:
+    """The result's DataFrame and the feedback part of the controls (5, n) on the grid."""
+    U = np.array([np.asarray(ufun(t), dtype=float) for t in grid]).T.reshape(5, grid.size)
+    if feedback is None:
+        dU = np.zeros_like(U)
+    else:
+        dU = np.array([np.asarray(feedback(t, Y[:, i]), dtype=float) for i, t in enumerate(grid)]).T.reshape(
+            5, grid.size)
+        U = U + dU
+    Y = Y[:12]
     s, u = State(*Y), Controls(*U)
     ld = loads(aircraft, env, s, u, model, h)
     data = {n: Y[i] for i, n in enumerate(STATE_NAMES)}
@@ -240,7 +245,7 @@ def _frame(aircraft, env, grid, Y, applied, model, h) -> pd.DataFrame:
     for name, v in zip(("CD", "CY", "CL", "Cl", "Cm", "Cn"), ld.moment_coeffs):
         data[name] = np.broadcast_to(v, grid.shape)
     df = pd.DataFrame({k: np.asarray(v, dtype=float) for k, v in data.items()}, index=pd.Index(grid, name="t"))
-    return df
+    return df, dU
 
 
 def _excursion(df, mask, name: str, values, worst_index: int, text: str) -> str:
@@ -257,7 +262,17 @@ def _excursion(df, mask, name: str, values, worst_index: int, text: str) -> str:
 def envelope_warnings(aircraft, df) -> list[str]:
     """Excursions of a trajectory outside the aircraft's envelope, control limits and thrust range.
 
-    Each warning names the span of times, its share of the run, the worst value and the limit.
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Its envelope, control limits and propulsion.
+    df : pandas.DataFrame
+        A trajectory indexed by time [s] with the columns alpha, beta, F, eta, dl, dm, dn.
+
+    Returns
+    -------
+    list of str
+        One warning per excursion: the span of times, its share of the run, the worst value and the limit.
     """
     out = []
     env = aircraft.envelope

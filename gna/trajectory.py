@@ -1,14 +1,31 @@
 """The trajectory contract shared by the model, the planners and every engine.
 
-Names and units of the columns of every trajectory gflat writes or compares:
-the 12 wind-frame states, the 5 controls and the derived quantities.  SI units,
-angles in radians; frames as in ``docs/conventions.md`` (NED position, wind-axis
-forces, body-axis moments about the CG).
+* Names and units of the columns of every trajectory gflat writes or compares:
+  the 12 wind-frame states, the 5 controls and the derived quantities
+  (:data:`COLUMNS`, :data:`UNITS`).  SI units, angles in radians; frames as in
+  ``docs/conventions.md`` (NED position, wind-axis forces, body-axis moments
+  about the CG).
+* Control sources: :data:`ControlFunction`, :func:`control_function` (a
+  function of time, a plan, or five constants) and :func:`controls_on_grid`.
+* The input checks every engine shares: :func:`initial_state`,
+  :func:`check_span`, :func:`environment_of`.
+* The outcome of a run on any engine: :class:`SimulationResult` with its typed
+  settings record :class:`RunSettings`.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any, Callable, Iterator, Sequence
+
+import numpy as np
+import pandas as pd
+
+from .atmosphere import Environment
 from .eom import CONTROL_NAMES, STATE_NAMES
+from .errors import InputError
 
 #: Derived columns of every engine's trajectory, after the states and controls.
 DERIVED_NAMES: tuple[str, ...] = ("qbar", "rho", "nx", "ny", "nz", "X", "Y", "Z", "L", "M", "N",
@@ -32,3 +49,339 @@ UNITS: dict[str, str] = {
 
 #: Variables that are angles (their differences are wrapped into (-pi, pi]).
 ANGLES: frozenset[str] = frozenset({"gamma", "chi", "alpha", "beta", "mu"})
+
+#: A control source as a function of time: ``t [s] -> (F [N], eta [-], dl, dm, dn [rad])``.
+ControlFunction = Callable[[float], Sequence[float]]
+
+
+# --------------------------------------------------------------------------- control sources and input checks
+
+def control_function(source) -> ControlFunction:
+    """A callable ``t -> 5 controls`` from any control source.
+
+    Parameters
+    ----------
+    source : callable, object with ``controls(t)``, or sequence of 5 floats
+        A function of time ``t [s] -> (F [N], eta [-], dl, dm, dn [rad])``, a
+        plan (anything exposing a ``controls`` method), or constant controls.
+
+    Returns
+    -------
+    ControlFunction
+
+    Raises
+    ------
+    InputError
+        If ``source`` is none of these, or constants are not 5 numbers.
+    """
+    method = getattr(source, "controls", None)
+    if callable(method):
+        return method
+    if callable(source):
+        return source
+    try:
+        arr = np.asarray(source, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"controls must be a function of t, a plan with controls(t), or 5 numbers; "
+                         f"got {type(source).__name__}") from None
+    if arr.shape != (5,):
+        raise InputError(f"constant controls need 5 values (F, eta, dl, dm, dn), got shape {arr.shape}")
+    return lambda t: arr
+
+
+def initial_state(source=None, x0=None) -> np.ndarray:
+    """The checked 12-state initial condition of a run.
+
+    Parameters
+    ----------
+    source : object, optional
+        A control source; when ``x0`` is None its ``initial_state`` is used (an
+        attribute, or a method called without arguments as a plan's).
+    x0 : array_like, shape (12,), optional
+        Initial wind-frame state (:data:`gna.eom.STATE_NAMES`, SI, rad).
+
+    Returns
+    -------
+    ndarray, shape (12,)
+
+    Raises
+    ------
+    InputError
+        No initial state, not 12 values, a non-finite value, or ``V <= 0``.
+    """
+    if x0 is None:
+        x0 = getattr(source, "initial_state", None)
+        if callable(x0):
+            x0 = x0()
+        if x0 is None:
+            raise InputError("no initial state: pass x0 or a plan with an initial_state")
+    try:
+        y0 = np.asarray(x0, dtype=float).reshape(12)
+    except (TypeError, ValueError):
+        raise InputError(f"the initial state must have the 12 wind-frame values {', '.join(STATE_NAMES)}") from None
+    bad = [n for n, v in zip(STATE_NAMES, y0) if not math.isfinite(v)]
+    if bad:
+        raise InputError(f"initial state has non-finite values: {', '.join(bad)}")
+    if not y0[3] > 0:
+        raise InputError(f"initial speed must be positive, got V = {y0[3]} m/s")
+    return y0
+
+
+def check_span(t_span) -> tuple[float, float]:
+    """``(t0, t1)`` as floats, checked finite and increasing.
+
+    Parameters
+    ----------
+    t_span : pair of float
+        Start and end time [s].
+
+    Returns
+    -------
+    tuple of float
+
+    Raises
+    ------
+    InputError
+        If ``t_span`` is not two finite numbers with ``t1 > t0``.
+    """
+    try:
+        t0, t1 = (float(v) for v in t_span)
+    except (TypeError, ValueError):
+        raise InputError(f"t_span must be two numbers (t0, t1), got {t_span!r}") from None
+    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
+        raise InputError(f"t_span must be finite and increasing, got {t_span}")
+    return t0, t1
+
+
+def environment_of(source, env: Environment | None = None) -> Environment:
+    """The environment of a run: ``env`` if given, else the source's ``env`` (a plan's), else the ISA.
+
+    Parameters
+    ----------
+    source : object
+        A control source (a plan carries the environment it was planned for).
+    env : Environment, optional
+        Explicit environment.
+
+    Returns
+    -------
+    Environment
+    """
+    if env is not None:
+        return env
+    env = getattr(source, "env", None)
+    return env if isinstance(env, Environment) else Environment()
+
+
+def controls_on_grid(f: ControlFunction, t) -> np.ndarray:
+    """``f`` evaluated at the times ``t``.
+
+    A vectorised call ``f(t)`` is tried first and accepted only if it agrees
+    with scalar calls at three sample times; otherwise ``f`` is called at each
+    time.
+
+    Parameters
+    ----------
+    f : ControlFunction
+        ``t [s] -> (F, eta, dl, dm, dn)``.
+    t : array_like, shape (n,)
+        Times [s].
+
+    Returns
+    -------
+    ndarray, shape (5, n)
+
+    Raises
+    ------
+    InputError
+        If ``f`` does not return 5 values.
+    """
+    t = np.asarray(t, dtype=float)
+    try:
+        with np.errstate(all="ignore"):
+            out = f(t)
+            if len(out) == 5:
+                U = np.array([np.broadcast_to(np.asarray(c, dtype=float), t.shape) for c in out])
+            else:
+                U = None
+    except Exception:  # any failure of a vectorised call means: not vectorisable, evaluate pointwise
+        U = None
+    if U is not None and U.shape == (5, t.size):
+        probe = sorted({0, t.size // 2, t.size - 1})
+        ok = True
+        for i in probe:
+            ui = np.asarray(f(float(t[i])), dtype=float).reshape(5)
+            both_nan = np.isnan(ui) & np.isnan(U[:, i])
+            if not np.all(both_nan | (np.abs(ui - U[:, i]) <= 1e-12 * (1.0 + np.abs(ui)))):
+                ok = False
+                break
+        if ok:
+            return U
+    rows = [f(ti) for ti in t.tolist()]
+    try:
+        U = np.array(rows, dtype=float)
+    except (TypeError, ValueError):
+        U = None
+    if U is None or U.shape != (t.size, 5):
+        for ti, ui in zip(t.tolist(), rows):
+            shape = np.shape(ui)
+            if shape != (5,):
+                raise InputError(f"controls(t) must return 5 values (F, eta, dl, dm, dn); got shape {shape} "
+                                 f"at t = {ti:g} s")
+        raise InputError("controls(t) must return 5 numbers (F, eta, dl, dm, dn)")
+    return U.T.copy()
+
+
+# --------------------------------------------------------------------------- the result of a run
+
+@dataclass(frozen=True)
+class RunSettings(Mapping):
+    """Everything that determines the numbers of a run, typed; also a read-only mapping.
+
+    ``settings["dt"]`` and ``settings.get("earth")`` work: keys are the field
+    names (fields left at None are omitted) followed by the keys of ``extra``.
+
+    Parameters
+    ----------
+    engine : str
+        Engine name (a registry name such as ``"inhouse"``, ``"jsbsim"``).
+    method : str or None
+        Variable-step integrator of the aircraft states (scipy name, e.g. ``"DOP853"``).
+    rtol, atol : float or None
+        Its tolerances.
+    max_step : float or None
+        Its largest step [s].
+    model : str
+        ``"full"`` or ``"simple"`` equations of motion.
+    environment : str
+        Atmosphere description.
+    g : float or None
+        Gravity [m/s^2].
+    dt : float or None
+        Fixed step of a sampled engine [s].
+    integrators : mapping or None
+        Per-state-group integrators of a fixed-step engine.
+    controller : str or None
+        How the feedback is evaluated (None: open loop).
+    controller_states : int
+        Number of controller states.
+    controller_scheme : str or None
+        How the controller states are integrated, with its order of accuracy.
+    controller_dt : float or None
+        Controller update interval [s] (None: continuous).
+    extra : mapping
+        Engine-specific records (JSBSim version, planet, wall times, ...).
+    """
+
+    engine: str
+    method: str | None = None
+    rtol: float | None = None
+    atol: float | None = None
+    max_step: float | None = None
+    model: str = "full"
+    environment: str = ""
+    g: float | None = None
+    dt: float | None = None
+    integrators: Mapping[str, str] | None = None
+    controller: str | None = None
+    controller_states: int = 0
+    controller_scheme: str | None = None
+    controller_dt: float | None = None
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    def _keys(self) -> list[str]:
+        own = [f.name for f in fields(self) if f.name != "extra" and getattr(self, f.name) is not None]
+        return own + [k for k in self.extra if k not in own]
+
+    def __getitem__(self, key: str):
+        if key != "extra" and key in self.__dataclass_fields__ and getattr(self, key) is not None:
+            return getattr(self, key)
+        if key in self.extra:
+            return self.extra[key]
+        raise KeyError(key)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._keys())
+
+    def __len__(self) -> int:
+        return len(self._keys())
+
+    __hash__ = None  # extra is a mutable mapping
+
+    def as_dict(self) -> dict[str, Any]:
+        """A plain dict of the non-None fields and the extra records.
+
+        Returns
+        -------
+        dict
+            Key -> value, in the mapping's order.
+        """
+        return {k: self[k] for k in self}
+
+
+@dataclass
+class SimulationResult:
+    """Outcome of a run on any engine.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Indexed by time ``t`` [s]; columns exactly :data:`COLUMNS`: the 12
+        states, the 5 applied controls (reference + feedback) and derived
+        quantities (``qbar``, ``rho``, load factors, wind-axis forces ``X, Y,
+        Z``, body moments ``L, M, N``, coefficients).
+    status : {"completed", "domain", "failed"}
+        How the run ended ("domain": it left the physical domain or diverged).
+    message : str
+        Empty when completed; otherwise names the time, variable and value.
+    warnings : list of str
+        Envelope excursions (time, variable, value).
+    settings : RunSettings
+        Engine, integrator, step, tolerances, model, environment, controller.
+    t_end : float
+        Last time reached [s].
+    controller_states : pandas.DataFrame or None
+        Controller states on ``df``'s index (one column per state, none for a
+        static feedback); None for an open-loop run.
+    feedback : pandas.DataFrame or None
+        Feedback part ``delta_u`` of the applied controls on ``df``'s index,
+        columns :data:`gna.eom.CONTROL_NAMES`; None for an open-loop run.
+    """
+
+    df: pd.DataFrame
+    status: str
+    message: str = ""
+    warnings: list = field(default_factory=list)
+    settings: RunSettings = field(default_factory=lambda: RunSettings(engine=""))
+    t_end: float = float("nan")
+    controller_states: pd.DataFrame | None = None
+    feedback: pd.DataFrame | None = None
+
+    @property
+    def completed(self) -> bool:
+        """True when the run reached the end of its span."""
+        return self.status == "completed"
+
+
+def controller_frames(index, names: Sequence[str], Xc: np.ndarray, dU: np.ndarray) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The ``controller_states`` and ``feedback`` frames of a closed-loop result.
+
+    Parameters
+    ----------
+    index : array_like, shape (n,)
+        Output times [s].
+    names : sequence of str
+        Controller state names.
+    Xc : ndarray, shape (n_states, n)
+        Controller states.
+    dU : ndarray, shape (5, n)
+        Feedback part of the applied controls (F [N], eta [-], dl, dm, dn [rad]).
+
+    Returns
+    -------
+    controller_states, feedback : pandas.DataFrame
+    """
+    idx = pd.Index(np.asarray(index, dtype=float), name="t")
+    xc = pd.DataFrame({n: np.asarray(Xc[i], dtype=float) for i, n in enumerate(names)}, index=idx)
+    fb = pd.DataFrame({n: np.asarray(dU[i], dtype=float) for i, n in enumerate(CONTROL_NAMES)}, index=idx)
+    return xc, fb

@@ -13,14 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from gna.errors import InputError
 from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
 
 from ..compare import compare_engines, difference_table
+from ..engines import engine_names, engines_from_names
 from ._args import nonnegative_int
-
-KNOWN_ENGINES = ("inhouse", "jsbsim", "jsbsim-wgs84")
 
 
 def register(sub) -> None:
@@ -32,19 +30,9 @@ def register(sub) -> None:
     p.add_argument("--J", type=nonnegative_int, default=None, help="generalized-flatness iterations "
                                                                    "(default: the scenario's)")
     p.add_argument("--engines", default="inhouse,jsbsim",
-                   help=f"comma-separated engines, the first is the reference ({', '.join(KNOWN_ENGINES)})")
+                   help=f"comma-separated engines, the first is the reference ({', '.join(engine_names())})")
     p.add_argument("--out", default=None, metavar="DIR", help="output folder (default reports/out/<scenario>/compare)")
     p.set_defaults(func=run)
-
-
-def engines_from_text(text: str):
-    from ..engines import JSBSimEngine
-
-    names = [e.strip() for e in text.split(",") if e.strip()]
-    bad = [e for e in names if e not in KNOWN_ENGINES]
-    if bad or len(names) < 2:
-        raise InputError(f"--engines needs at least two of {', '.join(KNOWN_ENGINES)}; got {text!r}")
-    return {n: (JSBSimEngine(earth="wgs84") if n == "jsbsim-wgs84" else n) for n in names}
 
 
 def compare_scenario(scenario: str, J: int | None = None, engines: str = "inhouse,jsbsim",
@@ -58,7 +46,7 @@ def compare_scenario(scenario: str, J: int | None = None, engines: str = "inhous
     Jp = plan.J
     out = Path(out) if out else Path("reports") / "out" / sc.name / "compare"
     comp = compare_engines(sc.aircraft, plan.control_function(Jp), (plan.t0, plan.t1), plan.initial_state(Jp),
-                           engines=engines_from_text(engines), env=plan.env, out_dir=out,
+                           engines=engines_from_names(engines, minimum=2), env=plan.env, out_dir=out,
                            reference=lambda t: plan.state(t, Jp), dt_out=0.05,
                            title=f"{sc.name} (J = {Jp}), open loop")
     grid = np.arange(plan.t0, plan.t1 + 0.025, 0.05)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from gna.aircraft import list_aircraft, load_aircraft
 from gna.errors import InputError
-from harness import jsbsim_export as jx
+from harness.engines.jsbsim import files as jf
 
 
 def register(sub) -> None:
@@ -31,9 +31,9 @@ def run(args) -> int:
     if not args.all and not args.aircraft:
         raise InputError("name the aircraft to export, or use --all")
     crafts = [load_aircraft(n) for n in (list_aircraft() if args.all else args.aircraft)]
-    root = args.out if args.out is not None else jx.default_root()
+    root = args.out if args.out is not None else jf.default_root()
     if args.check:
-        stale = jx.stale_files(root, crafts)
+        stale = jf.stale_files(root, crafts)
         for s in stale:
             print(s, file=sys.stderr)
         if stale:
@@ -42,6 +42,6 @@ def run(args) -> int:
         print(f"{len(crafts)} JSBSim file(s) current in {root}")
         return 0
     for a in crafts:
-        path = jx.export_aircraft(a, root)
+        path = jf.export_aircraft(a, root)
         print(f"{a.id}: {path}")
     return 0

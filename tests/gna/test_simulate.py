@@ -89,7 +89,7 @@ def test_bad_inputs(f16_trim):
         simulate(a, np.array(t.controls, dtype=float), (0, 1), np.r_[x0[:3], -1.0, x0[4:]])
     with pytest.raises(InputError, match="non-finite"):
         simulate(a, np.array(t.controls, dtype=float), (0, 1), np.r_[x0[:3], np.nan, x0[4:]])
-    with pytest.raises(InputError, match="5 constants"):
+    with pytest.raises(InputError, match="5 values"):
         simulate(a, [1.0, 2.0], (0, 1), x0)
     with pytest.raises(InputError, match="increasing"):
         simulate(a, np.array(t.controls, dtype=float), (1, 0), x0)
@@ -102,3 +102,44 @@ def test_nan_control_stops_with_message(f16_trim):
     assert r.status == "domain" and "non-finite" in r.message and "control" in r.message
     # the failure is bracketed: the valid run up to t = 1 s is kept
     assert 1.0 - 1e-5 <= r.t_end <= 1.0 + 1e-9 and len(r.df) > 10
+
+
+def test_controller_states_integrated_with_the_aircraft(f16_trim):
+    """A 1-state controller: its state is the integral of its derivative, reported with the feedback."""
+    from dataclasses import dataclass
+
+    from gna.controller import StatelessController
+
+    a, t = f16_trim
+    u0, x0 = np.array(t.controls, dtype=float), np.array(t.state, dtype=float)
+
+    def static(tt, x):
+        return np.array([0.0, 0.0, 0.0, -0.5 * x[10], 0.0])
+
+    # The zero-state case keeps the numbers of a plain callable exactly.
+    r1 = simulate(a, u0, (0.0, 2.0), x0, controller=static)
+    r2 = simulate(a, u0, (0.0, 2.0), x0, controller=StatelessController(static))
+    assert np.array_equal(r1.df.to_numpy(), r2.df.to_numpy())
+    assert r1.controller_states.shape[1] == 0 and list(r1.feedback.columns) == list(CONTROL_NAMES)
+
+    @dataclass(frozen=True)
+    class Ramp:
+        """xc' = 1 (a clock); output adds 10 N per second of thrust."""
+        n_states = 1
+
+        def initial_state(self, t0, x0):
+            return np.array([0.5])
+
+        def derivative(self, t, x, xc):
+            return np.array([1.0])
+
+        def output(self, t, x, xc):
+            return np.array([10.0 * (xc[0] - 0.5), 0.0, 0.0, 0.0, 0.0])
+
+    r = simulate(a, u0, (0.0, 2.0), x0, controller=Ramp())
+    open_loop = simulate(a, lambda tt: u0 + np.array([10.0 * tt, 0, 0, 0, 0]), (0.0, 2.0), x0)
+    assert r.completed and r.settings.controller_states == 1 and "DOP853" in r.settings.controller_scheme
+    np.testing.assert_allclose(r.controller_states["xc0"], 0.5 + r.df.index.to_numpy(), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(r.feedback["F"], 10.0 * r.df.index.to_numpy(), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(r.df[list(STATE_NAMES)].to_numpy(), open_loop.df[list(STATE_NAMES)].to_numpy(),
+                               rtol=1e-8, atol=1e-6)

@@ -13,17 +13,18 @@ import pytest
 from gna import units
 from gna.aero import AERO_VARIABLES, AeroState, Term, TermTable
 from gna.aircraft import Propulsion, list_aircraft, load_aircraft
-from harness import jsbsim_export as jx
+from harness.engines.jsbsim import export as jx
+from harness.engines.jsbsim import files as jf
 from harness.cli import main
 from harness.engines import load_fdm
 
 AIRCRAFT = list_aircraft()
-ROOT = jx.default_root()
+ROOT = jf.default_root()
 
 
 @pytest.mark.parametrize("name", AIRCRAFT)
 def test_committed_file_is_current(name):
-    path = jx.xml_path(ROOT, name)
+    path = jf.xml_path(ROOT, name)
     assert path.is_file(), f"{path} missing: run 'gflat export-jsbsim --all'"
     assert path.read_bytes() == jx.aircraft_xml(load_aircraft(name)).encode("utf-8"), \
         f"{path} is stale: run 'gflat export-jsbsim --all'"
@@ -37,7 +38,7 @@ def test_no_file_for_unknown_aircraft():
 def test_cli_reproduces_committed_files_byte_for_byte(tmp_path, capsys):
     assert main(["export-jsbsim", "--all", "--out", str(tmp_path)]) == 0
     for name in AIRCRAFT:
-        assert jx.xml_path(tmp_path, name).read_bytes() == jx.xml_path(ROOT, name).read_bytes()
+        assert jf.xml_path(tmp_path, name).read_bytes() == jf.xml_path(ROOT, name).read_bytes()
     assert main(["export-jsbsim", "--all", "--check"]) == 0
     assert f"{len(AIRCRAFT)} JSBSim file(s) current" in capsys.readouterr().out
 
@@ -45,7 +46,7 @@ def test_cli_reproduces_committed_files_byte_for_byte(tmp_path, capsys):
 def test_cli_check_detects_stale_file_and_errors_are_one_line(tmp_path, capsys):
     name = AIRCRAFT[0]
     assert main(["export-jsbsim", name, "--out", str(tmp_path)]) == 0
-    path = jx.xml_path(tmp_path, name)
+    path = jf.xml_path(tmp_path, name)
     path.write_text(path.read_text().replace("<J2> 0 </J2>", "<J2> 0.001 </J2>"))
     capsys.readouterr()
     assert main(["export-jsbsim", name, "--out", str(tmp_path), "--check"]) == 1
@@ -67,7 +68,7 @@ def test_output_is_deterministic_and_path_free():
 @pytest.mark.parametrize("name", AIRCRAFT)
 def test_file_loads_without_warnings_and_units_are_exact(name):
     a = load_aircraft(name)
-    text = jx.xml_path(ROOT, name).read_text()
+    text = jf.xml_path(ROOT, name).read_text()
     fdm, problems, capture = load_fdm(text, name)
     assert problems == []
     with capture:

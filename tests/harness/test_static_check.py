@@ -32,7 +32,8 @@ from gna.aircraft import Propulsion, list_aircraft, load_aircraft
 from gna.atmosphere import ISA, ConstantDensity, Environment
 from gna.eom import Controls, State, derivatives, loads
 from gna.frames import C_body_wind
-from harness import jsbsim_export as jx
+from harness.engines.jsbsim import export as jx
+from harness.engines.jsbsim import files as jf
 from harness.engines import initial_condition_properties, load_fdm
 
 N_SAMPLES = 200
@@ -43,7 +44,7 @@ CASES = list_aircraft() + [TWIN]
 
 def _aircraft(name):
     if name != TWIN:
-        return load_aircraft(name), jx.xml_path(jx.default_root(), name).read_text(encoding="utf-8")
+        return load_aircraft(name), jf.xml_path(jf.default_root(), name).read_text(encoding="utf-8")
     base = load_aircraft("f16c" if "f16c" in list_aircraft() else list_aircraft()[0])
     a = dataclasses.replace(base, id="twin", propulsion=Propulsion(count=2, y_p=1.8, epsilon=math.radians(3.0)))
     return a, jx.aircraft_xml(a)

@@ -3,9 +3,9 @@
 The file is generated from the aircraft's data alone, so that any aircraft of
 :func:`gna.aircraft.list_aircraft` (and any variant built in memory) exports:
 
-* **units**: native English units (ft, ft^2, in, slug ft^2, lbf, slug/ft^3),
-  converted from SI with the exact factors of :mod:`gna.units` (JSBSim's own
-  unit factors are truncated, so no SI unit attribute is ever written);
+* **units**: native English units (ft, ft^2, in, slug ft^2, lbf, slug/ft^3), converted from SI with the
+  exact factors of :mod:`gna.units` (JSBSim's own unit factors are truncated, so no SI unit attribute is
+  ever written);
 * **aerodynamics**: JSBSim function trees generated from the GNA term table,
   one ``<sum>`` of ``<product>`` monomials per coefficient, as pre-functions
   ``aero/gflat/CD`` ... ``aero/gflat/Cn``.  They use ``aero/gflat/phat|qhat|rhat``
@@ -27,32 +27,28 @@ The file is generated from the aircraft's data alone, so that any aircraft of
   ``external_reactions/engine{1,2}/magnitude``.  A single-engine aircraft gets
   the same two forces, both on the symmetry plane, so that every aircraft has
   the same interface (F1 + F2 = F);
-* **controls**: declared properties ``ctrl/delta-l-rad``, ``ctrl/delta-m-rad``,
-  ``ctrl/delta-n-rad``;
-* **planet**: a flat-earth approximation, a non-rotating sphere of radius
-  :data:`PLANET_RADIUS_FT` without J2 whose ``GM = g (R + h_ref)^2`` gives
-  exactly ``g`` at the reference altitude ``h_ref``;
-* **mass**: ``emptywt = m[slug] * 32.174049`` lbf (JSBSim divides by that
-  number), inertia with ``negated_crossproduct_inertia="false"`` and the
-  flight-dynamics ``+Ixz``.
+* **controls**: declared properties ``ctrl/delta-{l,m,n}-rad``;
+* **planet**: a flat-earth approximation, a non-rotating sphere of radius :data:`PLANET_RADIUS_FT`
+  without J2 whose ``GM = g (R + h_ref)^2`` gives exactly ``g`` at the reference altitude ``h_ref``;
+* **mass**: ``emptywt = m[slug] * 32.174049`` lbf (JSBSim divides by that number),
+  inertia with ``negated_crossproduct_inertia="false"`` and the flight-dynamics ``+Ixz``.
 
-The output is deterministic (no dates, no paths): ``gflat export-jsbsim --all``
-reproduces the committed ``aircraft_xml/`` byte for byte.
+Deterministic output: ``gflat export-jsbsim --all`` reproduces the committed ``aircraft_xml/`` byte for byte.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Iterable
 from xml.sax.saxutils import escape
 
 from gna import units
 from gna.aero import AERO_VARIABLES, COEFFICIENTS
-from gna.aircraft import Aircraft, list_aircraft, load_aircraft
+from gna.aircraft import Aircraft
 from gna.atmosphere import H_TROPO, LAPSE, R_AIR, RHO0, RHO_TROPO, T0, T_TROPO
 from gna.errors import InputError
+
+from .xmlwriter import XMLWriter, comment_text, number_text
 
 #: Version of the file layout (bump when the generated structure changes).
 FORMAT_VERSION = 1
@@ -124,56 +120,7 @@ class FlatPlanet:
         return self.g / units.FT * r * r
 
 
-def _num(v: float) -> str:
-    """Shortest round-trip text of a float (deterministic, exact)."""
-    v = float(v)
-    if not math.isfinite(v):
-        raise InputError(f"cannot write a non-finite number ({v}) to a JSBSim file")
-    if v == 0.0:
-        return "0"
-    if v == int(v) and abs(v) < 1e15:
-        return str(int(v))
-    return repr(v)
-
-
-def _comment(text: str) -> str:
-    """Text safe inside an XML comment."""
-    return " ".join(str(text).replace("--", "- -").split())
-
-
-class _Writer:
-    def __init__(self):
-        self.lines: list[str] = []
-        self.level = 0
-
-    def line(self, text: str = "") -> None:
-        self.lines.append(("  " * self.level + text) if text else "")
-
-    def open(self, tag: str, attrs: str = "") -> None:
-        self.line(f"<{tag}{(' ' + attrs) if attrs else ''}>")
-        self.level += 1
-
-    def close(self, tag: str) -> None:
-        self.level -= 1
-        self.line(f"</{tag}>")
-
-    def leaf(self, tag: str, value, attrs: str = "") -> None:
-        text = value if isinstance(value, str) else _num(value)
-        self.line(f"<{tag}{(' ' + attrs) if attrs else ''}> {text} </{tag}>")
-
-    def location(self, name: str | None, x_in: float, y_in: float, z_in: float) -> None:
-        attrs = (f'name="{name}" ' if name else "") + 'unit="IN"'
-        self.open("location", attrs)
-        self.leaf("x", x_in)
-        self.leaf("y", y_in)
-        self.leaf("z", z_in)
-        self.close("location")
-
-    def text(self) -> str:
-        return "\n".join(self.lines) + "\n"
-
-
-def _monomial_product(w: _Writer, value: float, exponents) -> None:
+def _monomial_product(w: XMLWriter, value: float, exponents) -> None:
     """``value * v1 * v1 * v2 ...`` in the variable order of the term table."""
     factors = []
     for name, e in zip(AERO_VARIABLES, exponents):
@@ -188,7 +135,7 @@ def _monomial_product(w: _Writer, value: float, exponents) -> None:
     w.close("product")
 
 
-def _density_function(w: _Writer) -> None:
+def _density_function(w: XMLWriter) -> None:
     """ISA density of :class:`gna.atmosphere.ISA` in slug/ft^3 as a function of h [ft], or the constant."""
     k_tropo = LAPSE * units.FT / T0                     # 1/ft
     h_tropo_ft = H_TROPO / units.FT
@@ -237,7 +184,7 @@ def _density_function(w: _Writer) -> None:
     w.close("function")
 
 
-def _rate_function(w: _Writer, name: str, rate_property: str, length_ft: float) -> None:
+def _rate_function(w: XMLWriter, name: str, rate_property: str, length_ft: float) -> None:
     """``rate * length / (2 V)``."""
     w.open("function", f'name="{name}"')
     w.open("quotient")
@@ -250,7 +197,7 @@ def _rate_function(w: _Writer, name: str, rate_property: str, length_ft: float) 
     w.close("function")
 
 
-def _axis(w: _Writer, axis: str, frame: str | None, fname: str, coefficient: str, scale: float, what: str) -> None:
+def _axis(w: XMLWriter, axis: str, frame: str | None, fname: str, coefficient: str, scale: float, what: str) -> None:
     w.open("axis", f'name="{axis}"' + (f' frame="{frame}"' if frame else ""))
     w.line(f"<!-- {what} -->")
     w.open("function", f'name="{fname}"')
@@ -269,6 +216,7 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
     Parameters
     ----------
     aircraft : Aircraft
+        The aircraft (any, bundled or built in memory).
     planet : FlatPlanet or None
         The flat-earth planet written into the file; ``None`` writes no
         ``<planet>`` (JSBSim then flies its default rotating WGS84 Earth).
@@ -282,10 +230,10 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
     S_ft2 = geo.S / units.FT2
     b_ft = geo.b / units.FT
     c_ft = geo.cbar / units.FT
-    w = _Writer()
+    w = XMLWriter()
     w.line('<?xml version="1.0"?>')
     w.line(f"<!-- Generated by 'gflat export-jsbsim' (harness/jsbsim_export.py, format {FORMAT_VERSION}) from the gflat "
-           f"aircraft '{_comment(aircraft.id)}'. Do not edit: regenerate. -->")
+           f"aircraft '{comment_text(aircraft.id)}'. Do not edit: regenerate. -->")
     w.open("fdm_config", f'name="{escape(aircraft.id)}" version="2.0" release="PRODUCTION"')
     w.line()
     w.open("fileheader")
@@ -302,7 +250,7 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
 
     if planet is not None:
         w.line(f"<!-- flat-earth approximation: non-rotating sphere, no J2, GM = g (R + h_ref)^2 with g = "
-               f"{_num(planet.g)} m/s^2 at h_ref = {_num(planet.h_ref)} m -->")
+               f"{number_text(planet.g)} m/s^2 at h_ref = {number_text(planet.h_ref)} m -->")
         w.open("planet", 'name="gflat flat earth"')
         w.leaf("semimajor_axis", planet.radius_ft, 'unit="FT"')
         w.leaf("semiminor_axis", planet.radius_ft, 'unit="FT"')
@@ -324,7 +272,7 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
     w.line()
 
     w.open("mass_balance", 'negated_crossproduct_inertia="false"')
-    w.line(f"<!-- m = {_num(mass.mass)} kg; Ixz = +integral(x z dm) (flight-dynamics sign) -->")
+    w.line(f"<!-- m = {number_text(mass.mass)} kg; Ixz = +integral(x z dm) (flight-dynamics sign) -->")
     w.leaf("ixx", mass.Ixx / units.SLUG_FT2, 'unit="SLUG*FT2"')
     w.leaf("iyy", mass.Iyy / units.SLUG_FT2, 'unit="SLUG*FT2"')
     w.leaf("izz", mass.Izz / units.SLUG_FT2, 'unit="SLUG*FT2"')
@@ -341,7 +289,7 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
 
     yp_in = eng.y_p / units.IN if eng.count == 2 else 0.0
     w.open("external_reactions")
-    w.line(f"<!-- thrust: engine 1 left (y = -y_p), engine 2 right (y = +y_p), tilt eps = {_num(eng.epsilon)} rad "
+    w.line(f"<!-- thrust: engine 1 left (y = -y_p), engine 2 right (y = +y_p), tilt eps = {number_text(eng.epsilon)} rad "
            f"nose-up; magnitudes in lbf{'; single engine: both forces on the symmetry plane' if eng.count == 1 else ''} -->")
     for k, y_in in ((1, -yp_in), (2, yp_in)):
         w.open("force", f'name="engine{k}" frame="BODY"')
@@ -360,7 +308,7 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
     for name, prop in CONTROL_PROPERTIES.items():
         w.leaf("property", prop, 'value="0"')
     w.leaf("property", DENSITY_MODEL_PROPERTY, 'value="0"')
-    w.leaf("property", DENSITY_CONSTANT_PROPERTY, f'value="{_num(RHO0 / units.SLUG_FT3)}"')
+    w.leaf("property", DENSITY_CONSTANT_PROPERTY, f'value="{number_text(RHO0 / units.SLUG_FT3)}"')
     w.line()
     _density_function(w)
     w.line()
@@ -379,7 +327,7 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
     _rate_function(w, VARIABLE_PROPERTIES["qhat"], "velocities/q-aero-rad_sec", c_ft)
     _rate_function(w, VARIABLE_PROPERTIES["rhat"], "velocities/r-aero-rad_sec", b_ft)
     w.line()
-    w.line(f"<!-- coefficients: GNA term table '{_comment(aircraft.aero.structure)}', {len(aircraft.aero)} terms -->")
+    w.line(f"<!-- coefficients: GNA term table '{comment_text(aircraft.aero.structure)}', {len(aircraft.aero)} terms -->")
     for coef in COEFFICIENTS:
         terms = aircraft.aero.terms_of(coef)
         w.open("function", f'name="{COEFFICIENT_PROPERTIES[coef]}"')
@@ -387,12 +335,12 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
             w.line("<!-- no term -->")
             w.leaf("value", 0.0)
         elif len(terms) == 1:  # a one-argument <sum> draws a JSBSim warning
-            w.line(f"<!-- theta{terms[0].index}: {_comment(terms[0].monomial)} -->")
+            w.line(f"<!-- theta{terms[0].index}: {comment_text(terms[0].monomial)} -->")
             _monomial_product(w, terms[0].value, terms[0].exponents)
         else:
             w.open("sum")
             for t in terms:
-                w.line(f"<!-- theta{t.index}: {_comment(t.monomial)} -->")
+                w.line(f"<!-- theta{t.index}: {comment_text(t.monomial)} -->")
                 _monomial_product(w, t.value, t.exponents)
             w.close("sum")
         w.close("function")
@@ -407,52 +355,3 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
     w.line()
     w.close("fdm_config")
     return w.text()
-
-
-def default_root() -> Path:
-    """The repository's ``aircraft_xml/`` folder."""
-    return Path(__file__).resolve().parents[1] / "aircraft_xml"
-
-
-def xml_path(root: str | Path, aircraft_id: str) -> Path:
-    """``root/<id>/<id>.xml``."""
-    return Path(root) / aircraft_id / f"{aircraft_id}.xml"
-
-
-def export_aircraft(aircraft: Aircraft, root: str | Path | None = None,
-                    planet: FlatPlanet | None = FlatPlanet()) -> Path:
-    """Write ``root/<id>/<id>.xml`` and return its path."""
-    path = xml_path(root if root is not None else default_root(), aircraft.id)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    text = aircraft_xml(aircraft, planet)
-    with open(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write(text)
-    return path
-
-
-def export_all(root: str | Path | None = None, ids: Iterable[str] | None = None) -> list[Path]:
-    """Export the given (default: all bundled) aircraft; returns the written paths."""
-    names = list(ids) if ids is not None else list_aircraft()
-    return [export_aircraft(load_aircraft(n), root) for n in names]
-
-
-def stale_files(root: str | Path | None = None, aircraft: Iterable[Aircraft] | None = None) -> list[str]:
-    """Problems of the files under ``root`` (missing, or different from a fresh export); empty when current.
-
-    Parameters
-    ----------
-    root : path, optional
-        Default :func:`default_root`.
-    aircraft : iterable of Aircraft, optional
-        Default: every bundled aircraft.
-    """
-    root = Path(root) if root is not None else default_root()
-    crafts = list(aircraft) if aircraft is not None else [load_aircraft(n) for n in list_aircraft()]
-    out = []
-    for a in crafts:
-        path = xml_path(root, a.id)
-        if not path.is_file():
-            out.append(f"{a.id}: {path} is missing")
-        elif path.read_text(encoding="utf-8") != aircraft_xml(a):
-            out.append(f"{a.id}: {path} differs from a fresh export")
-    return out

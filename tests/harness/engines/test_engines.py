@@ -270,3 +270,15 @@ def test_controls_on_grid_vectorised_or_pointwise(f16):
     assert a.shape == (5, 31) and np.allclose(a, b, rtol=1e-15, atol=0)
     assert np.array_equal(controls_on_grid(lambda s: u0, t), np.repeat(u0[:, None], 31, axis=1))
     assert CONTROL_NAMES == ("F", "eta", "dl", "dm", "dn")
+
+
+def test_registry_parses_the_cli_engine_list():
+    from harness.engines import engine_names, engines_from_names
+
+    got = engines_from_names("inhouse, jsbsim-wgs84", minimum=2)
+    assert list(got) == ["inhouse", "jsbsim-wgs84"] and got["jsbsim-wgs84"].earth == "wgs84"
+    assert set(engine_names()) >= {"inhouse", "jsbsim", "jsbsim-wgs84"}
+    with pytest.raises(InputError, match="at least 2"):
+        engines_from_names("inhouse", minimum=2)
+    with pytest.raises(InputError, match="unknown: xplane"):
+        engines_from_names("inhouse,xplane")
