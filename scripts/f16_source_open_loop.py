@@ -18,7 +18,7 @@ import numpy as np
 
 from gna.trim import trim_level
 from harness.engines import fly
-from harness.engines_jsbsim_source import JSBSimSourceEngine
+from harness.engines.jsbsim.source import JSBSimSourceEngine
 from planners.generalized import plan_scenario
 from planners.scenario import load_scenario
 

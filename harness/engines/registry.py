@@ -16,12 +16,14 @@ from gna.errors import InputError
 from .base import Engine
 from .inhouse import InHouseEngine
 from .jsbsim import JSBSimEngine
+from .jsbsim.source import JSBSimSourceEngine
 
 #: Engine name -> factory (called without arguments), in display order.
 ENGINES: Mapping[str, Callable[[], Engine]] = MappingProxyType({
     "inhouse": InHouseEngine,
     "jsbsim": JSBSimEngine,
     "jsbsim-wgs84": partial(JSBSimEngine, earth="wgs84"),
+    "jsbsim-source": JSBSimSourceEngine,
 })
 
 

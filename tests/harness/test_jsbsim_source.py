@@ -13,7 +13,7 @@ from gna.errors import InputError
 from gna.trajectory import COLUMNS
 from gna.trim import trim_level
 from harness.engines import InHouseEngine
-from harness.engines_jsbsim_source import JSBSimSourceEngine, source_model
+from harness.engines.jsbsim.source import JSBSimSourceEngine, source_model
 
 V, H = 195.0, 3000.0
 

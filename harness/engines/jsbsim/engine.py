@@ -198,16 +198,16 @@ class JSBSimEngine:
                               {"setup": t_loop - t_setup, "stepping": t_post - t_loop})
 
 
-class _Stop(Exception):
+class StepStop(Exception):
     """The run leaves the domain at step ``k``: ``text`` names the variable and value."""
 
     def __init__(self, k: int, text: str):
         self.k, self.text = k, text
 
     @staticmethod
-    def control(k: int, u) -> _Stop:
+    def control(k: int, u) -> StepStop:
         bad = [f"{n} = {v}" for n, v in zip(CONTROL_NAMES, u) if not math.isfinite(v)]
-        return _Stop(k, f"non-finite control at t = {{t}} ({', '.join(bad)})")
+        return StepStop(k, f"non-finite control at t = {{t}} ({', '.join(bad)})")
 
 
 class _Run:
@@ -303,7 +303,7 @@ class _Run:
                 self._open_loop()
             else:
                 self._closed_loop()
-        except _Stop as stop:
+        except StepStop as stop:
             t_end = float(times[self.index[-1]]) if self.index else float(times[0])
             message = stop.text.format(t=f"{times[stop.k]:.6g} s") + f"; result kept up to t = {t_end:.6g} s"
             return "domain", message, t_end
@@ -315,10 +315,10 @@ class _Run:
 
     def _check_run(self, ok: bool, k: int) -> None:
         if not ok:
-            raise _Stop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
+            raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
         v = self.vt()
         if not (0.0 < v < math.inf):
-            raise _Stop(k, f"JSBSim diverged at t = {{t}}: airspeed V = {v * units.FT:.6g} m/s")
+            raise StepStop(k, f"JSBSim diverged at t = {{t}}: airspeed V = {v * units.FT:.6g} m/s")
 
     def _open_loop(self) -> None:
         """Reference controls precomputed on the step grid (engine thrusts in lbf)."""
@@ -333,7 +333,7 @@ class _Run:
         for k in range(1, self.n + 1):
             self.k = k
             if k >= k_bad:
-                raise _Stop.control(k, U[:, k])
+                raise StepStop.control(k, U[:, k])
             w0(F1[k]); w1(F2[k]); w2(DL[k]); w3(DM[k]); w4(DN[k])  # noqa: E702
             check(run(), k)
             if out[k]:
@@ -354,7 +354,7 @@ class _Run:
             self.k = k
             if k % every:
                 if k >= k_bad:
-                    raise _Stop.control(k, ucols[k])
+                    raise StepStop.control(k, ucols[k])
                 write([a + b for a, b in zip(ucols[k], self.d)])
                 check(run(), k)
             else:
@@ -365,11 +365,11 @@ class _Run:
                     self.xc = self.xc + (hc * f1 if f2 is None else a1 * f1 - a2 * f2)
                     if not np.all(np.isfinite(self.xc)):
                         bad = ", ".join(f"{n} = {v}" for n, v in zip(self.names, self.xc) if not isfinite(v))
-                        raise _Stop(k, f"non-finite controller state at t = {{t}} ({bad})")
+                        raise StepStop(k, f"non-finite controller state at t = {{t}} ({bad})")
                 self.d = np.asarray(ctrl.output(tlist[k], xk, self.xc), dtype=float).reshape(5).tolist()
                 uk = [a + b for a, b in zip(ucols[k], self.d)]
                 if not all(isfinite(c) for c in uk):
-                    raise _Stop.control(k, uk)
+                    raise StepStop.control(k, uk)
                 write(uk)
                 fdm.suspend_integration()
                 try:

@@ -79,7 +79,7 @@ class Integrators:
 #: JSBSim's default integrators (Euler, AB2, Euler, AB3), for comparisons.
 JSBSIM_DEFAULT_INTEGRATORS = Integrators("Euler", "AB2", "Euler", "AB3")
 
-class _LogCapture:
+class LogCapture:
     """A JSBSim logger keeping the records (level, text) instead of printing them."""
 
     def __init__(self, jsbsim_module):
@@ -171,7 +171,7 @@ def load_fdm(xml_text: str, aircraft_id: str):
         If JSBSim refuses the file (its messages are quoted).
     """
     jsbsim = import_jsbsim()
-    capture = _LogCapture(jsbsim)
+    capture = LogCapture(jsbsim)
     with tempfile.TemporaryDirectory(prefix="gflat-jsbsim-") as root, capture:
         path = Path(root) / "aircraft" / aircraft_id / f"{aircraft_id}.xml"
         path.parent.mkdir(parents=True)

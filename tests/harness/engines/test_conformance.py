@@ -31,11 +31,33 @@ TRIM_HOLD = (1e-4, 1e-5, 1e-7)
 TRIM_HOLD_ROTATING_EARTH = (0.5, 3e-2, 3e-3)
 
 
-@pytest.fixture(scope="module")
-def f16():
-    a = load_aircraft("f16c")
+#: Engines that fly another physics than the GNA set (JSBSim's own aircraft a set was fitted from) need
+#: such an aircraft; the trim of the fitted set is then not a trim of the flown physics: the drift
+#: measures the fit's bias (measured on jsbsim-source: 38 m after 5 s at 195 m/s, 3000 m), not the engine.
+SOURCE_ENGINES = {"jsbsim-source": "f16-jsbsim"}
+TRIM_HOLD_OTHER_PHYSICS = (50.0, 3.0, 0.1)
+
+
+def _trimmed(aircraft_id):
+    a = load_aircraft(aircraft_id)
     tr = trim_level(a, 150.0, 3000.0)
     return a, np.array(tr.state, dtype=float), np.array(tr.controls, dtype=float)
+
+
+@pytest.fixture(scope="module")
+def f16():
+    return _trimmed("f16c")
+
+
+@pytest.fixture(scope="module")
+def f16_source():
+    return _trimmed("f16-jsbsim")
+
+
+@pytest.fixture
+def craft(request, f16, f16_source):
+    """The aircraft, trim state and trim controls an engine of the registry is tested with."""
+    return f16_source if request.node.callspec.params["name"] in SOURCE_ENGINES else f16
 
 
 @dataclass(frozen=True)
@@ -81,8 +103,8 @@ def test_registry_lists_engines_meeting_the_protocol():
 
 
 @pytest.mark.parametrize("name", ENGINES)
-def test_schema(name, f16):
-    a, x0, u0 = f16
+def test_schema(name, craft):
+    a, x0, u0 = craft
     r = get_engine(name).simulate(a, u0, (0.0, 1.0), x0, dt_out=0.1)
     assert r.completed and r.message == ""
     assert list(r.df.columns) == list(COLUMNS)
@@ -93,12 +115,13 @@ def test_schema(name, f16):
 
 
 @pytest.mark.parametrize("name", ENGINES)
-def test_trim_hold(name, f16):
-    a, x0, u0 = f16
+def test_trim_hold(name, craft):
+    a, x0, u0 = craft
     r = get_engine(name).simulate(a, u0, (0.0, 3.0), x0, dt_out=0.05)
     assert r.completed
     df, t = r.df, r.df.index.to_numpy()
-    pos_tol, v_tol, ang_tol = TRIM_HOLD_ROTATING_EARTH if name == "jsbsim-wgs84" else TRIM_HOLD
+    pos_tol, v_tol, ang_tol = (TRIM_HOLD_ROTATING_EARTH if name == "jsbsim-wgs84" else
+                               TRIM_HOLD_OTHER_PHYSICS if name in SOURCE_ENGINES else TRIM_HOLD)
     straight = np.array([x0[0] + x0[3] * t * math.cos(x0[5]), x0[1] + x0[3] * t * math.sin(x0[5]), x0[2] + 0 * t])
     assert np.max(np.linalg.norm(df[["x", "y", "z"]].to_numpy().T - straight, axis=0)) <= pos_tol
     assert np.max(np.abs(df["V"] - x0[3])) <= v_tol
@@ -107,8 +130,8 @@ def test_trim_hold(name, f16):
 
 
 @pytest.mark.parametrize("name", ENGINES)
-def test_controller_with_an_integral_state(name, f16):
-    a, x0, u0 = f16
+def test_controller_with_an_integral_state(name, craft):
+    a, x0, u0 = craft
     c = AltitudeHold(float(x0[2]), float(x0[3]))
     r = get_engine(name).simulate(a, u0, (0.0, 10.0), _perturbed(x0), controller=c, dt_out=0.05)
     assert r.completed, r.message
@@ -122,16 +145,19 @@ def test_controller_with_an_integral_state(name, f16):
     # Applied controls = reference + feedback, feedback columns are the controls'.
     assert list(r.feedback.columns) == list(CONTROL_NAMES)
     np.testing.assert_allclose(r.df["dm"], u0[3] + r.feedback["dm"], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(r.df["F"], u0[0] + r.feedback["F"], rtol=1e-15, atol=1e-9)
+    if name not in SOURCE_ENGINES:   # F is the thrust the source's engine delivers, not the command
+        np.testing.assert_allclose(r.df["F"], u0[0] + r.feedback["F"], rtol=1e-15, atol=1e-9)
     assert abs(r.feedback["dm"].iloc[0]) > 1e-3                 # the feedback acted
+    if name in SOURCE_ENGINES:
+        return   # other physics: the hold's gains were chosen for the f16c; its return is not asserted
     # The hold brings the aircraft back to the reference altitude (measured: crosses it at 4.25 s,
     # overshoots to -5.1 m at 8.2 s, -3.9 m at 10 s: a slow, bounded integral loop, enough for a conformance check).
     assert np.any(err[t < 5.0] < 0.0) and np.max(np.abs(err)) < 6.0
 
 
 @pytest.mark.parametrize("name", ENGINES)
-def test_divergence_stops_with_a_message_and_keeps_the_partial_result(name, f16):
-    a, x0, u0 = f16
+def test_divergence_stops_with_a_message_and_keeps_the_partial_result(name, craft):
+    a, x0, u0 = craft
 
     def nan_after_half_second(t):
         u = u0.copy()
@@ -147,8 +173,8 @@ def test_divergence_stops_with_a_message_and_keeps_the_partial_result(name, f16)
 
 
 @pytest.mark.parametrize("name", ENGINES)
-def test_recorded_settings(name, f16):
-    a, x0, u0 = f16
+def test_recorded_settings(name, craft):
+    a, x0, u0 = craft
     e = get_engine(name)
     opened = e.simulate(a, u0, (0.0, 0.5), x0, dt_out=0.1)
     closed = e.simulate(a, u0, (0.0, 0.5), x0, dt_out=0.1, controller=AltitudeHold(float(x0[2]), float(x0[3])))

@@ -45,10 +45,13 @@ from gna.controller import as_controller
 from gna.errors import InputError
 from gna.fit.sources.jsbsim_aero import FittedSource, fitted_source, resolve
 from gna.simulate import SimulationResult, envelope_warnings
-from harness import jsbsim_export as jx
-from harness.engines import (EngineError, Integrators, JSBSimEngine, control_function, controls_on_grid,
-                             environment_of, initial_condition_properties, initial_state)
-from harness.engines import _check_span, _frame, _import_jsbsim, _LogCapture, _StateConverter, _Stop  # noqa: F401  temporary: private helpers of harness.engines
+from gna.trajectory import check_span, control_function, controls_on_grid, environment_of, initial_state
+
+from ..base import EngineError
+from . import export as jx
+from .engine import StepStop
+from .fdm import Integrators, LogCapture, import_jsbsim, initial_condition_properties
+from .states import StateConverter, step_grid, trajectory_frame
 
 _POS = ("position/lat-gc-rad", "position/long-gc-rad", "position/h-sl-ft")
 _STATES = ("velocities/vt-fps", "flight-path/gamma-rad", "flight-path/psi-gt-rad", "aero/alpha-rad",
@@ -183,15 +186,15 @@ class JSBSimSourceEngine:
             raise InputError(f"jsbsim-source flies in JSBSim's own ISA atmosphere; got "
                              f"{type(env.atmosphere).__name__} (use density = 'isa')")
         y0 = initial_state(controls, x0)
-        t0, t1 = _check_span(t_span)
-        n, dt, out_steps = JSBSimEngine(dt=self.dt)._grid(t0, t1, dt_out, t_eval)
+        t0, t1 = check_span(t_span)
+        n, dt, out_steps = step_grid(t0, t1, self.dt, dt_out, t_eval)
         times = t0 + np.arange(n + 1) * dt
         U = controls_on_grid(control_function(controls), times)
         ctl = as_controller(controller)
         t_setup = time.perf_counter()
-        jsbsim = _import_jsbsim()
+        jsbsim = import_jsbsim()
         name, acdir, root = resolve(src.model, self.root)
-        capture = _LogCapture(jsbsim)
+        capture = LogCapture(jsbsim)
         with capture, tempfile.TemporaryDirectory(prefix="gflat-planet-") as tmp:
             fdm = jsbsim.FGFDMExec(str(root))
             fdm.set_debug_level(0)
@@ -268,7 +271,7 @@ class JSBSimSourceEngine:
         st_r = [node(p).get_double_value for p in _POS + _STATES]
         de_r = [node(p).get_double_value for p in _DERIVED]
         vt = node("velocities/vt-fps").get_double_value
-        to_state = _StateConverter(y0, fdm["inertial/sea-level-radius_ft"], None)
+        to_state = StateConverter(y0, fdm["inertial/sea-level-radius_ft"], None)
         out = np.zeros(n + 1, dtype=bool)
         out[out_steps] = True
         raw_s, raw_d, idx = [[r() for r in st_r]], [[r() for r in de_r]], [0]
@@ -288,19 +291,19 @@ class JSBSimSourceEngine:
                 if ctl is None:
                     uk = U[:, k]
                     if not np.all(np.isfinite(uk)):
-                        raise _Stop(k, "control", uk)
+                        raise StepStop.control(k, uk)
                     write_surfaces(uk)
                     if not fdm.run():
-                        raise _Stop(k, "jsbsim", None)
+                        raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
                 else:
                     if not fdm.run():
-                        raise _Stop(k, "jsbsim", None)
+                        raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
                     xk = to_state.scalar([r() for r in st_r])
                     if f_prev is not None:  # Heun corrector with the propagated state
                         xc = xc + 0.5 * dt * (f_prev + ctl.derivative(times[k], xk, xc_pred))
                     uk = U[:, k] + ctl.output(times[k], xk, xc)
                     if not np.all(np.isfinite(uk)):
-                        raise _Stop(k, "control", uk)
+                        raise StepStop.control(k, uk)
                     applied[:, k] = uk
                     write_surfaces(uk)
                     fdm.suspend_integration()
@@ -313,7 +316,7 @@ class JSBSimSourceEngine:
                         xc_pred = xc + dt * f_prev
                 v = vt()
                 if not (0.0 < v < math.inf):
-                    raise _Stop(k, "V", v)
+                    raise StepStop(k, f"JSBSim diverged at t = {{t}}: airspeed V = {v * units.FT:.6g} m/s")
                 cmd[:, k] = split(applied[0, k], applied[1, k])
                 thrust[:, k] = [r() for r in T_r]
                 for i, lp in enumerate(loops):
@@ -323,10 +326,10 @@ class JSBSimSourceEngine:
                     raw_s.append([r() for r in st_r])
                     raw_d.append([r() for r in de_r])
                     idx.append(k)
-        except _Stop as stop:
+        except StepStop as stop:
             status, t_end = "domain", float(times[idx[-1]])
-            message = stop.describe(times[stop.k]) + f"; result kept up to t = {t_end:.6g} s"
-        except _import_jsbsim().BaseError as exc:
+            message = stop.text.format(t=f"{times[stop.k]:.6g} s") + f"; result kept up to t = {t_end:.6g} s"
+        except import_jsbsim().BaseError as exc:
             status, t_end = "domain", float(times[idx[-1]])
             message = (f"JSBSim stopped at t = {times[k]:.6g} s with {type(exc).__name__}: {exc}; "
                        f"result kept up to t = {t_end:.6g} s")
@@ -339,11 +342,11 @@ class JSBSimSourceEngine:
         delivered[0] = Tn.sum(axis=0)
         if n_eng == 2:
             delivered[1] = (Tn[0] - Tn[1]) / np.where(delivered[0] != 0, delivered[0], np.nan)
-        df = _frame(aircraft, env, times[ix], S, delivered, D)
+        df = trajectory_frame(aircraft, env, times[ix], S, delivered, D)
         err = (cmd - thrust)[:, : (idx[-1] + 1)] * lbf
         settle = times[: idx[-1] + 1] >= t0 + 10 * self.throttle_tau
         settings = {
-            "engine": self.name, "jsbsim_version": _import_jsbsim().__version__, "aircraft_file": str(xml_path),
+            "engine": self.name, "jsbsim_version": import_jsbsim().__version__, "aircraft_file": str(xml_path),
             "jsbsim_model": src.model, "surfaces": {k: f"{'-' if s < 0 else ''}{p}" for k, (p, s) in
                                                     src.surfaces.items()},
             "configuration": {"simulation/models/FGFCS/enabled": 0, **src.configuration},
@@ -418,7 +421,7 @@ class JSBSimSourceEngine:
 
     @staticmethod
     def _derived(fdm, R: np.ndarray, S: np.ndarray) -> np.ndarray:
-        """Rows for :func:`harness.engines._frame`: qbar, rho, the six coefficients, total and weight forces,
+        """Rows for :func:`harness.engines.jsbsim.states.trajectory_frame`: qbar, rho, the six coefficients, total and weight forces,
         total moments; coefficients from JSBSim's aero loads (stability-axis CD, CL; body CY, Cl, Cm, Cn)."""
         S_ft2, b_ft, c_ft = fdm["metrics/Sw-sqft"], fdm["metrics/bw-ft"], fdm["metrics/cbarw-ft"]
         qs = R[0] * S_ft2
