@@ -14,10 +14,22 @@ from .metrics import difference_table
 
 
 def smooth_inputs(u0, twin: bool = False):
-    """Smooth, vectorisable control inputs around a trim ``u0`` (F, eta, dl, dm, dn) for engine checks.
+    """Smooth, vectorisable control inputs around a trim for engine checks.
 
     Thrust +-10 %, differential thrust +-0.3 (twins only), and aileron, elevator and rudder
     oscillations of 0.01--0.02 rad that start from zero slope.
+
+    Parameters
+    ----------
+    u0 : array of shape (5,)
+        Trim controls F [N], eta [-], dl, dm, dn [rad].
+    twin : bool
+        Vary the differential thrust eta too (aircraft with two engines).
+
+    Returns
+    -------
+    callable
+        ``u(t) -> [F, eta, dl, dm, dn]``, ``t`` [s] a float or an array.
     """
     def u(t):
         t = np.asarray(t, dtype=float)

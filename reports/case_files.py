@@ -14,10 +14,12 @@ def case_title(result) -> str:
     Parameters
     ----------
     result : harness.validation.CaseResult
+        A case's result.
 
     Returns
     -------
     str
+        Scenario name, J and loop kind.
     """
     return f"{result.plan.name} (J = {result.plan.J}), {result.case.loop} loop"
 
@@ -28,6 +30,7 @@ def write_case(result, out_dir: str | Path) -> dict[str, Path | list[Path]]:
     Parameters
     ----------
     result : harness.validation.CaseResult
+        A case's result (runs, tables, plan, provenance).
     out_dir : str or Path
         Folder, created if needed.
 

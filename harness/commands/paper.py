@@ -38,10 +38,10 @@ def run(args) -> int:
     out = Path(args.out)
     rows, passed = [], []
     for case in paper_cases(args.J):
-        name = case.scenario
-        print(f"=== {name}")
+        print(f"=== {case.scenario}")
         t0 = time.perf_counter()
         planned = plan_case(case)
+        name = planned.scenario.name
         print(write_plan(planned.scenario, planned.plan, planned.planning_time_s, out / name / "plan"))
         result = run_case(case, plan=planned.plan)       # the plan just made: planned once
         write_case(result, out / name / "compare")

@@ -1,31 +1,19 @@
-"""Validation cases: plan a scenario, fly it on several engines, tabulate the differences.
-
-A :class:`ValidationCase` names everything a validation run needs (scenario,
-number of generalized-flatness iterations J, engines with the reference first,
-open or closed loop, tolerances, comparison windows, output grid); it is a
-frozen, picklable value, loadable from TOML (:meth:`ValidationCase.from_toml`),
-so a campaign is a map of :func:`run_case` over cases.
+"""Running a validation case: plan once, fly every engine, tabulate; the result object.
 
 :func:`run_case` plans the scenario once (or reuses a given plan), flies the
 plan's controls on every engine (:func:`harness.engines.fly`) from the planned
-initial state, and returns a :class:`CaseResult`: the plan, the runs, the
-difference tables of each engine against the reference engine per window and
-of each engine against the plan, and the provenance.  Nothing here writes
-files or prints: rendering and writing belong to :mod:`reports` and the CLI.
-
-:func:`compare_engines` is the same comparison for any control source
-(constants, a function of t, a plan) without a scenario.
+initial state and returns a :class:`CaseResult`.  :func:`compare_engines` is
+the same comparison for any control source, without a scenario.  Nothing here
+writes files or prints.
 """
 
 from __future__ import annotations
 
 import datetime
 import importlib.metadata
-import math
 import platform
 import subprocess
 import time
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -36,227 +24,9 @@ from gna.errors import DomainError, InputError
 from planners.generalized import plan_scenario
 from planners.scenario import load_scenario
 
-from .engines import ENGINES, JSBSimEngine, fly, get_engine
-from .metrics import (DEFAULT_WINDOWS, DifferenceTable, difference_table, engine_tables, max_position_error,
-                      resolve_tolerances)
-
-#: Loop kinds of a case: the plan's controls alone, or with the tracking feedback.
-LOOPS: tuple[str, ...] = ("open", "closed")
-
-_CASE_KEYS = ("scenario", "J", "engines", "loop", "tolerances", "windows", "dt_out")
-
-
-# --------------------------------------------------------------------------- engine names
-# Placeholder for the engine registry (harness.engines.registry: engine_names / get_engine);
-# these two functions go once it is merged, their callers switch to the registry.
-
-def engine_names() -> tuple[str, ...]:
-    """Names of the engines a case can fly (the first is the default reference).
-
-    Returns
-    -------
-    tuple of str
-    """
-    return tuple(ENGINES) + ("jsbsim-wgs84",)
-
-
-def engine_by_name(name: str):
-    """A new engine object from its name (see :func:`engine_names`).
-
-    Parameters
-    ----------
-    name : str
-
-    Returns
-    -------
-    engine
-        An object with a ``simulate`` method.
-
-    Raises
-    ------
-    InputError
-        Unknown name.
-    """
-    if name == "jsbsim-wgs84":
-        return JSBSimEngine(earth="wgs84")
-    if name not in ENGINES:
-        raise InputError(f"unknown engine {name!r}; choose from {', '.join(engine_names())}")
-    return get_engine(name)
-
-
-# --------------------------------------------------------------------------- the case
-
-def _positive(value, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise InputError(f"{what} must be a positive number, got {value!r}")
-    return float(value)
-
-
-@dataclass(frozen=True)
-class ValidationCase:
-    """One validation run: a scenario planned and flown on several engines.
-
-    Attributes
-    ----------
-    scenario : str
-        Bundled scenario name or path of a scenario TOML file.
-    J : int or None
-        Generalized-flatness iterations (``None``: the scenario's).
-    engines : tuple of str
-        Engine names (:func:`engine_names`); the first is the reference.
-    loop : {"open", "closed"}
-        ``"open"``: the plan's controls alone.  ``"closed"``: with the paper's
-        tracking feedback; reserved, :func:`run_case` refuses it until the
-        tracking controller exists.
-    tolerances : None, float or tuple of (str, float) pairs
-        Tolerance spec of the engine-against-reference tables (see
-        :func:`harness.metrics.resolve_tolerances`); a mapping given to the
-        constructor is stored as sorted pairs (the case stays hashable).
-    windows : tuple of (str, float or None) pairs
-        Comparison windows: name -> duration from t0 [s] (``None``: whole span);
-        a mapping given to the constructor is stored as pairs, in order.
-    dt_out : float
-        Output grid step of every engine and of the plan comparison [s].
-    """
-
-    scenario: str
-    J: int | None = None
-    engines: tuple = ("inhouse", "jsbsim")
-    loop: str = "open"
-    tolerances: Any = None
-    windows: Any = tuple(DEFAULT_WINDOWS.items())
-    dt_out: float = 0.05
-
-    def __post_init__(self):
-        set_ = object.__setattr__
-        if isinstance(self.scenario, Path):
-            set_(self, "scenario", str(self.scenario))
-        if not isinstance(self.scenario, str) or not self.scenario:
-            raise InputError(f"scenario must be a name or a path, got {self.scenario!r}")
-        if self.J is not None and (isinstance(self.J, bool) or not isinstance(self.J, int) or self.J < 0):
-            raise InputError(f"J must be an integer >= 0 or None, got {self.J!r}")
-        engines = (self.engines,) if isinstance(self.engines, str) else tuple(self.engines)
-        bad = [e for e in engines if e not in engine_names()]
-        if not engines or bad:
-            raise InputError(f"engines must be names among {', '.join(engine_names())}; got {list(engines)}")
-        if len(set(engines)) != len(engines):
-            raise InputError(f"engines must be distinct, got {', '.join(engines)}")
-        set_(self, "engines", engines)
-        if self.loop not in LOOPS:
-            raise InputError(f"loop must be one of {', '.join(LOOPS)}, got {self.loop!r}")
-        tol = self.tolerances
-        if isinstance(tol, Mapping):
-            tol = tuple(sorted((str(k), None if v is None else float(v)) for k, v in tol.items()))
-        elif isinstance(tol, (list, tuple)):
-            tol = tuple((str(k), None if v is None else float(v)) for k, v in tol)
-        set_(self, "tolerances", tol)
-        resolve_tolerances(self.tolerance_spec, ())  # refuse bad values now, not after flying
-        win = self.windows.items() if isinstance(self.windows, Mapping) else self.windows
-        win = tuple((str(k), None if d is None else _positive(d, f"window {k!r}")) for k, d in win)
-        if not win:
-            raise InputError("a case needs at least one comparison window")
-        set_(self, "windows", win)
-        set_(self, "dt_out", _positive(self.dt_out, "dt_out"))
-
-    @property
-    def tolerance_spec(self):
-        """The tolerances as :func:`harness.metrics.difference_table` takes them (None, float or dict)."""
-        return dict(self.tolerances) if isinstance(self.tolerances, tuple) else self.tolerances
-
-    @property
-    def window_spec(self) -> dict:
-        """The windows as a dict name -> duration [s] or None."""
-        return dict(self.windows)
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any], where: str = "case", base: Path | None = None) -> ValidationCase:
-        """A case from a mapping (a TOML table).
-
-        Parameters
-        ----------
-        data : mapping
-            Keys ``scenario`` (required), ``J``, ``engines`` (list of names),
-            ``loop``, ``tolerances`` (number or table variable -> number),
-            ``windows`` (table name -> duration [s], or ``"all"`` for the
-            whole span), ``dt_out`` [s].
-        where : str
-            Name of the source, for messages.
-        base : Path, optional
-            Folder a relative scenario path (``*.toml``) is resolved against.
-
-        Returns
-        -------
-        ValidationCase
-
-        Raises
-        ------
-        InputError
-            Unknown or missing keys, or bad values (naming the key).
-        """
-        unknown = sorted(k for k in data if k not in _CASE_KEYS)
-        if unknown:
-            raise InputError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))}; "
-                             f"known keys: {', '.join(_CASE_KEYS)}")
-        if "scenario" not in data:
-            raise InputError(f"{where}: missing 'scenario'")
-        kw = dict(data)
-        sc = str(kw["scenario"])
-        if base is not None and sc.endswith(".toml") and not Path(sc).is_absolute():
-            sc = str(base / sc)
-        kw["scenario"] = sc
-        if "engines" in kw:
-            kw["engines"] = tuple(kw["engines"]) if isinstance(kw["engines"], list) else kw["engines"]
-        if isinstance(kw.get("windows"), Mapping):
-            kw["windows"] = {k: (None if v == "all" else v) for k, v in kw["windows"].items()}
-        try:
-            return cls(**kw)
-        except InputError as exc:
-            raise InputError(f"{where}: {exc}") from None
-
-    @classmethod
-    def from_toml(cls, path: str | Path) -> ValidationCase:
-        """A case from a TOML file (keys as :meth:`from_dict`; scenario paths relative to the file).
-
-        Parameters
-        ----------
-        path : str or Path
-
-        Returns
-        -------
-        ValidationCase
-
-        Raises
-        ------
-        InputError
-            Missing file, invalid TOML, unknown keys or bad values.
-        """
-        p = Path(path)
-        try:
-            data = tomllib.loads(p.read_text(encoding="utf-8"))
-        except OSError as exc:
-            raise InputError(f"cannot read the case file {p}: {exc.strerror}") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise InputError(f"{p.name}: not valid TOML ({exc})") from None
-        return cls.from_dict(data, where=p.name, base=p.parent)
-
-
-def load_case(path: str | Path) -> ValidationCase:
-    """A :class:`ValidationCase` from a TOML file (:meth:`ValidationCase.from_toml`).
-
-    Parameters
-    ----------
-    path : str or Path
-
-    Returns
-    -------
-    ValidationCase
-
-    Raises
-    ------
-    InputError
-        Missing file, invalid TOML, unknown keys or bad values.
-    """
-    return ValidationCase.from_toml(path)
+from ..engines import fly
+from ..metrics import DifferenceTable, difference_table, engine_tables, max_position_error
+from .case import ValidationCase, engine_by_name
 
 
 # --------------------------------------------------------------------------- results
@@ -302,7 +72,24 @@ class EngineComparison:
         return all(t.passed for per in self.tables.values() for t in per.values())
 
     def table(self, window: str = "whole span", engine: str | None = None) -> DifferenceTable:
-        """One table (``engine`` defaults to the only compared engine)."""
+        """One difference table.
+
+        Parameters
+        ----------
+        window : str
+            Window name (a key of the ``windows`` compared).
+        engine : str, optional
+            Compared engine; default the only one.
+
+        Returns
+        -------
+        DifferenceTable
+
+        Raises
+        ------
+        InputError
+            No engine named while several were compared.
+        """
         if engine is None:
             if len(self.tables) != 1:
                 raise InputError(f"several engines compared ({', '.join(self.tables)}): name one")
@@ -310,7 +97,12 @@ class EngineComparison:
         return self.tables[engine][window]
 
     def report(self) -> str:
-        """All tables, with the run status and settings of each engine."""
+        """All tables, with the run status and settings of each engine.
+
+        Returns
+        -------
+        str
+        """
         return _runs_report(self.results, self.tables)
 
 
@@ -322,6 +114,7 @@ def compare_engines(aircraft, controls, t_span=None, x0=None, *, engines=("inhou
     Parameters
     ----------
     aircraft : gna.aircraft.Aircraft
+        The aircraft flown by every engine.
     controls : control source
         Callable ``t -> 5 controls`` (F [N], eta [-], dl, dm, dn [rad]), a plan
         exposing ``controls(t)``, ``initial_state``, ``env``, ``t0`` and ``t1``
@@ -348,6 +141,7 @@ def compare_engines(aircraft, controls, t_span=None, x0=None, *, engines=("inhou
     Returns
     -------
     EngineComparison
+        Runs (label -> SimulationResult) and tables of each engine against the first.
 
     Raises
     ------
@@ -388,10 +182,12 @@ def plan_case(case: ValidationCase) -> PlannedCase:
     Parameters
     ----------
     case : ValidationCase
+        Its ``scenario`` and ``J`` are used.
 
     Returns
     -------
     PlannedCase
+        The loaded scenario, its plan and the planning wall time.
 
     Raises
     ------
@@ -471,20 +267,48 @@ class CaseResult:
         return all(t.passed for per in self.tables.values() for t in per.values())
 
     def max_position_error_m(self, window: tuple[float | None, float | None] | None = None) -> dict:
-        """Per engine, the largest distance [m] between its position and the planned flat outputs."""
+        """Per engine, the largest distance between its position and the planned flat outputs.
+
+        Parameters
+        ----------
+        window : (t_lo, t_hi), optional
+            Time window [s] (``None`` ends: the run's span).
+
+        Returns
+        -------
+        dict
+            Engine name -> max ``|(x, y, z) - (x, y, z)_plan|`` [m] (NaN for a run holding NaN);
+            see :func:`harness.metrics.max_position_error`.
+        """
         J = self.plan.J
         return {label: max_position_error(res, lambda t: self.plan.state(t, J), window)
                 for label, res in self.runs.items()}
 
     def reference_frame(self):
-        """The plan's J-th iterate (states and controls) at the reference engine's output times."""
+        """The plan's J-th iterate at the reference engine's output times.
+
+        Returns
+        -------
+        pandas.DataFrame
+            States and controls indexed by ``t`` [s].
+        """
         times = np.asarray(self.runs[self.reference_engine].df.index, dtype=float)
         return self.plan.to_dataframe(times, j=self.plan.J)
 
     def summary(self, figures=()) -> dict:
-        """The machine-readable summary (``summary.json``): scenario, J, engines, pass, status, tables.
+        """The machine-readable summary (the content of ``summary.json``).
 
-        ``figures`` lists the paths of figures written from this result, if any.
+        Parameters
+        ----------
+        figures : sequence of path
+            Figures written from this result, if any.
+
+        Returns
+        -------
+        dict
+            ``scenario``, ``J``, ``engines``, ``passed``, ``status`` (engine -> run
+            status), ``tables`` (engine -> window -> list of row records),
+            ``figures`` (paths as str).
         """
         return {"scenario": self.plan.name, "J": self.plan.J, "engines": list(self.runs), "passed": self.passed,
                 "status": {k: r.status for k, r in self.runs.items()},
@@ -493,7 +317,14 @@ class CaseResult:
                 "figures": [str(p) for p in figures]}
 
     def report_text(self) -> str:
-        """The difference report: runs, tables against the reference engine, tables against the plan."""
+        """The difference report (``differences.txt``).
+
+        Returns
+        -------
+        str
+            Heading, run status and settings, tables against the reference
+            engine per window, tables against the plan.
+        """
         p = self.plan
         lines = [f"{p.name}: {p.aircraft.id}, J = {p.J}, t = {p.t0:g} .. {p.t1:g} s, {self.case.loop} loop",
                  _runs_report(self.runs, self.tables)]
@@ -517,6 +348,7 @@ def run_case(case: ValidationCase, *, plan=None) -> CaseResult:
     Parameters
     ----------
     case : ValidationCase
+        What to plan, fly and compare.
     plan : planners.plan.Plan, optional
         A plan of the case's scenario, reused instead of planning again (its J
         must match the case's when the case sets one).
