@@ -34,7 +34,7 @@ import numpy as np
 from gna.aircraft import list_aircraft, load_aircraft
 from gna.atmosphere import ISA, Environment
 from gna.trim import stall_speed, trim_level
-from harness.compare import difference_table
+from harness.metrics import difference_table
 from harness.engines import (JSBSIM_DEFAULT_INTEGRATORS, InHouseEngine, Integrators, JSBSimEngine, fly,
                              initial_condition_properties, load_fdm)
 from harness.testing import smooth_inputs

@@ -10,14 +10,26 @@ from typing import Sequence
 
 import numpy as np
 
-from .compare import difference_table
+from .metrics import difference_table
 
 
 def smooth_inputs(u0, twin: bool = False):
-    """Smooth, vectorisable control inputs around a trim ``u0`` (F, eta, dl, dm, dn) for engine checks.
+    """Smooth, vectorisable control inputs around a trim for engine checks.
 
     Thrust +-10 %, differential thrust +-0.3 (twins only), and aileron, elevator and rudder
     oscillations of 0.01--0.02 rad that start from zero slope.
+
+    Parameters
+    ----------
+    u0 : array of shape (5,)
+        Trim controls F [N], eta [-], dl, dm, dn [rad].
+    twin : bool
+        Vary the differential thrust eta too (aircraft with two engines).
+
+    Returns
+    -------
+    callable
+        ``u(t) -> [F, eta, dl, dm, dn]``, ``t`` [s] a float or an array.
     """
     def u(t):
         t = np.asarray(t, dtype=float)
@@ -38,12 +50,12 @@ def assert_trajectories_close(actual, expected, tol=None, *, variables: Sequence
     actual, expected : DataFrame or SimulationResult
         Trajectories indexed by time ``t`` [s] (``expected`` is the reference).
     tol : None, float or mapping
-        ``None``: :data:`harness.compare.DEFAULT_TOLERANCES` (1e-2 m position,
+        ``None``: :data:`harness.metrics.DEFAULT_TOLERANCES` (1e-2 m position,
         1e-4 rad angles, 1e-3 m/s, 1e-3 rad/s); a float for every compared
         variable; or a mapping variable -> tolerance (``"position"`` is the
         distance between the positions).
     variables, window, interpolate
-        See :func:`harness.compare.difference_table`.
+        See :func:`harness.metrics.difference_table`.
     labels : (str, str)
         Names used in the message for ``expected`` and ``actual``.
 

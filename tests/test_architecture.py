@@ -137,7 +137,5 @@ def _too_long_harness_files():
             if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_HARNESS_LINES}
 
 
-@pytest.mark.xfail(strict=False, reason="harness/engines.py, compare.py and jsbsim_export.py are split on "
-                                           "other branches; remove this mark once they are merged")
 def test_harness_files_are_short():
     assert not _too_long_harness_files(), _too_long_harness_files()

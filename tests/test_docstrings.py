@@ -36,6 +36,21 @@ MODULES = [
     "planners.generalized",
     "planners.newton",
     "planners.singularity",
+    "planners.tracking",
+    "gna.simulate",
+    "gna.trajectory",
+    "harness.engines.base",
+    "harness.engines.registry",
+    "harness.engines.inhouse",
+    "harness.engines.fly",
+    "harness.engines.jsbsim.engine",
+    "harness.engines.jsbsim.fdm",
+    "harness.engines.jsbsim.states",
+    "harness.engines.jsbsim.source",
+    "harness.metrics.tables",
+    "harness.metrics.runs",
+    "harness.validation.case",
+    "harness.validation.run",
 ]
 
 

@@ -11,12 +11,14 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from planners.scenario import load_scenario
+from reports.case_files import write_case
 
+from ..validation import ValidationCase, plan_case, run_case
 from ._args import nonnegative_int
-from .compare import compare_scenario
+from .plan import write_plan
 
 PAPER_SCENARIOS = ("twin-otter-single-engine", "gtm-forward-slip", "gtm-aileron-roll")
+ANGLE_STATES = ("gamma", "chi", "alpha", "beta", "mu")
 
 
 def register(sub) -> None:
@@ -27,26 +29,31 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
-    from .plan import run as run_plan
+def paper_cases(J: int | None = None) -> list[ValidationCase]:
+    """The paper's three manoeuvres as validation cases (in-house reference, JSBSim, open loop)."""
+    return [ValidationCase(name, J=J, engines=("inhouse", "jsbsim")) for name in PAPER_SCENARIOS]
 
+
+def run(args) -> int:
     out = Path(args.out)
     rows, passed = [], []
-    for name in PAPER_SCENARIOS:
-        print(f"=== {name}")
+    for case in paper_cases(args.J):
+        print(f"=== {case.scenario}")
         t0 = time.perf_counter()
-        run_plan(type("Args", (), {"scenario": name, "J": args.J, "out": str(out / name / "plan")})())
-        summary = compare_scenario(name, args.J, "inhouse,jsbsim", out / name / "compare", quiet=True)
-        passed.append(summary["passed"])
-        sc = load_scenario(name, J=args.J)
-        first = summary["tables"]["jsbsim"]["first 10 s"]
-        whole = summary["tables"]["jsbsim"]["whole span"]
-        get = lambda tab, v: next(r["max_abs"] for r in tab if r["variable"] == v)  # noqa: E731
-        ang = lambda tab: max(get(tab, v) for v in ("gamma", "chi", "alpha", "beta", "mu"))  # noqa: E731
-        rows.append((name, sc.aircraft.id, summary["J"], get(first, "position"), ang(first), get(whole, "position"),
-                     ang(whole), time.perf_counter() - t0))
-        print(f"  in-house vs JSBSim (open loop, J = {summary['J']}): first 10 s {get(first, 'position'):.2e} m, "
-              f"{ang(first):.2e} rad; whole span {get(whole, 'position'):.2e} m, {ang(whole):.2e} rad")
+        planned = plan_case(case)
+        name = planned.scenario.name
+        print(write_plan(planned.scenario, planned.plan, planned.planning_time_s, out / name / "plan"))
+        result = run_case(case, plan=planned.plan)       # the plan just made: planned once
+        write_case(result, out / name / "compare")
+        passed.append(result.passed)
+        first, whole = result.tables["jsbsim"]["first 10 s"], result.tables["jsbsim"]["whole span"]
+        pos = lambda tab: tab.row("position").max_abs  # noqa: E731
+        ang = lambda tab: max(tab.row(v).max_abs for v in ANGLE_STATES)  # noqa: E731
+        J = result.plan.J
+        rows.append((name, planned.scenario.aircraft.id, J, pos(first), ang(first), pos(whole), ang(whole),
+                     time.perf_counter() - t0))
+        print(f"  in-house vs JSBSim (open loop, J = {J}): first 10 s {pos(first):.2e} m, "
+              f"{ang(first):.2e} rad; whole span {pos(whole):.2e} m, {ang(whole):.2e} rad")
         print(f"  figures and tables: {out / name / 'compare'}/")
     failed = [r[0] for r, ok in zip(rows, passed) if not ok]
     print("\nsummary: in-house vs JSBSim, open loop with the generalized-flatness controls")

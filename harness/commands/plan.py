@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import json
-import time
 from pathlib import Path
 
 import numpy as np
 
-from planners.generalized import plan_scenario
 from planners.plan import save_plan
-from planners.scenario import list_scenarios, load_scenario
+from planners.scenario import list_scenarios
 
+from ..validation import ValidationCase, plan_case
 from ._args import nonnegative_int
 
 
@@ -27,42 +26,45 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
-    sc = load_scenario(args.scenario, J=args.J)
-    t0 = time.perf_counter()
-    plan = plan_scenario(sc)
-    elapsed = time.perf_counter() - t0
-    out = Path(args.out) if args.out else Path("reports") / "out" / sc.name
+def write_plan(sc, plan, elapsed: float, out: Path) -> str:
+    """Write a plan's files (series, CSV tables, convergence table, summary) to ``out``; return the report text."""
     written = save_plan(plan, out)
     tn = plan.t_nodes
-    print(f"{sc.name}: {sc.aircraft.id}, t = {tn[0]:g} .. {tn[-1]:g} s, {len(tn)} nodes, flat output "
-          f"{sc.zeta.kind}, J = {plan.J}")
+    lines = [f"{sc.name}: {sc.aircraft.id}, t = {tn[0]:g} .. {tn[-1]:g} s, {len(tn)} nodes, flat output "
+             f"{sc.zeta.kind}, J = {plan.J}"]
     orders = [it.order for it in plan.iterates]
-    print(f"  orders of x, y, z per iterate: {orders} (controls at order {orders[-1] - 4})")
-    print(f"  planning time {elapsed:.3f} s ({', '.join(f'j={j}: {t:.3f}' for j, t in plan.timings.items())})")
-    print(f"  worst Newton residual: {plan.worst_newton_residual():.2e}")
+    lines.append(f"  orders of x, y, z per iterate: {orders} (controls at order {orders[-1] - 4})")
+    lines.append(f"  planning time {elapsed:.3f} s ({', '.join(f'j={j}: {t:.3f}' for j, t in plan.timings.items())})")
+    lines.append(f"  worst Newton residual: {plan.worst_newton_residual():.2e}")
     res = [float(plan.equation_residuals("full", j).abs().max(skipna=False).max(skipna=False))
            for j in range(plan.J + 1)]
-    print("  full-model equation residual at the nodes (max over the 12 equations) per iterate: "
-          + ", ".join(f"j={j}: {r:.2e}" for j, r in enumerate(res)))
+    lines.append("  full-model equation residual at the nodes (max over the 12 equations) per iterate: "
+                 + ", ".join(f"j={j}: {r:.2e}" for j, r in enumerate(res)))
     if plan.warnings:
-        print(f"  warnings ({len(plan.warnings)}):")
-        for w in plan.warnings:
-            print(f"    - {w}")
+        lines.append(f"  warnings ({len(plan.warnings)}):")
+        lines += [f"    - {w}" for w in plan.warnings]
     else:
-        print("  no Newton or singularity warnings")
+        lines.append("  no Newton or singularity warnings")
     times = sc.report_times or [float(tn[0])]
     table = plan.convergence_table(sc.report_variables, times)
-    print("  convergence table (value at t for each iterate j):")
+    lines.append("  convergence table (value at t for each iterate j):")
     with np.printoptions(linewidth=200):
-        print("    " + table.to_string(float_format=lambda v: f"{v:.6g}").replace("\n", "\n    "))
+        lines.append("    " + table.to_string(float_format=lambda v: f"{v:.6g}").replace("\n", "\n    "))
     table.to_csv(out / "convergence.csv", float_format="%.10g")
     summary = {"scenario": sc.name, "aircraft": sc.aircraft.id, "J": plan.J, "nodes": len(tn),
                "orders": orders, "planning_time_s": elapsed, "timings_s": plan.timings,
                "worst_newton_residual": plan.worst_newton_residual(), "full_residual_per_iterate": res,
                "warnings": plan.warnings, "files": written}
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
-    print(f"  written to {out}/")
+    lines.append(f"  written to {out}/")
+    return "\n".join(lines)
+
+
+def run(args) -> int:
+    planned = plan_case(ValidationCase(args.scenario, J=args.J))
+    sc, plan = planned.scenario, planned.plan
+    out = Path(args.out) if args.out else Path("reports") / "out" / sc.name
+    print(write_plan(sc, plan, planned.planning_time_s, out))
     if not plan.feasible:
         print(f"gflat plan: the plan is not feasible: Newton failed ({len(plan.newton_failures)} warning(s) "
               f"above); its values at those times are not a solution of the model")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from harness.compare import compare_engines
+from harness.validation import compare_engines
 from planners.generalized import plan_scenario
 from planners.scenario import load_scenario
 

@@ -65,11 +65,26 @@ class Integrators:
                 raise InputError(f"{v} integrates the attitude quaternion only; it cannot be used for {k}")
 
     def as_dict(self) -> dict[str, str]:
+        """The four choices by role.
+
+        Returns
+        -------
+        dict of str to str
+            ``rotational_rate``, ``translational_rate``, ``rotational_position``,
+            ``translational_position`` -> integrator name.
+        """
         return {"rotational_rate": self.rotational_rate, "translational_rate": self.translational_rate,
                 "rotational_position": self.rotational_position,
                 "translational_position": self.translational_position}
 
     def properties(self) -> dict[str, int]:
+        """The JSBSim property writes selecting these integrators.
+
+        Returns
+        -------
+        dict of str to int
+            ``simulation/integrator/...`` property -> integrator code (:data:`INTEGRATOR_CODES`).
+        """
         return {"simulation/integrator/rate/rotational": INTEGRATOR_CODES[self.rotational_rate],
                 "simulation/integrator/rate/translational": INTEGRATOR_CODES[self.translational_rate],
                 "simulation/integrator/position/rotational": INTEGRATOR_CODES[self.rotational_position],
@@ -122,7 +137,13 @@ class LogCapture:
         return False
 
     def problems(self) -> list[str]:
-        """Non-empty WARN, ERROR and FATAL records."""
+        """Non-empty WARN, ERROR and FATAL records.
+
+        Returns
+        -------
+        list of str
+            The texts of JSBSim's warnings and errors, in the order they came.
+        """
         warn = int(self._jsbsim.LogLevel.WARN)
         stdout = int(self._jsbsim.LogLevel.STDOUT)
         return [text for level, text in self.logger.records if warn <= level < stdout]

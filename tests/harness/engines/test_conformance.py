@@ -18,7 +18,7 @@ from gna.aircraft import load_aircraft
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.trajectory import COLUMNS, UNITS, RunSettings
 from gna.trim import trim_level
-from harness.compare import difference_table
+from harness.metrics import difference_table
 from harness.engines import Engine, JSBSimEngine, engine_names, get_engine
 
 ENGINES = engine_names()

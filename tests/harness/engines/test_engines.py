@@ -13,7 +13,7 @@ from gna.atmosphere import ISA, ConstantDensity, Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.errors import InputError
 from gna.trim import trim_level
-from harness.compare import difference_table
+from harness.metrics import difference_table
 from harness.engines import (COLUMNS, InHouseEngine, Integrators, JSBSimEngine, controls_on_grid, fly,
                              get_engine, initial_state)
 

@@ -1,22 +1,19 @@
-"""Difference tables, the pytest helper, and cross-engine comparisons with figures."""
+"""Metrics: difference tables, tolerances, deviation from the plan, and the pytest helper."""
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from gna.aircraft import Propulsion, list_aircraft, load_aircraft
 from gna.eom import STATE_NAMES
 from gna.errors import InputError
-from gna.trim import stall_speed, trim_level
-from harness.compare import DEFAULT_TOLERANCES, compare_engines, difference_table
-from harness.testing import assert_trajectories_close, smooth_inputs
+from harness.metrics import (DEFAULT_TOLERANCES, difference_table, differences, engine_tables,
+                             max_position_error, position_error, window_span)
+from harness.testing import assert_trajectories_close
 
-ANGLES = ("gamma", "chi", "alpha", "beta", "mu")
 
 
 def _traj(t, **over):
@@ -88,53 +85,50 @@ def test_assert_trajectories_close_message():
     assert_trajectories_close(b, a, tol=0.1)
 
 
-def _two_engine_aircraft():
-    for name in list_aircraft():
-        a = load_aircraft(name)
-        if a.propulsion.count == 2:
-            return a
-    base = load_aircraft("f16c")
-    return dataclasses.replace(base, propulsion=Propulsion(count=2, y_p=1.8, epsilon=math.radians(3.0)))
+def test_differences_series_wraps_angles_and_measures_distance():
+    t = np.linspace(0.0, 1.0, 11)
+    a = _traj(t, chi=np.full_like(t, math.pi - 1e-6), x=t)
+    b = _traj(t[2:], chi=np.full_like(t[2:], -math.pi + 1e-6), x=t[2:] + 3.0, y=4.0 + 0 * t[2:])
+    d = differences(a, b, "chi")
+    assert list(d.index) == list(t[2:]) and np.allclose(d.to_numpy(), 2e-6, atol=1e-12)
+    assert np.allclose(differences(a, b, "position").to_numpy(), 5.0)
+    with pytest.raises(InputError, match="not a column of both"):
+        differences(a, b, "nz")
 
 
+def test_engine_tables_windows_clipped_to_the_span():
+    t = np.linspace(0.0, 12.0, 121)
+    runs = {"ref": _traj(t, x=t), "other": _traj(t, x=t + 1e-3 * (t > 10.5)), "third": _traj(t, x=t)}
+    assert window_span((0.0, 12.0), 10.0) == (0.0, 10.0) and window_span((0.0, 6.0), 10.0) == (0.0, 6.0)
+    assert window_span((1.0, 6.0), None) == (1.0, None)
+    tabs = engine_tables(runs, (0.0, 12.0))
+    assert list(tabs) == ["other", "third"] and list(tabs["other"]) == ["first 10 s", "whole span"]
+    assert tabs["other"]["first 10 s"].row("x").max_abs == 0.0
+    assert tabs["other"]["whole span"].row("x").max_abs == pytest.approx(1e-3)
+    assert tabs["other"]["first 10 s"].labels == ("ref", "other")
+    short = engine_tables(runs, (0.0, 6.0), windows={"first 10 s": 10.0})
+    assert short["third"]["first 10 s"].window == (0.0, 6.0)
 
 
-@pytest.mark.parametrize("which", ["f16c", "a7", "twin"])
-def test_engines_agree_on_smooth_manoeuvres_from_trim(which, tmp_path):
-    """Issue 5 target: in-house vs JSBSim <= 1e-2 m and <= 1e-4 rad over the first 10 s (and 12 s)."""
-    a = _two_engine_aircraft() if which == "twin" else load_aircraft(which)
-    V = 1.6 * stall_speed(a, 1000.0).V_stall
-    tr = trim_level(a, V, 1000.0)
-    x0, u0 = np.array(tr.state, dtype=float), np.array(tr.controls, dtype=float)
-    out = tmp_path / "cmp" if which == "twin" else None
-    c = compare_engines(a, smooth_inputs(u0, a.propulsion.count == 2), (0.0, 12.0), x0, out_dir=out,
-                        reference=lambda t: x0)
-    assert set(c.tables["jsbsim"]) == {"first 10 s", "whole span"}
-    first, whole = c.table("first 10 s"), c.table("whole span")
-    assert first.window == (0.0, 10.0) and whole.window == (0.0, 12.0)
-    assert c.passed, c.report()
-    # Measured <= 3.2e-4 m and <= 3.6e-7 rad over 12 s on all six bundled aircraft (docs/jsbsim.md).
-    assert whole.row("position").max_abs <= 2e-3, c.report()
-    assert max(whole.row(v).max_abs for v in ANGLES) <= 1e-5, c.report()
-    if out is not None:
-        names = sorted(p.name for p in c.figures)
-        assert names == ["controls.png", "differences.png", "states.png"]
-        assert all(p.stat().st_size > 10_000 for p in c.figures)
-        text = (out / "differences.txt").read_text()
-        assert "[first 10 s]" in text and "[whole span]" in text and "overall: PASS" in text
+def test_position_error_against_flat_outputs():
+    t = np.linspace(0.0, 10.0, 101)
+    flown = _traj(t, x=100.0 * t + 3.0 * (t >= 4.0), y=4.0 * (t >= 4.0), z=-1000.0 + 0 * t)
 
+    def outputs(tt):
+        tt = np.asarray(tt, dtype=float)
+        return np.vstack([100.0 * tt, 0 * tt, -1000.0 + 0 * tt, 0 * tt])   # extra rows are ignored
 
-def test_a_plan_flies_open_loop_on_both_engines():
-    """A plan from the planner plugs in unchanged: controls, initial state, environment, reference."""
-    from planners.generalized import plan_scenario
-    from planners.scenario import scenario_from_dict
-
-    sc = scenario_from_dict({"name": "f16c-weave", "aircraft": "f16c", "time": {"t0": 0.0, "t1": 10.0, "step": 0.5},
-                             "flat_outputs": {"x": "150*t", "y": "30*(1-cos(t/4))", "z": "-3000 - 5*sin(t/3)",
-                                              "zeta": "beta", "zeta_value": "0", "eta": "0"},
-                             "generalized": {"J": 1}})
-    plan = plan_scenario(sc)
-    c = compare_engines(plan.aircraft, plan)
-    assert c.results["jsbsim"].settings["environment"].startswith(plan.env.atmosphere.describe())
-    assert c.table("whole span").window == (0.0, 10.0)
-    assert c.passed, c.report()
+    err = position_error(flown, outputs)
+    assert err.iloc[0] == 0.0 and err.iloc[-1] == pytest.approx(5.0)
+    assert max_position_error(flown, outputs) == pytest.approx(5.0)
+    assert max_position_error(flown, outputs, window=(0.0, 3.9)) == 0.0
+    assert max_position_error(flown, outputs, window=(5.0, None)) == pytest.approx(5.0)
+    frame = pd.DataFrame({"x": 100.0 * t, "y": 0 * t, "z": -1000.0 + 0 * t}, index=pd.Index(t, name="t"))
+    assert max_position_error(flown, frame) == pytest.approx(5.0)
+    nan_run = flown.copy()
+    nan_run.loc[nan_run.index[-1], "x"] = np.nan
+    assert math.isnan(max_position_error(nan_run, outputs))
+    with pytest.raises(InputError, match="shape"):
+        max_position_error(flown, lambda tt: np.zeros((2, np.size(tt))))
+    with pytest.raises(InputError, match="reference covers"):
+        max_position_error(flown, frame.iloc[:50])

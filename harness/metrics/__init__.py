@@ -1,0 +1,26 @@
+"""Metrics of trajectories: pure functions that neither simulate nor write.
+
+Trajectories are DataFrames indexed by time ``t`` [s] with the columns of
+:data:`gna.trajectory.COLUMNS` (or objects with such a ``df``, e.g.
+:class:`gna.simulate.SimulationResult`); SI units, angles in radians.
+
+Rooms
+-----
+tables
+    :func:`difference_table` (per-variable max, RMS, time of the maximum,
+    pass/fail), :class:`DifferenceTable`, tolerance specs
+    (:data:`DEFAULT_TOLERANCES`, :func:`resolve_tolerances`), :func:`differences`.
+runs
+    Sets of runs: :func:`engine_tables` (each engine against the reference per
+    window, :data:`DEFAULT_WINDOWS`), deviation from the plan
+    (:func:`position_error`, :func:`max_position_error`).  New figures of merit
+    of closed-loop tracking go here.
+"""
+
+from .runs import engine_tables, max_position_error, position_error, window_span
+from .tables import (DEFAULT_TOLERANCES, DEFAULT_VARIABLES, DEFAULT_WINDOWS, DifferenceRow, DifferenceTable,
+                     difference_table, differences, resolve_tolerances)
+
+__all__ = ["DEFAULT_TOLERANCES", "DEFAULT_VARIABLES", "DEFAULT_WINDOWS", "DifferenceRow", "DifferenceTable",
+           "difference_table", "differences", "resolve_tolerances", "engine_tables", "window_span",
+           "position_error", "max_position_error"]

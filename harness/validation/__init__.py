@@ -1,0 +1,23 @@
+"""Validation: a scenario planned once, flown on several engines, compared with the plan and each other.
+
+A :class:`ValidationCase` is a frozen, picklable value (loadable from TOML), so
+a campaign is a map of :func:`run_case` over cases; :func:`run_case` returns a
+:class:`CaseResult` (plan, runs, difference tables against the reference
+engine and against the plan, provenance).  Nothing here writes files or
+prints: rendering and writing belong to :mod:`reports` and the CLI.
+
+Rooms
+-----
+case
+    :class:`ValidationCase`, :func:`load_case`, the engine names a case may use.
+run
+    :func:`run_case`, :class:`CaseResult`, :func:`plan_case`, :func:`provenance`,
+    and :func:`compare_engines` (any control source, no scenario).  The closed
+    loop (the paper's tracking feedback) plugs in at ``run._feedback``.
+"""
+
+from .case import LOOPS, ValidationCase, load_case
+from .run import CaseResult, EngineComparison, PlannedCase, compare_engines, plan_case, provenance, run_case
+
+__all__ = ["LOOPS", "ValidationCase", "load_case", "CaseResult",
+           "EngineComparison", "PlannedCase", "compare_engines", "plan_case", "provenance", "run_case"]

@@ -1,0 +1,214 @@
+"""Validation cases: what to plan, fly and compare, as a frozen, picklable value.
+
+A :class:`ValidationCase` names the scenario, the number of generalized-flatness
+iterations J, the engines (the reference first), open or closed loop, the
+tolerances, the comparison windows and the output grid; it loads from TOML
+(:meth:`ValidationCase.from_toml`, :func:`load_case`).  A case file::
+
+    scenario = "gtm-forward-slip"       # bundled name, or a path relative to this file
+    J = 4                               # optional: the scenario's
+    engines = ["inhouse", "jsbsim"]     # the first is the reference
+    loop = "open"
+    dt_out = 0.05                       # output grid [s]
+    tolerances = 1e-2                   # or a table variable -> tolerance
+    [windows]                           # name -> duration from t0 [s], or "all"
+    "first 10 s" = 10.0
+    "whole span" = "all"
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+from gna.errors import InputError
+
+from ..engines import engine_names
+from ..metrics import DEFAULT_WINDOWS, resolve_tolerances
+
+#: Loop kinds of a case: the plan's controls alone, or with the tracking feedback.
+LOOPS: tuple[str, ...] = ("open", "closed")
+
+_CASE_KEYS = ("scenario", "J", "engines", "loop", "tolerances", "windows", "dt_out")
+
+
+# --------------------------------------------------------------------------- engine names
+# --------------------------------------------------------------------------- the case
+
+def _positive(value, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise InputError(f"{what} must be a positive number, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class ValidationCase:
+    """One validation run: a scenario planned and flown on several engines.
+
+    Attributes
+    ----------
+    scenario : str
+        Bundled scenario name or path of a scenario TOML file.
+    J : int or None
+        Generalized-flatness iterations (``None``: the scenario's).
+    engines : tuple of str
+        Engine names (:func:`engine_names`); the first is the reference.
+    loop : {"open", "closed"}
+        ``"open"``: the plan's controls alone.  ``"closed"``: with the paper's
+        tracking feedback; reserved, :func:`run_case` refuses it until the
+        tracking controller exists.
+    tolerances : None, float or tuple of (str, float) pairs
+        Tolerance spec of the engine-against-reference tables (see
+        :func:`harness.metrics.resolve_tolerances`); a mapping given to the
+        constructor is stored as sorted pairs (the case stays hashable).
+    windows : tuple of (str, float or None) pairs
+        Comparison windows: name -> duration from t0 [s] (``None``: whole span);
+        a mapping given to the constructor is stored as pairs, in order.
+    dt_out : float
+        Output grid step of every engine and of the plan comparison [s].
+    """
+
+    scenario: str
+    J: int | None = None
+    engines: tuple = ("inhouse", "jsbsim")
+    loop: str = "open"
+    tolerances: Any = None
+    windows: Any = tuple(DEFAULT_WINDOWS.items())
+    dt_out: float = 0.05
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        if isinstance(self.scenario, Path):
+            set_(self, "scenario", str(self.scenario))
+        if not isinstance(self.scenario, str) or not self.scenario:
+            raise InputError(f"scenario must be a name or a path, got {self.scenario!r}")
+        if self.J is not None and (isinstance(self.J, bool) or not isinstance(self.J, int) or self.J < 0):
+            raise InputError(f"J must be an integer >= 0 or None, got {self.J!r}")
+        engines = (self.engines,) if isinstance(self.engines, str) else tuple(self.engines)
+        bad = [e for e in engines if e not in engine_names()]
+        if not engines or bad:
+            raise InputError(f"engines must be names among {', '.join(engine_names())}; got {list(engines)}")
+        if len(set(engines)) != len(engines):
+            raise InputError(f"engines must be distinct, got {', '.join(engines)}")
+        set_(self, "engines", engines)
+        if self.loop not in LOOPS:
+            raise InputError(f"loop must be one of {', '.join(LOOPS)}, got {self.loop!r}")
+        tol = self.tolerances
+        if isinstance(tol, Mapping):
+            tol = tuple(sorted((str(k), None if v is None else float(v)) for k, v in tol.items()))
+        elif isinstance(tol, (list, tuple)):
+            tol = tuple((str(k), None if v is None else float(v)) for k, v in tol)
+        set_(self, "tolerances", tol)
+        resolve_tolerances(self.tolerance_spec, ())  # refuse bad values now, not after flying
+        win = self.windows.items() if isinstance(self.windows, Mapping) else self.windows
+        win = tuple((str(k), None if d is None else _positive(d, f"window {k!r}")) for k, d in win)
+        if not win:
+            raise InputError("a case needs at least one comparison window")
+        set_(self, "windows", win)
+        set_(self, "dt_out", _positive(self.dt_out, "dt_out"))
+
+    @property
+    def tolerance_spec(self):
+        """The tolerances as :func:`harness.metrics.difference_table` takes them (None, float or dict)."""
+        return dict(self.tolerances) if isinstance(self.tolerances, tuple) else self.tolerances
+
+    @property
+    def window_spec(self) -> dict:
+        """The windows as a dict name -> duration [s] or None."""
+        return dict(self.windows)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], where: str = "case", base: Path | None = None) -> ValidationCase:
+        """A case from a mapping (a TOML table).
+
+        Parameters
+        ----------
+        data : mapping
+            Keys ``scenario`` (required), ``J``, ``engines`` (list of names),
+            ``loop``, ``tolerances`` (number or table variable -> number),
+            ``windows`` (table name -> duration [s], or ``"all"`` for the
+            whole span), ``dt_out`` [s].
+        where : str
+            Name of the source, for messages.
+        base : Path, optional
+            Folder a relative scenario path (``*.toml``) is resolved against.
+
+        Returns
+        -------
+        ValidationCase
+
+        Raises
+        ------
+        InputError
+            Unknown or missing keys, or bad values (naming the key).
+        """
+        unknown = sorted(k for k in data if k not in _CASE_KEYS)
+        if unknown:
+            raise InputError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))}; "
+                             f"known keys: {', '.join(_CASE_KEYS)}")
+        if "scenario" not in data:
+            raise InputError(f"{where}: missing 'scenario'")
+        kw = dict(data)
+        sc = str(kw["scenario"])
+        if base is not None and sc.endswith(".toml") and not Path(sc).is_absolute():
+            sc = str(base / sc)
+        kw["scenario"] = sc
+        if "engines" in kw:
+            kw["engines"] = tuple(kw["engines"]) if isinstance(kw["engines"], list) else kw["engines"]
+        if isinstance(kw.get("windows"), Mapping):
+            kw["windows"] = {k: (None if v == "all" else v) for k, v in kw["windows"].items()}
+        try:
+            return cls(**kw)
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> ValidationCase:
+        """A case from a TOML file (keys as :meth:`from_dict`; scenario paths relative to the file).
+
+        Parameters
+        ----------
+        path : str or Path
+            The case file.
+
+        Returns
+        -------
+        ValidationCase
+
+        Raises
+        ------
+        InputError
+            Missing file, invalid TOML, unknown keys or bad values.
+        """
+        p = Path(path)
+        try:
+            data = tomllib.loads(p.read_text(encoding="utf-8"))
+        except OSError as exc:
+            raise InputError(f"cannot read the case file {p}: {exc.strerror}") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise InputError(f"{p.name}: not valid TOML ({exc})") from None
+        return cls.from_dict(data, where=p.name, base=p.parent)
+
+
+def load_case(path: str | Path) -> ValidationCase:
+    """A :class:`ValidationCase` from a TOML file (:meth:`ValidationCase.from_toml`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The case file.
+
+    Returns
+    -------
+    ValidationCase
+        The case, scenario paths resolved against the file's folder.
+
+    Raises
+    ------
+    InputError
+        Missing file, invalid TOML, unknown keys or bad values.
+    """
+    return ValidationCase.from_toml(path)

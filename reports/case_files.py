@@ -1,0 +1,51 @@
+"""A validation case's output folder: figures, the difference report, the JSON summary."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from .figures import write_figures
+
+
+def case_title(result) -> str:
+    """Heading of a case's figures, e.g. ``"gtm-forward-slip (J = 4), open loop"``.
+
+    Parameters
+    ----------
+    result : harness.validation.CaseResult
+        A case's result.
+
+    Returns
+    -------
+    str
+        Scenario name, J and loop kind.
+    """
+    return f"{result.plan.name} (J = {result.plan.J}), {result.case.loop} loop"
+
+
+def write_case(result, out_dir: str | Path) -> dict[str, Path | list[Path]]:
+    """Write a case's figures, ``differences.txt`` and ``summary.json`` to ``out_dir``.
+
+    Parameters
+    ----------
+    result : harness.validation.CaseResult
+        A case's result (runs, tables, plan, provenance).
+    out_dir : str or Path
+        Folder, created if needed.
+
+    Returns
+    -------
+    dict
+        ``"figures"`` -> list of Path, ``"differences"`` and ``"summary"`` -> Path.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    figures = write_figures(result.runs, out, reference=result.reference_frame(), title=case_title(result),
+                            tolerances=result.case.tolerance_spec)
+    diff = out / "differences.txt"
+    diff.write_text(result.report_text() + "\n", encoding="utf-8")
+    summary = dict(result.summary(figures), provenance=result.provenance)
+    js = out / "summary.json"
+    js.write_text(json.dumps(summary, indent=2, default=float))
+    return {"figures": figures, "differences": diff, "summary": js}

@@ -1,0 +1,131 @@
+"""Figures of engine runs: states, applied controls, differences to the reference engine.
+
+Fed by result objects only (mappings label -> :class:`gna.simulate.SimulationResult`,
+a reference DataFrame); no pyplot, hence no global figure state.  Angles are
+drawn in degrees, everything else in SI units (:data:`gna.trajectory.UNITS`).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+import pandas as pd
+
+from gna.eom import CONTROL_NAMES, STATE_NAMES
+from gna.trajectory import UNITS
+from harness.metrics import DEFAULT_VARIABLES, differences, resolve_tolerances
+
+
+def plot_scale(name: str) -> tuple[float, str]:
+    """Factor and unit a variable is drawn in: radians as degrees, the rest in SI units.
+
+    Parameters
+    ----------
+    name : str
+        Column name (:data:`gna.trajectory.UNITS`).
+
+    Returns
+    -------
+    (float, str)
+        Multiplier from the SI value, and the unit drawn.
+    """
+    unit = UNITS.get(name, "")
+    if unit == "rad":
+        return math.degrees(1.0), "deg"
+    if unit == "rad/s":
+        return math.degrees(1.0), "deg/s"
+    return 1.0, unit
+
+
+def write_figures(results: Mapping, out_dir: str | Path, *, reference: pd.DataFrame | None = None,
+                  title: str = "", tolerances=None) -> list[Path]:
+    """States and controls of every engine (and the reference), and the differences to the first engine.
+
+    Parameters
+    ----------
+    results : mapping label -> SimulationResult
+        Runs on a common output grid; the first is the reference engine.
+    out_dir : str or Path
+        Folder the PNG files are written to (created if needed).
+    reference : DataFrame, optional
+        Planned states indexed by ``t`` [s], drawn dotted (e.g. the plan's).
+    title : str
+        Prefix of the figure titles.
+    tolerances : None, float or mapping
+        Drawn as lines on the difference plots (see
+        :func:`harness.metrics.resolve_tolerances`).
+
+    Returns
+    -------
+    list of Path
+        ``states.png``, ``controls.png`` and (with two runs or more) ``differences.png``.
+    """
+    from matplotlib.figure import Figure  # no pyplot: no global state
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    labels = list(results)
+    paths = []
+
+    fig = Figure(figsize=(13, 11), layout="constrained")
+    axs = fig.subplots(4, 3, sharex=True)
+    for ax, name in zip(axs.ravel(), STATE_NAMES):
+        k, unit = plot_scale(name)
+        if reference is not None and name in reference.columns:
+            ax.plot(reference.index, reference[name] * k, "k:", lw=2.0, label="plan")
+        for i, lab in enumerate(labels):
+            df = results[lab].df
+            ax.plot(df.index, df[name] * k, lw=1.2, ls="-" if i == 0 else "--", label=lab)
+        ax.set_ylabel(f"{name} [{unit}]")
+        ax.grid(alpha=0.3)
+    for ax in axs[-1]:
+        ax.set_xlabel("t [s]")
+    axs[0, 0].legend(fontsize=8)
+    fig.suptitle(f"{title}: states")
+    paths.append(out / "states.png")
+    fig.savefig(paths[-1], dpi=110)
+
+    fig = Figure(figsize=(13, 7), layout="constrained")
+    axs = fig.subplots(2, 3, sharex=True)
+    for ax, name in zip(axs.ravel(), CONTROL_NAMES):
+        k, unit = plot_scale(name)
+        for i, lab in enumerate(labels):
+            df = results[lab].df
+            ax.plot(df.index, df[name] * k, lw=1.2, ls="-" if i == 0 else "--", label=lab)
+        ax.set_ylabel(f"{name} [{unit}]")
+        ax.grid(alpha=0.3)
+    axs.ravel()[-1].axis("off")
+    for ax in axs[-1]:
+        ax.set_xlabel("t [s]")
+    axs[0, 0].legend(fontsize=8)
+    fig.suptitle(f"{title}: applied controls")
+    paths.append(out / "controls.png")
+    fig.savefig(paths[-1], dpi=110)
+
+    if len(labels) > 1:
+        tol = resolve_tolerances(tolerances, DEFAULT_VARIABLES)
+        fig = Figure(figsize=(13, 12), layout="constrained")
+        axs = fig.subplots(5, 3, sharex=True)
+        ref = results[labels[0]]
+        names = DEFAULT_VARIABLES
+        for ax, name in zip(axs.ravel(), names):
+            for lab in labels[1:]:
+                d = differences(ref, results[lab], name)
+                ax.semilogy(d.index, np.maximum(np.abs(d.to_numpy()), 1e-16), lw=1.0, label=f"{lab} - {labels[0]}")
+            if name in tol:
+                ax.axhline(tol[name], color="r", ls=":", lw=1.0, label="tolerance")
+            ax.set_ylabel(f"|d {name}| [{UNITS.get(name, '')}]")
+            ax.grid(alpha=0.3, which="both")
+        for ax in axs.ravel()[len(names):]:
+            ax.axis("off")
+        axs[0, 0].legend(fontsize=8)
+        for ax in axs[-1]:
+            ax.set_xlabel("t [s]")
+        fig.suptitle(f"{title}: differences to {labels[0]}")
+        paths.append(out / "differences.png")
+        fig.savefig(paths[-1], dpi=110)
+    return paths
+
