@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from .figures import write_figures
+from .tracking import write_tracking_figure
 
 
 def case_title(result) -> str:
@@ -43,9 +44,14 @@ def write_case(result, out_dir: str | Path) -> dict[str, Path | list[Path]]:
     out.mkdir(parents=True, exist_ok=True)
     figures = write_figures(result.runs, out, reference=result.reference_frame(), title=case_title(result),
                             tolerances=result.case.tolerance_spec)
+    if result.closed_loop is not None:
+        figures.append(write_tracking_figure(result, out))
     diff = out / "differences.txt"
     diff.write_text(result.report_text() + "\n", encoding="utf-8")
     summary = dict(result.summary(figures), provenance=result.provenance)
+    if result.closed_loop is not None:
+        summary.update(loop="closed", verdict=result.verdict(), saturated_s=result.saturated_s(),
+                       feedforward_iterate=result.closed_loop.feedforward_iterate)
     js = out / "summary.json"
     js.write_text(json.dumps(summary, indent=2, default=float))
     return {"figures": figures, "differences": diff, "summary": js}

@@ -2,8 +2,10 @@
 
 Plans the paper's three manoeuvres (single-engine Twin Otter, GTM forward slip,
 GTM aileron roll in a zero-g parabola) by flatness and generalized flatness,
-flies each plan open loop on the in-house model and on JSBSim from the same
-initial state, and writes the plans, figures and difference tables.
+flies each plan on the in-house model and on JSBSim from the same initial
+state, open loop and closed loop with the paper's tracking feedback, and writes
+the plans, figures (the paper's four-curve figure per scenario) and difference
+tables.
 """
 
 from __future__ import annotations
@@ -29,15 +31,27 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def paper_cases(J: int | None = None) -> list[ValidationCase]:
-    """The paper's three manoeuvres as validation cases (in-house reference, JSBSim, open loop)."""
-    return [ValidationCase(name, J=J, engines=("inhouse", "jsbsim")) for name in PAPER_SCENARIOS]
+def paper_cases(J: int | None = None, loop: str = "open") -> list[ValidationCase]:
+    """The paper's three manoeuvres as validation cases (in-house reference, JSBSim).
+
+    Parameters
+    ----------
+    J : int, optional
+        Generalized-flatness iterations (default: each scenario's).
+    loop : {"open", "closed"}
+        Open loop, or closed loop with the tracking feedback.
+
+    Returns
+    -------
+    list of ValidationCase
+    """
+    return [ValidationCase(name, J=J, engines=("inhouse", "jsbsim"), loop=loop) for name in PAPER_SCENARIOS]
 
 
 def run(args) -> int:
     out = Path(args.out)
-    rows, passed = [], []
-    for case in paper_cases(args.J):
+    rows, passed, closed_rows = [], [], []
+    for case, closed_case in zip(paper_cases(args.J), paper_cases(args.J, "closed")):
         print(f"=== {case.scenario}")
         t0 = time.perf_counter()
         planned = plan_case(case)
@@ -55,13 +69,31 @@ def run(args) -> int:
         print(f"  in-house vs JSBSim (open loop, J = {J}): first 10 s {pos(first):.2e} m, "
               f"{ang(first):.2e} rad; whole span {pos(whole):.2e} m, {ang(whole):.2e} rad")
         print(f"  figures and tables: {out / name / 'compare'}/")
+        closed = run_case(closed_case, plan=planned.plan, scenario=planned.scenario)
+        write_case(closed, out / name / "compare-closed")
+        v = closed.verdict()
+        passed[-1] = passed[-1] and v["pass"]
+        runs = v["runs"]
+        closed_rows.append((name, runs["inhouse"]["max_position_error_m"], runs["jsbsim"]["max_position_error_m"],
+                            v["differences"]["jsbsim"]["max_position_m"], runs["inhouse"]["saturated_s"],
+                            v["pass"]))
+        print(f"  closed loop (tracking feedback): in-house {runs['inhouse']['status']}, max "
+              f"{runs['inhouse']['max_position_error_m']:.2e} m from the flat outputs; JSBSim "
+              f"{runs['jsbsim']['status']}, {runs['jsbsim']['max_position_error_m']:.2e} m; in-house vs JSBSim "
+              f"{v['differences']['jsbsim']['max_position_m']:.2e} m")
+        print(f"  four-curve figure: {out / name / 'compare-closed' / 'tracking.png'}")
     failed = [r[0] for r, ok in zip(rows, passed) if not ok]
     print("\nsummary: in-house vs JSBSim, open loop with the generalized-flatness controls")
     print(f"  {'scenario':<26} {'aircraft':<10} {'J':>2} {'pos 10 s [m]':>12} {'ang 10 s [rad]':>14} "
           f"{'pos all [m]':>11} {'ang all [rad]':>13} {'time [s]':>8}")
     for r in rows:
         print(f"  {r[0]:<26} {r[1]:<10} {r[2]:>2} {r[3]:>12.2e} {r[4]:>14.2e} {r[5]:>11.2e} {r[6]:>13.2e} {r[7]:>8.1f}")
+    print("\nclosed loop with the tracking feedback (from the planned initial state)")
+    print(f"  {'scenario':<26} {'in-house [m]':>12} {'JSBSim [m]':>11} {'in-house vs JSBSim [m]':>22} "
+          f"{'saturated [s]':>13}  result")
+    for r in closed_rows:
+        print(f"  {r[0]:<26} {r[1]:>12.2e} {r[2]:>11.2e} {r[3]:>22.2e} {r[4]:>13.2f}  {'PASS' if r[5] else 'FAIL'}")
     if failed:
-        print(f"gflat paper: engines disagree beyond the tolerances for {', '.join(failed)}: FAIL")
+        print(f"gflat paper: engines disagree beyond the tolerances, or a run ended early, for {', '.join(failed)}: FAIL")
         return 1
     return 0

@@ -9,13 +9,8 @@ writes files or prints.
 
 from __future__ import annotations
 
-import datetime
-import importlib.metadata
-import platform
-import subprocess
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
@@ -27,6 +22,8 @@ from planners.scenario import load_scenario
 from ..engines import fly, get_engine
 from ..metrics import DifferenceTable, difference_table, engine_tables, max_position_error
 from .case import ValidationCase
+from .provenance import provenance
+from .closed import ClosedLoopSetup, closed_loop_setup, saturated_seconds
 
 
 # --------------------------------------------------------------------------- results
@@ -200,33 +197,6 @@ def plan_case(case: ValidationCase) -> PlannedCase:
     return PlannedCase(scenario=sc, plan=plan, planning_time_s=time.perf_counter() - t0)
 
 
-def provenance() -> dict:
-    """Versions, date and source revision a result was computed with.
-
-    Returns
-    -------
-    dict
-        ``gflat``, ``jsbsim``, ``numpy``, ``python`` versions (None when a
-        package is not installed), ``date_utc`` (ISO 8601, seconds) and
-        ``git_commit`` of the source tree (None outside a git checkout).
-    """
-    def version(pkg):
-        try:
-            return importlib.metadata.version(pkg)
-        except importlib.metadata.PackageNotFoundError:
-            return None
-    try:
-        r = subprocess.run(["git", "rev-parse", "HEAD"], cwd=Path(__file__).resolve().parent, capture_output=True,
-                           text=True, timeout=5)
-        commit = r.stdout.strip() if r.returncode == 0 else None
-    except (OSError, subprocess.SubprocessError):
-        commit = None
-    return {"gflat": version("gflat"), "jsbsim": version("jsbsim"), "numpy": np.__version__,
-            "python": platform.python_version(),
-            "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-            "git_commit": commit or None}
-
-
 @dataclass
 class CaseResult:
     """Outcome of :func:`run_case`.
@@ -246,6 +216,11 @@ class CaseResult:
         See :func:`provenance`.
     planning_time_s : float or None
         Wall time of the planning [s]; None when the plan was given.
+    closed_loop : ClosedLoopSetup or None
+        Closed loop: the tracking controller, the aircraft and initial state flown.
+    open_loop : SimulationResult or None
+        Closed loop: the reference engine flying the plan's J-th controls open
+        loop (the paper's cyan curve), for the figures.
     """
 
     case: ValidationCase
@@ -255,6 +230,8 @@ class CaseResult:
     vs_plan: dict
     provenance: dict = field(default_factory=dict)
     planning_time_s: float | None = None
+    closed_loop: ClosedLoopSetup | None = None
+    open_loop: Any = None
 
     @property
     def reference_engine(self) -> str:
@@ -283,6 +260,48 @@ class CaseResult:
         J = self.plan.J
         return {label: max_position_error(res, lambda t: self.plan.state(t, J), window)
                 for label, res in self.runs.items()}
+
+    def saturated_s(self) -> dict:
+        """Per engine, the seconds a control was commanded beyond its limits (closed loop).
+
+        Returns
+        -------
+        dict
+            Engine name -> ``{"F": s, ..., "any": s}``; empty open loop.
+        """
+        if self.closed_loop is None:
+            return {}
+        return {label: saturated_seconds(self.closed_loop.controller, res) for label, res in self.runs.items()}
+
+    def verdict(self) -> dict:
+        """The machine-readable verdict of ``gflat compare --json``.
+
+        Returns
+        -------
+        dict
+            ``scenario``, ``loop``, ``runs`` (engine -> ``status``,
+            ``max_position_error_m`` (max over the span of ``|(x, y, z) - flat
+            outputs|``), ``max_position_error_after_5s_m``, ``saturated_s``),
+            ``differences`` (each engine but the reference -> ``max_position_m``,
+            ``max_angle_rad`` over the whole span), ``pass`` (every run
+            completed and every engine agrees with the reference within the
+            tolerances).
+        """
+        t0 = self.plan.t0
+        whole = self.max_position_error_m()
+        after = self.max_position_error_m((t0 + 5.0, None))
+        sat = self.saturated_s()
+        runs = {label: {"status": res.status, "max_position_error_m": whole[label],
+                        "max_position_error_after_5s_m": after[label],
+                        "saturated_s": sat[label]["any"] if label in sat else 0.0}
+                for label, res in self.runs.items()}
+        diffs = {}
+        for label, per in self.tables.items():
+            tab = per.get("whole span") or next(iter(per.values()))
+            diffs[label] = {"max_position_m": tab.row("position").max_abs,
+                            "max_angle_rad": max(tab.row(v).max_abs for v in ("gamma", "chi", "alpha", "beta", "mu"))}
+        ok = self.passed and all(r.status == "completed" for r in self.runs.values())
+        return {"scenario": self.plan.name, "loop": self.case.loop, "runs": runs, "differences": diffs, "pass": ok}
 
     def reference_frame(self):
         """The plan's J-th iterate at the reference engine's output times.
@@ -334,15 +353,7 @@ class CaseResult:
         return "\n".join(lines)
 
 
-def _feedback(case: ValidationCase, plan):
-    """The controller flown with the plan's controls: none open loop."""
-    if case.loop == "closed":
-        # The paper's tracking feedback (linearization along the plan, integral states) plugs in here.
-        raise InputError("closed loop needs a tracking controller; only loop = 'open' is available")
-    return None
-
-
-def run_case(case: ValidationCase, *, plan=None) -> CaseResult:
+def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
     """Plan a case's scenario (once), fly it on every engine and tabulate the differences.
 
     Parameters
@@ -352,18 +363,25 @@ def run_case(case: ValidationCase, *, plan=None) -> CaseResult:
     plan : planners.plan.Plan, optional
         A plan of the case's scenario, reused instead of planning again (its J
         must match the case's when the case sets one).
+    scenario : planners.scenario.Scenario, optional
+        The loaded scenario (its ``[tracking]`` settings serve the closed loop);
+        loaded again from ``case.scenario`` when needed and not given.
 
     Returns
     -------
     CaseResult
         Runs on the grid ``t0, t0 + dt_out, ...`` of the plan's span, tables of
-        every engine against the first per window and against the plan.
+        every engine against the first per window and against the plan.  Closed
+        loop (``case.loop == "closed"``): every engine flies the feedforward of
+        the scenario's iterate plus the tracking feedback
+        (:func:`harness.validation.closed.closed_loop_setup`), and the reference
+        engine also flies the plan open loop (``CaseResult.open_loop``).
 
     Raises
     ------
     InputError
         Not a case, unknown scenario, a plan whose J differs from the case's,
-        or ``loop = "closed"`` (no tracking controller yet).
+        or a closed loop without lambda lists.
     DomainError
         The plan is not feasible (Newton failed): there is nothing to fly.
     """
@@ -372,16 +390,28 @@ def run_case(case: ValidationCase, *, plan=None) -> CaseResult:
     planning_time = None
     if plan is None:
         planned = plan_case(case)
-        plan, planning_time = planned.plan, planned.planning_time_s
+        plan, planning_time, scenario = planned.plan, planned.planning_time_s, planned.scenario
     elif case.J is not None and plan.J != case.J:
         raise InputError(f"the plan given has J = {plan.J}, the case asks for J = {case.J}")
     if not plan.feasible:
         raise DomainError(f"{plan.name}: the plan is not feasible, nothing to fly: {plan.newton_failures[0]}")
-    controller = _feedback(case, plan)
     J = plan.J
     span = (plan.t0, plan.t1)
-    runs = fly({n: get_engine(n) for n in case.engines}, plan.aircraft, plan.initial_state(J),
-               plan.control_function(J), span, env=plan.env, controller=controller, dt_out=case.dt_out)
+    engines = {n: get_engine(n) for n in case.engines}
+    setup, open_loop = None, None
+    if case.loop == "closed":
+        if scenario is None:
+            scenario = load_scenario(case.scenario, J=case.J)
+        setup = closed_loop_setup(plan, scenario)
+        ctl = setup.controller
+        runs = fly(engines, setup.aircraft, setup.x0, ctl.controls, span, env=plan.env, controller=ctl,
+                   dt_out=case.dt_out)
+        ref = case.engines[0]
+        open_loop = fly({ref: engines[ref]}, setup.aircraft, setup.x0, plan.control_function(J), span,
+                        env=plan.env, dt_out=case.dt_out)[ref]
+    else:
+        runs = fly(engines, plan.aircraft, plan.initial_state(J), plan.control_function(J), span, env=plan.env,
+                   dt_out=case.dt_out)
     tables = engine_tables(runs, span, case.tolerance_spec, case.window_spec)
     grid = np.arange(plan.t0, plan.t1 + 0.5 * case.dt_out, case.dt_out)
     plan_df = plan.to_dataframe(grid[grid <= plan.t1 + 1e-9], j=J)
@@ -389,4 +419,4 @@ def run_case(case: ValidationCase, *, plan=None) -> CaseResult:
     vs_plan = {label: difference_table(plan_df, res.df, tolerances={}, labels=("plan", label))
                for label, res in runs.items()}
     return CaseResult(case=case, plan=plan, runs=runs, tables=tables, vs_plan=vs_plan, provenance=provenance(),
-                      planning_time_s=planning_time)
+                      planning_time_s=planning_time, closed_loop=setup, open_loop=open_loop)

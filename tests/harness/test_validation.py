@@ -115,8 +115,8 @@ def test_run_case_result_and_summary(short_scenario, tmp_path):
     assert written["differences"].read_text() == text + "\n"
 
 
-def test_closed_loop_is_reserved(short_scenario):
-    with pytest.raises(InputError, match="closed loop needs a tracking controller"):
+def test_closed_loop_needs_pole_lists(short_scenario):
+    with pytest.raises(InputError, match="no \\[tracking\\] table with lambdas"):
         run_case(ValidationCase(str(short_scenario), loop="closed"))
     with pytest.raises(InputError, match="needs a ValidationCase"):
         run_case("short")

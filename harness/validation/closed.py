@@ -1,0 +1,123 @@
+"""Closed loop of a validation case: the paper's tracking feedback along the plan.
+
+For ``loop = "closed"`` a case flies the feedforward controls of one plan
+iterate (default the last, the generalized plan; 0 is the flat plan, the
+paper's dark-blue curve) plus the tracking feedback of
+:func:`planners.tracking.tracking_controller`, from the iterate's initial
+state.  The lambda lists, feedforward iterate, saturation and an optional
+perturbation of the flown aircraft and initial state come from the scenario's
+``[tracking]`` table (``docs/scenarios.md``); a bundled paper scenario without
+one uses :func:`planners.tracking.paper_lambdas`.  The plan itself is always
+made with the nominal aircraft: a perturbation changes only what is flown.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from gna.errors import InputError
+from planners.tracking import paper_lambdas, tracking_controller
+
+
+@dataclass(frozen=True)
+class ClosedLoopSetup:
+    """What the engines fly in a closed-loop case.
+
+    Attributes
+    ----------
+    controller : planners.tracking.TrackingController
+        The tracking feedback (integral states ``I1..I4``, or ``I1..I3`` with the thrust output).
+    aircraft : gna.aircraft.Aircraft
+        The aircraft flown (the plan's, or a perturbed copy).
+    x0 : ndarray, shape (12,)
+        Initial state flown [SI, rad]: the feedforward iterate's, plus any offset.
+    feedforward_iterate : int
+        Plan iterate whose controls are the feedforward and whose states the reference.
+    perturbation : object or None
+        The perturbation applied (None: nominal aircraft and initial state).
+    """
+
+    controller: Any
+    aircraft: Any
+    x0: np.ndarray
+    feedforward_iterate: int
+    perturbation: Any = None
+
+
+def _tracking_table(scenario):
+    """The scenario's tracking settings, or None when it has none."""
+    return getattr(scenario, "tracking", None) if scenario is not None else None
+
+
+def closed_loop_setup(plan, scenario=None, *, feedforward_iterate: int | None = None) -> ClosedLoopSetup:
+    """Build the tracking controller, flown aircraft and initial state for a plan.
+
+    Parameters
+    ----------
+    plan : planners.plan.Plan
+        A feasible plan (flat output beta, mu or F).
+    scenario : planners.scenario.Scenario, optional
+        Its scenario; its ``tracking`` settings (lambdas, feedforward iterate,
+        saturation, perturbation) are used when present.
+    feedforward_iterate : int, optional
+        Overrides the scenario's feedforward iterate.
+
+    Returns
+    -------
+    ClosedLoopSetup
+
+    Raises
+    ------
+    InputError
+        No lambda lists for the scenario (neither a ``[tracking]`` table nor a
+        paper scenario), or an iterate not in the plan.
+    """
+    tr = _tracking_table(scenario)
+    if tr is not None and getattr(tr, "lambdas", None) is not None:
+        lambdas = tr.lambdas
+    else:
+        try:
+            lambdas = paper_lambdas(plan.name)
+        except InputError:
+            raise InputError(f"scenario {plan.name!r} has no [tracking] table with lambdas: the closed loop "
+                             f"needs the pole lists I1..I4 (see docs/scenarios.md)") from None
+    j = feedforward_iterate
+    if j is None:
+        j = getattr(tr, "feedforward_iterate", -1) if tr is not None else -1
+        j = -1 if j is None else j
+    if not -len(plan.iterates) <= j <= plan.J:
+        raise InputError(f"feedforward iterate j = {j} not in the plan (J = {plan.J})")
+    saturate = bool(getattr(tr, "saturate", True)) if tr is not None else True
+    controller = tracking_controller(plan, lambdas, feedforward_iterate=j, saturate=saturate)
+    aircraft, x0 = plan.aircraft, np.asarray(plan.initial_state(j), dtype=float)
+    pert = getattr(tr, "perturbation", None) if tr is not None else None
+    if pert is not None:
+        from gna.perturbation import offset_state, perturbed_aircraft
+        aircraft = perturbed_aircraft(aircraft, pert)
+        x0 = np.asarray(offset_state(x0, pert), dtype=float)
+    return ClosedLoopSetup(controller=controller, aircraft=aircraft, x0=x0,
+                           feedforward_iterate=j % len(plan.iterates), perturbation=pert)
+
+
+def saturated_seconds(controller, run) -> dict:
+    """Seconds each control of a closed-loop run spent commanded beyond its limits.
+
+    Parameters
+    ----------
+    controller : planners.tracking.TrackingController
+        The controller flown.
+    run : gna.trajectory.SimulationResult
+        Its run, with ``controller_states``.
+
+    Returns
+    -------
+    dict
+        ``{"F": s, "eta": s, "dl": s, "dm": s, "dn": s, "any": s}`` [s].
+    """
+    states = None if run.controller_states is None else run.controller_states.to_numpy(dtype=float)
+    if states is None:
+        return {"any": 0.0}
+    return controller.saturated_time(run.df, states)

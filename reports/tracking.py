@@ -1,0 +1,85 @@
+"""The paper's four-curve figures of a closed-loop case (section "Examples").
+
+For each scenario the paper draws, against time, the flat plan J = 0 (red),
+the integration with the tracking feedback (dark blue), the generalized plan
+(green) and the integration of the generalized controls without feedback
+(cyan); the surfaces are drawn with their feedback part, ``delta + d(delta)``.
+Fed by a :class:`harness.validation.CaseResult` of a closed-loop case; no pyplot.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .figures import plot_scale
+
+#: Variables drawn, in panel order (the paper's figures show the angles and the surfaces).
+TRACKING_VARIABLES: tuple[str, ...] = ("V", "alpha", "beta", "mu", "F", "dl", "dm", "dn")
+
+#: The paper's colours.
+COLOURS = {"flat": "red", "closed": "darkblue", "generalized": "green", "open": "cyan"}
+
+
+def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png") -> Path:
+    """Draw the four curves of a closed-loop case and the position error against the flat outputs.
+
+    Parameters
+    ----------
+    result : harness.validation.CaseResult
+        A closed-loop case's result (``closed_loop`` and ``open_loop`` set).
+    out_dir : str or Path
+        Existing folder.
+    name : str
+        File name of the PNG.
+
+    Returns
+    -------
+    Path
+        The figure written.
+
+    Raises
+    ------
+    ValueError
+        When the result is not a closed-loop one.
+    """
+    from matplotlib.figure import Figure
+
+    if result.closed_loop is None or result.open_loop is None:
+        raise ValueError("the four-curve figure needs a closed-loop case result")
+    plan = result.plan
+    closed = result.runs[result.reference_engine]
+    t = np.asarray(closed.df.index, dtype=float)
+    flat = plan.to_dataframe(t, j=0)
+    gen = plan.to_dataframe(t, j=plan.J)
+    opened = result.open_loop.df
+    fig = Figure(figsize=(13, 11), layout="constrained")
+    axs = fig.subplots(3, 3, sharex=True)
+    for ax, var in zip(axs.ravel(), TRACKING_VARIABLES):
+        k, unit = plot_scale(var)
+        ax.plot(flat.index, flat[var] * k, color=COLOURS["flat"], lw=1.2, label="flat plan J = 0")
+        ax.plot(gen.index, gen[var] * k, color=COLOURS["generalized"], lw=2.0, label=f"generalized plan J = {plan.J}")
+        ax.plot(opened.index, opened[var] * k, color=COLOURS["open"], lw=1.0, ls="--",
+                label="open loop, generalized controls")
+        ax.plot(closed.df.index, closed.df[var] * k, color=COLOURS["closed"], lw=1.2,
+                label="closed loop" + (" (delta + d delta)" if var in ("F", "dl", "dm", "dn") else ""))
+        ax.set_ylabel(f"{var} [{unit}]")
+        ax.grid(alpha=0.3)
+    ax = axs.ravel()[-1]
+    for run, colour, label in ((closed, COLOURS["closed"], "closed loop"), (result.open_loop, COLOURS["open"],
+                                                                              "open loop")):
+        tt = np.asarray(run.df.index, dtype=float)
+        err = np.linalg.norm(run.df[["x", "y", "z"]].to_numpy().T - plan.state(tt, plan.J)[:3], axis=0)
+        ax.semilogy(tt, np.maximum(err, 1e-9), color=colour, lw=1.2, label=label)
+    ax.set_ylabel("|position - flat outputs| [m]")
+    ax.grid(alpha=0.3, which="both")
+    for a in axs[-1]:
+        a.set_xlabel("t [s]")
+    axs[0, 0].legend(fontsize=7)
+    j = result.closed_loop.feedforward_iterate
+    fig.suptitle(f"{plan.name}: closed loop (feedforward and reference: iterate j = {j}, "
+                 f"engine {result.reference_engine}) against the plans")
+    path = Path(out_dir) / name
+    fig.savefig(path, dpi=110)
+    return path
