@@ -126,11 +126,21 @@ def test_controller_with_states_and_stateless(f16):
     res = JSBSimSourceEngine().simulate(ac, u0, (0.0, 1.0), x0, controller=_Ramp(), dt_out=0.1)
     t = res.df.index.to_numpy()
     assert np.allclose(res.df["dm"].to_numpy() - u0[3], 1e-3 * t, atol=1e-12)
-    assert res.settings["controller"]["n_states"] == 1
+    assert res.settings.controller_states == 1 and "AB2" in res.settings.controller_scheme
+    assert list(res.controller_states.columns) == ["xc0"]
     res2 = JSBSimSourceEngine().simulate(ac, u0, (0.0, 1.0), x0, controller=lambda t, x: (0, 0, 0, 0, -0.01 * x[10]),
                                          dt_out=0.1)
-    assert res2.status == "completed" and res2.settings["controller"]["n_states"] == 0
+    assert res2.status == "completed" and res2.settings.controller_states == 0
     assert math.isfinite(res2.df["q"].iloc[-1])
+
+
+def test_a_coarser_controller_rate_is_held_and_recorded(f16):
+    ac, x0, u0 = f16
+    res = JSBSimSourceEngine(controller_dt=1 / 120).simulate(ac, u0, (0.0, 0.5), x0, controller=_Ramp(), dt_out=0.1)
+    s = res.settings
+    assert res.completed and s.controller_dt == pytest.approx(4 * s.dt) and "every 4 steps" in s.controller
+    # AB2 on a constant derivative is exact: the ramp's state is t at every update
+    assert np.allclose(res.controller_states["xc0"].to_numpy(), res.df.index.to_numpy(), atol=1e-12)
 
 
 def test_fitted_source_parses_a_file_outside_the_package():

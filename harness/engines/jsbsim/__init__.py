@@ -2,7 +2,10 @@
 
 Rooms:
 
-* :mod:`.engine`: :class:`JSBSimEngine` and its run loop (run context, sampled controller);
+* :mod:`.run`: :class:`~.run.JSBSimRun`, the run loop every JSBSim engine shares (stepping, sampled
+  controller with AB2 states, stop handling, result) with the hooks an engine fills;
+* :mod:`.engine`: :class:`JSBSimEngine`, the exported aircraft file flown;
+* :mod:`.source`: :class:`~.source.JSBSimSourceEngine`, the JSBSim aircraft a GNA set was fitted from;
 * :mod:`.fdm`: loading an aircraft with its log captured, :class:`Integrators`, initial conditions;
 * :mod:`.states`: JSBSim properties -> the 12 wind-frame states and the common DataFrame;
 * :mod:`.export`: the aircraft file generated from a gflat aircraft (``gflat export-jsbsim``).

@@ -1,14 +1,14 @@
 """The JSBSim engine: the exported aircraft flown step by step, with an optional sampled controller.
 
-:class:`JSBSimEngine` sets the problem on JSBSim's step grid; :class:`_Run`
-(the run context) holds the FDM, its cached property nodes and the records of
-one run, and steps it open loop or with a controller.
+:class:`JSBSimEngine` flies the aircraft file exported from a gflat aircraft;
+its run (:class:`_ExportRun`) fills the hooks of the shared run loop
+(:class:`harness.engines.jsbsim.run.JSBSimRun`): the file loaded, the two
+engine thrusts and three surfaces written directly.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -16,22 +16,14 @@ import numpy as np
 from gna import units
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
-from gna.controller import Controller, as_controller, state_names
-from gna.eom import CONTROL_NAMES
 from gna.errors import InputError
-from gna.simulate import envelope_warnings
-from gna.trajectory import (RunSettings, SimulationResult, check_span, control_function, controller_frames,
-                            controls_on_grid, environment_of, initial_state)
+from gna.trajectory import SimulationResult
 
-from ..base import EngineError
 from . import export as jx
-from .fdm import Integrators, import_jsbsim, load_fdm, prepare, property_node
-from .states import (DERIVED_NODES, STATE_NODES, STATE_NODES_FLAT, STATE_NODES_WGS84, StateConverter,
-                     step_grid, trajectory_frame)
+from .fdm import Integrators, load_fdm, prepare
+from .run import CONTROLLER_SCHEME, JSBSimRun, StepStop, check_steps
 
-#: How the JSBSim engine advances a controller's states (recorded in the result's settings).
-CONTROLLER_SCHEME = ("AB2 (two-step Adams-Bashforth, Euler first step) on the sampled aircraft states, "
-                     "second order in the controller step")
+__all__ = ["JSBSimEngine", "CONTROLLER_SCHEME", "StepStop"]
 
 
 @dataclass(frozen=True)
@@ -98,14 +90,11 @@ class JSBSimEngine:
     controller_dt: float | None = None
 
     def __post_init__(self):
-        if not (math.isfinite(self.dt) and self.dt > 0):
-            raise InputError(f"JSBSim step dt must be positive, got {self.dt}")
+        check_steps(self.dt, self.controller_dt)
         if self.earth not in ("flat", "wgs84"):
             raise InputError(f"earth must be 'flat' or 'wgs84', got {self.earth!r}")
         if not (abs(self.latitude) < math.pi / 2 and math.isfinite(self.longitude)):
             raise InputError(f"bad initial latitude/longitude ({self.latitude}, {self.longitude}) rad")
-        if self.controller_dt is not None and not (math.isfinite(self.controller_dt) and self.controller_dt > 0):
-            raise InputError(f"controller_dt must be positive, got {self.controller_dt}")
 
     @property
     def name(self) -> str:
@@ -176,106 +165,29 @@ class JSBSimEngine:
         EngineError
             JSBSim refused the file or an initial condition.
         """
-        env = environment_of(controls, env)
-        y0 = initial_state(controls, x0)
-        t0, t1 = check_span(t_span)
-        ufun = control_function(controls)
-        ctrl = as_controller(controller)
-        n, dt, out_steps = step_grid(t0, t1, self.dt, dt_out, t_eval)
-        times = t0 + np.arange(n + 1) * dt
-        U = controls_on_grid(ufun, times)
-        every = 1 if self.controller_dt is None else max(int(round(self.controller_dt / dt)), 1)
-
-        t_setup = time.perf_counter()
-        fdm, load_problems, capture = load_fdm(self.xml(aircraft, env, y0), aircraft.id)
-        with capture:
-            run = _Run(self, fdm, capture, aircraft, env, y0, times, out_steps, U, ctrl, every)
-            run.start()
-            t_loop = time.perf_counter()
-            status, message, t_end = run.step_all()
-            t_post = time.perf_counter()
-            return run.result(status, message, t_end, load_problems,
-                              {"setup": t_loop - t_setup, "stepping": t_post - t_loop})
+        return _ExportRun.fly(self, aircraft, controls, t_span, x0, env=env, controller=controller, dt_out=dt_out,
+                              t_eval=t_eval)
 
 
-class StepStop(Exception):
-    """The run leaves the domain at step ``k``: ``text`` names the variable and value."""
+class _ExportRun(JSBSimRun):
+    """A run of the exported aircraft file: two thrusts (engines 1, 2) and the three surfaces written directly."""
 
-    def __init__(self, k: int, text: str):
-        self.k, self.text = k, text
+    @property
+    def geo(self):
+        e = self.engine
+        return (e.latitude, e.longitude) if e.earth == "wgs84" else None
 
-    @staticmethod
-    def control(k: int, u) -> StepStop:
-        bad = [f"{n} = {v}" for n, v in zip(CONTROL_NAMES, u) if not math.isfinite(v)]
-        return StepStop(k, f"non-finite control at t = {{t}} ({', '.join(bad)})")
+    def _load(self, stack):
+        fdm, problems, capture = load_fdm(self.engine.xml(self.aircraft, self.env, self.x0), self.aircraft.id)
+        stack.enter_context(capture)
+        return fdm, capture, problems
 
-
-class _Run:
-    """One JSBSim run: the problem on the step grid, the FDM with its cached nodes, and the records."""
-
-    def __init__(self, engine: JSBSimEngine, fdm, capture, aircraft: Aircraft, env: Environment, x0: np.ndarray,
-                 times: np.ndarray, out_steps: np.ndarray, U: np.ndarray, controller: Controller | None,
-                 every: int):
-        self.engine, self.fdm, self.capture = engine, fdm, capture
-        self.aircraft, self.env, self.x0 = aircraft, env, x0
-        self.times, self.U, self.n = times, U, times.size - 1
-        self.out = np.zeros(self.n + 1, dtype=bool)
-        self.out[out_steps] = True
-        self.controller, self.every = controller, every
-        self.names = state_names(controller)
-        self.wgs84 = engine.earth == "wgs84"
-        self.pos_nodes = STATE_NODES_WGS84 if self.wgs84 else STATE_NODES_FLAT
-        # Records at the output steps: raw states, raw derived outputs, feedback and controller states.
-        self.raw_states, self.raw_derived, self.index, self.fb, self.xcs = [], [], [], [], []
-        self.k = 0
-
-    # ---- setup -----------------------------------------------------------------------------------
-    def start(self) -> None:
-        """Settings, initial condition, u(t0) written, ``run_ic``, first record."""
-        e, fdm = self.engine, self.fdm
-        prepare(fdm, e.integrators, float(self.times[1] - self.times[0]), self.env, self.x0, wgs84=self.wgs84,
+    def _configure(self) -> None:
+        e = self.engine
+        prepare(self.fdm, e.integrators, self.dt, self.env, self.x0, wgs84=self.geo is not None,
                 latitude=e.latitude, longitude=e.longitude, planet_radius_ft=e.planet_radius_ft)
-        node = lambda name: property_node(fdm, name)  # noqa: E731
-        self.writers = [node(p).set_double_value for p in (*jx.THRUST_PROPERTIES, *jx.CONTROL_PROPERTIES.values())]
-        self.state_readers = [node(p).get_double_value for p in self.pos_nodes + STATE_NODES]
-        self.derived_readers = [node(p).get_double_value for p in DERIVED_NODES]
-        self.vt = node("velocities/vt-fps").get_double_value
-        geo = (e.latitude, e.longitude) if self.wgs84 else None
-        self.to_state = StateConverter(self.x0, fdm["inertial/sea-level-radius_ft"], geo)
-
-        t0, u0 = float(self.times[0]), self.U[:, 0]
-        self.d = [0.0] * 5
-        self.xc = np.zeros(0)
-        if self.controller is not None:
-            nc = int(self.controller.n_states)
-            self.xc = np.asarray(self.controller.initial_state(t0, self.x0.copy()), dtype=float).reshape(-1)
-            if self.xc.shape != (nc,) or not np.all(np.isfinite(self.xc)):
-                raise InputError(f"the controller's initial state must be {nc} finite values, got {self.xc}")
-            self.d = self._output(t0, self.x0.copy())
-            self.f_prev = self._derivative(t0, self.x0.copy())
-            self.f_prev2 = None
-        applied = [a + b for a, b in zip(u0.tolist(), self.d)]
-        if not all(math.isfinite(v) for v in applied):
-            names = [f"{c} = {v}" for c, v in zip(CONTROL_NAMES, applied) if not math.isfinite(v)]
-            raise InputError(f"controls at t0 = {t0:g} s are not finite ({', '.join(names)})")
-        self._write(applied)
-        fdm.set_sim_time(t0)
-        try:
-            ok = fdm.run_ic()
-        except Exception as exc:  # JSBSim raises its own exception types
-            raise EngineError(f"JSBSim run_ic failed for {self.aircraft.id}: {exc}") from None
-        if not ok:
-            raise EngineError(f"JSBSim run_ic failed for {self.aircraft.id}: {' | '.join(self.capture.problems())}")
-        if self.out[0]:
-            self._record(0)
-
-    def _output(self, t: float, x: np.ndarray) -> list:
-        return np.asarray(self.controller.output(t, x, self.xc), dtype=float).reshape(5).tolist()
-
-    def _derivative(self, t: float, x: np.ndarray):
-        if not self.names:
-            return None
-        return np.asarray(self.controller.derivative(t, x, self.xc), dtype=float).reshape(len(self.names))
+        props = (*jx.THRUST_PROPERTIES, *jx.CONTROL_PROPERTIES.values())
+        self.writers = [self._node(p).set_double_value for p in props]
 
     def _write(self, u) -> None:
         """Thrusts of engines 1, 2 [lbf] from (F, eta), and the three surfaces [rad]."""
@@ -287,147 +199,23 @@ class _Run:
         w[3](u[3])
         w[4](u[4])
 
-    def _record(self, k: int) -> None:
-        self.raw_states.append([r() for r in self.state_readers])
-        self.raw_derived.append([r() for r in self.derived_readers])
-        self.index.append(k)
-        self.fb.append(self.d)
-        self.xcs.append(self.xc)
-
-    # ---- stepping --------------------------------------------------------------------------------
-    def step_all(self) -> tuple[str, str, float]:
-        """Step to the end or to the first divergence: ``(status, message, t_end)``."""
-        times = self.times
-        try:
-            if self.controller is None:
-                self._open_loop()
-            else:
-                self._closed_loop()
-        except StepStop as stop:
-            t_end = float(times[self.index[-1]]) if self.index else float(times[0])
-            message = stop.text.format(t=f"{times[stop.k]:.6g} s") + f"; result kept up to t = {t_end:.6g} s"
-            return "domain", message, t_end
-        except import_jsbsim().BaseError as exc:  # JSBSim's own exceptions (e.g. geographic errors on divergence)
-            t_end = float(times[self.index[-1]]) if self.index else float(times[0])
-            return "domain", (f"JSBSim stopped at t = {times[self.k]:.6g} s with {type(exc).__name__}: {exc}; "
-                              f"result kept up to t = {t_end:.6g} s"), t_end
-        return "completed", "", float(times[-1])
-
-    def _check_run(self, ok: bool, k: int) -> None:
-        if not ok:
-            raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
-        v = self.vt()
-        if not (0.0 < v < math.inf):
-            raise StepStop(k, f"JSBSim diverged at t = {{t}}: airspeed V = {v * units.FT:.6g} m/s")
-
-    def _open_loop(self) -> None:
+    def _open_loop_writer(self):
         """Reference controls precomputed on the step grid (engine thrusts in lbf)."""
         U, lbf = self.U, units.LBF
         F1 = (U[0] * (1.0 + U[1]) * 0.5 / lbf).tolist()
         F2 = (U[0] * (1.0 - U[1]) * 0.5 / lbf).tolist()
         DL, DM, DN = U[2].tolist(), U[3].tolist(), U[4].tolist()
-        bad = ~np.all(np.isfinite(U), axis=0)
-        k_bad = int(np.argmax(bad)) if bad.any() else self.n + 1
         w0, w1, w2, w3, w4 = self.writers
-        run, check, out = self.fdm.run, self._check_run, self.out.tolist()
-        for k in range(1, self.n + 1):
-            self.k = k
-            if k >= k_bad:
-                raise StepStop.control(k, U[:, k])
+
+        def write_step(k):
             w0(F1[k]); w1(F2[k]); w2(DL[k]); w3(DM[k]); w4(DN[k])  # noqa: E702
-            check(run(), k)
-            if out[k]:
-                self._record(k)
+        return write_step
 
-    def _closed_loop(self) -> None:
-        """Feedback sampled at every ``every``-th step without delay, held in between; AB2 on the states."""
-        fdm, ctrl, every = self.fdm, self.controller, self.every
-        hc = every * float(self.times[1] - self.times[0])
-        a1, a2 = 1.5 * hc, 0.5 * hc
-        ucols, tlist, out = self.U.T.tolist(), self.times.tolist(), self.out.tolist()
-        run, check, write, isfinite = fdm.run, self._check_run, self._write, math.isfinite
-        readers, scalar = self.state_readers, self.to_state.scalar
-        stateful = bool(self.names)
-        bad = ~np.all(np.isfinite(self.U), axis=0)
-        k_bad = int(np.argmax(bad)) if bad.any() else self.n + 1
-        for k in range(1, self.n + 1):
-            self.k = k
-            if k % every:
-                if k >= k_bad:
-                    raise StepStop.control(k, ucols[k])
-                write([a + b for a, b in zip(ucols[k], self.d)])
-                check(run(), k)
-            else:
-                check(run(), k)
-                xk = scalar([r() for r in readers])
-                if stateful:
-                    f1, f2 = self.f_prev, self.f_prev2
-                    self.xc = self.xc + (hc * f1 if f2 is None else a1 * f1 - a2 * f2)
-                    if not np.all(np.isfinite(self.xc)):
-                        bad = ", ".join(f"{n} = {v}" for n, v in zip(self.names, self.xc) if not isfinite(v))
-                        raise StepStop(k, f"non-finite controller state at t = {{t}} ({bad})")
-                self.d = np.asarray(ctrl.output(tlist[k], xk, self.xc), dtype=float).reshape(5).tolist()
-                uk = [a + b for a, b in zip(ucols[k], self.d)]
-                if not all(isfinite(c) for c in uk):
-                    raise StepStop.control(k, uk)
-                write(uk)
-                fdm.suspend_integration()
-                try:
-                    run()
-                finally:
-                    fdm.resume_integration()
-                if stateful:
-                    self.f_prev2, self.f_prev = self.f_prev, self._derivative(tlist[k], xk)
-            if out[k]:
-                self._record(k)
-
-    # ---- result ----------------------------------------------------------------------------------
-    def result(self, status: str, message: str, t_end: float, load_problems: list,
-               wall: dict) -> SimulationResult:
-        """Convert the records to the common result (states, applied controls, settings)."""
-        t_post = time.perf_counter()
-        e, env, aircraft, x0 = self.engine, self.env, self.aircraft, self.x0
-        idx = np.asarray(self.index, dtype=int)
-        S = self.to_state.vector(np.array(self.raw_states, dtype=float).T.reshape(
-            len(self.pos_nodes) + len(STATE_NODES), -1))
-        D = np.array(self.raw_derived, dtype=float).T.reshape(len(DERIVED_NODES), -1)
-        dU = np.array(self.fb, dtype=float).T.reshape(5, -1)
-        applied = self.U[:, idx] + dU if self.controller is not None else self.U[:, idx]
-        t = self.times[idx]
-        df = trajectory_frame(aircraft, env, t, S, applied, D)
-        warnings = envelope_warnings(aircraft, df) + [f"JSBSim: {p}" for p in load_problems]
-        near = np.abs(df["gamma"].to_numpy()) > 0.5 * math.pi - 1e-3
-        if near.any():
-            warnings.append(f"the flight path came within 1e-3 rad of vertical at t = {df.index[near.argmax()]:.4g} s: "
-                            f"the wind-frame chart is singular there (chi and mu are ill-defined; the in-house "
-                            f"engine stops)")
-        dt = float(self.times[1] - self.times[0])
-        planet = ({"radius_ft": e.planet_radius_ft, "h_ref_m": -float(x0[2]), "rotation_rad_s": 0.0, "J2": 0.0,
-                   "GM_ft3_s2": jx.FlatPlanet(env.g, -float(x0[2]), e.planet_radius_ft).GM, "gravity_model": 0}
-                  if not self.wgs84 else {"model": "JSBSim default WGS84, rotating, J2 gravity",
-                                          "latitude_rad": e.latitude, "longitude_rad": e.longitude})
-        ctrl = self.controller
-        if ctrl is None:
-            how = None
-        elif self.every == 1:
-            how = "sampled every step at the propagated state"
-        else:
-            how = (f"sampled every {self.every} steps ({self.every * dt:.6g} s) at the propagated state, "
-                   f"held in between")
-        settings = RunSettings(
-            engine=e.name, model="full", environment=env.atmosphere.describe() + " (written into the aircraft file)",
-            g=env.g, dt=dt, integrators=e.integrators.as_dict(), controller=how,
-            controller_states=len(self.names),
-            controller_scheme=None if ctrl is None else (CONTROLLER_SCHEME if self.names else "no states"),
-            controller_dt=None if ctrl is None else self.every * dt,
-            extra={"jsbsim_version": import_jsbsim().__version__, "dt_max": e.dt, "steps": self.n,
-                   "earth": e.earth, "planet": planet,
-                   "control_timing": "u(t_k) written before the run() reaching t_k; u(t0) before run_ic()",
-                   "wall_time_s": {**wall, "conversion": time.perf_counter() - t_post}})
-        res = SimulationResult(df=df, status=status, message=message, warnings=warnings, settings=settings,
-                               t_end=t_end)
-        if ctrl is not None:
-            Xc = np.array(self.xcs, dtype=float).reshape(idx.size, len(self.names)).T
-            res.controller_states, res.feedback = controller_frames(t, self.names, Xc, dU)
-        return res
-
+    def _describe(self):
+        e, env, h_ref = self.engine, self.env, -float(self.x0[2])
+        planet = ({"radius_ft": e.planet_radius_ft, "h_ref_m": h_ref, "rotation_rad_s": 0.0, "J2": 0.0,
+                   "GM_ft3_s2": jx.FlatPlanet(env.g, h_ref, e.planet_radius_ft).GM, "gravity_model": 0}
+                  if self.geo is None else {"model": "JSBSim default WGS84, rotating, J2 gravity",
+                                            "latitude_rad": e.latitude, "longitude_rad": e.longitude})
+        return (env.atmosphere.describe() + " (written into the aircraft file)",
+                {"earth": e.earth, "planet": planet})

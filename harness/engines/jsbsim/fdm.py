@@ -318,9 +318,27 @@ def prepare(fdm, integrators: Integrators, dt: float, env: Environment, x0: np.n
     writes = initial_condition_properties(x0, lat0, lon0, geodetic_altitude=wgs84)
     for prop, value in writes:
         fdm[prop] = value
-    # Verify (a write to a read-only property is silently ignored); altitudes are quantised by the
-    # ECEF position of the planet's radius.
-    ulp_ft = 8.0 * float(np.spacing(max(planet_radius_ft, WGS84_A_FT)))
+    check_initial_condition(fdm, writes, max(planet_radius_ft, WGS84_A_FT))
+
+
+def check_initial_condition(fdm, writes: list[tuple[str, float]], radius_ft: float) -> None:
+    """Read the ``ic/*`` writes back (a write to a read-only property is silently ignored).
+
+    Parameters
+    ----------
+    fdm : jsbsim.FGFDMExec
+        The FDM the writes went to.
+    writes : list of (str, float)
+        :func:`initial_condition_properties`.
+    radius_ft : float
+        Planet radius [ft]: altitudes are quantised by the ECEF position of that radius (8 ulp allowed).
+
+    Raises
+    ------
+    EngineError
+        If a property reads back another value.
+    """
+    ulp_ft = 8.0 * float(np.spacing(radius_ft))
     for prop, value in writes:
         got = fdm[prop]
         tol = 1e-9 * max(1.0, abs(value)) + (ulp_ft if prop.startswith("ic/h-") else 0.0)

@@ -24,7 +24,9 @@ the exported file cannot show.
   non-rotating planet (``FGFDMExec.load_planet``: sphere of radius
   ``planet_radius_ft``, no J2, ``GM`` exact at the initial altitude), gravity
   model 0, JSBSim's ISA, exact wind-frame initial state, same integrators and
-  controller sampling.
+  controller sampling (``controller_dt``, controller states by AB2): the run
+  loop is :class:`harness.engines.jsbsim.run.JSBSimRun`'s, with the hooks of
+  :class:`_SourceRun`.
 """
 
 from __future__ import annotations
@@ -41,22 +43,16 @@ import numpy as np
 from gna import units
 from gna.aircraft import Aircraft
 from gna.atmosphere import ISA, Environment
-from gna.controller import as_controller
 from gna.errors import InputError
 from gna.fit.sources.jsbsim_aero import FittedSource, fitted_source, resolve
-from gna.simulate import SimulationResult, envelope_warnings
-from gna.trajectory import check_span, control_function, controls_on_grid, environment_of, initial_state
+from gna.trajectory import SimulationResult, environment_of
 
 from ..base import EngineError
 from . import export as jx
-from .engine import StepStop
-from .fdm import Integrators, LogCapture, import_jsbsim, initial_condition_properties
-from .states import StateConverter, step_grid, trajectory_frame
+from .fdm import Integrators, LogCapture, check_initial_condition, import_jsbsim, initial_condition_properties
+from .run import JSBSimRun, check_steps
 
-_POS = ("position/lat-gc-rad", "position/long-gc-rad", "position/h-sl-ft")
-_STATES = ("velocities/vt-fps", "flight-path/gamma-rad", "flight-path/psi-gt-rad", "aero/alpha-rad",
-           "aero/beta-rad", "attitude/phi-rad", "attitude/theta-rad", "attitude/psi-rad",
-           "velocities/p-rad_sec", "velocities/q-rad_sec", "velocities/r-rad_sec")
+#: Raw outputs for :meth:`_SourceRun._derived`: JSBSim's aero loads instead of the exported file's coefficients.
 _DERIVED = ("aero/qbar-psf", "atmosphere/rho-slugs_ft3",
             "forces/fbx-aero-lbs", "forces/fby-aero-lbs", "forces/fbz-aero-lbs",
             "moments/l-aero-lbsft", "moments/m-aero-lbsft", "moments/n-aero-lbsft",
@@ -118,6 +114,7 @@ class JSBSimSourceEngine:
     dt : float
         Largest step [s] (as :class:`harness.engines.JSBSimEngine`).
     integrators : Integrators
+        JSBSim's integrators per state group.
     planet_radius_ft : float
         Radius of the flat-earth sphere [ft].
     throttle_tau : float
@@ -126,6 +123,8 @@ class JSBSimSourceEngine:
         Points of the steady thrust-throttle table built at the initial condition.
     root : str, optional
         JSBSim root (``aircraft/``, ``engine/``); default the jsbsim package's.
+    controller_dt : float, optional
+        Controller update interval [s] (as :class:`harness.engines.JSBSimEngine`); default every step.
     """
 
     dt: float = 1.0 / 480.0
@@ -134,11 +133,11 @@ class JSBSimSourceEngine:
     throttle_tau: float = 0.05
     throttle_points: int = 41
     root: str | None = None
+    controller_dt: float | None = None
     name: ClassVar[str] = "jsbsim-source"
 
     def __post_init__(self):
-        if not (math.isfinite(self.dt) and self.dt > 0):
-            raise InputError(f"JSBSim step dt must be positive, got {self.dt}")
+        check_steps(self.dt, self.controller_dt)
         if not (math.isfinite(self.throttle_tau) and self.throttle_tau >= 2 * self.dt):
             raise InputError(f"throttle_tau must be at least two steps ({2 * self.dt:g} s), got {self.throttle_tau}")
 
@@ -150,241 +149,145 @@ class JSBSimSourceEngine:
         ----------
         aircraft : Aircraft
             A GNA set fitted from a JSBSim aircraft (its provenance names it).
-        controls : control source
-            Callable ``t -> (F, eta, dl, dm, dn)``, a plan with ``controls(t)``,
-            or 5 constants; sampled at every step.  ``F`` [N] is the thrust the
-            throttle loop tracks, ``eta`` its asymmetry (ignored with one engine).
-        t_span : (t0, t1)
-        x0 : array of 12, optional
+        controls : callable, object with ``controls(t)``, or sequence of 5 floats
+            Reference controls ``t [s] -> (F [N], eta [-], dl, dm, dn [rad])``;
+            sampled at every step.  ``F`` is the thrust the throttle loop
+            tracks, ``eta`` its asymmetry (ignored with one engine).
+        t_span : pair of float
+            ``(t0, t1)`` [s].
+        x0 : array_like, shape (12,), optional
             Initial wind-frame state; default the source's ``initial_state``.
         env : Environment, optional
             Must be ISA (JSBSim's own); ``env.g`` sets the flat planet's gravity.
-        controller : Controller or callable ``(t, x) -> 5 corrections``, optional
-            Sampled at every step without delay; controller states advanced by
-            explicit trapezoidal (Heun) steps.
-        dt_out, t_eval
-            Output grid (on the step grid).
+        controller : Controller or callable, optional
+            Anything :func:`gna.controller.as_controller` takes; sampled every
+            step (or every ``controller_dt``) at the propagated state, its
+            states advanced by AB2 (as :class:`harness.engines.JSBSimEngine`).
+        dt_out : float
+            Output interval [s]; the step divides it exactly.
+        t_eval : array_like, shape (n,), optional
+            Output times [s], on the step grid.
 
         Returns
         -------
-        gna.simulate.SimulationResult
-            Columns :data:`gna.trajectory.COLUMNS`; ``settings`` records the
-            JSBSim version, aircraft file, configuration, surface mapping,
-            thrust method and its tracking error, step, integrators and planet.
+        SimulationResult
+            Columns :data:`gna.trajectory.COLUMNS` (``F``, ``eta`` the delivered
+            thrust and asymmetry); with a controller, ``controller_states`` and
+            ``feedback``; ``settings`` a :class:`gna.trajectory.RunSettings`
+            whose extra records the JSBSim version, aircraft file,
+            configuration, surface mapping, thrust method and its tracking
+            error, mass and planet.
 
         Raises
         ------
         InputError
             Aircraft not fitted from JSBSim, non-ISA atmosphere, bad span,
-            state, controls or grid.
+            state, controls, controller or grid.
         EngineError
             JSBSim refused the aircraft, the planet or the initial condition.
         """
-        src = source_model(aircraft)
-        env = environment_of(controls, env)
-        if not isinstance(env.atmosphere, ISA):
+        source_model(aircraft)
+        atmosphere = environment_of(controls, env).atmosphere
+        if not isinstance(atmosphere, ISA):
             raise InputError(f"jsbsim-source flies in JSBSim's own ISA atmosphere; got "
-                             f"{type(env.atmosphere).__name__} (use density = 'isa')")
-        y0 = initial_state(controls, x0)
-        t0, t1 = check_span(t_span)
-        n, dt, out_steps = step_grid(t0, t1, self.dt, dt_out, t_eval)
-        times = t0 + np.arange(n + 1) * dt
-        U = controls_on_grid(control_function(controls), times)
-        ctl = as_controller(controller)
-        t_setup = time.perf_counter()
-        jsbsim = import_jsbsim()
-        name, acdir, root = resolve(src.model, self.root)
-        capture = LogCapture(jsbsim)
-        with capture, tempfile.TemporaryDirectory(prefix="gflat-planet-") as tmp:
-            fdm = jsbsim.FGFDMExec(str(root))
-            fdm.set_debug_level(0)
-            if not fdm.load_model_with_paths(name, str(acdir.parent), str(root / "engine"), str(root / "systems")):
-                raise EngineError(f"JSBSim could not load {acdir / (name + '.xml')}: "
-                                  f"{' | '.join(capture.problems()) or 'load_model returned False'}")
-            planet = jx.FlatPlanet(g=env.g, h_ref=-float(y0[2]), radius_ft=self.planet_radius_ft)
-            path = Path(tmp) / "planet.xml"
-            r = repr(float(planet.radius_ft))
-            path.write_text(f'<?xml version="1.0"?>\n<planet name="gflat flat earth">'
-                            f'<semimajor_axis unit="FT">{r}</semimajor_axis><semiminor_axis unit="FT">{r}'
-                            f'</semiminor_axis><rotation_rate unit="RAD/SEC">0</rotation_rate>'
-                            f'<GM unit="FT3/SEC2">{planet.GM!r}</GM><J2>0</J2></planet>\n', encoding="utf-8")
-            if not fdm.load_planet(str(path), False):
-                raise EngineError(f"JSBSim refused the flat-earth planet: {' | '.join(capture.problems())}")
-            return self._run(fdm, capture, src, acdir / f"{name}.xml", aircraft, env, planet, y0, t0, t1, n, dt,
-                             out_steps, times, U, ctl, t_setup)
+                             f"{type(atmosphere).__name__} (use density = 'isa')")
+        return _SourceRun.fly(self, aircraft, controls, t_span, x0, env=env, controller=controller, dt_out=dt_out,
+                              t_eval=t_eval)
 
-    def _run(self, fdm, capture, src, xml_path, aircraft, env, planet, y0, t0, t1, n, dt, out_steps, times, U,
-             ctl, t_setup) -> SimulationResult:
+
+class _SourceRun(JSBSimRun):
+    """A run of the source aircraft: signed surfaces, thrust through its engines with the throttle loop."""
+
+    derived_nodes = _DERIVED
+
+    def _load(self, stack):
+        self.src = source_model(self.aircraft)
+        jsbsim = import_jsbsim()
+        name, acdir, root = resolve(self.src.model, self.engine.root)
+        capture = stack.enter_context(LogCapture(jsbsim))
+        tmp = stack.enter_context(tempfile.TemporaryDirectory(prefix="gflat-planet-"))
+        fdm = jsbsim.FGFDMExec(str(root))
+        fdm.set_debug_level(0)
+        self.xml_path = acdir / f"{name}.xml"
+        if not fdm.load_model_with_paths(name, str(acdir.parent), str(root / "engine"), str(root / "systems")):
+            raise EngineError(f"JSBSim could not load {self.xml_path}: "
+                              f"{' | '.join(capture.problems()) or 'load_model returned False'}")
+        self.planet = planet = jx.FlatPlanet(g=self.env.g, h_ref=-float(self.x0[2]),
+                                             radius_ft=self.engine.planet_radius_ft)
+        path = Path(tmp) / "planet.xml"
+        r = repr(float(planet.radius_ft))
+        path.write_text(f'<?xml version="1.0"?>\n<planet name="gflat flat earth">'
+                        f'<semimajor_axis unit="FT">{r}</semimajor_axis><semiminor_axis unit="FT">{r}'
+                        f'</semiminor_axis><rotation_rate unit="RAD/SEC">0</rotation_rate>'
+                        f'<GM unit="FT3/SEC2">{planet.GM!r}</GM><J2>0</J2></planet>\n', encoding="utf-8")
+        if not fdm.load_planet(str(path), False):
+            raise EngineError(f"JSBSim refused the flat-earth planet: {' | '.join(capture.problems())}")
+        return fdm, capture, []
+
+    def _configure(self) -> None:
+        fdm, src = self.fdm, self.src
         fdm["simulation/gravity-model"] = 0
         fdm["simulation/models/FGFCS/enabled"] = 0
-        for prop, code in self.integrators.properties().items():
+        for prop, code in self.engine.integrators.properties().items():
             fdm[prop] = code
-        fdm.set_dt(dt)
+        fdm.set_dt(self.dt)
         for prop, value in src.configuration.items():
             fdm[prop] = value
-        ics = initial_condition_properties(y0)
-        for prop, value in ics:
+        self.ics = initial_condition_properties(self.x0)
+        for prop, value in self.ics:
             fdm[prop] = value
-        pm = fdm.get_property_manager()
-
-        def node(nm):
-            nd = pm.get_node(nm, False)
-            if nd is None:
-                raise EngineError(f"JSBSim property {nm!r} does not exist in {xml_path.name}")
-            return nd
-
-        n_eng = fdm.get_propulsion().get_num_engines()
+        self.n_eng = n_eng = fdm.get_propulsion().get_num_engines()
         if n_eng not in (1, 2):
-            raise EngineError(f"jsbsim-source handles 1 or 2 engines; {xml_path.name} has {n_eng}")
+            raise EngineError(f"jsbsim-source handles 1 or 2 engines; {self.xml_path.name} has {n_eng}")
         # engine order: left to right (eta > 0 puts more thrust on the left engine, gna.aircraft.Propulsion)
         order = sorted(range(n_eng), key=lambda i: fdm[f"propulsion/engine[{i}]/y-position"])
-        th_w = [node(f"fcs/throttle-pos-norm[{i}]").set_double_value for i in order]
-        T_r = [node(f"propulsion/engine[{i}]/thrust-lbs").get_double_value for i in order]
-        surf = [(node(src.surfaces[v][0]).set_double_value, src.surfaces[v][1]) for v in ("dl", "dm", "dn")]
+        self.th_w = [self._node(f"fcs/throttle-pos-norm[{i}]").set_double_value for i in order]
+        self.T_r = [self._node(f"propulsion/engine[{i}]/thrust-lbs").get_double_value for i in order]
+        self.surf = [(self._node(src.surfaces[v][0]).set_double_value, src.surfaces[v][1])
+                     for v in ("dl", "dm", "dn")]
+
+    def _split(self, F: float, eta: float) -> list:
+        """Per-engine thrust command [lbf]."""
         lbf = units.LBF
+        return [F / lbf] if self.n_eng == 1 else [F * (1 + eta) / 2 / lbf, F * (1 - eta) / 2 / lbf]
 
-        def split(F, eta):  # per-engine thrust command [lbf]
-            return [F / lbf] if n_eng == 1 else [F * (1 + eta) / 2 / lbf, F * (1 - eta) / 2 / lbf]
+    def _write(self, u) -> None:
+        """The three surfaces with the fit's signs (the throttles are written by the thrust loop)."""
+        for (w, s), v in zip(self.surf, u[2:5]):
+            w(s * v)
 
-        def write_surfaces(u):
-            for (w, s), v in zip(surf, u[2:5]):
-                w(s * v)
+    def _initialize(self) -> None:
+        """Engines running and spun up to the initial thrust, derivatives at t0, initial condition verified."""
+        self.fdm["propulsion/set-running"] = -1
+        self._run_ic()
+        F0 = self._split(self.applied0[0], self.applied0[1])
+        self.loops, self.t_spin = self._spin_up(F0)
+        self._run_ic()  # derivatives at t0 with the engines at the initial thrust
+        check_initial_condition(self.fdm, self.ics, self.planet.radius_ft)
+        self.thrust = np.full((self.n_eng, self.n + 1), np.nan)
+        self.cmd = np.full((self.n_eng, self.n + 1), np.nan)
+        self.thrust[:, 0] = [r() for r in self.T_r]
+        self.cmd[:, 0] = F0
+        self._throttle(0)
 
-        xc = ctl.initial_state(t0, y0.copy()) if ctl is not None else None
-        applied = U.copy()
-        if ctl is not None:
-            applied[:, 0] = U[:, 0] + ctl.output(t0, y0.copy(), xc)
-        if not np.all(np.isfinite(applied[:, 0])):
-            raise InputError(f"controls at t0 = {t0:g} s are not finite ({applied[:, 0].tolist()})")
-        write_surfaces(applied[:, 0])
-        fdm["propulsion/set-running"] = -1
-        fdm.set_sim_time(t0)
-        self._run_ic(fdm, capture, aircraft)
-        loops, t_spin = self._spin_up(fdm, th_w, T_r, split(applied[0, 0], applied[1, 0]), dt)
-        self._run_ic(fdm, capture, aircraft)  # derivatives at t0 with the engines at the initial thrust
-        for prop, value in ics:
-            got, tol = fdm[prop], 1e-9 * max(1.0, abs(value)) + (8 * np.spacing(planet.radius_ft) if "h-sl" in prop
-                                                                   else 0.0)
-            if not abs(math.remainder(got - value, 2 * math.pi) if prop.endswith("-rad") else got - value) <= tol:
-                raise EngineError(f"JSBSim did not accept the initial condition {prop} = {value!r} (reads {got!r})")
+    def _throttle(self, k: int) -> None:
+        """Throttles for the next step from the command at step ``k``."""
+        self.th_now = [lp.throttle(c) for lp, c in zip(self.loops, self.cmd[:, k])]
+        for w, th in zip(self.th_w, self.th_now):
+            w(th)
 
-        st_r = [node(p).get_double_value for p in _POS + _STATES]
-        de_r = [node(p).get_double_value for p in _DERIVED]
-        vt = node("velocities/vt-fps").get_double_value
-        to_state = StateConverter(y0, fdm["inertial/sea-level-radius_ft"], None)
-        out = np.zeros(n + 1, dtype=bool)
-        out[out_steps] = True
-        raw_s, raw_d, idx = [[r() for r in st_r]], [[r() for r in de_r]], [0]
-        thrust = np.full((n_eng, n + 1), np.nan)
-        thrust[:, 0] = [r() for r in T_r]
-        cmd = np.full((n_eng, n + 1), np.nan)
-        cmd[:, 0] = split(applied[0, 0], applied[1, 0])
-        ths = [lp.throttle(c) for lp, c in zip(loops, cmd[:, 0])]
-        f_prev = ctl.derivative(t0, y0.copy(), xc) if ctl is not None and ctl.n_states else None
-        xc_pred = xc + dt * f_prev if f_prev is not None else xc
-        status, message, t_end, k = "completed", "", t1, 0
-        t_loop = time.perf_counter()
-        try:
-            for k in range(1, n + 1):
-                for w, th in zip(th_w, ths):
-                    w(th)
-                if ctl is None:
-                    uk = U[:, k]
-                    if not np.all(np.isfinite(uk)):
-                        raise StepStop.control(k, uk)
-                    write_surfaces(uk)
-                    if not fdm.run():
-                        raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
-                else:
-                    if not fdm.run():
-                        raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
-                    xk = to_state.scalar([r() for r in st_r])
-                    if f_prev is not None:  # Heun corrector with the propagated state
-                        xc = xc + 0.5 * dt * (f_prev + ctl.derivative(times[k], xk, xc_pred))
-                    uk = U[:, k] + ctl.output(times[k], xk, xc)
-                    if not np.all(np.isfinite(uk)):
-                        raise StepStop.control(k, uk)
-                    applied[:, k] = uk
-                    write_surfaces(uk)
-                    fdm.suspend_integration()
-                    try:
-                        fdm.run()
-                    finally:
-                        fdm.resume_integration()
-                    if f_prev is not None:
-                        f_prev = ctl.derivative(times[k], xk, xc)
-                        xc_pred = xc + dt * f_prev
-                v = vt()
-                if not (0.0 < v < math.inf):
-                    raise StepStop(k, f"JSBSim diverged at t = {{t}}: airspeed V = {v * units.FT:.6g} m/s")
-                cmd[:, k] = split(applied[0, k], applied[1, k])
-                thrust[:, k] = [r() for r in T_r]
-                for i, lp in enumerate(loops):
-                    lp.update(cmd[i, k], thrust[i, k], ths[i])
-                ths = [lp.throttle(c) for lp, c in zip(loops, cmd[:, k])]
-                if out[k]:
-                    raw_s.append([r() for r in st_r])
-                    raw_d.append([r() for r in de_r])
-                    idx.append(k)
-        except StepStop as stop:
-            status, t_end = "domain", float(times[idx[-1]])
-            message = stop.text.format(t=f"{times[stop.k]:.6g} s") + f"; result kept up to t = {t_end:.6g} s"
-        except import_jsbsim().BaseError as exc:
-            status, t_end = "domain", float(times[idx[-1]])
-            message = (f"JSBSim stopped at t = {times[k]:.6g} s with {type(exc).__name__}: {exc}; "
-                       f"result kept up to t = {t_end:.6g} s")
-        t_post = time.perf_counter()
-        ix = np.asarray(idx)
-        S = to_state.vector(np.array(raw_s, dtype=float).T)
-        D = self._derived(fdm, np.array(raw_d, dtype=float).T, S)
-        delivered = applied[:, ix].copy()
-        Tn = thrust[:, ix] * lbf
-        delivered[0] = Tn.sum(axis=0)
-        if n_eng == 2:
-            delivered[1] = (Tn[0] - Tn[1]) / np.where(delivered[0] != 0, delivered[0], np.nan)
-        df = trajectory_frame(aircraft, env, times[ix], S, delivered, D)
-        err = (cmd - thrust)[:, : (idx[-1] + 1)] * lbf
-        settle = times[: idx[-1] + 1] >= t0 + 10 * self.throttle_tau
-        settings = {
-            "engine": self.name, "jsbsim_version": import_jsbsim().__version__, "aircraft_file": str(xml_path),
-            "jsbsim_model": src.model, "surfaces": {k: f"{'-' if s < 0 else ''}{p}" for k, (p, s) in
-                                                    src.surfaces.items()},
-            "configuration": {"simulation/models/FGFCS/enabled": 0, **src.configuration},
-            "thrust": {"method": "the aircraft's own engines; throttle = steady thrust table at the initial "
-                                 "condition inverted at the command + integral correction on the measured thrust",
-                       "throttle_tau_s": self.throttle_tau, "table_points": self.throttle_points,
-                       "spin_up": f"engine steady state at the initial thrust before t0 ({t_spin:.3g} s of setup)",
-                       "max_abs_error_N": float(np.nanmax(np.abs(err))) if err.size else 0.0,
-                       "max_abs_error_after_settle_N": float(np.nanmax(np.abs(err[:, settle])))
-                       if settle.any() else None,
-                       "columns": "F and eta are the delivered thrust and asymmetry"},
-            "mass": "the JSBSim aircraft's own (default fuel and point masses, fuel burning)",
-            "dt": dt, "dt_max": self.dt, "steps": n, "integrators": self.integrators.as_dict(),
-            "planet": {"radius_ft": planet.radius_ft, "GM_ft3_s2": planet.GM, "h_ref_m": planet.h_ref,
-                       "rotation_rad_s": 0.0, "J2": 0.0, "gravity_model": 0, "loaded_with": "FGFDMExec.load_planet"},
-            "environment": "JSBSim standard atmosphere (ISA 1976)", "g": env.g,
-            "control_timing": "u(t_k) written before the run() reaching t_k; u(t0) before run_ic()",
-            "controller": None if ctl is None else {"sampling": "every step at the propagated state",
-                                                   "n_states": int(ctl.n_states),
-                                                   "states_integrator": "explicit trapezoidal (Heun)"},
-            "wall_time_s": {"setup": t_loop - t_setup, "stepping": t_post - t_loop},
-        }
-        warnings = envelope_warnings(aircraft, df) + [f"JSBSim: {p}" for p in capture.problems()]
-        return SimulationResult(df=df, status=status, message=message, warnings=warnings, settings=settings,
-                                t_end=t_end)
+    def _stepped(self, k: int, u) -> None:
+        """The thrust loop: measured thrust, integral update, throttles for the next step."""
+        self.cmd[:, k] = self._split(u[0], u[1])
+        self.thrust[:, k] = [r() for r in self.T_r]
+        for i, lp in enumerate(self.loops):
+            lp.update(self.cmd[i, k], self.thrust[i, k], self.th_now[i])
+        self._throttle(k)
 
-    @staticmethod
-    def _run_ic(fdm, capture, aircraft):
-        try:
-            ok = fdm.run_ic()
-        except Exception as exc:  # JSBSim raises its own exception types
-            raise EngineError(f"JSBSim run_ic failed for {aircraft.id}: {exc}") from None
-        if not ok:
-            raise EngineError(f"JSBSim run_ic failed for {aircraft.id}: {' | '.join(capture.problems())}")
-
-    def _spin_up(self, fdm, th_w, T_r, F0_lbf, dt):
+    def _spin_up(self, F0_lbf):
         """Thrust-throttle tables at the initial condition, and the engines at steady state at ``F0``."""
         t = time.perf_counter()
+        fdm, th_w, T_r, dt = self.fdm, self.th_w, self.T_r, self.dt
         prop = fdm.get_propulsion()
 
         def steady(ths):
@@ -399,9 +302,9 @@ class JSBSimSourceEngine:
                 fdm.resume_integration()
             return [r() for r in T_r]
 
-        grid = np.linspace(0.0, 2.0, self.throttle_points)
+        grid = np.linspace(0.0, 2.0, self.engine.throttle_points)
         table = np.array([steady([g] * len(th_w)) for g in grid]).T
-        loops = [_ThrottleLoop(grid, table[i], self.throttle_tau, dt) for i in range(len(th_w))]
+        loops = [_ThrottleLoop(grid, table[i], self.engine.throttle_tau, dt) for i in range(len(th_w))]
         for lp, F in zip(loops, F0_lbf):
             if not lp.T[0] <= F <= lp.T[-1]:
                 raise InputError(f"initial thrust {F * units.LBF:.6g} N outside what the engine delivers at the "
@@ -419,10 +322,10 @@ class JSBSimSourceEngine:
         steady(ths)
         return loops, time.perf_counter() - t
 
-    @staticmethod
-    def _derived(fdm, R: np.ndarray, S: np.ndarray) -> np.ndarray:
-        """Rows for :func:`harness.engines.jsbsim.states.trajectory_frame`: qbar, rho, the six coefficients, total and weight forces,
-        total moments; coefficients from JSBSim's aero loads (stability-axis CD, CL; body CY, Cl, Cm, Cn)."""
+    def _derived(self, R: np.ndarray, S: np.ndarray) -> np.ndarray:
+        """qbar, rho, the six coefficients, total and weight forces, total moments; coefficients from
+        JSBSim's aero loads (stability-axis CD, CL; body CY, Cl, Cm, Cn)."""
+        fdm = self.fdm
         S_ft2, b_ft, c_ft = fdm["metrics/Sw-sqft"], fdm["metrics/bw-ft"], fdm["metrics/cbarw-ft"]
         qs = R[0] * S_ft2
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -431,3 +334,35 @@ class JSBSimSourceEngine:
             coef = [-(cx * ca + cz * sa), cy, cx * sa - cz * ca, R[5] / (qs * b_ft), R[6] / (qs * c_ft),
                     R[7] / (qs * b_ft)]
         return np.vstack([R[0:2], np.array(coef), R[8:17]])
+
+    def _columns(self, applied: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        """F and eta: the thrust the engines deliver and its asymmetry."""
+        delivered = applied.copy()
+        Tn = self.thrust[:, idx] * units.LBF
+        delivered[0] = Tn.sum(axis=0)
+        if self.n_eng == 2:
+            delivered[1] = (Tn[0] - Tn[1]) / np.where(delivered[0] != 0, delivered[0], np.nan)
+        return delivered
+
+    def _describe(self):
+        e, src, planet, last = self.engine, self.src, self.planet, self.index[-1]
+        err = (self.cmd - self.thrust)[:, : last + 1] * units.LBF
+        settle = self.times[: last + 1] >= self.times[0] + 10 * e.throttle_tau
+        return "JSBSim standard atmosphere (ISA 1976)", {
+            "aircraft_file": str(self.xml_path), "jsbsim_model": src.model,
+            "surfaces": {k: f"{'-' if s < 0 else ''}{p}" for k, (p, s) in src.surfaces.items()},
+            "configuration": {"simulation/models/FGFCS/enabled": 0, **src.configuration},
+            "thrust": {"method": "the aircraft's own engines; throttle = steady thrust table at the initial "
+                                 "condition inverted at the command + integral correction on the measured thrust",
+                       "throttle_tau_s": e.throttle_tau, "table_points": e.throttle_points,
+                       "spin_up": f"engine steady state at the initial thrust before t0 ({self.t_spin:.3g} s of setup)",
+                       "max_abs_error_N": float(np.nanmax(np.abs(err))) if err.size else 0.0,
+                       "max_abs_error_after_settle_N": float(np.nanmax(np.abs(err[:, settle])))
+                       if settle.any() else None,
+                       "columns": "F and eta are the delivered thrust and asymmetry"},
+            "mass": "the JSBSim aircraft's own (default fuel and point masses, fuel burning)",
+            "planet": {"radius_ft": planet.radius_ft, "GM_ft3_s2": planet.GM, "h_ref_m": planet.h_ref,
+                       "rotation_rad_s": 0.0, "J2": 0.0, "gravity_model": 0, "loaded_with": "FGFDMExec.load_planet"}}
+
+    def _problems(self) -> list[str]:
+        return self.capture.problems()
