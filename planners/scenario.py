@@ -29,6 +29,40 @@ Example (the paper's forward slip)::
     beta = 0.35
     F = 0.0
     chi_dot = 0.0
+    [tracking]             # the closed loop (planners.tracking.tracking_controller)
+    lambdas = 0.5          # or a table: I1 = [..], I2 = [..], I3 = [..], I4 = [..]
+    feedforward_iterate = -1
+    saturate = true
+    [tracking.perturbation]   # optional, for robustness runs (gna.perturbation)
+    aero_spread = 0.1
+    mass_scale = 1.05
+    position_m = 5.0
+    speed_mps = 1.0
+    angle_rad = 0.0174533
+    seed = 1
+
+The ``[tracking]`` table
+------------------------
+``lambdas``
+    Positive pole magnitudes [1/s] of the tracking feedback: one number for
+    every factor, or a table of lists ``I1``, ``I2``, ``I3``, ``I4`` of lengths
+    3, 5, 5, 3 (5, 5, 5 for ``I1..I3`` when the fourth flat output is the thrust
+    ``F``, without ``I4``).  The closed loop obeys ``prod (d/dt + lambda) I_p = 0``.
+    Default 1.0 everywhere.
+``feedforward_iterate``
+    Plan iterate ``j`` whose controls are the feedforward (default -1, the
+    last; 0 = the flat plan).
+``saturate``
+    Clip the applied controls at the aircraft's limits (default true).
+``perturbation``
+    Optional sub-table, :func:`gna.perturbation.perturbation_from_dict`:
+    ``aero_spread`` (every aerodynamic term times a seeded random factor in
+    ``[1 - s, 1 + s]``), ``aero_scale`` (table of factors by term index or
+    coefficient name), ``mass_scale``, ``inertia_scale``, ``position_m``,
+    ``speed_mps``, ``angle_rad``, ``state_offsets`` (table by state name),
+    ``seed``.
+
+Unknown keys of ``[tracking]`` and of its sub-tables are refused by name.
 """
 
 from __future__ import annotations
@@ -46,6 +80,7 @@ from gna.atmosphere import ConstantDensity, Environment, ISA
 from gna.catalogue import bundled, resolve
 from gna.eom import HValues
 from gna.errors import GflatError, InputError
+from gna.perturbation import Perturbation, perturbation_from_dict, unknown_key_message
 
 from .expressions import Expression, compile_expression
 from .flat import FLAT_KINDS, FlatOutput, FlatProblem
@@ -53,6 +88,33 @@ from .flat import FLAT_KINDS, FlatOutput, FlatProblem
 
 #: Largest grid accepted (memory: every node carries ~20 series of order up to 5 + 2J).
 MAX_NODES = 20000
+
+
+#: Keys of the ``[tracking]`` table.
+TRACKING_KEYS: tuple[str, ...] = ("lambdas", "feedforward_iterate", "saturate", "perturbation")
+
+
+@dataclass(frozen=True)
+class Tracking:
+    """The ``[tracking]`` table of a scenario: the closed loop's settings.
+
+    Attributes
+    ----------
+    lambdas : float or tuple of tuple of float
+        Pole magnitudes [1/s] (one number for all, or one tuple per integral),
+        as :func:`planners.tracking.tracking_controller` takes them.
+    feedforward_iterate : int
+        Plan iterate of the feedforward (-1 = the last, 0 = the flat plan).
+    saturate : bool
+        Clip the applied controls at the aircraft's limits.
+    perturbation : Perturbation or None
+        Optional model and initial-state perturbation (:mod:`gna.perturbation`).
+    """
+
+    lambdas: float | tuple = 1.0
+    feedforward_iterate: int = -1
+    saturate: bool = True
+    perturbation: Perturbation | None = None
 
 
 @dataclass
@@ -80,6 +142,7 @@ class Scenario:
     report_variables: list = field(default_factory=list)
     raw: dict = field(default_factory=dict, repr=False)
     path: str | None = None
+    tracking: Tracking = field(default_factory=Tracking)
 
     @property
     def t_nodes(self) -> np.ndarray:
@@ -137,7 +200,8 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
     for sec in ("time", "flat_outputs"):
         if sec not in data:
             raise InputError(f"{where}: missing [{sec}] section")
-    for sec in ("time", "flat_outputs", "generalized", "constants", "calibration", "h", "report", "environment"):
+    for sec in ("time", "flat_outputs", "generalized", "constants", "calibration", "h", "report", "environment",
+                "tracking"):
         if sec in data and not isinstance(data[sec], dict):
             raise InputError(f"{where}: [{sec}] must be a table, got {data[sec]!r}")
     if "aircraft" not in data:
@@ -209,7 +273,53 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
                     step=step, x=expr("x"), y=expr("y"), z=expr("z"), zeta=zeta, eta=eta, dn=dn, J=J, h=h,
                     calibration=dict(cal) if cal is not None else None, start=start,
                     report_times=[float(v) for v in times], report_variables=[str(v) for v in rvars],
-                    raw=dict(data), path=path)
+                    raw=dict(data), path=path,
+                    tracking=_tracking(data.get("tracking", {}), kind, J, f"{where} [tracking]"))
+
+
+def _tracking(table: Mapping[str, Any], kind: str, J: int, where: str) -> Tracking:
+    """Parse the ``[tracking]`` table (lambdas checked against the fourth flat output ``kind``)."""
+    for key in table:
+        if key not in TRACKING_KEYS:
+            raise InputError(unknown_key_message(key, TRACKING_KEYS, where))
+    names = ("I1", "I2", "I3") if kind == "F" else ("I1", "I2", "I3", "I4")
+    lengths = (5, 5, 5) if kind == "F" else (3, 5, 5, 3)
+    lam = table.get("lambdas", 1.0)
+    if isinstance(lam, Mapping):
+        for key in lam:
+            if key not in names:
+                raise InputError(unknown_key_message(key, names, f"{where} lambdas") +
+                                 (" (no I4 with the thrust flat output F)" if key == "I4" else ""))
+        lists = []
+        for name, n in zip(names, lengths):
+            if name not in lam:
+                raise InputError(f"{where} lambdas: missing {name} (a list of {n} positive numbers)")
+            v = lam[name]
+            if not isinstance(v, list) or len(v) != n:
+                raise InputError(f"{where} lambdas: {name} must be a list of {n} positive numbers, got {v!r}")
+            lists.append(tuple(_lambda(x, f"{where} lambdas {name}") for x in v))
+        lam = tuple(lists)
+    else:
+        lam = _lambda(lam, f"{where} lambdas")
+    it = table.get("feedforward_iterate", -1)
+    if isinstance(it, bool) or not isinstance(it, int):
+        raise InputError(f"{where}: feedforward_iterate must be a whole number, got {it!r}")
+    if not -(J + 1) <= it <= J:
+        raise InputError(f"{where}: feedforward_iterate = {it} is not an iterate of the plan "
+                         f"(0..{J}, or -1 for the last)")
+    sat = table.get("saturate", True)
+    if not isinstance(sat, bool):
+        raise InputError(f"{where}: saturate must be true or false, got {sat!r}")
+    pert = table.get("perturbation")
+    if pert is not None:
+        pert = perturbation_from_dict(pert, f"{where[:-1]}.perturbation]")
+    return Tracking(lambdas=lam, feedforward_iterate=int(it), saturate=sat, perturbation=pert)
+
+
+def _lambda(v: Any, where: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)) or not v > 0:
+        raise InputError(f"{where}: pole magnitudes must be positive finite numbers [1/s], got {v!r}")
+    return float(v)
 
 
 def _environment(table: Mapping[str, Any], where: str) -> Environment:
