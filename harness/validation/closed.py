@@ -76,7 +76,7 @@ def closed_loop_setup(plan, scenario=None, *, feedforward_iterate: int | None = 
         paper scenario), or an iterate not in the plan.
     """
     tr = _tracking_table(scenario)
-    if tr is not None and getattr(tr, "lambdas", None) is not None:
+    if tr is not None and tr.lambdas is not None:
         lambdas = tr.lambdas
     else:
         try:

@@ -115,9 +115,7 @@ def test_run_case_result_and_summary(short_scenario, tmp_path):
     assert written["differences"].read_text() == text + "\n"
 
 
-def test_closed_loop_needs_pole_lists(short_scenario):
-    with pytest.raises(InputError, match="no \\[tracking\\] table with lambdas"):
-        run_case(ValidationCase(str(short_scenario), loop="closed"))
+def test_run_case_refuses_what_is_not_a_case():
     with pytest.raises(InputError, match="needs a ValidationCase"):
         run_case("short")
 
