@@ -47,6 +47,10 @@ def main(argv: list[str] | None = None) -> int:
     except GflatError as exc:
         print(f"gflat {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:   # an output that cannot be written (missing or read-only folder, a file in the way)
+        print(f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {exc.strerror or exc}",
+              file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("gflat: interrupted", file=sys.stderr)
         return 130

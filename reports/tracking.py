@@ -59,11 +59,13 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
     for ax, var in zip(axs.ravel(), TRACKING_VARIABLES):
         k, unit = plot_scale(var)
         ax.plot(flat.index, flat[var] * k, color=COLOURS["flat"], lw=1.2, label="flat plan J = 0")
-        ax.plot(gen.index, gen[var] * k, color=COLOURS["generalized"], lw=2.0, label=f"generalized plan J = {plan.J}")
         ax.plot(opened.index, opened[var] * k, color=COLOURS["open"], lw=1.0, ls="--",
                 label="open loop, generalized controls")
         ax.plot(closed.df.index, closed.df[var] * k, color=COLOURS["closed"], lw=1.2,
                 label="closed loop" + (" (delta + d delta)" if var in ("F", "dl", "dm", "dn") else ""))
+        # drawn last, thin and translucent: it lies under the closed loop when the tracking is good
+        ax.plot(gen.index, gen[var] * k, color=COLOURS["generalized"], lw=2.5, alpha=0.55, ls=(0, (4, 3)),
+                label=f"generalized plan J = {plan.J}")
         ax.set_ylabel(f"{var} [{unit}]")
         ax.grid(alpha=0.3)
     ax = axs.ravel()[-1]

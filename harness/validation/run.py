@@ -33,8 +33,9 @@ def _runs_report(runs: Mapping, tables: Mapping) -> str:
     out = []
     for label, res in runs.items():
         s = res.settings
-        extra = (f"dt = {s['dt']:.6g} s, integrators {s['integrators']}, earth {s['earth']}"
-                 if s.get("engine") == "jsbsim" else
+        extra = (f"dt = {s['dt']:.6g} s, integrators {s['integrators']}"
+                 + (f", earth {s['earth']}" if s.get("earth") else "")
+                 if s.get("dt") is not None else
                  f"{s.get('method')} rtol = {s.get('rtol')}, atol = {s.get('atol')}")
         out.append(f"{label}: {res.status}{(' - ' + res.message) if res.message else ''}; {extra}")
         out += [f"  warning: {w}" for w in res.warnings]
