@@ -340,10 +340,9 @@ def perturbation_from_dict(table: Mapping[str, Any], where: str = "perturbation"
     for key in table:
         if key not in PERTURBATION_KEYS:
             raise InputError(unknown_key_message(key, PERTURBATION_KEYS, where))
-    kw: dict[str, Any] = {}
-    for key in ("aero_spread", "mass_scale", "inertia_scale", "position_m", "speed_mps", "angle_rad"):
-        if key in table:
-            kw[key] = _finite(table[key], key, where)
+    # Scalars are checked by Perturbation itself; tables and the seed's type here.
+    kw: dict[str, Any] = {key: table[key] for key in ("aero_spread", "mass_scale", "inertia_scale", "position_m",
+                                                     "speed_mps", "angle_rad") if key in table}
     for key in ("aero_scale", "state_offsets"):
         if key in table:
             if not isinstance(table[key], Mapping):
