@@ -356,4 +356,6 @@ def perturbation_from_dict(table: Mapping[str, Any], where: str = "perturbation"
     try:
         return Perturbation(**kw)
     except InputError as exc:
-        raise InputError(str(exc).replace("perturbation:", f"{where}:", 1)) from None
+        # Perturbation names itself "perturbation" (also in "perturbation state_offsets: ..."): name the table instead.
+        msg, own = str(exc), "perturbation"
+        raise InputError(where + msg[len(own):] if msg.startswith(own) else msg) from None
