@@ -200,6 +200,35 @@ def as_controller(obj) -> Controller | None:
                      f"callable (t, x) -> 5 corrections; got {type(obj).__name__}")
 
 
+def checked_initial_state(controller: Controller, t0: float, x0: np.ndarray) -> np.ndarray:
+    """A controller's initial state, checked: ``n_states`` finite values.
+
+    Parameters
+    ----------
+    controller : Controller
+        The controller (as returned by :func:`as_controller`).
+    t0 : float
+        Start time [s].
+    x0 : ndarray, shape (12,)
+        Initial aircraft state (wind-frame, SI, rad); the controller gets a copy.
+
+    Returns
+    -------
+    ndarray, shape (n_states,)
+        ``controller.initial_state(t0, x0)`` as floats.
+
+    Raises
+    ------
+    InputError
+        If it is not ``n_states`` finite values.
+    """
+    nc = int(controller.n_states)
+    xc0 = np.asarray(controller.initial_state(t0, np.array(x0, dtype=float)), dtype=float).reshape(-1)
+    if xc0.shape != (nc,) or not np.all(np.isfinite(xc0)):
+        raise InputError(f"the controller's initial state must be {nc} finite values, got {xc0}")
+    return xc0
+
+
 def state_names(controller: Controller | None) -> tuple[str, ...]:
     """Names of a controller's states: its ``state_names`` attribute if any, else ``xc0, xc1, ...``.
 

@@ -54,6 +54,12 @@ def _finite(value: Any, key: str, where: str) -> float:
     return float(value)
 
 
+def _did_you_mean(key, known) -> str:
+    """`` (did you mean 'k'?)`` with the closest of ``known`` to ``key``, or an empty string."""
+    close = difflib.get_close_matches(str(key), list(known), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
 def unknown_key_message(key: str, known, where: str) -> str:
     """The message refusing an unknown key, with the closest known key when there is one.
 
@@ -71,9 +77,7 @@ def unknown_key_message(key: str, known, where: str) -> str:
     str
     """
     known = list(known)
-    close = difflib.get_close_matches(str(key), known, n=1)
-    hint = f" (did you mean {close[0]!r}?)" if close else ""
-    return f"{where}: unknown key {key!r}{hint}; known keys: {', '.join(known)}"
+    return f"{where}: unknown key {key!r}{_did_you_mean(key, known)}; known keys: {', '.join(known)}"
 
 
 @dataclass(frozen=True)
@@ -133,10 +137,8 @@ class Perturbation:
             if isinstance(k, str) and k.strip().lstrip("+-").isdigit():
                 k = int(k)
             if isinstance(k, str) and k not in COEFFICIENTS:
-                close = difflib.get_close_matches(k, COEFFICIENTS, n=1)
-                hint = f" (did you mean {close[0]!r}?)" if close else ""
-                raise InputError(f"{where}: aero_scale key {k!r} is neither a term index nor a coefficient{hint}; "
-                                 f"coefficients: {', '.join(COEFFICIENTS)}")
+                raise InputError(f"{where}: aero_scale key {k!r} is neither a term index nor a coefficient"
+                                 f"{_did_you_mean(k, COEFFICIENTS)}; coefficients: {', '.join(COEFFICIENTS)}")
             if isinstance(k, bool) or not isinstance(k, (int, str)):
                 raise InputError(f"{where}: aero_scale keys are term indices or coefficient names, got {k!r}")
             f = _finite(v, f"aero_scale[{k!r}]", where)
@@ -338,10 +340,9 @@ def perturbation_from_dict(table: Mapping[str, Any], where: str = "perturbation"
     for key in table:
         if key not in PERTURBATION_KEYS:
             raise InputError(unknown_key_message(key, PERTURBATION_KEYS, where))
-    kw: dict[str, Any] = {}
-    for key in ("aero_spread", "mass_scale", "inertia_scale", "position_m", "speed_mps", "angle_rad"):
-        if key in table:
-            kw[key] = _finite(table[key], key, where)
+    # Scalars are checked by Perturbation itself; tables and the seed's type here.
+    kw: dict[str, Any] = {key: table[key] for key in ("aero_spread", "mass_scale", "inertia_scale", "position_m",
+                                                     "speed_mps", "angle_rad") if key in table}
     for key in ("aero_scale", "state_offsets"):
         if key in table:
             if not isinstance(table[key], Mapping):
@@ -355,4 +356,6 @@ def perturbation_from_dict(table: Mapping[str, Any], where: str = "perturbation"
     try:
         return Perturbation(**kw)
     except InputError as exc:
-        raise InputError(str(exc).replace("perturbation:", f"{where}:", 1)) from None
+        # Perturbation names itself "perturbation" (also in "perturbation state_offsets: ..."): name the table instead.
+        msg, own = str(exc), "perturbation"
+        raise InputError(where + msg[len(own):] if msg.startswith(own) else msg) from None

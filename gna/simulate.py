@@ -19,7 +19,7 @@ from scipy.optimize import brentq
 
 from .aircraft import Aircraft
 from .atmosphere import Environment
-from .controller import as_controller, state_names
+from .controller import as_controller, checked_initial_state, state_names
 from .eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, derivatives, loads
 from .errors import InputError
 from .trajectory import (ControlFunction, RunSettings, SimulationResult, check_span, control_function,
@@ -107,10 +107,7 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     nc = 0 if ctrl is None else int(ctrl.n_states)
     names = state_names(ctrl)
     if nc:
-        xc0 = np.asarray(ctrl.initial_state(t0, y0.copy()), dtype=float).reshape(-1)
-        if xc0.shape != (nc,) or not np.all(np.isfinite(xc0)):
-            raise InputError(f"the controller's initial state must be {nc} finite values, got {xc0}")
-        y0 = np.concatenate([y0, xc0])
+        y0 = np.concatenate([y0, checked_initial_state(ctrl, t0, y0)])
 
     def feedback(t, y):
         return ctrl.output(t, y[:12], y[12:])

@@ -61,7 +61,7 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         from gna.errors import InputError
         raise InputError("the planning grid needs at least two increasing nodes")
     kappa = e + STAGES + J * ORDER_LOSS
-    iterates, warnings, timings = [], [], {}
+    iterates, timings = [], {}
     prev = None
     for j in range(J + 1):
         t_start = time.perf_counter()
@@ -70,12 +70,11 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             sol = parametrize(problem, t_nodes, kappa, h=h, guess=None if prev is None else prev.series)
         timings[j] = time.perf_counter() - t_start
-        for rep in sol.reports.values():
-            warnings.extend(f"iterate j = {j}: {w}" for w in rep.warnings)
         iterates.append(sol)
         prev = sol
         kappa -= ORDER_LOSS
-    plan = Plan(problem, t_nodes, iterates, warnings, name, timings)
+    plan = Plan(problem, t_nodes, iterates, [], name, timings)
+    plan.warnings.extend(plan.newton_failures)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         plan.singularities = monitor(plan)
     plan.warnings.extend(plan.singularities.warnings)

@@ -133,6 +133,7 @@ def test_tracking_table_parsing():
     ({"perturbation": {"aero_spread": 0.1}}, "needs a seed"),
     ({"perturbation": {"mass_scale": "big"}}, "mass_scale must be a finite number"),
     ({"perturbation": {"state_offsets": {"vv": 1.0}}}, "unknown key 'vv'"),
+    ({"perturbation": {"state_offsets": {"vv": 1.0}}}, "^t.toml \\[tracking.perturbation\\] state_offsets: unknown key"),
     ({"perturbation": 3}, "must be a table"),
 ])
 def test_tracking_table_refusals(table, match):

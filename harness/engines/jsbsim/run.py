@@ -21,7 +21,7 @@ import numpy as np
 from gna import units
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
-from gna.controller import Controller, as_controller, state_names
+from gna.controller import Controller, as_controller, checked_initial_state, state_names
 from gna.eom import CONTROL_NAMES
 from gna.errors import InputError
 from gna.simulate import envelope_warnings
@@ -260,10 +260,7 @@ class JSBSimRun:
         self.d = [0.0] * 5
         self.xc = np.zeros(0)
         if self.controller is not None:
-            nc = int(self.controller.n_states)
-            self.xc = np.asarray(self.controller.initial_state(t0, self.x0.copy()), dtype=float).reshape(-1)
-            if self.xc.shape != (nc,) or not np.all(np.isfinite(self.xc)):
-                raise InputError(f"the controller's initial state must be {nc} finite values, got {self.xc}")
+            self.xc = checked_initial_state(self.controller, t0, self.x0)
             self.d = np.asarray(self.controller.output(t0, self.x0.copy(), self.xc), dtype=float).reshape(5).tolist()
             self.f_prev = self._derivative(t0, self.x0.copy())
             self.f_prev2 = None
