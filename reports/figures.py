@@ -40,6 +40,15 @@ def plot_scale(name: str) -> tuple[float, str]:
     return 1.0, unit
 
 
+def _draw_runs(ax, results: Mapping, name: str) -> None:
+    """One variable of every run on one axis: the reference engine solid, the others dashed."""
+    k, unit = plot_scale(name)
+    for i, (lab, res) in enumerate(results.items()):
+        ax.plot(res.df.index, res.df[name] * k, lw=1.2, ls="-" if i == 0 else "--", label=lab)
+    ax.set_ylabel(f"{name} [{unit}]")
+    ax.grid(alpha=0.3)
+
+
 def write_figures(results: Mapping, out_dir: str | Path, *, reference: pd.DataFrame | None = None,
                   title: str = "", tolerances=None) -> list[Path]:
     """States and controls of every engine (and the reference), and the differences to the first engine.
@@ -73,14 +82,9 @@ def write_figures(results: Mapping, out_dir: str | Path, *, reference: pd.DataFr
     fig = Figure(figsize=(13, 11), layout="constrained")
     axs = fig.subplots(4, 3, sharex=True)
     for ax, name in zip(axs.ravel(), STATE_NAMES):
-        k, unit = plot_scale(name)
         if reference is not None and name in reference.columns:
-            ax.plot(reference.index, reference[name] * k, "k:", lw=2.0, label="plan")
-        for i, lab in enumerate(labels):
-            df = results[lab].df
-            ax.plot(df.index, df[name] * k, lw=1.2, ls="-" if i == 0 else "--", label=lab)
-        ax.set_ylabel(f"{name} [{unit}]")
-        ax.grid(alpha=0.3)
+            ax.plot(reference.index, reference[name] * plot_scale(name)[0], "k:", lw=2.0, label="plan")
+        _draw_runs(ax, results, name)
     for ax in axs[-1]:
         ax.set_xlabel("t [s]")
     axs[0, 0].legend(fontsize=8)
@@ -91,12 +95,7 @@ def write_figures(results: Mapping, out_dir: str | Path, *, reference: pd.DataFr
     fig = Figure(figsize=(13, 7), layout="constrained")
     axs = fig.subplots(2, 3, sharex=True)
     for ax, name in zip(axs.ravel(), CONTROL_NAMES):
-        k, unit = plot_scale(name)
-        for i, lab in enumerate(labels):
-            df = results[lab].df
-            ax.plot(df.index, df[name] * k, lw=1.2, ls="-" if i == 0 else "--", label=lab)
-        ax.set_ylabel(f"{name} [{unit}]")
-        ax.grid(alpha=0.3)
+        _draw_runs(ax, results, name)
     axs.ravel()[-1].axis("off")
     for ax in axs[-1]:
         ax.set_xlabel("t [s]")

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from harness.metrics import position_error
+
 from .figures import plot_scale
 
 #: Variables drawn, in panel order (the paper's figures show the angles and the surfaces).
@@ -71,9 +73,8 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
     ax = axs.ravel()[-1]
     for run, colour, label in ((closed, COLOURS["closed"], "closed loop"), (result.open_loop, COLOURS["open"],
                                                                               "open loop")):
-        tt = np.asarray(run.df.index, dtype=float)
-        err = np.linalg.norm(run.df[["x", "y", "z"]].to_numpy().T - plan.state(tt, plan.J)[:3], axis=0)
-        ax.semilogy(tt, np.maximum(err, 1e-9), color=colour, lw=1.2, label=label)
+        err = position_error(run, lambda tt: plan.state(tt, plan.J))
+        ax.semilogy(err.index, np.maximum(err.to_numpy(), 1e-9), color=colour, lw=1.2, label=label)
     ax.set_ylabel("|position - flat outputs| [m]")
     ax.grid(alpha=0.3, which="both")
     for a in axs[-1]:

@@ -13,11 +13,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from gna.errors import InputError
 from planners.scenario import list_scenarios
 from reports.case_files import write_case
 
-from ..engines import engine_names
+from ..engines import engine_names, engines_from_names
 from ..validation import ValidationCase, run_case
 from ._args import nonnegative_int
 
@@ -40,18 +39,9 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def engines_from_text(text: str) -> tuple[str, ...]:
-    """Engine names of ``--engines`` (at least two, known to the registry)."""
-    known = engine_names()
-    names = tuple(e.strip() for e in text.split(",") if e.strip())
-    bad = [e for e in names if e not in known]
-    if bad or len(names) < 2:
-        raise InputError(f"--engines needs at least two of {', '.join(known)}; got {text!r}")
-    return names
-
-
 def run(args) -> int:
-    case = ValidationCase(args.scenario, J=args.J, engines=engines_from_text(args.engines), loop=args.loop)
+    engines = tuple(engines_from_names(args.engines, minimum=2))
+    case = ValidationCase(args.scenario, J=args.J, engines=engines, loop=args.loop)
     result = run_case(case)
     folder = "compare" if args.loop == "open" else "compare-closed"
     out = Path(args.out) if args.out else Path("reports") / "out" / result.plan.name / folder

@@ -35,7 +35,6 @@ LOOPS: tuple[str, ...] = ("open", "closed")
 _CASE_KEYS = ("scenario", "J", "engines", "loop", "tolerances", "windows", "dt_out")
 
 
-# --------------------------------------------------------------------------- engine names
 # --------------------------------------------------------------------------- the case
 
 def _positive(value, what: str) -> float:
@@ -58,8 +57,8 @@ class ValidationCase:
         Engine names (:func:`engine_names`); the first is the reference.
     loop : {"open", "closed"}
         ``"open"``: the plan's controls alone.  ``"closed"``: with the paper's
-        tracking feedback; reserved, :func:`run_case` refuses it until the
-        tracking controller exists.
+        tracking feedback (the scenario's ``[tracking]`` settings,
+        :func:`harness.validation.closed.closed_loop_setup`).
     tolerances : None, float or tuple of (str, float) pairs
         Tolerance spec of the engine-against-reference tables (see
         :func:`harness.metrics.resolve_tolerances`); a mapping given to the

@@ -6,9 +6,9 @@ paper's dark-blue curve) plus the tracking feedback of
 :func:`planners.tracking.tracking_controller`, from the iterate's initial
 state.  The lambda lists, feedforward iterate, saturation and an optional
 perturbation of the flown aircraft and initial state come from the scenario's
-``[tracking]`` table (``docs/scenarios.md``); a bundled paper scenario without
-one uses :func:`planners.tracking.paper_lambdas`.  The plan itself is always
-made with the nominal aircraft: a perturbation changes only what is flown.
+``[tracking]`` table (:class:`planners.scenario.Tracking`, every setting with a
+default).  The plan itself is always made with the nominal aircraft: a
+perturbation changes only what is flown.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from gna.errors import InputError
-from planners.tracking import paper_lambdas, tracking_controller
+from planners.tracking import tracking_controller
 
 
 @dataclass(frozen=True)
@@ -47,21 +47,16 @@ class ClosedLoopSetup:
     perturbation: Any = None
 
 
-def _tracking_table(scenario):
-    """The scenario's tracking settings, or None when it has none."""
-    return getattr(scenario, "tracking", None) if scenario is not None else None
-
-
-def closed_loop_setup(plan, scenario=None, *, feedforward_iterate: int | None = None) -> ClosedLoopSetup:
+def closed_loop_setup(plan, scenario, *, feedforward_iterate: int | None = None) -> ClosedLoopSetup:
     """Build the tracking controller, flown aircraft and initial state for a plan.
 
     Parameters
     ----------
     plan : planners.plan.Plan
         A feasible plan (flat output beta, mu or F).
-    scenario : planners.scenario.Scenario, optional
+    scenario : planners.scenario.Scenario
         Its scenario; its ``tracking`` settings (lambdas, feedforward iterate,
-        saturation, perturbation) are used when present.
+        saturation, perturbation) are used.
     feedforward_iterate : int, optional
         Overrides the scenario's feedforward iterate.
 
@@ -72,28 +67,15 @@ def closed_loop_setup(plan, scenario=None, *, feedforward_iterate: int | None = 
     Raises
     ------
     InputError
-        No lambda lists for the scenario (neither a ``[tracking]`` table nor a
-        paper scenario), or an iterate not in the plan.
+        An iterate not in the plan.
     """
-    tr = _tracking_table(scenario)
-    if tr is not None and tr.lambdas is not None:
-        lambdas = tr.lambdas
-    else:
-        try:
-            lambdas = paper_lambdas(plan.name)
-        except InputError:
-            raise InputError(f"scenario {plan.name!r} has no [tracking] table with lambdas: the closed loop "
-                             f"needs the pole lists I1..I4 (see docs/scenarios.md)") from None
-    j = feedforward_iterate
-    if j is None:
-        j = getattr(tr, "feedforward_iterate", -1) if tr is not None else -1
-        j = -1 if j is None else j
+    tr = scenario.tracking
+    j = tr.feedforward_iterate if feedforward_iterate is None else feedforward_iterate
     if not -len(plan.iterates) <= j <= plan.J:
         raise InputError(f"feedforward iterate j = {j} not in the plan (J = {plan.J})")
-    saturate = bool(getattr(tr, "saturate", True)) if tr is not None else True
-    controller = tracking_controller(plan, lambdas, feedforward_iterate=j, saturate=saturate)
+    controller = tracking_controller(plan, tr.lambdas, feedforward_iterate=j, saturate=tr.saturate)
     aircraft, x0 = plan.aircraft, np.asarray(plan.initial_state(j), dtype=float)
-    pert = getattr(tr, "perturbation", None) if tr is not None else None
+    pert = tr.perturbation
     if pert is not None:
         from gna.perturbation import offset_state, perturbed_aircraft
         aircraft = perturbed_aircraft(aircraft, pert)

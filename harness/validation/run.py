@@ -381,8 +381,7 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
     Raises
     ------
     InputError
-        Not a case, unknown scenario, a plan whose J differs from the case's,
-        or a closed loop without lambda lists.
+        Not a case, unknown scenario, or a plan whose J differs from the case's.
     DomainError
         The plan is not feasible (Newton failed): there is nothing to fly.
     """
