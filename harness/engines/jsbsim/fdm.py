@@ -345,28 +345,3 @@ def check_initial_condition(fdm, writes: list[tuple[str, float]], radius_ft: flo
         diff = math.remainder(got - value, 2.0 * math.pi) if prop.endswith("-rad") else got - value
         if not abs(diff) <= tol:
             raise EngineError(f"JSBSim did not accept the initial condition {prop} = {value!r} (reads {got!r})")
-
-
-def property_node(fdm, name: str):
-    """The cached property node ``name`` (fast reads and writes in the step loop).
-
-    Parameters
-    ----------
-    fdm : jsbsim.FGFDMExec
-        A loaded aircraft.
-    name : str
-        Property path.
-
-    Returns
-    -------
-    jsbsim.FGPropertyNode
-
-    Raises
-    ------
-    EngineError
-        If the property does not exist in the loaded model.
-    """
-    nd = fdm.get_property_manager().get_node(name, False)
-    if nd is None:
-        raise EngineError(f"JSBSim property {name!r} does not exist in the loaded model")
-    return nd
