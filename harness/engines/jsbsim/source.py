@@ -49,7 +49,8 @@ from gna.trajectory import SimulationResult, environment_of
 
 from ..base import EngineError
 from . import export as jx
-from .fdm import Integrators, LogCapture, check_initial_condition, import_jsbsim, initial_condition_properties
+from .fdm import (Integrators, LogCapture, check_initial_condition, import_jsbsim, initial_condition_properties,
+                  set_stepping)
 from .run import JSBSimRun, check_steps
 
 #: Raw outputs for :meth:`_SourceRun._derived`: JSBSim's aero loads instead of the exported file's coefficients.
@@ -226,11 +227,8 @@ class _SourceRun(JSBSimRun):
 
     def _configure(self) -> None:
         fdm, src = self.fdm, self.src
-        fdm["simulation/gravity-model"] = 0
+        set_stepping(fdm, self.engine.integrators, self.dt, flat=True)
         fdm["simulation/models/FGFCS/enabled"] = 0
-        for prop, code in self.engine.integrators.properties().items():
-            fdm[prop] = code
-        fdm.set_dt(self.dt)
         for prop, value in src.configuration.items():
             fdm[prop] = value
         self.ics = initial_condition_properties(self.x0)
