@@ -35,8 +35,8 @@ from gna.aircraft import list_aircraft, load_aircraft
 from gna.atmosphere import ISA, Environment
 from gna.trim import stall_speed, trim_level
 from harness.metrics import difference_table
-from harness.engines import (JSBSIM_DEFAULT_INTEGRATORS, InHouseEngine, Integrators, JSBSimEngine, fly,
-                             initial_condition_properties, load_fdm)
+from harness.engines import JSBSIM_DEFAULT_INTEGRATORS, InHouseEngine, Integrators, JSBSimEngine, fly, load_fdm
+from harness.engines.jsbsim.fdm import prepare
 from harness.testing import smooth_inputs
 
 ANGLES = ("gamma", "chi", "alpha", "beta", "mu")
@@ -46,13 +46,7 @@ def bare_steps_per_second(engine: JSBSimEngine, aircraft, env, x0, u0, steps: in
     """``fdm.run()`` alone, same file, integrators, step and initial condition."""
     fdm, _, capture = load_fdm(engine.xml(aircraft, env, x0), aircraft.id)
     with capture:
-        fdm.set_debug_level(0)
-        fdm["simulation/gravity-model"] = 0
-        for prop, code in engine.integrators.properties().items():
-            fdm[prop] = code
-        fdm.set_dt(engine.dt)
-        for prop, value in initial_condition_properties(x0):
-            fdm[prop] = value
+        prepare(fdm, engine.integrators, engine.dt, env, x0, planet_radius_ft=engine.planet_radius_ft)
         fdm["external_reactions/engine1/magnitude"] = u0[0] / 2 / 4.4482216152605
         fdm["external_reactions/engine2/magnitude"] = u0[0] / 2 / 4.4482216152605
         fdm["ctrl/delta-m-rad"] = u0[3]
@@ -62,8 +56,6 @@ def bare_steps_per_second(engine: JSBSimEngine, aircraft, env, x0, u0, steps: in
         for _ in range(steps):
             run()
         return steps / (time.perf_counter() - t)
-
-
 
 
 class AltitudeHold:

@@ -120,6 +120,36 @@ class FlatPlanet:
         return self.g / units.FT * r * r
 
 
+def _planet_element(w: XMLWriter, planet: FlatPlanet) -> None:
+    """The ``<planet>`` element: a non-rotating sphere without J2."""
+    w.open("planet", 'name="gflat flat earth"')
+    w.leaf("semimajor_axis", planet.radius_ft, 'unit="FT"')
+    w.leaf("semiminor_axis", planet.radius_ft, 'unit="FT"')
+    w.leaf("rotation_rate", 0.0, 'unit="RAD/SEC"')
+    w.leaf("GM", planet.GM, 'unit="FT3/SEC2"')
+    w.leaf("J2", 0.0)
+    w.close("planet")
+
+
+def planet_xml(planet: FlatPlanet) -> str:
+    """A planet file of ``planet`` alone, for ``FGFDMExec.load_planet`` (the element :func:`aircraft_xml` writes).
+
+    Parameters
+    ----------
+    planet : FlatPlanet
+        The flat-earth planet.
+
+    Returns
+    -------
+    str
+        The XML document.
+    """
+    w = XMLWriter()
+    w.line('<?xml version="1.0"?>')
+    _planet_element(w, planet)
+    return w.text()
+
+
 def _monomial_product(w: XMLWriter, value: float, exponents) -> None:
     """``value * v1 * v1 * v2 ...`` in the variable order of the term table."""
     factors = []
@@ -251,13 +281,7 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
     if planet is not None:
         w.line(f"<!-- flat-earth approximation: non-rotating sphere, no J2, GM = g (R + h_ref)^2 with g = "
                f"{number_text(planet.g)} m/s^2 at h_ref = {number_text(planet.h_ref)} m -->")
-        w.open("planet", 'name="gflat flat earth"')
-        w.leaf("semimajor_axis", planet.radius_ft, 'unit="FT"')
-        w.leaf("semiminor_axis", planet.radius_ft, 'unit="FT"')
-        w.leaf("rotation_rate", 0.0, 'unit="RAD/SEC"')
-        w.leaf("GM", planet.GM, 'unit="FT3/SEC2"')
-        w.leaf("J2", 0.0)
-        w.close("planet")
+        _planet_element(w, planet)
         w.line()
 
     w.open("metrics")

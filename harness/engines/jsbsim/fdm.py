@@ -273,6 +273,26 @@ def initial_condition_properties(x0: np.ndarray, latitude: float = 0.0, longitud
             ("ic/p-rad_sec", p), ("ic/q-rad_sec", q), ("ic/r-rad_sec", r)]
 
 
+def set_stepping(fdm, integrators: Integrators, dt: float, *, flat: bool) -> None:
+    """What every JSBSim engine sets before its initial condition: debug records off, gravity, integrators, step.
+
+    Parameters
+    ----------
+    fdm : jsbsim.FGFDMExec
+        A loaded aircraft.
+    integrators : Integrators
+        Integrator choice.
+    dt : float
+        Step [s].
+    flat : bool
+        A flat-earth planet: ``simulation/gravity-model`` 0 (``GM/r^2``, no J2); else JSBSim's WGS84 gravity.
+    """
+    fdm.set_debug_level(0)  # no per-step debug records (10 % of a step); warnings still reach the capture
+    if flat:
+        fdm["simulation/gravity-model"] = 0
+    for prop, code in integrators.properties().items():
+        fdm[prop] = code
+    fdm.set_dt(dt)
 
 
 def prepare(fdm, integrators: Integrators, dt: float, env: Environment, x0: np.ndarray, *, wgs84: bool = False,
@@ -306,12 +326,7 @@ def prepare(fdm, integrators: Integrators, dt: float, env: Environment, x0: np.n
         If JSBSim did not accept an initial condition (read-back differs).
     """
     density = density_settings(env)
-    fdm.set_debug_level(0)  # no per-step debug records (10 % of a step); warnings still reach the capture
-    if not wgs84:
-        fdm["simulation/gravity-model"] = 0
-    for prop, code in integrators.properties().items():
-        fdm[prop] = code
-    fdm.set_dt(dt)
+    set_stepping(fdm, integrators, dt, flat=not wgs84)
     for prop, value in density.items():
         fdm[prop] = value
     lat0, lon0 = (latitude, longitude) if wgs84 else (0.0, 0.0)
@@ -345,28 +360,3 @@ def check_initial_condition(fdm, writes: list[tuple[str, float]], radius_ft: flo
         diff = math.remainder(got - value, 2.0 * math.pi) if prop.endswith("-rad") else got - value
         if not abs(diff) <= tol:
             raise EngineError(f"JSBSim did not accept the initial condition {prop} = {value!r} (reads {got!r})")
-
-
-def property_node(fdm, name: str):
-    """The cached property node ``name`` (fast reads and writes in the step loop).
-
-    Parameters
-    ----------
-    fdm : jsbsim.FGFDMExec
-        A loaded aircraft.
-    name : str
-        Property path.
-
-    Returns
-    -------
-    jsbsim.FGPropertyNode
-
-    Raises
-    ------
-    EngineError
-        If the property does not exist in the loaded model.
-    """
-    nd = fdm.get_property_manager().get_node(name, False)
-    if nd is None:
-        raise EngineError(f"JSBSim property {name!r} does not exist in the loaded model")
-    return nd

@@ -363,7 +363,7 @@ class JSBSimRun:
                 if stateful:
                     f1, f2 = self.f_prev, self.f_prev2
                     self.xc = self.xc + (hc * f1 if f2 is None else a1 * f1 - a2 * f2)
-                    if not np.all(np.isfinite(self.xc)):
+                    if not all(map(isfinite, self.xc.tolist())):
                         bad = ", ".join(f"{n} = {v}" for n, v in zip(self.names, self.xc) if not isfinite(v))
                         raise StepStop(k, f"non-finite controller state at t = {{t}} ({bad})")
                 self.d = np.asarray(ctrl.output(tlist[k], xk, self.xc), dtype=float).reshape(5).tolist()

@@ -49,7 +49,8 @@ from gna.trajectory import SimulationResult, environment_of
 
 from ..base import EngineError
 from . import export as jx
-from .fdm import Integrators, LogCapture, check_initial_condition, import_jsbsim, initial_condition_properties
+from .fdm import (Integrators, LogCapture, check_initial_condition, import_jsbsim, initial_condition_properties,
+                  set_stepping)
 from .run import JSBSimRun, check_steps
 
 #: Raw outputs for :meth:`_SourceRun._derived`: JSBSim's aero loads instead of the exported file's coefficients.
@@ -205,7 +206,6 @@ class _SourceRun(JSBSimRun):
         jsbsim = import_jsbsim()
         name, acdir, root = resolve(self.src.model, self.engine.root)
         capture = stack.enter_context(LogCapture(jsbsim))
-        tmp = stack.enter_context(tempfile.TemporaryDirectory(prefix="gflat-planet-"))
         fdm = jsbsim.FGFDMExec(str(root))
         fdm.set_debug_level(0)
         self.xml_path = acdir / f"{name}.xml"
@@ -214,23 +214,18 @@ class _SourceRun(JSBSimRun):
                               f"{' | '.join(capture.problems()) or 'load_model returned False'}")
         self.planet = planet = jx.FlatPlanet(g=self.env.g, h_ref=-float(self.x0[2]),
                                              radius_ft=self.engine.planet_radius_ft)
-        path = Path(tmp) / "planet.xml"
-        r = repr(float(planet.radius_ft))
-        path.write_text(f'<?xml version="1.0"?>\n<planet name="gflat flat earth">'
-                        f'<semimajor_axis unit="FT">{r}</semimajor_axis><semiminor_axis unit="FT">{r}'
-                        f'</semiminor_axis><rotation_rate unit="RAD/SEC">0</rotation_rate>'
-                        f'<GM unit="FT3/SEC2">{planet.GM!r}</GM><J2>0</J2></planet>\n', encoding="utf-8")
-        if not fdm.load_planet(str(path), False):
+        with tempfile.TemporaryDirectory(prefix="gflat-planet-") as tmp:  # JSBSim reads the file at once
+            path = Path(tmp) / "planet.xml"
+            path.write_text(jx.planet_xml(planet), encoding="utf-8")
+            loaded = fdm.load_planet(str(path), False)
+        if not loaded:
             raise EngineError(f"JSBSim refused the flat-earth planet: {' | '.join(capture.problems())}")
         return fdm, capture, []
 
     def _configure(self) -> None:
         fdm, src = self.fdm, self.src
-        fdm["simulation/gravity-model"] = 0
+        set_stepping(fdm, self.engine.integrators, self.dt, flat=True)
         fdm["simulation/models/FGFCS/enabled"] = 0
-        for prop, code in self.engine.integrators.properties().items():
-            fdm[prop] = code
-        fdm.set_dt(self.dt)
         for prop, value in src.configuration.items():
             fdm[prop] = value
         self.ics = initial_condition_properties(self.x0)
