@@ -147,6 +147,19 @@ def test_paper_plans_each_scenario_once(short_scenario, tmp_path, monkeypatch, c
               "compare/summary.json"):
         assert (tmp_path / "paper" / "short" / f).is_file(), f
     assert [c.scenario for c in paper.paper_cases()] == [str(short_scenario)]
+    assert (tmp_path / "paper" / "short" / "compare-closed" / "tracking.png").is_file()    # both loops by default
+
+
+def test_paper_open_loop_only(short_scenario, tmp_path, monkeypatch, capsys):
+    from harness.cli import main
+    from harness.commands import paper
+
+    monkeypatch.setattr(paper, "PAPER_SCENARIOS", (str(short_scenario),))
+    assert main(["paper", "--loop", "open", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "in-house vs JSBSim (open loop" in out and "closed loop with the tracking feedback" not in out
+    assert (tmp_path / "short" / "compare" / "summary.json").is_file()
+    assert not (tmp_path / "short" / "compare-closed").exists()
 
 
 def _two_engine_aircraft():
