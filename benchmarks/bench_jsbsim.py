@@ -11,7 +11,8 @@ repetitions (expect +-15 % scatter on a shared 2-core machine)::
 It ends with the closed-loop lines: real-time factors of the JSBSim engine open
 loop and with a 1-state controller (PI altitude hold) sampled at every step and
 at ``controller_dt = 1/60 s`` (medians), and of the in-house engine open and
-closed loop.
+closed loop; then the same for a paper scenario (``--scenario``) flown with the
+tracking feedback of :mod:`planners.tracking`, against the plan flown open loop.
 
 Accuracy (``--accuracy``): largest differences JSBSim - in-house (DOP853 at
 1e-10) over 10 s of a smooth manoeuvre from trim (f16c, 150 m/s, 3000 m), for
@@ -38,6 +39,9 @@ from harness.metrics import difference_table
 from harness.engines import JSBSIM_DEFAULT_INTEGRATORS, InHouseEngine, Integrators, JSBSimEngine, fly, load_fdm
 from harness.engines.jsbsim.fdm import prepare
 from harness.testing import smooth_inputs
+from planners.generalized import plan_scenario
+from planners.scenario import load_scenario
+from planners.tracking import tracking_controller
 
 ANGLES = ("gamma", "chi", "alpha", "beta", "mu")
 
@@ -107,6 +111,41 @@ def closed_loop(a, env, x0, u0, seconds: float, repeats: int, controller_dt: flo
         print(f"  {name:<56} {m:12.1f} {100 * m / ref:12.0f}%")
 
 
+def tracking(name: str, repeats: int, controller_dt: float = 1.0 / 60.0) -> None:
+    """Real-time factors of a paper scenario flown with the tracking feedback (medians of interleaved repetitions).
+
+    The peer of each closed-loop run is the same engine flying the plan's controls open loop in the same run.
+    """
+    sc = load_scenario(name)
+    plan = plan_scenario(sc)
+    c = tracking_controller(plan, sc.tracking.lambdas, feedforward_iterate=sc.tracking.feedforward_iterate,
+                            saturate=sc.tracking.saturate)
+    span, x0 = (plan.t0, plan.t1), plan.initial_state()
+    runs = {"JSBSim open loop (plan controls)": (JSBSimEngine(), None),
+            "JSBSim, tracking feedback every step": (JSBSimEngine(), c),
+            f"JSBSim, tracking feedback, controller_dt = {controller_dt:.4g} s":
+                (JSBSimEngine(controller_dt=controller_dt), c),
+            "in-house open loop (plan controls)": (InHouseEngine(), None),
+            "in-house, tracking feedback": (InHouseEngine(), c)}
+    rtf = {k: [] for k in runs}
+    for _ in range(repeats):
+        for label, (eng, ctrl) in runs.items():
+            controls = plan if ctrl is None else ctrl.controls
+            t = time.perf_counter()
+            res = eng.simulate(plan.aircraft, controls, span, x0, env=plan.env, controller=ctrl, dt_out=0.05)
+            wall = time.perf_counter() - t
+            assert res.status == "completed", res.message
+            rtf[label].append((span[1] - span[0]) / wall)
+    base = {"JSBSim": statistics.median(rtf["JSBSim open loop (plan controls)"]),
+            "in-house": statistics.median(rtf["in-house open loop (plan controls)"])}
+    print(f"Tracking feedback, {name}, {span[1] - span[0]:g} s, end to end, median of {repeats}")
+    print(f"  {'run':<56} {'x real time':>12} {'vs open loop':>13}")
+    for label in runs:
+        m = statistics.median(rtf[label])
+        ref = base["JSBSim" if label.startswith("JSBSim") else "in-house"]
+        print(f"  {label:<56} {m:12.1f} {100 * m / ref:12.0f}%")
+
+
 def _summary(table) -> str:
     ang = max(table.row(v).max_abs for v in ANGLES)
     rates = max(table.row(v).max_abs for v in ("p", "q", "r"))
@@ -169,6 +208,8 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=20.0, help="simulated time per run [s]")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--accuracy", action="store_true", help="print the accuracy study instead of the speed")
+    parser.add_argument("--scenario", default="twin-otter-single-engine",
+                        help="paper scenario flown with the tracking feedback in the last table")
     args = parser.parse_args()
     if args.accuracy:
         accuracy()
@@ -225,6 +266,7 @@ def main() -> None:
         print(f"  {name + ', end to end':<56} {c:10.0f} {100 * c / b:7.0f}% {c * engine.dt:12.0f}")
         print(f"  {name + ', stepping loop':<56} {lo:10.0f} {100 * lo / b:7.0f}% {lo * engine.dt:12.0f}")
     closed_loop(a, env, x0, u0, args.seconds, args.repeats)
+    tracking(args.scenario, args.repeats)
 
 
 if __name__ == "__main__":

@@ -589,19 +589,27 @@ class TrackingController:
         pw = tau ** np.arange(self.reference_poly.shape[-1])
         return self.reference_poly[i] @ pw
 
-    def controls(self, t: float) -> np.ndarray:
+    def controls(self, t) -> np.ndarray:
         """Feedforward controls ``(F, eta, dl, dm, dn)`` at ``t`` (the reference the engine flies).
+
+        Vectorised over times, so that an engine can evaluate the feedforward once on its
+        whole step grid (:func:`gna.trajectory.controls_on_grid`).
 
         Parameters
         ----------
-        t : float
-            Time [s].
+        t : float or ndarray, shape (N,)
+            Time [s] (held at the plan's ends outside it).
 
         Returns
         -------
-        ndarray, shape (5,)
+        ndarray, shape (5,) or (5, N)
         """
-        return self.reference(t)[12:]
+        if np.ndim(t) == 0:
+            return self.reference(t)[12:]
+        tt = np.clip(np.asarray(t, dtype=float), self.t_nodes[0], self.t_nodes[-1])
+        i = np.clip(np.searchsorted(self.t_nodes, tt, side="right") - 1, 0, len(self.t_nodes) - 2)
+        pw = (tt - self.t_nodes[i])[:, None] ** np.arange(self.reference_poly.shape[-1])
+        return np.einsum("njk,nk->jn", self.reference_poly[i, 12:], pw)
 
     def initial_state(self, t0: float, x0: np.ndarray) -> np.ndarray:
         """Integrals at the start: zero.
