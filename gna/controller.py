@@ -200,6 +200,64 @@ def as_controller(obj) -> Controller | None:
                      f"callable (t, x) -> 5 corrections; got {type(obj).__name__}")
 
 
+def evaluate(controller: Controller, t: float, x: np.ndarray, xc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A controller's output and state derivative at one point, in one call when it offers one.
+
+    Engines need both at the same ``(t, x, xc)``; a controller may define
+    ``output_and_derivative(t, x, xc)`` to share the work (the tracking feedback
+    evaluates its reference and gains once), otherwise :meth:`Controller.output`
+    and :meth:`Controller.derivative` are called in turn.  Both ways give the same
+    numbers.
+
+    Parameters
+    ----------
+    controller : Controller
+        The feedback block.
+    t : float
+        Time [s].
+    x : ndarray, shape (12,)
+        Aircraft state (wind-frame, SI, rad).
+    xc : ndarray, shape (n_states,)
+        Controller state.
+
+    Returns
+    -------
+    output : ndarray, shape (5,)
+        Correction to the reference controls ``(dF [N], d_eta [-], d_dl, d_dm, d_dn [rad])``.
+    derivative : ndarray, shape (n_states,)
+        Time derivative of the controller state.
+    """
+    both = getattr(controller, "output_and_derivative", None)
+    if both is not None:
+        out, der = both(t, x, xc)
+    else:
+        out, der = controller.output(t, x, xc), controller.derivative(t, x, xc)
+    return (np.asarray(out, dtype=float).reshape(5),
+            np.asarray(der, dtype=float).reshape(int(controller.n_states)))
+
+
+def at_sample_times(controller: Controller | None, times: np.ndarray) -> Controller | None:
+    """The controller prepared for a sampled engine that will call it at ``times`` only.
+
+    A controller may define ``at_times(times)`` returning an equivalent controller
+    with work done in advance for those times (the tracking feedback
+    precomputes its reference and gains there); others are returned unchanged.
+
+    Parameters
+    ----------
+    controller : Controller or None
+        The feedback block.
+    times : ndarray, shape (M,)
+        The times [s] at which the engine will evaluate it.
+
+    Returns
+    -------
+    Controller or None
+    """
+    prepare = getattr(controller, "at_times", None)
+    return controller if prepare is None else prepare(times)
+
+
 def checked_initial_state(controller: Controller, t0: float, x0: np.ndarray) -> np.ndarray:
     """A controller's initial state, checked: ``n_states`` finite values.
 

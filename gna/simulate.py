@@ -19,7 +19,7 @@ from scipy.optimize import brentq
 
 from .aircraft import Aircraft
 from .atmosphere import Environment
-from .controller import as_controller, checked_initial_state, state_names
+from .controller import as_controller, checked_initial_state, evaluate, state_names
 from .eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, derivatives, loads
 from .errors import InputError
 from .trajectory import (ControlFunction, RunSettings, SimulationResult, check_span, control_function,
@@ -112,17 +112,14 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     def feedback(t, y):
         return ctrl.output(t, y[:12], y[12:])
 
-    def applied(t, y):
+    def rhs(t, y):
         u = np.asarray(ufun(t), dtype=float)
         if ctrl is not None:
-            u = u + np.asarray(feedback(t, y), dtype=float)
-        return u
-
-    def rhs(t, y):
-        u = applied(t, y)
+            du, dc = evaluate(ctrl, t, y[:12], y[12:])      # output and integrands from one evaluation
+            u = u + du
         d = np.array(derivatives(aircraft, env, State(*y[:12]), Controls(*u), model, h), dtype=float)
         if nc:
-            d = np.concatenate([d, np.asarray(ctrl.derivative(t, y[:12], y[12:]), dtype=float).reshape(nc)])
+            d = np.concatenate([d, dc])
         if not np.all(np.isfinite(d)):
             names_bad = [f"{n}' = {v}" for n, v in zip(STATE_NAMES + names, d) if not math.isfinite(v)]
             if not np.all(np.isfinite(u)):

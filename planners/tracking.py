@@ -78,7 +78,7 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -557,6 +557,9 @@ class TrackingController:
     n_states: int = field(default=4)
     windup_mask: np.ndarray = field(default_factory=lambda: np.zeros((4, 5), dtype=bool))
     anti_windup: bool = True
+    #: ``(index of each time, reference (M, 17), gains (M, 5, n))`` precomputed at an engine's sample
+    #: times by :meth:`at_times`; ``None`` evaluates the interpolants at every call.
+    samples: tuple | None = field(default=None, repr=False, compare=False)
 
     def _locate(self, t: float):
         t0, t1 = self.t_nodes[0], self.t_nodes[-1]
@@ -606,9 +609,8 @@ class TrackingController:
         """
         if np.ndim(t) == 0:
             return self.reference(t)[12:]
-        tt = np.clip(np.asarray(t, dtype=float), self.t_nodes[0], self.t_nodes[-1])
-        i = np.clip(np.searchsorted(self.t_nodes, tt, side="right") - 1, 0, len(self.t_nodes) - 2)
-        pw = (tt - self.t_nodes[i])[:, None] ** np.arange(self.reference_poly.shape[-1])
+        i, tau = self._locate_many(np.asarray(t, dtype=float))
+        pw = tau[:, None] ** np.arange(self.reference_poly.shape[-1])
         return np.einsum("njk,nk->jn", self.reference_poly[i, 12:], pw)
 
     def initial_state(self, t0: float, x0: np.ndarray) -> np.ndarray:
@@ -627,16 +629,72 @@ class TrackingController:
         """
         return np.zeros(self.n_states)
 
-    def _errors(self, t: float, x: np.ndarray):
+    def at_times(self, times) -> "TrackingController":
+        """The same controller with its reference and gains precomputed at given times.
+
+        A sampled engine knows its sample times in advance (JSBSim's step grid,
+        or every ``controller_dt``): evaluating the per-interval polynomials
+        there once, vectorised, leaves a few small products per sample.  At any
+        other time the controller evaluates the interpolants as usual.
+
+        Parameters
+        ----------
+        times : array_like, shape (M,)
+            Sample times [s].
+
+        Returns
+        -------
+        TrackingController
+            A copy carrying the table (:attr:`samples`).
+        """
+        tt = np.asarray(times, dtype=float).reshape(-1)
+        i, tau = self._locate_many(tt)
+        ref = np.einsum("mjk,mk->mj", self.reference_poly[i], tau[:, None] ** np.arange(self.reference_poly.shape[-1]))
+        gain = np.einsum("mjnk,mk->mjn", self.gain_poly[i], tau[:, None] ** np.arange(self.gain_poly.shape[-1]))
+        return replace(self, samples=({v: m for m, v in enumerate(tt.tolist())}, ref, gain))
+
+    def _locate_many(self, t: np.ndarray):
+        tt = np.clip(t, self.t_nodes[0], self.t_nodes[-1])
+        i = np.clip(np.searchsorted(self.t_nodes, tt, side="right") - 1, 0, len(self.t_nodes) - 2)
+        return i, tt - self.t_nodes[i]
+
+    def _reference_and_gain(self, t: float):
+        if self.samples is not None:
+            m = self.samples[0].get(t)
+            if m is not None:
+                return self.samples[1][m], self.samples[2][m]
         i, tau = self._locate(float(t))
-        pw = tau ** np.arange(self.reference_poly.shape[-1])
-        ref = self.reference_poly[i] @ pw
+        ref = self.reference_poly[i] @ (tau ** np.arange(self.reference_poly.shape[-1]))
+        return ref, self.gain_poly[i] @ (tau ** np.arange(self.gain_poly.shape[-1]))
+
+    def _evaluate(self, t: float, x: np.ndarray, xc: np.ndarray):
+        """Feedforward, unsaturated feedback, the correction applied and the integrands, from one
+        evaluation of the reference and gains."""
+        ref, gain = self._reference_and_gain(t)                   # (17,), (5, n)
         e = np.asarray(x, dtype=float)[:12] - ref[:12]
         e[_ANGLE_IDX] = (e[_ANGLE_IDX] + math.pi) % _TWO_PI - math.pi
-        return i, tau, ref, e
+        du = gain[:, :12] @ e + gain[:, 12:] @ np.asarray(xc, dtype=float)
+        u = ref[12:]
+        c, s = math.cos(ref[_CHI]), math.sin(ref[_CHI])
+        rates = [c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2]]
+        if self.zeta_index >= 0:
+            rates.append(e[self.zeta_index])
+        rates = np.array(rates)
+        if not self.saturate:
+            return u, du, du, rates
+        total = u + du
+        held = (total < self.lower) | (total > self.upper)
+        if self.anti_windup and held.any():
+            # Conditional integration: the integrals of a decoupling stage stop while one of its inputs
+            # is held at a limit (otherwise they wind up and the loop leaves the linear domain).
+            rates[(self.windup_mask & held).any(axis=1)] = 0.0
+        return u, du, np.minimum(np.maximum(total, self.lower), self.upper) - u, rates
 
     def derivative(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
         """The integrands ``(cos chi~ dx + sin chi~ dy, -sin chi~ dx + cos chi~ dy, dz[, d zeta])``.
+
+        With saturation and anti-windup, the integrals of a decoupling stage are
+        held (integrand 0) while one of that stage's inputs is at a limit.
 
         Parameters
         ----------
@@ -651,22 +709,7 @@ class TrackingController:
         -------
         ndarray, shape (n_states,)
         """
-        i, tau, ref, e = self._errors(t, x)
-        c, s = math.cos(ref[_CHI]), math.sin(ref[_CHI])
-        out = [c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2]]
-        if self.zeta_index >= 0:
-            out.append(e[self.zeta_index])
-        out = np.array(out)
-        if self.saturate and self.anti_windup:
-            # Conditional integration: the integrals of a decoupling stage stop while one of its inputs
-            # is held at a limit (otherwise they wind up and the loop leaves the linear domain).
-            pg = tau ** np.arange(self.gain_poly.shape[-1])
-            gain = self.gain_poly[i] @ pg
-            total = ref[12:] + gain[:, :12] @ e + gain[:, 12:] @ np.asarray(xc, dtype=float)
-            held = (total < self.lower) | (total > self.upper)
-            if held.any():
-                out[(self.windup_mask & held).any(axis=1)] = 0.0
-        return out
+        return self._evaluate(t, x, xc)[3]
 
     def commanded(self, t: float, x: np.ndarray, xc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Feedforward and unsaturated feedback at ``t``.
@@ -685,11 +728,8 @@ class TrackingController:
         (ndarray, ndarray), shapes (5,) and (5,)
             ``u~(t)`` and ``K(t) [dx; I]`` (before saturation).
         """
-        i, tau, ref, e = self._errors(t, x)
-        pg = tau ** np.arange(self.gain_poly.shape[-1])
-        gain = self.gain_poly[i] @ pg                              # (5, n)
-        du = gain[:, :12] @ e + gain[:, 12:] @ np.asarray(xc, dtype=float)
-        return ref[12:], du
+        u, du, _, _ = self._evaluate(t, x, xc)
+        return u, du
 
     def output(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
         """Correction added to the feedforward: ``sat(u~ + K [dx; I]) - u~``.
@@ -708,11 +748,27 @@ class TrackingController:
         ndarray, shape (5,)
             ``(dF [N], d_eta [-], d_dl, d_dm, d_dn [rad])``.
         """
-        u, du = self.commanded(t, x, xc)
-        if not self.saturate:
-            return du
-        total = u + du
-        return np.minimum(np.maximum(total, self.lower), self.upper) - u
+        return self._evaluate(t, x, xc)[2]
+
+    def output_and_derivative(self, t: float, x: np.ndarray, xc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`output` and :meth:`derivative` at one point from one evaluation (see
+        :func:`gna.controller.evaluate`).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        x : ndarray, shape (12,)
+            Aircraft state.
+        xc : ndarray, shape (n_states,)
+            Integrals.
+
+        Returns
+        -------
+        (ndarray, ndarray), shapes (5,) and (n_states,)
+        """
+        _, _, out, rates = self._evaluate(t, x, xc)
+        return out, rates
 
     def saturated_time(self, df, controller_states=None) -> dict:
         """Time during which the commanded controls exceed their limits, per control.

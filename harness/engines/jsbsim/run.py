@@ -21,7 +21,8 @@ import numpy as np
 from gna import units
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
-from gna.controller import Controller, as_controller, checked_initial_state, state_names
+from gna.controller import (Controller, as_controller, at_sample_times, checked_initial_state, evaluate,
+                            state_names)
 from gna.eom import CONTROL_NAMES
 from gna.errors import InputError
 from gna.simulate import envelope_warnings
@@ -178,6 +179,7 @@ class JSBSimRun:
         times = t0 + np.arange(n + 1) * dt
         U = controls_on_grid(ufun, times)
         every = 1 if engine.controller_dt is None else max(int(round(engine.controller_dt / dt)), 1)
+        ctrl = at_sample_times(ctrl, times[::every])
         t_setup = time.perf_counter()
         run = cls(engine, aircraft, env, y0, times, out_steps, U, ctrl, every)
         with ExitStack() as stack:
@@ -366,7 +368,8 @@ class JSBSimRun:
                     if not all(map(isfinite, self.xc.tolist())):
                         bad = ", ".join(f"{n} = {v}" for n, v in zip(self.names, self.xc) if not isfinite(v))
                         raise StepStop(k, f"non-finite controller state at t = {{t}} ({bad})")
-                self.d = np.asarray(ctrl.output(tlist[k], xk, self.xc), dtype=float).reshape(5).tolist()
+                d, f_new = evaluate(ctrl, tlist[k], xk, self.xc)
+                self.d = d.tolist()
                 uk = [a + b for a, b in zip(ucols[k], self.d)]
                 if not all(isfinite(c) for c in uk):
                     raise StepStop.control(k, uk)
@@ -377,7 +380,7 @@ class JSBSimRun:
                 finally:
                     fdm.resume_integration()
                 if stateful:
-                    self.f_prev2, self.f_prev = self.f_prev, self._derivative(tlist[k], xk)
+                    self.f_prev2, self.f_prev = self.f_prev, f_new
             if stepped is not None:
                 stepped(k, uk)
             if out[k]:
