@@ -4,6 +4,10 @@ For each scenario the paper draws, against time, the flat plan J = 0 (red),
 the integration with the tracking feedback (dark blue), the generalized plan
 (green) and the integration of the generalized controls without feedback
 (cyan); the surfaces are drawn with their feedback part, ``delta + d(delta)``.
+The paper's dark-blue run flies the flat plan's (J = 0) controls as
+feedforward: it starts on the flat plan and converges to the generalized one.
+When the case's own closed loop uses another iterate (by default the last),
+that run is drawn too (navy, dotted).
 Fed by a :class:`harness.validation.CaseResult` of a closed-loop case; no pyplot.
 """
 
@@ -21,7 +25,7 @@ from .figures import plot_scale
 TRACKING_VARIABLES: tuple[str, ...] = ("V", "alpha", "beta", "mu", "F", "dl", "dm", "dn")
 
 #: The paper's colours.
-COLOURS = {"flat": "red", "closed": "darkblue", "generalized": "green", "open": "cyan"}
+COLOURS = {"flat": "red", "closed": "darkblue", "generalized": "green", "open": "cyan", "closed_last": "navy"}
 
 
 def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png") -> Path:
@@ -52,6 +56,8 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
         raise ValueError("the four-curve figure needs a closed-loop case result")
     plan = result.plan
     closed = result.runs[result.reference_engine]
+    dark_blue = result.flat_closed_loop if result.flat_closed_loop is not None else closed
+    j = result.closed_loop.feedforward_iterate
     t = np.asarray(closed.df.index, dtype=float)
     flat = plan.to_dataframe(t, j=0)
     gen = plan.to_dataframe(t, j=plan.J)
@@ -63,26 +69,33 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
         ax.plot(flat.index, flat[var] * k, color=COLOURS["flat"], lw=1.2, label="flat plan J = 0")
         ax.plot(opened.index, opened[var] * k, color=COLOURS["open"], lw=1.0, ls="--",
                 label="open loop, generalized controls")
-        ax.plot(closed.df.index, closed.df[var] * k, color=COLOURS["closed"], lw=1.2,
-                label="closed loop" + (" (delta + d delta)" if var in ("F", "dl", "dm", "dn") else ""))
+        surf = " (delta + d delta)" if var in ("F", "dl", "dm", "dn") else ""
+        ax.plot(dark_blue.df.index, dark_blue.df[var] * k, color=COLOURS["closed"], lw=1.2,
+                label="closed loop, feedforward J = 0" + surf)
+        if dark_blue is not closed:
+            ax.plot(closed.df.index, closed.df[var] * k, color=COLOURS["closed_last"], lw=1.0, ls=":",
+                    label=f"closed loop, feedforward j = {j}" + surf)
         # drawn last, thin and translucent: it lies under the closed loop when the tracking is good
         ax.plot(gen.index, gen[var] * k, color=COLOURS["generalized"], lw=2.5, alpha=0.55, ls=(0, (4, 3)),
                 label=f"generalized plan J = {plan.J}")
         ax.set_ylabel(f"{var} [{unit}]")
         ax.grid(alpha=0.3)
     ax = axs.ravel()[-1]
-    for run, colour, label in ((closed, COLOURS["closed"], "closed loop"), (result.open_loop, COLOURS["open"],
-                                                                              "open loop")):
+    curves = [(dark_blue, COLOURS["closed"], "closed loop, J = 0 feedforward", "-")]
+    if dark_blue is not closed:
+        curves.append((closed, COLOURS["closed_last"], f"closed loop, j = {j} feedforward", ":"))
+    curves.append((result.open_loop, COLOURS["open"], "open loop", "--"))
+    for run, colour, label, ls in curves:
         err = position_error(run, lambda tt: plan.state(tt, plan.J))
-        ax.semilogy(err.index, np.maximum(err.to_numpy(), 1e-9), color=colour, lw=1.2, label=label)
+        ax.semilogy(err.index, np.maximum(err.to_numpy(), 1e-9), color=colour, lw=1.2, ls=ls, label=label)
     ax.set_ylabel("|position - flat outputs| [m]")
     ax.grid(alpha=0.3, which="both")
     for a in axs[-1]:
         a.set_xlabel("t [s]")
     axs[0, 0].legend(fontsize=7)
-    j = result.closed_loop.feedforward_iterate
-    fig.suptitle(f"{plan.name}: closed loop (feedforward and reference: iterate j = {j}, "
-                 f"engine {result.reference_engine}) against the plans")
+    ax.legend(fontsize=7)
+    fig.suptitle(f"{plan.name}: closed loop with the tracking feedback (engine {result.reference_engine}) "
+                 f"against the flat (J = 0) and generalized (J = {plan.J}) plans")
     path = Path(out_dir) / name
     fig.savefig(path, dpi=110)
     return path

@@ -222,6 +222,12 @@ class CaseResult:
     open_loop : SimulationResult or None
         Closed loop: the reference engine flying the plan's J-th controls open
         loop (the paper's cyan curve), for the figures.
+    flat_closed_loop : SimulationResult or None
+        Closed loop: the reference engine flying the feedback with the flat
+        plan's (J = 0) feedforward and reference, from its initial state: the
+        paper's dark-blue curve, which starts on the flat plan and converges
+        to the generalized one (the same run as ``runs`` when the case's
+        feedforward iterate is 0).
     """
 
     case: ValidationCase
@@ -233,6 +239,7 @@ class CaseResult:
     planning_time_s: float | None = None
     closed_loop: ClosedLoopSetup | None = None
     open_loop: Any = None
+    flat_closed_loop: Any = None
 
     @property
     def reference_engine(self) -> str:
@@ -409,6 +416,11 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
         ref = case.engines[0]
         open_loop = fly({ref: engines[ref]}, setup.aircraft, setup.x0, plan.control_function(J), span,
                         env=plan.env, dt_out=case.dt_out)[ref]
+        flat_loop = runs[ref]
+        if setup.feedforward_iterate != 0:
+            flat = closed_loop_setup(plan, scenario, feedforward_iterate=0)
+            flat_loop = fly({ref: engines[ref]}, flat.aircraft, flat.x0, flat.controller.controls, span,
+                            env=plan.env, controller=flat.controller, dt_out=case.dt_out)[ref]
     else:
         runs = fly(engines, plan.aircraft, plan.initial_state(J), plan.control_function(J), span, env=plan.env,
                    dt_out=case.dt_out)
@@ -419,4 +431,5 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
     vs_plan = {label: difference_table(plan_df, res.df, tolerances={}, labels=("plan", label))
                for label, res in runs.items()}
     return CaseResult(case=case, plan=plan, runs=runs, tables=tables, vs_plan=vs_plan, provenance=provenance(),
-                      planning_time_s=planning_time, closed_loop=setup, open_loop=open_loop)
+                      planning_time_s=planning_time, closed_loop=setup, open_loop=open_loop,
+                      flat_closed_loop=flat_loop if case.loop == "closed" else None)
