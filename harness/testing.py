@@ -278,10 +278,10 @@ def assert_trajectories_close(expected, actual, *, atol=None, rtol=None, columns
     failing = [c for c, ok in table["passed"].items() if not ok]
     if not failing and not problems:
         return table
-    rule = f"|{labels[1]} - {labels[0]}| <= atol + rtol |{labels[0]}|"
+    rule = "|actual - expected| <= atol + rtol |expected|"
     head = (f"{len(failing)} of {len(table)} columns exceed {rule} ({', '.join(failing)})" if failing
             else f"every column within {rule}, but the compared times are not covered")
-    lines = [f"trajectories differ: {labels[1]} vs {labels[0]}: {head}"]
+    lines = [f"trajectories differ: {labels[1]} (actual) vs {labels[0]} (expected): {head}"]
     lines += [f"  {p}" for p in problems]
     lines.append(format_table(table))
     raise AssertionError("\n".join(lines))
