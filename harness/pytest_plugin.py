@@ -139,7 +139,12 @@ class GflatFlight:
         self.test_file, self.golden, self.regen = Path(test_file), golden, regen
 
     def has_golden(self) -> bool:
-        """True when the golden file (CSV, or its Parquet sibling) exists."""
+        """Whether the golden file (CSV, or its Parquet sibling) exists.
+
+        Returns
+        -------
+        bool
+        """
         return self.golden.is_file() or self.golden.with_suffix(".parquet").is_file()
 
     def __call__(self, scenario, engines: Sequence[str] = ("jsbsim",), *, duration: float | None = None,

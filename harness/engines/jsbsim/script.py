@@ -201,6 +201,11 @@ def control_rows(controls, times: np.ndarray) -> dict[str, np.ndarray]:
     -------
     dict of str to ndarray, shape (n,)
         Property -> values (engine 1 thrust ``F (1 + eta) / 2``, engine 2 ``F (1 - eta) / 2``).
+
+    Raises
+    ------
+    InputError
+        Controls that are not finite (the first such time is named).
     """
     U = controls_on_grid(control_function(controls), times)
     if not np.all(np.isfinite(U)):
