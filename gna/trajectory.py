@@ -362,6 +362,43 @@ class SimulationResult:
         """True when the run reached the end of its span."""
         return self.status == "completed"
 
+    def to_timeresponse(self):
+        """The run as python-control's ``control.TimeResponseData`` (optional extra ``gflat[control]``).
+
+        Signals, SI units, angles in radians (:data:`UNITS`):
+
+        * ``states`` (12): x, y, z [m] (NED), V [m/s], gamma, chi, alpha, beta, mu [rad], p, q, r [rad/s];
+        * ``inputs`` (5): the applied controls F [N], eta [-], dl, dm, dn [rad];
+        * ``outputs`` (29): the 12 states, then the derived ``qbar`` [Pa], ``rho`` [kg/m^3], load factors
+          ``nx, ny, nz`` [-], wind-axis forces ``X, Y, Z`` [N], body moments ``L, M, N`` [N m] and the
+          coefficients ``CD, CY, CL, Cl, Cm, Cn`` [-] (:data:`DERIVED_NAMES`).
+
+        Labels are the column names; ``sysname`` is the engine, ``success`` and ``message`` the run's status.
+
+        Returns
+        -------
+        control.TimeResponseData
+            ``time`` shape (n,), ``outputs`` (29, n), ``states`` (12, n), ``inputs`` (5, n).
+
+        Raises
+        ------
+        ImportError
+            When python-control is not installed (``pip install "gflat[control]"``).
+        """
+        try:
+            import control
+        except ImportError as exc:
+            raise ImportError("SimulationResult.to_timeresponse needs python-control: install the optional "
+                              "extra with pip install \"gflat[control]\" (or pip install \"control>=0.10\")") from exc
+        df = self.df
+        outputs = STATE_NAMES + DERIVED_NAMES
+        return control.TimeResponseData(
+            df.index.to_numpy(dtype=float), df[list(outputs)].to_numpy(dtype=float).T,
+            states=df[list(STATE_NAMES)].to_numpy(dtype=float).T, inputs=df[list(CONTROL_NAMES)].to_numpy(dtype=float).T,
+            output_labels=list(outputs), state_labels=list(STATE_NAMES), input_labels=list(CONTROL_NAMES),
+            title=f"gflat run on {self.settings.engine or 'an engine'}", sysname=self.settings.engine or None,
+            success=self.completed, message=self.message or None, issiso=False)
+
 
 def controller_frames(index, names: Sequence[str], Xc: np.ndarray, dU: np.ndarray) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The ``controller_states`` and ``feedback`` frames of a closed-loop result.

@@ -18,7 +18,8 @@ validation
     the closed loop (the paper's tracking feedback) plugs in here; campaigns
     map :func:`run_case` over cases.
 testing
-    ``assert_trajectories_close`` and smooth test inputs.
+    ``assert_trajectories_close`` and smooth test inputs; ``pytest_plugin``: the
+    ``gflat_flight`` fixture (golden trajectories beside the test, ``--gflat-regen``).
 cli, commands
     The ``gflat`` tool: each command parses, calls validation/planners, renders
     (via :mod:`reports`) and writes; no workflow logic.

@@ -23,6 +23,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "compare",
     "paper",
     "export_jsbsim",
+    "export_script",
     "fit",
 )
 

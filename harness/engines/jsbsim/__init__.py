@@ -8,7 +8,8 @@ Rooms:
 * :mod:`.source`: :class:`~.source.JSBSimSourceEngine`, the JSBSim aircraft a GNA set was fitted from;
 * :mod:`.fdm`: loading an aircraft with its log captured, :class:`Integrators`, initial conditions;
 * :mod:`.states`: JSBSim properties -> the 12 wind-frame states and the common DataFrame;
-* :mod:`.export`: the aircraft file generated from a gflat aircraft (``gflat export-jsbsim``).
+* :mod:`.export`: the aircraft file generated from a gflat aircraft (``gflat export-jsbsim``);
+* :mod:`.script`: a plan as stock JSBSim files, replayed natively (``gflat export-jsbsim-script``).
 """
 
 from .engine import CONTROLLER_SCHEME, JSBSimEngine

@@ -1,0 +1,54 @@
+"""``gflat export-jsbsim-script SCENARIO --out DIR``: a plan as files stock JSBSim replays natively."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from gna.errors import InputError
+from planners.generalized import plan_scenario
+from planners.scenario import list_scenarios, load_scenario
+
+from ..engines.jsbsim.script import export_script
+from ._args import nonnegative_int, positive_float
+
+
+def register(sub) -> None:
+    p = sub.add_parser("export-jsbsim-script", help="write a plan as a JSBSim script (aircraft, initialization, "
+                                                     "control tables, CSV output)",
+                       description="Plan a scenario and write what stock JSBSim needs to replay the plan open loop: "
+                                   "DIR/aircraft/<id>/<id>.xml, DIR/aircraft/<id>/<scenario>-init.xml, "
+                                   "DIR/scripts/<scenario>.xml (the controls as tables of sim-time, the gflat JSBSim "
+                                   "engine's step and integrators) writing <scenario>.csv. Run it with "
+                                   "'JSBSim --root=DIR --script=scripts/<scenario>.xml' or the jsbsim Python "
+                                   "package's FGFDMExec(DIR).load_script(...). Bundled scenarios: "
+                                   + ", ".join(list_scenarios()))
+    p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created)")
+    p.add_argument("--J", type=nonnegative_int, default=None,
+                   help="generalized-flatness iterations (default: the scenario's)")
+    p.add_argument("--dt-out", type=positive_float, default=0.02, metavar="S",
+                   help="output interval of the CSV [s] (the JSBSim step divides it; default 0.02)")
+    p.add_argument("--table-dt", type=positive_float, default=None, metavar="S",
+                   help="interval of the control tables [s], a whole number of JSBSim steps, linear "
+                        "interpolation in between (smaller files; default: every step, the JSBSim engine's "
+                        "control samples exactly)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    if args.out.exists() and not args.out.is_dir():
+        raise InputError(f"--out {args.out} exists and is not a folder")
+    sc = load_scenario(args.scenario, J=args.J)
+    plan = plan_scenario(sc)
+    if not plan.feasible:
+        raise InputError(f"the plan of {sc.name} is not feasible (Newton failed: "
+                         f"{'; '.join(plan.newton_failures[:3])}); nothing written")
+    b = export_script(args.out, sc.name, sc.aircraft, plan, (plan.t0, plan.t1), plan.initial_state(), env=sc.env,
+                      dt_out=args.dt_out, table_dt=args.table_dt)
+    print(f"{sc.name}: t = {b.t_span[0]:g} .. {b.t_span[1]:g} s, JSBSim step {b.dt:.6g} s, "
+          f"{b.rows} control-table rows")
+    for what in ("aircraft", "initialization", "script"):
+        print(f"  {what}: {args.out / getattr(b, what)}")
+    print(f"  replay: JSBSim --root={args.out} --script={b.script}  (writes {b.output} in JSBSim's output path, "
+          f"{args.out} with the jsbsim Python package)")
+    return 0

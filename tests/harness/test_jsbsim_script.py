@@ -1,0 +1,74 @@
+"""``gflat export-jsbsim-script``: the plan replayed by stock JSBSim's script loader agrees with the JSBSim engine."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from gna.errors import InputError
+from harness.cli import main
+from harness.engines import fly
+from harness.engines.jsbsim.script import export_script, inside, replay, safe_name
+from planners.generalized import plan_scenario
+from planners.scenario import load_scenario
+
+
+@pytest.fixture(scope="module")
+def roll():
+    sc = load_scenario("gtm-aileron-roll")
+    return sc, plan_scenario(sc)
+
+
+def _max_differences(replayed, engine, t_max=None):
+    t = np.intersect1d(np.round(replayed.index, 9), np.round(engine.index, 9))
+    if t_max is not None:
+        t = t[t <= t_max + 1e-9]
+    a = replayed.set_axis(np.round(replayed.index, 9)).loc[t]
+    b = engine.set_axis(np.round(engine.index, 9)).loc[t]
+    pos = float(np.max(np.linalg.norm(a[["x", "y", "z"]].to_numpy() - b[["x", "y", "z"]].to_numpy(), axis=1)))
+    ang = float(np.max(np.abs(a[["gamma", "chi", "alpha", "beta", "mu"]].to_numpy()
+                              - b[["gamma", "chi", "alpha", "beta", "mu"]].to_numpy())))
+    return t.size, pos, ang
+
+
+@pytest.mark.parametrize("table_dt", [None, 0.01])
+def test_replay_agrees_with_the_engine(roll, tmp_path, table_dt):
+    sc, plan = roll
+    b = export_script(tmp_path / "out", sc.name, sc.aircraft, plan, env=sc.env, table_dt=table_dt)
+    replayed = replay(b)
+    engine = fly(["jsbsim"], sc.aircraft, None, plan, (plan.t0, plan.t1), env=sc.env)["jsbsim"].df
+    n, pos, ang = _max_differences(replayed, engine)
+    assert n == engine.index.size                               # every output time replayed
+    # The engine's samples exactly: round-off (altitude quantised by the 1e11 ft planet, 4.6e-6 m);
+    # 0.01 s tables: linear interpolation of the controls between the nodes.
+    assert pos < (1e-5 if table_dt is None else 2e-3)
+    assert ang < (1e-9 if table_dt is None else 1e-4)
+
+
+def test_files_and_cli(tmp_path, capsys):
+    out = tmp_path / "x"
+    assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", str(out)]) == 0
+    assert (out / "aircraft" / "gtm" / "gtm.xml").is_file()
+    init = (out / "aircraft" / "gtm" / "gtm-aileron-roll-init.xml").read_text()
+    assert 'version="2.0"' in init and 'unit="FT/SEC"' in init and 'unit="DEG"' in init
+    script = (out / "scripts" / "gtm-aileron-roll.xml").read_text()
+    assert 'type="CSV"' in script and "simulation/sim-time-sec" in script and 'continuous="true"' in script
+    assert "replay" in capsys.readouterr().out
+    f = tmp_path / "file"
+    f.write_text("")
+    assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", str(f)]) == 2
+    assert "not a folder" in capsys.readouterr().err
+
+
+def test_names_cannot_escape(roll, tmp_path):
+    sc, plan = roll
+    for bad in ("../x", "a/b", "..", ".hidden", "", "a\\b"):
+        with pytest.raises(InputError, match="cannot name a file"):
+            safe_name(bad, "aircraft identifier")
+    with pytest.raises(InputError, match="outside the export folder"):
+        inside(tmp_path, "../elsewhere.xml")
+    with pytest.raises(InputError, match="cannot name a file"):
+        export_script(tmp_path, "../up", sc.aircraft, plan, env=sc.env)
+    with pytest.raises(InputError, match="aircraft identifier"):
+        export_script(tmp_path, "ok", replace(sc.aircraft, id="../../evil"), plan, env=sc.env)
+    assert not any(tmp_path.iterdir())
