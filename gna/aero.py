@@ -45,6 +45,10 @@ H_VARIABLES: tuple[str, ...] = ("phat", "qhat", "rhat", "dl", "dm", "dn")
 #: Coefficient names, in the order of :class:`Coefficients`.
 COEFFICIENTS: tuple[str, ...] = ("CD", "CY", "CL", "Cl", "Cm", "Cn")
 
+#: Largest exponent of a variable in a monomial (the published models use at most 4; a larger one is a
+#: typo, and its powers would overflow the series arithmetic long before they mattered).
+MAX_EXPONENT = 12
+
 #: Other spellings accepted in term tables (Grauer--Morelli use de, da, dr).
 _ALIASES = {"a": "alpha", "b": "beta", "de": "dm", "da": "dl", "dr": "dn",
             "ptilde": "phat", "qtilde": "qhat", "rtilde": "rhat"}
@@ -78,13 +82,32 @@ def parse_monomial(text: str) -> tuple[int, ...]:
     """Parse ``"alpha^2*qhat"`` into exponents over :data:`AERO_VARIABLES`.
 
     ``"1"`` (or an empty string) is the constant monomial.
+
+    Parameters
+    ----------
+    text : str
+        Product of aerodynamic variables (aliases ``de``, ``da``, ``dr``, ... accepted), each with
+        an optional exponent ``^n`` (or ``**n``), ``1 <= n <=`` :data:`MAX_EXPONENT`.
+
+    Returns
+    -------
+    tuple of int
+        The exponent of each of :data:`AERO_VARIABLES`.
+
+    Raises
+    ------
+    InputError
+        Not a string, a malformed factor, an unknown variable, or an exponent above
+        :data:`MAX_EXPONENT`.
     """
+    if not isinstance(text, str):
+        raise InputError(f"monomial must be a string such as \"alpha^2*qhat\", got {text!r}")
     exps = [0] * len(AERO_VARIABLES)
     text = text.strip().replace(" ", "").replace("**", "^")
     if text in ("", "1"):
         return tuple(exps)
     for factor in text.split("*"):
-        m = re.fullmatch(r"([A-Za-z_]+)(?:\^(\d+))?", factor)
+        m = re.fullmatch(r"([A-Za-z_]+)(?:\^([0-9]{1,6}))?", factor)
         if not m:
             raise InputError(f"malformed monomial {text!r} (factor {factor!r})")
         name = _ALIASES.get(m.group(1), m.group(1))
@@ -92,6 +115,10 @@ def parse_monomial(text: str) -> tuple[int, ...]:
             raise InputError(f"unknown aerodynamic variable {m.group(1)!r} in monomial {text!r}; "
                              f"known: {', '.join(AERO_VARIABLES)}")
         exps[AERO_VARIABLES.index(name)] += int(m.group(2) or 1)
+    worst = max(exps)
+    if worst > MAX_EXPONENT:
+        raise InputError(f"monomial {text!r}: exponent {worst} of {AERO_VARIABLES[exps.index(worst)]} exceeds "
+                         f"{MAX_EXPONENT}")
     return tuple(exps)
 
 
@@ -144,7 +171,12 @@ class TermTable:
     _theta: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
+        seen: dict[tuple[str, tuple[int, ...]], int] = {}
         for t in self.terms:
+            if (t.coefficient, t.exponents) in seen:
+                raise InputError(f"term {t.index} repeats term {seen[t.coefficient, t.exponents]} "
+                                 f"({t.coefficient}, monomial {t.monomial}): give each term once")
+            seen[t.coefficient, t.exponents] = t.index
             if t.coefficient not in COEFFICIENTS:
                 raise InputError(f"term {t.index}: unknown coefficient {t.coefficient!r}; "
                                  f"known: {', '.join(COEFFICIENTS)}")
@@ -160,19 +192,58 @@ class TermTable:
         object.__setattr__(self, "_theta", theta)
 
     @classmethod
-    def from_records(cls, records: Iterable[Mapping], structure: str = "custom") -> "TermTable":
-        """Build from mappings with keys ``theta``/``index``, ``coef``, ``monomial``, ``value``, ``source``."""
+    def from_records(cls, records: Iterable[Mapping], structure: str = "custom",
+                     where: str = "aerodynamic terms") -> "TermTable":
+        """Build from mappings with keys ``theta``/``index``, ``coef``, ``monomial``, ``value``, ``source``.
+
+        Parameters
+        ----------
+        records : iterable of mapping
+            One mapping per term (the ``[[aero.terms]]`` tables of an aircraft file).
+        structure : str
+            Name of the structure.
+        where : str
+            File and table, for messages.
+
+        Returns
+        -------
+        TermTable
+
+        Raises
+        ------
+        InputError
+            A record that is not a table, a missing key, a value of the wrong type, a malformed
+            monomial, a repeated term or index: naming ``where``, the term and the key.
+        """
+        if isinstance(records, (str, bytes, Mapping)) or not isinstance(records, Iterable):
+            raise InputError(f"{where}: terms must be a list of tables, got {records!r}")
         terms = []
+        indices: set[int] = set()
         for i, r in enumerate(records, start=1):
+            at = f"{where} #{i}"
+            if not isinstance(r, Mapping):
+                raise InputError(f"{at}: a term must be a table (coef, monomial, value), got {r!r}")
+            for key in ("monomial", "value"):
+                if key not in r:
+                    raise InputError(f"{at}: missing key {key!r}")
+            index, coef, value = r.get("theta", r.get("index", i)), r.get("coef", r.get("coefficient")), r["value"]
+            if isinstance(index, bool) or not isinstance(index, int):
+                raise InputError(f"{at}: theta = {index!r} must be a whole number")
+            if index in indices:
+                raise InputError(f"{at}: theta = {index} is used by an earlier term")
+            indices.add(index)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise InputError(f"{at}: value = {value!r} must be a number")
             try:
-                terms.append(Term(index=int(r.get("theta", r.get("index", i))),
-                                  coefficient=str(r.get("coef", r.get("coefficient"))),
-                                  exponents=parse_monomial(str(r["monomial"])),
-                                  value=float(r["value"]),
-                                  source=str(r.get("source", ""))))
-            except KeyError as exc:
-                raise InputError(f"aerodynamic term #{i}: missing key {exc.args[0]!r}") from None
-        return cls(tuple(terms), structure)
+                exponents = parse_monomial(r["monomial"])
+            except InputError as exc:
+                raise InputError(f"{at}: monomial = {r['monomial']!r}: {exc}") from None
+            terms.append(Term(index=index, coefficient=str(coef), exponents=exponents, value=float(value),
+                              source=str(r.get("source", ""))))
+        try:
+            return cls(tuple(terms), structure)
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
 
     def to_records(self) -> list[dict]:
         """Records suitable for a TOML aircraft file."""
