@@ -109,7 +109,7 @@ def parse_monomial(text: str) -> tuple[int, ...]:
     for factor in text.split("*"):
         m = re.fullmatch(r"([A-Za-z_]+)(?:\^([0-9]{1,6}))?", factor)
         if not m:
-            raise InputError(f"malformed monomial {text!r} (factor {factor!r})")
+            raise InputError(f"malformed monomial {text!r} (factor {factor!r}; write e.g. alpha^2*qhat)")
         name = _ALIASES.get(m.group(1), m.group(1))
         if name not in AERO_VARIABLES:
             raise InputError(f"unknown aerodynamic variable {m.group(1)!r} in monomial {text!r}; "
@@ -237,7 +237,7 @@ class TermTable:
             try:
                 exponents = parse_monomial(r["monomial"])
             except InputError as exc:
-                raise InputError(f"{at}: monomial = {r['monomial']!r}: {exc}") from None
+                raise InputError(f"{at}: {exc}") from None
             terms.append(Term(index=index, coefficient=str(coef), exponents=exponents, value=float(value),
                               source=str(r.get("source", ""))))
         try:

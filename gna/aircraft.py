@@ -11,7 +11,7 @@ in, the unit being part of the key (``mass_kg`` or ``weight_lb``, ``S_m2`` or
 from __future__ import annotations
 
 import math
-import tomllib
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -62,6 +62,17 @@ def _number(value: Any, key: str, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise InputError(f"{where}: {key} = {value!r} must be a number")
     return float(value)
+
+
+@contextmanager
+def _naming(where: str):
+    """Prefix the file and table to the errors of a section's own checks (positive mass, envelope...)."""
+    try:
+        yield
+    except InputError as exc:
+        if str(exc).startswith(where.split(" [")[0]):
+            raise
+        raise InputError(f"{where}: {exc}") from None
 
 
 def _check(value: float, key: str, where: str) -> float:
@@ -255,13 +266,14 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
     ident = check_name(data["id"], "id", where)
     where = f"{where} ({ident})"
     m = data["mass"]
-    mass = MassProperties(
-        mass=_get(m, "mass", "mass", where + " [mass]"),
-        Ixx=_get(m, "Ixx", "inertia", where + " [mass]"),
-        Iyy=_get(m, "Iyy", "inertia", where + " [mass]"),
-        Izz=_get(m, "Izz", "inertia", where + " [mass]"),
-        Ixz=_get(m, "Ixz", "inertia", where + " [mass]", 0.0),
-        source=str(m.get("source", "")))
+    with _naming(where + " [mass]"):
+        mass = MassProperties(
+            mass=_get(m, "mass", "mass", where + " [mass]"),
+            Ixx=_get(m, "Ixx", "inertia", where + " [mass]"),
+            Iyy=_get(m, "Iyy", "inertia", where + " [mass]"),
+            Izz=_get(m, "Izz", "inertia", where + " [mass]"),
+            Ixz=_get(m, "Ixz", "inertia", where + " [mass]", 0.0),
+            source=str(m.get("source", "")))
     g = data["geometry"]
     cbar = _get(g, "cbar", "length", where + " [geometry]")
     if "x_cg_cbar" in g or "x_ref_cbar" in g:
@@ -270,23 +282,28 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
     else:
         x_cg = _get(g, "x_cg", "length", where + " [geometry]", 0.0)
         x_ref = _get(g, "x_ref", "length", where + " [geometry]", x_cg)
-    geometry = Geometry(S=_get(g, "S", "area", where + " [geometry]"), b=_get(g, "b", "length", where + " [geometry]"),
-                        cbar=cbar, x_cg=x_cg, x_ref=x_ref, source=str(g.get("source", "")))
+    with _naming(where + " [geometry]"):
+        geometry = Geometry(S=_get(g, "S", "area", where + " [geometry]"),
+                            b=_get(g, "b", "length", where + " [geometry]"),
+                            cbar=cbar, x_cg=x_cg, x_ref=x_ref, source=str(g.get("source", "")))
     e = data.get("engines", {})
-    propulsion = Propulsion(count=int(e.get("count", 1)), y_p=_get(e, "y_p", "length", where + " [engines]", 0.0),
-                      epsilon=_get(e, "epsilon", "angle", where + " [engines]", 0.0),
-                      max_thrust=_get(e, "max_thrust", "force", where + " [engines]", None),
-                      source=str(e.get("source", "")))
+    with _naming(where + " [engines]"):
+        propulsion = Propulsion(count=int(e.get("count", 1)),
+                                y_p=_get(e, "y_p", "length", where + " [engines]", 0.0),
+                                epsilon=_get(e, "epsilon", "angle", where + " [engines]", 0.0),
+                                max_thrust=_get(e, "max_thrust", "force", where + " [engines]", None),
+                                source=str(e.get("source", "")))
     v = data.get("envelope", {})
     limits = {}
     for name in ("dl", "dm", "dn"):
         lim = _get(v, f"{name}_max", "angle", where + " [envelope]", None)
         if lim is not None:
             limits[name] = lim
-    envelope = Envelope(alpha_min=_get(v, "alpha_min", "angle", where + " [envelope]", math.radians(-10.0)),
-                        alpha_max=_get(v, "alpha_max", "angle", where + " [envelope]", math.radians(30.0)),
-                        beta_max=_get(v, "beta_max", "angle", where + " [envelope]", math.radians(20.0)),
-                        control_limits=limits, source=str(v.get("source", "")))
+    with _naming(where + " [envelope]"):
+        envelope = Envelope(alpha_min=_get(v, "alpha_min", "angle", where + " [envelope]", math.radians(-10.0)),
+                            alpha_max=_get(v, "alpha_max", "angle", where + " [envelope]", math.radians(30.0)),
+                            beta_max=_get(v, "beta_max", "angle", where + " [envelope]", math.radians(20.0)),
+                            control_limits=limits, source=str(v.get("source", "")))
     a = data["aero"]
     aero = TermTable.from_records(a["terms"], structure=str(a.get("structure", "custom")),
                                   where=f"{where} [aero.terms]")

@@ -68,7 +68,6 @@ Unknown keys of ``[tracking]`` and of its sub-tables are refused by name.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
