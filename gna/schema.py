@@ -240,10 +240,15 @@ def _message(error, where: str) -> str:
         close = difflib.get_close_matches(k, known, n=1, cutoff=0.6)
         hint = f"did you mean {close[0]!r}?" if close else f"known keys: {', '.join(known)}"
         return f"{loc}: unknown key {k!r} (= {_short(value[k])}); {hint}"
-    if kind == "propertyNames":
+    if "propertyNames" in error.schema_path:
         loc, _, _ = _location(list(error.absolute_path) + ["?"], where)
-        custom = error.validator_value.get("errorMessage") if isinstance(error.validator_value, dict) else None
-        return f"{loc}: key {_short(value)} is not allowed" + (f" ({custom})" if custom else "")
+        names = error.schema.get("enum")
+        if names:
+            close = difflib.get_close_matches(str(value), [str(n) for n in names], n=1, cutoff=0.6)
+            hint = f"did you mean {close[0]!r}?" if close else "known keys: " + ", ".join(map(str, names))
+        else:
+            hint = error.schema.get("errorMessage", f"it must match {error.schema.get('pattern')}")
+        return f"{loc}: key {_short(value)} is not allowed; {hint}"
     loc, key, index = _location(list(error.absolute_path), where)
     if kind == "not" and isinstance(error.validator_value, dict) and "required" in error.validator_value:
         a, b = error.validator_value["required"][:2]
@@ -263,7 +268,7 @@ def _message(error, where: str) -> str:
     custom = schema.get("errorMessage")
     if index is not None:
         return f"{loc}: {name} must be a list of {_plural(schema)}; item {index + 1} is {_short(value)}"
-    if custom:
+    if custom and kind == "pattern":
         return f"{loc}: {name} = {_short(value)}: {custom}"
     if kind in ("type", "enum", "oneOf", "anyOf", "const"):
         return f"{loc}: {name} must be {_expected(schema)}, got {_short(value)}"
