@@ -171,12 +171,7 @@ class TermTable:
     _theta: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
-        seen: dict[tuple[str, tuple[int, ...]], int] = {}
         for t in self.terms:
-            if (t.coefficient, t.exponents) in seen:
-                raise InputError(f"term {t.index} repeats term {seen[t.coefficient, t.exponents]} "
-                                 f"({t.coefficient}, monomial {t.monomial}): give each term once")
-            seen[t.coefficient, t.exponents] = t.index
             if t.coefficient not in COEFFICIENTS:
                 raise InputError(f"term {t.index}: unknown coefficient {t.coefficient!r}; "
                                  f"known: {', '.join(COEFFICIENTS)}")
@@ -213,12 +208,11 @@ class TermTable:
         ------
         InputError
             A record that is not a table, a missing key, a value of the wrong type, a malformed
-            monomial, a repeated term or index: naming ``where``, the term and the key.
+            monomial: naming ``where``, the term and the key.
         """
         if isinstance(records, (str, bytes, Mapping)) or not isinstance(records, Iterable):
             raise InputError(f"{where}: terms must be a list of tables, got {records!r}")
         terms = []
-        indices: set[int] = set()
         for i, r in enumerate(records, start=1):
             at = f"{where} #{i}"
             if not isinstance(r, Mapping):
@@ -229,9 +223,6 @@ class TermTable:
             index, coef, value = r.get("theta", r.get("index", i)), r.get("coef", r.get("coefficient")), r["value"]
             if isinstance(index, bool) or not isinstance(index, int):
                 raise InputError(f"{at}: theta = {index!r} must be a whole number")
-            if index in indices:
-                raise InputError(f"{at}: theta = {index} is used by an earlier term")
-            indices.add(index)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise InputError(f"{at}: value = {value!r} must be a number")
             try:
@@ -244,6 +235,33 @@ class TermTable:
             return cls(tuple(terms), structure)
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None
+
+    def check_unique(self, where: str = "aerodynamic terms") -> None:
+        """Refuse a table where a term index, or a coefficient/monomial pair, appears twice.
+
+        A model file lists each term once; a repeated pair would be summed silently (the fitting
+        code builds such tables on purpose to test rank detection, so the constructor allows them).
+
+        Parameters
+        ----------
+        where : str
+            File and table, for the message.
+
+        Raises
+        ------
+        InputError
+            Naming both terms.
+        """
+        pairs: dict[tuple[str, tuple[int, ...]], int] = {}
+        indices: set[int] = set()
+        for t in self.terms:
+            if t.index in indices:
+                raise InputError(f"{where}: theta = {t.index} is used by an earlier term")
+            indices.add(t.index)
+            if (t.coefficient, t.exponents) in pairs:
+                raise InputError(f"{where}: term {t.index} repeats term {pairs[t.coefficient, t.exponents]} "
+                                 f"({t.coefficient}, monomial {t.monomial}): give each term once")
+            pairs[t.coefficient, t.exponents] = t.index
 
     def to_records(self) -> list[dict]:
         """Records suitable for a TOML aircraft file."""

@@ -229,7 +229,7 @@ class Aircraft:
 
     def __post_init__(self):
         check_name(self.id, "id", f"aircraft {self.name!r}")
-        if len(self.aero) == 0:
+        if isinstance(self.aero, TermTable) and len(self.aero) == 0:
             raise InputError(f"aircraft {self.id}: the aerodynamic model has no terms")
 
     def summary(self) -> str:
@@ -307,6 +307,7 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
     a = data["aero"]
     aero = TermTable.from_records(a["terms"], structure=str(a.get("structure", "custom")),
                                   where=f"{where} [aero.terms]")
+    aero.check_unique(f"{where} [aero.terms]")
     prov = {k: str(val) for k, val in data.get("provenance", {}).items()}
     return Aircraft(id=ident, name=str(data.get("name", ident)), mass=mass, geometry=geometry, propulsion=propulsion,
                     envelope=envelope, aero=aero, provenance=prov, path=path)

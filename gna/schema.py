@@ -238,14 +238,14 @@ def _message(error, where: str) -> str:
         unknown = [k for k in value if k not in known and not any(p.search(k) for p in patterns)]
         k = unknown[0]
         close = difflib.get_close_matches(k, known, n=1, cutoff=0.6)
-        hint = f"did you mean {close[0]!r}?" if close else f"known keys: {', '.join(known)}"
-        return f"{loc}: unknown key {k!r} (= {_short(value[k])}); {hint}"
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        return f"{loc}: unknown key {k!r}{hint} = {_short(value[k])}; known keys: {', '.join(known)}"
     if "propertyNames" in error.schema_path:
         loc, _, _ = _location(list(error.absolute_path) + ["?"], where)
         names = error.schema.get("enum")
         if names:
             close = difflib.get_close_matches(str(value), [str(n) for n in names], n=1, cutoff=0.6)
-            hint = f"did you mean {close[0]!r}?" if close else "known keys: " + ", ".join(map(str, names))
+            hint = (f"did you mean {close[0]!r}? " if close else "") + "known keys: " + ", ".join(map(str, names))
         else:
             hint = error.schema.get("errorMessage", f"it must match {error.schema.get('pattern')}")
         return f"{loc}: key {_short(value)} is not allowed; {hint}"

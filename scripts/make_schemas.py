@@ -162,16 +162,10 @@ def _expr(description: str, default: str | None = None) -> dict:
 def scenario_schema() -> dict:
     """The JSON Schema of scenario files (``planners/scenarios/*.toml``)."""
     num = {"type": "number"}
-    pos_list = {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0}}
     tracking = _table("The closed loop (planners.tracking.tracking_controller)", {
-        "lambdas": {"oneOf": [
-            {"type": "number", "exclusiveMinimum": 0},
-            _table("One list per integral", {
-                "I1": dict(pos_list, description="3 poles (5 with zeta = 'F')"),
-                "I2": dict(pos_list, description="5 poles"), "I3": dict(pos_list, description="5 poles"),
-                "I4": dict(pos_list, description="3 poles (not with zeta = 'F')")})],
-            "description": "Pole magnitudes of the tracking feedback: one for all, or a table I1..I4",
-            "x-unit": "1/s", "x-default": "1.0"},
+        "lambdas": {"description": "Pole magnitudes of the tracking feedback: one positive number for all, or a "
+                               "table of lists I1, I2, I3, I4 of 3, 5, 5, 3 positive numbers (I1..I3 of 5 with "
+                               "zeta = 'F'); checked by planners.scenario", "x-unit": "1/s", "x-default": "1.0"},
         "feedforward_iterate": {"type": "integer", "description": "Plan iterate of the feedforward (-1 = last, "
                                 "0 = the flat plan)", "x-default": "-1"},
         "saturate": {"type": "boolean", "description": "Clip the applied controls at the aircraft's limits",

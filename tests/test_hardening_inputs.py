@@ -129,14 +129,14 @@ def test_k1_jsbsim_engine_temporary_aircraft_inside_its_folder_and_removed(tmp_p
 # ---------------------------------------------------------------------------------------------------
 
 def test_k3_misspelt_scenario_key_suggests(tmp_path):
-    with pytest.raises(InputError, match=r"\[flat_outputs\]: unknown key 'zeta_valu' \(= '0.3'\); did you mean "
-                                         r"'zeta_value'\?"):
+    with pytest.raises(InputError, match=r"\[flat_outputs\]: unknown key 'zeta_valu' \(did you mean 'zeta_value'\?\) = "
+                                         r"'0.3'; known keys: x, y, z, zeta"):
         _scenario(tmp_path, 'zeta_value = "0"', 'zeta_valu = "0.3"')
 
 
 def test_k3_misspelt_aircraft_key_suggests(tmp_path):
-    with pytest.raises(InputError, match=r"f16c\.toml \[mass\]: unknown key 'Ixz_slugft' .*did you mean "
-                                         r"'Ixz_slugft2'\?"):
+    with pytest.raises(InputError, match=r"f16c\.toml \[mass\]: unknown key 'Ixz_slugft' \(did you mean "
+                                         r"'Ixz_slugft2'\?\) = 982"):
         _aircraft(tmp_path, "Ixz_slugft2", "Ixz_slugft")
 
 
@@ -154,7 +154,7 @@ def test_k3_unknown_key_in_every_scenario_table(table, key):
 def test_k3_unknown_tracking_and_top_level_keys():
     data = json.loads(json.dumps(load_scenario("gtm-aileron-roll").raw))
     data["tracking"]["saturated"] = True
-    with pytest.raises(InputError, match=r"\[tracking\]: unknown key 'saturated'.*did you mean 'saturate'"):
+    with pytest.raises(InputError, match=r"\[tracking\]: unknown key 'saturated' \(did you mean 'saturate'\?\) = True"):
         scenario_from_dict(data, where="t.toml")
 
 
