@@ -123,7 +123,18 @@ def parse_monomial(text: str) -> tuple[int, ...]:
 
 
 def format_monomial(exponents: Iterable[int]) -> str:
-    """Inverse of :func:`parse_monomial`."""
+    """Inverse of :func:`parse_monomial`.
+
+    Parameters
+    ----------
+    exponents : iterable of int
+        Exponent of each of :data:`AERO_VARIABLES`.
+
+    Returns
+    -------
+    str
+        ``"alpha^2*qhat"``, or ``"1"`` for the constant monomial.
+    """
     parts = []
     for name, e in zip(AERO_VARIABLES, exponents):
         if e == 1:
@@ -264,7 +275,13 @@ class TermTable:
             pairs[t.coefficient, t.exponents] = t.index
 
     def to_records(self) -> list[dict]:
-        """Records suitable for a TOML aircraft file."""
+        """Records suitable for a TOML aircraft file.
+
+        Returns
+        -------
+        list of dict
+            ``theta``, ``coef``, ``monomial``, ``value`` (and ``source``) of each term.
+        """
         out = []
         for t in self.terms:
             rec = {"theta": t.index, "coef": t.coefficient, "monomial": t.monomial, "value": t.value}
@@ -274,7 +291,24 @@ class TermTable:
         return out
 
     def with_values(self, values: Mapping[int, float] | Iterable[float], source: str = "") -> "TermTable":
-        """A copy with new parameter values (by term index, or in table order)."""
+        """A copy with new parameter values (by term index, or in table order).
+
+        Parameters
+        ----------
+        values : mapping of int to float, or iterable of float
+            New values by term index (others kept), or one value per term in table order.
+        source : str
+            Source recorded on the changed terms (default: keep each term's).
+
+        Returns
+        -------
+        TermTable
+
+        Raises
+        ------
+        InputError
+            If a sequence of values does not have one value per term.
+        """
         if isinstance(values, Mapping):
             new = [Term(t.index, t.coefficient, t.exponents, float(values.get(t.index, t.value)),
                         source if t.index in values else t.source) for t in self.terms]
@@ -287,10 +321,32 @@ class TermTable:
         return TermTable(tuple(new), self.structure)
 
     def terms_of(self, coefficient: str) -> tuple[Term, ...]:
+        """The terms of one coefficient.
+
+        Parameters
+        ----------
+        coefficient : str
+            One of :data:`COEFFICIENTS`.
+
+        Returns
+        -------
+        tuple of Term
+        """
         return tuple(t for t in self.terms if t.coefficient == coefficient)
 
     def monomials(self, state: AeroState) -> list:
-        """Values of every term's monomial (without its parameter), in table order."""
+        """Values of every term's monomial (without its parameter), in table order.
+
+        Parameters
+        ----------
+        state : AeroState
+            Values of the aerodynamic variables (floats, arrays or series).
+
+        Returns
+        -------
+        list
+            One value per term, of the type of the state's entries.
+        """
         return self._monomial_values(state, [t.exponents for t in self.terms])
 
     def _monomial_values(self, state: AeroState, exponent_list) -> list:
@@ -320,6 +376,11 @@ class TermTable:
         state : AeroState
             alpha, beta [rad], phat, qhat, rhat [-], dl, dm, dn [rad]; floats,
             arrays (broadcast together) or truncated power series.
+
+        Returns
+        -------
+        Coefficients
+            CD, CY, CL, Cl, Cm, Cn, of the type of the state's entries.
         """
         mons = self._monomial_values(state, self._unique)
         series = [m for m in mons if hasattr(m, "coeffs") and hasattr(m, "batch_shape")]

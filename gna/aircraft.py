@@ -186,7 +186,18 @@ class Envelope:
                 raise InputError(f"envelope: {name}_max = {lim} rad must be positive")
 
     def violations(self, alpha, beta) -> list[str]:
-        """Human-readable list of envelope violations (empty when inside)."""
+        """Human-readable list of envelope violations (empty when inside).
+
+        Parameters
+        ----------
+        alpha, beta : float or array_like
+            Angle of attack and sideslip [rad], any matching shapes.
+
+        Returns
+        -------
+        list of str
+            One line per violated bound, with the extreme value reached [deg].
+        """
         out = []
         a, b = np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float)
         if np.any(a < self.alpha_min) or np.any(a > self.alpha_max):
@@ -233,6 +244,12 @@ class Aircraft:
             raise InputError(f"aircraft {self.id}: the aerodynamic model has no terms")
 
     def summary(self) -> str:
+        """One line: id, name, mass, reference geometry, engines and aerodynamic terms.
+
+        Returns
+        -------
+        str
+        """
         return (f"{self.id}: {self.name}; m = {self.mass.mass:.1f} kg, S = {self.geometry.S:.3f} m^2, "
                 f"b = {self.geometry.b:.3f} m, cbar = {self.geometry.cbar:.3f} m, "
                 f"{self.propulsion.count} engine(s), {len(self.aero)} aero terms ({self.aero.structure})")

@@ -153,6 +153,14 @@ class Scenario:
         return np.linspace(self.t0, self.t1, n + 1)
 
     def problem(self) -> FlatProblem:
+        """The flat planning problem of this scenario.
+
+        Returns
+        -------
+        FlatProblem
+            Aircraft, environment, flat outputs, eta or fixed rudder, first-iterate H values and
+            stage-2 starting values.
+        """
         return FlatProblem(self.aircraft, self.env, self.x, self.y, self.z, self.zeta, self.eta, self.dn, self.h,
                            self.start)
 

@@ -23,6 +23,7 @@ from gna.aero import COEFFICIENTS, MAX_EXPONENT  # noqa: E402
 from gna.aircraft import UNIT_FACTORS  # noqa: E402
 from gna.perturbation import PERTURBATION_KEYS  # noqa: E402
 from gna.trim import TRIM_VARIABLES  # noqa: E402
+from planners.expressions import CONSTANTS, FUNCTIONS  # noqa: E402
 from planners.flat import FLAT_KINDS  # noqa: E402
 from planners.plan import PLAN_VARIABLES  # noqa: E402
 from planners.scenario import MAX_NODES, TRACKING_KEYS  # noqa: E402
@@ -98,7 +99,8 @@ def aircraft_schema() -> dict:
     env, cv = {}, []
     _quantity(env, cv, "alpha_min", "angle", "Lowest angle of attack of the model's validity domain", "-10 deg")
     _quantity(env, cv, "alpha_max", "angle", "Highest angle of attack (above alpha_min)", "30 deg")
-    _quantity(env, cv, "beta_max", "angle", "Largest |sideslip| of the validity domain", "20 deg")
+    _quantity(env, cv, "beta_max", "angle", "Largest |sideslip| of the validity domain, in (0, 90] deg",
+              "20 deg")
     for s, word in (("dl", "aileron"), ("dm", "elevator"), ("dn", "rudder")):
         _quantity(env, cv, f"{s}_max", "angle", f"Largest |{word} deflection| (optional)")
     env["source"] = _text("Where the numbers come from")
@@ -159,11 +161,26 @@ def _expr(description: str, default: str | None = None) -> dict:
     return out
 
 
+#: The ``[tracking.perturbation]`` keys (values checked by gna.perturbation.perturbation_from_dict).
+PERTURBATION = {
+    "aero_spread": {"x-type": "number", "x-unit": "-", "x-default": "0", "description": "Every aerodynamic term times its own seeded "
+                    "random factor in [1 - s, 1 + s], 0 <= s < 1 (needs a seed)"},
+    "aero_scale": {"x-type": "table", "x-default": "{}", "description": "Table of factors by term index or coefficient name"},
+    "mass_scale": {"x-type": "number", "x-default": "1", "description": "Factor on the mass (positive)"},
+    "inertia_scale": {"x-type": "number", "x-default": "1", "description": "Factor on the inertia matrix (positive)"},
+    "position_m": {"x-type": "number", "x-unit": "m", "x-default": "0", "description": "Initial position offset along (1, 1, 1)/sqrt(3)"},
+    "speed_mps": {"x-type": "number", "x-unit": "m/s", "x-default": "0", "description": "Initial speed offset"},
+    "angle_rad": {"x-type": "number", "x-unit": "rad", "x-default": "0", "description": "Offset added to gamma, chi, alpha, beta, mu"},
+    "state_offsets": {"x-type": "table", "x-default": "{}", "description": "Table of offsets by state name (SI, rad)"},
+    "seed": {"x-type": "integer", "x-default": "none", "description": "Seed of the random factors (whole number)"},
+}
+
+
 def scenario_schema() -> dict:
     """The JSON Schema of scenario files (``planners/scenarios/*.toml``)."""
     num = {"type": "number"}
     tracking = _table("The closed loop (planners.tracking.tracking_controller)", {
-        "lambdas": {"description": "Pole magnitudes of the tracking feedback: one positive number for all, or a "
+        "lambdas": {"x-type": "number or table", "description": "Pole magnitudes of the tracking feedback: one positive number for all, or a "
                                "table of lists I1, I2, I3, I4 of 3, 5, 5, 3 positive numbers (I1..I3 of 5 with "
                                "zeta = 'F'); checked by planners.scenario", "x-unit": "1/s", "x-default": "1.0"},
         "feedforward_iterate": {"type": "integer", "description": "Plan iterate of the feedforward (-1 = last, "
@@ -172,8 +189,8 @@ def scenario_schema() -> dict:
                      "x-default": "true"},
         "perturbation": {"type": "object", "additionalProperties": False,
                          "description": "Model and initial-state perturbation (gna.perturbation)",
-                         "properties": {k: {"description": "see gna.perturbation.perturbation_from_dict"}
-                                        for k in PERTURBATION_KEYS}}})
+                         "properties": PERTURBATION}})
+    assert tuple(PERTURBATION) == PERTURBATION_KEYS
     assert set(tracking["properties"]) == set(TRACKING_KEYS)
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -211,8 +228,9 @@ def scenario_schema() -> dict:
             "generalized": _table("Generalized flatness", {
                 "J": {"type": "integer", "minimum": 0, "maximum": 30, "x-default": "0",
                       "description": "Number of iterations J"}}),
-            "constants": {"type": "object", "description": "Named numbers the expressions may use (not t, the "
-                          "built-in constants pi, e, g0, kt, deg, kmh, ft or the function names)",
+            "constants": {"type": "object", "description": "Named numbers the expressions may use; a name may "
+                          "not be t, a built-in constant (" + ", ".join(CONSTANTS) + ") or a function ("
+                          + ", ".join(FUNCTIONS) + ")",
                           "propertyNames": {"pattern": "^[A-Za-z_][A-Za-z0-9_]*$",
                                             "errorMessage": "a constant's name is a letter or '_' followed by "
                                                             "letters, digits or '_'"},
@@ -248,7 +266,7 @@ def _rows(schema: dict, prefix: str) -> list[str]:
     rows = []
     for key, s in schema.get("properties", {}).items():
         path = f"{prefix}.{key}" if prefix else key
-        t = s.get("type")
+        t = s.get("x-type", s.get("type"))
         if "enum" in s:
             t = " / ".join(json.dumps(v) for v in s["enum"])
         elif "oneOf" in s:
@@ -258,7 +276,7 @@ def _rows(schema: dict, prefix: str) -> list[str]:
         elif t == "object":
             t = "table"
         rows.append(f"| `{path}` | {t or 'any'} | {s.get('x-unit', '')} | {s.get('x-default', '')} | "
-                    f"{s.get('description', '').replace('|', '/')} |")
+                    f"{s.get('description', '').replace('|', chr(92) + '|')} |")
         subs = [s] + [x for x in s.get("oneOf", []) if isinstance(x, dict)]
         for sub in subs:
             if sub.get("type") == "object" and "properties" in sub:

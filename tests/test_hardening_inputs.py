@@ -481,3 +481,15 @@ def test_valid_files_load_to_the_same_numbers():
     assert a.mass.mass == 1000.0 * 0.45359237 and a.geometry.S == 100.0 * 0.3048 ** 2
     assert a.geometry.x_cg == a.geometry.x_ref == 0.3 * (5.0 * 0.3048)
     assert a.propulsion.count == 2 and a.propulsion.epsilon == math.radians(2.0)
+
+
+@pytest.mark.parametrize("module_name", ["gna.schema", "gna.aircraft", "gna.aero", "planners.scenario",
+                                         "harness.cli", "harness.engines.jsbsim.files"])
+def test_loader_docstrings(module_name):
+    """The numpydoc rules of tests/test_docstrings.py, on the loaders and the CLI entry point."""
+    import importlib
+    td = pytest.importorskip("tests.test_docstrings")
+    problems = []
+    for name, fn, method in td.public_api(importlib.import_module(module_name)):
+        problems += td.check_docstring(fn, name, skip_first=method)
+    assert not problems, "\n".join(problems)
