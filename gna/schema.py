@@ -104,7 +104,9 @@ def find_file(name_or_path: str | Path, catalogue: Mapping[str, Path], what: str
             raise InputError(f"{what} file {key!r}: the file name must end in .toml")
         return path
     if looks_like_path or path.exists():
-        raise InputError(f"{what} file {key!r}: no such file ({path})")
+        hint = f"; did you mean {key}.toml?" if path.suffix != ".toml" and path.with_name(
+            path.name + ".toml").is_file() else ""
+        raise InputError(f"{what} file {key!r}: no such file ({path}){hint}")
     return None
 
 

@@ -319,6 +319,9 @@ def test_k5_missing_folder_and_suffix_have_distinct_messages(tmp_path, loader, w
     with pytest.raises(InputError, match=f"{what} file .*is a folder, not a .toml file"):
         loader(tmp_path)
     (tmp_path / "plain.txt").write_text("x = 1")
+    (tmp_path / "mine.toml").write_text("x = 1")
+    with pytest.raises(InputError, match=f"{what} file .*no such file .*; did you mean .*mine.toml\\?"):
+        loader(tmp_path / "mine")
     with pytest.raises(InputError, match=f"{what} file .*must end in .toml"):
         loader(tmp_path / "plain.txt")
 
