@@ -177,13 +177,13 @@ class Envelope:
 
     def __post_init__(self):
         if not self.alpha_min < self.alpha_max:
-            raise InputError(f"envelope: alpha_min = {math.degrees(self.alpha_min):.6g} deg must be below "
+            raise InputError(f"alpha_min = {math.degrees(self.alpha_min):.6g} deg must be below "
                              f"alpha_max = {math.degrees(self.alpha_max):.6g} deg")
         if not 0 < self.beta_max <= math.pi / 2:
-            raise InputError(f"envelope: beta_max = {math.degrees(self.beta_max):.6g} deg must be in (0, 90] deg")
+            raise InputError(f"beta_max = {math.degrees(self.beta_max):.6g} deg must be in (0, 90] deg")
         for name, lim in self.control_limits.items():
             if not lim > 0:
-                raise InputError(f"envelope: {name}_max = {lim} rad must be positive")
+                raise InputError(f"{name}_max = {lim} rad must be positive")
 
     def violations(self, alpha, beta) -> list[str]:
         """Human-readable list of envelope violations (empty when inside).

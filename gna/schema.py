@@ -260,6 +260,10 @@ def _message(error, where: str) -> str:
         loc, _, _ = _location(list(error.absolute_path) + ["?"], where)
         missing = [k for k in error.validator_value if k not in value]
         return f"{loc}: missing {missing[0]!r}"
+    alternatives = error.validator_value if kind in ("oneOf", "anyOf") else None
+    if alternatives and all(isinstance(a, dict) and set(a) == {"required"} for a in alternatives):
+        loc, _, _ = _location(list(error.absolute_path) + ["?"], where)
+        return f"{loc}: missing one of " + ", ".join(repr(k) for a in alternatives for k in a["required"])
     if kind in ("oneOf", "anyOf") and error.context:
         # the alternative that got furthest names the problem best
         import jsonschema

@@ -302,6 +302,11 @@ def test_k4_python_api_checks_too():
     assert parse_monomial(f"alpha^{MAX_EXPONENT}")[0] == MAX_EXPONENT and len(AERO_VARIABLES) == 8
     with pytest.raises(InputError, match="terms must be a list of tables, got 5"):
         TermTable.from_records(5)
+    with pytest.raises(InputError, match=r"^a.toml \[aero.terms #1\]: missing one of 'coef', 'coefficient'$"):
+        aircraft_from_dict({"id": "x", "mass": {"mass_kg": 100.0, "Ixx_kgm2": 10.0, "Iyy_kgm2": 20.0,
+                                                "Izz_kgm2": 25.0},
+                            "geometry": {"S_m2": 1.0, "b_m": 2.0, "cbar_m": 0.5},
+                            "aero": {"terms": [{"monomial": "alpha", "value": 5.0}]}}, where="a.toml")
     with pytest.raises(InputError, match="#1: value = 'x' must be a number"):
         TermTable.from_records([{"coef": "CL", "monomial": "alpha", "value": "x"}])
 
@@ -399,7 +404,7 @@ def test_k13_repeated_engines_refused_before_planning(monkeypatch, capsys):
 
 
 def test_k13_envelope_and_terms_checked_at_load(tmp_path):
-    with pytest.raises(InputError, match=r"f16c\.toml \(f16c\) \[envelope\]: envelope: alpha_min = 50 deg must be "
+    with pytest.raises(InputError, match=r"f16c\.toml \(f16c\) \[envelope\]: alpha_min = 50 deg must be "
                                          r"below alpha_max = 45 deg"):
         _aircraft(tmp_path, "alpha_min_deg = -10.0", "alpha_min_deg = 50.0")
     text = (AIRCRAFT_DIR / "f16c.toml").read_text()
