@@ -187,6 +187,11 @@ def scenario_schema() -> dict:
                                 "0 = the flat plan)", "x-default": "-1"},
         "saturate": {"type": "boolean", "description": "Clip the applied controls at the aircraft's limits",
                      "x-default": "true"},
+        "controller_dt": {"anyOf": [{"type": "number", "exclusiveMinimum": 0}, {"const": "step"}],
+                          "x-type": "number or \"step\"",
+                          "description": "Sampling interval of the feedback on sampled engines (JSBSim), the output "
+                                         "held in between; \"step\" samples at every engine step",
+                          "x-unit": "s", "x-default": "1/60"},
         "perturbation": {"type": "object", "additionalProperties": False,
                          "description": "Model and initial-state perturbation (gna.perturbation)",
                          "properties": PERTURBATION}})

@@ -23,7 +23,7 @@ from ..engines import fly, get_engine
 from ..metrics import DifferenceTable, difference_table, engine_tables, max_position_error
 from .case import ValidationCase
 from .provenance import provenance
-from .closed import ClosedLoopSetup, closed_loop_setup, saturated_seconds
+from .closed import ClosedLoopSetup, closed_loop_setup, sampled_engines, saturated_seconds
 
 
 # --------------------------------------------------------------------------- results
@@ -411,6 +411,7 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
             scenario = load_scenario(case.scenario, J=case.J)
         setup = closed_loop_setup(plan, scenario)
         ctl = setup.controller
+        engines = sampled_engines(engines, scenario.tracking.controller_dt)
         runs = fly(engines, setup.aircraft, setup.x0, ctl.controls, span, env=plan.env, controller=ctl,
                    dt_out=case.dt_out)
         ref = case.engines[0]
