@@ -51,6 +51,7 @@ MODULES = [
     "harness.metrics.runs",
     "harness.validation.case",
     "harness.validation.run",
+    "harness.outdir",
 ]
 
 
