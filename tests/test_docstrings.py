@@ -52,6 +52,10 @@ MODULES = [
     "harness.validation.case",
     "harness.validation.run",
     "harness.outdir",
+    "harness.artefacts",
+    "harness.validation.tolerances",
+    "harness.validation.result",
+    "harness.engines.jsbsim.grid",
 ]
 
 
