@@ -143,3 +143,20 @@ def test_identifiers_cannot_write_outside_the_output_folder(tmp_path, monkeypatc
     assert not (tmp_path / "a" / "esc.xml").exists()
     with pytest.raises(InputError, match="plain name"):
         JSBSimEngine().simulate(a, [0.0] * 5, (0.0, 0.1), [0.0, 0, -1000, 100, 0, 0, 0.05, 0, 0, 0, 0, 0])
+
+
+def test_comparison_flags_parse_into_case_settings():
+    from harness.cli import build_parser
+    from harness.commands._compare_args import compare_overrides
+
+    args = build_parser().parse_args(["paper", "--tol-angle", "2e-4", "--rtol-velocity", "1e-6", "--window", "a=5",
+                                      "--window", "all=all", "--dt-out", "0.1", "--jsbsim-dt", "0.001",
+                                      "--self-convergence", "--csv"])
+    kw = compare_overrides(args)
+    assert kw == {"tolerances": {"angle": 2e-4}, "rtol": {"velocity": 1e-6}, "windows": {"a": 5.0, "all": None},
+                  "dt_out": 0.1, "jsbsim_dt": 0.001, "self_convergence": True} and args.csv
+    s = resolve_compare({"tolerances": {"angle": 1.0}}, ValidationCase("x", **kw).overrides)
+    assert s.tolerances["mu"] == 2e-4 and s.rtol == {"V": 1e-6} and s.windows == {"a": 5.0, "all": None}
+    assert compare_overrides(build_parser().parse_args(["paper"])) == {}
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["paper", "--window", "nonsense"])
