@@ -54,6 +54,11 @@ MODULES = [
     "harness.metrics.runs",
     "harness.validation.case",
     "harness.validation.run",
+    "harness.outdir",
+    "harness.artefacts",
+    "harness.validation.tolerances",
+    "harness.validation.result",
+    "harness.engines.jsbsim.grid",
 ]
 
 
