@@ -11,6 +11,7 @@ and its k-th derivative is the exact k-th derivative of that expression
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -242,15 +243,31 @@ class Plan:
         j : int
             Iterate (default: the last).
         step : float, optional
-            Step [s] of a regular grid from ``t0`` to ``t1`` when ``t`` is not given.
+            Step [s] of a regular grid ``t0 + k step`` when ``t`` is not
+            given; the grid stops at the last time not after ``t1`` (``t1``
+            itself when ``step`` divides the span).
 
         Returns
         -------
         DataFrame
             One column per state and control (SI, rad), indexed by ``t``.
+
+        Raises
+        ------
+        InputError
+            ``step`` not a positive finite number.
         """
+        if t is None and step is not None:
+            try:
+                step = float(step)
+            except (TypeError, ValueError):
+                raise InputError(f"step must be a number [s], got {step!r}") from None
+            if not (math.isfinite(step) and step > 0):
+                raise InputError(f"step must be a positive finite interval [s], got {step}")
+            t = np.arange(self.t0, self.t1 + 0.5 * step, step)
+            t = t[t <= self.t1 + 1e-9 * step]
         if t is None:
-            t = self.t_nodes if step is None else np.arange(self.t0, self.t1 + 0.5 * step, step)
+            t = self.t_nodes
         t = np.asarray(t, dtype=float)
         vals = self._evaluate_many(PLAN_VARIABLES, t, j)
         data = dict(zip(PLAN_VARIABLES, vals))
