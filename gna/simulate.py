@@ -28,7 +28,8 @@ from .trajectory import (DOMAIN_TESTS, ControlFunction, RunSettings, SimulationR
                          control_function, controller_frames, controls_on_grid, domain_margins, domain_text,
                          domain_violation, initial_state, output_grid)
 
-__all__ = ["ControlFunction", "SimulationResult", "RunSettings", "simulate", "envelope_warnings"]
+__all__ = ["ControlFunction", "SimulationResult", "RunSettings", "simulate", "envelope_warnings",
+           "engine_thrust_warnings"]
 
 _SOLVERS = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau}
 
@@ -274,7 +275,7 @@ def _excursion(df, mask, name: str, values, worst_index: int, text: str) -> str:
 
 
 def envelope_warnings(aircraft, df) -> list[str]:
-    """Excursions of a trajectory outside the aircraft's envelope, control limits and thrust range.
+    """Excursions of a trajectory outside the aircraft's envelope, control limits and thrust range (total, per engine).
 
     Parameters
     ----------
@@ -316,10 +317,57 @@ def envelope_warnings(aircraft, df) -> list[str]:
     if fmax is not None and np.any(F > fmax):
         out.append(_excursion(df, F > fmax, "F", [f"{x:.4g} N" for x in F], int(np.argmax(F)),
                               f"thrust F above the maximum {fmax:.4g} N"))
+    out += engine_thrust_warnings(aircraft, F, df["eta"].to_numpy(), df["V"].to_numpy(),
+                                  df.index.to_numpy(dtype=float))
     if aircraft.propulsion.count == 2:
         eta = df["eta"].to_numpy()
         if np.any(np.abs(eta) > 1):
             out.append(_excursion(df, np.abs(eta) > 1, "eta", [f"{x:.4g}" for x in eta],
                                   int(np.argmax(np.abs(eta))),
                                   "|eta| above 1 (one engine would need negative thrust)"))
+    return out
+
+
+def engine_thrust_warnings(aircraft: Aircraft, F, eta, V, t=None) -> list[str]:
+    """Warnings for each engine whose thrust exceeds its own rating at the airspeed.
+
+    Engine 1 gives ``F (1 + eta) / 2``, engine 2 ``F (1 - eta) / 2`` (one
+    engine: ``F``); the limit is
+    :meth:`gna.aircraft.Propulsion.engine_thrust_limit` (static thrust, and
+    shaft power times propeller efficiency over ``V``), named with its source.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Its propulsion and per-engine rating.
+    F, eta, V : float or array_like, shape (n,)
+        Total thrust [N], asymmetry [-], airspeed [m/s].
+    t : array_like, shape (n,), optional
+        Times [s] (named in the warnings).
+
+    Returns
+    -------
+    list of str
+        One warning per engine over its limit (the worst point), empty when
+        the aircraft has no per-engine rating.
+    """
+    prop = aircraft.propulsion
+    if prop.engine_power is None and prop.engine_static_thrust is None:
+        return []
+    F, eta, V = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=float)) for v in (F, eta, V)))
+    limit = np.array([prop.engine_thrust_limit(float(v)) for v in V])
+    if prop.count == 2:
+        shares = {"engine 1": 0.5 * (1.0 + eta), "engine 2": 0.5 * (1.0 - eta)}
+    else:
+        shares = {"the engine": np.ones_like(eta)}
+    out = []
+    for name, share in shares.items():
+        Fi = F * share
+        over = Fi > limit
+        if np.any(over):
+            i = int(np.argmax(np.where(over, Fi - limit, -np.inf)))
+            at = "" if t is None else f" at t = {float(np.atleast_1d(t)[i]):.4g} s"
+            share_of = "" if t is None else f" ({100.0 * np.mean(over):.0f} % of the run)"
+            out.append(f"{name} thrust {Fi[i]:.1f} N{at} above its rating {limit[i]:.1f} N at V = {V[i]:.2f} m/s"
+                       f"{share_of} (per-engine limit: {prop.engine_source or 'aircraft file'})")
     return out
