@@ -335,6 +335,35 @@ def domain_violation(t: float, state, bounds: DomainBounds = DOMAIN) -> str | No
     return None
 
 
+def first_domain_violation(t, states, bounds: DomainBounds = DOMAIN) -> str | None:
+    """:func:`domain_violation` over a sequence of states: the message of the first one outside, or None.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Times [s].
+    states : array_like, shape (12, n)
+        Wind-frame states (:data:`gna.eom.STATE_NAMES`, SI, rad).
+    bounds : DomainBounds
+        The bounds (default :data:`DOMAIN`).
+
+    Returns
+    -------
+    str or None
+        The message of the earliest state outside the domain.
+    """
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    X = np.asarray(states, dtype=float).reshape(12, t.size)
+    with np.errstate(invalid="ignore"):
+        inside = (np.all(np.isfinite(X), axis=0) & (X[3] > bounds.V_min) & (X[3] < bounds.V_max)
+                  & (np.cos(X[7]) > bounds.cos_min) & (np.cos(X[4]) > bounds.cos_min)
+                  & (np.abs(X[6]) < bounds.alpha_max))
+    if inside.all():
+        return None
+    i = int(np.argmin(inside))
+    return domain_violation(float(t[i]), X[:, i].tolist(), bounds)
+
+
 def environment_of(source, env: Environment | None = None) -> Environment:
     """The environment of a run: ``env`` if given, else the source's ``env`` (a plan's), else the ISA.
 

@@ -65,6 +65,10 @@ class Plan:
     singularities : SingularityReport or None
         The singularity monitor's conditions along iterate 0 (set by
         :func:`~planners.generalized.plan_motion`).
+    domain_failures : list of str
+        Iterates whose node values leave the physical domain
+        (:func:`gna.trajectory.domain_violation`: time, variable, value); such
+        a plan is not feasible.
     """
 
     problem: FlatProblem
@@ -74,6 +78,7 @@ class Plan:
     name: str = "plan"
     timings: dict = field(default_factory=dict)
     singularities: SingularityReport | None = None
+    domain_failures: list = field(default_factory=list)
 
     @property
     def aircraft(self) -> Aircraft:
@@ -382,8 +387,9 @@ class Plan:
 
     @property
     def feasible(self) -> bool:
-        """False when Newton failed somewhere: the plan is not a solution of the model there."""
-        return not self.newton_failure_records
+        """False when Newton failed somewhere (the plan is not a solution of the model there) or a node
+        leaves the physical domain (:attr:`domain_failures`)."""
+        return not self.newton_failure_records and not self.domain_failures
 
     def worst_newton_residual(self) -> float:
         """Largest Newton residual (constant terms and series) over iterates and stages.

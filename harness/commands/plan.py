@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 from pathlib import Path
 
@@ -14,6 +15,16 @@ from ..validation import ValidationCase, plan_case
 from ._args import nonnegative_int
 
 
+def _cost_bound(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"must be positive (or inf), got {text}")
+    return v
+
+
 def register(sub) -> None:
     p = sub.add_parser("plan", help="plan a manoeuvre (flatness + generalized flatness)",
                        description="Plan a scenario: flat parametrization on a grid of power series, then J "
@@ -23,6 +34,9 @@ def register(sub) -> None:
                                                                    "scenario's)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="output folder (default reports/out/<scenario>)")
+    p.add_argument("--max-cost", type=_cost_bound, default=None, metavar="UNITS",
+                   help="bound on the plan's cost, nodes x sum of squared orders (default 5e6, about 30 s; "
+                        "'inf' for none)")
     p.set_defaults(func=run)
 
 
@@ -61,10 +75,13 @@ def write_plan(sc, plan, elapsed: float, out: Path) -> str:
 
 
 def run(args) -> int:
-    planned = plan_case(ValidationCase(args.scenario, J=args.J))
+    planned = plan_case(ValidationCase(args.scenario, J=args.J), max_cost=args.max_cost)
     sc, plan = planned.scenario, planned.plan
     out = Path(args.out) if args.out else Path("reports") / "out" / sc.name
     print(write_plan(sc, plan, planned.planning_time_s, out))
+    if plan.domain_failures:
+        print(f"gflat plan: the plan is not feasible: {plan.domain_failures[-1]}")
+        return 1
     if not plan.feasible:
         print(f"gflat plan: the plan is not feasible: Newton failed ({len(plan.newton_failures)} warning(s) "
               f"above); its values at those times are not a solution of the model")
