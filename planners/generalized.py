@@ -129,7 +129,7 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         if verbose:
             done = sum(timings.values())
             share = plan_cost(len(t_nodes), j, e + ORDER_LOSS * (J - j)) / cost
-            _log.info("plan %s: iterate j = %d of %d (order %d) in %.1f s; %.0f s so far, about %.0f s left",
+            _log.info("plan %s: iterate j = %d of %d (order %d) in %.1f s; %.1f s so far, about %.0f s left",
                       name, j, J, kappa, timings[j], done, done * (1.0 / max(share, 1e-12) - 1.0))
         iterates.append(sol)
         prev = sol
