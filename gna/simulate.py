@@ -153,7 +153,9 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     while solver.status == "running":
         t_prev, y_prev = solver.t, solver.y.copy()
         try:
-            err = solver.step()
+            # Overflow in a trial step is caught below (non-finite derivative, domain tests), not warned.
+            with np.errstate(over="ignore", invalid="ignore"):
+                err = solver.step()
         except _NonFinite as exc:
             if exc.t - t_prev > bracket:
                 span = 0.5 * (exc.t - t_prev)
