@@ -3,10 +3,9 @@
 :class:`JSBSimRun` holds the FDM, its cached property nodes and the records of
 one run; it steps open loop or with a controller (feedback sampled at the
 propagated state every ``every`` steps and held in between, controller states
-advanced by AB2), reads the 12 wind-frame states at every step (chi and mu are
-continued step by step, so that they stay continuous at any output interval),
-stops where :func:`gna.trajectory.domain_violation` (the in-house engine's
-test) fails, keeping the rows before, and builds the common
+advanced by AB2), continues chi and mu and applies the in-house engine's
+domain test (:func:`gna.trajectory.domain_violation`) at every step, stops
+there keeping the rows before, and builds the common
 :class:`gna.trajectory.SimulationResult`.  An engine subclasses it and fills
 its hooks (the class notes): what is loaded and how it is configured, how the
 controls are written, what the columns report and what the settings add.
@@ -21,7 +20,6 @@ from typing import Callable
 
 import numpy as np
 
-from gna import units
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.controller import Controller, as_controller, checked_initial_state, state_names
@@ -29,12 +27,12 @@ from gna.eom import CONTROL_NAMES
 from gna.errors import InputError
 from gna.simulate import envelope_warnings
 from gna.trajectory import (RunSettings, SimulationResult, check_span, control_function, controller_frames,
-                            controls_on_grid, domain_margins, domain_violation, environment_of, initial_state)
+                            controls_on_grid, environment_of, initial_state)
 
 from ..base import EngineError
 from .fdm import import_jsbsim
-from .states import DERIVED_NODES, STATE_NODES, TRACK_NODES, STATE_NODES_FLAT, STATE_NODES_WGS84, StateConverter, step_grid, \
-    trajectory_frame
+from .states import DERIVED_NODES, STATE_NODES, STATE_NODES_FLAT, STATE_NODES_WGS84, TRACK_NODES, StateConverter, \
+    step_grid, trajectory_frame
 
 #: How the JSBSim engines advance a controller's states (recorded in the result's settings).
 CONTROLLER_SCHEME = ("AB2 (two-step Adams-Bashforth, Euler first step) on the sampled aircraft states, "
@@ -152,8 +150,7 @@ class JSBSimRun:
         self.pos_nodes = STATE_NODES_WGS84 if self.geo is not None else STATE_NODES_FLAT
         # Records at the output steps: raw states, raw derived outputs, feedback and controller states.
         self.raw_states, self.raw_derived, self.index, self.fb, self.xcs = [], [], [], [], []
-        # chi and mu continued step by step (the unwrapped angles at the output steps).
-        self.turns: list[tuple[float, float]] = []
+        self.turns: list[tuple[float, float]] = []  # chi and mu continued step by step, at the output steps
         self.k = 0
         self.fdm = self.capture = None
         self.load_problems: list[str] = []
@@ -259,10 +256,8 @@ class JSBSimRun:
         self._configure()
         self.state_readers = [self._node(p).get_double_value for p in self.pos_nodes + STATE_NODES]
         self.derived_readers = [self._node(p).get_double_value for p in self.derived_nodes]
-        self.vt = self._node("velocities/vt-fps").get_double_value
         self.track_readers = [self._node(p).get_double_value for p in TRACK_NODES]
         self.to_state = StateConverter(self.x0, self.fdm["inertial/sea-level-radius_ft"], self.geo)
-        self.track = self.to_state.track
         t0, u0 = float(self.times[0]), self.U[:, 0]
         self.d = [0.0] * 5
         self.xc = np.zeros(0)
@@ -327,15 +322,9 @@ class JSBSimRun:
         """After step ``k``: chi and mu continued; :class:`StepStop` outside the physical domain."""
         if not ok:
             raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
-        try:
-            x = self.track(*[r() for r in self.track_readers])
-        except (ValueError, OverflowError):  # math functions of non-finite outputs
-            x = [math.nan] * 12
-            x[3] = self.vt() * units.FT
-        for m in domain_margins(x):
-            if not m > 0:
-                bad = domain_violation(self.times[k], x) or "left the physical domain at t = {t}"
-                raise StepStop(k, bad.replace("{", "{{").replace("}", "}}"))
+        bad = self.to_state.check(self.times[k], [r() for r in self.track_readers])
+        if bad is not None:
+            raise StepStop(k, bad.replace("{", "{{").replace("}", "}}"))
 
     def _first_bad(self) -> int:
         bad = ~np.all(np.isfinite(self.U), axis=0)

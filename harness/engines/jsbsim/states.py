@@ -20,7 +20,7 @@ from gna.atmosphere import Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.frames import bank_from_euler
 from gna.errors import InputError
-from gna.trajectory import COLUMNS, output_grid
+from gna.trajectory import COLUMNS, domain_margins, domain_violation, output_grid
 
 from . import export as jx
 from .fdm import WGS84_A_FT, WGS84_B_FT
@@ -218,6 +218,31 @@ class StateConverter:
         self._chi = chi = self._chi + dchi
         self._mu = mu = self._mu + math.remainder(mu - self._mu, 2.0 * math.pi)
         return (0.0, 0.0, 0.0, vt * units.FT, gamma, chi, alpha, beta, mu, 0.0, 0.0, 0.0)
+
+    def check(self, t: float, raw: Sequence[float]) -> str | None:
+        """One integration step: :meth:`track` on the :data:`TRACK_NODES` values, then the domain test.
+
+        Parameters
+        ----------
+        t : float
+            Time of the step [s].
+        raw : sequence of 7 float
+            Values of :data:`TRACK_NODES`.
+
+        Returns
+        -------
+        str or None
+            None inside the physical domain, else :func:`gna.trajectory.domain_violation`'s message.
+        """
+        try:
+            x = self.track(*raw)
+        except (ValueError, OverflowError):  # math functions of non-finite outputs
+            x = [math.nan] * 12
+            x[3] = raw[0] * units.FT
+        for m in domain_margins(x):
+            if not m > 0:
+                return domain_violation(t, x) or f"left the physical domain at t = {t:.6g} s"
+        return None
 
     def scalar(self, raw: Sequence[float]) -> np.ndarray:
         """One step (pure-Python arithmetic), chi and mu continued from the previous call.
