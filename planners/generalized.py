@@ -103,8 +103,9 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
     if t_nodes.ndim != 1 or len(t_nodes) < 2 or np.any(np.diff(t_nodes) <= 0):
         from gna.errors import InputError
         raise InputError("the planning grid needs at least two increasing nodes")
-    z = np.broadcast_to(np.real(np.asarray(problem.z(t_nodes), dtype=complex)), t_nodes.shape)
-    finite = np.isfinite(z)  # non-finite flat outputs are reported by the parametrization, with their cause
+    with np.errstate(all="ignore"):  # a non-finite z is reported by the parametrization with its cause
+        z = np.broadcast_to(np.real(np.asarray(problem.z(t_nodes), dtype=complex)), t_nodes.shape)
+    finite = np.isfinite(z)
     problem.env.check_altitude(-z[finite], f"plan {name}, flat output z", times=t_nodes[finite])
     cost = plan_cost(len(t_nodes), J, e)
     limit = MAX_PLAN_COST if max_cost is None else float(max_cost)
