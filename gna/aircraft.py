@@ -142,11 +142,21 @@ class Propulsion:
     engine_source: str = ""
 
     def engine_thrust_limit(self, V: float) -> float | None:
-        """Largest thrust of one engine at airspeed ``V`` [m/s] from its rating; None when unrated.
+        """Largest thrust of one engine at airspeed ``V`` from its rating.
 
         A propeller engine is power-limited in flight, ``T <= eff P / V``
         (e.g. Raymer, *Aircraft Design: A Conceptual Approach*, sec. 13.6),
         and capped by its static thrust.
+
+        Parameters
+        ----------
+        V : float
+            Airspeed [m/s].
+
+        Returns
+        -------
+        float or None
+            Thrust [N]; None when the engine has no rating.
         """
         lims = []
         if self.engine_static_thrust is not None:

@@ -542,7 +542,9 @@ class SimulationResult:
         quantities (``qbar``, ``rho``, load factors, wind-axis forces ``X, Y,
         Z``, body moments ``L, M, N``, coefficients).
     status : {"completed", "domain", "failed"}
-        How the run ended ("domain": it left the physical domain or diverged).
+        How the run ended ("domain": it left the physical domain of
+        :func:`domain_violation` -- the same test on every engine -- or met
+        non-finite values; "failed": the integrator gave up inside the domain).
     message : str
         Empty when completed; otherwise names the time, variable and value.
     warnings : list of str
