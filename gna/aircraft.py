@@ -33,6 +33,7 @@ UNIT_FACTORS: dict[str, dict[str, float]] = {
     "area": {"m2": 1.0, "ft2": units.FT2},
     "angle": {"rad": 1.0, "deg": units.DEG},
     "force": {"N": 1.0, "lbf": units.LBF},
+    "power": {"W": 1.0, "kW": 1000.0, "shp": units.HP},
     "speed": {"ms": 1.0, "kt": units.KT, "fps": units.FT},
 }
 
@@ -153,6 +154,36 @@ class Propulsion:
     epsilon: float = 0.0
     max_thrust: float | None = None
     source: str = ""
+    #: Rating of ONE engine: shaft power [W], propeller efficiency [-] and static thrust [N] (None: unrated),
+    #: with its source; the thrust one engine can give at speed V is min(static, eff * power / V).
+    engine_power: float | None = None
+    propeller_efficiency: float | None = None
+    engine_static_thrust: float | None = None
+    engine_source: str = ""
+
+    def engine_thrust_limit(self, V: float) -> float | None:
+        """Largest thrust of one engine at airspeed ``V`` from its rating.
+
+        A propeller engine is power-limited in flight, ``T <= eff P / V``
+        (e.g. Raymer, *Aircraft Design: A Conceptual Approach*, sec. 13.6),
+        and capped by its static thrust.
+
+        Parameters
+        ----------
+        V : float
+            Airspeed [m/s].
+
+        Returns
+        -------
+        float or None
+            Thrust [N]; None when the engine has no rating.
+        """
+        lims = []
+        if self.engine_static_thrust is not None:
+            lims.append(self.engine_static_thrust)
+        if self.engine_power is not None and V > 0:
+            lims.append((self.propeller_efficiency or 1.0) * self.engine_power / V)
+        return min(lims) if lims else None
 
     def __post_init__(self):
         if self.count not in (1, 2):
@@ -163,6 +194,11 @@ class Propulsion:
             raise InputError("a single engine sits on the symmetry plane (y_p = 0)")
         if self.max_thrust is not None and not self.max_thrust > 0:
             raise InputError(f"max thrust must be positive, got {self.max_thrust}")
+        for k in ("engine_power", "engine_static_thrust"):
+            if getattr(self, k) is not None and not getattr(self, k) > 0:
+                raise InputError(f"{k} must be positive, got {getattr(self, k)}")
+        if self.propeller_efficiency is not None and not 0 < self.propeller_efficiency <= 1:
+            raise InputError(f"propeller_efficiency must lie in (0, 1], got {self.propeller_efficiency}")
 
 
 @dataclass(frozen=True)
@@ -305,11 +341,18 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
                             cbar=cbar, x_cg=x_cg, x_ref=x_ref, source=str(g.get("source", "")))
     e = data.get("engines", {})
     with _naming(where + " [engines]"):
+        w = where + " [engines]"
         propulsion = Propulsion(count=int(e.get("count", 1)),
-                                y_p=_get(e, "y_p", "length", where + " [engines]", 0.0),
-                                epsilon=_get(e, "epsilon", "angle", where + " [engines]", 0.0),
-                                max_thrust=_get(e, "max_thrust", "force", where + " [engines]", None),
-                                source=str(e.get("source", "")))
+                                y_p=_get(e, "y_p", "length", w, 0.0),
+                                epsilon=_get(e, "epsilon", "angle", w, 0.0),
+                                max_thrust=_get(e, "max_thrust", "force", w, None),
+                                source=str(e.get("source", "")),
+                                engine_power=_get(e, "engine_power", "power", w, None),
+                                propeller_efficiency=(None if "propeller_efficiency" not in e else
+                                                      _check(_number(e["propeller_efficiency"], "propeller_efficiency",
+                                                                     w), "propeller_efficiency", w)),
+                                engine_static_thrust=_get(e, "engine_static_thrust", "force", w, None),
+                                engine_source=str(e.get("engine_source", "")))
     v = data.get("envelope", {})
     limits = {}
     for name in ("dl", "dm", "dn"):

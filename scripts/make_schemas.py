@@ -35,7 +35,8 @@ DOC = ROOT / "docs" / "scenarios.md"
 SAFE_NAME = "^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$"
 UNIT_WORDS = {"kg": "kg", "slug": "slug", "lb": "lb (weight, mass = W/g0)", "N": "N", "kgm2": "kg m^2",
               "slugft2": "slug ft^2", "m": "m", "ft": "ft", "in": "in", "m2": "m^2", "ft2": "ft^2",
-              "rad": "rad", "deg": "deg", "lbf": "lbf", "ms": "m/s", "kt": "kt", "fps": "ft/s"}
+              "rad": "rad", "deg": "deg", "lbf": "lbf", "ms": "m/s", "kt": "kt", "fps": "ft/s", "W": "W",
+              "kW": "kW", "shp": "shp (shaft horsepower)"}
 
 
 def _text(description: str, **extra) -> dict:
@@ -96,6 +97,12 @@ def aircraft_schema() -> dict:
     _quantity(eng, ce, "epsilon", "angle", "Thrust line tilt, nose-up from the body x axis", "0")
     _quantity(eng, ce, "max_thrust", "force", "Total thrust limit (optional)")
     eng["source"] = _text("Where the numbers come from")
+    _quantity(eng, ce, "engine_power", "power", "Shaft power rating of ONE engine (optional; propeller engines)")
+    eng["propeller_efficiency"] = {"type": "number", "exclusiveMinimum": 0, "maximum": 1,
+                                   "description": "Propeller efficiency for the in-flight thrust limit "
+                                                  "eff * P / V (optional; 1 when a power is given without it)"}
+    _quantity(eng, ce, "engine_static_thrust", "force", "Static thrust rating of ONE engine (optional)")
+    eng["engine_source"] = _text("Where the per-engine rating comes from")
     env, cv = {}, []
     _quantity(env, cv, "alpha_min", "angle", "Lowest angle of attack of the model's validity domain", "-10 deg")
     _quantity(env, cv, "alpha_max", "angle", "Highest angle of attack (above alpha_min)", "30 deg")

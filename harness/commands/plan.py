@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import io
 import time
 from pathlib import Path
@@ -16,6 +17,16 @@ from ._args import nonnegative_int
 from ._compare_args import default_out
 
 
+def _cost_bound(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"must be positive (or inf), got {text}")
+    return v
+
+
 def register(sub) -> None:
     p = sub.add_parser("plan", help="plan a manoeuvre (flatness + generalized flatness)",
                        description="Plan a scenario: flat parametrization on a grid of power series, then J "
@@ -25,6 +36,9 @@ def register(sub) -> None:
                                                                    "scenario's)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="output folder (default reports/out/<scenario>)")
+    p.add_argument("--max-cost", type=_cost_bound, default=None, metavar="UNITS",
+                   help="bound on the plan's cost, nodes x sum of squared orders (default 5e6, about 30 s; "
+                        "'inf' for none)")
     p.set_defaults(func=run)
 
 
@@ -130,9 +144,12 @@ def run(args) -> int:
     sc = load_scenario(args.scenario, J=args.J)
     out = OutputDir(Path(args.out)) if args.out else default_out(sc.name)   # checked before planning
     t0 = time.perf_counter()
-    plan = plan_scenario(sc)
+    plan = plan_scenario(sc, max_cost=args.max_cost)
     print(write_plan(sc, plan, time.perf_counter() - t0, out))
     out.finish()
+    if plan.domain_failures:
+        print(f"gflat plan: the plan is not feasible: {plan.domain_failures[-1]}")
+        return 1
     if not plan.feasible:
         print(f"gflat plan: the plan is not feasible: Newton failed ({len(plan.newton_failures)} warning(s) "
               f"above); its values at those times are not a solution of the model")

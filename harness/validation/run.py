@@ -157,13 +157,15 @@ class PlannedCase:
     planning_time_s: float
 
 
-def plan_case(case: ValidationCase) -> PlannedCase:
+def plan_case(case: ValidationCase, max_cost: float | None = None) -> PlannedCase:
     """Load a case's scenario and plan it (flatness, then J generalized-flatness iterations).
 
     Parameters
     ----------
     case : ValidationCase
         Its ``scenario`` and ``J`` are used.
+    max_cost : float, optional
+        Bound on the plan's cost (:func:`planners.generalized.plan_cost`; default its ``MAX_PLAN_COST``).
 
     Returns
     -------
@@ -177,7 +179,7 @@ def plan_case(case: ValidationCase) -> PlannedCase:
     """
     sc = load_scenario(case.scenario, J=case.J)
     t0 = time.perf_counter()
-    plan = plan_scenario(sc)
+    plan = plan_scenario(sc, max_cost=max_cost)
     return PlannedCase(scenario=sc, plan=plan, planning_time_s=time.perf_counter() - t0)
 
 

@@ -18,6 +18,7 @@ import pandas as pd
 
 from gna.errors import InputError
 from gna.trajectory import ANGLES, check_span
+from gna.trajectory import output_grid as checked_output_times
 
 
 def output_grid(t0: float, t1: float, dt_max: float, dt_out: float, t_eval) -> tuple[int, float, np.ndarray,
@@ -31,8 +32,8 @@ def output_grid(t0: float, t1: float, dt_max: float, dt_out: float, t_eval) -> t
     dt_max : float
         Largest step [s] (the engine's ``dt``).
     dt_out : float
-        Output interval [s] (used when ``t_eval`` is None): ``round((t1 - t0) / dt_out)``
-        equal intervals of the span.
+        Output interval [s] (used when ``t_eval`` is None); it must divide the span
+        (:func:`gna.trajectory.output_grid`, the same check as the in-house engine's).
     t_eval : array_like, shape (m,), or None
         Output times [s], inside the span, increasing.
 
@@ -59,19 +60,7 @@ def output_grid(t0: float, t1: float, dt_max: float, dt_out: float, t_eval) -> t
         raise InputError(f"JSBSim step dt must be positive, got {dt_max}")
     n = max(int(math.ceil(span / dt_max - 1e-9)), 1)
     dt = span / n
-    if t_eval is not None:
-        te = np.asarray(t_eval, dtype=float).ravel()
-        if te.size == 0 or not np.all(np.isfinite(te)) or np.any(np.diff(te) <= 0):
-            raise InputError("t_eval must be a non-empty increasing sequence of finite times")
-        if te[0] < t0 - 1e-12 or te[-1] > t1 + 1e-12:
-            raise InputError(f"t_eval must lie in t_span [{t0:g}, {t1:g}] s")
-        out = np.clip(te, t0, t1)
-    else:
-        if not (math.isfinite(dt_out) and dt_out > 0):
-            raise InputError(f"dt_out must be positive, got {dt_out}")
-        n_out = max(int(round(span / dt_out)), 1)
-        out = t0 + np.arange(n_out + 1) * (span / n_out)
-        out[-1] = t1
+    out = np.clip(checked_output_times(t0, t1, dt_out, t_eval), t0, t1)   # the in-house engine's checks
     s = (out - t0) / dt
     k = np.rint(s).astype(int)
     on = np.abs(s - k) <= 1e-6
