@@ -133,7 +133,10 @@ def test_identifiers_cannot_write_outside_the_output_folder(tmp_path, monkeypatc
     from gna.aircraft import load_aircraft
     from harness.engines import JSBSimEngine
 
-    a = dataclasses.replace(load_aircraft("a7"), id="../../esc")
+    with pytest.raises(InputError, match="not a safe identifier"):      # refused where an aircraft is made
+        dataclasses.replace(load_aircraft("a7"), id="../../esc")
+    a = dataclasses.replace(load_aircraft("a7"))
+    object.__setattr__(a, "id", "../../esc")     # and, should one get through, at every writer (defence in depth)
     out = tmp_path / "a" / "b" / "c"
     out.mkdir(parents=True)
     monkeypatch.setattr(ej, "load_aircraft", lambda name: a)
@@ -141,7 +144,7 @@ def test_identifiers_cannot_write_outside_the_output_folder(tmp_path, monkeypatc
     with pytest.raises(InputError, match="leaves the output folder"):
         ej.run(args)
     assert not (tmp_path / "a" / "esc.xml").exists()
-    with pytest.raises(InputError, match="plain name"):
+    with pytest.raises(InputError, match="not a safe identifier"):
         JSBSimEngine().simulate(a, [0.0] * 5, (0.0, 0.1), [0.0, 0, -1000, 100, 0, 0, 0.05, 0, 0, 0, 0, 0])
 
 
