@@ -267,8 +267,8 @@ class JSBSimRun:
         self.xc = np.zeros(0)
         if self.controller is not None:
             self.xc = checked_initial_state(self.controller, t0, self.x0)
-            self.d = np.asarray(self.controller.output(t0, self.x0.copy(), self.xc), dtype=float).reshape(5).tolist()
-            self.f_prev = self._derivative(t0, self.x0.copy())
+            d, f = evaluate(self.controller, t0, self.x0.copy(), self.xc)
+            self.d, self.f_prev = d.tolist(), (f if self.names else None)
             self.f_prev2 = None
         self.applied0 = [a + b for a, b in zip(u0.tolist(), self.d)]
         if not all(math.isfinite(v) for v in self.applied0):
@@ -279,11 +279,6 @@ class JSBSimRun:
         self._initialize()
         if self.out[0]:
             self._record(0)
-
-    def _derivative(self, t: float, x: np.ndarray):
-        if not self.names:
-            return None
-        return np.asarray(self.controller.derivative(t, x, self.xc), dtype=float).reshape(len(self.names))
 
     def _record(self, k: int) -> None:
         self.turns.append((self.to_state.chi, self.to_state.mu))
