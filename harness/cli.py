@@ -22,6 +22,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "plan",
     "compare",
     "paper",
+    "report",
     "export_jsbsim",
     "fit",
 )

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from .figures import write_figures
+from .model import write_case_report
 from .tracking import write_tracking_figure
 
 
@@ -26,7 +27,7 @@ def case_title(result) -> str:
 
 
 def write_case(result, out_dir: str | Path) -> dict[str, Path | list[Path]]:
-    """Write a case's figures, ``differences.txt`` and ``summary.json`` to ``out_dir``.
+    """Write a case's figures, ``differences.txt``, ``summary.json`` and ``report.json`` to ``out_dir``.
 
     Parameters
     ----------
@@ -38,7 +39,8 @@ def write_case(result, out_dir: str | Path) -> dict[str, Path | list[Path]]:
     Returns
     -------
     dict
-        ``"figures"`` -> list of Path, ``"differences"`` and ``"summary"`` -> Path.
+        ``"figures"`` -> list of Path, ``"differences"``, ``"summary"`` and ``"report"``
+        (the report model, :func:`reports.model.write_case_report`) -> Path.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -54,4 +56,4 @@ def write_case(result, out_dir: str | Path) -> dict[str, Path | list[Path]]:
                        feedforward_iterate=result.closed_loop.feedforward_iterate)
     js = out / "summary.json"
     js.write_text(json.dumps(summary, indent=2, default=float))
-    return {"figures": figures, "differences": diff, "summary": js}
+    return {"figures": figures, "differences": diff, "summary": js, "report": write_case_report(result, out)}

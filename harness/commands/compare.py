@@ -15,6 +15,7 @@ from pathlib import Path
 
 from planners.scenario import list_scenarios
 from reports.case_files import write_case
+from reports.html import render_run
 
 from ..engines import engine_names, engines_from_names
 from ..validation import ValidationCase, run_case
@@ -46,6 +47,7 @@ def run(args) -> int:
     folder = "compare" if args.loop == "open" else "compare-closed"
     out = Path(args.out) if args.out else Path("reports") / "out" / result.plan.name / folder
     write_case(result, out)
+    render_run(out, pdf=False)                        # the case page and an index of one
     verdict = result.verdict()
     if args.json:
         print(json.dumps(verdict, indent=2, default=float))
@@ -55,7 +57,7 @@ def run(args) -> int:
         for label, r in verdict["runs"].items():
             print(f"{label} against the flat outputs: max {r['max_position_error_m']:.3e} m, after 5 s "
                   f"{r['max_position_error_after_5s_m']:.3e} m; controls saturated {r['saturated_s']:.2f} s")
-    print(f"figures and tables written to {out}/")
+    print(f"figures and tables written to {out}/, report {out / 'index.html'}")
     if not verdict["pass"]:
         print("gflat compare: the engines disagree beyond the tolerances (or a run ended early): FAIL")
         return 1

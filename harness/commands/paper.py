@@ -15,6 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from reports.case_files import write_case
+from reports.html import render_run
 
 from ..validation import ValidationCase, plan_case, run_case
 from ._args import nonnegative_int
@@ -103,6 +104,8 @@ def run(args) -> int:
               f"{'saturated [s]':>13}  result")
     for r in closed_rows:
         print(f"  {r[0]:<26} {r[1]:>12.2e} {r[2]:>11.2e} {r[3]:>22.2e} {r[4]:>13.2f}  {'PASS' if r[5] else 'FAIL'}")
+    report = render_run(out)                          # HTML and PDF from the saved report.json files
+    print(f"\nreport: {report['index']} (PDF: {report['pdf']})")
     if failed:
         print(f"gflat paper: engines disagree beyond the tolerances, or a run ended early, for {', '.join(failed)}: FAIL")
         return 1
