@@ -91,8 +91,6 @@ def _table(tab, engine: str, window: str) -> dict:
 
 
 def _scenario_section(result, scenario) -> dict:
-    if scenario is None:
-        scenario = load_scenario(result.case.scenario, J=result.case.J)
     text = Path(scenario.path).read_text(encoding="utf-8") if scenario.path else ""
     plan = result.plan
     return {"name": scenario.name, "description": scenario.description.strip(),
@@ -104,10 +102,7 @@ def _scenario_section(result, scenario) -> dict:
 
 def _plan_section(result, scenario) -> dict:
     plan = result.plan
-    if scenario is None:
-        times, variables = [plan.t0], ("F", "dl", "dm", "dn")
-    else:
-        times, variables = scenario.report_times or [plan.t0], scenario.report_variables or ("F", "dl", "dm", "dn")
+    times, variables = scenario.report_times or [plan.t0], scenario.report_variables or ("F", "dl", "dm", "dn")
     sing = plan.singularities
     return {"J": plan.J, "nodes": len(plan.t_nodes), "flat_output": plan.problem.zeta.kind,
             "orders": [it.order for it in plan.iterates], "feasible": plan.feasible,
@@ -150,6 +145,8 @@ def case_model(result, figures=(), *, scenario=None) -> dict:
         ``limits``, ``closed_loop``, ``warnings``, ``figures``, ``provenance``.
     """
     plan, case = result.plan, result.case
+    if scenario is None:
+        scenario = load_scenario(case.scenario, J=case.J)
     verdict = result.verdict()
     tables = [_table(t, eng, w) for eng, per in result.tables.items() for w, t in per.items()]
     vs_plan = [_table(t, eng, "whole span") for eng, t in result.vs_plan.items()]
