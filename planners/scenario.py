@@ -143,6 +143,7 @@ class Scenario:
     raw: dict = field(default_factory=dict, repr=False)
     path: str | None = None
     tracking: Tracking = field(default_factory=Tracking)
+    compare: Mapping = field(default_factory=dict)
 
     @property
     def t_nodes(self) -> np.ndarray:
@@ -274,7 +275,8 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
                     calibration=dict(cal) if cal is not None else None, start=start,
                     report_times=[float(v) for v in times], report_variables=[str(v) for v in rvars],
                     raw=dict(data), path=path,
-                    tracking=_tracking(data.get("tracking", {}), kind, J, f"{where} [tracking]"))
+                    tracking=_tracking(data.get("tracking", {}), kind, J, f"{where} [tracking]"),
+                    compare=data.get("compare", {}))
 
 
 def _tracking(table: Mapping[str, Any], kind: str, J: int, where: str) -> Tracking:

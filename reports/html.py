@@ -25,6 +25,10 @@ from .model import REPORT_JSON, load_case_models, write_text_atomic
 #: Page of each case, in its case folder; the run's index and single-file report at the top.
 CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE = "case.html", "index.html", "report.html", "report.pdf"
 
+#: Column headings of the difference tables (others print as named).
+HEADERS = {"max_abs": "max |diff|", "t_max": "at t [s]", "rms": "RMS", "delta_pct": "\u03b4 %",
+           "ref_max": "max |ref|", "passed": "result"}
+
 #: Sub-folder of a scenario holding its plan's files (linked from the case pages when present).
 PLAN_FOLDER = "plan"
 
@@ -64,6 +68,7 @@ def _environment():
                              autoescape=jinja2.select_autoescape(("html",)), undefined=jinja2.StrictUndefined,
                              keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True)
     env.filters["fmt"] = fmt
+    env.filters["header"] = lambda name: HEADERS.get(name, name)
     env.filters["verdict"] = lambda ok: "PASS" if ok else "FAIL"
     env.filters["tojson_pretty"] = lambda obj: json.dumps(obj, indent=2, sort_keys=False)
     return env

@@ -140,16 +140,22 @@ def case_model(result, figures=(), *, scenario=None) -> dict:
     -------
     dict
         JSON-serialisable (:func:`json_safe`): ``schema``, ``title``, ``loop``,
-        ``engines``, ``reference_engine``, ``passed``, ``verdict``,
-        ``scenario``, ``plan``, ``runs``, ``tables`` (engine and plan tables),
+        ``engines``, ``reference_engine``, ``passed``, ``verdict``, ``settings``
+        (tolerances, windows, output grid, JSBSim step and where each came
+        from), ``scenario``, ``plan``, ``runs``, ``tables`` (between engines,
+        against the plan, JSBSim self-convergence),
         ``limits``, ``closed_loop``, ``warnings``, ``figures``, ``provenance``.
     """
     plan, case = result.plan, result.case
     if scenario is None:
-        scenario = load_scenario(case.scenario, J=case.J)
+        scenario = getattr(result, "scenario", None) or load_scenario(case.scenario, J=case.J)
     verdict = result.verdict()
     tables = [_table(t, eng, w) for eng, per in result.tables.items() for w, t in per.items()]
     vs_plan = [_table(t, eng, "whole span") for eng, t in result.vs_plan.items()]
+    self_conv = [_table(t, eng, w) for eng, per in getattr(result, "self_convergence", {}).items()
+                 for w, t in per.items()]
+    settings = result.settings.to_dict() if getattr(result, "settings", None) is not None else {
+        "tolerances": case.tolerance_spec, "windows": case.window_spec, "dt_out": case.dt_out}
     warnings = [f"plan: {w}" for w in plan.warnings]
     for label, res in result.runs.items():
         if res.status != "completed":
@@ -164,10 +170,9 @@ def case_model(result, figures=(), *, scenario=None) -> dict:
     shown = [{"file": f, "caption": c} for f, c in FIGURES.items() if f in set(map(str, figures))]
     model = {"schema": SCHEMA, "title": f"{plan.name} (J = {plan.J}), {case.loop} loop", "id": f"{plan.name}-{case.loop}",
              "loop": case.loop, "engines": list(result.runs), "reference_engine": result.reference_engine,
-             "passed": bool(verdict["pass"]), "verdict": verdict, "dt_out_s": case.dt_out,
-             "tolerances": case.tolerance_spec, "windows": case.window_spec,
+             "passed": bool(verdict["pass"]), "verdict": verdict, "settings": settings,
              "scenario": _scenario_section(result, scenario), "plan": _plan_section(result, scenario),
-             "runs": _runs_section(result), "tables": {"engines": tables, "plan": vs_plan},
+             "runs": _runs_section(result), "tables": {"engines": tables, "plan": vs_plan, "self_convergence": self_conv},
              "limits": control_limits(plan.aircraft), "closed_loop": closed, "warnings": warnings,
              "figures": shown, "provenance": dict(result.provenance)}
     return json_safe(model)
@@ -216,15 +221,17 @@ def temporary_name(path: str | Path) -> Path:
     return path.with_name(f".{path.name}.{os.getpid()}.tmp")
 
 
-def write_case_report(result, out_dir: str | Path, *, scenario=None) -> Path:
+def write_case_report(result, out, *, figures=(), scenario=None) -> Path:
     """Draw the report's figures into a case folder and save the case's model as ``report.json``.
 
     Parameters
     ----------
     result : harness.validation.CaseResult
         The case's result.
-    out_dir : str or Path
-        The case folder (created if needed), where the case's other figures are.
+    out : str, Path or harness.outdir.OutputDir
+        The case folder (created if needed; written atomically through an OutputDir).
+    figures : sequence of str
+        File names of the figures already in the folder (:func:`reports.case_files.write_case`).
     scenario : planners.scenario.Scenario, optional
         See :func:`case_model`.
 
@@ -233,14 +240,15 @@ def write_case_report(result, out_dir: str | Path, *, scenario=None) -> Path:
     Path
         The ``report.json`` written.
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    write_singularity_figure(result.plan, out)
-    write_controls_limits_figure(result, out)
-    write_signed_differences_figure(result, out)
-    figures = sorted(p.name for p in out.glob("*.png"))
-    model = case_model(result, figures, scenario=scenario)
-    return write_text_atomic(out / REPORT_JSON, json.dumps(model, indent=1, allow_nan=False) + "\n")
+    if not hasattr(out, "write_text"):
+        Path(out).mkdir(parents=True, exist_ok=True)
+    drawn = [write_singularity_figure(result.plan, out), write_controls_limits_figure(result, out),
+             write_signed_differences_figure(result, out)]
+    names = list(map(str, figures)) + [p.name for p in drawn if p is not None]
+    text = json.dumps(case_model(result, names, scenario=scenario), indent=1, allow_nan=False) + "\n"
+    if hasattr(out, "write_text"):
+        return out.write_text(REPORT_JSON, text=text)
+    return write_text_atomic(Path(out) / REPORT_JSON, text)
 
 
 def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:

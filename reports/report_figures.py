@@ -14,7 +14,7 @@ import numpy as np
 from gna.eom import CONTROL_NAMES
 from harness.metrics import differences
 
-from .figures import plot_scale
+from .figures import plot_scale, save_figure
 
 #: Variables of the signed-difference figure: the position components, then the other states.
 SIGNED_VARIABLES: tuple[str, ...] = ("x", "y", "z", "V", "gamma", "chi", "alpha", "beta", "mu", "p", "q", "r")
@@ -48,12 +48,6 @@ def control_limits(aircraft) -> dict[str, tuple[float, float]]:
     return out
 
 
-def _save(fig, out_dir, name) -> Path:
-    path = Path(out_dir) / name
-    fig.savefig(path, dpi=90)
-    return path
-
-
 def write_singularity_figure(plan, out_dir: str | Path) -> Path | None:
     """The singularity monitor along the flat plan: the flat output's determinant, V cos(gamma), cos(beta).
 
@@ -61,8 +55,8 @@ def write_singularity_figure(plan, out_dir: str | Path) -> Path | None:
     ----------
     plan : planners.plan.Plan
         A plan whose ``singularities`` report is set (paper eqs. cond_beta, stalling_cond, cond_F).
-    out_dir : str or Path
-        Existing folder.
+    out_dir : str, Path or harness.outdir.OutputDir
+        Folder (written atomically through an OutputDir).
 
     Returns
     -------
@@ -85,7 +79,7 @@ def write_singularity_figure(plan, out_dir: str | Path) -> Path | None:
         ax.set_xlabel("t [s]")
         ax.grid(alpha=0.3)
     fig.suptitle(f"{plan.name}: singularity monitor along the flat plan (zero = singular)")
-    return _save(fig, out_dir, SINGULARITY_PNG)
+    return save_figure(fig, out_dir, SINGULARITY_PNG, dpi=90)
 
 
 def write_controls_limits_figure(result, out_dir: str | Path) -> Path:
@@ -95,8 +89,8 @@ def write_controls_limits_figure(result, out_dir: str | Path) -> Path:
     ----------
     result : harness.validation.CaseResult
         The case's runs (reference engine solid, others dashed) and plan.
-    out_dir : str or Path
-        Existing folder.
+    out_dir : str, Path or harness.outdir.OutputDir
+        Folder (written atomically through an OutputDir).
 
     Returns
     -------
@@ -123,7 +117,7 @@ def write_controls_limits_figure(result, out_dir: str | Path) -> Path:
         ax.set_xlabel("t [s]")
     axs[0, 0].legend(fontsize=7)
     fig.suptitle(f"{result.plan.name} ({result.case.loop} loop): applied controls and their limits")
-    return _save(fig, out_dir, CONTROLS_LIMITS_PNG)
+    return save_figure(fig, out_dir, CONTROLS_LIMITS_PNG, dpi=90)
 
 
 def write_signed_differences_figure(result, out_dir: str | Path) -> Path | None:
@@ -133,8 +127,8 @@ def write_signed_differences_figure(result, out_dir: str | Path) -> Path | None:
     ----------
     result : harness.validation.CaseResult
         The case's runs; the first is the reference.
-    out_dir : str or Path
-        Existing folder.
+    out_dir : str, Path or harness.outdir.OutputDir
+        Folder (written atomically through an OutputDir).
 
     Returns
     -------
@@ -160,4 +154,4 @@ def write_signed_differences_figure(result, out_dir: str | Path) -> Path | None:
         ax.set_xlabel("t [s]")
     axs[0, 0].legend(fontsize=7)
     fig.suptitle(f"{result.plan.name} ({result.case.loop} loop): signed differences to {labels[0]}")
-    return _save(fig, out_dir, SIGNED_DIFFERENCES_PNG)
+    return save_figure(fig, out_dir, SIGNED_DIFFERENCES_PNG, dpi=90)

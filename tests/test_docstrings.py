@@ -51,6 +51,11 @@ MODULES = [
     "harness.metrics.runs",
     "harness.validation.case",
     "harness.validation.run",
+    "harness.outdir",
+    "harness.artefacts",
+    "harness.validation.tolerances",
+    "harness.validation.result",
+    "harness.engines.jsbsim.grid",
 ]
 
 

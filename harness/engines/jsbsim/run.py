@@ -30,7 +30,8 @@ from gna.trajectory import (RunSettings, SimulationResult, check_span, control_f
 
 from ..base import EngineError
 from .fdm import import_jsbsim
-from .states import DERIVED_NODES, STATE_NODES, STATE_NODES_FLAT, STATE_NODES_WGS84, StateConverter, step_grid, \
+from .grid import output_grid, resample_result
+from .states import DERIVED_NODES, STATE_NODES, STATE_NODES_FLAT, STATE_NODES_WGS84, StateConverter, \
     trajectory_frame
 
 #: How the JSBSim engines advance a controller's states (recorded in the result's settings).
@@ -174,19 +175,20 @@ class JSBSimRun:
         t0, t1 = check_span(t_span)
         ufun = control_function(controls)
         ctrl = as_controller(controller)
-        n, dt, out_steps = step_grid(t0, t1, engine.dt, dt_out, t_eval)
+        n, dt, out_times, record = output_grid(t0, t1, engine.dt, dt_out, t_eval)  # the step ignores dt_out
         times = t0 + np.arange(n + 1) * dt
         U = controls_on_grid(ufun, times)
         every = 1 if engine.controller_dt is None else max(int(round(engine.controller_dt / dt)), 1)
         t_setup = time.perf_counter()
-        run = cls(engine, aircraft, env, y0, times, out_steps, U, ctrl, every)
+        run = cls(engine, aircraft, env, y0, times, record, U, ctrl, every)
         with ExitStack() as stack:
             run.fdm, run.capture, run.load_problems = run._load(stack)
             run.start()
             t_loop = time.perf_counter()
             status, message, t_end = run.step_all()
             t_post = time.perf_counter()
-            return run.result(status, message, t_end, {"setup": t_loop - t_setup, "stepping": t_post - t_loop})
+            res = run.result(status, message, t_end, {"setup": t_loop - t_setup, "stepping": t_post - t_loop})
+        return resample_result(res, out_times, t0, dt)
 
     # ---- hooks (see the class notes) -------------------------------------------------------------
     def _load(self, stack: ExitStack):
