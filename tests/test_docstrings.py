@@ -56,6 +56,10 @@ MODULES = [
     "harness.validation.tolerances",
     "harness.validation.result",
     "harness.engines.jsbsim.grid",
+    "reports.model",
+    "reports.html",
+    "reports.pdf",
+    "reports.report_figures",
 ]
 
 
