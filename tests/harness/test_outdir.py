@@ -133,3 +133,14 @@ def test_json_refuses_nan_unless_made_safe(tmp_path):
     assert not (tmp_path / "run" / "s.json").exists()
     out.write_json("s.json", obj=json_safe({"x": math.nan, "y": (1, 2)}))
     assert json.loads((tmp_path / "run" / "s.json").read_text()) == {"x": None, "y": [1, 2]}
+
+
+def test_unwritable_folder_is_refused_whoever_runs(tmp_path, monkeypatch):
+    """The probe write fails as it would in a read-only folder (root ignores chmod, so the failure is simulated)."""
+    import tempfile
+
+    def refuse(*a, **k):
+        raise PermissionError(13, "Permission denied")
+    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    with pytest.raises(InputError, match=r"output folder .*ro.*: cannot write there: Permission denied"):
+        OutputDir(tmp_path / "ro")

@@ -190,8 +190,12 @@ def load_fdm(xml_text: str, aircraft_id: str):
     ------
     EngineError
         If JSBSim refuses the file (its messages are quoted).
+    InputError
+        An aircraft id that is not a plain file name (it would leave the temporary folder).
     """
     jsbsim = import_jsbsim()
+    if not aircraft_id or Path(aircraft_id).name != aircraft_id or aircraft_id in (".", ".."):
+        raise InputError(f"aircraft id {aircraft_id!r} cannot name JSBSim's aircraft folder (a plain name is needed)")
     capture = LogCapture(jsbsim)
     with tempfile.TemporaryDirectory(prefix="gflat-jsbsim-") as root, capture:
         path = Path(root) / "aircraft" / aircraft_id / f"{aircraft_id}.xml"
