@@ -102,6 +102,13 @@ def _manifest(root: Path):
     return json.loads(p.read_text(encoding="utf-8")) if p.is_file() else None
 
 
+def _run_order(cases: list, manifest) -> list:
+    """The cases in the order the run flew them (the manifest's ``cases``), the others after, as found."""
+    flown = [(c.get("scenario"), c.get("loop")) for c in (manifest or {}).get("cases", []) if isinstance(c, dict)]
+    rank = {key: i for i, key in reversed(list(enumerate(flown)))}
+    return sorted(cases, key=lambda c: rank.get((c[1]["scenario"]["name"], c[1]["loop"]), len(rank)))
+
+
 def render_date() -> str:
     """The current UTC time as the reports print it (ISO 8601, seconds).
 
@@ -143,6 +150,7 @@ def render_documents(run_dir: str | Path, *, date: str | None = None, embed: boo
     env = _environment()
     date = date or render_date()
     manifest = _manifest(root)
+    cases = _run_order(cases, manifest)
     common = {"date": date, "manifest": manifest, "n_pass": sum(m["passed"] for _, m in cases), "n": len(cases)}
     docs = {}
     index_views = [_case_view(root, f, m, root, False) for f, m in cases]
@@ -183,9 +191,10 @@ def single_document(run_dir: str | Path, *, date: str | None = None) -> str:
     cases = load_case_models(root)
     if not cases:
         raise InputError(f"no {REPORT_JSON} under {root}: not the output folder of a gflat run")
-    views = [_case_view(root, f, m, root, False) for f, m in cases]
+    manifest = _manifest(root)
+    views = [_case_view(root, f, m, root, False) for f, m in _run_order(cases, manifest)]
     return _environment().get_template("single.html").render(
-        cases=views, date=date or render_date(), manifest=_manifest(root),
+        cases=views, date=date or render_date(), manifest=manifest,
         n_pass=sum(m["passed"] for _, m in cases), n=len(cases), pdf=True)
 
 

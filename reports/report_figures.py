@@ -108,8 +108,8 @@ def write_controls_limits_figure(result, out_dir: str | Path) -> Path:
         ax.plot(ref.index, ref[name] * k, "k:", lw=2.0, label=f"plan J = {result.plan.J}")
         for i, (lab, res) in enumerate(result.runs.items()):
             ax.plot(res.df.index, res.df[name] * k, lw=1.2, ls="-" if i == 0 else "--", label=lab)
-        for bound in limits.get(name, ()):
-            ax.axhline(bound * k, color="r", lw=1.0, ls="-.", label="limit")
+        for i, bound in enumerate(limits.get(name, ())):
+            ax.axhline(bound * k, color="r", lw=1.0, ls="-.", label="limit" if i == 0 else None)
         ax.set_ylabel(f"{name} [{unit}]")
         ax.grid(alpha=0.3)
     axs.ravel()[-1].axis("off")
