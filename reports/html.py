@@ -25,6 +25,9 @@ from .model import REPORT_JSON, load_case_models, write_text_atomic
 #: Page of each case, in its case folder; the run's index and single-file report at the top.
 CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE = "case.html", "index.html", "report.html", "report.pdf"
 
+#: Mark of the pages rendered here (a page without it is never removed).
+GENERATOR = '<meta name="generator" content="gflat report">'
+
 #: Column headings of the difference tables (others print as named).
 HEADERS = {"max_abs": "max |diff|", "t_max": "at t [s]", "rms": "RMS", "delta_pct": "\u03b4 %",
            "ref_max": "max |ref|", "passed": "result"}
@@ -198,6 +201,14 @@ def single_document(run_dir: str | Path, *, date: str | None = None) -> str:
         n_pass=sum(m["passed"] for _, m in cases), n=len(cases), pdf=True)
 
 
+def _remove_orphan_pages(root: Path) -> None:
+    """Remove the case pages of an earlier rendering whose case is gone (a rerun flew fewer cases)."""
+    for page in root.rglob(CASE_PAGE):
+        if not (page.parent / REPORT_JSON).exists() and GENERATOR in page.read_text(encoding="utf-8",
+                                                                                     errors="replace")[:2000]:
+            page.unlink()
+
+
 def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool = True,
                date: str | None = None) -> dict[str, Path]:
     """Render a run folder's reports: ``index.html``, a page per case, optionally the single file and the PDF.
@@ -226,6 +237,7 @@ def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool =
     root = Path(run_dir)
     date = date or render_date()
     docs = render_documents(root, date=date, embed=self_contained)
+    _remove_orphan_pages(root)
     for path, text in docs.items():
         write_text_atomic(path, text)
     out = {"index": root / INDEX_PAGE, "pages": [p for p in docs if p.name == CASE_PAGE]}
