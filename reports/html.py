@@ -25,6 +25,9 @@ from .model import REPORT_JSON, load_case_models, write_text_atomic
 #: Page of each case, in its case folder; the run's index and single-file report at the top.
 CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE = "case.html", "index.html", "report.html", "report.pdf"
 
+#: What rendering writes (never listed among a case's data files: a re-rendering must give the same page).
+RENDERED = frozenset((CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE))
+
 #: Mark of the pages rendered here (a page without it is never removed).
 GENERATOR = '<meta name="generator" content="gflat report">'
 
@@ -91,9 +94,12 @@ def _case_view(root: Path, folder: Path, model: dict, page_dir: Path, embed: boo
     src = {f["file"]: (_data_uri(case_dir / f["file"]) if embed else _rel(case_dir / f["file"], page_dir))
            for f in model["figures"]}
     files = sorted(p for p in case_dir.iterdir() if p.is_file() and not p.name.startswith(".")
-                   and p.suffix != ".png" and p.name != CASE_PAGE)
-    plan_dir = case_dir.parent / PLAN_FOLDER
-    plan_files = sorted(p for p in plan_dir.iterdir() if p.is_file()) if plan_dir.is_dir() else []
+                   and p.suffix != ".png" and p.name not in RENDERED)
+    # the plan beside the case (gflat paper: <scenario>/plan) or inside it (gflat compare), never outside the run
+    plan_dir = next((d for d in (case_dir / PLAN_FOLDER, case_dir.parent / PLAN_FOLDER)
+                     if d.is_dir() and d.resolve().is_relative_to(root.resolve())), None)
+    plan_files = sorted(p for p in plan_dir.iterdir() if p.is_file() and not p.name.startswith(".")) \
+        if plan_dir else []
     return {"model": model, "folder": folder.as_posix() or ".", "img": src,
             "page": _rel(case_dir / CASE_PAGE, page_dir),
             "files": [{"name": p.name, "href": _rel(p, page_dir)} for p in files],

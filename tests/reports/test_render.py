@@ -7,7 +7,7 @@ import shutil
 from pathlib import Path
 
 from harness.cli import main
-from reports.html import render_documents
+from reports.html import render_documents, render_run
 
 from .conftest import CASE_FOLDERS, DATE, SCENARIO
 
@@ -93,3 +93,17 @@ def test_a_rerun_with_fewer_cases_leaves_no_page_of_the_missing_case(report_run,
     assert not (closed / "case.html").exists() and mine.exists()
     index = (copy / "index.html").read_text(encoding="utf-8")
     assert f"{SCENARIO}/{CASE_FOLDERS['open']}/case.html" in index and CASE_FOLDERS["closed"] + "/case.html" not in index
+
+
+def test_a_case_folder_alone_renders_the_same_twice(report_run, tmp_path):
+    # gflat compare --out DIR: the case folder is the run folder; the pages rendered there are not data files
+    case = tmp_path / "case"
+    shutil.copytree(report_run.root / SCENARIO / CASE_FOLDERS["open"], case)
+    for p in case.glob("*.html"):
+        p.unlink()
+    first = render_run(case, self_contained=True, pdf=False, date=DATE)
+    assert first["index"] == case / "index.html" and first["pages"] == [case / "case.html"]
+    again = render_documents(case, date="2099-12-31T23:59:59+00:00", embed=True)
+    for path, text in again.items():
+        assert _undated(text.encode()) == _undated(path.read_bytes()), path.name
+    assert 'href="index.html"' in (case / "case.html").read_text() and "report.html" not in (case / "case.html").read_text()
