@@ -121,3 +121,16 @@ def test_report_pages_load_in_chromium_with_images_links_and_no_console_error(re
     assert shot.stat().st_size > 10_000
     SCREENSHOT_COPY.parent.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(shot, SCREENSHOT_COPY)
+
+
+def test_a_missing_browser_fails_under_ci_and_skips_elsewhere(monkeypatch, tmp_path):
+    import sys
+
+    module = sys.modules[__name__]
+    monkeypatch.setattr(module, "CHROMIUM", str(tmp_path / "no-chromium"))
+    monkeypatch.setenv("CI", "true")
+    with pytest.raises(pytest.fail.Exception, match="no-chromium is missing"):
+        _sync_playwright()
+    monkeypatch.delenv("CI")
+    with pytest.raises(pytest.skip.Exception):
+        _sync_playwright()
