@@ -78,6 +78,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "plan",
     "compare",
     "paper",
+    "report",
     "export_jsbsim",
     "export_script",
     "fit",

@@ -8,6 +8,7 @@ from harness.artefacts import write_artefacts
 from harness.outdir import OutputDir
 
 from .figures import write_figures
+from .model import write_case_report
 from .tracking import write_tracking_figure
 
 #: Figure files of a case folder (``tracking.png`` closed loop only, ``differences.png`` with two engines or more).
@@ -53,7 +54,8 @@ def write_case(result, out_dir: str | Path | OutputDir, *, csv: bool = False, pl
     -------
     dict
         ``"figures"``, ``"trajectories"``, ``"plan"`` -> list of Path;
-        ``"differences"``, ``"summary"`` and (with ``manifest``) ``"manifest"`` -> Path.
+        ``"differences"``, ``"summary"``, ``"report"`` (the report model,
+        :func:`reports.model.write_case_report`) and (with ``manifest``) ``"manifest"`` -> Path.
     """
     own = not isinstance(out_dir, OutputDir)
     out = OutputDir(out_dir, parents=True) if own else out_dir
@@ -63,11 +65,12 @@ def write_case(result, out_dir: str | Path | OutputDir, *, csv: bool = False, pl
     if result.closed_loop is not None:
         figures.append(write_tracking_figure(result, out))
     files = write_artefacts(result, out, csv=csv, plan=plan, manifest=manifest, figures=[p.name for p in figures])
+    report = write_case_report(result, out, figures=[p.name for p in figures])
     if own:
         out.finish()
     written: dict[str, Path | list[Path]] = {"figures": figures, "trajectories": files["trajectories"],
                                              "plan": files["plan"], "differences": files["differences"][0],
-                                             "summary": files["summary"][0]}
+                                             "summary": files["summary"][0], "report": report}
     if "manifest" in files:
         written["manifest"] = files["manifest"][0]
     return written

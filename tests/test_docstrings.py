@@ -59,6 +59,10 @@ MODULES = [
     "harness.validation.tolerances",
     "harness.validation.result",
     "harness.engines.jsbsim.grid",
+    "reports.model",
+    "reports.html",
+    "reports.pdf",
+    "reports.report_figures",
 ]
 
 

@@ -18,6 +18,7 @@ import json
 
 from planners.scenario import list_scenarios, load_scenario
 from reports.case_files import write_case
+from reports.html import render_run
 
 from ..engines import engine_names, engines_from_names
 from ..outdir import OutputDir, json_safe
@@ -54,6 +55,7 @@ def run(args) -> int:
     result = run_case(case, scenario=scenario)
     write_case(result, out, csv=args.csv)
     out.finish()
+    report = render_run(out.root, pdf=False)          # the case page and an index of one
     verdict = result.verdict()
     if args.json:
         print(json.dumps(json_safe(verdict), indent=2))
@@ -63,7 +65,7 @@ def run(args) -> int:
         for label, r in verdict["runs"].items():
             print(f"{label} against the flat outputs: max {r['max_position_error_m']:.3e} m, after 5 s "
                   f"{r['max_position_error_after_5s_m']:.3e} m; controls saturated {r['saturated_s']:.2f} s")
-    print(f"figures, trajectories and tables written to {out.root}/")
+    print(f"figures, trajectories and tables written to {out.root}/, report {report['index']}")
     if not verdict["pass"]:
         print("gflat compare: the engines disagree beyond the tolerances (or a run ended early): FAIL")
         return 1

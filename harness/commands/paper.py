@@ -21,6 +21,7 @@ from dataclasses import replace
 
 from planners.scenario import load_scenario
 from reports.case_files import write_case
+from reports.html import render_run
 
 from ..artefacts import write_manifest, write_plan_iterates
 from ..outdir import OutputDir
@@ -130,6 +131,8 @@ def run(args) -> int:
               f"{'saturated [s]':>13}  result")
     for r in closed_rows:
         print(f"  {r[0]:<26} {r[1]:>12.2e} {r[2]:>11.2e} {r[3]:>22.2e} {r[4]:>13.2f}  {'PASS' if r[5] else 'FAIL'}")
+    report = render_run(out.root)                     # HTML and PDF from the saved report.json files
+    print(f"\nreport: {report['index']} (PDF: {report['pdf']})")
     if failed:
         print(f"gflat paper: engines disagree beyond the tolerances, or a run ended early, for {', '.join(failed)}: FAIL")
         return 1
