@@ -15,11 +15,13 @@ anything else), so no stale file of an earlier run survives next to new ones.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import datetime
 import hashlib
 import json
 import math
 import os
+import secrets
 import tempfile
 from pathlib import Path
 from typing import Iterator
@@ -36,16 +38,20 @@ def _cause(exc: OSError) -> str:
     return exc.strerror or str(exc) or type(exc).__name__
 
 
-def json_safe(obj):
+def json_safe(obj, nonfinite: str = "null"):
     """A copy of ``obj`` that :func:`json.dumps` takes with ``allow_nan=False``.
 
     NumPy scalars and arrays become Python numbers and lists, paths strings,
-    tuples and sets lists, and NaN or infinite floats ``None`` (JSON has no NaN).
+    tuples and sets lists, dataclasses dicts, other objects their ``str``.
 
     Parameters
     ----------
     obj : object
-        Nested dicts, lists, numbers, strings, paths, NumPy values.
+        Nested dicts, lists, numbers, strings, paths, NumPy values, dataclasses.
+    nonfinite : {"null", "text"}
+        How a NaN or infinite float is written (JSON has none): ``None``, or
+        the strings ``"nan"``, ``"inf"``, ``"-inf"`` (which keep NaN and
+        infinity apart, as a report shows them).
 
     Returns
     -------
@@ -53,21 +59,25 @@ def json_safe(obj):
         The same structure with JSON types only.
     """
     if isinstance(obj, dict):
-        return {str(k): json_safe(v) for k, v in obj.items()}
+        return {str(k): json_safe(v, nonfinite) for k, v in obj.items()}
     if isinstance(obj, (list, tuple, set)):
-        return [json_safe(v) for v in obj]
+        return [json_safe(v, nonfinite) for v in obj]
     if isinstance(obj, np.ndarray):
-        return json_safe(obj.tolist())
+        return json_safe(obj.tolist(), nonfinite)
     if isinstance(obj, (bool, np.bool_)):
         return bool(obj)
     if isinstance(obj, (int, np.integer)):
         return int(obj)
     if isinstance(obj, (float, np.floating)):
         v = float(obj)
-        return v if math.isfinite(v) else None
+        return v if math.isfinite(v) else (str(v) if nonfinite == "text" else None)
     if isinstance(obj, os.PathLike):
         return os.fspath(obj)
-    return obj
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return json_safe(dataclasses.asdict(obj), nonfinite)
+    if obj is None or isinstance(obj, str):
+        return obj
+    return str(obj)
 
 
 def _sha256(path: Path) -> str:
@@ -262,13 +272,21 @@ class OutputDir:
         final = self.path(*parts)
         self._mkdir(final.parent, parents=True)
         self._drop_marker()
-        fd, name = None, None
         try:
-            fd, name = tempfile.mkstemp(prefix=f".{final.stem}.", suffix=f".tmp{final.suffix}", dir=final.parent)
+            # a fresh name created exclusively, with the permissions the user's umask gives new files
+            # (mkstemp would make it private to the owner)
+            for _ in range(100):
+                tmp = final.with_name(f".{final.stem}.{secrets.token_hex(6)}.tmp{final.suffix}")
+                try:
+                    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+                    break
+                except FileExistsError:
+                    continue
+            else:
+                raise FileExistsError(f"no free temporary name next to {final}")
             os.close(fd)
         except OSError as exc:
             raise InputError(f"cannot write {final}: {_cause(exc)}") from None
-        tmp = Path(name)
         try:
             yield tmp
             os.replace(tmp, final)

@@ -12,14 +12,12 @@ case folder, from which :mod:`reports.html` renders, now or later.
 
 from __future__ import annotations
 
-import dataclasses
 import json
-import math
 import os
 from pathlib import Path
 
-import numpy as np
 
+from harness.outdir import json_safe as _json_safe
 from planners.scenario import load_scenario
 
 from .report_figures import (CONTROLS_LIMITS_PNG, SIGNED_DIFFERENCES_PNG, control_limits,
@@ -45,7 +43,7 @@ FIGURES: dict[str, str] = {
 
 
 def json_safe(obj):
-    """A copy of ``obj`` that :func:`json.dumps` writes as strict JSON.
+    """A copy of ``obj`` for a report model: :func:`harness.outdir.json_safe` with NaN and infinities as text.
 
     Parameters
     ----------
@@ -55,27 +53,9 @@ def json_safe(obj):
     Returns
     -------
     object
-        Plain dicts, lists, str, int, float, bool, None; a non-finite float
-        becomes the string ``"nan"``, ``"inf"`` or ``"-inf"``.
+        Plain JSON types; a non-finite float becomes ``"nan"``, ``"inf"`` or ``"-inf"``.
     """
-    if isinstance(obj, dict):
-        return {str(k): json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [json_safe(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return json_safe(obj.tolist())
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        v = float(obj)
-        return v if math.isfinite(v) else str(v)
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return json_safe(dataclasses.asdict(obj))
-    if obj is None or isinstance(obj, str):
-        return obj
-    return str(obj)
+    return _json_safe(obj, nonfinite="text")
 
 
 def _records(frame) -> dict:

@@ -144,3 +144,16 @@ def test_unwritable_folder_is_refused_whoever_runs(tmp_path, monkeypatch):
     monkeypatch.setattr(tempfile, "mkstemp", refuse)
     with pytest.raises(InputError, match=r"output folder .*ro.*: cannot write there: Permission denied"):
         OutputDir(tmp_path / "ro")
+
+
+def test_files_get_the_permissions_of_the_users_umask(tmp_path):
+    import os
+    import stat
+
+    old = os.umask(0o022)
+    try:
+        out = OutputDir(tmp_path / "o")
+        p = out.write_text("a.txt", text="x")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(p.stat().st_mode) == 0o644          # not private to the owner, as mkstemp would make it
