@@ -230,6 +230,44 @@ def _plural(schema: Mapping[str, Any]) -> str:
     return " or ".join(words.get(x, x) for x in (t if isinstance(t, list) else [t])) if t else "valid items"
 
 
+def did_you_mean(key, known) -> str:
+    """`` (did you mean 'k'?)`` with the closest of ``known`` to ``key`` (difflib), or an empty string.
+
+    Parameters
+    ----------
+    key : object
+        The key found (its ``str``).
+    known : iterable of str
+        The accepted keys.
+
+    Returns
+    -------
+    str
+    """
+    close = difflib.get_close_matches(str(key), list(known), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def unknown_key_message(key: str, known, where: str) -> str:
+    """The message refusing an unknown key, with the closest known key when there is one.
+
+    Parameters
+    ----------
+    key : str
+        The key found.
+    known : iterable of str
+        The accepted keys.
+    where : str
+        File and table, for the message.
+
+    Returns
+    -------
+    str
+    """
+    known = list(known)
+    return f"{where}: unknown key {key!r}{did_you_mean(key, known)}; known keys: {', '.join(known)}"
+
+
 def _message(error, where: str) -> str:
     """One line for a :class:`jsonschema.ValidationError`."""
     kind, schema, value = error.validator, error.schema, error.instance
@@ -239,9 +277,7 @@ def _message(error, where: str) -> str:
         patterns = [re.compile(p) for p in schema.get("patternProperties", {})]
         unknown = [k for k in value if k not in known and not any(p.search(k) for p in patterns)]
         k = unknown[0]
-        close = difflib.get_close_matches(k, known, n=1, cutoff=0.6)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        return f"{loc}: unknown key {k!r}{hint} = {_short(value[k])}; known keys: {', '.join(known)}"
+        return f"{loc}: unknown key {k!r}{did_you_mean(k, known)} = {_short(value[k])}; known keys: {', '.join(known)}"
     if "propertyNames" in error.schema_path:
         loc, _, _ = _location(list(error.absolute_path) + ["?"], where)
         names = error.schema.get("enum")

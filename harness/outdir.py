@@ -88,6 +88,49 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+@contextlib.contextmanager
+def replacing(final: str | Path) -> Iterator[Path]:
+    """A temporary file beside ``final``, renamed over it when the block ends without error.
+
+    The temporary name is hidden, unique (created exclusively) and keeps the
+    final suffix; it gets the permissions the user's umask gives new files.
+    On any error it is removed and ``final`` is untouched: a reader never sees
+    a half-written file under the final name.
+
+    Parameters
+    ----------
+    final : str or Path
+        The file to (re)place; its folder must exist.
+
+    Yields
+    ------
+    Path
+        The temporary path to write.
+
+    Raises
+    ------
+    OSError
+        Creating, writing or renaming failed (disk full, permissions).
+    """
+    final = Path(final)
+    for _ in range(100):
+        tmp = final.with_name(f".{final.stem}.{secrets.token_hex(6)}.tmp{final.suffix}")
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            break
+        except FileExistsError:
+            continue
+    else:
+        raise FileExistsError(f"no free temporary name next to {final}")
+    try:
+        yield tmp
+        os.replace(tmp, final)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
 class _Record:
     """What a set of OutputDir objects (a root and its sub-folders) share."""
 
@@ -273,31 +316,10 @@ class OutputDir:
         self._mkdir(final.parent, parents=True)
         self._drop_marker()
         try:
-            # a fresh name created exclusively, with the permissions the user's umask gives new files
-            # (mkstemp would make it private to the owner)
-            for _ in range(100):
-                tmp = final.with_name(f".{final.stem}.{secrets.token_hex(6)}.tmp{final.suffix}")
-                try:
-                    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-                    break
-                except FileExistsError:
-                    continue
-            else:
-                raise FileExistsError(f"no free temporary name next to {final}")
-            os.close(fd)
+            with replacing(final) as tmp:
+                yield tmp
         except OSError as exc:
             raise InputError(f"cannot write {final}: {_cause(exc)}") from None
-        try:
-            yield tmp
-            os.replace(tmp, final)
-        except OSError as exc:
-            with contextlib.suppress(OSError):
-                tmp.unlink()
-            raise InputError(f"cannot write {final}: {_cause(exc)}") from None
-        except BaseException:
-            with contextlib.suppress(OSError):
-                tmp.unlink()
-            raise
         rel = final.relative_to(self._record.root)
         if rel not in self._record.written:
             self._record.written.append(rel)

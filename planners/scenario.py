@@ -79,8 +79,8 @@ from gna.atmosphere import ConstantDensity, Environment, ISA
 from gna.catalogue import bundled
 from gna.eom import HValues
 from gna.errors import GflatError, InputError
-from gna.perturbation import Perturbation, perturbation_from_dict, unknown_key_message
-from gna.schema import check_name, find_file, load_schema, read_toml, validate
+from gna.perturbation import Perturbation, perturbation_from_dict
+from gna.schema import check_name, find_file, load_schema, read_toml, unknown_key_message, validate
 
 from .expressions import CONSTANTS, FUNCTIONS, Expression, compile_expression
 from .flat import FLAT_KINDS, FlatOutput, FlatProblem

@@ -13,11 +13,10 @@ case folder, from which :mod:`reports.html` renders, now or later.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 
-from harness.outdir import json_safe as _json_safe
+from harness.outdir import json_safe as _json_safe, replacing
 from planners.scenario import load_scenario
 
 from .report_figures import (CONTROLS_LIMITS_PNG, SIGNED_DIFFERENCES_PNG, control_limits,
@@ -174,31 +173,9 @@ def write_text_atomic(path: str | Path, text: str) -> Path:
         ``path``.
     """
     path = Path(path)
-    tmp = temporary_name(path)
-    try:
+    with replacing(path) as tmp:
         tmp.write_text(text, encoding="utf-8", newline="\n")
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
     return path
-
-
-def temporary_name(path: str | Path) -> Path:
-    """A hidden name beside ``path`` for a file written there and then renamed to ``path``.
-
-    Parameters
-    ----------
-    path : str or Path
-        The final name.
-
-    Returns
-    -------
-    Path
-        ``.<name>.<process id>.tmp`` in the same folder (same file system: the rename is atomic).
-    """
-    path = Path(path)
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
 
 
 def write_case_report(result, out, *, figures=(), scenario=None) -> Path:

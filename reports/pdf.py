@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from .model import temporary_name
+from harness.outdir import replacing
 
 
 def write_pdf(html: str, base_dir: str | Path, path: str | Path) -> Path:
@@ -32,11 +32,6 @@ def write_pdf(html: str, base_dir: str | Path, path: str | Path) -> Path:
     import weasyprint
 
     path = Path(path)
-    tmp = temporary_name(path)
-    try:
+    with replacing(path) as tmp:
         weasyprint.HTML(string=html, base_url=str(Path(base_dir).resolve()) + os.sep).write_pdf(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
     return path

@@ -22,12 +22,12 @@ same absolute tolerance for every compared variable).
 
 from __future__ import annotations
 
-import difflib
 import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
 from gna.errors import InputError
+from gna.schema import unknown_key_message
 from gna.trajectory import COLUMNS, POSITION
 
 from ..metrics import DEFAULT_TOLERANCES, DEFAULT_VARIABLES, DEFAULT_WINDOWS
@@ -67,10 +67,7 @@ def unknown_key(key: str, known, where: str) -> InputError:
     InputError
         To raise.
     """
-    known = list(known)
-    close = difflib.get_close_matches(str(key), known, n=1)
-    hint = f" (did you mean {close[0]!r}?)" if close else ""
-    return InputError(f"{where}: unknown key {key!r}{hint}; known keys: {', '.join(known)}")
+    return InputError(unknown_key_message(key, known, where))
 
 
 def _number(value, what: str, *, positive: bool) -> float:
