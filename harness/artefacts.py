@@ -39,7 +39,8 @@ from gna.atmosphere import H_TROPO, LAPSE, R_AIR, T0
 from gna.frames import C_body_ned, euler_from_dcm
 from gna.trajectory import UNITS
 
-from .outdir import OutputDir, json_safe
+from .fileio import json_safe
+from .outdir import OutputDir
 
 #: Units of the columns added to every trajectory written.
 EXTRA_UNITS: dict[str, str] = {"t": "s", "h": "m", "phi": "rad", "theta": "rad", "psi": "rad",

@@ -16,7 +16,7 @@ import json
 from pathlib import Path
 
 
-from harness.outdir import json_safe as _json_safe, replacing
+from harness.fileio import json_safe as _json_safe, replacing
 from planners.scenario import load_scenario
 
 from .report_figures import (CONTROLS_LIMITS_PNG, SIGNED_DIFFERENCES_PNG, control_limits,
@@ -42,7 +42,7 @@ FIGURES: dict[str, str] = {
 
 
 def json_safe(obj):
-    """A copy of ``obj`` for a report model: :func:`harness.outdir.json_safe` with NaN and infinities as text.
+    """A copy of ``obj`` for a report model: :func:`harness.fileio.json_safe` with NaN and infinities as text.
 
     Parameters
     ----------

@@ -55,6 +55,7 @@ MODULES = [
     "harness.validation.case",
     "harness.validation.run",
     "harness.outdir",
+    "harness.fileio",
     "harness.artefacts",
     "harness.validation.tolerances",
     "harness.validation.result",

@@ -21,7 +21,8 @@ from reports.case_files import write_case
 from reports.html import render_run
 
 from ..engines import engine_names, engines_from_names
-from ..outdir import OutputDir, json_safe
+from ..fileio import json_safe
+from ..outdir import OutputDir
 from ..validation import ValidationCase, case_settings, run_case
 from ._args import nonnegative_int
 from ._compare_args import add_compare_arguments, compare_overrides, default_out

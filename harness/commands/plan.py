@@ -12,7 +12,8 @@ import numpy as np
 from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
 
-from ..outdir import OutputDir, json_safe
+from ..fileio import json_safe
+from ..outdir import OutputDir
 from ._args import nonnegative_int
 from ._compare_args import default_out
 

@@ -10,7 +10,8 @@ import sys
 import pytest
 
 from gna.errors import InputError
-from harness.outdir import MARKER, OutputDir, json_safe
+from harness.fileio import json_safe
+from harness.outdir import MARKER, OutputDir
 
 
 def test_writes_are_recorded_and_marked(tmp_path):
