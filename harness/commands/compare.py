@@ -15,6 +15,7 @@ the flags, else the scenario's ``[compare]`` table, else the defaults.  With
 from __future__ import annotations
 
 import json
+import math
 
 from planners.scenario import list_scenarios, load_scenario
 from reports.case_files import write_case
@@ -47,6 +48,11 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+def error_text(value: float, t_end: float) -> str:
+    """A position error for the command output: metres, or why there is none (the run ended before the window)."""
+    return f"{value:.3e} m" if math.isfinite(value) else f"n/a (run ended at t = {t_end:g} s)"
+
+
 def run(args) -> int:
     engines = tuple(engines_from_names(args.engines, minimum=2))
     case = ValidationCase(args.scenario, J=args.J, engines=engines, loop=args.loop, **compare_overrides(args))
@@ -64,8 +70,9 @@ def run(args) -> int:
     print(result.report_text())
     if args.loop == "closed":
         for label, r in verdict["runs"].items():
+            after = error_text(r["max_position_error_after_5s_m"], result.runs[label].t_end)
             print(f"{label} against the flat outputs: max {r['max_position_error_m']:.3e} m, after 5 s "
-                  f"{r['max_position_error_after_5s_m']:.3e} m; controls saturated {r['saturated_s']:.2f} s")
+                  f"{after}; controls saturated {r['saturated_s']:.2f} s")
     print(f"figures, trajectories and tables written to {out.root}/, report {report['index']}")
     if not verdict["pass"]:
         print("gflat compare: the engines disagree beyond the tolerances (or a run ended early): FAIL")

@@ -78,6 +78,8 @@ def test_compare_command_prints_tables(tmp_path, capsys):
     engine_part = out.split("[inhouse against the plan")[0]
     assert engine_part.count("overall: PASS") == 2 and "FAIL" not in engine_part
     assert "no tolerances given" in out      # the tables against the plan are informative
+    plan_part = out.split("[inhouse against the plan")[1]
+    assert "overall: PASS" not in plan_part  # an informative table has no verdict line
     assert (tmp_path / "out" / "states.png").is_file()
     assert main(["compare", str(scen), "--engines", "inhouse"]) == 2
 
@@ -92,3 +94,9 @@ def test_compare_fails_when_engines_diverge(tmp_path, capsys):
     out = capsys.readouterr()
     assert rc in (1, 2), out.out[-2000:]
     assert "FAIL" in out.out or "not feasible" in out.err
+
+
+def test_position_error_of_a_run_that_ended_early_is_not_nan():
+    from harness.commands.compare import error_text
+    assert error_text(1.5e-3, 10.0) == "1.500e-03 m"
+    assert error_text(float("nan"), 3.25) == "n/a (run ended at t = 3.25 s)"
