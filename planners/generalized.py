@@ -21,9 +21,10 @@ import time
 
 import numpy as np
 
+from gna.errors import InputError
 from gna.trajectory import first_domain_violation
 
-from .flat import FlatProblem, parametrize
+from .flat import FlatProblem, check_iterations, parametrize
 from .plan import Plan
 from .singularity import monitor
 
@@ -94,14 +95,15 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
     Raises
     ------
     InputError
-        A grid of fewer than two increasing nodes, or a plan costing more than ``max_cost``.
+        A grid of fewer than two increasing nodes, J not a whole number in 0..30, or a plan costing more
+        than ``max_cost``.
     DomainError
         The flat output's altitude ``-z`` at a node is outside the
         atmosphere model's range (the ISA's -2 to 20 km).
     """
+    J = check_iterations(J, f"plan {name}")
     t_nodes = np.asarray(t_nodes, dtype=float)
     if t_nodes.ndim != 1 or len(t_nodes) < 2 or np.any(np.diff(t_nodes) <= 0):
-        from gna.errors import InputError
         raise InputError("the planning grid needs at least two increasing nodes")
     with np.errstate(all="ignore"):  # a non-finite z is reported by the parametrization with its cause
         z = np.broadcast_to(np.real(np.asarray(problem.z(t_nodes), dtype=complex)), t_nodes.shape)
@@ -110,7 +112,6 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
     cost = plan_cost(len(t_nodes), J, e)
     limit = MAX_PLAN_COST if max_cost is None else float(max_cost)
     if cost > limit:
-        from gna.errors import InputError
         raise InputError(f"plan {name}: J = {J} on {len(t_nodes)} nodes costs {cost:.3g} node-order^2 units, "
                          f"above the bound {limit:.3g} (about {6e-6 * cost / 60:.0f} min of planning); use fewer "
                          f"nodes or a smaller J, or raise the bound (--max-cost, max_cost= in Python; inf for none)")
@@ -189,6 +190,16 @@ def plan_scenario(scenario, J: int | None = None, max_cost: float | None = None)
     -------
     Plan
         See :func:`plan_motion`.
+
+    Raises
+    ------
+    InputError
+        ``scenario`` is not a Scenario, or ``J`` is not a whole number in 0..30.
     """
+    if not (callable(getattr(scenario, "problem", None)) and hasattr(scenario, "t_nodes")):
+        raise InputError(f"a Scenario is needed, got {type(scenario).__name__} {scenario!r:.60}; "
+                         f"planners.scenario.load_scenario(name) makes one")
+    if J is not None:
+        J = check_iterations(J, f"plan_scenario({scenario.name})")
     return plan_motion(scenario.problem(), scenario.t_nodes, scenario.J if J is None else J, name=scenario.name,
                        max_cost=max_cost)
