@@ -25,7 +25,7 @@ from ..engines import engine_names, engines_from_names
 from ..fileio import json_safe
 from ..outdir import OutputDir
 from ..validation import ValidationCase, case_settings, run_case
-from ._args import nonnegative_int
+from ._args import nonnegative_int, out_path
 from ._compare_args import add_compare_arguments, compare_overrides, default_out
 
 
@@ -41,7 +41,7 @@ def register(sub) -> None:
                    help=f"comma-separated engines, the first is the reference ({', '.join(engine_names())})")
     p.add_argument("--loop", choices=("open", "closed"), default="open",
                    help="open: the plan's controls alone; closed: with the tracking feedback (default open)")
-    p.add_argument("--out", default=None, metavar="DIR",
+    p.add_argument("--out", type=out_path, default=None, metavar="DIR",
                    help="output folder (default reports/out/<scenario>/open, or closed)")
     p.add_argument("--json", action="store_true", help="print one JSON object (the verdict) instead of the tables")
     add_compare_arguments(p)

@@ -14,7 +14,7 @@ from planners.scenario import list_scenarios, load_scenario
 
 from ..fileio import json_safe
 from ..outdir import OutputDir
-from ._args import nonnegative_int
+from ._args import nonnegative_int, out_path
 from ._compare_args import default_out
 
 
@@ -35,7 +35,7 @@ def register(sub) -> None:
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
     p.add_argument("--J", type=nonnegative_int, default=None, help="generalized-flatness iterations (default: the "
                                                                    "scenario's)")
-    p.add_argument("--out", default=None, metavar="DIR",
+    p.add_argument("--out", type=out_path, default=None, metavar="DIR",
                    help="output folder (default reports/out/<scenario>)")
     p.add_argument("--max-cost", type=_cost_bound, default=None, metavar="UNITS",
                    help="bound on the plan's cost, nodes x sum of squared orders (default 5e6, about 30 s; "

@@ -119,6 +119,10 @@ class ValidationCase:
         if self.windows is not None:
             win = self.windows.items() if isinstance(self.windows, Mapping) else self.windows
             win = tuple((str(k), None if d is None else _positive(d, f"window {k!r}")) for k, d in win)
+            names = [k for k, _ in win]
+            repeated = sorted({k for k in names if names.count(k) > 1})
+            if repeated:
+                raise InputError(f"windows: each name once, {', '.join(map(repr, repeated))} repeated")
             if not win:
                 raise InputError("a case needs at least one comparison window")
             set_(self, "windows", win)

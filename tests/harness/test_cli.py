@@ -8,6 +8,7 @@ import sys
 
 import pytest
 
+from gna.errors import InputError
 from harness.cli import main
 
 
@@ -100,3 +101,21 @@ def test_position_error_of_a_run_that_ended_early_is_not_nan():
     from harness.commands.compare import error_text
     assert error_text(1.5e-3, 10.0) == "1.500e-03 m"
     assert error_text(float("nan"), 3.25) == "n/a (run ended at t = 3.25 s)"
+
+
+@pytest.mark.parametrize("command", [["compare", "gtm-aileron-roll"], ["paper"], ["plan", "gtm-aileron-roll"],
+                                     ["export-jsbsim", "f16c"], ["export-jsbsim-script", "gtm-aileron-roll"],
+                                     ["fit", "regenerate"]])
+def test_an_empty_out_is_refused(command, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main([*command, "--out", ""])
+    assert exc.value.code == 2 and "--out: an empty path" in capsys.readouterr().err
+
+
+def test_a_repeated_window_name_is_refused(tmp_path, capsys):
+    assert main(["compare", "gtm-aileron-roll", "--window", "a=1", "--window", "a=2", "--out", str(tmp_path / "o")]) == 2
+    assert "--window: each name once, 'a' given 2 times" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+    from harness.validation import ValidationCase
+    with pytest.raises(InputError, match="windows: each name once, 'a' repeated"):
+        ValidationCase("x", windows=[("a", 1.0), ("a", 2.0)])
