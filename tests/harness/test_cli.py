@@ -119,3 +119,12 @@ def test_a_repeated_window_name_is_refused(tmp_path, capsys):
     from harness.validation import ValidationCase
     with pytest.raises(InputError, match="windows: each name once, 'a' repeated"):
         ValidationCase("x", windows=[("a", 1.0), ("a", 2.0)])
+
+
+def test_an_input_error_after_the_checks_leaves_no_output_folder(tmp_path, capsys):
+    scen = tmp_path / "high.toml"
+    scen.write_text('name = "high"\naircraft = "a7"\n[time]\nt0 = 0.0\nt1 = 4.0\nstep = 0.5\n'
+                    '[flat_outputs]\nx = "130*t"\ny = "0"\nz = "-1e6"\nzeta = "beta"\nzeta_value = "0"\n')
+    assert main(["plan", str(scen), "--out", str(tmp_path / "D")]) == 2
+    assert "outside the ISA model" in capsys.readouterr().err
+    assert not (tmp_path / "D").exists()
