@@ -30,8 +30,14 @@ ORDER_LOSS = 2
 STAGES = 4
 
 
-def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str = "plan") -> Plan:
-    """Plan with J generalized-flatness iterations.
+#: Methods of the generalized flat parametrization: the paper's J iterations, or Newton's method
+#: on their fixed point (:mod:`planners.generalized_newton`).
+METHODS = ("fixed-point", "newton")
+
+
+def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str = "plan",
+                method: str = "fixed-point", newton_tol: float = 1e-12, newton_maxiter: int = 8) -> Plan:
+    """Plan with J generalized-flatness iterations, or Newton's method on their fixed point.
 
     Parameters
     ----------
@@ -45,21 +51,41 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         interpolation to carry slopes).
     name : str
         Name of the plan (for messages and outputs).
+    method : {"fixed-point", "newton"}
+        ``"fixed-point"``: the paper's ``GeneralizedFlatParametrization`` (iterate j uses the H
+        values of iterate j - 1).  ``"newton"``: Newton's method on ``H = G(H)`` at the same starting
+        order ``kappa = e + 4 + 2 J`` (J is then the depth, not the number of iterations), iterates
+        truncated to the orders of the fixed point's iterate J (:func:`planners.generalized_newton.plan_newton`).
+    newton_tol : float
+        ``"newton"`` only: stop when ``max |H - G(H)|`` is below this [rad/s, rad].
+    newton_maxiter : int
+        ``"newton"`` only: Newton steps at most.
 
     Returns
     -------
     Plan
-        Every iterate, the Newton, singularity and envelope warnings, timings.
+        Every iterate, the Newton, singularity and envelope warnings, timings; ``plan.generalized``
+        holds the method and, for Newton, the fixed-point residual ``max |H - G(H)|`` of each iterate.
 
     Raises
     ------
     InputError
-        A grid of fewer than two increasing nodes.
+        A grid of fewer than two increasing nodes, or an unknown method.
     """
     t_nodes = np.asarray(t_nodes, dtype=float)
     if t_nodes.ndim != 1 or len(t_nodes) < 2 or np.any(np.diff(t_nodes) <= 0):
         from gna.errors import InputError
         raise InputError("the planning grid needs at least two increasing nodes")
+    if method not in METHODS:
+        from gna.errors import InputError
+        raise InputError(f"generalized-flatness method must be one of {', '.join(METHODS)}, got {method!r}")
+    if method == "newton":
+        from .generalized_newton import plan_newton
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            iterates, info = plan_newton(problem, t_nodes, J, e, tol=newton_tol, maxiter=newton_maxiter)
+        plan = Plan(problem, t_nodes, iterates, [], name, info["timings"])
+        plan.generalized = {"method": method, "depth": J, **info}
+        return _finish(plan)
     kappa = e + STAGES + J * ORDER_LOSS
     iterates, timings = [], {}
     prev = None
@@ -74,6 +100,13 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         prev = sol
         kappa -= ORDER_LOSS
     plan = Plan(problem, t_nodes, iterates, [], name, timings)
+    plan.generalized = {"method": method}
+    return _finish(plan)
+
+
+def _finish(plan: Plan) -> Plan:
+    """Newton failures, singularity monitor and envelope checks of a plan (both methods)."""
+    problem, t_nodes = plan.problem, plan.t_nodes
     plan.warnings.extend(plan.newton_failures)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         plan.singularities = monitor(plan)
@@ -85,7 +118,7 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
     return plan
 
 
-def plan_scenario(scenario, J: int | None = None) -> Plan:
+def plan_scenario(scenario, J: int | None = None, method: str | None = None) -> Plan:
     """Plan a :class:`~planners.scenario.Scenario`.
 
     Parameters
@@ -94,10 +127,26 @@ def plan_scenario(scenario, J: int | None = None) -> Plan:
         Flat outputs, aircraft, grid and J.
     J : int, optional
         Generalized-flatness iterations (default: the scenario's).
+    method : {"fixed-point", "newton"}, optional
+        Generalized-flatness method (default: the scenario's ``[generalized] method`` when it has
+        one, else ``"fixed-point"``).
 
     Returns
     -------
     Plan
         See :func:`plan_motion`.
+
+    Raises
+    ------
+    InputError
+        An unknown ``[generalized] method`` in the scenario.
     """
-    return plan_motion(scenario.problem(), scenario.t_nodes, scenario.J if J is None else J, name=scenario.name)
+    if method is None:
+        gen = (getattr(scenario, "raw", None) or {}).get("generalized", {})
+        method = gen.get("method", "fixed-point") if isinstance(gen, dict) else "fixed-point"
+        if method not in METHODS:
+            from gna.errors import InputError
+            raise InputError(f"scenario {scenario.name} [generalized]: method must be one of "
+                             f"{', '.join(repr(m) for m in METHODS)}, got {method!r}")
+    return plan_motion(scenario.problem(), scenario.t_nodes, scenario.J if J is None else J, name=scenario.name,
+                       method=method)

@@ -64,6 +64,9 @@ class Plan:
     singularities : SingularityReport or None
         The singularity monitor's conditions along iterate 0 (set by
         :func:`~planners.generalized.plan_motion`).
+    generalized : dict
+        The generalized-flatness method (``"method"``: ``"fixed-point"`` or ``"newton"``) and, for
+        Newton, its depth, starting order and fixed-point residual ``max |H - G(H)|`` per iterate.
     """
 
     problem: FlatProblem
@@ -73,6 +76,7 @@ class Plan:
     name: str = "plan"
     timings: dict = field(default_factory=dict)
     singularities: SingularityReport | None = None
+    generalized: dict = field(default_factory=dict)
 
     @property
     def aircraft(self) -> Aircraft:

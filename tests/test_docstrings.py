@@ -34,6 +34,7 @@ MODULES = [
     "planners.flat",
     "planners.plan",
     "planners.generalized",
+    "planners.generalized_newton",
     "planners.newton",
     "planners.singularity",
     "planners.tracking",
