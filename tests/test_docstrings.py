@@ -35,6 +35,7 @@ MODULES = [
     "planners.plan",
     "planners.generalized",
     "planners.generalized_newton",
+    "planners.flatness_test",
     "planners.newton",
     "planners.singularity",
     "planners.tracking",
