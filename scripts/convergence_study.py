@@ -252,6 +252,88 @@ NOTES = """\
 """
 
 
+def theorem1_section() -> str:
+    """Measured ranks and relative singular values of the Theorem 1 test (planners.flatness_test)."""
+    from gna.aircraft import load_aircraft
+    from gna.atmosphere import Environment
+    from gna.trim import trim
+    from planners.flatness_test import RANK_TOL, flatness_test, lift_maximum, stall_line
+    from planners.generalized import plan_scenario
+
+    alt = 1000.0
+    ac = load_aircraft("gtm")
+    env = Environment.constant(alt)
+    rho = float(env.density(-alt))
+    a_cl = lift_maximum(ac)
+    a_st, V_st = stall_line(ac, alt, env=env)
+
+    def line(alpha, density):
+        e = env if density == "constant" else None
+        V = trim(ac, {"alpha": alpha, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0}, altitude=alt, env=e,
+                 check_envelope=False).values["V"]
+        data = {"name": "line", "aircraft": "gtm", "time": {"t0": 0.0, "t1": 2.0, "step": 1.0},
+                "constants": {"V0": V},
+                "environment": {"density": "constant", "rho": rho} if density == "constant" else {"density": "isa"},
+                "flat_outputs": {"x": "V0*t", "y": "0", "z": f"-{alt}", "zeta": "beta", "zeta_value": "0"},
+                "calibration": {"alpha": alpha, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0, "altitude": alt},
+                "generalized": {"J": 0}}
+        return V, plan_scenario(scenario_from_dict(data), method="newton")
+
+    L = ["## Theorem 1 along a plan\n",
+         "`planners.flatness_test.flatness_test(plan, j, model=...)`: rank of the Silverman--Meadows matrix "
+         "`[M_0 .. M_11]`, `M_0 = B`, `M_(k+1) = A M_k - M_k'`, at every node, from the series of "
+         "`planners.tracking.linearize`; relative singular-value tolerance "
+         f"{RANK_TOL:g}.  Level straight lines of the GTM at {alt:g} m, planned from scenario dicts "
+         "(calibrated at their alpha, Newton method):\n",
+         f"The GNA `C_L` polynomial peaks at alpha = {a_cl:.4f} rad; the trimmed lift maximum (minimum of the "
+         f"level-flight speed, elevator lift and thrust included) is at alpha = {a_st:.6f} rad, V = {V_st:.4f} m/s "
+         "(`planners.flatness_test.stall_line`).\n",
+         "| line | alpha [rad] | V [m/s] | density | model | rank | smallest relative singular value | condition |",
+         "|---|---|---|---|---|---|---|---|"]
+    cases = [("cruise", 0.1, "constant"), ("C_L polynomial maximum", a_cl, "constant"),
+             ("stall - 1e-4 rad", a_st - 1e-4, "constant"), ("stall", a_st, "constant"),
+             ("stall + 1e-4 rad", a_st + 1e-4, "constant"), ("stall", a_st, "isa")]
+    for label, alpha, dens in cases:
+        V, plan = line(alpha, dens)
+        for model in ("full", "design"):
+            ft = flatness_test(plan, model=model)
+            L.append(f"| {label} | {alpha:.6f} | {V:.4f} | {dens} | {model} | {int(ft.rank.min())} | "
+                     f"{float(ft.sigma_min.min()):.2e} | {'holds' if ft.passed else 'fails'} |")
+    L.append("")
+    L.append("Along the paper's manoeuvres (iterate 0 of J = 5 plans, series of order 11, all blocks exact):\n")
+    L.append("| scenario | nodes | rank | smallest relative singular value |")
+    L.append("|---|---|---|---|")
+    for name in PAPER:
+        sc = load_scenario(name)
+        plan = plan_motion(sc.problem(), sc.t_nodes, 5)
+        ctr = ("F", "dl", "dm", "dn") if sc.eta is not None else ("F", "eta", "dl", "dm")
+        ft = flatness_test(plan, 0, controls=ctr)
+        L.append(f"| {name} | {len(plan.t_nodes)} | {int(ft.rank.min())} | {float(ft.sigma_min.min()):.2e} |")
+    L.append(THEOREM1_NOTES)
+    return "\n".join(L) + "\n"
+
+
+THEOREM1_NOTES = """
+* **Where it fails.** At the stall (the fold of the family of level flights, dV/dalpha = 0) the
+  Jacobian of the steady-flight equations in everything but the position is singular: a row vector
+  w with w [A B] = 0 on those columns exists.  With a constant density the position columns of A
+  are zero, so w is a left null vector of the whole [A B]: an uncontrollable mode at lambda = 0, rank
+  11 at every node -- the paper's statement, for the full model.  One tenth of a milliradian away the
+  rank is 12 again (a V-shaped minimum of the singular value, about 0.5 per rad).
+* **ISA.** With the density falling with altitude, the altitude column of A is not zero and keeps
+  rank 12, by a relative singular value of ~2e-5 (a climb into thinner air changes the lift): not
+  flat in the paper's idealisation, weakly so in the standard atmosphere.
+* **The design model** (force coefficients with the rates and surfaces frozen at the plan's values,
+  the model the flat parametrization solves) is not singular at the full model's stall: freezing the
+  elevator moves its fold; the condition is a property of the model linearized, not of the flat
+  outputs.  The singularity of the flat output {x, y, z, beta} (docs: singularity monitor) is a
+  different, weaker statement: a chart failing, not the linearized module failing to be free.
+* The stall line must start at the stall alpha (the calibration): the flat parametrization's stage 2
+  has a double root there and its Newton iteration gives alpha to ~3e-5 only, enough to restore the
+  rank (singular value 1.7e-5) -- another face of the same singularity.
+"""
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--jmax", type=int, default=10)
@@ -272,7 +354,10 @@ def main() -> None:
         print(f"{label}: contraction {r['contraction']:.3f}, best j = {r['best']} ({r['fp_res'][r['best']]:.1e}), "
               f"Newton depth 0 {r['newton'][0]['res'][-1]:.1e} in {len(r['newton'][0]['res']) - 1} steps "
               f"({time.perf_counter() - t:.0f} s)", flush=True)
-    Path(args.out).write_text(report(results, descriptions, jmax, args.repeat, roll))
+    text = report(results, descriptions, jmax, args.repeat, roll)
+    with np.errstate(all="ignore"):
+        text += "\n" + theorem1_section()
+    Path(args.out).write_text(text)
     print(f"wrote {args.out}")
 
 

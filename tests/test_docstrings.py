@@ -36,6 +36,8 @@ MODULES = [
     "planners.generalized",
     "planners.generalized_newton",
     "planners.flatness_test",
+    "planners.chained",
+    "planners.systems.first_order_lag",
     "planners.newton",
     "planners.singularity",
     "planners.tracking",
