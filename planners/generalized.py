@@ -85,6 +85,10 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
             iterates, info = plan_newton(problem, t_nodes, J, e, tol=newton_tol, maxiter=newton_maxiter)
         plan = Plan(problem, t_nodes, iterates, [], name, info["timings"])
         plan.generalized = {"method": method, "depth": J, **info}
+        if info["status"] != "converged":
+            plan.warnings.append(f"Newton on the generalized-flatness fixed point {info['status']} after "
+                                 f"{len(info['residual']) - 1} step(s): max |H - G(H)| = {info['residual'][-1]:.3g} "
+                                 f"(tolerance {newton_tol:g})")
         return _finish(plan)
     kappa = e + STAGES + J * ORDER_LOSS
     iterates, timings = [], {}

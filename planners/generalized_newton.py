@@ -43,6 +43,8 @@ from .series import Series
 H_NAMES = ("p", "q", "r", "dl", "dm", "dn")
 #: Complex step (the derivative is exact to rounding: no subtraction).
 _STEP = 1e-30
+#: Step halvings per Newton step where a node's residual does not decrease.
+HALVINGS = 5
 
 
 # ----------------------------------------------------------------------------- coefficient-space operators
@@ -133,6 +135,12 @@ def _gauss_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
         with np.errstate(divide="ignore", invalid="ignore"):
             x[:, k] = (x[:, k] - np.einsum("bj,bj->b", A[:, k, k + 1:], x[:, k + 1:])) / A[:, k, k]
     return x
+
+
+def _node_residual(F: np.ndarray) -> np.ndarray:
+    """max |F| per node of (6, nodes, K) coefficients; non-finite -> inf."""
+    r = np.max(np.abs(F), axis=(0, 2))
+    return np.where(np.isfinite(r), r, np.inf)
 
 
 def _coeffs(values, nodes: int, order: int) -> np.ndarray:
@@ -355,7 +363,8 @@ def plan_newton(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int = 1, t
     e : int
         Order of the controls in the returned iterates.
     tol : float
-        Stop when ``max |H - G~(H)|`` over nodes and coefficients is below this [rad/s, rad].
+        Stop when ``max |H - G~(H)|`` over nodes and coefficients is below this [rad/s, rad].  A step
+        that does not decrease a node's residual is halved there (at most :data:`HALVINGS` times).
     maxiter : int
         Newton steps at most.
 
@@ -365,7 +374,9 @@ def plan_newton(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int = 1, t
         Iterate 0 (the flat plan, order ``kappa``), then one per Newton step, truncated to order ``e + 4``.
     info : dict
         ``"residual"``: ``max |H - G~(H)|`` of each iterate; ``"timings"``: wall time [s] per iterate;
-        ``"order"``: ``kappa``.
+        ``"order"``: ``kappa``; ``"status"``: ``"converged"`` (below ``tol``), ``"stagnated"`` (a step
+        that does not decrease the residual even damped), ``"diverged"`` (non-finite) or ``"maxiter"``;
+        ``"damping"``: the smallest step factor of each step (1: full Newton steps).
     """
     from .generalized import ORDER_LOSS, STAGES
 
@@ -378,22 +389,45 @@ def plan_newton(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int = 1, t
     iterates, residuals, timings = [sol], [], {0: time.perf_counter() - t_start}
     F = g_residual(sol, H)
     residuals.append(float(np.max(np.abs(F))))
+    status, damping = "converged", []
     for n in range(1, maxiter + 1):
-        if not residuals[-1] > tol:       # NaN continues to the limit: reported by the residual
+        if not residuals[-1] > tol:
             break
         t_start = time.perf_counter()
         dG = h_jacobian(problem, t_nodes, kappa, sol, H)
         A = np.eye(6 * (N + 1))[None] - dG
         rhs = np.moveaxis(F, 1, 0).reshape(nodes, -1)
-        step = _gauss_solve(A, rhs)
-        H = H - np.moveaxis(step.reshape(nodes, 6, N + 1), 0, 1)
-        sol = parametrize(problem, t_nodes, kappa, h=_as_h(H), guess=sol.series)
-        F = g_residual(sol, H)
+        step = np.moveaxis(_gauss_solve(A, rhs).reshape(nodes, 6, N + 1), 0, 1)
+        # Damped per node (the nodes are independent problems): halve the step where the node's
+        # residual max |H - G(H)| does not decrease, at most HALVINGS times.
+        r_node = _node_residual(F)
+        lam = np.ones(nodes)
+        for attempt in range(HALVINGS + 1):
+            H_try = H - lam[None, :, None] * np.nan_to_num(step)
+            sol_try = parametrize(problem, t_nodes, kappa, h=_as_h(H_try), guess=sol.series)
+            F_try = g_residual(sol_try, H_try)
+            ok = (_node_residual(F_try) < r_node) | (r_node <= tol)
+            if np.all(ok) or attempt == HALVINGS:
+                break
+            lam = np.where(ok, lam, lam / 2)
+        damping.append(float(np.min(lam)))
+        H, sol, F = H_try, sol_try, F_try
         residuals.append(float(np.max(np.abs(F))))
         iterates.append(sol)
         timings[n] = time.perf_counter() - t_start
+        if not np.isfinite(residuals[-1]):
+            status = "diverged"
+            break
+        if not residuals[-1] < residuals[-2]:
+            status = "stagnated"
+            break
+    else:
+        if residuals[-1] > tol:
+            status = "maxiter"
+    if residuals[-1] > tol and status == "converged":
+        status = "maxiter"
     out = [iterates[0]] + [truncate_solution(s, e + STAGES) for s in iterates[1:]]
-    return out, {"residual": residuals, "timings": timings, "order": kappa}
+    return out, {"residual": residuals, "timings": timings, "order": kappa, "status": status, "damping": damping}
 
 
 class ModelCounter:
