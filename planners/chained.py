@@ -231,6 +231,8 @@ class ChainedPlan:
         Newton reports per iterate and stage.
     timings : dict
         Wall time [s] per iterate.
+    residuals : list of float
+        Newton only: ``max |X^ - G~(X^)|`` per iterate.
     """
 
     system: ChainedSystem
@@ -238,6 +240,7 @@ class ChainedPlan:
     iterates: list
     reports: list = field(default_factory=list)
     timings: dict = field(default_factory=dict)
+    residuals: list = field(default_factory=list)
 
     @property
     def J(self) -> int:
@@ -338,3 +341,171 @@ def generalized_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[st
         guess = sol
         kappa -= system.L
     return ChainedPlan(system, t_nodes, iterates, reports, timings)
+
+
+# ----------------------------------------------------------------------------- Newton on the fixed point
+
+def _hat_orders(system: ChainedSystem, order: int) -> dict:
+    """Order of each neglected variable where it is first used: ``kappa - h`` for stage h."""
+    out = {}
+    for h, s in enumerate(system.stages, start=1):
+        for n in s.neglected:
+            out.setdefault(n, order - h)
+    return out
+
+
+def _chained_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapping) -> np.ndarray:
+    """Exact ``dG~/d hat`` on the coefficients (nodes, size, size), stages composed as in
+    :func:`planners.generalized_newton.h_jacobian` (complex-step partials, constant directions)."""
+    from .generalized_newton import _block_toeplitz, _cs_jacobian, _derivative_matrix, _resize_matrix, \
+        _series_inverse
+
+    horders = _hat_orders(system, order)
+    names = list(horders)
+    offsets, size = {}, 0
+    for n in names:
+        offsets[n] = size
+        size += horders[n] + 1
+    nodes = next(iter(sol.values())).batch_shape[0]
+    sens = {}            # variable -> (nodes, K + 1, size): d variable / d hat
+    orders = {}
+    for z in system.flat_outputs:
+        orders[z] = sol[z].order
+    for h, stage in enumerate(system.stages, start=1):
+        k = order - h
+        earlier = [n for n in sens]                    # unknowns of earlier stages
+        inputs = {}
+        for n in earlier:
+            inputs[n] = (sol[n], _resize_matrix(1, orders[n], k) @ sens[n])
+            if orders[n] >= 1:
+                inputs[n + "'"] = (sol[n].derivative(),
+                                   _resize_matrix(1, orders[n] - 1, k) @ (_derivative_matrix(1, orders[n]) @ sens[n]))
+        for n in stage.neglected:
+            sel = np.zeros((horders[n] + 1, size))
+            sel[:, offsets[n]:offsets[n] + horders[n] + 1] = np.eye(horders[n] + 1)
+            v = hat[n]
+            inputs[n] = (v, _resize_matrix(1, horders[n], k) @ sel)
+        fixed = {z: sol[z] for z in system.flat_outputs}
+        fixed.update({z + "'": sol[z].derivative() for z in system.flat_outputs if sol[z].order >= 1})
+        pnames = list(stage.unknowns) + list(inputs)
+        base = [sol[u] for u in stage.unknowns] + [inputs[p][0] for p in inputs]
+        base = [b.truncate(k) if b.order >= k else b.pad(k) for b in base]
+        fixed_k = _at_order(fixed, k)
+
+        def fun(vals, pnames=pnames, fixed_k=fixed_k, stage=stage):
+            v = dict(fixed_k)
+            v.update(zip(pnames, vals))
+            return stage.residual(v)
+
+        jac = _cs_jacobian(fun, base, k)                # (n_eq, n_in, nodes, k+1)
+        nu = len(stage.unknowns)
+        rhs = 0.0
+        for i, p in enumerate(inputs):
+            rhs = rhs + _block_toeplitz(jac[:, nu + i:nu + i + 1], k, k) @ inputs[p][1]
+        W = _series_inverse(jac[:, :nu])
+        S = -_block_toeplitz(W, k, k) @ rhs if nu else None
+        for i, u in enumerate(stage.unknowns):
+            sens[u] = S[:, i * (k + 1):(i + 1) * (k + 1)] if np.ndim(S) else np.zeros((nodes, k + 1, size))
+            orders[u] = k
+    dG = np.zeros((nodes, size, size))
+    for n in names:
+        dG[:, offsets[n]:offsets[n] + horders[n] + 1] = _resize_matrix(1, orders[n], horders[n]) @ sens[n]
+    return dG
+
+
+def _hat_vector(system, order, values: Mapping, nodes: int) -> np.ndarray:
+    """(nodes, size) coefficients of the neglected variables (series or constants), zero-padded."""
+    from .generalized_newton import _coeffs
+
+    horders = _hat_orders(system, order)
+    parts = [_coeffs(values.get(n, system.guess.get(n, 0.0)), nodes, horders[n]) for n in horders]
+    return np.concatenate(parts, axis=1)
+
+
+def _hat_dict(system, order, vec: np.ndarray) -> dict:
+    out, i = {}, 0
+    for n, K in _hat_orders(system, order).items():
+        out[n] = Series(vec[:, i:i + K + 1])
+        i += K + 1
+    return out
+
+
+def newton_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[str, Callable], J: int = 0, e: int = 1,
+                           v: Mapping | None = None, tol: float = 1e-13, maxiter: int = 8) -> ChainedPlan:
+    """Newton's method on the fixed point of :func:`generalized_parametrization` (same starting order).
+
+    The neglected variables ``X^`` are the unknowns of ``F(X^) = X^ - G~(X^)``, ``G~`` the flat
+    parametrization's values of those variables zero-padded to the order they are used at; the
+    Jacobian is exact (complex-step partials of each stage's residual, composed on the Taylor
+    coefficients), as for the aircraft (:mod:`planners.generalized_newton`).
+
+    Parameters
+    ----------
+    system : ChainedSystem
+        The system.
+    t_nodes : array, shape (nodes,)
+        Increasing node times.
+    zeta : mapping of str -> callable
+        The flat outputs as functions of t.
+    J : int
+        Depth: the starting order ``kappa = e + r + J L`` of the fixed point with J iterations.
+    e : int
+        Order of the last stage's unknowns in the returned iterates.
+    v : mapping, optional
+        Starting values of the neglected variables (default: the system's guesses).
+    tol : float
+        Stop when ``max |X^ - G~(X^)|`` is below this.
+    maxiter : int
+        Newton steps at most.
+
+    Returns
+    -------
+    ChainedPlan
+        Iterate 0 (the flat parametrization at ``kappa``), then one per Newton step truncated to the
+        fixed point's last-iterate orders; ``timings`` per iterate; the residuals
+        ``max |X^ - G~(X^)|`` in ``plan.residuals``.
+
+    Raises
+    ------
+    InputError
+        Fewer than two increasing nodes or a negative J.
+    """
+    t_nodes = np.asarray(t_nodes, dtype=float)
+    if t_nodes.ndim != 1 or len(t_nodes) < 2 or np.any(np.diff(t_nodes) <= 0):
+        raise InputError("the planning grid needs at least two increasing nodes")
+    if J < 0:
+        raise InputError(f"J must be >= 0, got {J}")
+    from .generalized_newton import _gauss_solve
+
+    kappa = e + system.r + J * system.L
+    nodes = len(t_nodes)
+    t0 = time.perf_counter()
+    x = _hat_vector(system, kappa, dict(v or {}), nodes)
+    sol, rep = flat_parametrization(system, t_nodes, kappa, zeta, hat=_hat_dict(system, kappa, x))
+    iterates, reports, timings = [sol], [rep], {0: time.perf_counter() - t0}
+
+    def residual(sol):
+        return x - _hat_vector(system, kappa, {n: sol[n] for n in _hat_orders(system, kappa)}, nodes)
+
+    F = residual(sol)
+    res = [float(np.max(np.abs(F)))]
+    for n in range(1, maxiter + 1):
+        if not res[-1] > tol:
+            break
+        t0 = time.perf_counter()
+        dG = _chained_jacobian(system, kappa, sol, _hat_dict(system, kappa, x))
+        x = x - _gauss_solve(np.eye(x.shape[1])[None] - dG, F)
+        sol, rep = flat_parametrization(system, t_nodes, kappa, zeta, hat=_hat_dict(system, kappa, x), guess=sol)
+        F = residual(sol)
+        res.append(float(np.max(np.abs(F))))
+        iterates.append(sol)
+        reports.append(rep)
+        timings[n] = time.perf_counter() - t0
+        if not res[-1] < res[-2]:
+            break
+    k_last = e + system.r
+    out = [iterates[0]] + [{name: s.truncate(min(s.order, k_last - system.stage_of(name) + 1))
+                            for name, s in it.items()} for it in iterates[1:]]
+    plan = ChainedPlan(system, t_nodes, out, reports, timings)
+    plan.residuals = res
+    return plan
