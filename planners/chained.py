@@ -357,7 +357,7 @@ def _hat_orders(system: ChainedSystem, order: int) -> dict:
 def _chained_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapping) -> np.ndarray:
     """Exact ``dG~/d hat`` on the coefficients (nodes, size, size), stages composed as in
     :func:`planners.generalized_newton.h_jacobian` (complex-step partials, constant directions)."""
-    from .generalized_newton import _block_toeplitz, _cs_jacobian, _derivative_matrix, _resize_matrix, \
+    from .generalized_newton import _block_toeplitz, _cs_jacobian, _derivative_matrix, _mm, _resize_matrix, \
         _series_inverse
 
     horders = _hat_orders(system, order)
@@ -376,10 +376,10 @@ def _chained_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapp
         earlier = [n for n in sens]                    # unknowns of earlier stages
         inputs = {}
         for n in earlier:
-            inputs[n] = (sol[n], _resize_matrix(1, orders[n], k) @ sens[n])
+            inputs[n] = (sol[n], _mm(_resize_matrix(1, orders[n], k), sens[n]))
             if orders[n] >= 1:
                 inputs[n + "'"] = (sol[n].derivative(),
-                                   _resize_matrix(1, orders[n] - 1, k) @ (_derivative_matrix(1, orders[n]) @ sens[n]))
+                                   _mm(_resize_matrix(1, orders[n] - 1, k), _mm(_derivative_matrix(1, orders[n]), sens[n])))
         for n in stage.neglected:
             sel = np.zeros((horders[n] + 1, size))
             sel[:, offsets[n]:offsets[n] + horders[n] + 1] = np.eye(horders[n] + 1)
@@ -401,15 +401,15 @@ def _chained_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapp
         nu = len(stage.unknowns)
         rhs = 0.0
         for i, p in enumerate(inputs):
-            rhs = rhs + _block_toeplitz(jac[:, nu + i:nu + i + 1], k, k) @ inputs[p][1]
+            rhs = rhs + _mm(_block_toeplitz(jac[:, nu + i:nu + i + 1], k, k), inputs[p][1])
         W = _series_inverse(jac[:, :nu])
-        S = -_block_toeplitz(W, k, k) @ rhs if nu else None
+        S = -_mm(_block_toeplitz(W, k, k), rhs) if nu else None
         for i, u in enumerate(stage.unknowns):
             sens[u] = S[:, i * (k + 1):(i + 1) * (k + 1)] if np.ndim(S) else np.zeros((nodes, k + 1, size))
             orders[u] = k
     dG = np.zeros((nodes, size, size))
     for n in names:
-        dG[:, offsets[n]:offsets[n] + horders[n] + 1] = _resize_matrix(1, orders[n], horders[n]) @ sens[n]
+        dG[:, offsets[n]:offsets[n] + horders[n] + 1] = _mm(_resize_matrix(1, orders[n], horders[n]), sens[n])
     return dG
 
 

@@ -69,6 +69,19 @@ def _block_toeplitz(jac: np.ndarray, k_out: int, k_in: int) -> np.ndarray:
     return out.reshape(nodes, n_out * (k_out + 1), n_in * (k_in + 1))
 
 
+def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Matrix product, batched over a leading node axis of either factor, in numpy's own loops.
+
+    Not BLAS: these are many mid-size products, for which multi-threaded BLAS on a loaded machine
+    (the shared 2-core machine of this project) was measured 5 to 20 times slower.
+    """
+    if a.ndim == 2:
+        return np.einsum("ij,njk->nik", a, b)
+    if b.ndim == 2:
+        return np.einsum("nij,jk->nik", a, b)
+    return np.einsum("nij,njk->nik", a, b)
+
+
 def _derivative_matrix(n: int, k_in: int) -> np.ndarray:
     """``d/dt`` of n series of order ``k_in`` (to order ``k_in - 1``), on coefficients."""
     D = np.zeros((n, k_in, n, k_in + 1))
@@ -274,8 +287,8 @@ def h_jacobian(problem: FlatProblem, t_nodes: np.ndarray, order: int, sol: NodeS
     Pt = _cs_jacobian(r3, u2[:3], N, coefficient=1)[..., :N]
     P1 = Pt.copy()
     P1[..., 1:] -= P0[..., :-1]                                            # direction t: P0 t + P1
-    M3 = _block_toeplitz(P0, N - 1, N) + _block_toeplitz(P1, N - 1, N - 1) @ _derivative_matrix(3, N)
-    Spqr = M3 @ S2[:, :3 * (N + 1)]                                        # (nodes, 3N, 6(N+1))
+    M3 = _block_toeplitz(P0, N - 1, N) + _mm(_block_toeplitz(P1, N - 1, N - 1), _derivative_matrix(3, N))
+    Spqr = _mm(M3, S2[:, :3 * (N + 1)])                                        # (nodes, 3N, 6(N+1))
 
     # Stage 4: moment equations at order K4 (full model), as in planners.flat.parametrize.
     p, q, r = s["p"], s["q"], s["r"]
@@ -298,10 +311,10 @@ def h_jacobian(problem: FlatProblem, t_nodes: np.ndarray, order: int, sol: NodeS
     in4 = ([s[k].truncate(K4) for k in ("alpha", "beta", "mu", "F", "p", "q", "r")]
            + [pd.truncate(K4), qd.truncate(K4), rd.truncate(K4)] + [s[k].truncate(K4) for k in names4])
     jac4 = _cs_jacobian(r4, in4, K4)                                       # (3, 13, nodes, K4+1)
-    rhs = (_block_toeplitz(jac4[:, :4], K4, K4) @ (_resize_matrix(4, N, K4) @ S2)
-           + _block_toeplitz(jac4[:, 4:7], K4, K4) @ (_resize_matrix(3, N - 1, K4) @ Spqr)
-           + _block_toeplitz(jac4[:, 7:10], K4, K4) @ (_derivative_matrix(3, N - 1) @ Spqr))
-    Sv = -_block_toeplitz(_series_inverse(jac4[:, 10:]), K4, K4) @ rhs     # (nodes, 3(K4+1), 6(N+1))
+    rhs = (_mm(_block_toeplitz(jac4[:, :4], K4, K4), _mm(_resize_matrix(4, N, K4), S2))
+           + _mm(_block_toeplitz(jac4[:, 4:7], K4, K4), _mm(_resize_matrix(3, N - 1, K4), Spqr))
+           + _mm(_block_toeplitz(jac4[:, 7:10], K4, K4), _mm(_derivative_matrix(3, N - 1), Spqr)))
+    Sv = -_mm(_block_toeplitz(_series_inverse(jac4[:, 10:]), K4, K4), rhs)    # (nodes, 3(K4+1), 6(N+1))
 
     n_surf = 3 if problem.eta is not None else 2                           # a fixed rudder is not an unknown
     dG = np.zeros((nodes, 6, N + 1, 6 * (N + 1)))
