@@ -263,8 +263,8 @@ class ChainedPlan:
 
         Returns
         -------
-        ndarray, shape (N,)
-            Values at ``t``.
+        float or ndarray, shape (N,)
+            Values at ``t`` (a float for a scalar ``t``).
 
         Raises
         ------
@@ -290,7 +290,7 @@ class ChainedPlan:
         if derivative > 0:
             out = out + derivative * (_taylor_derivative(c[:, i + 1], t_arr - tj, derivative - 1)
                                       - _taylor_derivative(c[:, i], t_arr - ti, derivative - 1)) / dt
-        return out[0]
+        return out[0] if np.ndim(t) else float(out[0][0])
 
 
 def generalized_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[str, Callable], J: int = 0,
@@ -402,10 +402,12 @@ def _chained_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapp
         rhs = 0.0
         for i, p in enumerate(inputs):
             rhs = rhs + _mm(_block_toeplitz(jac[:, nu + i:nu + i + 1], k, k), inputs[p][1])
-        W = _series_inverse(jac[:, :nu])
-        S = -_mm(_block_toeplitz(W, k, k), rhs) if nu else None
+        if np.ndim(rhs):
+            S = -_mm(_block_toeplitz(_series_inverse(jac[:, :nu]), k, k), rhs)
+        else:                                           # nothing upstream depends on the neglected terms
+            S = np.zeros((nodes, nu * (k + 1), size))
         for i, u in enumerate(stage.unknowns):
-            sens[u] = S[:, i * (k + 1):(i + 1) * (k + 1)] if np.ndim(S) else np.zeros((nodes, k + 1, size))
+            sens[u] = S[:, i * (k + 1):(i + 1) * (k + 1)]
             orders[u] = k
     dG = np.zeros((nodes, size, size))
     for n in names:

@@ -38,6 +38,7 @@ MODULES = [
     "planners.flatness_test",
     "planners.chained",
     "planners.systems.first_order_lag",
+    "planners.systems.car_trailers",
     "planners.newton",
     "planners.singularity",
     "planners.tracking",
