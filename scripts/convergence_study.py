@@ -361,8 +361,9 @@ def car_section() -> str:
     L.append(f"| Newton depth 4 ({len(plan.residuals) - 1} steps, max \\|X^ − G(X^)\\| = "
              f"{plan.residuals[-1]:.1e}) | {err(plan):.2e} |")
     L.append("")
-    L.append("`gflat plan car-two-trailers` / `gflat plan first-order-lag` are not wired: the scenario loader "
-             "(aircraft scenarios) and the `plan` command do not know chained systems yet; the Python API is "
+    L.append("`gflat plan first-order-lag` and `gflat plan car-two-trailers [--J N]` run these demos "
+             "(`planners.systems.demos`: the plan, its check against the exact reference, `plan.csv` and "
+             "`summary.json`); chained systems have no scenario files yet.  Python API: "
              "`planners.chained.generalized_parametrization` / `newton_parametrization` with "
              "`planners.systems.SYSTEMS`.\n")
     return "\n".join(L) + "\n"

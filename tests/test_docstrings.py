@@ -39,6 +39,7 @@ MODULES = [
     "planners.chained",
     "planners.systems.first_order_lag",
     "planners.systems.car_trailers",
+    "planners.systems.demos",
     "planners.newton",
     "planners.singularity",
     "planners.tracking",

@@ -9,6 +9,7 @@ import numpy as np
 
 from planners.plan import save_plan
 from planners.scenario import list_scenarios
+from planners.systems.demos import DEMOS, run_demo
 
 from ..validation import ValidationCase, plan_case
 from ._args import nonnegative_int
@@ -17,7 +18,8 @@ from ._args import nonnegative_int
 def register(sub) -> None:
     p = sub.add_parser("plan", help="plan a manoeuvre (flatness + generalized flatness)",
                        description="Plan a scenario: flat parametrization on a grid of power series, then J "
-                                   "generalized-flatness iterations. Bundled scenarios: " + ", ".join(list_scenarios()))
+                                   "generalized-flatness iterations. Bundled scenarios: " + ", ".join(list_scenarios())
+                                   + "; chained-system demos: " + ", ".join(DEMOS))
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
     p.add_argument("--J", type=nonnegative_int, default=None, help="generalized-flatness iterations (default: the "
                                                                    "scenario's)")
@@ -61,6 +63,9 @@ def write_plan(sc, plan, elapsed: float, out: Path) -> str:
 
 
 def run(args) -> int:
+    if args.scenario in DEMOS:  # a chained system of planners.systems, not an aircraft scenario
+        print(run_demo(args.scenario, J=args.J, out=Path(args.out or Path("reports") / "out" / args.scenario)))
+        return 0
     planned = plan_case(ValidationCase(args.scenario, J=args.J))
     sc, plan = planned.scenario, planned.plan
     out = Path(args.out) if args.out else Path("reports") / "out" / sc.name

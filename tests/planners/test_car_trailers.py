@@ -43,3 +43,22 @@ def test_newton_and_on_axle():
     flat = CarTrailers(d1=0.0, d2=0.0)        # on-axle: flat, iterate 0 exact up to interpolation
     plan = generalized_parametrization(car_two_trailers(flat, V), T_NODES, ZETA, J=0, e=3)
     assert open_loop_error(plan, flat) < 2e-5
+
+
+def test_gflat_plan_runs_the_chained_demos(tmp_path, capsys):
+    import json
+
+    from harness.cli import main
+
+    for name, key in (("first-order-lag", "max |y - (1 + eps d/dt)^-1 x'| at the nodes"),
+                      ("car-two-trailers", "open-loop error of the exact off-axle model [m]")):
+        assert main(["plan", name, "--out", str(tmp_path / name)]) == 0
+        summary = json.loads((tmp_path / name / "summary.json").read_text())
+        assert summary["checks"][key] < (1e-10 if name == "first-order-lag" else 1e-4)
+        assert (tmp_path / name / "plan.csv").exists()
+    assert "written to" in capsys.readouterr().out
+    from gna.errors import InputError
+    from planners.systems.demos import run_demo
+    with pytest.raises(InputError, match="unknown chained-system demo"):
+        run_demo("unicycle")
+    assert "Newton max" in run_demo("first-order-lag", J=2, method="newton")
