@@ -60,6 +60,15 @@ MODULES = [
     "harness.metrics.runs",
     "harness.validation.case",
     "harness.validation.run",
+    "harness.outdir",
+    "harness.artefacts",
+    "harness.validation.tolerances",
+    "harness.validation.result",
+    "harness.engines.jsbsim.grid",
+    "reports.model",
+    "reports.html",
+    "reports.pdf",
+    "reports.report_figures",
 ]
 
 

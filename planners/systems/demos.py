@@ -7,9 +7,9 @@ flown open loop for the car with two trailers.
 
 from __future__ import annotations
 
-import json
+import io
 import time
-from pathlib import Path
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -56,8 +56,30 @@ def _car(J):
 DEMOS = {"first-order-lag": _lag, "car-two-trailers": _car}
 
 
-def run_demo(name: str, J: int | None = None, method: str = "fixed-point", out=None) -> str:
-    """Plan a bundled chained-system demo, check it against its exact reference, write its files.
+@dataclass
+class DemoResult:
+    """What :func:`run_demo` produced.
+
+    Attributes
+    ----------
+    text : str
+        The report text.
+    csv : str
+        Every variable of the last iterate on a grid four times finer than the nodes (CSV, header ``t, ...``).
+    summary : dict
+        System, method, J, nodes, planning time [s], the checks and the Newton residuals.
+    plan : ChainedPlan
+        The plan.
+    """
+
+    text: str
+    csv: str
+    summary: dict
+    plan: object
+
+
+def run_demo(name: str, J: int | None = None, method: str = "fixed-point") -> DemoResult:
+    """Plan a bundled chained-system demo and check it against its exact reference.
 
     Parameters
     ----------
@@ -67,13 +89,11 @@ def run_demo(name: str, J: int | None = None, method: str = "fixed-point", out=N
         Iterations (fixed point) or depth (Newton); default the demo's.
     method : {"fixed-point", "newton"}
         Generalized-flatness method.
-    out : str or Path, optional
-        Folder for ``plan.csv`` (every variable of the last iterate on a fine grid) and ``summary.json``.
 
     Returns
     -------
-    str
-        The report text.
+    DemoResult
+        Report text, CSV table of the plan, summary.
 
     Raises
     ------
@@ -97,15 +117,11 @@ def run_demo(name: str, J: int | None = None, method: str = "fixed-point", out=N
     if plan.residuals:
         lines.append("  Newton max |X^ - G(X^)| per step: " + ", ".join(f"{r:.2e}" for r in plan.residuals))
     lines += [f"  {k}: {v:.3e}" for k, v in checks.items()]
-    if out is not None:
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        grid = np.linspace(tn[0], tn[-1], 4 * (len(tn) - 1) + 1)
-        names = list(plan.iterates[-1])
-        table = np.column_stack([grid] + [plan.evaluate(n, grid) for n in names])
-        np.savetxt(out / "plan.csv", table, delimiter=",", header=",".join(["t"] + names), comments="", fmt="%.10g")
-        summary = {"system": name, "description": desc, "method": method, "J": J, "nodes": len(tn),
-                   "planning_time_s": elapsed, "checks": checks, "newton_residuals": plan.residuals}
-        (out / "summary.json").write_text(json.dumps(summary, indent=2))
-        lines.append(f"  written to {out}/")
-    return "\n".join(lines)
+    grid = np.linspace(tn[0], tn[-1], 4 * (len(tn) - 1) + 1)
+    names = list(plan.iterates[-1])
+    buf = io.StringIO()
+    np.savetxt(buf, np.column_stack([grid] + [plan.evaluate(n, grid) for n in names]), delimiter=",",
+               header=",".join(["t"] + names), comments="", fmt="%.10g")
+    summary = {"system": name, "description": desc, "method": method, "J": J, "nodes": len(tn),
+               "planning_time_s": elapsed, "checks": checks, "newton_residuals": plan.residuals}
+    return DemoResult("\n".join(lines), buf.getvalue(), summary, plan)

@@ -61,4 +61,4 @@ def test_gflat_plan_runs_the_chained_demos(tmp_path, capsys):
     from planners.systems.demos import run_demo
     with pytest.raises(InputError, match="unknown chained-system demo"):
         run_demo("unicycle")
-    assert "Newton max" in run_demo("first-order-lag", J=2, method="newton")
+    assert "Newton max" in run_demo("first-order-lag", J=2, method="newton").text
