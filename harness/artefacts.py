@@ -366,7 +366,8 @@ def _run_meta(res) -> dict:
 
 
 def write_artefacts(result, out: OutputDir | str | Path, *, csv: bool = False, plan: bool = True,
-                    manifest: bool = True, figures=(), extra: dict | None = None) -> dict[str, list[Path]]:
+                    manifest: bool = True, figures=(), extra: dict | None = None,
+                    command_line: list | None = None) -> dict[str, list[Path]]:
     """Write a case result's data: trajectories, ``differences.txt``, ``summary.json``, plan, manifest.
 
     Parameters
@@ -386,6 +387,8 @@ def write_artefacts(result, out: OutputDir | str | Path, *, csv: bool = False, p
         Figures already written, listed in ``summary.json``.
     extra : dict, optional
         Added to ``summary.json``.
+    command_line : list of str, optional
+        The command recorded in the manifest (default ``sys.argv``).
 
     Returns
     -------
@@ -416,7 +419,7 @@ def write_artefacts(result, out: OutputDir | str | Path, *, csv: bool = False, p
     summary.update(extra or {})
     files["summary"] = [od.write_json("summary.json", obj=json_safe(summary))]
     if manifest:
-        files["manifest"] = [write_manifest(od, [result])]
+        files["manifest"] = [write_manifest(od, [result], command_line=command_line)]
     if own:
         od.finish()
     return files

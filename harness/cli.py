@@ -158,6 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     """
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.command_line = ["gflat", *(sys.argv[1:] if argv is None else argv)]   # recorded in manifests
     setup_logging(args.verbose, args.quiet)
     log = logging.getLogger("gflat")
     start = time.perf_counter()

@@ -60,7 +60,7 @@ def run(args) -> int:
     case_settings(case, scenario)                    # settings and destination checked before planning
     out = OutputDir(args.out) if args.out else default_out(scenario.name, args.loop)
     result = run_case(case, scenario=scenario)
-    write_case(result, out, csv=args.csv)
+    write_case(result, out, csv=args.csv, command_line=getattr(args, "command_line", None))
     out.finish()
     report = render_run(out.root, pdf=False)          # the case page and an index of one
     verdict = result.verdict()

@@ -115,7 +115,7 @@ def run(args) -> int:
               f"{runs['jsbsim']['status']}, {runs['jsbsim']['max_position_error_m']:.2e} m; in-house vs JSBSim "
               f"{v['differences']['jsbsim']['max_position_m']:.2e} m")
         print(f"  four-curve figure: {out.path(name, 'closed', 'tracking.png')}")
-    write_manifest(out, results)
+    write_manifest(out, results, command_line=getattr(args, "command_line", None))
     out.finish()
     print(f"\nmanifest, plans, trajectories, figures and tables written to {out.root}/")
     failed = [c.scenario for c, ok in zip(cases, passed) if not ok]

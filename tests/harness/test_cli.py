@@ -128,3 +128,13 @@ def test_an_input_error_after_the_checks_leaves_no_output_folder(tmp_path, capsy
     assert main(["plan", str(scen), "--out", str(tmp_path / "D")]) == 2
     assert "outside the ISA model" in capsys.readouterr().err
     assert not (tmp_path / "D").exists()
+
+
+def test_manifest_records_the_gflat_command_line(tmp_path):
+    """The manifest names the gflat command that made the run, also when main() is called in-process."""
+    import json
+
+    out = tmp_path / "c"
+    assert main(["compare", "gtm-aileron-roll", "--out", str(out)]) == 0
+    assert json.loads((out / "manifest.json").read_text())["command_line"] == [
+        "gflat", "compare", "gtm-aileron-roll", "--out", str(out)]
