@@ -199,7 +199,7 @@ def scenario_schema() -> dict:
                           "x-type": "number or \"step\"",
                           "description": "Sampling interval of the feedback on sampled engines (JSBSim), the output "
                                          "held in between; \"step\" samples at every engine step",
-                          "x-unit": "s", "x-default": "1/60"},
+                          "x-unit": "s", "x-default": "\"step\""},
         "perturbation": {"type": "object", "additionalProperties": False,
                          "description": "Model and initial-state perturbation (gna.perturbation)",
                          "properties": PERTURBATION}})
