@@ -25,6 +25,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "export_jsbsim",
     "export_script",
     "fit",
+    "campaign",
 )
 
 
