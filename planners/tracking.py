@@ -770,6 +770,45 @@ class TrackingController:
         _, _, out, rates = self._evaluate(t, x, xc)
         return out, rates
 
+    def output_and_derivative_many(self, t: float, X: np.ndarray, XC: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`output_and_derivative` for many aircraft at the same time ``t`` (batched simulation).
+
+        The same arithmetic as :meth:`_evaluate`, the reference and gains
+        evaluated once and applied to every column.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        X : ndarray, shape (12, n)
+            Aircraft states, one column per aircraft.
+        XC : ndarray, shape (n_states, n)
+            Integrals, one column per aircraft.
+
+        Returns
+        -------
+        (ndarray, ndarray), shapes (5, n) and (n_states, n)
+            Corrections ``sat(u~ + K [dx; I]) - u~`` and integrands.
+        """
+        ref, gain = self._reference_and_gain(t)
+        e = np.asarray(X, dtype=float)[:12] - ref[:12, None]
+        e[_ANGLE_IDX] = (e[_ANGLE_IDX] + math.pi) % _TWO_PI - math.pi
+        du = gain[:, :12] @ e + gain[:, 12:] @ np.asarray(XC, dtype=float)
+        u = ref[12:, None]
+        c, s = math.cos(ref[_CHI]), math.sin(ref[_CHI])
+        rows = [c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2]]
+        if self.zeta_index >= 0:
+            rows.append(e[self.zeta_index])
+        rates = np.array(rows)
+        if not self.saturate:
+            return du, rates
+        total = u + du
+        held = (total < self.lower[:, None]) | (total > self.upper[:, None])
+        if self.anti_windup and held.any():
+            frozen = (self.windup_mask[:, :, None] & held[None, :, :]).any(axis=1)
+            rates[frozen] = 0.0
+        return np.minimum(np.maximum(total, self.lower[:, None]), self.upper[:, None]) - u, rates
+
     def saturated_time(self, df, controller_states=None) -> dict:
         """Time during which the commanded controls exceed their limits, per control.
 

@@ -1,0 +1,325 @@
+"""Batched in-house simulation: many dispersed aircraft integrated at once, with the same model code.
+
+The equations of :mod:`gna.eom` are array-generic: with every state an array of
+shape ``(n,)`` (one entry per sample) and an aircraft whose mass, inertia, CG
+and aerodynamic term values are arrays of the same shape, one call of
+:func:`gna.eom.derivatives` gives the derivatives of all samples.  The stacked
+system (``12 + n_states`` rows by ``n`` columns) is integrated by scipy's
+DOP853 with the single-run engine's tolerances divided by ``sqrt(n)``: scipy's
+error norm is the RMS over all components, so this keeps every sample's local
+error within the single run's (Hairer, Norsett & Wanner, *Solving ODEs I*,
+sec. II.4).  The tracking feedback is evaluated for all samples at once
+(:meth:`planners.tracking.TrackingController.output_and_derivative_many`).  A
+sample that leaves the flight domain (V <= 0, |beta| >= pi/2, cos gamma <= 0,
+a non-finite derivative) is frozen from the end of that step on and marked
+``domain``; the others go on.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from types import SimpleNamespace
+
+import numpy as np
+from scipy.integrate import DOP853
+
+from gna.atmosphere import Environment
+from gna.aero import COEFFICIENTS, Coefficients
+from gna.eom import STATE_NAMES, Controls, State, derivatives
+from gna.errors import InputError
+from gna.trajectory import control_function
+
+__all__ = ["BatchTerms", "batched_aircraft", "simulate_batch", "BatchResult", "BATCH_METHODS"]
+
+
+class BatchTerms:
+    """An aerodynamic term table with one set of term values per sample.
+
+    Parameters
+    ----------
+    table : gna.aero.TermTable
+        The structure (monomials, coefficient of each term).
+    values : ndarray, shape (n_terms, n)
+        Term values, one column per sample.
+    """
+
+    def __init__(self, table, values: np.ndarray):
+        self.table = table
+        self.values = np.asarray(values, dtype=float)
+        self.terms = table.terms
+        ind = np.zeros((len(COEFFICIENTS), len(table.terms)))
+        for i, t in enumerate(table.terms):
+            ind[COEFFICIENTS.index(t.coefficient), i] = 1.0
+        self.indicator = ind
+        self.exponents = np.array([t.exponents for t in table.terms], dtype=int)   # (n_terms, 8)
+        self._columns = np.arange(self.exponents.shape[1])
+
+    def coefficients(self, state) -> Coefficients:
+        """The six coefficients of every sample (paper eq. (GNA)).
+
+        The monomials of :meth:`gna.aero.TermTable.monomials` from one table of
+        powers of the eight aerodynamic variables, gathered per term.
+
+        Parameters
+        ----------
+        state : gna.aero.AeroState
+            Arrays of shape (n,).
+
+        Returns
+        -------
+        gna.aero.Coefficients
+            Arrays of shape (n,).
+        """
+        v = np.array(np.broadcast_arrays(*state, self.values[0]))[:-1]           # (8, n)
+        powers = np.empty((self.exponents.max() + 1,) + v.shape)
+        powers[0] = 1.0
+        for k in range(1, powers.shape[0]):
+            powers[k] = powers[k - 1] * v
+        mons = powers[self.exponents, self._columns].prod(axis=1)                 # (n_terms, n)
+        return Coefficients(*(self.indicator @ (self.values * mons)))
+
+
+def batched_aircraft(aircraft, draws):
+    """An aircraft whose mass, inertia, CG and term values are arrays over samples.
+
+    Parameters
+    ----------
+    aircraft : gna.aircraft.Aircraft
+        The nominal aircraft (term table aerodynamics).
+    draws : sequence of harness.campaign.sampling.SampleDraw
+        One per sample (:func:`harness.campaign.sampling.draw_sample`).
+
+    Returns
+    -------
+    types.SimpleNamespace
+        ``geometry``, ``mass``, ``propulsion``, ``aero`` (:class:`BatchTerms`) as
+        :func:`gna.eom.derivatives` reads them, entries of shape (n,).
+    """
+    m, g = aircraft.mass, aircraft.geometry
+    ms = np.array([d.mass_scale for d in draws])
+    si = np.array([d.inertia_scale for d in draws])
+    mass = SimpleNamespace(mass=m.mass * ms, Ixx=m.Ixx * si, Iyy=m.Iyy * si, Izz=m.Izz * si, Ixz=m.Ixz * si)
+    geometry = SimpleNamespace(S=g.S, b=g.b, cbar=g.cbar, x_ref=g.x_ref,
+                               x_cg=g.x_cg + np.array([d.cg_shift_m for d in draws]))
+    values = np.stack([d.aero_values for d in draws], axis=1)
+    return SimpleNamespace(id=aircraft.id, mass=mass, geometry=geometry, propulsion=aircraft.propulsion,
+                           envelope=aircraft.envelope, aero=BatchTerms(aircraft.aero, values))
+
+
+@dataclass
+class BatchResult:
+    """Output of :func:`simulate_batch`.
+
+    Attributes
+    ----------
+    t : ndarray, shape (m,)
+        Output times [s].
+    X : ndarray, shape (m, 12, n)
+        States on the grid (:data:`gna.eom.STATE_NAMES`); a frozen sample keeps its last state.
+    XC : ndarray, shape (m, n_states, n)
+        Controller states.
+    status : ndarray of str, shape (n,)
+        ``completed`` or ``domain``.
+    t_end : ndarray, shape (n,)
+        End of the valid part of each run [s].
+    nfev : int
+        Evaluations of the batched derivative.
+    """
+
+    t: np.ndarray
+    X: np.ndarray
+    XC: np.ndarray
+    status: np.ndarray
+    t_end: np.ndarray
+    nfev: int
+
+    def positions(self) -> np.ndarray:
+        """Positions ``(x, y, z)`` on the grid.
+
+        Returns
+        -------
+        ndarray, shape (m, 3, n)
+        """
+        return self.X[:, :3, :]
+
+
+def _alive_mask(X: np.ndarray) -> np.ndarray:
+    V, gamma, beta = X[STATE_NAMES.index("V")], X[STATE_NAMES.index("gamma")], X[STATE_NAMES.index("beta")]
+    return np.isfinite(X).all(axis=0) & (V > 0) & (np.cos(beta) > 0) & (np.cos(gamma) > 0)
+
+
+def simulate_batch(aircraft, x0: np.ndarray, controls, t_span, *, env: Environment | None = None,
+                   controller=None, dt_out: float = 0.05, t_eval=None, method: str = "DOP853",
+                   rtol: float = 1e-10, atol: float = 1e-10, max_step: float = 0.01) -> BatchResult:
+    """Integrate n samples of the 12-state model (and a controller's states) at once.
+
+    Parameters
+    ----------
+    aircraft : Aircraft or batched aircraft
+        :func:`batched_aircraft` (or one aircraft for all samples).
+    x0 : array_like, shape (n, 12)
+        Initial states (SI, rad), one row per sample.
+    controls : callable or object with ``controls(t)``
+        Reference controls, the same for every sample (:func:`gna.trajectory.control_function`).
+    t_span : (float, float)
+        ``(t0, t1)`` [s].
+    env : Environment, optional
+        Default the ISA.
+    controller : TrackingController, optional
+        With ``output_and_derivative_many``; its states start at ``initial_state``.
+    dt_out : float
+        Output interval [s] (the single-run engine's grid).
+    t_eval : array_like, optional
+        Output times [s] instead.
+    method : {"DOP853", "rk4", "rk8"}
+        Adaptive DOP853 on the stacked system, or fixed steps (classic RK4, or
+        the 8th-order DOP853 tableau) of at most ``max_step`` landing on the output times.
+    rtol, atol : float
+        DOP853: per-sample tolerances (those of the single-run engine); the
+        stacked system uses them divided by ``sqrt(n)``.
+    max_step : float
+        Fixed-step methods: largest step [s].
+
+    Returns
+    -------
+    BatchResult
+
+    Raises
+    ------
+    InputError
+        Bad shapes, span, or a controller without a batched evaluation.
+    """
+    env = env if env is not None else Environment()
+    X0 = np.atleast_2d(np.asarray(x0, dtype=float))
+    if X0.ndim != 2 or X0.shape[1] != 12 or not np.isfinite(X0).all():
+        raise InputError(f"x0 must be finite with shape (n, 12), got shape {X0.shape}")
+    t0, t1 = (float(v) for v in t_span)
+    if not t1 > t0:
+        raise InputError(f"t_span must have t1 > t0, got {t_span}")
+    if method not in BATCH_METHODS:
+        raise InputError(f"unknown batched integrator {method!r}; choose from {', '.join(BATCH_METHODS)}")
+    if controller is not None and not hasattr(controller, "output_and_derivative_many"):
+        raise InputError(f"{type(controller).__name__} has no batched evaluation (output_and_derivative_many)")
+    system = _System(aircraft, env, control_function(controls), controller, X0, t0)
+    if t_eval is None:
+        k = max(int(round((t1 - t0) / dt_out)), 1)
+        grid = np.linspace(t0, t1, k + 1)
+    else:
+        grid = np.asarray(t_eval, dtype=float)
+    if method == "DOP853":
+        out = _adaptive(system, grid, t0, t1, rtol, atol)
+    else:
+        out = _fixed(system, grid, t0, t1, max_step, _TABLEAUS[method]())
+    status = np.where(system.t_end < t1, "domain", "completed")
+    return BatchResult(t=grid, X=out[:, :12], XC=out[:, 12:], status=status, t_end=system.t_end, nfev=system.nfev)
+
+
+class _System:
+    """The stacked right-hand side, with the samples still inside the flight domain."""
+
+    def __init__(self, aircraft, env, ufun, controller, X0, t0):
+        self.aircraft, self.env, self.ufun, self.controller = aircraft, env, ufun, controller
+        self.n = X0.shape[0]
+        self.nc = 0 if controller is None else int(controller.n_states)
+        self.rows = 12 + self.nc
+        Y0 = np.zeros((self.rows, self.n))
+        Y0[:12] = X0.T
+        if self.nc:
+            Y0[12:] = np.stack([controller.initial_state(t0, x) for x in X0], axis=1)
+        self.Y0 = Y0
+        self.alive = _alive_mask(Y0[:12])
+        self.bad = np.zeros(self.n, dtype=bool)
+        self.t_end = np.full(self.n, np.inf)
+        self.t_end[~self.alive] = t0
+        self.nfev = 0
+
+    def rhs(self, t, Y):
+        self.nfev += 1
+        n = self.n
+        U = np.asarray(self.ufun(t), dtype=float)[:, None] + np.zeros((1, n))
+        D = np.empty((self.rows, n))
+        if self.nc:
+            du, D[12:] = self.controller.output_and_derivative_many(t, Y[:12], Y[12:])
+            U = U + du
+        D[:12] = np.broadcast_arrays(*derivatives(self.aircraft, self.env, State(*Y[:12]), Controls(*U)), Y[0])[:12]
+        with np.errstate(invalid="ignore"):
+            nonfinite = ~np.isfinite(D).all(axis=0)
+        self.bad |= nonfinite & self.alive
+        D[:, nonfinite | ~self.alive] = 0.0
+        return D
+
+    def check(self, t, Y) -> bool:
+        """Freeze the samples that left the domain; True when some did."""
+        died = self.alive & (self.bad | ~_alive_mask(Y[:12]))
+        if died.any():
+            self.alive &= ~died
+            self.t_end[died] = t
+        return bool(died.any())
+
+
+def _adaptive(system, grid, t0, t1, rtol, atol):
+    rows, n = system.rows, system.n
+    scale = math.sqrt(n)
+    out = np.empty((len(grid), rows, n))
+    gi = 0
+    while gi < len(grid) and grid[gi] <= t0:
+        out[gi] = system.Y0
+        gi += 1
+
+    def fun(t, y):
+        return system.rhs(t, y.reshape(rows, n)).reshape(-1)
+
+    solver = DOP853(fun, t0, system.Y0.reshape(-1), t1, rtol=rtol / scale, atol=atol / scale)
+    while solver.status == "running":
+        t_prev = solver.t
+        msg = solver.step()
+        if solver.status == "failed":
+            raise InputError(f"batched integration failed at t = {t_prev:.6g} s: {msg}")
+        dense = solver.dense_output()
+        while gi < len(grid) and grid[gi] <= solver.t + 1e-12:
+            out[gi] = dense(grid[gi]).reshape(rows, n)
+            gi += 1
+        if system.check(solver.t, solver.y.reshape(rows, n)):
+            solver = DOP853(fun, solver.t, solver.y, t1, rtol=rtol / scale, atol=atol / scale)
+    return out
+
+
+def _fixed(system, grid, t0, t1, max_step, tableau):
+    """Explicit Runge-Kutta steps of at most ``max_step`` landing on every output time."""
+    A, B, C = tableau
+    out = np.empty((len(grid), system.rows, system.n))
+    Y, t = system.Y0.copy(), t0
+    K = [None] * len(B)
+    for gi, tg in enumerate(grid):
+        if tg > t:
+            m = max(int(math.ceil((tg - t) / max_step - 1e-9)), 1)
+            h = (tg - t) / m
+            for _ in range(m):
+                for s in range(len(B)):
+                    Ys = Y
+                    for j in range(s):
+                        if A[s][j] != 0.0:
+                            Ys = Ys + (h * A[s][j]) * K[j]
+                    K[s] = system.rhs(t + C[s] * h, Ys)
+                step = sum((h * b) * k for b, k in zip(B, K) if b != 0.0)
+                Y = Y + step
+                t = t + h
+                system.check(t, Y)
+        out[gi] = Y
+    return out
+
+
+def _rk4():
+    return ([[], [0.5], [0.0, 0.5], [0.0, 0.0, 1.0]], [1 / 6, 1 / 3, 1 / 3, 1 / 6], [0.0, 0.5, 0.5, 1.0])
+
+
+def _dop853():
+    # The 12-stage, 8th-order Dormand-Prince pair's propagating tableau (Hairer, Norsett & Wanner, ODEs I, II.10).
+    from scipy.integrate._ivp import dop853_coefficients as c
+    return (c.A[:12, :12].tolist(), c.B.tolist(), c.C[:12].tolist())
+
+
+_TABLEAUS = {"rk4": _rk4, "rk8": _dop853}
+#: Integrators of :func:`simulate_batch`: adaptive DOP853, or fixed steps of RK4 or the DOP853 8th-order tableau.
+BATCH_METHODS: tuple[str, ...] = ("DOP853", "rk4", "rk8")
