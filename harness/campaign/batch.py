@@ -17,12 +17,10 @@ a non-finite derivative) is frozen from the end of that step on and marked
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
-from scipy.integrate import DOP853
 
 from gna.atmosphere import Environment
 from gna.aero import COEFFICIENTS, Coefficients
@@ -30,7 +28,13 @@ from gna.eom import STATE_NAMES, Controls, State, derivatives
 from gna.errors import InputError
 from gna.trajectory import control_function
 
+from .integrators import TABLEAUS, fixed, per_sample, stacked
+
 __all__ = ["BatchTerms", "batched_aircraft", "simulate_batch", "BatchResult", "BATCH_METHODS"]
+
+#: Integrators of :func:`simulate_batch` (:mod:`harness.campaign.integrators`): DOP853 per sample (default),
+#: DOP853 on the stacked system, fixed steps of RK4 or of the 8th-order DOP853 tableau.
+BATCH_METHODS: tuple[str, ...] = ("DOP853", "DOP853-stacked", "rk4", "rk8")
 
 
 class BatchTerms:
@@ -208,9 +212,12 @@ def simulate_batch(aircraft, x0: np.ndarray, controls, t_span, *, env: Environme
     else:
         grid = np.asarray(t_eval, dtype=float)
     if method == "DOP853":
-        out = _adaptive(system, grid, t0, t1, rtol, atol)
+        out = per_sample(system, grid, t0, t1, rtol, atol)
+    elif method == "DOP853-stacked":
+        out = stacked(system, grid, t0, t1, rtol, atol)
     else:
-        out = _fixed(system, grid, t0, t1, max_step, _TABLEAUS[method]())
+        out = fixed(system, grid, t0, t1, max_step, TABLEAUS[method]())
+    system.t_end[np.isinf(system.t_end)] = t1
     status = np.where(system.t_end < t1, "domain", "completed")
     return BatchResult(t=grid, X=out[:, :12], XC=out[:, 12:], status=status, t_end=system.t_end, nfev=system.nfev)
 
@@ -233,21 +240,46 @@ class _System:
         self.t_end = np.full(self.n, np.inf)
         self.t_end[~self.alive] = t0
         self.nfev = 0
+        self._subset_key, self._subset = None, None
+        self.own_feedforward = self.nc > 0 and getattr(ufun, "__self__", None) is controller
 
-    def rhs(self, t, Y):
+    def rhs(self, t, Y, cols=None):
+        """Derivatives of the columns ``cols`` (all by default) at time(s) ``t``."""
         self.nfev += 1
-        n = self.n
-        U = np.asarray(self.ufun(t), dtype=float)[:, None] + np.zeros((1, n))
-        D = np.empty((self.rows, n))
-        if self.nc:
-            du, D[12:] = self.controller.output_and_derivative_many(t, Y[:12], Y[12:])
+        ac = self.aircraft if cols is None else self.subset(cols)
+        alive = self.alive if cols is None else self.alive[cols]
+        m = Y.shape[1]
+        D = np.empty((self.rows, m))
+        if self.own_feedforward:       # the controller's own feedforward: evaluated once with the feedback
+            du, D[12:], U = self.controller.output_and_derivative_many(t, Y[:12], Y[12:], with_feedforward=True)
             U = U + du
-        D[:12] = np.broadcast_arrays(*derivatives(self.aircraft, self.env, State(*Y[:12]), Controls(*U)), Y[0])[:12]
+        else:
+            U = np.asarray(self.ufun(t), dtype=float).reshape(5, -1) + np.zeros((1, m))
+            if self.nc:
+                du, D[12:] = self.controller.output_and_derivative_many(t, Y[:12], Y[12:])
+                U = U + du
+        D[:12] = np.broadcast_arrays(*derivatives(ac, self.env, State(*Y[:12]), Controls(*U)), Y[0])[:12]
         with np.errstate(invalid="ignore"):
             nonfinite = ~np.isfinite(D).all(axis=0)
-        self.bad |= nonfinite & self.alive
-        D[:, nonfinite | ~self.alive] = 0.0
+        if cols is None:
+            self.bad |= nonfinite & alive
+        else:
+            self.bad[cols[nonfinite & alive]] = True
+        D[:, nonfinite | ~alive] = 0.0
         return D
+
+    def subset(self, cols):
+        """The batched aircraft restricted to some samples (cached for the current set)."""
+        key = cols.tobytes()
+        if self._subset_key != key:
+            self._subset_key, self._subset = key, _take(self.aircraft, cols)
+        return self._subset
+
+    def check_columns(self, t, Y, cols) -> None:
+        """Freeze the samples among ``cols`` that left the domain (per-sample times ``t``)."""
+        died = cols[self.alive[cols] & (self.bad[cols] | ~_alive_mask(Y[:12, cols]))]
+        self.alive[died] = False
+        self.t_end[died] = t[died]
 
     def check(self, t, Y) -> bool:
         """Freeze the samples that left the domain; True when some did."""
@@ -258,68 +290,12 @@ class _System:
         return bool(died.any())
 
 
-def _adaptive(system, grid, t0, t1, rtol, atol):
-    rows, n = system.rows, system.n
-    scale = math.sqrt(n)
-    out = np.empty((len(grid), rows, n))
-    gi = 0
-    while gi < len(grid) and grid[gi] <= t0:
-        out[gi] = system.Y0
-        gi += 1
-
-    def fun(t, y):
-        return system.rhs(t, y.reshape(rows, n)).reshape(-1)
-
-    solver = DOP853(fun, t0, system.Y0.reshape(-1), t1, rtol=rtol / scale, atol=atol / scale)
-    while solver.status == "running":
-        t_prev = solver.t
-        msg = solver.step()
-        if solver.status == "failed":
-            raise InputError(f"batched integration failed at t = {t_prev:.6g} s: {msg}")
-        dense = solver.dense_output()
-        while gi < len(grid) and grid[gi] <= solver.t + 1e-12:
-            out[gi] = dense(grid[gi]).reshape(rows, n)
-            gi += 1
-        if system.check(solver.t, solver.y.reshape(rows, n)):
-            solver = DOP853(fun, solver.t, solver.y, t1, rtol=rtol / scale, atol=atol / scale)
-    return out
-
-
-def _fixed(system, grid, t0, t1, max_step, tableau):
-    """Explicit Runge-Kutta steps of at most ``max_step`` landing on every output time."""
-    A, B, C = tableau
-    out = np.empty((len(grid), system.rows, system.n))
-    Y, t = system.Y0.copy(), t0
-    K = [None] * len(B)
-    for gi, tg in enumerate(grid):
-        if tg > t:
-            m = max(int(math.ceil((tg - t) / max_step - 1e-9)), 1)
-            h = (tg - t) / m
-            for _ in range(m):
-                for s in range(len(B)):
-                    Ys = Y
-                    for j in range(s):
-                        if A[s][j] != 0.0:
-                            Ys = Ys + (h * A[s][j]) * K[j]
-                    K[s] = system.rhs(t + C[s] * h, Ys)
-                step = sum((h * b) * k for b, k in zip(B, K) if b != 0.0)
-                Y = Y + step
-                t = t + h
-                system.check(t, Y)
-        out[gi] = Y
-    return out
-
-
-def _rk4():
-    return ([[], [0.5], [0.0, 0.5], [0.0, 0.0, 1.0]], [1 / 6, 1 / 3, 1 / 3, 1 / 6], [0.0, 0.5, 0.5, 1.0])
-
-
-def _dop853():
-    # The 12-stage, 8th-order Dormand-Prince pair's propagating tableau (Hairer, Norsett & Wanner, ODEs I, II.10).
-    from scipy.integrate._ivp import dop853_coefficients as c
-    return (c.A[:12, :12].tolist(), c.B.tolist(), c.C[:12].tolist())
-
-
-_TABLEAUS = {"rk4": _rk4, "rk8": _dop853}
-#: Integrators of :func:`simulate_batch`: adaptive DOP853, or fixed steps of RK4 or the DOP853 8th-order tableau.
-BATCH_METHODS: tuple[str, ...] = ("DOP853", "rk4", "rk8")
+def _take(aircraft, cols):
+    """A batched aircraft restricted to the samples ``cols`` (one aircraft for all is returned as is)."""
+    if not isinstance(aircraft.aero, BatchTerms):
+        return aircraft
+    m, g = aircraft.mass, aircraft.geometry
+    mass = SimpleNamespace(**{k: np.asarray(getattr(m, k))[cols] for k in ("mass", "Ixx", "Iyy", "Izz", "Ixz")})
+    geometry = SimpleNamespace(S=g.S, b=g.b, cbar=g.cbar, x_ref=g.x_ref, x_cg=np.asarray(g.x_cg)[cols])
+    return SimpleNamespace(id=aircraft.id, mass=mass, geometry=geometry, propulsion=aircraft.propulsion,
+                           envelope=aircraft.envelope, aero=BatchTerms(aircraft.aero.table, aircraft.aero.values[:, cols]))
