@@ -54,6 +54,15 @@ MODULES = [
     "harness.metrics.runs",
     "harness.validation.case",
     "harness.validation.run",
+    "harness.campaign.spec",
+    "harness.campaign.sampling",
+    "harness.campaign.execute",
+    "harness.campaign.store",
+    "harness.campaign.runner",
+    "harness.campaign.batch",
+    "harness.campaign.integrators",
+    "harness.campaign.montecarlo",
+    "harness.campaign.report",
 ]
 
 

@@ -104,7 +104,8 @@ def _metrics(task: SampleTask, plan, runs, ctl, j) -> dict:
             diffs[label] = {"max_position_m": _finite_or_none(tab.row("position").max_abs),
                             "max_angle_rad": _finite_or_none(max(tab.row(v).max_abs for v in
                                                                  ("gamma", "chi", "alpha", "beta", "mu"))),
-                            "pass": bool(all(t.passed for t in per.values()))}
+                            "pass": bool(all(t.passed for t in per.values())),
+                            "failing": sorted({f"{r.variable} ({w})" for w, t in per.items() for r in t.failures()})}
             passed = passed and diffs[label]["pass"]
     ok = passed and all(r.status == "completed" for r in runs.values())
     return {"runs": out_runs, "differences": diffs, "pass": bool(ok)}
@@ -125,7 +126,8 @@ def run_sample(task: SampleTask) -> dict:
         engine -> status, ``t_end`` [s], ``max_position_error_m``,
         ``max_position_error_after_5s_m`` [m] (None when not finite),
         ``saturated_s`` [s]; ``differences``: engine -> ``max_position_m``,
-        ``max_angle_rad``, ``pass``; ``pass``), ``draw`` (the dispersed
+        ``max_angle_rad``, ``pass``, ``failing`` (variables beyond their
+        tolerance, with the window); ``pass``), ``draw`` (the dispersed
         parameters by name), ``error`` (message of a failed sample),
         ``timings`` (``plan_s``, ``fly_s``, ``total_s``) and ``files``
         (file name -> bytes: ``<engine>.parquet`` trajectories).  Runs that
@@ -144,7 +146,7 @@ def run_sample(task: SampleTask) -> dict:
             for label, res in runs.items():
                 df = res.df
                 if res.controller_states is not None:
-                    df = df.join(res.controller_states, rsuffix="_controller")
+                    df = df.join(res.controller_states)
                 out["files"][f"{label}.parquet"] = frame_to_parquet(df)
         out["status"] = "done"
         out["timings"] = {"plan_s": plan_s, "fly_s": t_fly - t_start}

@@ -22,6 +22,29 @@ __all__ = ["per_sample", "stacked", "fixed", "TABLEAUS"]
 
 
 def stacked(system, grid, t0, t1, rtol, atol):
+    """scipy's DOP853 on the stacked system (tolerances divided by sqrt(n): RMS error norm over all samples).
+
+    Parameters
+    ----------
+    system : harness.campaign.batch's stacked system
+        ``rows`` x ``n`` states, ``rhs(t, Y[, cols])``, the domain bookkeeping.
+    grid : ndarray, shape (m,)
+        Output times [s], increasing, within ``[t0, t1]``.
+    t0, t1 : float
+        Span [s].
+    rtol, atol : float
+        Per-sample tolerances.
+
+    Returns
+    -------
+    ndarray, shape (m, rows, n)
+        States on the grid (dense output).
+
+    Raises
+    ------
+    InputError
+        The integrator failed.
+    """
     rows, n = system.rows, system.n
     scale = math.sqrt(n)
     out = np.empty((len(grid), rows, n))
@@ -49,7 +72,26 @@ def stacked(system, grid, t0, t1, rtol, atol):
 
 
 def fixed(system, grid, t0, t1, max_step, tableau):
-    """Explicit Runge-Kutta steps of at most ``max_step`` landing on every output time."""
+    """Explicit Runge-Kutta steps of at most ``max_step`` landing on every output time.
+
+    Parameters
+    ----------
+    system : harness.campaign.batch's stacked system
+        ``rows`` x ``n`` states, ``rhs(t, Y[, cols])``, the domain bookkeeping.
+    grid : ndarray, shape (m,)
+        Output times [s], increasing, within ``[t0, t1]``.
+    t0, t1 : float
+        Span [s].
+    max_step : float
+        Largest step [s].
+    tableau : (A, B, C)
+        Butcher tableau (:data:`TABLEAUS`).
+
+    Returns
+    -------
+    ndarray, shape (m, rows, n)
+        States on the grid.
+    """
     A, B, C = tableau
     out = np.empty((len(grid), system.rows, system.n))
     Y, t = system.Y0.copy(), t0
@@ -93,6 +135,22 @@ def per_sample(system, grid, t0, t1, rtol, atol):
     scipy's DOP853 step, error norm and step-size rule (Hairer, Norsett & Wanner, ODEs I, II.10),
     vectorised over the samples: a sample's steps depend on its own error only, like a single run;
     steps end on the output times (no dense output needed).
+
+    Parameters
+    ----------
+    system : harness.campaign.batch's stacked system
+        ``rows`` x ``n`` states, ``rhs(t, Y[, cols])``, the domain bookkeeping.
+    grid : ndarray, shape (m,)
+        Output times [s], increasing, within ``[t0, t1]``.
+    t0, t1 : float
+        Span [s].
+    rtol, atol : float
+        Per-sample tolerances (scipy's meaning).
+
+    Returns
+    -------
+    ndarray, shape (m, rows, n)
+        States on the grid; a sample frozen out of the domain keeps its last state.
     """
     from scipy.integrate._ivp import dop853_coefficients as c
     A, B, C, E3, E5 = c.A[:12, :12], c.B, c.C[:12], c.E3, c.E5

@@ -94,6 +94,8 @@ class SampleDraw:
         Shift of ``x_cg`` [m].
     offsets : ndarray, shape (12,)
         Added to the initial state (:data:`gna.eom.STATE_NAMES`, SI, rad).
+    aero_labels : tuple of str
+        ``theta<i>:<coefficient>:<monomial>`` of each term.
     """
 
     seed: int
@@ -103,6 +105,7 @@ class SampleDraw:
     inertia_scale: float
     cg_shift_m: float
     offsets: np.ndarray
+    aero_labels: tuple = ()
 
     def parameters(self) -> dict:
         """The dispersed parameters by name (for the store and the correlations).
@@ -111,12 +114,13 @@ class SampleDraw:
         -------
         dict
             ``mass_scale``, ``inertia_scale``, ``cg_shift_m``, ``d<state>`` offsets
-            [SI, rad] and ``z_theta<i>`` (normal variate of term i).
+            [SI, rad] and ``z_theta<i>:<coefficient>:<monomial>`` (normal variate of term i).
         """
         out = {"mass_scale": self.mass_scale, "inertia_scale": self.inertia_scale, "cg_shift_m": self.cg_shift_m}
         for name in OFFSET_STATES:
             out[f"d{name}"] = float(self.offsets[STATE_NAMES.index(name)])
-        out.update({f"z_theta{i + 1}": float(z) for i, z in enumerate(self.aero_z)})
+        labels = self.aero_labels or tuple(f"theta{i + 1}" for i in range(len(self.aero_z)))
+        out.update({f"z_{lab}": float(z) for lab, z in zip(labels, self.aero_z)})
         return out
 
 
@@ -166,7 +170,8 @@ def draw_sample(aircraft, dispersion: Dispersion, seed: int) -> SampleDraw:
         offsets[STATE_NAMES.index(name)] = spreads.get(name, dispersion.angle_rad) * zk
     return SampleDraw(seed=int(seed), aero_values=values, aero_z=za, mass_scale=1.0 + dispersion.mass * zm,
                       inertia_scale=1.0 + dispersion.inertia * zi,
-                      cg_shift_m=dispersion.cg_cbar * aircraft.geometry.cbar * zcg, offsets=offsets)
+                      cg_shift_m=dispersion.cg_cbar * aircraft.geometry.cbar * zcg, offsets=offsets,
+                      aero_labels=tuple(f"theta{t.index}:{t.coefficient}:{t.monomial}" for t in terms or ()))
 
 
 def dispersed_aircraft(aircraft, draw: SampleDraw):
