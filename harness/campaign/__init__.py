@@ -12,8 +12,10 @@ store
     The campaign folder: SQLite index and case files (:class:`CampaignStore`).
 runner
     :func:`run_campaign` (process pool or Dask), :func:`rerun_case`.
-batch
-    Many samples of the in-house model integrated at once (:func:`simulate_batch`).
+batch, integrators, montecarlo
+    Many samples of the in-house model integrated at once (:func:`harness.campaign.batch.simulate_batch`,
+    per-sample DOP853 vectorised over the samples), a plan's Monte Carlo and its metrics
+    (:func:`harness.campaign.montecarlo.fly_batch`).
 report
     :func:`campaign_summary`, :func:`write_report`, :func:`render_campaign`.
 """

@@ -240,7 +240,7 @@ class _System:
         self.t_end = np.full(self.n, np.inf)
         self.t_end[~self.alive] = t0
         self.nfev = 0
-        self._subset_key, self._subset = None, None
+        self._subsets = {}
         self.own_feedforward = self.nc > 0 and getattr(ufun, "__self__", None) is controller
 
     def rhs(self, t, Y, cols=None):
@@ -271,9 +271,11 @@ class _System:
     def subset(self, cols):
         """The batched aircraft restricted to some samples (cached for the current set)."""
         key = cols.tobytes()
-        if self._subset_key != key:
-            self._subset_key, self._subset = key, _take(self.aircraft, cols)
-        return self._subset
+        if key not in self._subsets:
+            if len(self._subsets) > 4:
+                self._subsets.clear()
+            self._subsets[key] = _take(self.aircraft, cols)
+        return self._subsets[key]
 
     def check_columns(self, t, Y, cols) -> None:
         """Freeze the samples among ``cols`` that left the domain (per-sample times ``t``)."""

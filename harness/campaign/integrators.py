@@ -134,7 +134,7 @@ def per_sample(system, grid, t0, t1, rtol, atol):
 
     scipy's DOP853 step, error norm and step-size rule (Hairer, Norsett & Wanner, ODEs I, II.10),
     vectorised over the samples: a sample's steps depend on its own error only, like a single run;
-    steps end on the output times (no dense output needed).
+    the output times are interpolated with DOP853's dense output.
 
     Parameters
     ----------
@@ -154,43 +154,35 @@ def per_sample(system, grid, t0, t1, rtol, atol):
     """
     from scipy.integrate._ivp import dop853_coefficients as c
     A, B, C, E3, E5 = c.A[:12, :12], c.B, c.C[:12], c.E3, c.E5
+    A_extra, C_extra, D = c.A[13:], c.C[13:], c.D
     rows, n, G = system.rows, system.n, len(grid)
     Y = system.Y0.copy()
     t = np.full(n, t0)
     out = np.empty((G, rows, n))
     gi = np.zeros(n, dtype=int)
-    while np.any(gi < G) and np.any(grid[np.minimum(gi, G - 1)] <= t0 + 1e-12):
-        hit = (gi < G) & (grid[np.minimum(gi, G - 1)] <= t0 + 1e-12)
-        out[gi[hit], :, np.nonzero(hit)[0]] = Y[:, hit].T
-        gi[hit] += 1
+    first = int(np.searchsorted(grid, t0 + 1e-12, side="right"))
+    out[:first] = Y
+    gi[:] = first
     h = np.full(n, min(1e-3, t1 - t0))
     rejected = np.zeros(n, dtype=bool)
     F = np.zeros((rows, n))
-    active = system.alive & (gi < G)
-    idx = np.nonzero(active)[0]
+    idx = np.nonzero(system.alive & (gi < G))[0]
     if idx.size:
         F[:, idx] = system.rhs(t[idx], Y[:, idx], idx)
-    K = None
     while idx.size:
-        m = idx.size
         ti, yi, fi = t[idx], Y[:, idx], F[:, idx]
-        tnext = grid[gi[idx]]
-        proposal = h[idx]
-        hi = np.minimum(proposal, tnext - ti)
-        lands = proposal >= tnext - ti
-        if K is None or K.shape[2] != m:
-            K = np.empty((13, rows, m))
+        hi = np.minimum(h[idx], t1 - ti)
+        last = h[idx] >= t1 - ti
+        K = np.empty((16, rows, idx.size))
         K[0] = fi
         for s in range(1, 12):
-            dy = np.tensordot(A[s, :s], K[:s], axes=1) * hi
-            K[s] = system.rhs(ti + C[s] * hi, yi + dy, idx)
+            K[s] = system.rhs(ti + C[s] * hi, yi + np.tensordot(A[s, :s], K[:s], axes=1) * hi, idx)
         ynew = yi + hi * np.tensordot(B, K[:12], axes=1)
-        tnew = np.where(lands, tnext, ti + hi)
+        tnew = np.where(last, t1, ti + hi)
         K[12] = system.rhs(tnew, ynew, idx)
         scale = atol + np.maximum(np.abs(yi), np.abs(ynew)) * rtol
-        e5 = (np.tensordot(E5, K, axes=1) / scale) ** 2
-        e3 = (np.tensordot(E3, K, axes=1) / scale) ** 2
-        e5, e3 = e5.sum(axis=0), e3.sum(axis=0)
+        e5 = ((np.tensordot(E5, K[:13], axes=1) / scale) ** 2).sum(axis=0)
+        e3 = ((np.tensordot(E3, K[:13], axes=1) / scale) ** 2).sum(axis=0)
         denom = e5 + 0.01 * e3
         with np.errstate(divide="ignore", invalid="ignore"):
             norm = np.where(denom > 0, hi * e5 / np.sqrt(denom * rows), 0.0)
@@ -198,16 +190,33 @@ def per_sample(system, grid, t0, t1, rtol, atol):
         ok = norm < 1.0
         factor = np.where(ok, np.minimum(10.0, grow), np.maximum(0.2, np.nan_to_num(grow, nan=0.2)))
         factor = np.where(ok & rejected[idx], np.minimum(factor, 1.0), factor)
-        h[idx] = np.where(ok & lands, np.maximum(hi * factor, proposal), hi * factor)
+        h[idx] = np.where(ok & last, np.maximum(hi * factor, h[idx]), hi * factor)
         rejected[idx] = ~ok
+        # Output times inside the accepted steps: DOP853's 7th-order dense output (3 more stages).
+        dense = ok & (grid[np.minimum(gi[idx], G - 1)] <= tnew + 1e-12) & (gi[idx] < G)
+        if dense.any():
+            sub, cols = np.nonzero(dense)[0], idx[dense]
+            Ks, hs = K[:, :, sub], hi[sub]
+            for s, (a, cc) in enumerate(zip(A_extra, C_extra), start=13):
+                Ks[s] = system.rhs(ti[sub] + cc * hs, yi[:, sub] + np.tensordot(a[:s], Ks[:s], axes=1) * hs, cols)
+            dy = ynew[:, sub] - yi[:, sub]
+            P = np.concatenate([[dy, hs * Ks[0] - dy, 2 * dy - hs * (Ks[12] + Ks[0])],
+                                hs * np.tensordot(D, Ks, axes=1)])
+            todo = np.ones(sub.size, dtype=bool)
+            while todo.any():
+                k = np.nonzero(todo)[0]
+                g = gi[cols[k]]
+                x = (grid[g] - ti[sub[k]]) / hs[k]
+                y = np.zeros((rows, k.size))
+                for i, f in enumerate(P[::-1, :, k]):
+                    y = (y + f) * (x if i % 2 == 0 else 1 - x)
+                out[g, :, cols[k]] = (y + yi[:, sub[k]]).T
+                gi[cols[k]] += 1
+                todo[k] = (gi[cols[k]] < G) & (grid[np.minimum(gi[cols[k]], G - 1)] <= tnew[sub[k]] + 1e-12)
         acc = idx[ok]
         Y[:, acc], t[acc], F[:, acc] = ynew[:, ok], tnew[ok], K[12][:, ok]
-        landed = acc[lands[ok]]
-        out[gi[landed], :, landed] = Y[:, landed].T
-        gi[landed] += 1
         system.check_columns(t, Y, acc)
-        active = system.alive & (gi < G)
-        idx = np.nonzero(active)[0]
+        idx = np.nonzero(system.alive & (gi < G))[0]
     for j in np.nonzero(gi < G)[0]:       # frozen samples keep their last state
         out[gi[j]:, :, j] = Y[:, j]
     return out

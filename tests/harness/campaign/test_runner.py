@@ -14,7 +14,9 @@ from pathlib import Path
 
 import pytest
 
+from gna.errors import InputError
 from harness.campaign import CampaignStore, rerun_case, run_campaign
+from harness.campaign.runner import parse_dask
 from harness.cli import main
 
 HERE = Path(__file__).parent
@@ -98,40 +100,52 @@ def test_failed_cases_retried_only_when_asked(tmp_path, capsys):
     assert row["attempts"] == 2 and row["error"] and not (tmp_path / "out" / "cases" / row["case_id"]).exists()
 
 
-def test_process_pool_and_dask_give_the_same_metrics_bit_for_bit(inline, tmp_path):
-    pytest.importorskip("distributed")
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cl, distributed.Client(cl) as client:
+        client.run(lambda: __import__("harness.campaign.execute"))      # gflat imported before the clock starts
+        yield cl, client
+
+
+def test_process_pool_and_dask_give_the_same_metrics_bit_for_bit(inline, cluster, tmp_path):
     run_campaign(TINY, tmp_path / "pool", workers=2, quiet=True)
     assert _metrics(tmp_path / "pool") == _metrics(inline)
-    run_campaign(TINY, tmp_path / "dask", dask="local:2", quiet=True)
+    run_campaign(TINY, tmp_path / "dask", dask=cluster[0].scheduler_address, quiet=True)
     assert _metrics(tmp_path / "dask") == _metrics(inline)
     _check_folder(tmp_path / "dask", 3)
 
 
-def test_dask_worker_killed_mid_campaign(inline, tmp_path):
-    distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
-        client.run(lambda: __import__("harness.campaign.execute"))      # import gflat before the clock starts
-        pids = list(client.run(os.getpid).values())
-        out = tmp_path / "killed"
-        result = {}
-        runner = threading.Thread(target=lambda: result.update(
-            run_campaign(TINY, out, samples=6, dask=cluster.scheduler_address, quiet=True)))
-        runner.start()
-        deadline = time.time() + 60
-        while time.time() < deadline and not (out / "campaign.sqlite").exists():
-            time.sleep(0.05)
-        time.sleep(0.3)                                                    # both workers busy on a case
-        os.kill(pids[0], signal.SIGKILL)
-        runner.join(120)
-    assert result["done"] == 6 and result["pending"] == 0 and result["failed"] == 0
-    _check_folder(out, 6)
+def test_dask_worker_killed_mid_campaign(inline, cluster, tmp_path):
+    cl, client = cluster
+    pids = list(client.run(os.getpid).values())
+    out = tmp_path / "killed"
+    result = {}
+    runner = threading.Thread(target=lambda: result.update(
+        run_campaign(TINY, out, samples=5, dask=cl.scheduler_address, quiet=True)))
+    runner.start()
+    deadline = time.time() + 60
+    while time.time() < deadline and not (out / "campaign.sqlite").exists():
+        time.sleep(0.05)
+    time.sleep(0.3)                                                    # both workers busy on a case
+    os.kill(pids[0], signal.SIGKILL)
+    runner.join(120)
+    assert result["done"] == 5 and result["pending"] == 0 and result["failed"] == 0
+    _check_folder(out, 5)
     assert {k: v for k, v in _metrics(out).items() if k in _metrics(inline)} == _metrics(inline)
+
+
+def test_dask_option_parsing():
+    assert parse_dask("local:2") == ("local", 2) and parse_dask("tcp://h:8786") == ("address", "tcp://h:8786")
+    assert parse_dask(None) is None
+    with pytest.raises(InputError, match="local:N"):
+        parse_dask("local:0")
 
 
 def test_runner_killed_with_sigkill_then_resumed(inline, tmp_path):
     out = tmp_path / "sigkill"
-    cmd = [sys.executable, "-m", "harness.cli", "campaign", "run", str(TINY), "--out", str(out), "--samples", "8",
+    cmd = [sys.executable, "-m", "harness.cli", "campaign", "run", str(TINY), "--out", str(out), "--samples", "5",
            "--workers", "1", "--quiet"]
     proc = subprocess.Popen(cmd, cwd=ROOT, start_new_session=True, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
@@ -151,14 +165,14 @@ def test_runner_killed_with_sigkill_then_resumed(inline, tmp_path):
         os.killpg(proc.pid, signal.SIGKILL)
     finally:
         proc.wait(30)
-    assert 2 <= done < 8
+    assert 2 <= done < 5
     con = sqlite3.connect(out / "campaign.sqlite")
     assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
     before = dict(con.execute("SELECT case_id, metrics FROM cases WHERE status = 'done'").fetchall())
     con.close()
-    res = run_campaign(TINY, out, samples=8, workers=1, quiet=True)
-    assert res["skipped"] >= len(before) and res["done"] == 8
-    _check_folder(out, 8)
+    res = run_campaign(TINY, out, samples=5, workers=1, quiet=True)
+    assert res["skipped"] >= len(before) and res["done"] == 5
+    _check_folder(out, 5)
     after = _metrics(out)
     assert all(after[k] == json.dumps(json.loads(v), sort_keys=True) for k, v in before.items())
     assert {k: v for k, v in after.items() if k in _metrics(inline)} == _metrics(inline)
