@@ -45,6 +45,10 @@ H_VARIABLES: tuple[str, ...] = ("phat", "qhat", "rhat", "dl", "dm", "dn")
 #: Coefficient names, in the order of :class:`Coefficients`.
 COEFFICIENTS: tuple[str, ...] = ("CD", "CY", "CL", "Cl", "Cm", "Cn")
 
+#: Largest exponent of a variable in a monomial (the published models use at most 4; a larger one is a
+#: typo, and its powers would overflow the series arithmetic long before they mattered).
+MAX_EXPONENT = 12
+
 #: Other spellings accepted in term tables (Grauer--Morelli use de, da, dr).
 _ALIASES = {"a": "alpha", "b": "beta", "de": "dm", "da": "dl", "dr": "dn",
             "ptilde": "phat", "qtilde": "qhat", "rtilde": "rhat"}
@@ -78,25 +82,59 @@ def parse_monomial(text: str) -> tuple[int, ...]:
     """Parse ``"alpha^2*qhat"`` into exponents over :data:`AERO_VARIABLES`.
 
     ``"1"`` (or an empty string) is the constant monomial.
+
+    Parameters
+    ----------
+    text : str
+        Product of aerodynamic variables (aliases ``de``, ``da``, ``dr``, ... accepted), each with
+        an optional exponent ``^n`` (or ``**n``), ``1 <= n <=`` :data:`MAX_EXPONENT`.
+
+    Returns
+    -------
+    tuple of int
+        The exponent of each of :data:`AERO_VARIABLES`.
+
+    Raises
+    ------
+    InputError
+        Not a string, a malformed factor, an unknown variable, or an exponent above
+        :data:`MAX_EXPONENT`.
     """
+    if not isinstance(text, str):
+        raise InputError(f"monomial must be a string such as \"alpha^2*qhat\", got {text!r}")
     exps = [0] * len(AERO_VARIABLES)
     text = text.strip().replace(" ", "").replace("**", "^")
     if text in ("", "1"):
         return tuple(exps)
     for factor in text.split("*"):
-        m = re.fullmatch(r"([A-Za-z_]+)(?:\^(\d+))?", factor)
+        m = re.fullmatch(r"([A-Za-z_]+)(?:\^([0-9]{1,6}))?", factor)
         if not m:
-            raise InputError(f"malformed monomial {text!r} (factor {factor!r})")
+            raise InputError(f"malformed monomial {text!r} (factor {factor!r}; write e.g. alpha^2*qhat)")
         name = _ALIASES.get(m.group(1), m.group(1))
         if name not in AERO_VARIABLES:
             raise InputError(f"unknown aerodynamic variable {m.group(1)!r} in monomial {text!r}; "
                              f"known: {', '.join(AERO_VARIABLES)}")
         exps[AERO_VARIABLES.index(name)] += int(m.group(2) or 1)
+    worst = max(exps)
+    if worst > MAX_EXPONENT:
+        raise InputError(f"monomial {text!r}: exponent {worst} of {AERO_VARIABLES[exps.index(worst)]} exceeds "
+                         f"{MAX_EXPONENT}")
     return tuple(exps)
 
 
 def format_monomial(exponents: Iterable[int]) -> str:
-    """Inverse of :func:`parse_monomial`."""
+    """Inverse of :func:`parse_monomial`.
+
+    Parameters
+    ----------
+    exponents : iterable of int
+        Exponent of each of :data:`AERO_VARIABLES`.
+
+    Returns
+    -------
+    str
+        ``"alpha^2*qhat"``, or ``"1"`` for the constant monomial.
+    """
     parts = []
     for name, e in zip(AERO_VARIABLES, exponents):
         if e == 1:
@@ -160,22 +198,90 @@ class TermTable:
         object.__setattr__(self, "_theta", theta)
 
     @classmethod
-    def from_records(cls, records: Iterable[Mapping], structure: str = "custom") -> "TermTable":
-        """Build from mappings with keys ``theta``/``index``, ``coef``, ``monomial``, ``value``, ``source``."""
+    def from_records(cls, records: Iterable[Mapping], structure: str = "custom",
+                     where: str = "aerodynamic terms") -> "TermTable":
+        """Build from mappings with keys ``theta``/``index``, ``coef``, ``monomial``, ``value``, ``source``.
+
+        Parameters
+        ----------
+        records : iterable of mapping
+            One mapping per term (the ``[[aero.terms]]`` tables of an aircraft file).
+        structure : str
+            Name of the structure.
+        where : str
+            File and table, for messages.
+
+        Returns
+        -------
+        TermTable
+
+        Raises
+        ------
+        InputError
+            A record that is not a table, a missing key, a value of the wrong type, a malformed
+            monomial: naming ``where``, the term and the key.
+        """
+        if isinstance(records, (str, bytes, Mapping)) or not isinstance(records, Iterable):
+            raise InputError(f"{where}: terms must be a list of tables, got {records!r}")
         terms = []
         for i, r in enumerate(records, start=1):
+            at = f"{where} #{i}"
+            if not isinstance(r, Mapping):
+                raise InputError(f"{at}: a term must be a table (coef, monomial, value), got {r!r}")
+            for key in ("monomial", "value"):
+                if key not in r:
+                    raise InputError(f"{at}: missing key {key!r}")
+            index, coef, value = r.get("theta", r.get("index", i)), r.get("coef", r.get("coefficient")), r["value"]
+            if isinstance(index, bool) or not isinstance(index, int):
+                raise InputError(f"{at}: theta = {index!r} must be a whole number")
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise InputError(f"{at}: value = {value!r} must be a number")
             try:
-                terms.append(Term(index=int(r.get("theta", r.get("index", i))),
-                                  coefficient=str(r.get("coef", r.get("coefficient"))),
-                                  exponents=parse_monomial(str(r["monomial"])),
-                                  value=float(r["value"]),
-                                  source=str(r.get("source", ""))))
-            except KeyError as exc:
-                raise InputError(f"aerodynamic term #{i}: missing key {exc.args[0]!r}") from None
-        return cls(tuple(terms), structure)
+                exponents = parse_monomial(r["monomial"])
+            except InputError as exc:
+                raise InputError(f"{at}: {exc}") from None
+            terms.append(Term(index=index, coefficient=str(coef), exponents=exponents, value=float(value),
+                              source=str(r.get("source", ""))))
+        try:
+            return cls(tuple(terms), structure)
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+
+    def check_unique(self, where: str = "aerodynamic terms") -> None:
+        """Refuse a table where a term index, or a coefficient/monomial pair, appears twice.
+
+        A model file lists each term once; a repeated pair would be summed silently (the fitting
+        code builds such tables on purpose to test rank detection, so the constructor allows them).
+
+        Parameters
+        ----------
+        where : str
+            File and table, for the message.
+
+        Raises
+        ------
+        InputError
+            Naming both terms.
+        """
+        pairs: dict[tuple[str, tuple[int, ...]], int] = {}
+        indices: set[int] = set()
+        for t in self.terms:
+            if t.index in indices:
+                raise InputError(f"{where}: theta = {t.index} is used by an earlier term")
+            indices.add(t.index)
+            if (t.coefficient, t.exponents) in pairs:
+                raise InputError(f"{where}: term {t.index} repeats term {pairs[t.coefficient, t.exponents]} "
+                                 f"({t.coefficient}, monomial {t.monomial}): give each term once")
+            pairs[t.coefficient, t.exponents] = t.index
 
     def to_records(self) -> list[dict]:
-        """Records suitable for a TOML aircraft file."""
+        """Records suitable for a TOML aircraft file.
+
+        Returns
+        -------
+        list of dict
+            ``theta``, ``coef``, ``monomial``, ``value`` (and ``source``) of each term.
+        """
         out = []
         for t in self.terms:
             rec = {"theta": t.index, "coef": t.coefficient, "monomial": t.monomial, "value": t.value}
@@ -185,7 +291,24 @@ class TermTable:
         return out
 
     def with_values(self, values: Mapping[int, float] | Iterable[float], source: str = "") -> "TermTable":
-        """A copy with new parameter values (by term index, or in table order)."""
+        """A copy with new parameter values (by term index, or in table order).
+
+        Parameters
+        ----------
+        values : mapping of int to float, or iterable of float
+            New values by term index (others kept), or one value per term in table order.
+        source : str
+            Source recorded on the changed terms (default: keep each term's).
+
+        Returns
+        -------
+        TermTable
+
+        Raises
+        ------
+        InputError
+            If a sequence of values does not have one value per term.
+        """
         if isinstance(values, Mapping):
             new = [Term(t.index, t.coefficient, t.exponents, float(values.get(t.index, t.value)),
                         source if t.index in values else t.source) for t in self.terms]
@@ -198,10 +321,32 @@ class TermTable:
         return TermTable(tuple(new), self.structure)
 
     def terms_of(self, coefficient: str) -> tuple[Term, ...]:
+        """The terms of one coefficient.
+
+        Parameters
+        ----------
+        coefficient : str
+            One of :data:`COEFFICIENTS`.
+
+        Returns
+        -------
+        tuple of Term
+        """
         return tuple(t for t in self.terms if t.coefficient == coefficient)
 
     def monomials(self, state: AeroState) -> list:
-        """Values of every term's monomial (without its parameter), in table order."""
+        """Values of every term's monomial (without its parameter), in table order.
+
+        Parameters
+        ----------
+        state : AeroState
+            Values of the aerodynamic variables (floats, arrays or series).
+
+        Returns
+        -------
+        list
+            One value per term, of the type of the state's entries.
+        """
         return self._monomial_values(state, [t.exponents for t in self.terms])
 
     def _monomial_values(self, state: AeroState, exponent_list) -> list:
@@ -231,6 +376,11 @@ class TermTable:
         state : AeroState
             alpha, beta [rad], phat, qhat, rhat [-], dl, dm, dn [rad]; floats,
             arrays (broadcast together) or truncated power series.
+
+        Returns
+        -------
+        Coefficients
+            CD, CY, CL, Cl, Cm, Cn, of the type of the state's entries.
         """
         mons = self._monomial_values(state, self._unique)
         series = [m for m in mons if hasattr(m, "coeffs") and hasattr(m, "batch_shape")]

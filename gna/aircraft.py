@@ -11,7 +11,7 @@ in, the unit being part of the key (``mass_kg`` or ``weight_lb``, ``S_m2`` or
 from __future__ import annotations
 
 import math
-import tomllib
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -20,11 +20,12 @@ import numpy as np
 
 from . import units
 from .aero import TermTable
-from .catalogue import bundled, resolve
+from .catalogue import bundled
 from .errors import InputError, UnknownAircraftError
+from .schema import check_name, find_file, load_schema, read_toml, validate
 
-#: Accepted unit suffixes, with their factor to SI.
-_UNITS: dict[str, dict[str, float]] = {
+#: Accepted unit suffixes of each kind of quantity, with their factor to SI.
+UNIT_FACTORS: dict[str, dict[str, float]] = {
     "mass": {"kg": 1.0, "slug": units.SLUG},
     "weight": {"lb": units.LBM, "N": 1.0 / units.G0},  # -> mass in kg (W/g0)
     "inertia": {"kgm2": 1.0, "slugft2": units.SLUG_FT2},
@@ -32,27 +33,47 @@ _UNITS: dict[str, dict[str, float]] = {
     "area": {"m2": 1.0, "ft2": units.FT2},
     "angle": {"rad": 1.0, "deg": units.DEG},
     "force": {"N": 1.0, "lbf": units.LBF},
+    "power": {"W": 1.0, "kW": 1000.0, "shp": units.HP},
     "speed": {"ms": 1.0, "kt": units.KT, "fps": units.FT},
 }
 
 
 def _get(table: Mapping[str, Any], name: str, kind: str, where: str, default: Any = ...) -> float:
     """Read ``name_<unit>`` from ``table`` and convert to SI."""
-    found = [(u, f) for u, f in _UNITS[kind].items() if f"{name}_{u}" in table]
-    if kind == "mass" and not found:
-        found = [("weight_" + u, f) for u, f in _UNITS["weight"].items() if f"weight_{u}" in table]
-        if found:
-            key, factor = found[0]
-            return _check(float(table[key]) * factor, key, where)
+    found = [(u, f) for u, f in UNIT_FACTORS[kind].items() if f"{name}_{u}" in table]
+    if kind == "mass":
+        weights = [("weight_" + u, f) for u, f in UNIT_FACTORS["weight"].items() if f"weight_{u}" in table]
+        if found and weights:
+            raise InputError(f"{where}: {name}_{found[0][0]} and {weights[0][0]} give the mass twice; keep one")
+        if weights:
+            key, factor = weights[0]
+            return _check(_number(table[key], key, where) * factor, key, where)
     if not found:
         if default is ...:
-            keys = ", ".join(f"{name}_{u}" for u in _UNITS[kind])
+            keys = ", ".join(f"{name}_{u}" for u in UNIT_FACTORS[kind])
             raise InputError(f"{where}: missing {name!r} (one of {keys})")
         return default
     if len(found) > 1:
         raise InputError(f"{where}: {name!r} given in several units")
     u, factor = found[0]
-    return _check(float(table[f"{name}_{u}"]) * factor, f"{name}_{u}", where)
+    return _check(_number(table[f"{name}_{u}"], f"{name}_{u}", where) * factor, f"{name}_{u}", where)
+
+
+def _number(value: Any, key: str, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{where}: {key} = {value!r} must be a number")
+    return float(value)
+
+
+@contextmanager
+def _naming(where: str):
+    """Prefix the file and table to the errors of a section's own checks (positive mass, envelope...)."""
+    try:
+        yield
+    except InputError as exc:
+        if str(exc).startswith(where.split(" [")[0]):
+            raise
+        raise InputError(f"{where}: {exc}") from None
 
 
 def _check(value: float, key: str, where: str) -> float:
@@ -133,6 +154,36 @@ class Propulsion:
     epsilon: float = 0.0
     max_thrust: float | None = None
     source: str = ""
+    #: Rating of ONE engine: shaft power [W], propeller efficiency [-] and static thrust [N] (None: unrated),
+    #: with its source; the thrust one engine can give at speed V is min(static, eff * power / V).
+    engine_power: float | None = None
+    propeller_efficiency: float | None = None
+    engine_static_thrust: float | None = None
+    engine_source: str = ""
+
+    def engine_thrust_limit(self, V: float) -> float | None:
+        """Largest thrust of one engine at airspeed ``V`` from its rating.
+
+        A propeller engine is power-limited in flight, ``T <= eff P / V``
+        (e.g. Raymer, *Aircraft Design: A Conceptual Approach*, sec. 13.6),
+        and capped by its static thrust.
+
+        Parameters
+        ----------
+        V : float
+            Airspeed [m/s].
+
+        Returns
+        -------
+        float or None
+            Thrust [N]; None when the engine has no rating.
+        """
+        lims = []
+        if self.engine_static_thrust is not None:
+            lims.append(self.engine_static_thrust)
+        if self.engine_power is not None and V > 0:
+            lims.append((self.propeller_efficiency or 1.0) * self.engine_power / V)
+        return min(lims) if lims else None
 
     def __post_init__(self):
         if self.count not in (1, 2):
@@ -143,6 +194,11 @@ class Propulsion:
             raise InputError("a single engine sits on the symmetry plane (y_p = 0)")
         if self.max_thrust is not None and not self.max_thrust > 0:
             raise InputError(f"max thrust must be positive, got {self.max_thrust}")
+        for k in ("engine_power", "engine_static_thrust"):
+            if getattr(self, k) is not None and not getattr(self, k) > 0:
+                raise InputError(f"{k} must be positive, got {getattr(self, k)}")
+        if self.propeller_efficiency is not None and not 0 < self.propeller_efficiency <= 1:
+            raise InputError(f"propeller_efficiency must lie in (0, 1], got {self.propeller_efficiency}")
 
 
 @dataclass(frozen=True)
@@ -155,8 +211,29 @@ class Envelope:
     control_limits: Mapping[str, float] = field(default_factory=dict)
     source: str = ""
 
+    def __post_init__(self):
+        if not self.alpha_min < self.alpha_max:
+            raise InputError(f"alpha_min = {math.degrees(self.alpha_min):.6g} deg must be below "
+                             f"alpha_max = {math.degrees(self.alpha_max):.6g} deg")
+        if not 0 < self.beta_max <= math.pi / 2:
+            raise InputError(f"beta_max = {math.degrees(self.beta_max):.6g} deg must be in (0, 90] deg")
+        for name, lim in self.control_limits.items():
+            if not lim > 0:
+                raise InputError(f"{name}_max = {lim} rad must be positive")
+
     def violations(self, alpha, beta) -> list[str]:
-        """Human-readable list of envelope violations (empty when inside)."""
+        """Human-readable list of envelope violations (empty when inside).
+
+        Parameters
+        ----------
+        alpha, beta : float or array_like
+            Angle of attack and sideslip [rad], any matching shapes.
+
+        Returns
+        -------
+        list of str
+            One line per violated bound, with the extreme value reached [deg].
+        """
         out = []
         a, b = np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float)
         if np.any(a < self.alpha_min) or np.any(a > self.alpha_max):
@@ -197,59 +274,100 @@ class Aircraft:
     provenance: Mapping[str, str] = field(default_factory=dict)
     path: str | None = None
 
+    def __post_init__(self):
+        check_name(self.id, "id", f"aircraft {self.name!r}")
+        if isinstance(self.aero, TermTable) and len(self.aero) == 0:
+            raise InputError(f"aircraft {self.id}: the aerodynamic model has no terms")
+
     def summary(self) -> str:
+        """One line: id, name, mass, reference geometry, engines and aerodynamic terms.
+
+        Returns
+        -------
+        str
+        """
         return (f"{self.id}: {self.name}; m = {self.mass.mass:.1f} kg, S = {self.geometry.S:.3f} m^2, "
                 f"b = {self.geometry.b:.3f} m, cbar = {self.geometry.cbar:.3f} m, "
                 f"{self.propulsion.count} engine(s), {len(self.aero)} aero terms ({self.aero.structure})")
 
 
 def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", path: str | None = None) -> Aircraft:
-    """Build an :class:`Aircraft` from the parsed TOML structure."""
-    try:
-        ident = str(data["id"])
-    except KeyError:
-        raise InputError(f"{where}: missing 'id'") from None
+    """Build an :class:`Aircraft` from the parsed TOML structure.
+
+    Parameters
+    ----------
+    data : mapping
+        The parsed file (see ``docs/scenarios.md`` and ``gna/data/schemas/aircraft.schema.json``).
+    where : str
+        The file's name, for messages.
+    path : str, optional
+        The file's path, kept on the aircraft.
+
+    Returns
+    -------
+    Aircraft
+
+    Raises
+    ------
+    InputError
+        A key unknown to the schema, a conflicting or repeated key, a value of the wrong type or
+        out of range, an unsafe ``id``: one line naming the file, the table, the key and the value.
+    """
+    if not isinstance(data, Mapping):
+        raise InputError(f"{where}: an aircraft file is a table of tables, got {type(data).__name__}")
+    validate(data, load_schema("gna", "data", "schemas", "aircraft.schema.json"), where)
+    ident = check_name(data["id"], "id", where)
     where = f"{where} ({ident})"
-    for sec in ("mass", "geometry", "aero"):
-        if sec not in data:
-            raise InputError(f"{where}: missing [{sec}] section")
     m = data["mass"]
-    mass = MassProperties(
-        mass=_get(m, "mass", "mass", where + " [mass]"),
-        Ixx=_get(m, "Ixx", "inertia", where + " [mass]"),
-        Iyy=_get(m, "Iyy", "inertia", where + " [mass]"),
-        Izz=_get(m, "Izz", "inertia", where + " [mass]"),
-        Ixz=_get(m, "Ixz", "inertia", where + " [mass]", 0.0),
-        source=str(m.get("source", "")))
+    with _naming(where + " [mass]"):
+        mass = MassProperties(
+            mass=_get(m, "mass", "mass", where + " [mass]"),
+            Ixx=_get(m, "Ixx", "inertia", where + " [mass]"),
+            Iyy=_get(m, "Iyy", "inertia", where + " [mass]"),
+            Izz=_get(m, "Izz", "inertia", where + " [mass]"),
+            Ixz=_get(m, "Ixz", "inertia", where + " [mass]", 0.0),
+            source=str(m.get("source", "")))
     g = data["geometry"]
     cbar = _get(g, "cbar", "length", where + " [geometry]")
     if "x_cg_cbar" in g or "x_ref_cbar" in g:
-        x_cg = float(g.get("x_cg_cbar", g.get("x_ref_cbar", 0.0))) * cbar
-        x_ref = float(g.get("x_ref_cbar", g.get("x_cg_cbar", 0.0))) * cbar
+        x_cg = _number(g.get("x_cg_cbar", g.get("x_ref_cbar", 0.0)), "x_cg_cbar", where + " [geometry]") * cbar
+        x_ref = _number(g.get("x_ref_cbar", g.get("x_cg_cbar", 0.0)), "x_ref_cbar", where + " [geometry]") * cbar
     else:
         x_cg = _get(g, "x_cg", "length", where + " [geometry]", 0.0)
         x_ref = _get(g, "x_ref", "length", where + " [geometry]", x_cg)
-    geometry = Geometry(S=_get(g, "S", "area", where + " [geometry]"), b=_get(g, "b", "length", where + " [geometry]"),
-                        cbar=cbar, x_cg=x_cg, x_ref=x_ref, source=str(g.get("source", "")))
+    with _naming(where + " [geometry]"):
+        geometry = Geometry(S=_get(g, "S", "area", where + " [geometry]"),
+                            b=_get(g, "b", "length", where + " [geometry]"),
+                            cbar=cbar, x_cg=x_cg, x_ref=x_ref, source=str(g.get("source", "")))
     e = data.get("engines", {})
-    propulsion = Propulsion(count=int(e.get("count", 1)), y_p=_get(e, "y_p", "length", where + " [engines]", 0.0),
-                      epsilon=_get(e, "epsilon", "angle", where + " [engines]", 0.0),
-                      max_thrust=_get(e, "max_thrust", "force", where + " [engines]", None),
-                      source=str(e.get("source", "")))
+    with _naming(where + " [engines]"):
+        w = where + " [engines]"
+        propulsion = Propulsion(count=int(e.get("count", 1)),
+                                y_p=_get(e, "y_p", "length", w, 0.0),
+                                epsilon=_get(e, "epsilon", "angle", w, 0.0),
+                                max_thrust=_get(e, "max_thrust", "force", w, None),
+                                source=str(e.get("source", "")),
+                                engine_power=_get(e, "engine_power", "power", w, None),
+                                propeller_efficiency=(None if "propeller_efficiency" not in e else
+                                                      _check(_number(e["propeller_efficiency"], "propeller_efficiency",
+                                                                     w), "propeller_efficiency", w)),
+                                engine_static_thrust=_get(e, "engine_static_thrust", "force", w, None),
+                                engine_source=str(e.get("engine_source", "")))
     v = data.get("envelope", {})
     limits = {}
     for name in ("dl", "dm", "dn"):
         lim = _get(v, f"{name}_max", "angle", where + " [envelope]", None)
         if lim is not None:
             limits[name] = lim
-    envelope = Envelope(alpha_min=_get(v, "alpha_min", "angle", where + " [envelope]", math.radians(-10.0)),
-                        alpha_max=_get(v, "alpha_max", "angle", where + " [envelope]", math.radians(30.0)),
-                        beta_max=_get(v, "beta_max", "angle", where + " [envelope]", math.radians(20.0)),
-                        control_limits=limits, source=str(v.get("source", "")))
+    with _naming(where + " [envelope]"):
+        envelope = Envelope(alpha_min=_get(v, "alpha_min", "angle", where + " [envelope]", math.radians(-10.0)),
+                            alpha_max=_get(v, "alpha_max", "angle", where + " [envelope]", math.radians(30.0)),
+                            beta_max=_get(v, "beta_max", "angle", where + " [envelope]", math.radians(20.0)),
+                            control_limits=limits, source=str(v.get("source", "")))
     a = data["aero"]
-    if "terms" not in a:
-        raise InputError(f"{where}: [aero] has no 'terms'")
-    aero = TermTable.from_records(a["terms"], structure=str(a.get("structure", "custom")))
+    aero = TermTable.from_records(a["terms"], structure=str(a.get("structure", "custom")),
+                                  where=f"{where} [aero.terms]")
+    aero.check_unique(f"{where} [aero.terms]")
     prov = {k: str(val) for k, val in data.get("provenance", {}).items()}
     return Aircraft(id=ident, name=str(data.get("name", ident)), mass=mass, geometry=geometry, propulsion=propulsion,
                     envelope=envelope, aero=aero, provenance=prov, path=path)
@@ -260,27 +378,39 @@ def _catalogue() -> dict[str, Path]:
 
 
 def list_aircraft() -> list[str]:
-    """Identifiers of the bundled aircraft."""
+    """Identifiers of the bundled aircraft.
+
+    Returns
+    -------
+    list of str
+    """
     return list(_catalogue())
 
 
-def load_aircraft(name_or_path: str | Path) -> Aircraft:
+def load_aircraft(name_or_path: str | Path, base: str | Path | None = None) -> Aircraft:
     """Load a bundled aircraft by identifier, or an aircraft TOML file by path.
+
+    Parameters
+    ----------
+    name_or_path : str or pathlib.Path
+        A bundled identifier (``f16c``) or the path of a ``.toml`` file.
+    base : str or pathlib.Path, optional
+        Folder a relative path is resolved from (a scenario's folder); default the current directory.
+
+    Returns
+    -------
+    Aircraft
 
     Raises
     ------
     UnknownAircraftError
-        If ``name_or_path`` is neither a bundled identifier nor an existing file.
+        If ``name_or_path`` is neither a bundled identifier nor a path.
     InputError
-        If the file is malformed.
+        A missing file, a folder, a file not named ``.toml``, an unreadable or non-UTF-8 file,
+        invalid TOML, or a file that does not follow the aircraft schema.
     """
     cat = _catalogue()
-    path = resolve(name_or_path, cat)
+    path = find_file(name_or_path, cat, "aircraft", base)
     if path is None:
         raise UnknownAircraftError(str(name_or_path), list(cat))
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{path}: not valid TOML ({exc})") from None
-    return aircraft_from_dict(data, where=str(path.name), path=str(path))
+    return aircraft_from_dict(read_toml(path), where=str(path.name), path=str(path))

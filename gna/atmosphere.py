@@ -2,7 +2,11 @@
 
 Two density models are provided: a constant density, and the International
 Standard Atmosphere (ISO 2533:1975 / U.S. Standard Atmosphere 1976) for the
-troposphere and the lower stratosphere (0--20 km).  Density is a function of
+troposphere and the lower stratosphere (0--20 km; ISO 2533's troposphere
+starts at -2 km, so :data:`ISA_RANGE` is -2 to 20 km).  Altitudes outside that
+range are refused by :meth:`Environment.check_altitude` (trim, every plan node)
+rather than extrapolated: above 20 km the standard's temperature rises again
+and the isothermal formula no longer holds.  Density is a function of
 the altitude ``h = -z`` only (geometric altitude is used as geopotential
 altitude; the difference is below 0.2 % at 10 km and is documented).
 
@@ -15,10 +19,11 @@ chosen node by node from the series' constant term.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
-from .errors import InputError
+from .errors import DomainError, InputError
 from .units import G0
 
 # ISA constants (ISO 2533).
@@ -31,6 +36,13 @@ RHO0 = P0 / (R_AIR * T0)  #: sea-level density, 1.225 kg/m^3
 _EXP_TROPO = G0 / (R_AIR * LAPSE) - 1.0
 T_TROPO = T0 - LAPSE * H_TROPO
 RHO_TROPO = RHO0 * (T_TROPO / T0) ** _EXP_TROPO
+#: Altitudes [m] the ISA model covers: ISO 2533's lowest tabulated altitude to the top of the isothermal layer.
+ISA_RANGE = (-2000.0, 20000.0)
+
+
+def _altitude_values(h) -> np.ndarray:
+    """Altitudes [m] as a float array (constant terms of series)."""
+    return np.atleast_1d(np.asarray(_constant_term(h), dtype=float))
 
 
 def _constant_term(x):
@@ -58,6 +70,23 @@ class ConstantDensity:
     def density(self, h):
         """Density [kg/m^3] at altitude ``h`` [m] (ignored)."""
         return self.rho + 0.0 * h
+
+    def check_altitude(self, h, where: str = "") -> None:
+        """Constant density holds at any finite altitude.
+
+        Parameters
+        ----------
+        h : float or array_like
+            Altitude [m].
+        where : str
+            What the altitude is (for the message).
+
+        Raises
+        ------
+        DomainError
+            A non-finite altitude.
+        """
+        _check_range(h, (-np.inf, np.inf), where, self.describe())
 
     def describe(self) -> str:
         return f"constant density {self.rho:.6g} kg/m^3"
@@ -90,8 +119,43 @@ class ISA:
                         RHO0 * (1.0 - LAPSE * np.minimum(h, H_TROPO) / T0) ** _EXP_TROPO,
                         RHO_TROPO * np.exp(-G0 * (np.maximum(h, H_TROPO) - H_TROPO) / (R_AIR * T_TROPO)))
 
+    #: Altitudes [m] of the model (:data:`ISA_RANGE`).
+    altitude_range: ClassVar[tuple[float, float]] = ISA_RANGE
+
+    def check_altitude(self, h, where: str = "") -> None:
+        """Refuse altitudes outside :data:`ISA_RANGE` (-2 to 20 km).
+
+        Parameters
+        ----------
+        h : float or array_like
+            Altitude(s) [m] (constant terms of series).
+        where : str
+            What the altitude is, e.g. ``"trim"`` or ``"plan node at t = 3 s"`` (for the message).
+
+        Raises
+        ------
+        DomainError
+            An altitude outside the range or not finite (``variable = "altitude"``).
+        """
+        _check_range(h, self.altitude_range, where, "the ISA model (ISO 2533, troposphere and isothermal "
+                                                     "layer)")
+
     def describe(self) -> str:
         return "ISA (ISO 2533) density, geometric altitude as geopotential"
+
+
+def _check_range(h, bounds: tuple[float, float], where: str, model: str, times=None) -> None:
+    hv = _altitude_values(h)
+    bad = ~(np.isfinite(hv) & (hv >= bounds[0]) & (hv <= bounds[1]))
+    if bad.any():
+        i = int(np.argmax(bad))
+        at = f" ({where})" if where else ""
+        if times is not None:
+            at = f" at t = {float(np.atleast_1d(times)[i]):g} s" + at
+        rng = "finite" if not np.isfinite(bounds[1]) else f"{bounds[0]:g} to {bounds[1]:g} m"
+        raise DomainError(f"altitude {hv[i]:g} m{at} is outside {model}: valid {rng}",
+                          variable="altitude", value=float(hv[i]),
+                          time=None if times is None else float(np.atleast_1d(times)[i]))
 
 
 @dataclass(frozen=True)
@@ -116,7 +180,32 @@ class Environment:
         """Density at NED coordinate ``z`` (altitude ``-z``)."""
         return self.atmosphere.density(-z)
 
+    def check_altitude(self, h, where: str = "", times=None) -> None:
+        """Refuse altitudes outside the atmosphere model's range (the ISA's -2 to 20 km).
+
+        Parameters
+        ----------
+        h : float or array_like
+            Altitude(s) [m] (``-z``).
+        where : str
+            What the altitude is (for the message).
+        times : array_like, optional
+            Times [s] of the altitudes (the message names the first bad one).
+
+        Raises
+        ------
+        DomainError
+            An altitude outside the range or not finite; the message names it (and its time).
+        """
+        atm = self.atmosphere
+        if isinstance(atm, ISA):
+            _check_range(h, atm.altitude_range, where, "the ISA model (ISO 2533, troposphere and isothermal "
+                                                       "layer)", times)
+        else:
+            _check_range(h, (-np.inf, np.inf), where, atm.describe(), times)
+
     @classmethod
     def constant(cls, altitude: float = 0.0, g: float = G0) -> "Environment":
-        """Constant density equal to the ISA density at ``altitude`` [m]."""
+        """Constant density equal to the ISA density at ``altitude`` [m] (within :data:`ISA_RANGE`)."""
+        cls().check_altitude(altitude, "constant-density environment")
         return cls(ConstantDensity(float(ISA().density(float(altitude)))), g)

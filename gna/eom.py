@@ -55,6 +55,7 @@ import numpy as np
 from .aero import AeroState, Coefficients
 from .aircraft import Aircraft
 from .atmosphere import Environment
+from .errors import InputError
 
 STATE_NAMES: tuple[str, ...] = ("x", "y", "z", "V", "gamma", "chi", "alpha", "beta", "mu", "p", "q", "r")
 CONTROL_NAMES: tuple[str, ...] = ("F", "eta", "dl", "dm", "dn")
@@ -296,11 +297,11 @@ def loads(aircraft: Aircraft, env: Environment, s: State, u: Controls,
 
     Raises
     ------
-    ValueError
-        ``model`` is neither ``"full"`` nor ``"simple"``.
+    InputError
+        ``model`` is neither ``"full"`` nor ``"simple"`` (a ValueError).
     """
     if model not in ("full", "simple"):
-        raise ValueError(f"model must be 'full' or 'simple', got {model!r}")
+        raise InputError(f"model must be 'full' or 'simple', got {model!r}")
     rho = env.density(s.z)
     qbar = 0.5 * rho * s.V * s.V
     full = aero_coefficients(aircraft, s, u, None)

@@ -27,7 +27,6 @@ Conventions
 
 from __future__ import annotations
 
-import difflib
 import math
 from dataclasses import dataclass, replace
 from typing import Any, Mapping
@@ -38,6 +37,7 @@ from .aero import COEFFICIENTS, TermTable
 from .aircraft import Aircraft
 from .eom import STATE_NAMES
 from .errors import InputError
+from .schema import did_you_mean, unknown_key_message
 
 __all__ = ["Perturbation", "perturbed_aircraft", "offset_state", "perturbation_from_dict", "PERTURBATION_KEYS"]
 
@@ -52,32 +52,6 @@ def _finite(value: Any, key: str, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
         raise InputError(f"{where}: {key} must be a finite number, got {value!r}")
     return float(value)
-
-
-def _did_you_mean(key, known) -> str:
-    """`` (did you mean 'k'?)`` with the closest of ``known`` to ``key``, or an empty string."""
-    close = difflib.get_close_matches(str(key), list(known), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
-
-
-def unknown_key_message(key: str, known, where: str) -> str:
-    """The message refusing an unknown key, with the closest known key when there is one.
-
-    Parameters
-    ----------
-    key : str
-        The key found.
-    known : iterable of str
-        The accepted keys.
-    where : str
-        File and table, for the message.
-
-    Returns
-    -------
-    str
-    """
-    known = list(known)
-    return f"{where}: unknown key {key!r}{_did_you_mean(key, known)}; known keys: {', '.join(known)}"
 
 
 @dataclass(frozen=True)
@@ -138,7 +112,7 @@ class Perturbation:
                 k = int(k)
             if isinstance(k, str) and k not in COEFFICIENTS:
                 raise InputError(f"{where}: aero_scale key {k!r} is neither a term index nor a coefficient"
-                                 f"{_did_you_mean(k, COEFFICIENTS)}; coefficients: {', '.join(COEFFICIENTS)}")
+                                 f"{did_you_mean(k, COEFFICIENTS)}; coefficients: {', '.join(COEFFICIENTS)}")
             if isinstance(k, bool) or not isinstance(k, (int, str)):
                 raise InputError(f"{where}: aero_scale keys are term indices or coefficient names, got {k!r}")
             f = _finite(v, f"aero_scale[{k!r}]", where)

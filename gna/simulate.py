@@ -1,9 +1,11 @@
 """Numerical integration of the 12-state model with control functions of time.
 
 The integrator is scipy's DOP853 driven step by step, so that leaving the
-physical domain (V <= 0, |beta| >= pi/2, cos(gamma) = 0, non-finite values)
-stops the run at the located time with a message naming the variable, and the
-partial result is kept.  A controller with its own states
+physical domain (:data:`gna.trajectory.DOMAIN`: airspeed out of
+[1, 3000] m/s, cos(beta) or cos(gamma) near 0, |alpha| beyond pi/2,
+non-finite values; the JSBSim engines apply the same tests) stops the run at
+the located time with a message naming the variable and value, and the valid
+part of the result is kept.  A controller with its own states
 (:class:`gna.controller.Controller`) is integrated together with the aircraft:
 the integrated vector is ``(x, xc)`` with ``12 + n_states`` components.
 """
@@ -22,10 +24,12 @@ from .atmosphere import Environment
 from .controller import as_controller, checked_initial_state, evaluate, state_names
 from .eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, derivatives, loads
 from .errors import InputError
-from .trajectory import (ControlFunction, RunSettings, SimulationResult, check_span, control_function,
-                         controller_frames, initial_state)
+from .trajectory import (DOMAIN_TESTS, ControlFunction, RunSettings, SimulationResult, check_span,
+                         control_function, controller_frames, controls_on_grid, domain_margins, domain_text,
+                         domain_violation, initial_state, output_grid)
 
-__all__ = ["ControlFunction", "SimulationResult", "RunSettings", "simulate", "envelope_warnings"]
+__all__ = ["ControlFunction", "SimulationResult", "RunSettings", "simulate", "envelope_warnings",
+           "engine_thrust_warnings"]
 
 _SOLVERS = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau}
 
@@ -36,13 +40,8 @@ class _NonFinite(Exception):
 
 
 def _domain_functions():
-    """Event functions: positive inside the physical domain."""
-    return [
-        ("V", "airspeed V reached zero", lambda y: y[3]),
-        ("beta", "|beta| reached pi/2", lambda y: math.cos(y[7])),
-        ("gamma", "cos(gamma) reached zero (vertical flight path: the wind-frame chart is singular)",
-         lambda y: math.cos(y[4])),
-    ]
+    """Event functions of :data:`gna.trajectory.DOMAIN_TESTS`: (test index, margin), positive inside."""
+    return [(i, (lambda y, i=i: domain_margins(y)[i])) for i in range(len(DOMAIN_TESTS))]
 
 
 def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
@@ -75,9 +74,10 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
         corrections``.  The applied controls are ``controls(t) +
         controller.output(t, x, xc)``.
     dt_out : float
-        Output interval [s] (ignored when ``t_eval`` is given).
+        Output interval [s]; it must divide the span (ignored when ``t_eval``
+        is given; :func:`gna.trajectory.output_grid`).
     t_eval : array_like, shape (n,), optional
-        Output times [s].
+        Output times [s], increasing, inside the span.
     rtol, atol : float
         Integrator tolerances (on the aircraft and controller states).
     method : {"DOP853", "RK45", "Radau"}
@@ -95,14 +95,28 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     Raises
     ------
     InputError
-        Bad span, initial state, controls, controller or integrator name.
+        Bad span, output grid, initial state, controls (not 5 values),
+        controller, model or integrator name.
+
+    Notes
+    -----
+    A run leaving the physical domain (:func:`gna.trajectory.domain_violation`)
+    ends with ``status == "domain"``, the message naming the time, variable and
+    value, and the rows up to the located crossing.
     """
     env = env if env is not None else Environment()
     t0, t1 = check_span(t_span)
     y0 = initial_state(None, x0)
     if method not in _SOLVERS:
         raise InputError(f"unknown integrator {method!r}; choose from {', '.join(_SOLVERS)}")
+    if model not in ("full", "simple"):
+        raise InputError(f"model must be 'full' or 'simple', got {model!r}")
+    grid = output_grid(t0, t1, dt_out, t_eval)
     ufun = control_function(controls)
+    controls_on_grid(ufun, np.array([t0]))  # 5 values, or one clear InputError before integrating
+    start = domain_violation(t0, y0)
+    if start is not None:
+        raise InputError(f"the initial state is outside the physical domain: {start}")
     ctrl = as_controller(controller)
     nc = 0 if ctrl is None else int(ctrl.n_states)
     names = state_names(ctrl)
@@ -136,7 +150,9 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     while solver.status == "running":
         t_prev, y_prev = solver.t, solver.y.copy()
         try:
-            err = solver.step()
+            # Overflow in a trial step is caught below (non-finite derivative, domain tests), not warned.
+            with np.errstate(over="ignore", invalid="ignore"):
+                err = solver.step()
         except _NonFinite as exc:
             if exc.t - t_prev > bracket:
                 span = 0.5 * (exc.t - t_prev)
@@ -146,37 +162,41 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
             status = "domain"
             t_end = t_prev
             message = (f"non-finite derivative ({', '.join(exc.names)}) at t = {exc.t:.6g} s; "
-                       f"integration stopped, result kept up to t = {t_prev:.6g} s")
+                       f"integration stopped, partial result kept up to t = {t_prev:.6g} s")
             break
         if solver.status == "failed":
             status, t_end = "failed", t_prev
             message = f"integrator failed at t = {t_prev:.6g} s: {err}"
+            out = domain_violation(t_prev, y_prev)
+            if out is not None:
+                status, message = "domain", f"{out}; partial result kept up to t = {t_prev:.6g} s"
             break
         dense = solver.dense_output()
         hit = None
-        for name, text, g in events:
-            g0, g1 = g(y_prev), g(solver.y)
+        if not np.all(np.isfinite(solver.y)):
+            hit = (t_prev, None)
+        m0, m1 = domain_margins(y_prev), domain_margins(solver.y)
+        for i, g in events:
+            g0, g1 = m0[i], m1[i]
             if g0 > 0 and not g1 > 0:
-                te = brentq(lambda tt: g(dense(tt)), t_prev, solver.t, xtol=1e-12) if np.isfinite(g1) else solver.t
+                te = brentq(lambda tt: g(dense(tt)), t_prev, solver.t, xtol=1e-12) if np.isfinite(g1) else t_prev
                 if hit is None or te < hit[0]:
-                    hit = (te, name, text)
+                    hit = (te, i)
         if hit is not None:
-            te, name, text = hit
+            te, i = hit
             segments.append((t_prev, te, dense))
-            ye = dense(te)
+            ye = dense(te) if te > t_prev else y_prev
             status, t_end = "domain", te
-            message = (f"{text} at t = {te:.6g} s ({name} = {ye[STATE_NAMES.index(name)]:.6g}); "
-                       f"integration stopped, partial result kept")
+            if i is None:
+                text = domain_violation(solver.t, solver.y) or "left the physical domain"
+            else:
+                text = domain_text(te, i, float(ye[STATE_NAMES.index(DOMAIN_TESTS[i][0])]))
+            message = f"{text}; integration stopped, partial result kept up to t = {te:.6g} s"
             break
         segments.append((t_prev, solver.t, dense))
     if status == "completed":
         t_end = t1
 
-    if t_eval is None:
-        n = max(int(round((t1 - t0) / dt_out)), 1)
-        grid = np.linspace(t0, t1, n + 1)
-    else:
-        grid = np.asarray(t_eval, dtype=float)
     grid = grid[grid <= t_end + 1e-12]
     if status != "completed" and (grid.size == 0 or grid[-1] < t_end):
         grid = np.append(grid, t_end)
@@ -254,7 +274,7 @@ def _excursion(df, mask, name: str, values, worst_index: int, text: str) -> str:
 
 
 def envelope_warnings(aircraft, df) -> list[str]:
-    """Excursions of a trajectory outside the aircraft's envelope, control limits and thrust range.
+    """Excursions of a trajectory outside the aircraft's envelope, control limits and thrust range (total, per engine).
 
     Parameters
     ----------
@@ -296,10 +316,57 @@ def envelope_warnings(aircraft, df) -> list[str]:
     if fmax is not None and np.any(F > fmax):
         out.append(_excursion(df, F > fmax, "F", [f"{x:.4g} N" for x in F], int(np.argmax(F)),
                               f"thrust F above the maximum {fmax:.4g} N"))
+    out += engine_thrust_warnings(aircraft, F, df["eta"].to_numpy(), df["V"].to_numpy(),
+                                  df.index.to_numpy(dtype=float))
     if aircraft.propulsion.count == 2:
         eta = df["eta"].to_numpy()
         if np.any(np.abs(eta) > 1):
             out.append(_excursion(df, np.abs(eta) > 1, "eta", [f"{x:.4g}" for x in eta],
                                   int(np.argmax(np.abs(eta))),
                                   "|eta| above 1 (one engine would need negative thrust)"))
+    return out
+
+
+def engine_thrust_warnings(aircraft: Aircraft, F, eta, V, t=None) -> list[str]:
+    """Warnings for each engine whose thrust exceeds its own rating at the airspeed.
+
+    Engine 1 gives ``F (1 + eta) / 2``, engine 2 ``F (1 - eta) / 2`` (one
+    engine: ``F``); the limit is
+    :meth:`gna.aircraft.Propulsion.engine_thrust_limit` (static thrust, and
+    shaft power times propeller efficiency over ``V``), named with its source.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Its propulsion and per-engine rating.
+    F, eta, V : float or array_like, shape (n,)
+        Total thrust [N], asymmetry [-], airspeed [m/s].
+    t : array_like, shape (n,), optional
+        Times [s] (named in the warnings).
+
+    Returns
+    -------
+    list of str
+        One warning per engine over its limit (the worst point), empty when
+        the aircraft has no per-engine rating.
+    """
+    prop = aircraft.propulsion
+    if prop.engine_power is None and prop.engine_static_thrust is None:
+        return []
+    F, eta, V = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=float)) for v in (F, eta, V)))
+    limit = np.array([prop.engine_thrust_limit(float(v)) for v in V])
+    if prop.count == 2:
+        shares = {"engine 1": 0.5 * (1.0 + eta), "engine 2": 0.5 * (1.0 - eta)}
+    else:
+        shares = {"the engine": np.ones_like(eta)}
+    out = []
+    for name, share in shares.items():
+        Fi = F * share
+        over = Fi > limit
+        if np.any(over):
+            i = int(np.argmax(np.where(over, Fi - limit, -np.inf)))
+            at = "" if t is None else f" at t = {float(np.atleast_1d(t)[i]):.4g} s"
+            share_of = "" if t is None else f" ({100.0 * np.mean(over):.0f} % of the run)"
+            out.append(f"{name} thrust {Fi[i]:.1f} N{at} above its rating {limit[i]:.1f} N at V = {V[i]:.2f} m/s"
+                       f"{share_of} (per-engine limit: {prop.engine_source or 'aircraft file'})")
     return out

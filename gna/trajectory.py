@@ -8,7 +8,9 @@
 * Control sources: :data:`ControlFunction`, :func:`control_function` (a
   function of time, a plan, or five constants) and :func:`controls_on_grid`.
 * The input checks every engine shares: :func:`initial_state`,
-  :func:`check_span`, :func:`environment_of`.
+  :func:`check_span`, :func:`output_grid`, :func:`environment_of`.
+* The physical domain every engine stops at: :data:`DOMAIN`,
+  :func:`domain_margins` and :func:`domain_violation`.
 * The outcome of a run on any engine: :class:`SimulationResult` with its typed
   settings record :class:`RunSettings`.
 """
@@ -151,6 +153,215 @@ def check_span(t_span) -> tuple[float, float]:
     if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
         raise InputError(f"t_span must be finite and increasing, got {t_span}")
     return t0, t1
+
+
+def output_grid(t0: float, t1: float, dt_out: float = 0.02, t_eval=None) -> np.ndarray:
+    """The output times of a run: ``t_eval`` checked, or the uniform grid of step ``dt_out``.
+
+    A ``dt_out`` that does not divide the span is refused rather than changed
+    (the grid would otherwise silently use another interval).
+
+    Parameters
+    ----------
+    t0, t1 : float
+        Span [s] (checked by :func:`check_span`).
+    dt_out : float
+        Output interval [s]; it must divide ``t1 - t0`` (relative tolerance
+        1e-6 on the number of intervals).  Ignored when ``t_eval`` is given.
+    t_eval : array_like, shape (n,), optional
+        Output times [s]: non-empty, finite, increasing, inside the span.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Output times [s]; the uniform grid is ``t0 + k dt_out``, ``k = 0 .. N``.
+
+    Raises
+    ------
+    InputError
+        ``dt_out`` not a positive finite number or not dividing the span;
+        ``t_eval`` empty, not finite, not increasing or outside the span.
+    """
+    if t_eval is not None:
+        try:
+            te = np.asarray(t_eval, dtype=float).ravel()
+        except (TypeError, ValueError):
+            raise InputError(f"t_eval must be a sequence of times [s], got {type(t_eval).__name__}") from None
+        if te.size == 0 or not np.all(np.isfinite(te)) or np.any(np.diff(te) <= 0):
+            raise InputError("t_eval must be a non-empty increasing sequence of finite times")
+        tol = 1e-12 * max(1.0, abs(t0), abs(t1))
+        if te[0] < t0 - tol or te[-1] > t1 + tol:
+            raise InputError(f"t_eval must lie in t_span [{t0:g}, {t1:g}] s, got times from {te[0]:g} to "
+                             f"{te[-1]:g} s")
+        return te
+    try:
+        dt_out = float(dt_out)
+    except (TypeError, ValueError):
+        raise InputError(f"dt_out must be a number [s], got {dt_out!r}") from None
+    if not (math.isfinite(dt_out) and dt_out > 0):
+        raise InputError(f"dt_out must be a positive finite interval [s], got {dt_out}")
+    ratio = (t1 - t0) / dt_out
+    n = int(round(ratio))
+    if n < 1 or abs(ratio - n) > 1e-6 * max(1.0, ratio):
+        raise InputError(f"dt_out = {dt_out:g} s does not divide the span [{t0:g}, {t1:g}] s "
+                         f"({ratio:.6g} intervals); choose a divisor of {t1 - t0:g} s or pass t_eval")
+    return np.linspace(t0, t1, n + 1)
+
+
+# --------------------------------------------------------------------------- the physical domain of a run
+
+@dataclass(frozen=True)
+class DomainBounds:
+    """Where a trajectory of the wind-frame model still means something; engines stop outside.
+
+    These are not the aerodynamic envelope (an excursion there is a warning):
+    they mark a run that has diverged or reached a singular chart.
+
+    Parameters
+    ----------
+    V_min : float
+        Smallest airspeed [m/s]: 1 m/s.  Below it alpha, beta and the wind
+        frame are ill-defined (V = 0 is the chart's singularity) and no
+        aircraft of the catalogue flies; a run down there has stalled out.
+    V_max : float
+        Largest airspeed [m/s]: 3000 m/s (about Mach 9 in the ISA), beyond
+        every aircraft flown here; a run above it has blown up.
+    cos_min : float
+        Smallest ``cos(beta)`` and ``cos(gamma)`` [-]: 1e-6.  At
+        ``cos(beta) = 0`` or ``cos(gamma) = 0`` the wind-frame chart is
+        singular (the model's equations divide by them).
+    alpha_max : float
+        Largest ``|alpha|`` [rad]: pi/2.  Beyond it the air comes from behind
+        the wing; the aerodynamic models are fitted over tens of degrees and
+        the JSBSim angle swings through +-pi when a run tumbles.
+    """
+
+    V_min: float = 1.0
+    V_max: float = 3000.0
+    cos_min: float = 1e-6
+    alpha_max: float = 0.5 * math.pi
+
+
+#: The bounds both engines apply at every step.
+DOMAIN = DomainBounds()
+
+#: Domain tests: (state name, what its margin measures); margins are positive inside the domain.
+DOMAIN_TESTS: tuple[tuple[str, str], ...] = (
+    ("V", "airspeed V below the domain's {V_min:g} m/s"),
+    ("V", "airspeed V above the domain's {V_max:g} m/s"),
+    ("beta", "|beta| at pi/2 (cos(beta) below {cos_min:g}: the wind-frame chart is singular)"),
+    ("gamma", "cos(gamma) below {cos_min:g} (vertical flight path: the wind-frame chart is singular)"),
+    ("alpha", "|alpha| above the domain's {alpha_max_deg:g} deg"),
+)
+
+
+def domain_margins(state, bounds: DomainBounds = DOMAIN) -> list[float]:
+    """The margins of a state to the domain's bounds, in the order of :data:`DOMAIN_TESTS`.
+
+    Parameters
+    ----------
+    state : sequence of float, shape (12,) or more
+        Wind-frame state (:data:`gna.eom.STATE_NAMES`, SI, rad); extra
+        components (controller states) are ignored.
+    bounds : DomainBounds
+        The bounds (default :data:`DOMAIN`).
+
+    Returns
+    -------
+    list of float
+        One margin per test, positive inside the domain (NaN for a non-finite state).
+    """
+    V, gamma, alpha, beta = state[3], state[4], state[6], state[7]
+    if not (math.isfinite(gamma) and math.isfinite(beta)):
+        return [math.nan] * len(DOMAIN_TESTS)
+    return [V - bounds.V_min, bounds.V_max - V, math.cos(beta) - bounds.cos_min, math.cos(gamma) - bounds.cos_min,
+            bounds.alpha_max - abs(alpha)]
+
+
+def domain_text(t: float, test: int, value: float, bounds: DomainBounds = DOMAIN) -> str:
+    """The message of a domain stop: time, test, variable and value.
+
+    Parameters
+    ----------
+    t : float
+        Time of the stop [s].
+    test : int
+        Index into :data:`DOMAIN_TESTS`.
+    value : float
+        Value of the variable (SI, rad).
+    bounds : DomainBounds
+        The bounds named in the message.
+
+    Returns
+    -------
+    str
+        ``"left the physical domain at t = ... s: <test> (<name> = <value> <unit>)"``.
+    """
+    name, text = DOMAIN_TESTS[test]
+    text = text.format(V_min=bounds.V_min, V_max=bounds.V_max, cos_min=bounds.cos_min,
+                       alpha_max_deg=math.degrees(bounds.alpha_max))
+    shown = f"{value:.6g} {UNITS[name]}" if name == "V" else f"{value:.6g} rad = {math.degrees(value):.4g} deg"
+    return f"left the physical domain at t = {t:.6g} s: {text} ({name} = {shown})"
+
+
+def domain_violation(t: float, state, bounds: DomainBounds = DOMAIN) -> str | None:
+    """Whether a state lies outside the physical domain, and the message naming time, variable and value.
+
+    The one test both engines apply (the in-house integrator locates the
+    crossing with its dense output; JSBSim checks every step).
+
+    Parameters
+    ----------
+    t : float
+        Time [s] (for the message).
+    state : sequence of float, shape (12,) or more
+        Wind-frame state (:data:`gna.eom.STATE_NAMES`, SI, rad).
+    bounds : DomainBounds
+        The bounds (default :data:`DOMAIN`).
+
+    Returns
+    -------
+    str or None
+        None inside the domain; otherwise the message (non-finite states
+        first, then the tests of :data:`DOMAIN_TESTS` in order).
+    """
+    bad = [f"{n} = {v}" for n, v in zip(STATE_NAMES, state) if not math.isfinite(v)]
+    if bad:
+        return f"left the physical domain at t = {t:.6g} s: non-finite state ({', '.join(bad)})"
+    for i, m in enumerate(domain_margins(state, bounds)):
+        if not m > 0:
+            name = DOMAIN_TESTS[i][0]
+            return domain_text(t, i, float(state[STATE_NAMES.index(name)]), bounds)
+    return None
+
+
+def first_domain_violation(t, states, bounds: DomainBounds = DOMAIN) -> str | None:
+    """:func:`domain_violation` over a sequence of states: the message of the first one outside, or None.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Times [s].
+    states : array_like, shape (12, n)
+        Wind-frame states (:data:`gna.eom.STATE_NAMES`, SI, rad).
+    bounds : DomainBounds
+        The bounds (default :data:`DOMAIN`).
+
+    Returns
+    -------
+    str or None
+        The message of the earliest state outside the domain.
+    """
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    X = np.asarray(states, dtype=float).reshape(12, t.size)
+    with np.errstate(invalid="ignore"):
+        inside = (np.all(np.isfinite(X), axis=0) & (X[3] > bounds.V_min) & (X[3] < bounds.V_max)
+                  & (np.cos(X[7]) > bounds.cos_min) & (np.cos(X[4]) > bounds.cos_min)
+                  & (np.abs(X[6]) < bounds.alpha_max))
+    if inside.all():
+        return None
+    i = int(np.argmin(inside))
+    return domain_violation(float(t[i]), X[:, i].tolist(), bounds)
 
 
 def environment_of(source, env: Environment | None = None) -> Environment:
@@ -331,7 +542,9 @@ class SimulationResult:
         quantities (``qbar``, ``rho``, load factors, wind-axis forces ``X, Y,
         Z``, body moments ``L, M, N``, coefficients).
     status : {"completed", "domain", "failed"}
-        How the run ended ("domain": it left the physical domain or diverged).
+        How the run ended ("domain": it left the physical domain of
+        :func:`domain_violation` -- the same test on every engine -- or met
+        non-finite values; "failed": the integrator gave up inside the domain).
     message : str
         Empty when completed; otherwise names the time, variable and value.
     warnings : list of str

@@ -23,6 +23,7 @@ from .aircraft import Aircraft
 from .atmosphere import ConstantDensity, Environment
 from .eom import Controls, HValues, State, derivatives
 from .errors import ConvergenceError, DomainError, InputError
+from .simulate import engine_thrust_warnings
 from .solve import newton
 from .trajectory import UNITS
 from .units import G0
@@ -108,6 +109,36 @@ def _check_number(name: str, value) -> float:
     return v
 
 
+def check_eta(aircraft: Aircraft, eta: float) -> float:
+    """Check a thrust asymmetry ``eta = (F1 - F2)/(F1 + F2)`` against the aircraft's engines.
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Its engine count.
+    eta : float
+        Thrust asymmetry [-].
+
+    Returns
+    -------
+    float
+        ``eta``.
+
+    Raises
+    ------
+    InputError
+        ``|eta| > 1`` (one engine would give negative thrust) with two
+        engines, ``eta != 0`` with one engine on the symmetry plane.
+    """
+    if aircraft.propulsion.count == 1 and eta != 0.0:
+        raise InputError(f"eta = {eta:g}: {aircraft.id} has one engine on the symmetry plane, so the thrust "
+                         f"asymmetry eta must be 0")
+    if not -1.0 <= eta <= 1.0:
+        raise InputError(f"eta = {eta:g} is outside [-1, 1]: eta = (F1 - F2)/(F1 + F2), so one engine would give "
+                         f"negative thrust (eta = 1: engine 2 off, eta = -1: engine 1 off)")
+    return eta
+
+
 def _default_guess(aircraft: Aircraft, rho: float, fixed: Mapping[str, float]) -> dict:
     """Initial values: level flight estimates from the lift and drag polars."""
     m, g, S = aircraft.mass.mass, G0, aircraft.geometry.S
@@ -176,11 +207,14 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
     Raises
     ------
     InputError
-        Wrong set of fixed variables or bad values.
+        Wrong set of fixed variables, bad values, ``|eta| > 1`` (or ``eta != 0``
+        with one engine), unknown model.
     ConvergenceError
         Newton did not converge (message names the residual, iterations and fixed values).
     DomainError
-        With ``check_envelope``, the solution lies outside the aerodynamic model's envelope.
+        The altitude is outside the atmosphere model's range (the ISA's -2 to
+        20 km); with ``check_envelope``, the solution lies outside the
+        aerodynamic model's envelope.
     """
     env = env if env is not None else Environment()
     unknown = [k for k in fixed if k not in TRIM_VARIABLES]
@@ -190,7 +224,10 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
         raise InputError(f"fix exactly 4 of the 13 trim variables (got {len(fixed)}: {', '.join(fixed) or 'none'})")
     fixed = {k: _check_number(k, v) for k, v in fixed.items()}
     altitude = _check_number("altitude", altitude)
-    eta = _check_number("eta", eta)
+    eta = check_eta(aircraft, _check_number("eta", eta))
+    if model not in ("full", "simple"):
+        raise InputError(f"model must be 'full' or 'simple', got {model!r}")
+    env.check_altitude(altitude, "trim")
     if "V" in fixed and fixed["V"] <= 0:
         raise InputError(f"speed must be positive, got V = {fixed['V']} m/s")
     if "beta" in fixed and abs(fixed["beta"]) >= math.pi / 2:
@@ -236,7 +273,7 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
     if vals["V"] <= 0:
         raise ConvergenceError(f"trim of {aircraft.id} converged to a non-physical speed V = {vals['V']:.4g} m/s",
                                residual=float(res.residual), iterations=res.iterations)
-    warnings = _envelope_check(aircraft, vals, fixed, check_envelope)
+    warnings = _envelope_check(aircraft, vals, fixed, check_envelope, eta)
     return TrimResult(values={k: float(vals[k]) for k in TRIM_VARIABLES}, fixed=dict(fixed),
                       residuals={n: float(v) for n, v in zip(RESIDUAL_NAMES, r)}, iterations=res.iterations,
                       model=model, altitude=altitude, eta=eta, aircraft=aircraft.id, state=s, controls=u,
@@ -244,7 +281,7 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
 
 
 def _envelope_check(aircraft: Aircraft, vals: Mapping[str, float], fixed: Mapping[str, float],
-                    strict: bool) -> list[str]:
+                    strict: bool, eta: float = 0.0) -> list[str]:
     env = aircraft.envelope
     errors, warnings = [], []
     a, b = vals["alpha"], vals["beta"]
@@ -264,6 +301,7 @@ def _envelope_check(aircraft: Aircraft, vals: Mapping[str, float], fixed: Mappin
         warnings.append(f"negative thrust F = {vals['F']:.1f} N (the condition needs drag beyond the airframe's)")
     elif aircraft.propulsion.max_thrust is not None and vals["F"] > aircraft.propulsion.max_thrust:
         warnings.append(f"thrust F = {vals['F']:.1f} N above the maximum {aircraft.propulsion.max_thrust:.1f} N")
+    warnings += engine_thrust_warnings(aircraft, vals["F"], eta, vals["V"])
     if errors and strict:
         fx = ", ".join(f"{k} = {v:.6g}" for k, v in fixed.items())
         raise DomainError(f"trim of {aircraft.id} with {fx} is outside the model's validity: " + "; ".join(errors),

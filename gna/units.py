@@ -13,5 +13,6 @@ SLUG = LBF / FT                  #: kilogram per slug (exact, 14.593902937206364
 SLUG_FT2 = SLUG * FT * FT        #: kg m^2 per slug ft^2
 FT2 = FT * FT                    #: m^2 per ft^2
 SLUG_FT3 = SLUG / FT ** 3        #: kg/m^3 per slug/ft^3
+HP = 550.0 * LBF * FT            #: watt per (mechanical, shaft) horsepower, 550 ft lbf/s (exact, 745.69987...)
 KT = 1852.0 / 3600.0             #: m/s per knot (exact)
 DEG = 3.141592653589793 / 180.0  #: rad per degree

@@ -5,15 +5,71 @@ Each sub-command lives in a module of :mod:`harness.commands` exposing
 callable ``func(args) -> int``.  Errors gflat raises on purpose
 (:class:`gna.errors.GflatError`) are printed as one line naming the cause, with
 exit status 2; anything else is a bug and keeps its traceback.
+
+Exit status (:data:`EXIT_CODES`): 0 success; 1 the work ran but its verdict is
+negative (a validation FAIL, an infeasible plan, stale files under
+``--check``); 2 a usage or input error (bad option, bad file, bad value), no
+result; 130 interrupted.  ``-v``/``-q`` set the level of the ``logging``
+messages (and of Python warnings, routed through ``logging``), on stderr.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import logging
+import re
 import sys
+import time
 
 from gna.errors import GflatError
+
+#: Exit statuses of ``gflat``, documented in ``gflat --help`` and the README.
+EXIT_CODES: dict[int, str] = {
+    0: "success",
+    1: "the work ran but its verdict is negative: validation FAIL, infeasible plan, stale files (--check)",
+    2: "usage or input error (bad option, file or value): one line names the cause, nothing is computed",
+    130: "interrupted (Ctrl-C)",
+}
+
+#: Numbers such as -1, -0.5, -1e-3, -.5E+2 are option values, not option names.
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+
+class GflatParser(argparse.ArgumentParser):
+    """An :class:`argparse.ArgumentParser` reading ``--gamma -1e-3`` as a negative number.
+
+    argparse's own test for negative numbers (``-1``, ``-0.5``) misses the exponent form; no gflat
+    option name looks like a number, so every such word is a value.
+    """
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = _NEGATIVE_NUMBER
+
+
+def _version() -> str:
+    from importlib import metadata
+    try:
+        return metadata.version("gflat")
+    except metadata.PackageNotFoundError:  # pragma: no cover - run from a source tree without install
+        return "unknown"
+
+
+def _add_verbosity(parser: argparse.ArgumentParser, default) -> None:
+    group = parser.add_argument_group("messages")
+    group.add_argument("-v", "--verbose", action="count", default=default,
+                       help="more messages on stderr (-v: progress, -vv: debug)")
+    group.add_argument("-q", "--quiet", action="count", default=default,
+                       help="fewer messages on stderr (-q: errors only, warnings hidden)")
+
+
+def _subparsers(parser: argparse.ArgumentParser):
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for p in dict.fromkeys(action.choices.values()):
+                yield p
+                yield from _subparsers(p)
 
 #: Modules of harness.commands, in the order their commands are listed.
 COMMAND_MODULES: tuple[str, ...] = (
@@ -22,6 +78,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "plan",
     "compare",
     "paper",
+    "report",
     "export_jsbsim",
     "export_script",
     "fit",
@@ -30,22 +87,80 @@ COMMAND_MODULES: tuple[str, ...] = (
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    """The ``gflat`` parser with every sub-command.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+    """
+    parser = GflatParser(
         prog="gflat",
         description="Flatness-based motion planning of aircraft (GNA aerodynamics) and its validation "
-                    "across dynamics engines.")
+                    "across dynamics engines.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="exit status:\n" + "\n".join(f"  {k:<4} {v}" for k, v in EXIT_CODES.items()))
+    parser.add_argument("--version", action="version", version=f"gflat {_version()}")
+    _add_verbosity(parser, 0)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in COMMAND_MODULES:
         importlib.import_module(f"harness.commands.{name}").register(sub)
+    for p in _subparsers(parser):   # -v/-q also after the sub-command (counted there)
+        _add_verbosity(p, argparse.SUPPRESS)
     return parser
 
 
+def setup_logging(verbose: int, quiet: int) -> int:
+    """Send ``logging`` messages (and Python warnings) to stderr at the level ``-v``/``-q`` choose.
+
+    Parameters
+    ----------
+    verbose : int
+        Number of ``-v`` (1: INFO, 2: DEBUG).
+    quiet : int
+        Number of ``-q`` (1: ERROR only, warnings hidden).
+
+    Returns
+    -------
+    int
+        The ``logging`` level set.
+    """
+    level = min(max(logging.WARNING - 10 * verbose + 10 * quiet, logging.DEBUG), logging.CRITICAL)
+    logger = logging.getLogger()
+    for h in list(logger.handlers):
+        if getattr(h, "gflat", False):
+            logger.removeHandler(h)
+    handler = logging.StreamHandler(sys.stderr)
+    handler.gflat = True
+    handler.setFormatter(logging.Formatter("gflat: %(levelname)s: %(message)s"))
+    logger.addHandler(handler)
+    logger.setLevel(level)
+    logging.captureWarnings(True)
+    return level
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run ``gflat`` with the command-line words ``argv``.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status (:data:`EXIT_CODES`).
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
+    setup_logging(args.verbose, args.quiet)
+    log = logging.getLogger("gflat")
+    start = time.perf_counter()
     try:
-        return int(args.func(args) or 0)
+        status = int(args.func(args) or 0)
+        log.info("%s: done in %.2f s, exit status %d", args.command, time.perf_counter() - start, status)
+        return status
     except GflatError as exc:
         print(f"gflat {args.command}: error: {exc}", file=sys.stderr)
         return 2

@@ -16,9 +16,12 @@ its Newton iterations from iterate j - 1.
 
 from __future__ import annotations
 
+import logging
 import time
 
 import numpy as np
+
+from gna.trajectory import first_domain_violation
 
 from .flat import FlatProblem, parametrize
 from .plan import Plan
@@ -28,9 +31,42 @@ from .singularity import monitor
 ORDER_LOSS = 2
 #: Number of stages between the flat outputs and the controls.
 STAGES = 4
+#: Default bound on :func:`plan_cost`: 5e6 node-order^2 units, about 30 s of planning (about 6 us per unit
+#: measured on 2 cores; the paper's largest plan, the J = 7 aileron roll on 81 nodes, costs 1.07e5).
+MAX_PLAN_COST = 5.0e6
+#: Plans costing more than this log their progress per iterate (logger ``planners.generalized``, INFO).
+PROGRESS_COST = 5.0e5
+
+_log = logging.getLogger(__name__)
 
 
-def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str = "plan") -> Plan:
+def plan_cost(nodes: int, J: int, e: int = 1) -> float:
+    """Cost estimate of a plan: ``nodes * sum_j kappa_j^2``, ``kappa_j = e + 4 + 2 (J - j)``.
+
+    The truncated-series products at order ``kappa`` cost ``kappa^2`` per
+    node; the time of a plan grows like this figure (about 6 us per unit,
+    memory like ``nodes * kappa``).
+
+    Parameters
+    ----------
+    nodes : int
+        Number of grid nodes.
+    J : int
+        Generalized-flatness iterations.
+    e : int
+        Order of the controls in the last iterate.
+
+    Returns
+    -------
+    float
+        Node-order^2 units.
+    """
+    kappa0 = e + STAGES + J * ORDER_LOSS
+    return float(nodes) * sum((kappa0 - ORDER_LOSS * j) ** 2 for j in range(J + 1))
+
+
+def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str = "plan",
+                max_cost: float | None = None) -> Plan:
     """Plan with J generalized-flatness iterations.
 
     Parameters
@@ -45,6 +81,10 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         interpolation to carry slopes).
     name : str
         Name of the plan (for messages and outputs).
+    max_cost : float, optional
+        Bound on :func:`plan_cost` (default :data:`MAX_PLAN_COST`;
+        ``math.inf`` removes it).  Plans above :data:`PROGRESS_COST` log each
+        iterate (INFO, logger ``planners.generalized``).
 
     Returns
     -------
@@ -54,12 +94,30 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
     Raises
     ------
     InputError
-        A grid of fewer than two increasing nodes.
+        A grid of fewer than two increasing nodes, or a plan costing more than ``max_cost``.
+    DomainError
+        The flat output's altitude ``-z`` at a node is outside the
+        atmosphere model's range (the ISA's -2 to 20 km).
     """
     t_nodes = np.asarray(t_nodes, dtype=float)
     if t_nodes.ndim != 1 or len(t_nodes) < 2 or np.any(np.diff(t_nodes) <= 0):
         from gna.errors import InputError
         raise InputError("the planning grid needs at least two increasing nodes")
+    with np.errstate(all="ignore"):  # a non-finite z is reported by the parametrization with its cause
+        z = np.broadcast_to(np.real(np.asarray(problem.z(t_nodes), dtype=complex)), t_nodes.shape)
+    finite = np.isfinite(z)
+    problem.env.check_altitude(-z[finite], f"plan {name}, flat output z", times=t_nodes[finite])
+    cost = plan_cost(len(t_nodes), J, e)
+    limit = MAX_PLAN_COST if max_cost is None else float(max_cost)
+    if cost > limit:
+        from gna.errors import InputError
+        raise InputError(f"plan {name}: J = {J} on {len(t_nodes)} nodes costs {cost:.3g} node-order^2 units, "
+                         f"above the bound {limit:.3g} (about {6e-6 * cost / 60:.0f} min of planning); use fewer "
+                         f"nodes or a smaller J, or raise the bound (--max-cost, max_cost= in Python; inf for none)")
+    verbose = cost > PROGRESS_COST
+    if verbose:
+        _log.info("plan %s: J = %d on %d nodes, cost %.3g units (about %.0f s)", name, J, len(t_nodes), cost,
+                  6e-6 * cost)
     kappa = e + STAGES + J * ORDER_LOSS
     iterates, timings = [], {}
     prev = None
@@ -70,11 +128,18 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             sol = parametrize(problem, t_nodes, kappa, h=h, guess=None if prev is None else prev.series)
         timings[j] = time.perf_counter() - t_start
+        if verbose:
+            done = sum(timings.values())
+            share = plan_cost(len(t_nodes), j, e + ORDER_LOSS * (J - j)) / cost
+            _log.info("plan %s: iterate j = %d of %d (order %d) in %.1f s; %.1f s so far, about %.0f s left",
+                      name, j, J, kappa, timings[j], done, done * (1.0 / max(share, 1e-12) - 1.0))
         iterates.append(sol)
         prev = sol
         kappa -= ORDER_LOSS
     plan = Plan(problem, t_nodes, iterates, [], name, timings)
     plan.warnings.extend(plan.newton_failures)
+    plan.domain_failures = domain_failures(plan)
+    plan.warnings.extend(plan.domain_failures)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         plan.singularities = monitor(plan)
     plan.warnings.extend(plan.singularities.warnings)
@@ -85,7 +150,30 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
     return plan
 
 
-def plan_scenario(scenario, J: int | None = None) -> Plan:
+def domain_failures(plan: Plan) -> list[str]:
+    """The iterates whose node values leave the physical domain, one message each (time, variable, value).
+
+    Parameters
+    ----------
+    plan : Plan
+        A plan with its iterates.
+
+    Returns
+    -------
+    list of str
+        ``"iterate j = ...: left the physical domain at t = ... s: ..."`` for
+        each iterate with a node outside :data:`gna.trajectory.DOMAIN`.
+    """
+    out = []
+    for j in range(plan.J + 1):
+        s, _ = plan.node_values(j)
+        bad = first_domain_violation(plan.t_nodes, np.array([np.broadcast_to(v, plan.t_nodes.shape) for v in s]))
+        if bad is not None:
+            out.append(f"iterate j = {j}: {bad}")
+    return out
+
+
+def plan_scenario(scenario, J: int | None = None, max_cost: float | None = None) -> Plan:
     """Plan a :class:`~planners.scenario.Scenario`.
 
     Parameters
@@ -94,10 +182,13 @@ def plan_scenario(scenario, J: int | None = None) -> Plan:
         Flat outputs, aircraft, grid and J.
     J : int, optional
         Generalized-flatness iterations (default: the scenario's).
+    max_cost : float, optional
+        Bound on :func:`plan_cost` (default :data:`MAX_PLAN_COST`).
 
     Returns
     -------
     Plan
         See :func:`plan_motion`.
     """
-    return plan_motion(scenario.problem(), scenario.t_nodes, scenario.J if J is None else J, name=scenario.name)
+    return plan_motion(scenario.problem(), scenario.t_nodes, scenario.J if J is None else J, name=scenario.name,
+                       max_cost=max_cost)

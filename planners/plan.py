@@ -11,6 +11,7 @@ and its k-th derivative is the exact k-th derivative of that expression
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -64,6 +65,10 @@ class Plan:
     singularities : SingularityReport or None
         The singularity monitor's conditions along iterate 0 (set by
         :func:`~planners.generalized.plan_motion`).
+    domain_failures : list of str
+        Iterates whose node values leave the physical domain
+        (:func:`gna.trajectory.domain_violation`: time, variable, value); such
+        a plan is not feasible.
     """
 
     problem: FlatProblem
@@ -73,6 +78,7 @@ class Plan:
     name: str = "plan"
     timings: dict = field(default_factory=dict)
     singularities: SingularityReport | None = None
+    domain_failures: list = field(default_factory=list)
 
     @property
     def aircraft(self) -> Aircraft:
@@ -242,15 +248,31 @@ class Plan:
         j : int
             Iterate (default: the last).
         step : float, optional
-            Step [s] of a regular grid from ``t0`` to ``t1`` when ``t`` is not given.
+            Step [s] of a regular grid ``t0 + k step`` when ``t`` is not
+            given; the grid stops at the last time not after ``t1`` (``t1``
+            itself when ``step`` divides the span).
 
         Returns
         -------
         DataFrame
             One column per state and control (SI, rad), indexed by ``t``.
+
+        Raises
+        ------
+        InputError
+            ``step`` not a positive finite number.
         """
+        if t is None and step is not None:
+            try:
+                step = float(step)
+            except (TypeError, ValueError):
+                raise InputError(f"step must be a number [s], got {step!r}") from None
+            if not (math.isfinite(step) and step > 0):
+                raise InputError(f"step must be a positive finite interval [s], got {step}")
+            t = np.arange(self.t0, self.t1 + 0.5 * step, step)
+            t = t[t <= self.t1 + 1e-9 * step]
         if t is None:
-            t = self.t_nodes if step is None else np.arange(self.t0, self.t1 + 0.5 * step, step)
+            t = self.t_nodes
         t = np.asarray(t, dtype=float)
         vals = self._evaluate_many(PLAN_VARIABLES, t, j)
         data = dict(zip(PLAN_VARIABLES, vals))
@@ -365,8 +387,9 @@ class Plan:
 
     @property
     def feasible(self) -> bool:
-        """False when Newton failed somewhere: the plan is not a solution of the model there."""
-        return not self.newton_failure_records
+        """False when Newton failed somewhere (the plan is not a solution of the model there) or a node
+        leaves the physical domain (:attr:`domain_failures`)."""
+        return not self.newton_failure_records and not self.domain_failures
 
     def worst_newton_residual(self) -> float:
         """Largest Newton residual (constant terms and series) over iterates and stages.

@@ -68,7 +68,6 @@ Unknown keys of ``[tracking]`` and of its sub-tables are refused by name.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -77,12 +76,13 @@ import numpy as np
 
 from gna.aircraft import Aircraft, load_aircraft
 from gna.atmosphere import ConstantDensity, Environment, ISA
-from gna.catalogue import bundled, resolve
+from gna.catalogue import bundled
 from gna.eom import HValues
 from gna.errors import GflatError, InputError
-from gna.perturbation import Perturbation, perturbation_from_dict, unknown_key_message
+from gna.perturbation import Perturbation, perturbation_from_dict
+from gna.schema import check_name, find_file, load_schema, read_toml, unknown_key_message, validate
 
-from .expressions import Expression, compile_expression
+from .expressions import CONSTANTS, FUNCTIONS, Expression, compile_expression
 from .flat import FLAT_KINDS, FlatOutput, FlatProblem
 
 
@@ -90,8 +90,16 @@ from .flat import FLAT_KINDS, FlatOutput, FlatProblem
 MAX_NODES = 20000
 
 
+#: Largest |time| of a scenario [s] (about 30 years: beyond it a grid step loses its meaning in float64).
+MAX_TIME = 1e9
+
 #: Keys of the ``[tracking]`` table.
-TRACKING_KEYS: tuple[str, ...] = ("lambdas", "feedforward_iterate", "saturate", "perturbation")
+TRACKING_KEYS: tuple[str, ...] = ("lambdas", "feedforward_iterate", "saturate", "controller_dt", "perturbation")
+
+#: Default sampling interval [s] of the feedback on sampled engines (JSBSim): 60 Hz, a usual flight-control
+#: computer rate.  Measured on the paper scenarios, it moves the in-house/JSBSim closed-loop difference by
+#: at most 2e-5 m against sampling at every JSBSim step, at 3 to 4 times the speed (docs/tracking.md).
+DEFAULT_CONTROLLER_DT: float = 1.0 / 60.0
 
 
 @dataclass(frozen=True)
@@ -107,6 +115,10 @@ class Tracking:
         Plan iterate of the feedforward (-1 = the last, 0 = the flat plan).
     saturate : bool
         Clip the applied controls at the aircraft's limits.
+    controller_dt : float or None
+        Sampling interval [s] of the feedback on sampled engines (JSBSim), the
+        output held in between; None samples at every engine step.  The
+        in-house engine evaluates the feedback continuously.
     perturbation : Perturbation or None
         Optional model and initial-state perturbation (:mod:`gna.perturbation`).
     """
@@ -114,6 +126,7 @@ class Tracking:
     lambdas: float | tuple = 1.0
     feedforward_iterate: int = -1
     saturate: bool = True
+    controller_dt: float | None = DEFAULT_CONTROLLER_DT
     perturbation: Perturbation | None = None
 
 
@@ -143,6 +156,7 @@ class Scenario:
     raw: dict = field(default_factory=dict, repr=False)
     path: str | None = None
     tracking: Tracking = field(default_factory=Tracking)
+    compare: Mapping = field(default_factory=dict)
 
     @property
     def t_nodes(self) -> np.ndarray:
@@ -150,6 +164,14 @@ class Scenario:
         return np.linspace(self.t0, self.t1, n + 1)
 
     def problem(self) -> FlatProblem:
+        """The flat planning problem of this scenario.
+
+        Returns
+        -------
+        FlatProblem
+            Aircraft, environment, flat outputs, eta or fixed rudder, first-iterate H values and
+            stage-2 starting values.
+        """
         return FlatProblem(self.aircraft, self.env, self.x, self.y, self.z, self.zeta, self.eta, self.dn, self.h,
                            self.start)
 
@@ -159,7 +181,12 @@ def _catalogue() -> dict[str, Path]:
 
 
 def list_scenarios() -> list[str]:
-    """Names of the bundled scenarios."""
+    """Names of the bundled scenarios.
+
+    Returns
+    -------
+    list of str
+    """
     return list(_catalogue())
 
 
@@ -177,53 +204,92 @@ def _num(table: Mapping, key: str, where: str, default: Any = ...) -> float:
 def load_scenario(name_or_path: str | Path, J: int | None = None) -> Scenario:
     """Load a bundled scenario by name, or a scenario TOML file by path.
 
+    Parameters
+    ----------
+    name_or_path : str or pathlib.Path
+        A bundled name (``gtm-aileron-roll``) or the path of a ``.toml`` file.
+    J : int, optional
+        Number of generalized-flatness iterations, instead of the file's.
+
+    Returns
+    -------
+    Scenario
+
     Raises
     ------
     InputError
-        Unknown scenario, malformed file, bad expression, inconsistent options.
+        Unknown scenario name; a missing file, a folder or a file not named ``.toml``; an
+        unreadable or non-UTF-8 file; invalid TOML; a file that does not follow the scenario
+        schema (``docs/scenarios.md``); a bad expression or inconsistent options.
     """
     cat = _catalogue()
-    path = resolve(name_or_path, cat)
+    path = find_file(name_or_path, cat, "scenario")
     if path is None:
         raise InputError(f"unknown scenario {str(name_or_path)!r}; bundled scenarios: {', '.join(cat)} "
                          f"(or give the path of a .toml file)")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{path.name}: not valid TOML ({exc})") from None
-    return scenario_from_dict(data, where=path.name, J=J, path=str(path))
+    return scenario_from_dict(read_toml(path), where=path.name, J=J, path=str(path))
 
 
 def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int | None = None,
                        path: str | None = None) -> Scenario:
-    """Build a :class:`Scenario` from the parsed TOML structure."""
-    for sec in ("time", "flat_outputs"):
-        if sec not in data:
-            raise InputError(f"{where}: missing [{sec}] section")
-    for sec in ("time", "flat_outputs", "generalized", "constants", "calibration", "h", "report", "environment",
-                "tracking"):
-        if sec in data and not isinstance(data[sec], dict):
-            raise InputError(f"{where}: [{sec}] must be a table, got {data[sec]!r}")
+    """Build a :class:`Scenario` from the parsed TOML structure.
+
+    Parameters
+    ----------
+    data : mapping
+        The parsed file (``planners/schemas/scenario.schema.json``).
+    where : str
+        The file's name, for messages.
+    J : int, optional
+        Number of generalized-flatness iterations, instead of the file's.
+    path : str, optional
+        The file's path: an aircraft path in the file is resolved from its folder.
+
+    Returns
+    -------
+    Scenario
+
+    Raises
+    ------
+    InputError
+        One line naming the file, the table, the key and the value: an unknown key (with the closest
+        known one), conflicting keys, a wrong type, an unsafe ``name``, a constant shadowing a
+        built-in name, a bad expression or grid.
+    """
+    if not isinstance(data, Mapping):
+        raise InputError(f"{where}: a scenario is a table of tables, got {type(data).__name__}")
+    validate(data, load_schema("planners", "schemas", "scenario.schema.json"), where)
+    if "name" in data:
+        name = check_name(data["name"], "name", where)
+    else:
+        name = check_name(Path(path).stem if path else "scenario", "name (from the file name)", where)
     if "aircraft" not in data:
         raise InputError(f"{where}: missing 'aircraft'")
-    aircraft = load_aircraft(str(data["aircraft"]))
+    aircraft = load_aircraft(str(data["aircraft"]), base=Path(path).parent if path else None)
     consts = data.get("constants", {})
+    reserved = set(CONSTANTS) | set(FUNCTIONS) | {"t"}
     for k, v in consts.items():
         _num(consts, k, f"{where} [constants]")
+        if k in reserved:
+            kind = "function" if k in FUNCTIONS else ("time variable" if k == "t" else "built-in constant")
+            raise InputError(f"{where} [constants]: {k} = {v!r} would shadow the {kind} {k!r}; choose another name")
     tm = data["time"]
     t0, t1 = _num(tm, "t0", f"{where} [time]"), _num(tm, "t1", f"{where} [time]")
     step = _num(tm, "step", f"{where} [time]")
+    for key, v in (("t0", t0), ("t1", t1)):
+        if abs(v) > MAX_TIME:
+            raise InputError(f"{where} [time]: {key} = {v:g} s is beyond +-{MAX_TIME:g} s")
     if not t1 > t0:
         raise InputError(f"{where} [time]: t1 = {t1} must be after t0 = {t0}")
     if not step > 0 or step > t1 - t0:
         raise InputError(f"{where} [time]: step must be in (0, t1 - t0], got {step}")
     n_steps = (t1 - t0) / step
-    if abs(n_steps - round(n_steps)) > 1e-9 * n_steps:
-        raise InputError(f"{where} [time]: step {step:g} s does not divide the span {t1 - t0:g} s "
-                         f"({n_steps:.6g} steps)")
     if n_steps > MAX_NODES:
         raise InputError(f"{where} [time]: {n_steps:.0f} steps exceed the limit of {MAX_NODES} nodes; "
                          f"use a larger step")
+    if abs(n_steps - round(n_steps)) > 1e-9 * n_steps:
+        raise InputError(f"{where} [time]: step {step:g} s does not divide the span {t1 - t0:g} s "
+                         f"({n_steps:.6g} steps)")
     fo = data["flat_outputs"]
 
     def expr(key, default=...):
@@ -236,6 +302,10 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
     kind = str(fo.get("zeta", "beta"))
     if kind not in FLAT_KINDS:
         raise InputError(f"{where} [flat_outputs]: zeta must be one of {', '.join(FLAT_KINDS)}, got {kind!r}")
+    for key in ("f1", "f2"):
+        if key in fo and kind != "mix":
+            raise InputError(f"{where} [flat_outputs]: {key} = {fo[key]!r} is used only with zeta = 'mix' "
+                             f"(here zeta = {kind!r})")
     zeta = FlatOutput(kind, expr("zeta_value", compile_expression(0.0)),
                       expr("f1", None) if kind == "mix" else None, expr("f2", None) if kind == "mix" else None)
     eta = expr("eta", None)
@@ -268,13 +338,14 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
     rvars = rep.get("variables", ["F", "dl", "dm", "dn"])
     if not isinstance(rvars, list) or any(v not in PLAN_VARIABLES for v in rvars):
         raise InputError(f"{where} [report]: variables must be among {', '.join(PLAN_VARIABLES)}, got {rvars!r}")
-    return Scenario(name=str(data.get("name", Path(path).stem if path else "scenario")),
+    return Scenario(name=name,
                     description=str(data.get("description", "")), aircraft=aircraft, env=env, t0=t0, t1=t1,
                     step=step, x=expr("x"), y=expr("y"), z=expr("z"), zeta=zeta, eta=eta, dn=dn, J=J, h=h,
                     calibration=dict(cal) if cal is not None else None, start=start,
                     report_times=[float(v) for v in times], report_variables=[str(v) for v in rvars],
                     raw=dict(data), path=path,
-                    tracking=_tracking(data.get("tracking", {}), kind, J, f"{where} [tracking]"))
+                    tracking=_tracking(data.get("tracking", {}), kind, J, f"{where} [tracking]"),
+                    compare=data.get("compare", {}))
 
 
 def _tracking(table: Mapping[str, Any], kind: str, J: int, where: str) -> Tracking:
@@ -310,10 +381,17 @@ def _tracking(table: Mapping[str, Any], kind: str, J: int, where: str) -> Tracki
     sat = table.get("saturate", True)
     if not isinstance(sat, bool):
         raise InputError(f"{where}: saturate must be true or false, got {sat!r}")
+    cdt = table.get("controller_dt", DEFAULT_CONTROLLER_DT)
+    if isinstance(cdt, str) and cdt == "step":
+        cdt = None
+    elif isinstance(cdt, bool) or not isinstance(cdt, (int, float)) or not (math.isfinite(cdt) and cdt > 0):
+        raise InputError(f"{where}: controller_dt must be a positive number of seconds or \"step\" (every engine "
+                         f"step), got {cdt!r}")
     pert = table.get("perturbation")
     if pert is not None:
         pert = perturbation_from_dict(pert, f"{where[:-1]}.perturbation]")
-    return Tracking(lambdas=lam, feedforward_iterate=int(it), saturate=sat, perturbation=pert)
+    return Tracking(lambdas=lam, feedforward_iterate=int(it), saturate=sat,
+                    controller_dt=None if cdt is None else float(cdt), perturbation=pert)
 
 
 def _lambda(v: Any, where: str) -> float:
@@ -326,6 +404,9 @@ def _environment(table: Mapping[str, Any], where: str) -> Environment:
     kind = str(table.get("density", "isa")).lower()
     g = _num(table, "g", where, 9.80665)
     if kind == "isa":
+        if "rho" in table:
+            raise InputError(f"{where}: rho = {table['rho']!r} is used only with density = 'constant' "
+                             f"(here density = 'isa')")
         return Environment(ISA(), g)
     if kind == "constant":
         return Environment(ConstantDensity(_num(table, "rho", where)), g)

@@ -10,10 +10,21 @@ figures
     Matplotlib figures of engine runs against each other and the plan: states,
     applied controls, differences to the reference engine (:func:`figures.write_figures`).
 case_files
-    A case's output folder: figures, ``differences.txt``, ``summary.json``
-    (:func:`case_files.write_case`).
+    A case's output folder: figures, and through :func:`harness.artefacts.write_artefacts`
+    the trajectories (Parquet), ``differences.txt``, ``summary.json``, plan iterates and
+    ``manifest.json`` (:func:`case_files.write_case`), all written atomically through
+    :class:`harness.outdir.OutputDir`.
+tracking
+    The paper's four-curve figure of a closed-loop case (:func:`tracking.write_tracking_figure`).
+model
+    A case's report model, saved as ``report.json`` in its folder
+    (:func:`model.write_case_report`), with the report's own figures
+    (:mod:`report_figures`: singularity monitor, controls with their limits,
+    signed differences).
+html, pdf, templates/
+    The run's ``index.html``, a ``case.html`` per case, the single-file
+    ``report.html`` and ``report.pdf``, rendered with jinja2 (and weasyprint)
+    from the saved models only (:func:`html.render_run`, ``gflat report DIR``).
 
-Rooms to come: HTML/PDF validation reports (one page per case, built from the
-same result objects), campaign summaries (one table over many cases), the
-paper's four-curve figures (flat plan, closed loop, generalized plan, open loop).
+Rooms to come: campaign summaries (one table over many cases).
 """

@@ -1,12 +1,18 @@
-"""A validation case's output folder: figures, the difference report, the JSON summary."""
+"""A validation case's output folder: figures, trajectories, the difference report, the JSON summary."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
+from harness.artefacts import write_artefacts
+from harness.outdir import OutputDir
+
 from .figures import write_figures
+from .model import write_case_report
 from .tracking import write_tracking_figure
+
+#: Figure files of a case folder (``tracking.png`` closed loop only, ``differences.png`` with two engines or more).
+FIGURES: tuple[str, ...] = ("states.png", "controls.png", "differences.png", "tracking.png")
 
 
 def case_title(result) -> str:
@@ -25,33 +31,46 @@ def case_title(result) -> str:
     return f"{result.plan.name} (J = {result.plan.J}), {result.case.loop} loop"
 
 
-def write_case(result, out_dir: str | Path) -> dict[str, Path | list[Path]]:
-    """Write a case's figures, ``differences.txt`` and ``summary.json`` to ``out_dir``.
+def write_case(result, out_dir: str | Path | OutputDir, *, csv: bool = False, plan: bool = True,
+               manifest: bool = True) -> dict[str, Path | list[Path]]:
+    """Write a case's figures and data (:func:`harness.artefacts.write_artefacts`) to a folder.
 
     Parameters
     ----------
     result : harness.validation.CaseResult
         A case's result (runs, tables, plan, provenance).
-    out_dir : str or Path
-        Folder, created if needed.
+    out_dir : str, Path or OutputDir
+        Folder; a path is opened as an :class:`harness.outdir.OutputDir`
+        (parents created) and finished (completion marker) here, an
+        OutputDir is left for its owner to finish.
+    csv : bool
+        Also write the trajectories as CSV.
+    plan : bool
+        Write the plan of every iterate under ``plan/``.
+    manifest : bool
+        Write ``manifest.json`` in the folder.
 
     Returns
     -------
     dict
-        ``"figures"`` -> list of Path, ``"differences"`` and ``"summary"`` -> Path.
+        ``"figures"``, ``"trajectories"``, ``"plan"`` -> list of Path;
+        ``"differences"``, ``"summary"``, ``"report"`` (the report model,
+        :func:`reports.model.write_case_report`) and (with ``manifest``) ``"manifest"`` -> Path.
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    own = not isinstance(out_dir, OutputDir)
+    out = OutputDir(out_dir, parents=True) if own else out_dir
+    tol = result.settings.tolerances if result.settings is not None else result.case.tolerance_spec
     figures = write_figures(result.runs, out, reference=result.reference_frame(), title=case_title(result),
-                            tolerances=result.case.tolerance_spec)
+                            tolerances=tol)
     if result.closed_loop is not None:
         figures.append(write_tracking_figure(result, out))
-    diff = out / "differences.txt"
-    diff.write_text(result.report_text() + "\n", encoding="utf-8")
-    summary = dict(result.summary(figures), provenance=result.provenance)
-    if result.closed_loop is not None:
-        summary.update(loop="closed", verdict=result.verdict(), saturated_s=result.saturated_s(),
-                       feedforward_iterate=result.closed_loop.feedforward_iterate)
-    js = out / "summary.json"
-    js.write_text(json.dumps(summary, indent=2, default=float))
-    return {"figures": figures, "differences": diff, "summary": js}
+    files = write_artefacts(result, out, csv=csv, plan=plan, manifest=manifest, figures=[p.name for p in figures])
+    report = write_case_report(result, out, figures=[p.name for p in figures])
+    if own:
+        out.finish()
+    written: dict[str, Path | list[Path]] = {"figures": figures, "trajectories": files["trajectories"],
+                                             "plan": files["plan"], "differences": files["differences"][0],
+                                             "summary": files["summary"][0], "report": report}
+    if "manifest" in files:
+        written["manifest"] = files["manifest"][0]
+    return written

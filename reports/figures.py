@@ -49,7 +49,37 @@ def _draw_runs(ax, results: Mapping, name: str) -> None:
     ax.grid(alpha=0.3)
 
 
-def write_figures(results: Mapping, out_dir: str | Path, *, reference: pd.DataFrame | None = None,
+def save_figure(fig, out, name: str, dpi: int = 110) -> Path:
+    """Save a figure as ``name`` in ``out``: through the OutputDir's atomic write, or into a folder path.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    out : harness.outdir.OutputDir or str or Path
+        Output folder (a path is created if needed).
+    name : str
+        File name; its suffix sets the format.
+    dpi : int
+        Resolution.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    fmt = Path(name).suffix.lstrip(".") or None
+    if hasattr(out, "atomic"):
+        with out.atomic(name) as tmp:
+            fig.savefig(tmp, dpi=dpi, format=fmt)
+        return out.path(name)
+    path = Path(out) / name
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi, format=fmt)
+    return path
+
+
+def write_figures(results: Mapping, out_dir, *, reference: pd.DataFrame | None = None,
                   title: str = "", tolerances=None) -> list[Path]:
     """States and controls of every engine (and the reference), and the differences to the first engine.
 
@@ -57,8 +87,8 @@ def write_figures(results: Mapping, out_dir: str | Path, *, reference: pd.DataFr
     ----------
     results : mapping label -> SimulationResult
         Runs on a common output grid; the first is the reference engine.
-    out_dir : str or Path
-        Folder the PNG files are written to (created if needed).
+    out_dir : str, Path or harness.outdir.OutputDir
+        Folder the PNG files are written to (created if needed; atomically through an OutputDir).
     reference : DataFrame, optional
         Planned states indexed by ``t`` [s], drawn dotted (e.g. the plan's).
     title : str
@@ -74,8 +104,7 @@ def write_figures(results: Mapping, out_dir: str | Path, *, reference: pd.DataFr
     """
     from matplotlib.figure import Figure  # no pyplot: no global state
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = out_dir
     labels = list(results)
     paths = []
 
@@ -89,8 +118,7 @@ def write_figures(results: Mapping, out_dir: str | Path, *, reference: pd.DataFr
         ax.set_xlabel("t [s]")
     axs[0, 0].legend(fontsize=8)
     fig.suptitle(f"{title}: states")
-    paths.append(out / "states.png")
-    fig.savefig(paths[-1], dpi=110)
+    paths.append(save_figure(fig, out, "states.png"))
 
     fig = Figure(figsize=(13, 7), layout="constrained")
     axs = fig.subplots(2, 3, sharex=True)
@@ -101,8 +129,7 @@ def write_figures(results: Mapping, out_dir: str | Path, *, reference: pd.DataFr
         ax.set_xlabel("t [s]")
     axs[0, 0].legend(fontsize=8)
     fig.suptitle(f"{title}: applied controls")
-    paths.append(out / "controls.png")
-    fig.savefig(paths[-1], dpi=110)
+    paths.append(save_figure(fig, out, "controls.png"))
 
     if len(labels) > 1:
         tol = resolve_tolerances(tolerances, DEFAULT_VARIABLES)
@@ -124,7 +151,6 @@ def write_figures(results: Mapping, out_dir: str | Path, *, reference: pd.DataFr
         for ax in axs[-1]:
             ax.set_xlabel("t [s]")
         fig.suptitle(f"{title}: differences to {labels[0]}")
-        paths.append(out / "differences.png")
-        fig.savefig(paths[-1], dpi=110)
+        paths.append(save_figure(fig, out, "differences.png"))
     return paths
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from harness.metrics import position_error
 
-from .figures import plot_scale
+from .figures import plot_scale, save_figure
 
 #: Variables drawn, in panel order (the paper's figures show the angles and the surfaces).
 TRACKING_VARIABLES: tuple[str, ...] = ("V", "alpha", "beta", "mu", "F", "dl", "dm", "dn")
@@ -35,8 +35,8 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
     ----------
     result : harness.validation.CaseResult
         A closed-loop case's result (``closed_loop`` and ``open_loop`` set).
-    out_dir : str or Path
-        Existing folder.
+    out_dir : str, Path or harness.outdir.OutputDir
+        Folder (written atomically through an OutputDir).
     name : str
         File name of the PNG.
 
@@ -96,6 +96,4 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
     ax.legend(fontsize=7)
     fig.suptitle(f"{plan.name}: closed loop with the tracking feedback (engine {result.reference_engine}) "
                  f"against the flat (J = 0) and generalized (J = {plan.J}) plans")
-    path = Path(out_dir) / name
-    fig.savefig(path, dpi=110)
-    return path
+    return save_figure(fig, out_dir, name)

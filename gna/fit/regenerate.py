@@ -112,8 +112,19 @@ def _twin_otter_sections(_src) -> dict:
         "engines": {"count": 2, "y_p_ft": 9.2, "epsilon_rad": 0.0, "max_thrust_lbf": 2.0 * v["simpleSingle"][0],
                     "source": "engines at +-9.2 ft as in Ollivier (2022), subsection 'Single engine' (the JSBSim "
                               "DHC6 has +-9.108 ft); thrust line along body x (no data); max thrust 2 x "
-                              f"{v['simpleSingle'][0]:g} lbf, the source's '~2000 lb static thrust each'"},
+                              f"{v['simpleSingle'][0]:g} lbf, the source's '~2000 lb static thrust each'",
+                    "engine_power_shp": 680.0, "propeller_efficiency": 0.8,
+                    "engine_static_thrust_lbf": v["simpleSingle"][0],
+                    "engine_source": TWIN_OTTER_ENGINE_SOURCE},
     }
+
+
+#: Provenance of the Twin Otter's per-engine rating (aircraft file key ``engine_source``).
+TWIN_OTTER_ENGINE_SOURCE = (
+    "one Pratt & Whitney Canada PT6A-27: takeoff rating 680 shp (FAA Type Certificate Data Sheet E4EA, PT6A-27 "
+    "ratings); static thrust 2000 lbf, the UIUC source's '~2000 lb static thrust each'; in flight "
+    "power-limited, thrust <= 0.8 x 680 shp / V with 0.8 a typical cruise propeller efficiency (Raymer, "
+    "Aircraft Design: A Conceptual Approach, sec. 13.6): 5633 N at 140 kt")
 
 
 def _twin_otter_design(_src) -> SamplingDesign:

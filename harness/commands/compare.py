@@ -1,24 +1,30 @@
-"""``gflat compare SCENARIO [--J N] [--loop open|closed] [--engines inhouse,jsbsim] [--out DIR] [--json]``.
+"""``gflat compare SCENARIO [--J N] [--loop open|closed] [--engines inhouse,jsbsim] [--out DIR] [--json] [--csv]``.
 
 Plans the scenario, flies the J-th iterate's controls on every engine from the
 same planned initial state -- open loop, or closed loop with the paper's
 tracking feedback (the scenario's ``[tracking]`` table) -- and prints the
 difference tables (first 10 s and the whole span) of each engine against the
 first, plus each engine's deviation from the plan; figures go to the output
-folder.  With ``--json`` stdout carries one JSON object (the verdict) instead.
+folder with each engine's trajectory (Parquet, CSV with ``--csv``), the plan of
+every iterate, ``summary.json`` (verdict and the tolerances that made it) and
+``manifest.json``.  Tolerances, windows, output grid and JSBSim step come from
+the flags, else the scenario's ``[compare]`` table, else the defaults.  With
+``--json`` stdout carries one JSON object (the verdict) instead.
 """
 
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
-from planners.scenario import list_scenarios
+from planners.scenario import list_scenarios, load_scenario
 from reports.case_files import write_case
+from reports.html import render_run
 
 from ..engines import engine_names, engines_from_names
-from ..validation import ValidationCase, run_case
+from ..outdir import OutputDir, json_safe
+from ..validation import ValidationCase, case_settings, run_case
 from ._args import nonnegative_int
+from ._compare_args import add_compare_arguments, compare_overrides, default_out
 
 
 def register(sub) -> None:
@@ -34,28 +40,32 @@ def register(sub) -> None:
     p.add_argument("--loop", choices=("open", "closed"), default="open",
                    help="open: the plan's controls alone; closed: with the tracking feedback (default open)")
     p.add_argument("--out", default=None, metavar="DIR",
-                   help="output folder (default reports/out/<scenario>/compare, or compare-closed)")
+                   help="output folder (default reports/out/<scenario>/open, or closed)")
     p.add_argument("--json", action="store_true", help="print one JSON object (the verdict) instead of the tables")
+    add_compare_arguments(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     engines = tuple(engines_from_names(args.engines, minimum=2))
-    case = ValidationCase(args.scenario, J=args.J, engines=engines, loop=args.loop)
-    result = run_case(case)
-    folder = "compare" if args.loop == "open" else "compare-closed"
-    out = Path(args.out) if args.out else Path("reports") / "out" / result.plan.name / folder
-    write_case(result, out)
+    case = ValidationCase(args.scenario, J=args.J, engines=engines, loop=args.loop, **compare_overrides(args))
+    scenario = load_scenario(case.scenario, J=case.J)
+    case_settings(case, scenario)                    # settings and destination checked before planning
+    out = OutputDir(args.out) if args.out else default_out(scenario.name, args.loop)
+    result = run_case(case, scenario=scenario)
+    write_case(result, out, csv=args.csv)
+    out.finish()
+    report = render_run(out.root, pdf=False)          # the case page and an index of one
     verdict = result.verdict()
     if args.json:
-        print(json.dumps(verdict, indent=2, default=float))
+        print(json.dumps(json_safe(verdict), indent=2))
         return 0 if verdict["pass"] else 1
     print(result.report_text())
     if args.loop == "closed":
         for label, r in verdict["runs"].items():
             print(f"{label} against the flat outputs: max {r['max_position_error_m']:.3e} m, after 5 s "
                   f"{r['max_position_error_after_5s_m']:.3e} m; controls saturated {r['saturated_s']:.2f} s")
-    print(f"figures and tables written to {out}/")
+    print(f"figures, trajectories and tables written to {out.root}/, report {report['index']}")
     if not verdict["pass"]:
         print("gflat compare: the engines disagree beyond the tolerances (or a run ended early): FAIL")
         return 1

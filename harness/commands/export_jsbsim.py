@@ -8,6 +8,8 @@ from pathlib import Path
 from gna.aircraft import list_aircraft, load_aircraft
 from gna.errors import InputError
 from harness.engines.jsbsim import files as jf
+from harness.engines.jsbsim.export import aircraft_xml
+from harness.outdir import OutputDir
 
 
 def register(sub) -> None:
@@ -41,7 +43,11 @@ def run(args) -> int:
             return 1
         print(f"{len(crafts)} JSBSim file(s) current in {root}")
         return 0
+    # checked before any export; never cleaned: other aircraft's files in the folder stay
+    out = OutputDir(root, clean=False, parents=args.out is None)
     for a in crafts:
-        path = jf.export_aircraft(a, root)
+        path = out.write_text(a.id, f"{a.id}.xml", text=aircraft_xml(a))   # an id leaving the folder is refused
         print(f"{a.id}: {path}")
+    if args.out is not None:
+        out.finish()
     return 0

@@ -2,7 +2,8 @@
 
 Sub-commands::
 
-    gflat fit jsbsim MODEL --mach M --altitude H [--root DIR] [design options] --out FILE
+    gflat fit jsbsim MODEL --mach M --altitude H [--root DIR] [--property VAR=PROP[:FACTOR]]...
+                     [design options] --out FILE
     gflat fit gtm [design options] --out FILE
     gflat fit linear CSV [design options] --engines N --engine-offset Y --out FILE
     gflat fit compare ID --speed V [--altitude H] [--json]
@@ -17,11 +18,44 @@ See :mod:`gna.fit.design` for the sampling design.
 
 from __future__ import annotations
 
+import argparse
 import datetime
 import math
 from pathlib import Path
 
 from ._args import finite_float, nonnegative_int, positive_float
+
+
+def _surface_property(text: str) -> tuple[str, tuple[str, float | None]]:
+    """``VAR=PROP[:FACTOR]`` -> ``(var, (prop, factor or None))``."""
+    var, sep, rest = text.partition("=")
+    var, rest = var.strip(), rest.strip()
+    if not sep or var not in ("dl", "dm", "dn") or not rest:
+        raise argparse.ArgumentTypeError(f"expected dl|dm|dn=PROPERTY[:FACTOR], got {text!r}")
+    prop, colon, factor = rest.partition(":")
+    value = None
+    if colon:
+        try:
+            value = float(factor)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"FACTOR must be a number in {text!r}") from None
+        if not (math.isfinite(value) and value != 0.0):
+            raise argparse.ArgumentTypeError(f"FACTOR must be finite and non-zero in {text!r}")
+    return var, (prop.strip(), value)
+
+
+def _surface_overrides(items) -> dict[str, tuple[str, float]]:
+    """The ``--property`` options as :class:`JSBSimAeroSource` ``surfaces`` (default factors filled in)."""
+    from gna.errors import InputError
+    from gna.fit.sources.jsbsim_aero import SURFACE_CANDIDATES
+    out = {}
+    for var, (prop, factor) in items:
+        if var in out:
+            raise InputError(f"--property given twice for {var}")
+        if factor is None:
+            factor = SURFACE_CANDIDATES[var][0][1] * (180.0 / math.pi if prop.endswith("-deg") else 1.0)
+        out[var] = (prop, factor)
+    return out
 
 
 def register(sub) -> None:
@@ -37,6 +71,11 @@ def register(sub) -> None:
     j.add_argument("--root", help="JSBSim root directory (default: the jsbsim package's)")
     j.add_argument("--mach", type=positive_float, required=True, help="reference Mach number")
     j.add_argument("--altitude", type=finite_float, required=True, metavar="H_M", help="reference altitude [m]")
+    j.add_argument("--property", action="append", type=_surface_property, default=[], metavar="VAR=PROP[:FACTOR]",
+                   help="JSBSim property of a surface (dl, dm or dn), written as FACTOR x the variable [rad]; "
+                        "FACTOR defaults to the detected sign (-1 for dl: JSBSim's positive aileron rolls right, "
+                        "+1 otherwise), times 180/pi for a '-deg' property; e.g. --property "
+                        "dl=fcs/effective-aileron-pos, --property dm=fcs/elevator-pos-norm:-2.9 (repeatable)")
     _design_args(j, alpha=(-5.0, 20.0), beta=15.0, phat=0.15, qhat=0.03, rhat=0.06, surfaces=None,
                  band=math.degrees(0.1))
     _common(j)
@@ -141,7 +180,8 @@ def run(args) -> int:
 
     if args.source == "jsbsim":
         from gna.fit.sources.jsbsim_aero import JSBSimAeroSource, vehicle_sections
-        src = JSBSimAeroSource(args.model, mach=args.mach, altitude=args.altitude, root=args.root)
+        src = JSBSimAeroSource(args.model, mach=args.mach, altitude=args.altitude, root=args.root,
+                               surfaces=_surface_overrides(args.property))
         sections = vehicle_sections(src)
         ranges = _ranges(args, src.envelope)
         reference = ReferenceCondition(src.V_ref, args.altitude, f"Mach {args.mach:g} at {args.altitude:g} m")

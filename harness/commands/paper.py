@@ -1,4 +1,4 @@
-"""``gflat paper [--out DIR] [--J N] [--loop open|closed|both]``: the main job.
+"""``gflat paper [--out DIR] [--J N] [--loop open|closed|both] [--csv] [comparison flags]``: the main job.
 
 Plans the paper's three manoeuvres (single-engine Twin Otter, GTM forward slip,
 GTM aileron roll in a zero-g parabola) by flatness and generalized flatness,
@@ -6,18 +6,28 @@ flies each plan on the in-house model and on JSBSim from the same initial
 state, open loop and closed loop with the paper's tracking feedback, and writes
 the plans, figures (the paper's four-curve figure per scenario) and difference
 tables.
+
+Layout of ``--out DIR``: ``DIR/manifest.json``; ``DIR/<scenario>/plan/`` (the
+plan's series, CSV tables, ``plan-j<k>.parquet`` of every iterate,
+``summary.json``); ``DIR/<scenario>/open/`` and ``DIR/<scenario>/closed/``
+(``trajectory-<engine>.parquet``, figures, ``differences.txt``,
+``summary.json``); ``DIR/.gflat-complete.json`` once everything is written.
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import replace
-from pathlib import Path
 
+from planners.scenario import load_scenario
 from reports.case_files import write_case
+from reports.html import render_run
 
-from ..validation import ValidationCase, plan_case, run_case
+from ..artefacts import write_manifest, write_plan_iterates
+from ..outdir import OutputDir
+from ..validation import ValidationCase, case_settings, plan_case, run_case
 from ._args import nonnegative_int
+from ._compare_args import add_compare_arguments, compare_overrides
 from .plan import write_plan
 
 PAPER_SCENARIOS = ("twin-otter-single-engine", "gtm-forward-slip", "gtm-aileron-roll")
@@ -27,14 +37,15 @@ ANGLE_STATES = ("gamma", "chi", "alpha", "beta", "mu")
 def register(sub) -> None:
     p = sub.add_parser("paper", help="plan the paper's three manoeuvres and fly them on both engines",
                        description=__doc__.split("\n\n")[1])
-    p.add_argument("--out", default="reports/out/paper", metavar="DIR", help="output folder")
+    p.add_argument("--out", default=None, metavar="DIR", help="output folder (default reports/out/paper)")
     p.add_argument("--J", type=nonnegative_int, default=None, help="iterations (default: each scenario's)")
     p.add_argument("--loop", choices=("open", "closed", "both"), default="both",
                    help="fly the plans open loop, closed loop with the tracking feedback, or both (default both)")
+    add_compare_arguments(p)
     p.set_defaults(func=run)
 
 
-def paper_cases(J: int | None = None, loop: str = "open") -> list[ValidationCase]:
+def paper_cases(J: int | None = None, loop: str = "open", **overrides) -> list[ValidationCase]:
     """The paper's three manoeuvres as validation cases (in-house reference, JSBSim).
 
     Parameters
@@ -43,28 +54,39 @@ def paper_cases(J: int | None = None, loop: str = "open") -> list[ValidationCase
         Generalized-flatness iterations (default: each scenario's).
     loop : {"open", "closed"}
         Open loop, or closed loop with the tracking feedback.
+    **overrides
+        Comparison settings of every case (``tolerances``, ``rtol``,
+        ``windows``, ``dt_out``, ``jsbsim_dt``, ``self_convergence``).
 
     Returns
     -------
     list of ValidationCase
     """
-    return [ValidationCase(name, J=J, engines=("inhouse", "jsbsim"), loop=loop) for name in PAPER_SCENARIOS]
+    return [ValidationCase(name, J=J, engines=("inhouse", "jsbsim"), loop=loop, **overrides)
+            for name in PAPER_SCENARIOS]
 
 
 def run(args) -> int:
-    out = Path(args.out)
-    rows, passed, closed_rows = [], [], []
-    cases = paper_cases(args.J)
+    rows, passed, closed_rows, results = [], [], [], []
+    cases = paper_cases(args.J, **compare_overrides(args))
+    for case in cases:                         # every scenario's [compare] table checked before any planning
+        case_settings(case, load_scenario(case.scenario, J=case.J))
+    out = OutputDir(args.out) if args.out else OutputDir("reports/out/paper", parents=True)
     for case in cases:
         print(f"=== {case.scenario}")
         t0 = time.perf_counter()
         planned = plan_case(case)
         name = planned.scenario.name
-        print(write_plan(planned.scenario, planned.plan, planned.planning_time_s, out / name / "plan"))
+        plan_dir = out.sub(name, "plan")
+        print(write_plan(planned.scenario, planned.plan, planned.planning_time_s, plan_dir))
         passed.append(True)
+        iterates_written = False
         if args.loop in ("open", "both"):
-            result = run_case(case, plan=planned.plan)       # the plan just made: planned once
-            write_case(result, out / name / "compare")
+            result = run_case(case, plan=planned.plan, scenario=planned.scenario)   # the plan just made: planned once
+            write_case(result, out.sub(name, "open"), csv=args.csv, plan=False, manifest=False)
+            write_plan_iterates(plan_dir, planned.plan, result.runs[result.reference_engine].df.index, csv=args.csv)
+            iterates_written = True
+            results.append(result)
             passed[-1] = result.passed
             first, whole = result.tables["jsbsim"]["first 10 s"], result.tables["jsbsim"]["whole span"]
             pos = lambda tab: tab.row("position").max_abs  # noqa: E731
@@ -74,11 +96,14 @@ def run(args) -> int:
                          time.perf_counter() - t0))
             print(f"  in-house vs JSBSim (open loop, J = {J}): first 10 s {pos(first):.2e} m, "
                   f"{ang(first):.2e} rad; whole span {pos(whole):.2e} m, {ang(whole):.2e} rad")
-            print(f"  figures and tables: {out / name / 'compare'}/")
+            print(f"  figures, trajectories and tables: {out.path(name, 'open')}/")
         if args.loop == "open":
             continue
         closed = run_case(replace(case, loop="closed"), plan=planned.plan, scenario=planned.scenario)
-        write_case(closed, out / name / "compare-closed")
+        write_case(closed, out.sub(name, "closed"), csv=args.csv, plan=False, manifest=False)
+        if not iterates_written:
+            write_plan_iterates(plan_dir, planned.plan, closed.runs[closed.reference_engine].df.index, csv=args.csv)
+        results.append(closed)
         v = closed.verdict()
         passed[-1] = passed[-1] and v["pass"]
         runs = v["runs"]
@@ -89,7 +114,10 @@ def run(args) -> int:
               f"{runs['inhouse']['max_position_error_m']:.2e} m from the flat outputs; JSBSim "
               f"{runs['jsbsim']['status']}, {runs['jsbsim']['max_position_error_m']:.2e} m; in-house vs JSBSim "
               f"{v['differences']['jsbsim']['max_position_m']:.2e} m")
-        print(f"  four-curve figure: {out / name / 'compare-closed' / 'tracking.png'}")
+        print(f"  four-curve figure: {out.path(name, 'closed', 'tracking.png')}")
+    write_manifest(out, results)
+    out.finish()
+    print(f"\nmanifest, plans, trajectories, figures and tables written to {out.root}/")
     failed = [c.scenario for c, ok in zip(cases, passed) if not ok]
     if rows:
         print("\nsummary: in-house vs JSBSim, open loop with the generalized-flatness controls")
@@ -103,6 +131,8 @@ def run(args) -> int:
               f"{'saturated [s]':>13}  result")
     for r in closed_rows:
         print(f"  {r[0]:<26} {r[1]:>12.2e} {r[2]:>11.2e} {r[3]:>22.2e} {r[4]:>13.2f}  {'PASS' if r[5] else 'FAIL'}")
+    report = render_run(out.root)                     # HTML and PDF from the saved report.json files
+    print(f"\nreport: {report['index']} (PDF: {report['pdf']})")
     if failed:
         print(f"gflat paper: engines disagree beyond the tolerances, or a run ended early, for {', '.join(failed)}: FAIL")
         return 1

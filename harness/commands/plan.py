@@ -2,16 +2,29 @@
 
 from __future__ import annotations
 
-import json
+import argparse
+import io
+import time
 from pathlib import Path
 
 import numpy as np
 
-from planners.plan import save_plan
-from planners.scenario import list_scenarios
+from planners.generalized import plan_scenario
+from planners.scenario import list_scenarios, load_scenario
 
-from ..validation import ValidationCase, plan_case
+from ..outdir import OutputDir, json_safe
 from ._args import nonnegative_int
+from ._compare_args import default_out
+
+
+def _cost_bound(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"must be positive (or inf), got {text}")
+    return v
 
 
 def register(sub) -> None:
@@ -23,12 +36,75 @@ def register(sub) -> None:
                                                                    "scenario's)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="output folder (default reports/out/<scenario>)")
+    p.add_argument("--max-cost", type=_cost_bound, default=None, metavar="UNITS",
+                   help="bound on the plan's cost, nodes x sum of squared orders (default 5e6, about 30 s; "
+                        "'inf' for none)")
     p.set_defaults(func=run)
 
 
-def write_plan(sc, plan, elapsed: float, out: Path) -> str:
-    """Write a plan's files (series, CSV tables, convergence table, summary) to ``out``; return the report text."""
-    written = save_plan(plan, out)
+def save_plan_files(plan, out: OutputDir, step: float | None = None) -> dict:
+    """Write a plan's node series (npz), CSV tables of iterates 0 and J and singularity table, atomically.
+
+    The files of :func:`planners.plan.save_plan`, through the output folder.
+
+    Parameters
+    ----------
+    plan : planners.plan.Plan
+        The plan.
+    out : OutputDir
+        Folder.
+    step : float, optional
+        Step [s] of the CSV time grid (default: a quarter of the smallest node spacing).
+
+    Returns
+    -------
+    dict
+        What was written (``"series"``, ``"plan_j0"``, ...) -> its path (str).
+    """
+    written = {}
+    arrays = {"t_nodes": plan.t_nodes}
+    for j, it in enumerate(plan.iterates):
+        for name, s in it.series.items():
+            arrays[f"j{j}/{name}"] = np.real(np.asarray(s.coeffs))
+    with out.atomic("plan_series.npz") as tmp:
+        with open(tmp, "wb") as fh:                    # a file object: numpy adds no suffix
+            np.savez_compressed(fh, **arrays)
+    written["series"] = str(out.path("plan_series.npz"))
+    step = step if step is not None else float(np.min(np.diff(plan.t_nodes))) / 4
+    for j in sorted({0, plan.J}):
+        with out.atomic(f"plan_j{j}.csv") as tmp:
+            plan.to_dataframe(step=step, j=j).to_csv(tmp, float_format="%.10g")
+        written[f"plan_j{j}"] = str(out.path(f"plan_j{j}.csv"))
+    sing = plan.singularities
+    if sing is not None:
+        with out.atomic("singularities.csv") as tmp:
+            sing.table.to_csv(tmp, float_format="%.8g")
+        written["singularities"] = str(out.path("singularities.csv"))
+    return written
+
+
+def write_plan(sc, plan, elapsed: float, out) -> str:
+    """Write a plan's files (series, CSV tables, convergence table, summary) to ``out``; return the report text.
+
+    Parameters
+    ----------
+    sc : planners.scenario.Scenario
+        The scenario planned.
+    plan : planners.plan.Plan
+        Its plan.
+    elapsed : float
+        Planning wall time [s].
+    out : OutputDir or str or Path
+        Folder (a path is opened as an OutputDir, parents created, and finished here).
+
+    Returns
+    -------
+    str
+        The report printed by ``gflat plan``.
+    """
+    own = not isinstance(out, OutputDir)
+    od = OutputDir(out, parents=True) if own else out
+    written = save_plan_files(plan, od)
     tn = plan.t_nodes
     lines = [f"{sc.name}: {sc.aircraft.id}, t = {tn[0]:g} .. {tn[-1]:g} s, {len(tn)} nodes, flat output "
              f"{sc.zeta.kind}, J = {plan.J}"]
@@ -50,21 +126,30 @@ def write_plan(sc, plan, elapsed: float, out: Path) -> str:
     lines.append("  convergence table (value at t for each iterate j):")
     with np.printoptions(linewidth=200):
         lines.append("    " + table.to_string(float_format=lambda v: f"{v:.6g}").replace("\n", "\n    "))
-    table.to_csv(out / "convergence.csv", float_format="%.10g")
+    buf = io.StringIO()
+    table.to_csv(buf, float_format="%.10g")
+    written["convergence"] = str(od.write_text("convergence.csv", text=buf.getvalue()))
     summary = {"scenario": sc.name, "aircraft": sc.aircraft.id, "J": plan.J, "nodes": len(tn),
                "orders": orders, "planning_time_s": elapsed, "timings_s": plan.timings,
                "worst_newton_residual": plan.worst_newton_residual(), "full_residual_per_iterate": res,
                "warnings": plan.warnings, "files": written}
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
-    lines.append(f"  written to {out}/")
+    od.write_json("summary.json", obj=json_safe(summary))
+    if own:
+        od.finish()
+    lines.append(f"  written to {od.root}/")
     return "\n".join(lines)
 
 
 def run(args) -> int:
-    planned = plan_case(ValidationCase(args.scenario, J=args.J))
-    sc, plan = planned.scenario, planned.plan
-    out = Path(args.out) if args.out else Path("reports") / "out" / sc.name
-    print(write_plan(sc, plan, planned.planning_time_s, out))
+    sc = load_scenario(args.scenario, J=args.J)
+    out = OutputDir(Path(args.out)) if args.out else default_out(sc.name)   # checked before planning
+    t0 = time.perf_counter()
+    plan = plan_scenario(sc, max_cost=args.max_cost)
+    print(write_plan(sc, plan, time.perf_counter() - t0, out))
+    out.finish()
+    if plan.domain_failures:
+        print(f"gflat plan: the plan is not feasible: {plan.domain_failures[-1]}")
+        return 1
     if not plan.feasible:
         print(f"gflat plan: the plan is not feasible: Newton failed ({len(plan.newton_failures)} warning(s) "
               f"above); its values at those times are not a solution of the model")

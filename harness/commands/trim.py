@@ -20,7 +20,7 @@ def register(sub) -> None:
     p.add_argument("--gamma", type=finite_float, default=0.0, metavar="RAD", help="flight-path angle [rad]")
     p.add_argument("--beta", type=finite_float, default=0.0, metavar="RAD", help="sideslip angle [rad]")
     p.add_argument("--turn-rate", type=finite_float, default=0.0, metavar="RAD_S", help="track rate chi' [rad/s]")
-    p.add_argument("--eta", type=finite_float, default=0.0, help="thrust asymmetry (F1-F2)/F")
+    p.add_argument("--eta", type=finite_float, default=0.0, help="thrust asymmetry (F1-F2)/F in [-1, 1] (0 for one engine)")
     p.add_argument("--model", choices=("full", "simple"), default="full")
     p.add_argument("--json", action="store_true", help="print the trim as JSON")
     p.set_defaults(func=run)

@@ -40,7 +40,8 @@ def window_span(t_span: tuple[float, float], duration: float | None) -> tuple[fl
 
 
 def engine_tables(runs: Mapping, t_span: tuple[float, float], tolerances=None,
-                  windows: Mapping[str, float | None] | None = None) -> dict[str, dict[str, DifferenceTable]]:
+                  windows: Mapping[str, float | None] | None = None, *,
+                  rtol=None) -> dict[str, dict[str, DifferenceTable]]:
     """Difference tables of every run against the first, per time window.
 
     Parameters
@@ -53,6 +54,8 @@ def engine_tables(runs: Mapping, t_span: tuple[float, float], tolerances=None,
         See :func:`difference_table`.
     windows : mapping name -> duration [s] or None, optional
         Default :data:`DEFAULT_WINDOWS`; see :func:`window_span`.
+    rtol : None, float or mapping
+        Relative tolerances, see :func:`difference_table`.
 
     Returns
     -------
@@ -68,7 +71,7 @@ def engine_tables(runs: Mapping, t_span: tuple[float, float], tolerances=None,
     windows = DEFAULT_WINDOWS if windows is None else windows
     ref = labels[0] if labels else None
     return {other: {name: difference_table(runs[ref], runs[other], tolerances, window=window_span(t_span, dur),
-                                           labels=(ref, other))
+                                           labels=(ref, other), rtol=rtol)
                     for name, dur in windows.items()}
             for other in labels[1:]}
 

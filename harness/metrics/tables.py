@@ -52,7 +52,16 @@ class DifferenceRow:
     t_max : float
         Time of the largest difference [s].
     tolerance : float or None
+        Tolerance applied, ``atol + rtol * ref_max``.
     passed : bool or None
+    ref_max : float
+        Largest absolute value of the reference over the window (the distance
+        from the origin for ``"position"``).
+    delta_pct : float
+        NESC check-case metric ``100 max|u - u_ref| / max|u_ref|`` [%] (NaN
+        when the reference is zero).
+    atol, rtol : float or None
+        Absolute and relative parts of the tolerance, as given.
     """
 
     variable: str
@@ -62,6 +71,10 @@ class DifferenceRow:
     t_max: float
     tolerance: float | None
     passed: bool | None
+    ref_max: float = float("nan")
+    delta_pct: float = float("nan")
+    atol: float | None = None
+    rtol: float | None = None
 
 
 @dataclass
@@ -128,10 +141,12 @@ class DifferenceTable:
         Returns
         -------
         pandas.DataFrame
-            Indexed by variable; columns ``unit, max_abs, t_max, rms, tolerance, passed``.
+            Indexed by variable; columns ``unit, max_abs, t_max, rms, delta_pct, ref_max, atol, rtol,
+            tolerance, passed``.
         """
         return pd.DataFrame([{"variable": r.variable, "unit": r.unit, "max_abs": r.max_abs, "t_max": r.t_max,
-                              "rms": r.rms, "tolerance": r.tolerance, "passed": r.passed} for r in self.rows]
+                              "rms": r.rms, "delta_pct": r.delta_pct, "ref_max": r.ref_max, "atol": r.atol,
+                              "rtol": r.rtol, "tolerance": r.tolerance, "passed": r.passed} for r in self.rows]
                             ).set_index("variable")
 
     def format(self) -> str:
@@ -145,16 +160,20 @@ class DifferenceTable:
         a, b = self.labels
         lines = [f"difference {b} - {a}, t in [{self.window[0]:g}, {self.window[1]:g}] s, {self.samples} samples",
                  f"  {'variable':<9} {'unit':<6} {'max |diff|':>11} {'at t [s]':>9} {'RMS':>10} "
-                 f"{'tolerance':>10}  result"]
+                 f"{'delta [%]':>10} {'tolerance':>10}  result"]
         for r in self.rows:
             tol = f"{r.tolerance:10.1e}" if r.tolerance is not None else f"{'-':>10}"
             res = {True: "pass", False: "FAIL", None: ""}[r.passed]
-            lines.append(f"  {r.variable:<9} {r.unit:<6} {r.max_abs:11.3e} {r.t_max:9.3f} {r.rms:10.3e} {tol}  {res}")
+            lines.append(f"  {r.variable:<9} {r.unit:<6} {r.max_abs:11.3e} {r.t_max:9.3f} {r.rms:10.3e} "
+                         f"{r.delta_pct:10.3e} {tol}  {res}")
         for n in self.notes:
             lines.append(f"  note: {n}")
         fails = [r.variable for r in self.failures()]
         if self.passed and all(r.tolerance is None for r in self.rows):
             lines.append("  overall: - (no tolerances given: informative)")
+        if any(r.rtol for r in self.rows):
+            lines.append("  (tolerance = atol + rtol * max |reference| over the window; "
+                         "delta = 100 max|diff| / max|reference|)")
         elif self.passed:
             lines.append("  overall: PASS")
         else:
@@ -217,7 +236,8 @@ def resolve_tolerances(tolerances, variables: Sequence[str]) -> dict[str, float]
 
 def difference_table(a, b, tolerances=None, *, variables: Sequence[str] | None = None,
                      window: tuple[float | None, float | None] | None = None,
-                     labels: tuple[str, str] = ("a", "b"), interpolate: bool = False) -> DifferenceTable:
+                     labels: tuple[str, str] = ("a", "b"), interpolate: bool = False,
+                     rtol=None) -> DifferenceTable:
     """Per-variable max and RMS of ``b - a``, time of the maximum and pass/fail.
 
     Parameters
@@ -241,6 +261,9 @@ def difference_table(a, b, tolerances=None, *, variables: Sequence[str] | None =
     interpolate : bool
         If the time grids differ, interpolate ``b`` linearly onto ``a``'s
         times; without it, only the times present in both are compared.
+    rtol : None, float or mapping
+        Relative tolerances (same forms as ``tolerances``, no default): a
+        variable passes when ``max|b - a| <= atol + rtol * max|a|`` over the window.
 
     Returns
     -------
@@ -260,13 +283,14 @@ def difference_table(a, b, tolerances=None, *, variables: Sequence[str] | None =
         variables = DEFAULT_VARIABLES + tuple(extra)
     variables = tuple(variables)
     tol = resolve_tolerances(tol_in, variables)
+    rel = resolve_tolerances(rtol, variables) if rtol is not None else {}
     need = set()
     for v in variables:
         need |= {"x", "y", "z"} if v == POSITION else {v}
     missing = sorted(n for n in need if n not in A.columns or n not in B.columns)
     if missing:
         raise InputError(f"cannot compare {', '.join(missing)}: not a column of both trajectories")
-    unknown_tol = sorted(k for k in tol if k not in variables)
+    unknown_tol = sorted(k for k in {**tol, **rel} if k not in variables)
     if unknown_tol:
         raise InputError(f"tolerances given for variables not compared: {', '.join(unknown_tol)}")
 
@@ -320,11 +344,22 @@ def difference_table(a, b, tolerances=None, *, variables: Sequence[str] | None =
             mx = float(ad[k]) if not np.isnan(ad[k]) else float("nan")
             tm = float(tt[k])
             rms = float(np.sqrt(np.mean(d * d)))
-        t_ = tol.get(v)
+        ref = np.abs(_reference(v, Av))
+        ref_max = float(np.max(ref)) if ref.size and not np.any(np.isnan(ref)) else float("nan")
+        pct = 100.0 * mx / ref_max if ref_max > 0 else float("nan")
+        a_, r_ = tol.get(v), rel.get(v)
+        t_ = None if a_ is None and r_ is None else (a_ or 0.0) + (r_ or 0.0) * (ref_max if ref_max > 0 else 0.0)
         passed = None if t_ is None else bool(np.isfinite(mx) and mx <= t_)
-        rows.append(DifferenceRow(v, UNITS.get(v, ""), mx, rms, tm, t_, passed))
+        rows.append(DifferenceRow(v, UNITS.get(v, ""), mx, rms, tm, t_, passed, ref_max, pct, a_, r_))
     return DifferenceTable(rows=rows, labels=tuple(labels), window=(float(tt[0]), float(tt[-1])),
                            samples=int(tt.size), notes=notes)
+
+
+def _reference(variable: str, A: Mapping):
+    """The reference's values of one variable (its distance from the origin for the position)."""
+    if variable == POSITION:
+        return np.sqrt(sum(A[c] ** 2 for c in ("x", "y", "z")))
+    return A[variable]
 
 
 def _difference(variable: str, A: Mapping, B: Mapping):

@@ -10,14 +10,22 @@ Rooms
 -----
 case
     :class:`ValidationCase`, :func:`load_case`, the engine names a case may use.
+tolerances
+    The ``[compare]`` settings (tolerances per quantity, windows, output grid,
+    JSBSim step, self-convergence): :func:`resolve_compare`, :class:`CompareSettings`.
+result
+    :class:`CaseResult` (verdict, summary, report text).
 run
-    :func:`run_case`, :class:`CaseResult`, :func:`plan_case`, :func:`provenance`,
+    :func:`run_case`, :func:`case_settings`, :func:`plan_case`, :func:`provenance`,
     and :func:`compare_engines` (any control source, no scenario).  The closed
     loop (the paper's tracking feedback) plugs in at ``run._feedback``.
 """
 
 from .case import LOOPS, ValidationCase, load_case
-from .run import CaseResult, EngineComparison, PlannedCase, compare_engines, plan_case, provenance, run_case
+from .result import CaseResult
+from .run import EngineComparison, PlannedCase, case_settings, compare_engines, plan_case, provenance, run_case
+from .tolerances import QUANTITIES, CompareSettings, parse_compare, resolve_compare
 
-__all__ = ["LOOPS", "ValidationCase", "load_case", "CaseResult",
-           "EngineComparison", "PlannedCase", "compare_engines", "plan_case", "provenance", "run_case"]
+__all__ = ["LOOPS", "ValidationCase", "load_case", "CaseResult", "CompareSettings", "QUANTITIES",
+           "EngineComparison", "PlannedCase", "case_settings", "compare_engines", "parse_compare", "plan_case",
+           "provenance", "resolve_compare", "run_case"]

@@ -10,10 +10,16 @@ tolerances, the comparison windows and the output grid; it loads from TOML
     engines = ["inhouse", "jsbsim"]     # the first is the reference
     loop = "open"
     dt_out = 0.05                       # output grid [s]
-    tolerances = 1e-2                   # or a table variable -> tolerance
+    jsbsim_dt = 0.0020833333            # JSBSim's own step [s]
+    self_convergence = false            # JSBSim also at half its step
+    tolerances = 1e-2                   # or a table quantity/variable -> absolute tolerance
+    rtol = { position = 1e-6 }          # relative tolerances (fraction of max |reference|)
     [windows]                           # name -> duration from t0 [s], or "all"
     "first 10 s" = 10.0
     "whole span" = "all"
+
+Every comparison setting left unset (None) is taken from the scenario's
+``[compare]`` table, else the defaults (:mod:`harness.validation.tolerances`).
 """
 
 from __future__ import annotations
@@ -27,12 +33,14 @@ from typing import Any, Mapping
 from gna.errors import InputError
 
 from ..engines import engine_names
-from ..metrics import DEFAULT_WINDOWS, resolve_tolerances
+from ..metrics import DEFAULT_WINDOWS
+from .tolerances import parse_compare, unknown_key
 
 #: Loop kinds of a case: the plan's controls alone, or with the tracking feedback.
 LOOPS: tuple[str, ...] = ("open", "closed")
 
-_CASE_KEYS = ("scenario", "J", "engines", "loop", "tolerances", "windows", "dt_out")
+_CASE_KEYS = ("scenario", "J", "engines", "loop", "tolerances", "rtol", "windows", "dt_out", "jsbsim_dt",
+              "self_convergence")
 
 
 # --------------------------------------------------------------------------- the case
@@ -60,14 +68,22 @@ class ValidationCase:
         tracking feedback (the scenario's ``[tracking]`` settings,
         :func:`harness.validation.closed.closed_loop_setup`).
     tolerances : None, float or tuple of (str, float) pairs
-        Tolerance spec of the engine-against-reference tables (see
-        :func:`harness.metrics.resolve_tolerances`); a mapping given to the
-        constructor is stored as sorted pairs (the case stays hashable).
-    windows : tuple of (str, float or None) pairs
+        Absolute tolerances of the engine-against-reference tables, per
+        quantity (``position``, ``velocity``, ``angle``, ``rate``) or variable
+        (:func:`harness.validation.tolerances.expand_tolerances`); a mapping
+        given to the constructor is stored as sorted pairs (the case stays
+        hashable).  None: the scenario's ``[compare]``, else the defaults.
+    rtol : None, float or tuple of (str, float) pairs
+        Relative tolerances, same forms.
+    windows : None or tuple of (str, float or None) pairs
         Comparison windows: name -> duration from t0 [s] (``None``: whole span);
         a mapping given to the constructor is stored as pairs, in order.
-    dt_out : float
+    dt_out : float or None
         Output grid step of every engine and of the plan comparison [s].
+    jsbsim_dt : float or None
+        JSBSim's step [s], independent of ``dt_out``.
+    self_convergence : bool or None
+        Also fly JSBSim at half its step and report that difference.
     """
 
     scenario: str
@@ -75,8 +91,11 @@ class ValidationCase:
     engines: tuple = ("inhouse", "jsbsim")
     loop: str = "open"
     tolerances: Any = None
-    windows: Any = tuple(DEFAULT_WINDOWS.items())
-    dt_out: float = 0.05
+    windows: Any = None
+    dt_out: float | None = None
+    rtol: Any = None
+    jsbsim_dt: float | None = None
+    self_convergence: bool | None = None
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -95,29 +114,40 @@ class ValidationCase:
         set_(self, "engines", engines)
         if self.loop not in LOOPS:
             raise InputError(f"loop must be one of {', '.join(LOOPS)}, got {self.loop!r}")
-        tol = self.tolerances
-        if isinstance(tol, Mapping):
-            tol = tuple(sorted((str(k), None if v is None else float(v)) for k, v in tol.items()))
-        elif isinstance(tol, (list, tuple)):
-            tol = tuple((str(k), None if v is None else float(v)) for k, v in tol)
-        set_(self, "tolerances", tol)
-        resolve_tolerances(self.tolerance_spec, ())  # refuse bad values now, not after flying
-        win = self.windows.items() if isinstance(self.windows, Mapping) else self.windows
-        win = tuple((str(k), None if d is None else _positive(d, f"window {k!r}")) for k, d in win)
-        if not win:
-            raise InputError("a case needs at least one comparison window")
-        set_(self, "windows", win)
-        set_(self, "dt_out", _positive(self.dt_out, "dt_out"))
+        for name in ("tolerances", "rtol"):
+            tol = getattr(self, name)
+            if isinstance(tol, Mapping):
+                tol = tuple(sorted((str(k), v) for k, v in tol.items()))
+            elif isinstance(tol, list):
+                tol = tuple(tuple(p) for p in tol)
+            set_(self, name, tol)
+        if self.windows is not None:
+            win = self.windows.items() if isinstance(self.windows, Mapping) else self.windows
+            win = tuple((str(k), None if d is None else _positive(d, f"window {k!r}")) for k, d in win)
+            if not win:
+                raise InputError("a case needs at least one comparison window")
+            set_(self, "windows", win)
+        if self.dt_out is not None:
+            set_(self, "dt_out", _positive(self.dt_out, "dt_out"))
+        parse_compare(self.overrides, "case")  # refuse bad values now, not after flying
 
     @property
     def tolerance_spec(self):
-        """The tolerances as :func:`harness.metrics.difference_table` takes them (None, float or dict)."""
+        """The absolute tolerances as given (None, float or dict quantity/variable -> value)."""
         return dict(self.tolerances) if isinstance(self.tolerances, tuple) else self.tolerances
 
     @property
     def window_spec(self) -> dict:
-        """The windows as a dict name -> duration [s] or None."""
-        return dict(self.windows)
+        """The windows as a dict name -> duration [s] or None (the defaults when unset)."""
+        return dict(self.windows) if self.windows is not None else dict(DEFAULT_WINDOWS)
+
+    @property
+    def overrides(self) -> dict:
+        """The comparison settings this case sets, as a ``[compare]`` table (unset ones are None)."""
+        return {"tolerances": self.tolerance_spec,
+                "rtol": dict(self.rtol) if isinstance(self.rtol, tuple) else self.rtol,
+                "windows": dict(self.windows) if self.windows is not None else None,
+                "dt_out": self.dt_out, "jsbsim_dt": self.jsbsim_dt, "self_convergence": self.self_convergence}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], where: str = "case", base: Path | None = None) -> ValidationCase:
@@ -127,9 +157,10 @@ class ValidationCase:
         ----------
         data : mapping
             Keys ``scenario`` (required), ``J``, ``engines`` (list of names),
-            ``loop``, ``tolerances`` (number or table variable -> number),
-            ``windows`` (table name -> duration [s], or ``"all"`` for the
-            whole span), ``dt_out`` [s].
+            ``loop``, ``tolerances`` and ``rtol`` (number or table quantity or
+            variable -> number), ``windows`` (table name -> duration [s], or
+            ``"all"`` for the whole span), ``dt_out`` and ``jsbsim_dt`` [s],
+            ``self_convergence``.
         where : str
             Name of the source, for messages.
         base : Path, optional
@@ -144,10 +175,9 @@ class ValidationCase:
         InputError
             Unknown or missing keys, or bad values (naming the key).
         """
-        unknown = sorted(k for k in data if k not in _CASE_KEYS)
-        if unknown:
-            raise InputError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))}; "
-                             f"known keys: {', '.join(_CASE_KEYS)}")
+        for k in data:
+            if k not in _CASE_KEYS:
+                raise unknown_key(k, _CASE_KEYS, where)
         if "scenario" not in data:
             raise InputError(f"{where}: missing 'scenario'")
         kw = dict(data)

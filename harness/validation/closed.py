@@ -103,3 +103,27 @@ def saturated_seconds(controller, run) -> dict:
     if states is None:
         return {"any": 0.0}
     return controller.saturated_time(run.df, states)
+
+
+def sampled_engines(engines: dict, controller_dt: float | None) -> dict:
+    """The engines with the feedback's sampling interval set where they sample it.
+
+    Parameters
+    ----------
+    engines : dict
+        Engine label -> engine.
+    controller_dt : float or None
+        Sampling interval [s] (scenario ``[tracking] controller_dt``); None
+        samples at every engine step.  Engines without the setting (the
+        in-house engine evaluates the feedback continuously) are unchanged.
+
+    Returns
+    -------
+    dict
+        Engine label -> engine (copies where the setting changed).
+    """
+    from dataclasses import fields, is_dataclass, replace
+
+    return {label: replace(e, controller_dt=controller_dt)
+            if is_dataclass(e) and "controller_dt" in {f.name for f in fields(e)} else e
+            for label, e in engines.items()}

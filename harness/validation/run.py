@@ -9,8 +9,9 @@ writes files or prints.
 
 from __future__ import annotations
 
+import dataclasses
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
@@ -20,30 +21,12 @@ from planners.generalized import plan_scenario
 from planners.scenario import load_scenario
 
 from ..engines import fly, get_engine
-from ..metrics import DifferenceTable, difference_table, engine_tables, max_position_error
+from ..metrics import DifferenceTable, difference_table, engine_tables, window_span
 from .case import ValidationCase
+from .closed import closed_loop_setup, sampled_engines
 from .provenance import provenance
-from .closed import ClosedLoopSetup, closed_loop_setup, saturated_seconds
-
-
-# --------------------------------------------------------------------------- results
-
-def _runs_report(runs: Mapping, tables: Mapping) -> str:
-    """Status and settings of every run, then every difference table."""
-    out = []
-    for label, res in runs.items():
-        s = res.settings
-        extra = (f"dt = {s['dt']:.6g} s, integrators {s['integrators']}"
-                 + (f", earth {s['earth']}" if s.get("earth") else "")
-                 if s.get("dt") is not None else
-                 f"{s.get('method')} rtol = {s.get('rtol')}, atol = {s.get('atol')}")
-        out.append(f"{label}: {res.status}{(' - ' + res.message) if res.message else ''}; {extra}")
-        out += [f"  warning: {w}" for w in res.warnings]
-    for per in tables.values():
-        for name, t in per.items():
-            out.append(f"[{name}]")
-            out.append(t.format())
-    return "\n".join(out)
+from .result import CaseResult, _runs_report
+from .tolerances import CompareSettings, resolve_compare
 
 
 @dataclass
@@ -174,13 +157,15 @@ class PlannedCase:
     planning_time_s: float
 
 
-def plan_case(case: ValidationCase) -> PlannedCase:
+def plan_case(case: ValidationCase, max_cost: float | None = None) -> PlannedCase:
     """Load a case's scenario and plan it (flatness, then J generalized-flatness iterations).
 
     Parameters
     ----------
     case : ValidationCase
         Its ``scenario`` and ``J`` are used.
+    max_cost : float, optional
+        Bound on the plan's cost (:func:`planners.generalized.plan_cost`; default its ``MAX_PLAN_COST``).
 
     Returns
     -------
@@ -194,171 +179,64 @@ def plan_case(case: ValidationCase) -> PlannedCase:
     """
     sc = load_scenario(case.scenario, J=case.J)
     t0 = time.perf_counter()
-    plan = plan_scenario(sc)
+    plan = plan_scenario(sc, max_cost=max_cost)
     return PlannedCase(scenario=sc, plan=plan, planning_time_s=time.perf_counter() - t0)
 
 
-@dataclass
-class CaseResult:
-    """Outcome of :func:`run_case`.
 
-    Attributes
+def case_settings(case: ValidationCase, scenario) -> CompareSettings:
+    """The comparison settings of a case: the case's (command line) > the scenario's ``[compare]`` > defaults.
+
+    Parameters
     ----------
     case : ValidationCase
-    plan : planners.plan.Plan
-    runs : dict
-        Engine name -> SimulationResult, the reference first.
-    tables : dict
-        Engine name (every engine but the reference) -> {window name -> DifferenceTable}.
-    vs_plan : dict
-        Engine name -> DifferenceTable against the plan's J-th iterate over the
-        whole span (informative: no tolerances).
-    provenance : dict
-        See :func:`provenance`.
-    planning_time_s : float or None
-        Wall time of the planning [s]; None when the plan was given.
-    closed_loop : ClosedLoopSetup or None
-        Closed loop: the tracking controller, the aircraft and initial state flown.
-    open_loop : SimulationResult or None
-        Closed loop: the reference engine flying the plan's J-th controls open
-        loop (the paper's cyan curve), for the figures.
-    flat_closed_loop : SimulationResult or None
-        Closed loop: the reference engine flying the feedback with the flat
-        plan's (J = 0) feedforward and reference, from its initial state: the
-        paper's dark-blue curve, which starts on the flat plan and converges
-        to the generalized one (the same run as ``runs`` when the case's
-        feedforward iterate is 0).
+        Its tolerances, windows, dt_out, jsbsim_dt and self_convergence (None: unset).
+    scenario : planners.scenario.Scenario
+        Its ``compare`` table (raw ``[compare]`` of the file).
+
+    Returns
+    -------
+    CompareSettings
+
+    Raises
+    ------
+    InputError
+        An unknown key (with a suggestion) or a bad value in either source.
     """
+    where = f"{scenario.path or scenario.name} [compare]"
+    return resolve_compare(getattr(scenario, "compare", None) or {}, case.overrides, where=where)
 
-    case: ValidationCase
-    plan: Any
-    runs: dict
-    tables: dict
-    vs_plan: dict
-    provenance: dict = field(default_factory=dict)
-    planning_time_s: float | None = None
-    closed_loop: ClosedLoopSetup | None = None
-    open_loop: Any = None
-    flat_closed_loop: Any = None
 
-    @property
-    def reference_engine(self) -> str:
-        """Name of the engine the others are compared with."""
-        return next(iter(self.runs))
+def with_step(engine, dt: float):
+    """A JSBSim engine with its step set to ``dt``; any other engine unchanged.
 
-    @property
-    def passed(self) -> bool:
-        """True when every engine-against-reference table passes (the tables against the plan inform)."""
-        return all(t.passed for per in self.tables.values() for t in per.values())
+    Parameters
+    ----------
+    engine : Engine
+        An engine object.
+    dt : float
+        JSBSim step [s].
 
-    def max_position_error_m(self, window: tuple[float | None, float | None] | None = None) -> dict:
-        """Per engine, the largest distance between its position and the planned flat outputs.
+    Returns
+    -------
+    Engine
+    """
+    if dataclasses.is_dataclass(engine) and hasattr(engine, "dt") and str(engine.name).startswith("jsbsim"):
+        return dataclasses.replace(engine, dt=dt)
+    return engine
 
-        Parameters
-        ----------
-        window : (t_lo, t_hi), optional
-            Time window [s] (``None`` ends: the run's span).
 
-        Returns
-        -------
-        dict
-            Engine name -> max ``|(x, y, z) - (x, y, z)_plan|`` [m] (NaN for a run holding NaN);
-            see :func:`harness.metrics.max_position_error`.
-        """
-        J = self.plan.J
-        return {label: max_position_error(res, lambda t: self.plan.state(t, J), window)
-                for label, res in self.runs.items()}
-
-    def saturated_s(self) -> dict:
-        """Per engine, the seconds a control was commanded beyond its limits (closed loop).
-
-        Returns
-        -------
-        dict
-            Engine name -> ``{"F": s, ..., "any": s}``; empty open loop.
-        """
-        if self.closed_loop is None:
-            return {}
-        return {label: saturated_seconds(self.closed_loop.controller, res) for label, res in self.runs.items()}
-
-    def verdict(self) -> dict:
-        """The machine-readable verdict of ``gflat compare --json``.
-
-        Returns
-        -------
-        dict
-            ``scenario``, ``loop``, ``runs`` (engine -> ``status``,
-            ``max_position_error_m`` (max over the span of ``|(x, y, z) - flat
-            outputs|``), ``max_position_error_after_5s_m``, ``saturated_s``),
-            ``differences`` (each engine but the reference -> ``max_position_m``,
-            ``max_angle_rad`` over the whole span), ``pass`` (every run
-            completed and every engine agrees with the reference within the
-            tolerances).
-        """
-        t0 = self.plan.t0
-        whole = self.max_position_error_m()
-        after = self.max_position_error_m((t0 + 5.0, None))
-        sat = self.saturated_s()
-        runs = {label: {"status": res.status, "max_position_error_m": whole[label],
-                        "max_position_error_after_5s_m": after[label],
-                        "saturated_s": sat[label]["any"] if label in sat else 0.0}
-                for label, res in self.runs.items()}
-        diffs = {}
-        for label, per in self.tables.items():
-            tab = per.get("whole span") or next(iter(per.values()))
-            diffs[label] = {"max_position_m": tab.row("position").max_abs,
-                            "max_angle_rad": max(tab.row(v).max_abs for v in ("gamma", "chi", "alpha", "beta", "mu"))}
-        ok = self.passed and all(r.status == "completed" for r in self.runs.values())
-        return {"scenario": self.plan.name, "loop": self.case.loop, "runs": runs, "differences": diffs, "pass": ok}
-
-    def reference_frame(self):
-        """The plan's J-th iterate at the reference engine's output times.
-
-        Returns
-        -------
-        pandas.DataFrame
-            States and controls indexed by ``t`` [s].
-        """
-        times = np.asarray(self.runs[self.reference_engine].df.index, dtype=float)
-        return self.plan.to_dataframe(times, j=self.plan.J)
-
-    def summary(self, figures=()) -> dict:
-        """The machine-readable summary (the content of ``summary.json``).
-
-        Parameters
-        ----------
-        figures : sequence of path
-            Figures written from this result, if any.
-
-        Returns
-        -------
-        dict
-            ``scenario``, ``J``, ``engines``, ``passed``, ``status`` (engine -> run
-            status), ``tables`` (engine -> window -> list of row records),
-            ``figures`` (paths as str).
-        """
-        return {"scenario": self.plan.name, "J": self.plan.J, "engines": list(self.runs), "passed": self.passed,
-                "status": {k: r.status for k, r in self.runs.items()},
-                "tables": {eng: {w: t.to_frame().reset_index().to_dict(orient="records") for w, t in per.items()}
-                           for eng, per in self.tables.items()},
-                "figures": [str(p) for p in figures]}
-
-    def report_text(self) -> str:
-        """The difference report (``differences.txt``).
-
-        Returns
-        -------
-        str
-            Heading, run status and settings, tables against the reference
-            engine per window, tables against the plan.
-        """
-        p = self.plan
-        lines = [f"{p.name}: {p.aircraft.id}, J = {p.J}, t = {p.t0:g} .. {p.t1:g} s, {self.case.loop} loop",
-                 _runs_report(self.runs, self.tables)]
-        for label, tab in self.vs_plan.items():
-            lines.append(f"[{label} against the plan, whole span]")
-            lines.append(tab.format())
-        return "\n".join(lines)
+def _self_convergence(engines, runs, problem, span, settings: CompareSettings):
+    """Every JSBSim engine again at half its step, and the tables of that run against the run at the step."""
+    half, tables = {}, {}
+    for label, e in engines.items():
+        if not (dataclasses.is_dataclass(e) and hasattr(e, "dt") and str(e.name).startswith("jsbsim")):
+            continue
+        half[label] = fly({label: with_step(e, e.dt / 2)}, *problem[0], **problem[1])[label]
+        tables[label] = {name: difference_table(runs[label], half[label], tolerances={},
+                                                window=window_span(span, dur), labels=(f"{label} dt", f"{label} dt/2"))
+                         for name, dur in settings.windows.items()}
+    return half, tables
 
 
 def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
@@ -372,8 +250,9 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
         A plan of the case's scenario, reused instead of planning again (its J
         must match the case's when the case sets one).
     scenario : planners.scenario.Scenario, optional
-        The loaded scenario (its ``[tracking]`` settings serve the closed loop);
-        loaded again from ``case.scenario`` when needed and not given.
+        The loaded scenario (its ``[compare]`` table sets the comparison,
+        :func:`case_settings`; its ``[tracking]`` settings serve the closed
+        loop); loaded from ``case.scenario`` when not given.
 
     Returns
     -------
@@ -384,6 +263,8 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
         the scenario's iterate plus the tracking feedback
         (:func:`harness.validation.closed.closed_loop_setup`), and the reference
         engine also flies the plan open loop (``CaseResult.open_loop``).
+        With ``self_convergence``, every JSBSim engine flies again at half its
+        step (``CaseResult.half_step``, ``CaseResult.self_convergence``).
 
     Raises
     ------
@@ -395,41 +276,48 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
     if not isinstance(case, ValidationCase):
         raise InputError(f"run_case needs a ValidationCase, got {type(case).__name__}")
     planning_time = None
+    if scenario is None:
+        scenario = load_scenario(case.scenario, J=case.J)
+    settings = case_settings(case, scenario)      # a bad [compare] table is refused before planning
     if plan is None:
-        planned = plan_case(case)
-        plan, planning_time, scenario = planned.plan, planned.planning_time_s, planned.scenario
+        t_start = time.perf_counter()
+        plan = plan_scenario(scenario)
+        planning_time = time.perf_counter() - t_start
     elif case.J is not None and plan.J != case.J:
         raise InputError(f"the plan given has J = {plan.J}, the case asks for J = {case.J}")
     if not plan.feasible:
         raise DomainError(f"{plan.name}: the plan is not feasible, nothing to fly: {plan.newton_failures[0]}")
     J = plan.J
     span = (plan.t0, plan.t1)
-    engines = {n: get_engine(n) for n in case.engines}
-    setup, open_loop = None, None
+    dt_out = settings.dt_out
+    engines = {n: with_step(get_engine(n), settings.jsbsim_dt) for n in case.engines}
+    setup, open_loop, flat_loop = None, None, None
     if case.loop == "closed":
-        if scenario is None:
-            scenario = load_scenario(case.scenario, J=case.J)
         setup = closed_loop_setup(plan, scenario)
         ctl = setup.controller
-        runs = fly(engines, setup.aircraft, setup.x0, ctl.controls, span, env=plan.env, controller=ctl,
-                   dt_out=case.dt_out)
+        engines = sampled_engines(engines, scenario.tracking.controller_dt)
+        problem = ((setup.aircraft, setup.x0, ctl.controls, span), dict(env=plan.env, controller=ctl, dt_out=dt_out))
+        runs = fly(engines, *problem[0], **problem[1])
         ref = case.engines[0]
         open_loop = fly({ref: engines[ref]}, setup.aircraft, setup.x0, plan.control_function(J), span,
-                        env=plan.env, dt_out=case.dt_out)[ref]
+                        env=plan.env, dt_out=dt_out)[ref]
         flat_loop = runs[ref]
-        if setup.feedforward_iterate != 0:
+        if setup.feedforward_iterate != 0:          # the paper's dark-blue run: the flat plan's feedforward
             flat = closed_loop_setup(plan, scenario, feedforward_iterate=0)
             flat_loop = fly({ref: engines[ref]}, flat.aircraft, flat.x0, flat.controller.controls, span,
-                            env=plan.env, controller=flat.controller, dt_out=case.dt_out)[ref]
+                            env=plan.env, controller=flat.controller, dt_out=dt_out)[ref]
     else:
-        runs = fly(engines, plan.aircraft, plan.initial_state(J), plan.control_function(J), span, env=plan.env,
-                   dt_out=case.dt_out)
-    tables = engine_tables(runs, span, case.tolerance_spec, case.window_spec)
-    grid = np.arange(plan.t0, plan.t1 + 0.5 * case.dt_out, case.dt_out)
+        problem = ((plan.aircraft, plan.initial_state(J), plan.control_function(J), span),
+                   dict(env=plan.env, dt_out=dt_out))
+        runs = fly(engines, *problem[0], **problem[1])
+    tables = engine_tables(runs, span, settings.tolerances, settings.windows, rtol=settings.rtol or None)
+    half, self_conv = _self_convergence(engines, runs, problem, span, settings) if settings.self_convergence \
+        else ({}, {})
+    grid = np.arange(plan.t0, plan.t1 + 0.5 * dt_out, dt_out)
     plan_df = plan.to_dataframe(grid[grid <= plan.t1 + 1e-9], j=J)
     # no tolerances: the open-loop drift from the plan is information, not a pass/fail criterion
     vs_plan = {label: difference_table(plan_df, res.df, tolerances={}, labels=("plan", label))
                for label, res in runs.items()}
     return CaseResult(case=case, plan=plan, runs=runs, tables=tables, vs_plan=vs_plan, provenance=provenance(),
-                      planning_time_s=planning_time, closed_loop=setup, open_loop=open_loop,
-                      flat_closed_loop=flat_loop if case.loop == "closed" else None)
+                      planning_time_s=planning_time, closed_loop=setup, open_loop=open_loop, settings=settings,
+                      half_step=half, self_convergence=self_conv, scenario=scenario, flat_closed_loop=flat_loop)

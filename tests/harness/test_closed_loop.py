@@ -44,11 +44,11 @@ def test_compare_json_contract(tmp_path, capsys):
     code = main(["compare", "twin-otter-single-engine", "--loop", "closed", "--json", "--out", str(tmp_path)])
     d = json.loads(capsys.readouterr().out)
     assert code == 0 and d["pass"] is True
-    assert set(d) == {"scenario", "loop", "runs", "differences", "pass"}
+    assert set(d) == {"scenario", "loop", "runs", "differences", "pass", "settings", "self_convergence"}
     assert set(d["runs"]) == {"inhouse", "jsbsim"} and set(d["differences"]) == {"jsbsim"}
     assert set(d["runs"]["jsbsim"]) == {"status", "max_position_error_m", "max_position_error_after_5s_m",
                                         "saturated_s"}
-    assert set(d["differences"]["jsbsim"]) == {"max_position_m", "max_angle_rad"}
+    assert set(d["differences"]["jsbsim"]) == {"max_position_m", "max_angle_rad", "delta_pct"}
     assert (tmp_path / "tracking.png").is_file() and (tmp_path / "summary.json").is_file()
 
 

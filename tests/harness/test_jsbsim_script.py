@@ -8,7 +8,7 @@ import pytest
 from gna.errors import InputError
 from harness.cli import main
 from harness.engines import fly
-from harness.engines.jsbsim.script import export_script, inside, replay, safe_name
+from harness.engines.jsbsim.script import export_script, replay
 from planners.generalized import plan_scenario
 from planners.scenario import load_scenario
 
@@ -62,13 +62,8 @@ def test_files_and_cli(tmp_path, capsys):
 
 def test_names_cannot_escape(roll, tmp_path):
     sc, plan = roll
-    for bad in ("../x", "a/b", "..", ".hidden", "", "a\\b"):
-        with pytest.raises(InputError, match="cannot name a file"):
-            safe_name(bad, "aircraft identifier")
-    with pytest.raises(InputError, match="outside the export folder"):
-        inside(tmp_path, "../elsewhere.xml")
-    with pytest.raises(InputError, match="cannot name a file"):
-        export_script(tmp_path, "../up", sc.aircraft, plan, env=sc.env)
-    with pytest.raises(InputError, match="aircraft identifier"):
-        export_script(tmp_path, "ok", replace(sc.aircraft, id="../../evil"), plan, env=sc.env)
+    with pytest.raises(InputError, match="not a safe identifier"):
+        export_script(tmp_path / "o", "../up", sc.aircraft, plan, env=sc.env)
+    with pytest.raises(InputError, match="not a safe identifier"):
+        replace(sc.aircraft, id="../../evil")                      # refused where an aircraft is made
     assert not any(tmp_path.iterdir())

@@ -37,7 +37,8 @@ def test_table_values_time_of_maximum_and_pass_fail():
     text = tab.format()
     assert "difference other - ref, t in [0, 10] s, 101 samples" in text
     assert "mu" in text and "FAIL" in text and "overall: FAIL (mu)" in text
-    assert set(tab.to_frame().columns) == {"unit", "max_abs", "t_max", "rms", "tolerance", "passed"}
+    assert set(tab.to_frame().columns) == {"unit", "max_abs", "t_max", "rms", "delta_pct", "ref_max", "atol", "rtol",
+                                           "tolerance", "passed"}
     # Window: the first 5 s only.
     early = difference_table(a, b, window=(0.0, 5.0))
     assert early.passed and early.window == (0.0, 5.0) and early.samples == 51
@@ -131,3 +132,15 @@ def test_position_error_against_flat_outputs():
         max_position_error(flown, lambda tt: np.zeros((2, np.size(tt))))
     with pytest.raises(InputError, match="reference covers"):
         max_position_error(flown, frame.iloc[:50])
+
+
+def test_nesc_metric_and_relative_tolerance():
+    t = np.linspace(0.0, 10.0, 101)
+    a = _traj(t, V=100.0 + t, mu=0.1 * t)
+    b = _traj(t, V=100.0 + t + 0.0105 * (t == 5.0), mu=0.1 * t)
+    tab = difference_table(a, b, tolerances={"V": 0.0}, rtol={"V": 1e-4})
+    v = tab.row("V")
+    assert v.ref_max == pytest.approx(110.0) and v.delta_pct == pytest.approx(100 * 0.0105 / 110.0, rel=1e-9)
+    assert v.tolerance == pytest.approx(0.011) and v.rtol == 1e-4 and v.atol == 0.0
+    assert v.passed is True and "delta [%]" in tab.format()
+    assert difference_table(a, b, tolerances={"V": 0.0}, rtol={"V": 0.9e-4}).row("V").passed is False

@@ -27,7 +27,8 @@ ANGLES = ("gamma", "chi", "alpha", "beta", "mu")
 SHORT = ('name = "short"\naircraft = "a7"\n[time]\nt0 = 0.0\nt1 = 4.0\nstep = 0.5\n'
          '[flat_outputs]\nx = "130*t"\ny = "20*sin(t/3)"\nz = "-1500"\nzeta = "beta"\n'
          'zeta_value = "0"\n[generalized]\nJ = 2\n')
-SUMMARY_KEYS = {"scenario", "J", "engines", "passed", "status", "tables", "figures"}
+SUMMARY_KEYS = {"scenario", "J", "engines", "passed", "status", "tables", "figures", "settings",
+                "self_convergence_tables"}
 
 
 @pytest.fixture
@@ -39,7 +40,7 @@ def short_scenario(tmp_path):
 
 def test_case_defaults_normalisation_and_pickling():
     case = ValidationCase("gtm-forward-slip", tolerances={"position": 1e-2, "mu": 1e-4}, windows={"all": None})
-    assert case.engines == ("inhouse", "jsbsim") and case.loop == "open" and case.dt_out == 0.05
+    assert case.engines == ("inhouse", "jsbsim") and case.loop == "open" and case.dt_out is None
     assert case.tolerance_spec == {"mu": 1e-4, "position": 1e-2} and case.window_spec == {"all": None}
     assert ValidationCase("x").window_spec == {"first 10 s": 10.0, "whole span": None}
     back = pickle.loads(pickle.dumps(case))
@@ -55,7 +56,11 @@ def test_case_defaults_normalisation_and_pickling():
     ({"loop": "half"}, "loop must be one of open, closed"),
     ({"J": -1}, "J must be an integer"),
     ({"dt_out": 0.0}, "dt_out must be a positive number"),
-    ({"tolerances": {"mu": -1.0}}, "tolerance of mu must be a non-negative number"),
+    ({"tolerances": {"mu": -1.0}}, "tolerances: mu must be a non-negative finite number"),
+    ({"tolerances": {"positon": 1.0}}, "unknown key 'positon' \\(did you mean 'position'\\?\\)"),
+    ({"rtol": {"angle": "big"}}, "rtol: angle must be a non-negative finite number"),
+    ({"jsbsim_dt": 0.0}, "jsbsim_dt must be a positive"),
+    ({"self_convergence": "yes"}, "self_convergence must be true or false"),
     ({"windows": {"w": -2.0}}, "window 'w' must be a positive number"),
 ])
 def test_case_refuses_bad_values(kw, match):
@@ -71,7 +76,7 @@ def test_case_from_toml(tmp_path, short_scenario):
     assert case == ValidationCase(str(short_scenario), J=1, engines=("inhouse", "jsbsim-wgs84"), dt_out=0.1,
                                   tolerances=0.5, windows={"first 2 s": 2.0, "all": None})
     f.write_text('scenario = "gtm-forward-slip"\ntolerance = 0.5\nengine = ["inhouse"]\n')
-    with pytest.raises(InputError, match="case.toml: unknown key\\(s\\) 'engine', 'tolerance'"):
+    with pytest.raises(InputError, match="case.toml: unknown key 'tolerance' \\(did you mean 'tolerances'\\?\\)"):
         ValidationCase.from_toml(f)
     f.write_text('J = 2\n')
     with pytest.raises(InputError, match="missing 'scenario'"):
@@ -111,7 +116,8 @@ def test_run_case_result_and_summary(short_scenario, tmp_path):
     # writing is the reports package's job
     written = write_case(result, tmp_path / "out")
     data = json.loads(written["summary"].read_text())
-    assert set(data) == SUMMARY_KEYS | {"provenance"} and len(data["figures"]) == 3
+    assert set(data) >= SUMMARY_KEYS | {"provenance", "verdict", "trajectories", "units"}
+    assert len(data["figures"]) == 3 and data["verdict"]["settings"]["dt_out"] == 0.1
     assert written["differences"].read_text() == text + "\n"
 
 
@@ -143,11 +149,17 @@ def test_paper_plans_each_scenario_once(short_scenario, tmp_path, monkeypatch, c
     assert calls == ["short"]
     out = capsys.readouterr().out
     assert "convergence table" in out and "in-house vs JSBSim (open loop, J = 2)" in out
-    for f in ("plan/plan_series.npz", "plan/summary.json", "compare/states.png", "compare/differences.txt",
-              "compare/summary.json"):
+    for f in ("plan/plan_series.npz", "plan/summary.json", "plan/plan-j0.parquet", "plan/plan-j2.parquet",
+              "open/states.png", "open/differences.txt", "open/summary.json", "open/trajectory-inhouse.parquet",
+              "open/trajectory-jsbsim.parquet", "closed/trajectory-inhouse-open-loop.parquet"):
         assert (tmp_path / "paper" / "short" / f).is_file(), f
     assert [c.scenario for c in paper.paper_cases()] == [str(short_scenario)]
-    assert (tmp_path / "paper" / "short" / "compare-closed" / "tracking.png").is_file()    # both loops by default
+    assert (tmp_path / "paper" / "short" / "closed" / "tracking.png").is_file()    # both loops by default
+    manifest = json.loads((tmp_path / "paper" / "manifest.json").read_text())
+    assert [c["loop"] for c in manifest["cases"]] == ["open", "closed"] and manifest["command_line"]
+    assert {"gflat", "jsbsim", "numpy", "scipy", "date_utc", "inputs"} <= set(manifest)
+    assert any(k.endswith("scenario") and len(v["sha256"]) == 64 for k, v in manifest["inputs"].items())
+    assert (tmp_path / "paper" / ".gflat-complete.json").is_file()
 
 
 def test_paper_open_loop_only(short_scenario, tmp_path, monkeypatch, capsys):
@@ -158,8 +170,8 @@ def test_paper_open_loop_only(short_scenario, tmp_path, monkeypatch, capsys):
     assert main(["paper", "--loop", "open", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "in-house vs JSBSim (open loop" in out and "closed loop with the tracking feedback" not in out
-    assert (tmp_path / "short" / "compare" / "summary.json").is_file()
-    assert not (tmp_path / "short" / "compare-closed").exists()
+    assert (tmp_path / "short" / "open" / "summary.json").is_file()
+    assert not (tmp_path / "short" / "closed").exists()
 
 
 def _two_engine_aircraft():

@@ -31,6 +31,7 @@ from __future__ import annotations
 import contextlib
 import math
 import re
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
@@ -132,8 +133,10 @@ class JSBSimAeroSource(SourceModel):
         JSBSim root directory (``aircraft/``, ``engine/``, ``systems/``);
         default: the one of the installed jsbsim package.
     surfaces : mapping, optional
-        ``{"dl"|"dm"|"dn": (property, sign)}`` overriding the detected surface
-        properties (project variable = sign * property).
+        ``{"dl"|"dm"|"dn": (property, factor)}`` overriding the detected
+        surface properties: property = factor * variable [rad] (factor -1 or
+        +1 for a surface position in rad, e.g. ``1/0.35`` for a normalised
+        position reaching 1 at 0.35 rad).
     configuration : mapping, optional
         Property -> value overriding the default 0 of the configuration properties.
     """
@@ -152,24 +155,42 @@ class JSBSimAeroSource(SourceModel):
         aero = jx.aerodynamics_element(self._xml, self.aircraft_dir)
         functions = jx.aero_functions(aero)
         reads = set().union(*(f.reads for f in functions)) if functions else set()
-        self.surface_map = self._surfaces(reads, surfaces or {})
+        # A candidate surface counts when the aerodynamics read it or one of the aircraft's copies of it.
+        cands = {p for cs in SURFACE_CANDIDATES.values() for p, _ in cs}
+        origin = {}
+        for o, i, _, _ in jx.surface_copies(self._xml, self.aircraft_dir, self.root, cands):
+            origin[o] = origin.get(i, i)
+        seen = set(reads) | {origin[o] for o in reads if o in origin}
+        self.surface_map = self._surfaces(seen, surfaces or {})
         self.removed = jx.angle_rate_functions(functions)
         for f in self.removed:
             if f.axis not in _FORCE_AXES and f.axis not in _MOMENT_AXES:
                 raise InputError(f"JSBSim {self.model}: alpha-dot/beta-dot function {f.name} in axis {f.axis} "
                                  f"is not supported (only DRAG, SIDE, LIFT, ROLL, PITCH, YAW)")
         used = {p for p, _ in self.surface_map.values()}
+        # The aircraft's own copies of the surfaces (normalised positions, mirrored surfaces) follow them.
+        self.copies = jx.surface_copies(self._xml, self.aircraft_dir, self.root, used)
+        copied = {o for o, _, _, _ in self.copies}
         config = {p: 0.0 for p in sorted(reads) if p.startswith(("fcs/", "gear/", "systems/"))
-                  and p not in used and p not in DERIVED_SURFACE_PROPERTIES}
+                  and p not in used and p not in copied and p not in DERIVED_SURFACE_PROPERTIES}
         for k, v in (configuration or {}).items():
             config[str(k)] = float(v)
         self.configuration = config
+        self.copies = [c for c in self.copies if c[0] not in config]  # an explicit value wins
+        #: The copies the aerodynamics read: output -> (input, component kind).
+        self.surface_copies = {o: (i, kind) for o, i, _, kind in self.copies if o in reads}
 
+        # Sampling must not run the aircraft's <output> directives (they would write files into the JSBSim
+        # root): output is disabled, and the files JSBSim still opens go to a scratch folder that lives (and
+        # is deleted) with this source.
+        self._scratch = tempfile.TemporaryDirectory(prefix="gflat-jsbsim-out-")
         with _quiet():
             fdm = jsbsim.FGFDMExec(str(self.root))
             fdm.set_debug_level(0)
+            fdm.set_output_path(self._scratch.name)
             ok = fdm.load_model_with_paths(self.model, str(self.aircraft_dir.parent), str(self.root / "engine"),
                                            str(self.root / "systems"))
+            fdm.disable_output()
         if not ok:
             raise InputError(f"JSBSim could not load {self.aircraft_dir / (self.model + '.xml')}")
         self._fdm = fdm
@@ -203,7 +224,8 @@ class JSBSimAeroSource(SourceModel):
             found = [(p, s) for p, s in cands if p in reads]
             if not found:
                 raise InputError(f"JSBSim {self.model}: its aerodynamics read none of "
-                                 f"{', '.join(p for p, _ in cands)} for {var}; give the property explicitly")
+                                 f"{', '.join(p for p, _ in cands)} (nor a copy of them) for {var}; give the "
+                                 f"property explicitly (gflat fit jsbsim --property {var}=PROPERTY)")
             out[var] = found[0]
         unknown = [k for k in override if k not in SURFACE_CANDIDATES]
         if unknown:
@@ -242,11 +264,11 @@ class JSBSimAeroSource(SourceModel):
         for var, (prop, sign) in self.surface_map.items():
             if prop in ranges:
                 lo, hi, where = ranges[prop]
-                a, b = sorted((sign * lo, sign * hi))
+                a, b = sorted((lo / sign, hi / sign))
                 meet(var, a, b, f"tables of {where} over {prop}")
             lim = jx.surface_limit(self._xml, self.aircraft_dir, self.root, prop)
             if lim is not None:
-                a, b = sorted((sign * lim[0], sign * lim[1]))
+                a, b = sorted((lim[0] / sign, lim[1] / sign))
                 meet(var, a, b, f"flight-control output range of {prop}")
         self.envelope_origin = origin
         return env
@@ -310,6 +332,8 @@ class JSBSimAeroSource(SourceModel):
             for var, val in (("dl", dl), ("dm", dm), ("dn", dn)):
                 prop, sign = self.surface_map[var]
                 surf[prop] = sign * val
+            for out_prop, in_prop, f, _ in self.copies:
+                surf[out_prop] = f(surf[in_prop])
             F, M, qbar = self.body_forces(a, b, ph * two_V / self.b, qh * two_V / self.cbar, rh * two_V / self.b,
                                           surf)
             qS = qbar * self.S
@@ -345,14 +369,16 @@ class JSBSimAeroSource(SourceModel):
         import jsbsim
         removed = ", ".join(f.name for f in self.removed) or "none"
         cfg = ", ".join(f"{k} = {v:g}" for k, v in self.configuration.items()) or "none"
-        surf = ", ".join(f"{var} = {'-' if s < 0 else ''}{p}" for var, (p, s) in self.surface_map.items())
+        surf = ", ".join(f"{var} = {'-' if s < 0 else ''}{p}" if abs(s) == 1.0 else f"{var} = {p} / {s:g}"
+                         for var, (p, s) in self.surface_map.items())
+        copies = "".join(f"{o} follows {i} ({kind}); " for o, (i, kind) in self.surface_copies.items())
         bundled = self.aircraft_dir.parent == default_root() / "aircraft"
         where = (f"{self.aircraft_dir.name}/{self.model}.xml of the jsbsim package" if bundled
                  else str(self.aircraft_dir / f"{self.model}.xml"))
         return {"source": f"JSBSim {jsbsim.__version__} aircraft {self.model} ({where})",
                 "source_model": f"aerodynamic forces and moments read from JSBSim (FCS disabled, run_ic per "
                                 f"point) at Mach {self.mach:g}, {self.altitude:g} m (V = {self.V_ref:.6g} m/s); "
-                                f"surfaces: {surf}; "
+                                f"surfaces: {surf}; {copies}"
                                 f"configuration held: {cfg}; functions removed (alpha-dot/beta-dot): {removed}; "
                                 f"moments about the JSBSim CG"}
 

@@ -202,6 +202,116 @@ def surface_limit(root: ET.Element, aircraft_dir: Path, jsbsim_root: Path, prop:
     return None
 
 
+#: Flight-control components whose steady output is a function of one input that :func:`surface_copies` follows.
+COPY_COMPONENTS = ("aerosurface_scale", "pure_gain", "summer", "actuator", "lag_filter")
+
+
+def _copy_function(comp: ET.Element, negate: bool):
+    """The steady-state map input -> output of one FCS component, or None when not a constant map.
+
+    ``aerosurface_scale``: JSBSim's zero-centred scaling (``x/domain_max *
+    range_max`` for ``x > 0``, ``x/domain_min * range_min`` below; the
+    linear domain -> range map when ``<zero_centered>`` is false) times the
+    gain; ``pure_gain``: the gain; ``summer``: plus the bias; ``actuator``
+    and ``lag_filter``: the input (steady state).  ``<clipto>`` applies last.
+    """
+    def num(path, default):
+        text = comp.findtext(path)
+        if text is None:
+            return default
+        return float(text)  # a property name raises ValueError: not a constant map
+    try:
+        kind = comp.tag
+        gain = num("gain", 1.0)
+        clip = comp.find("clipto")
+        lo_c = num("clipto/min", -math.inf) if clip is not None else -math.inf
+        hi_c = num("clipto/max", math.inf) if clip is not None else math.inf
+        if kind == "aerosurface_scale":
+            dmin, dmax = num("domain/min", -1.0), num("domain/max", 1.0)
+            rmin, rmax = num("range/min", None), num("range/max", None)
+            if rmin is None or rmax is None:
+                return None
+            centred = (comp.findtext("zero_centered", "true").strip().lower() not in ("false", "0"))
+
+            def base(x):
+                if centred:
+                    return 0.0 if x == 0 else (x / dmax * rmax if x > 0 else x / dmin * rmin)
+                return rmin + (x - dmin) * (rmax - rmin) / (dmax - dmin)
+        elif kind == "pure_gain":
+            def base(x):
+                return x
+        elif kind == "summer":
+            bias = num("bias", 0.0)
+
+            def base(x):
+                return x + bias
+        elif kind in ("actuator", "lag_filter"):
+            gain = 1.0
+
+            def base(x):
+                return x
+        else:
+            return None
+    except ValueError:
+        return None
+    sign = -1.0 if negate else 1.0
+    return lambda x: min(max(gain * base(sign * x), lo_c), hi_c)
+
+
+def surface_copies(root: ET.Element, aircraft_dir: Path, jsbsim_root: Path,
+                   sources) -> list[tuple[str, str, object, str]]:
+    """The flight-control outputs computed from the surface properties alone (normalised copies, scalings).
+
+    With the flight-control system switched off these properties keep their
+    initial 0 unless set; an aircraft whose aerodynamics read
+    ``fcs/elevator-pos-norm`` instead of ``fcs/elevator-pos-rad`` then loses
+    the surface's effect.  Components with one input (a source or an earlier
+    copy) of the kinds :data:`COPY_COMPONENTS` with constant parameters are
+    followed.
+
+    Parameters
+    ----------
+    root : xml.etree.ElementTree.Element
+        The aircraft file's root.
+    aircraft_dir, jsbsim_root : Path
+        Folders to find the system files.
+    sources : iterable of str
+        The surface properties written directly.
+
+    Returns
+    -------
+    list of (output, input, function, component kind)
+        In an order where every input is a source or an earlier output;
+        ``function(input value) -> output value``.
+    """
+    known = set(sources)
+    comps = [c for sysroot in _system_files(root, aircraft_dir, jsbsim_root) for c in sysroot.iter()
+             if c.tag in COPY_COMPONENTS]
+    out, done = [], set()
+    changed = True
+    while changed:
+        changed = False
+        for comp in comps:
+            inputs = [(i.text or "").strip() for i in comp.findall("input")]
+            outputs = [(o.text or "").strip() for o in comp.findall("output")]
+            if len(inputs) != 1 or not outputs:
+                continue
+            negate = inputs[0].startswith("-")
+            src = inputs[0].lstrip("-").strip()
+            if src not in known:
+                continue
+            f = _copy_function(comp, negate)
+            if f is None:
+                continue
+            for o in outputs:
+                if o and o not in known and o not in done:
+                    out.append((o, src, f, comp.tag))
+                    done.add(o)
+                    known.add(o)
+                    changed = True
+    return out
+
+
 def _location(elem: ET.Element | None, what: str) -> tuple[float, float, float]:
     if elem is None:
         raise InputError(f"JSBSim {what} has no <location>")

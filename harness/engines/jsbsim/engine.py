@@ -33,8 +33,10 @@ class JSBSimEngine:
     Parameters
     ----------
     dt : float
-        Largest step [s]; the step used divides the output interval exactly
-        and is recorded in ``settings["dt"]``.
+        Largest step [s], JSBSim's own setting: the step used is the largest
+        that divides the span, independent of the output grid, and is recorded
+        in ``settings["dt"]``.  Output times between two steps are interpolated
+        (cubic Lagrange through four steps, :mod:`harness.engines.jsbsim.grid`).
     integrators : Integrators
         JSBSim's integrators per state group.
     earth : {"flat", "wgs84"}
@@ -144,9 +146,9 @@ class JSBSimEngine:
             Anything :func:`gna.controller.as_controller` takes; sampled at the
             controller updates (see the class notes).
         dt_out : float
-            Output interval [s]; the step divides it exactly.
+            Output interval [s]; it does not change the step.
         t_eval : array_like, shape (n,), optional
-            Output times [s], on the step grid (a uniform grid always is).
+            Output times [s] in the span, on the step grid or not.
 
         Returns
         -------

@@ -19,6 +19,7 @@ from gna import units
 from gna.atmosphere import ISA, ConstantDensity, Environment
 from gna.errors import InputError
 from gna.frames import euler_from_wind
+from gna.schema import check_name
 
 from ..base import EngineError
 from . import export as jx
@@ -190,7 +191,10 @@ def load_fdm(xml_text: str, aircraft_id: str):
     ------
     EngineError
         If JSBSim refuses the file (its messages are quoted).
+    InputError
+        If ``aircraft_id`` is not a safe identifier (it names the temporary file).
     """
+    check_name(aircraft_id, "aircraft id", "JSBSim engine")  # the file stays inside the temporary folder
     jsbsim = import_jsbsim()
     capture = LogCapture(jsbsim)
     with tempfile.TemporaryDirectory(prefix="gflat-jsbsim-") as root, capture:

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Iterable
 
 from gna.aircraft import Aircraft, list_aircraft, load_aircraft
+from gna.schema import check_name
 
 from .export import FlatPlanet, aircraft_xml
 
@@ -37,7 +38,13 @@ def xml_path(root: str | Path, aircraft_id: str) -> Path:
     Returns
     -------
     pathlib.Path
+
+    Raises
+    ------
+    InputError
+        If ``aircraft_id`` is not a safe identifier (a path separator, ``..``): the file stays under ``root``.
     """
+    check_name(aircraft_id, "aircraft id", "JSBSim export")
     return Path(root) / aircraft_id / f"{aircraft_id}.xml"
 
 

@@ -3,7 +3,9 @@
 :class:`JSBSimRun` holds the FDM, its cached property nodes and the records of
 one run; it steps open loop or with a controller (feedback sampled at the
 propagated state every ``every`` steps and held in between, controller states
-advanced by AB2), stops with a message on divergence and builds the common
+advanced by AB2), continues chi and mu and applies the in-house engine's
+domain test (:func:`gna.trajectory.domain_violation`) at every step, stops
+there keeping the rows before, and builds the common
 :class:`gna.trajectory.SimulationResult`.  An engine subclasses it and fills
 its hooks (the class notes): what is loaded and how it is configured, how the
 controls are written, what the columns report and what the settings add.
@@ -18,7 +20,6 @@ from typing import Callable
 
 import numpy as np
 
-from gna import units
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.controller import (Controller, as_controller, at_sample_times, checked_initial_state, evaluate,
@@ -31,7 +32,8 @@ from gna.trajectory import (RunSettings, SimulationResult, check_span, control_f
 
 from ..base import EngineError
 from .fdm import import_jsbsim
-from .states import DERIVED_NODES, STATE_NODES, STATE_NODES_FLAT, STATE_NODES_WGS84, StateConverter, step_grid, \
+from .grid import output_grid, resample_result
+from .states import DERIVED_NODES, STATE_NODES, STATE_NODES_FLAT, STATE_NODES_WGS84, TRACK_NODES, StateConverter, \
     trajectory_frame
 
 #: How the JSBSim engines advance a controller's states (recorded in the result's settings).
@@ -150,6 +152,7 @@ class JSBSimRun:
         self.pos_nodes = STATE_NODES_WGS84 if self.geo is not None else STATE_NODES_FLAT
         # Records at the output steps: raw states, raw derived outputs, feedback and controller states.
         self.raw_states, self.raw_derived, self.index, self.fb, self.xcs = [], [], [], [], []
+        self.turns: list[tuple[float, float]] = []  # chi and mu continued step by step, at the output steps
         self.k = 0
         self.fdm = self.capture = None
         self.load_problems: list[str] = []
@@ -175,20 +178,21 @@ class JSBSimRun:
         t0, t1 = check_span(t_span)
         ufun = control_function(controls)
         ctrl = as_controller(controller)
-        n, dt, out_steps = step_grid(t0, t1, engine.dt, dt_out, t_eval)
+        n, dt, out_times, record = output_grid(t0, t1, engine.dt, dt_out, t_eval)  # the step ignores dt_out
         times = t0 + np.arange(n + 1) * dt
         U = controls_on_grid(ufun, times)
         every = 1 if engine.controller_dt is None else max(int(round(engine.controller_dt / dt)), 1)
         ctrl = at_sample_times(ctrl, times[::every])
         t_setup = time.perf_counter()
-        run = cls(engine, aircraft, env, y0, times, out_steps, U, ctrl, every)
+        run = cls(engine, aircraft, env, y0, times, record, U, ctrl, every)
         with ExitStack() as stack:
             run.fdm, run.capture, run.load_problems = run._load(stack)
             run.start()
             t_loop = time.perf_counter()
             status, message, t_end = run.step_all()
             t_post = time.perf_counter()
-            return run.result(status, message, t_end, {"setup": t_loop - t_setup, "stepping": t_post - t_loop})
+            res = run.result(status, message, t_end, {"setup": t_loop - t_setup, "stepping": t_post - t_loop})
+        return resample_result(res, out_times, t0, dt)
 
     # ---- hooks (see the class notes) -------------------------------------------------------------
     def _load(self, stack: ExitStack):
@@ -256,15 +260,15 @@ class JSBSimRun:
         self._configure()
         self.state_readers = [self._node(p).get_double_value for p in self.pos_nodes + STATE_NODES]
         self.derived_readers = [self._node(p).get_double_value for p in self.derived_nodes]
-        self.vt = self._node("velocities/vt-fps").get_double_value
+        self.track_readers = [self._node(p).get_double_value for p in TRACK_NODES]
         self.to_state = StateConverter(self.x0, self.fdm["inertial/sea-level-radius_ft"], self.geo)
         t0, u0 = float(self.times[0]), self.U[:, 0]
         self.d = [0.0] * 5
         self.xc = np.zeros(0)
         if self.controller is not None:
             self.xc = checked_initial_state(self.controller, t0, self.x0)
-            self.d = np.asarray(self.controller.output(t0, self.x0.copy(), self.xc), dtype=float).reshape(5).tolist()
-            self.f_prev = self._derivative(t0, self.x0.copy())
+            d, f = evaluate(self.controller, t0, self.x0.copy(), self.xc)
+            self.d, self.f_prev = d.tolist(), (f if self.names else None)
             self.f_prev2 = None
         self.applied0 = [a + b for a, b in zip(u0.tolist(), self.d)]
         if not all(math.isfinite(v) for v in self.applied0):
@@ -276,12 +280,8 @@ class JSBSimRun:
         if self.out[0]:
             self._record(0)
 
-    def _derivative(self, t: float, x: np.ndarray):
-        if not self.names:
-            return None
-        return np.asarray(self.controller.derivative(t, x, self.xc), dtype=float).reshape(len(self.names))
-
     def _record(self, k: int) -> None:
+        self.turns.append((self.to_state.chi, self.to_state.mu))
         self.raw_states.append([r() for r in self.state_readers])
         self.raw_derived.append([r() for r in self.derived_readers])
         self.index.append(k)
@@ -308,20 +308,22 @@ class JSBSimRun:
                 self._closed_loop()
         except StepStop as stop:
             t_end = float(times[self.index[-1]]) if self.index else float(times[0])
-            message = stop.text.format(t=f"{times[stop.k]:.6g} s") + f"; result kept up to t = {t_end:.6g} s"
+            message = (stop.text.format(t=f"{times[stop.k]:.6g} s")
+                       + f"; partial result kept up to t = {t_end:.6g} s")
             return "domain", message, t_end
         except import_jsbsim().BaseError as exc:  # JSBSim's own exceptions (e.g. geographic errors on divergence)
             t_end = float(times[self.index[-1]]) if self.index else float(times[0])
             return "domain", (f"JSBSim stopped at t = {times[self.k]:.6g} s with {type(exc).__name__}: {exc}; "
-                              f"result kept up to t = {t_end:.6g} s"), t_end
+                              f"partial result kept up to t = {t_end:.6g} s"), t_end
         return "completed", "", float(times[-1])
 
     def _check_run(self, ok: bool, k: int) -> None:
+        """After step ``k``: chi and mu continued; :class:`StepStop` outside the physical domain."""
         if not ok:
             raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
-        v = self.vt()
-        if not (0.0 < v < math.inf):
-            raise StepStop(k, f"JSBSim diverged at t = {{t}}: airspeed V = {v * units.FT:.6g} m/s")
+        bad = self.to_state.check(self.times[k], [r() for r in self.track_readers])
+        if bad is not None:
+            raise StepStop(k, bad.replace("{", "{{").replace("}", "}}"))
 
     def _first_bad(self) -> int:
         bad = ~np.all(np.isfinite(self.U), axis=0)
@@ -409,7 +411,7 @@ class JSBSimRun:
         e, env, aircraft = self.engine, self.env, self.aircraft
         idx = np.asarray(self.index, dtype=int)
         S = self.to_state.vector(np.array(self.raw_states, dtype=float).T.reshape(
-            len(self.pos_nodes) + len(STATE_NODES), -1))
+            len(self.pos_nodes) + len(STATE_NODES), -1), np.array(self.turns, dtype=float).T.reshape(2, -1))
         D = self._derived(np.array(self.raw_derived, dtype=float).T.reshape(len(self.derived_nodes), -1), S)
         dU = np.array(self.fb, dtype=float).T.reshape(5, -1)
         applied = self.U[:, idx] + dU if self.controller is not None else self.U[:, idx]

@@ -24,7 +24,6 @@ engine's run up to round-off.
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,22 +35,22 @@ from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.errors import InputError
+from gna.schema import check_name
 from gna.frames import euler_from_wind
 from gna.trajectory import check_span, control_function, controls_on_grid, environment_of, initial_state
 
 from . import export as jx
 from .engine import JSBSimEngine
+from ...outdir import OutputDir
 from ..base import EngineError
 from .fdm import LogCapture, density_settings, import_jsbsim
-from .states import STATE_NODES, STATE_NODES_FLAT, StateConverter, step_grid
+from .grid import output_grid, resample
+from .states import STATE_NODES, STATE_NODES_FLAT, StateConverter
 from .xmlwriter import XMLWriter, comment_text, number_text
 
 #: Properties of the CSV output, in column order (after JSBSim's ``Time``).
 OUTPUT_PROPERTIES: tuple[str, ...] = (STATE_NODES_FLAT + STATE_NODES + jx.THRUST_PROPERTIES
                                       + tuple(jx.CONTROL_PROPERTIES.values()))
-
-#: Names allowed as file-name components (aircraft identifiers, script names).
-SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
 
 
 @dataclass(frozen=True)
@@ -78,6 +77,8 @@ class ScriptBundle:
         Nodes of each control table.
     x0 : tuple of 12 float
         Initial wind-frame state (origin of the NED plane of :func:`output_states`).
+    dt_out : float
+        Output interval [s] of :func:`replay`, as the JSBSim engine samples its steps.
     """
 
     root: Path
@@ -89,57 +90,7 @@ class ScriptBundle:
     t_span: tuple[float, float]
     rows: int
     x0: tuple[float, ...] = ()
-
-
-def safe_name(name: str, what: str) -> str:
-    """Check that ``name`` can be one component of a path inside the export folder.
-
-    Parameters
-    ----------
-    name : str
-        Aircraft identifier or script name.
-    what : str
-        What it names (for the message).
-
-    Returns
-    -------
-    str
-        ``name`` unchanged.
-
-    Raises
-    ------
-    InputError
-        If it is empty, ``.``/``..``, or holds a separator or another character outside ``[A-Za-z0-9_.-]``.
-    """
-    if not isinstance(name, str) or not SAFE_NAME.fullmatch(name) or name in (".", ".."):
-        raise InputError(f"{what} {name!r} cannot name a file inside the export folder "
-                         "(letters, digits, '_', '.', '-' only, not starting with '.' or '-')")
-    return name
-
-
-def inside(root: Path, rel: str) -> Path:
-    """``root / rel``, refused when it resolves outside ``root``.
-
-    Parameters
-    ----------
-    root : pathlib.Path
-        The export folder.
-    rel : str
-        A relative path.
-
-    Returns
-    -------
-    pathlib.Path
-
-    Raises
-    ------
-    InputError
-        If the path escapes ``root``.
-    """
-    path = (root / rel).resolve()
-    if not path.is_relative_to(root.resolve()):
-        raise InputError(f"{rel!r} would be written outside the export folder {root}")
-    return path
+    dt_out: float = 0.02
 
 
 def initialization_xml(x0: np.ndarray, name: str) -> str:
@@ -305,7 +256,8 @@ def export_script(out: str | Path, name: str, aircraft: Aircraft, controls, t_sp
     engine : JSBSimEngine, optional
         Step and integrators copied (default ``JSBSimEngine()``); flat earth only.
     dt_out : float
-        Output interval [s]; the step divides it as in the engine (:func:`.states.step_grid`).
+        Output interval [s] of :func:`replay` (JSBSim writes every step; the replay samples them on the
+        engine's output grid, :func:`.grid.output_grid`).
     table_dt : float, optional
         Interval of the control tables [s], rounded to a whole number of steps, with JSBSim's linear
         interpolation in between (0.01 s: 4e-7 m over the Twin Otter's 60 s, 8e-4 m over the GTM's 8 s
@@ -323,11 +275,10 @@ def export_script(out: str | Path, name: str, aircraft: Aircraft, controls, t_sp
     engine = JSBSimEngine() if engine is None else engine
     if engine.earth != "flat":
         raise InputError("export-jsbsim-script writes the flat-earth engine only")
-    safe_name(name, "script name")
-    safe_name(aircraft.id, "aircraft identifier")
-    root = Path(out)
-    if root.exists() and not root.is_dir():
-        raise InputError(f"--out {root} exists and is not a folder")
+    check_name(name, "script name", "export-jsbsim-script")
+    check_name(aircraft.id, "aircraft id", "export-jsbsim-script")
+    folder = OutputDir(out, clean=False)          # checked before any work; every file written atomically
+    root = folder.root
     if t_span is None:
         t_span = (getattr(controls, "t0", None), getattr(controls, "t1", None))
         if None in t_span:
@@ -335,7 +286,7 @@ def export_script(out: str | Path, name: str, aircraft: Aircraft, controls, t_sp
     t0, t1 = check_span(t_span)
     env = environment_of(controls, env)
     y0 = initial_state(controls, x0)
-    n, dt, _ = step_grid(t0, t1, engine.dt, dt_out, None)
+    n, dt, _, _ = output_grid(t0, t1, engine.dt, dt_out, None)     # the engine's own step grid
     every = 1
     if table_dt is not None:
         if not (math.isfinite(table_dt) and table_dt > 0):
@@ -353,18 +304,15 @@ def export_script(out: str | Path, name: str, aircraft: Aircraft, controls, t_sp
     init_name = f"{name}-init"
     rel = {"aircraft": f"aircraft/{aircraft.id}/{aircraft.id}.xml",
            "initialization": f"aircraft/{aircraft.id}/{init_name}.xml", "script": f"scripts/{name}.xml"}
-    paths = {key: inside(root, r) for key, r in rel.items()}
     texts = {"aircraft": engine.xml(aircraft, env, y0), "initialization": initialization_xml(y0, init_name),
              "script": script_xml(name, aircraft.id, init_name, (t0, t1), dt, settings, tables, t_table,
-                                  f"{name}.csv", 1.0 / (dt * max(int(round(dt_out / dt)), 1)))}
-    for key, path in paths.items():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(texts[key], encoding="utf-8", newline="\n")
-        tmp.replace(path)
+                                  f"{name}.csv", 1.0 / dt)}
+    for key, r in rel.items():
+        folder.write_text(*r.split("/"), text=texts[key])
+    folder.finish()
     return ScriptBundle(root=root, aircraft=rel["aircraft"], initialization=rel["initialization"],
                         script=rel["script"], output=f"{name}.csv", dt=dt, t_span=(t0, t1), rows=int(t_table.size),
-                        x0=tuple(float(v) for v in y0))
+                        x0=tuple(float(v) for v in y0), dt_out=float(dt_out))
 
 
 def output_states(csv: str | Path, x0, radius_ft: float = jx.PLANET_RADIUS_FT) -> pd.DataFrame:
@@ -434,4 +382,7 @@ def replay(bundle: ScriptBundle) -> pd.DataFrame:
     if not ok:
         raise EngineError(f"JSBSim could not load the script {bundle.script}: "
                           f"{' | '.join(capture.problems()) or 'load_script or run_ic returned False'}")
-    return output_states(Path(bundle.root) / bundle.output, bundle.x0)
+    states = output_states(Path(bundle.root) / bundle.output, bundle.x0)
+    t0, t1 = bundle.t_span
+    _, dt, out_times, _ = output_grid(t0, t1, bundle.dt, bundle.dt_out, None)
+    return resample(states, out_times, t0, dt)

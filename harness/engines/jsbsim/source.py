@@ -209,7 +209,12 @@ class _SourceRun(JSBSimRun):
         fdm = jsbsim.FGFDMExec(str(root))
         fdm.set_debug_level(0)
         self.xml_path = acdir / f"{name}.xml"
-        if not fdm.load_model_with_paths(name, str(acdir.parent), str(root / "engine"), str(root / "systems")):
+        # The aircraft's own <output> directives would write files into the JSBSim root: scratch folder, disabled.
+        scratch = stack.enter_context(tempfile.TemporaryDirectory(prefix="gflat-jsbsim-out-"))
+        fdm.set_output_path(scratch)
+        loaded_model = fdm.load_model_with_paths(name, str(acdir.parent), str(root / "engine"), str(root / "systems"))
+        fdm.disable_output()
+        if not loaded_model:
             raise EngineError(f"JSBSim could not load {self.xml_path}: "
                               f"{' | '.join(capture.problems()) or 'load_model returned False'}")
         self.planet = planet = jx.FlatPlanet(g=self.env.g, h_ref=-float(self.x0[2]),

@@ -19,8 +19,7 @@ from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.frames import bank_from_euler
-from gna.errors import InputError
-from gna.trajectory import COLUMNS
+from gna.trajectory import COLUMNS, domain_margins, domain_violation
 
 from . import export as jx
 from .fdm import WGS84_A_FT, WGS84_B_FT
@@ -31,66 +30,13 @@ STATE_NODES_WGS84 = ("position/lat-geod-rad", "position/long-gc-rad", "position/
 STATE_NODES = ("velocities/vt-fps", "flight-path/gamma-rad", "flight-path/psi-gt-rad", "aero/alpha-rad",
                "aero/beta-rad", "attitude/phi-rad", "attitude/theta-rad", "attitude/psi-rad",
                "velocities/p-rad_sec", "velocities/q-rad_sec", "velocities/r-rad_sec")
+#: Raw outputs read at every step to continue chi and mu and test the domain (order of :meth:`StateConverter.track`).
+TRACK_NODES = ("velocities/vt-fps", "flight-path/gamma-rad", "flight-path/psi-gt-rad", "aero/alpha-rad",
+               "aero/beta-rad", "attitude/phi-rad", "attitude/theta-rad")
 DERIVED_NODES = (jx.QBAR_PROPERTY, jx.RHO_PROPERTY) + tuple(jx.COEFFICIENT_PROPERTIES.values()) + (
     "forces/fbx-total-lbs", "forces/fby-total-lbs", "forces/fbz-total-lbs",
     "forces/fbx-weight-lbs", "forces/fby-weight-lbs", "forces/fbz-weight-lbs",
     "moments/l-total-lbsft", "moments/m-total-lbsft", "moments/n-total-lbsft")
-
-
-def step_grid(t0: float, t1: float, dt_max: float, dt_out: float, t_eval) -> tuple[int, float, np.ndarray]:
-    """JSBSim's step grid: the largest step <= ``dt_max`` that divides the output interval.
-
-    Parameters
-    ----------
-    t0, t1 : float
-        Span [s].
-    dt_max : float
-        Largest step [s].
-    dt_out : float
-        Output interval [s] (used when ``t_eval`` is None).
-    t_eval : array_like, shape (m,), or None
-        Output times [s]; they must lie on the grid.
-
-    Returns
-    -------
-    n : int
-        Number of steps.
-    dt : float
-        Step [s].
-    out_steps : ndarray of int, shape (m,)
-        Step indices of the output times.
-
-    Raises
-    ------
-    InputError
-        Bad ``dt_out`` or ``t_eval``, or output times off the grid.
-    """
-    if t_eval is not None:
-        te = np.asarray(t_eval, dtype=float).ravel()
-        if te.size == 0 or not np.all(np.isfinite(te)) or np.any(np.diff(te) <= 0):
-            raise InputError("t_eval must be a non-empty increasing sequence of finite times")
-        if te[0] < t0 - 1e-12 or te[-1] > t1 + 1e-12:
-            raise InputError(f"t_eval must lie in t_span [{t0:g}, {t1:g}] s")
-        gaps = np.diff(np.concatenate([[t0], te, [t1]]))
-        gaps = gaps[gaps > 1e-12]
-        h = float(np.min(gaps)) if gaps.size else t1 - t0
-        n_out = max(int(round((t1 - t0) / h)), 1)
-    else:
-        if not (math.isfinite(dt_out) and dt_out > 0):
-            raise InputError(f"dt_out must be positive, got {dt_out}")
-        n_out = max(int(round((t1 - t0) / dt_out)), 1)
-    m = max(int(math.ceil((t1 - t0) / n_out / dt_max - 1e-9)), 1)
-    n = n_out * m
-    dt = (t1 - t0) / n
-    if t_eval is None:
-        return n, dt, np.arange(0, n + 1, m)
-    k = np.round((te - t0) / dt).astype(int)
-    off = np.abs(t0 + k * dt - te)
-    if np.any(off > 1e-9 * max(1.0, abs(t1))):
-        i = int(np.argmax(off))
-        raise InputError(f"t_eval time {te[i]:.12g} s is not on JSBSim's step grid (dt = {dt:.6g} s from "
-                         f"t0 = {t0:g} s); use a uniform t_eval or dt_out")
-    return n, dt, k
 
 
 def align(angle: np.ndarray, reference: float) -> np.ndarray:
@@ -150,22 +96,102 @@ class StateConverter:
         return [x, y, -ft * h, vt * ft, gamma, psi_gt, alpha, beta, bank_from_euler(alpha, beta, phi, theta, sin, cos, atan2),
                 p, q, r]
 
-    def vector(self, raw: np.ndarray) -> np.ndarray:
-        """Raw outputs -> states; chi and mu unwrapped from x0's values.
+    @property
+    def chi(self) -> float:
+        """chi [rad] continued through every :meth:`scalar` call so far (x0's value before the first)."""
+        return self._chi
+
+    @property
+    def mu(self) -> float:
+        """mu [rad] continued through every :meth:`scalar` call so far (x0's value before the first)."""
+        return self._mu
+
+    def vector(self, raw: np.ndarray, turns: np.ndarray | None = None) -> np.ndarray:
+        """Raw outputs -> states; chi and mu continuous.
 
         Parameters
         ----------
         raw : ndarray, shape (14, n)
             Values of the position nodes and :data:`STATE_NODES`.
+        turns : ndarray, shape (2, n), optional
+            chi and mu [rad] continued at every integration step
+            (:attr:`chi`, :attr:`mu` at the output steps): each output angle is
+            shifted by the whole turns that bring it nearest.  Without it the
+            output samples themselves are unwrapped from x0's values (wrong
+            when an angle turns by more than pi between two samples).
 
         Returns
         -------
         ndarray, shape (12, n)
         """
         s = np.array(self._states(raw, np.sin, np.cos, np.arctan2), dtype=float).reshape(12, -1)
-        s[5] = align(s[5], self.x0[5])
-        s[8] = align(s[8], self.x0[8])
+        if turns is None:
+            s[5] = align(s[5], self.x0[5])
+            s[8] = align(s[8], self.x0[8])
+            return s
+        two_pi = 2.0 * math.pi
+        for row, ref in ((5, turns[0]), (8, turns[1])):
+            s[row] = s[row] + two_pi * np.round((ref - s[row]) / two_pi)
         return s
+
+    def track(self, vt: float, gamma: float, psi_gt: float, alpha: float, beta: float, phi: float,
+              theta: float) -> tuple[float, ...]:
+        """One integration step: chi and mu continued, and the states the domain tests need.
+
+        Called at every step, so that chi and mu stay continuous whatever the
+        output interval (a fast roll turns mu by more than pi between coarse
+        output samples).
+
+        Parameters
+        ----------
+        vt : float
+            Airspeed [ft/s].
+        gamma, psi_gt, alpha, beta, phi, theta : float
+            Flight-path angle, ground track, angle of attack, sideslip, Euler roll and pitch [rad].
+
+        Returns
+        -------
+        tuple of float
+            The 12 wind-frame states with the position and rates left at 0
+            (for :func:`gna.trajectory.domain_margins`).
+        """
+        sin, cos = math.sin, math.cos
+        ca, sa, cb, sb = cos(alpha), sin(alpha), cos(beta), sin(beta)
+        d1, d2, d3 = -sin(theta), sin(phi) * cos(theta), cos(phi) * cos(theta)
+        mu = math.atan2(-ca * sb * d1 + cb * d2 - sa * sb * d3, -sa * d1 + ca * d3)
+        dchi = math.remainder(psi_gt - self._chi, 2.0 * math.pi)
+        if abs(dchi) > 0.5 * math.pi and abs(gamma) > 0.25 * math.pi:
+            # The track turned by more than pi/2 in one step near the vertical: the flight path went through
+            # it (JSBSim's gamma folds back inside [-pi/2, pi/2], the wind-frame chart passes cos(gamma) = 0).
+            gamma = math.copysign(0.5 * math.pi, gamma)
+        self._chi = chi = self._chi + dchi
+        self._mu = mu = self._mu + math.remainder(mu - self._mu, 2.0 * math.pi)
+        return (0.0, 0.0, 0.0, vt * units.FT, gamma, chi, alpha, beta, mu, 0.0, 0.0, 0.0)
+
+    def check(self, t: float, raw: Sequence[float]) -> str | None:
+        """One integration step: :meth:`track` on the :data:`TRACK_NODES` values, then the domain test.
+
+        Parameters
+        ----------
+        t : float
+            Time of the step [s].
+        raw : sequence of 7 float
+            Values of :data:`TRACK_NODES`.
+
+        Returns
+        -------
+        str or None
+            None inside the physical domain, else :func:`gna.trajectory.domain_violation`'s message.
+        """
+        try:
+            x = self.track(*raw)
+        except (ValueError, OverflowError):  # math functions of non-finite outputs
+            x = [math.nan] * 12
+            x[3] = raw[0] * units.FT
+        for m in domain_margins(x):
+            if not m > 0:
+                return domain_violation(t, x) or f"left the physical domain at t = {t:.6g} s"
+        return None
 
     def scalar(self, raw: Sequence[float]) -> np.ndarray:
         """One step (pure-Python arithmetic), chi and mu continued from the previous call.

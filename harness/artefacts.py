@@ -1,0 +1,421 @@
+"""Artefacts of a run: trajectories as Parquet (CSV on request), plans, ``manifest.json``, ``summary.json``.
+
+What a validation run leaves for pandas, MATLAB or a third simulator, and for
+the reports.  Every file goes through :class:`harness.outdir.OutputDir`
+(atomic, under the output root).  Layout of a case folder
+(:func:`write_artefacts`)::
+
+    trajectory-<engine>.parquet            every engine's run (the reference first)
+    trajectory-<engine>-half-step.parquet  self-convergence: JSBSim at half its step
+    trajectory-<engine>-open-loop.parquet  closed loop: the reference engine without feedback
+    trajectory-*.csv                       the same, with ``csv=True``
+    differences.txt                        the difference report
+    summary.json                           verdict, tolerances and settings that made it, tables (with delta %)
+    plan/plan-j<k>.parquet                 the plan of every iterate on the output grid (``plan=True``)
+    manifest.json                          versions, commit, date, command line, input sha256 (``manifest=True``)
+
+Trajectory columns: ``t`` [s], the 12 states, the 5 applied controls, the
+derived columns of :data:`gna.trajectory.DERIVED_NAMES`, then altitude ``h``,
+Euler angles ``phi theta psi``, body velocities ``u v w`` and ``Mach``; each
+Parquet field carries its unit in its metadata (key ``unit``), and the file's
+metadata the whole table (key ``gflat.units``, JSON).
+"""
+
+from __future__ import annotations
+
+import datetime
+import hashlib
+import importlib.metadata
+import json
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from gna.atmosphere import H_TROPO, LAPSE, R_AIR, T0
+from gna.frames import C_body_ned, euler_from_dcm
+from gna.trajectory import UNITS
+
+from .outdir import OutputDir, json_safe
+
+#: Units of the columns added to every trajectory written.
+EXTRA_UNITS: dict[str, str] = {"t": "s", "h": "m", "phi": "rad", "theta": "rad", "psi": "rad",
+                               "u": "m/s", "v": "m/s", "w": "m/s", "Mach": "-"}
+
+#: Ratio of specific heats of air (speed of sound of the ISA).
+GAMMA_AIR = 1.4
+
+
+def speed_of_sound(h) -> np.ndarray:
+    """ISA speed of sound ``a = sqrt(gamma R T(h))`` [m/s], troposphere and lower stratosphere.
+
+    Parameters
+    ----------
+    h : array_like
+        Altitude [m].
+
+    Returns
+    -------
+    ndarray
+        Speed of sound [m/s] (ISO 2533 temperature: ``T0 - L h`` up to 11 km, constant above).
+    """
+    h = np.asarray(h, dtype=float)
+    T = T0 - LAPSE * np.minimum(h, H_TROPO)
+    return np.sqrt(GAMMA_AIR * R_AIR * T)
+
+
+def augmented(df: pd.DataFrame) -> pd.DataFrame:
+    """A trajectory with altitude, Euler angles, body velocities and Mach added.
+
+    Parameters
+    ----------
+    df : DataFrame
+        Indexed by ``t`` [s], with the states ``z``, ``V``, ``gamma``, ``chi``,
+        ``alpha``, ``beta``, ``mu`` (SI, rad).
+
+    Returns
+    -------
+    DataFrame
+        A copy with ``h = -z`` [m]; ``phi, theta, psi`` [rad] of ``C_bn =
+        C_bw(alpha, beta) C_wn(gamma, chi, mu)``; ``u, v, w = V (cos a cos b,
+        sin b, sin a cos b)`` [m/s]; ``Mach = V / a(h)`` with the ISA speed
+        of sound (:func:`speed_of_sound`, also under a constant-density
+        atmosphere).
+    """
+    out = df.copy()
+    need = ("z", "V", "gamma", "chi", "alpha", "beta", "mu")
+    if not all(c in out.columns for c in need) or out.empty:
+        return out
+    g, c, m, a, b = (out[k].to_numpy(float) for k in ("gamma", "chi", "mu", "alpha", "beta"))
+    V = out["V"].to_numpy(float)
+    out["h"] = -out["z"].to_numpy(float)
+    eul = np.full((len(out), 3), np.nan)
+    for i in range(len(out)):
+        if np.all(np.isfinite((g[i], c[i], m[i], a[i], b[i]))):
+            eul[i] = euler_from_dcm(C_body_ned(g[i], c[i], m[i], a[i], b[i]))
+    out["phi"], out["theta"], out["psi"] = eul[:, 0], eul[:, 1], eul[:, 2]
+    out["u"] = V * np.cos(a) * np.cos(b)
+    out["v"] = V * np.sin(b)
+    out["w"] = V * np.sin(a) * np.cos(b)
+    out["Mach"] = V / speed_of_sound(out["h"].to_numpy(float))
+    return out
+
+
+def units_of(columns) -> dict[str, str]:
+    """The unit of each column (:data:`gna.trajectory.UNITS` and :data:`EXTRA_UNITS`).
+
+    Parameters
+    ----------
+    columns : iterable of str
+        Column names.
+
+    Returns
+    -------
+    dict
+        Column -> unit (``""`` when unknown).
+    """
+    return {c: EXTRA_UNITS.get(c, UNITS.get(c, "")) for c in columns}
+
+
+def trajectory_table(df: pd.DataFrame, metadata: dict | None = None):
+    """A trajectory as a pyarrow Table, time first, with the units in the field metadata.
+
+    Parameters
+    ----------
+    df : DataFrame
+        Indexed by time [s].
+    metadata : dict, optional
+        Added to the file metadata as JSON (key ``gflat``).
+
+    Returns
+    -------
+    pyarrow.Table
+    """
+    import pyarrow as pa
+
+    flat = df.reset_index()
+    flat = flat.rename(columns={flat.columns[0]: "t"})
+    units = units_of(flat.columns)
+    fields = [pa.field(str(c), pa.float64() if flat[c].dtype.kind in "fiu" else pa.string(),
+                       metadata={"unit": units[c]}) for c in flat.columns]
+    meta = {"gflat.units": json.dumps(units)}
+    if metadata:
+        meta["gflat"] = json.dumps(json_safe(metadata))
+    schema = pa.schema(fields, metadata=meta)
+    return pa.Table.from_pandas(flat, schema=schema, preserve_index=False)
+
+
+def write_trajectory(out: OutputDir, name: str, df: pd.DataFrame, *, csv: bool = False,
+                     metadata: dict | None = None) -> list[Path]:
+    """Write ``<name>.parquet`` (and ``<name>.csv``) of a trajectory, with the added columns.
+
+    Parameters
+    ----------
+    out : OutputDir
+        Folder.
+    name : str
+        File name without suffix, e.g. ``"trajectory-jsbsim"``.
+    df : DataFrame
+        Indexed by time [s] (columns of :data:`gna.trajectory.COLUMNS`).
+    csv : bool
+        Also write a CSV (header: column names; units in the Parquet file and ``summary.json``).
+    metadata : dict, optional
+        Stored in the Parquet metadata (run status, settings).
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    import pyarrow.parquet as pq
+
+    full = augmented(df)
+    table = trajectory_table(full, metadata)
+    with out.atomic(f"{name}.parquet") as tmp:
+        pq.write_table(table, tmp)
+    paths = [out.path(f"{name}.parquet")]
+    if csv:
+        with out.atomic(f"{name}.csv") as tmp:
+            full.reset_index().rename(columns=lambda c: "t" if c in ("index", full.index.name) else c).to_csv(
+                tmp, index=False, float_format="%.12g")
+        paths.append(out.path(f"{name}.csv"))
+    return paths
+
+
+def read_trajectory(path: str | Path) -> tuple[pd.DataFrame, dict[str, str]]:
+    """Read a trajectory written by :func:`write_trajectory`.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.parquet`` file.
+
+    Returns
+    -------
+    df : DataFrame
+        Indexed by ``t`` [s].
+    units : dict
+        Column -> unit, from the field metadata.
+    """
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    units = {f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in table.schema}
+    return table.to_pandas().set_index("t"), units
+
+
+def file_record(path: str | Path | None) -> dict | None:
+    """Path and sha256 of an input file.
+
+    Parameters
+    ----------
+    path : str or Path or None
+        The file.
+
+    Returns
+    -------
+    dict or None
+        ``{"path", "sha256"}``; None without a readable file.
+    """
+    if not path:
+        return None
+    p = Path(path)
+    try:
+        return {"path": str(p.resolve()), "sha256": hashlib.sha256(p.read_bytes()).hexdigest()}
+    except OSError:
+        return None
+
+
+def _version(pkg: str) -> str | None:
+    try:
+        return importlib.metadata.version(pkg)
+    except importlib.metadata.PackageNotFoundError:
+        return None
+
+
+def manifest(*, inputs: dict | None = None, cases: list | None = None, command_line: list | None = None) -> dict:
+    """What a run was made with: versions, commit, UTC date, command line, inputs, settings.
+
+    Parameters
+    ----------
+    inputs : dict, optional
+        Name -> :func:`file_record` of the aircraft and scenario files.
+    cases : list of dict, optional
+        Per case: scenario, loop, integrator settings per engine, JSBSim step,
+        tolerances (:func:`case_record`).
+    command_line : list of str, optional
+        Default ``sys.argv``.
+
+    Returns
+    -------
+    dict
+        ``gflat, jsbsim, numpy, scipy, pandas, pyarrow, python`` versions,
+        ``git_commit`` (absent outside a git checkout), ``date_utc``,
+        ``command_line``, ``inputs``, ``cases``.
+    """
+    out = {"gflat": _version("gflat"), "jsbsim": _version("jsbsim"), "numpy": np.__version__,
+           "scipy": _version("scipy"), "pandas": pd.__version__, "pyarrow": _version("pyarrow"),
+           "python": platform.python_version()}
+    try:
+        r = subprocess.run(["git", "rev-parse", "HEAD"], cwd=Path(__file__).resolve().parent, capture_output=True,
+                           text=True, timeout=5)
+        if r.returncode == 0 and r.stdout.strip():
+            out["git_commit"] = r.stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        pass
+    out["date_utc"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    out["command_line"] = list(sys.argv if command_line is None else command_line)
+    out["inputs"] = {k: v for k, v in (inputs or {}).items() if v is not None}
+    out["cases"] = list(cases or [])
+    return json_safe(out)
+
+
+def case_inputs(result) -> dict:
+    """The input files of a case result: its scenario and aircraft, with their sha256.
+
+    Parameters
+    ----------
+    result : harness.validation.CaseResult
+        A case's result.
+
+    Returns
+    -------
+    dict
+        ``"<scenario> scenario"`` and ``"<aircraft> aircraft"`` -> :func:`file_record`.
+    """
+    sc = getattr(result, "scenario", None)
+    plan = result.plan
+    return {f"{plan.name} scenario": file_record(getattr(sc, "path", None)),
+            f"{plan.aircraft.id} aircraft": file_record(getattr(plan.aircraft, "path", None))}
+
+
+def case_record(result) -> dict:
+    """A case's settings for the manifest: engines' integrator settings, JSBSim step, tolerances.
+
+    Parameters
+    ----------
+    result : harness.validation.CaseResult
+        A case's result.
+
+    Returns
+    -------
+    dict
+        ``scenario``, ``loop``, ``J``, ``engines`` (name -> run settings), ``compare`` (the settings).
+    """
+    return {"scenario": result.plan.name, "loop": result.case.loop, "J": result.plan.J,
+            "engines": {k: r.settings.as_dict() for k, r in result.runs.items()},
+            "compare": result.settings.to_dict() if result.settings is not None else None}
+
+
+def write_manifest(out: OutputDir, results=(), *, command_line: list | None = None) -> Path:
+    """Write ``manifest.json`` for the case results of a run.
+
+    Parameters
+    ----------
+    out : OutputDir
+        Folder.
+    results : iterable of CaseResult
+        The cases run.
+    command_line : list of str, optional
+        Default ``sys.argv``.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    inputs, cases = {}, []
+    for r in results:
+        inputs.update(case_inputs(r))
+        cases.append(case_record(r))
+    return out.write_json("manifest.json", obj=manifest(inputs=inputs, cases=cases, command_line=command_line))
+
+
+def write_plan_iterates(out: OutputDir, plan, times, *, csv: bool = False) -> list[Path]:
+    """Write the plan of every iterate, ``plan-j<k>.parquet`` (and CSV), on the given times.
+
+    Parameters
+    ----------
+    out : OutputDir
+        Folder (e.g. ``<scenario>/plan``).
+    plan : planners.plan.Plan
+        The plan.
+    times : array_like, shape (N,)
+        Times [s].
+    csv : bool
+        Also write CSV files.
+
+    Returns
+    -------
+    list of Path
+    """
+    t = np.asarray(times, dtype=float)
+    paths = []
+    for j in range(plan.J + 1):
+        paths += write_trajectory(out, f"plan-j{j}", plan.to_dataframe(t, j=j), csv=csv,
+                                  metadata={"plan": plan.name, "iterate": j, "J": plan.J})
+    return paths
+
+
+def _run_meta(res) -> dict:
+    return {"status": res.status, "message": res.message, "t_end": res.t_end, "settings": res.settings.as_dict()}
+
+
+def write_artefacts(result, out: OutputDir | str | Path, *, csv: bool = False, plan: bool = True,
+                    manifest: bool = True, figures=(), extra: dict | None = None) -> dict[str, list[Path]]:
+    """Write a case result's data: trajectories, ``differences.txt``, ``summary.json``, plan, manifest.
+
+    Parameters
+    ----------
+    result : harness.validation.CaseResult
+        A case's result (:func:`harness.validation.run_case`).
+    out : OutputDir or str or Path
+        The case folder; a path is opened as an :class:`OutputDir` (parents
+        created) and finished (completion marker) here.
+    csv : bool
+        Also write every trajectory as CSV.
+    plan : bool
+        Write the plan of every iterate under ``plan/``.
+    manifest : bool
+        Write ``manifest.json`` in the folder.
+    figures : sequence of path
+        Figures already written, listed in ``summary.json``.
+    extra : dict, optional
+        Added to ``summary.json``.
+
+    Returns
+    -------
+    dict
+        ``"trajectories"``, ``"plan"`` -> list of Path; ``"differences"``,
+        ``"summary"``, ``"manifest"`` -> [Path].
+    """
+    own = not isinstance(out, OutputDir)
+    od = OutputDir(out, parents=True) if own else out
+    files: dict[str, list[Path]] = {"trajectories": [], "plan": []}
+    for label, res in result.runs.items():
+        files["trajectories"] += write_trajectory(od, f"trajectory-{label}", res.df, csv=csv, metadata=_run_meta(res))
+    for label, res in getattr(result, "half_step", {}).items():
+        files["trajectories"] += write_trajectory(od, f"trajectory-{label}-half-step", res.df, csv=csv,
+                                                  metadata=_run_meta(res))
+    if result.open_loop is not None:
+        files["trajectories"] += write_trajectory(od, f"trajectory-{result.reference_engine}-open-loop",
+                                                  result.open_loop.df, csv=csv, metadata=_run_meta(result.open_loop))
+    if plan:
+        times = np.asarray(result.runs[result.reference_engine].df.index, dtype=float)
+        files["plan"] = write_plan_iterates(od.sub("plan"), result.plan, times, csv=csv)
+    files["differences"] = [od.write_text("differences.txt", text=result.report_text() + "\n")]
+    summary = dict(result.summary(figures), provenance=result.provenance, verdict=result.verdict(),
+                   loop=result.case.loop, units=units_of(list(EXTRA_UNITS) + list(UNITS)),
+                   trajectories=[p.name for p in files["trajectories"]])
+    if result.closed_loop is not None:
+        summary.update(saturated_s=result.saturated_s(), feedforward_iterate=result.closed_loop.feedforward_iterate)
+    summary.update(extra or {})
+    files["summary"] = [od.write_json("summary.json", obj=json_safe(summary))]
+    if manifest:
+        files["manifest"] = [write_manifest(od, [result])]
+    if own:
+        od.finish()
+    return files

@@ -1,0 +1,468 @@
+"""Output folders: checked before any work, every file written atomically, nothing written outside the root.
+
+:class:`OutputDir` is the one way the command line writes files.  The folder is
+checked (and created) when the object is made, so that a bad ``--out`` is one
+clear error before planning or flying.  Every file is written to a temporary
+name in its final folder and renamed over its final name (``os.replace``,
+atomic on POSIX), so a run never leaves a half-written file under its final
+name.  :meth:`OutputDir.finish` writes the completion marker
+``.gflat-complete.json`` (files written, their sha256, UTC time); a folder
+without it holds an interrupted set.  A rerun into the same folder removes the
+files the previous run's marker lists and this run did not write (never
+anything else), so no stale file of an earlier run survives next to new ones.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import datetime
+import hashlib
+import json
+import math
+import os
+import secrets
+import tempfile
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from gna.errors import InputError
+
+#: Name of the completion marker written by :meth:`OutputDir.finish`.
+MARKER = ".gflat-complete.json"
+
+
+def _cause(exc: OSError) -> str:
+    return exc.strerror or str(exc) or type(exc).__name__
+
+
+def json_safe(obj, nonfinite: str = "null"):
+    """A copy of ``obj`` that :func:`json.dumps` takes with ``allow_nan=False``.
+
+    NumPy scalars and arrays become Python numbers and lists, paths strings,
+    tuples and sets lists, dataclasses dicts, other objects their ``str``.
+
+    Parameters
+    ----------
+    obj : object
+        Nested dicts, lists, numbers, strings, paths, NumPy values, dataclasses.
+    nonfinite : {"null", "text"}
+        How a NaN or infinite float is written (JSON has none): ``None``, or
+        the strings ``"nan"``, ``"inf"``, ``"-inf"`` (which keep NaN and
+        infinity apart, as a report shows them).
+
+    Returns
+    -------
+    object
+        The same structure with JSON types only.
+    """
+    if isinstance(obj, dict):
+        return {str(k): json_safe(v, nonfinite) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple, set)):
+        return [json_safe(v, nonfinite) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return json_safe(obj.tolist(), nonfinite)
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        v = float(obj)
+        return v if math.isfinite(v) else (str(v) if nonfinite == "text" else None)
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return json_safe(dataclasses.asdict(obj), nonfinite)
+    if obj is None or isinstance(obj, str):
+        return obj
+    return str(obj)
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+@contextlib.contextmanager
+def replacing(final: str | Path) -> Iterator[Path]:
+    """A temporary file beside ``final``, renamed over it when the block ends without error.
+
+    The temporary name is hidden, unique (created exclusively) and keeps the
+    final suffix; it gets the permissions the user's umask gives new files.
+    On any error it is removed and ``final`` is untouched: a reader never sees
+    a half-written file under the final name.
+
+    Parameters
+    ----------
+    final : str or Path
+        The file to (re)place; its folder must exist.
+
+    Yields
+    ------
+    Path
+        The temporary path to write.
+
+    Raises
+    ------
+    OSError
+        Creating, writing or renaming failed (disk full, permissions).
+    """
+    final = Path(final)
+    for _ in range(100):
+        tmp = final.with_name(f".{final.stem}.{secrets.token_hex(6)}.tmp{final.suffix}")
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            break
+        except FileExistsError:
+            continue
+    else:
+        raise FileExistsError(f"no free temporary name next to {final}")
+    try:
+        yield tmp
+        os.replace(tmp, final)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+class _Record:
+    """What a set of OutputDir objects (a root and its sub-folders) share."""
+
+    def __init__(self, root: Path, previous: list[str]):
+        self.root = root
+        self.previous = previous
+        self.written: list[Path] = []
+        self.marker_removed = False
+
+
+class OutputDir:
+    """An output folder: checked before any work, every file written atomically, nothing outside the root.
+
+    Parameters
+    ----------
+    root : str or Path
+        The folder; created if missing (its parent must exist unless ``parents``).
+    clean : bool
+        Remove, in :meth:`finish`, the files the previous run's completion
+        marker lists that this run did not write.
+    parents : bool
+        Create missing parent folders too (for default output folders);
+        without it a missing parent is refused.
+
+    Raises
+    ------
+    InputError
+        ``root`` exists and is not a folder, its parent is missing or
+        read-only, or the folder cannot be written (one line naming the path
+        and the cause).
+
+    Attributes
+    ----------
+    root : Path
+        The resolved folder.
+    written : list of Path
+        Paths (relative to the top folder) written so far, in order.
+    """
+
+    def __init__(self, root: str | Path, *, clean: bool = True, parents: bool = False, _record: _Record | None = None):
+        path = Path(root).expanduser()
+        try:
+            path = path.resolve()
+        except (OSError, RuntimeError) as exc:
+            raise InputError(f"output folder {root}: cannot resolve the path ({exc})") from None
+        self.root = path
+        self.clean = clean
+        if _record is not None:
+            self._record = _record
+            self._mkdir(path, parents=True)
+            return
+        if path.exists() and not path.is_dir():
+            raise InputError(f"output folder {path}: a file of that name exists (not a folder)")
+        if not path.exists():
+            parent = path.parent
+            if not parent.is_dir() and not parents:
+                what = "is a file" if parent.exists() else "does not exist"
+                raise InputError(f"output folder {path}: its parent folder {parent} {what}")
+            self._mkdir(path, parents=parents)
+        self._probe(path)
+        self._record = _Record(path, self._previous_files(path) if clean else [])
+
+    # ---- checks ----------------------------------------------------------------------------------
+    @staticmethod
+    def _mkdir(path: Path, parents: bool) -> None:
+        try:
+            path.mkdir(parents=parents, exist_ok=True)
+        except FileExistsError:
+            raise InputError(f"output folder {path}: a file is in the way of the folder") from None
+        except OSError as exc:
+            raise InputError(f"output folder {path}: cannot create it: {_cause(exc)}") from None
+
+    @staticmethod
+    def _probe(path: Path) -> None:
+        """Write and remove a small file: catches read-only folders and file systems, whoever runs."""
+        try:
+            fd, name = tempfile.mkstemp(prefix=".gflat-probe-", dir=path)
+            os.close(fd)
+            os.unlink(name)
+        except OSError as exc:
+            raise InputError(f"output folder {path}: cannot write there: {_cause(exc)}") from None
+
+    @staticmethod
+    def _previous_files(root: Path) -> list[str]:
+        try:
+            data = json.loads((root / MARKER).read_text(encoding="utf-8"))
+            return [str(f["path"]) for f in data.get("files", []) if isinstance(f, dict) and "path" in f]
+        except (OSError, ValueError, TypeError, AttributeError):
+            return []
+
+    # ---- paths -----------------------------------------------------------------------------------
+    @property
+    def written(self) -> list[Path]:
+        """Paths (relative to the top folder) written so far, in order."""
+        return list(self._record.written)
+
+    def path(self, *parts: str) -> Path:
+        """The resolved path of ``parts`` under this folder.
+
+        Parameters
+        ----------
+        *parts : str
+            Relative path components (``"plan"``, ``"plan_j0.csv"``, or ``"plan/plan_j0.csv"``).
+
+        Returns
+        -------
+        Path
+            Absolute path, symbolic links resolved.
+
+        Raises
+        ------
+        InputError
+            No part, an absolute part, or a path that leaves the folder
+            (``..``, a symbolic link pointing outside).
+        """
+        if not parts or any(not isinstance(p, (str, os.PathLike)) or not str(p) for p in parts):
+            raise InputError(f"output path under {self.root}: empty or invalid component in {parts!r}")
+        for p in parts:
+            if Path(p).is_absolute():
+                raise InputError(f"output path {p!r} is absolute: outputs stay under {self.root}")
+        candidate = self.root.joinpath(*parts)
+        try:
+            resolved = candidate.resolve()
+        except (OSError, RuntimeError) as exc:
+            raise InputError(f"output path {candidate}: cannot resolve it ({exc})") from None
+        top = self._record.root
+        if resolved == top or not (resolved.is_relative_to(self.root) and resolved.is_relative_to(top)):
+            raise InputError(f"output path {'/'.join(map(str, parts))!r} leaves the output folder {self.root}")
+        return resolved
+
+    def sub(self, *parts: str) -> OutputDir:
+        """A sub-folder (created) sharing this folder's record of written files and its marker.
+
+        Parameters
+        ----------
+        *parts : str
+            Relative path of the sub-folder.
+
+        Returns
+        -------
+        OutputDir
+
+        Raises
+        ------
+        InputError
+            The path leaves the folder or cannot be created.
+        """
+        return OutputDir(self.path(*parts), clean=self.clean, _record=self._record)
+
+    # ---- writing ---------------------------------------------------------------------------------
+    def _drop_marker(self) -> None:
+        """Before the first file: the old marker goes, so an interrupted rerun is seen as such."""
+        if not self._record.marker_removed:
+            with contextlib.suppress(FileNotFoundError):
+                (self._record.root / MARKER).unlink()
+            self._record.marker_removed = True
+
+    @contextlib.contextmanager
+    def atomic(self, *parts: str) -> Iterator[Path]:
+        """A temporary path in the final folder, renamed to ``parts`` when the block ends without error.
+
+        The temporary name keeps the final suffix (libraries that choose the
+        format from it, such as matplotlib, write the right one).
+
+        Parameters
+        ----------
+        *parts : str
+            Relative path of the final file.
+
+        Yields
+        ------
+        Path
+            The temporary path to write.
+
+        Raises
+        ------
+        InputError
+            The path leaves the folder, or the write or rename failed
+            (``OSError``: disk full, permissions), naming the file and the cause;
+            the temporary file is removed and nothing is left under the final name.
+        """
+        final = self.path(*parts)
+        self._mkdir(final.parent, parents=True)
+        self._drop_marker()
+        try:
+            with replacing(final) as tmp:
+                yield tmp
+        except OSError as exc:
+            raise InputError(f"cannot write {final}: {_cause(exc)}") from None
+        rel = final.relative_to(self._record.root)
+        if rel not in self._record.written:
+            self._record.written.append(rel)
+
+    def write_bytes(self, *parts: str, data: bytes) -> Path:
+        """Write ``data`` to ``parts`` atomically.
+
+        Parameters
+        ----------
+        *parts : str
+            Relative path of the file.
+        data : bytes
+            Content.
+
+        Returns
+        -------
+        Path
+            The file written.
+
+        Raises
+        ------
+        InputError
+            As :meth:`atomic`.
+        """
+        with self.atomic(*parts) as tmp:
+            tmp.write_bytes(data)
+        return self.path(*parts)
+
+    def write_text(self, *parts: str, text: str) -> Path:
+        """Write ``text`` (UTF-8, ``\\n`` line ends) to ``parts`` atomically.
+
+        Parameters
+        ----------
+        *parts : str
+            Relative path of the file.
+        text : str
+            Content.
+
+        Returns
+        -------
+        Path
+            The file written.
+
+        Raises
+        ------
+        InputError
+            As :meth:`atomic`.
+        """
+        return self.write_bytes(*parts, data=text.encode("utf-8"))
+
+    def write_json(self, *parts: str, obj) -> Path:
+        """Write ``obj`` as JSON (indent 2, keys in their order) to ``parts`` atomically.
+
+        NumPy numbers, arrays and paths are converted; NaN and infinities are
+        refused (JSON has none): pass the object through :func:`json_safe` to
+        write them as ``null``.
+
+        Parameters
+        ----------
+        *parts : str
+            Relative path of the file.
+        obj : object
+            JSON-serialisable structure.
+
+        Returns
+        -------
+        Path
+            The file written.
+
+        Raises
+        ------
+        InputError
+            A NaN, an infinity or an object JSON cannot represent (naming the
+            file), or as :meth:`atomic`.
+        """
+        def default(o):
+            if isinstance(o, (np.generic, np.ndarray, os.PathLike, set, tuple)):
+                return json_safe(o) if not isinstance(o, np.floating) else float(o)
+            raise TypeError(f"{type(o).__name__} is not JSON serialisable")
+        try:
+            text = json.dumps(obj, indent=2, sort_keys=False, allow_nan=False, default=default)
+        except (ValueError, TypeError) as exc:
+            raise InputError(f"cannot write {self.root.joinpath(*parts)} as JSON: {exc}") from None
+        return self.write_text(*parts, text=text + "\n")
+
+    # ---- completion ------------------------------------------------------------------------------
+    def finish(self) -> Path:
+        """Remove the previous run's stale files (with ``clean``) and write the completion marker.
+
+        Returns
+        -------
+        Path
+            The marker ``<root>/.gflat-complete.json``: ``files`` (path relative
+            to the top folder, sha256, bytes), ``date_utc``.
+
+        Raises
+        ------
+        InputError
+            The marker cannot be written.
+        """
+        rec = self._record
+        root = rec.root
+        now = {str(p) for p in rec.written}
+        if self.clean:
+            for rel in rec.previous:
+                if rel in now or rel == MARKER:
+                    continue
+                try:
+                    stale = (root / rel).resolve()
+                except (OSError, RuntimeError):
+                    continue
+                if stale.is_relative_to(root) and stale != root and stale.is_file() and not stale.is_symlink():
+                    with contextlib.suppress(OSError):
+                        stale.unlink()
+                        self._remove_empty(stale.parent, root)
+        files = []
+        for rel in rec.written:
+            p = root / rel
+            if p.is_file():
+                files.append({"path": str(rel), "sha256": _sha256(p), "bytes": p.stat().st_size})
+        marker = {"tool": "gflat", "complete": True,
+                  "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+                  "files": files}
+        text = json.dumps(marker, indent=2) + "\n"
+        final = root / MARKER
+        try:
+            fd, name = tempfile.mkstemp(prefix=".gflat-complete.", suffix=".tmp", dir=root)
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                fh.write(text)
+            os.replace(name, final)
+        except OSError as exc:
+            raise InputError(f"cannot write {final}: {_cause(exc)}") from None
+        rec.previous = [f["path"] for f in files]
+        return final
+
+    @staticmethod
+    def _remove_empty(folder: Path, root: Path) -> None:
+        while folder != root and folder.is_relative_to(root):
+            try:
+                folder.rmdir()
+            except OSError:
+                return
+            folder = folder.parent
+
+    def __repr__(self) -> str:
+        return f"OutputDir({str(self.root)!r}, {len(self._record.written)} file(s) written)"

@@ -1,0 +1,256 @@
+"""HTML validation reports rendered with jinja2 from saved case models (``report.json``).
+
+:func:`render_run` renders a run folder: ``index.html`` (a PASS/FAIL table of
+every case with links), one ``report.html`` per case folder, optionally a
+self-contained ``report.html`` at the top (every case, images embedded as data
+URIs: one file to mail) and ``report.pdf`` (:mod:`reports.pdf`).  The models
+are read back from disk (:func:`reports.model.load_case_models`), so rendering
+at the end of a run and ``gflat report DIR`` later give the same bytes apart
+from the render date.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime
+import json
+import math
+import os
+from pathlib import Path
+
+from gna.errors import InputError
+
+from .model import REPORT_JSON, load_case_models, write_text_atomic
+
+#: Page of each case, in its case folder; the run's index and single-file report at the top.
+CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE = "case.html", "index.html", "report.html", "report.pdf"
+
+#: What rendering writes (never listed among a case's data files: a re-rendering must give the same page).
+RENDERED = frozenset((CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE))
+
+#: Mark of the pages rendered here (a page without it is never removed).
+GENERATOR = '<meta name="generator" content="gflat report">'
+
+#: Column headings of the difference tables (others print as named).
+HEADERS = {"max_abs": "max |diff|", "t_max": "at t [s]", "rms": "RMS", "delta_pct": "\u03b4 %",
+           "ref_max": "max |ref|", "passed": "result"}
+
+#: Sub-folder of a scenario holding its plan's files (linked from the case pages when present).
+PLAN_FOLDER = "plan"
+
+
+def fmt(value, spec: str | None = None) -> str:
+    """Format a table cell: numbers to four significant digits, booleans as pass/FAIL, None as a dash.
+
+    Parameters
+    ----------
+    value : object
+        The cell (floats, ints, bools, None, strings such as ``"nan"``).
+    spec : str, optional
+        A format spec for numbers instead of the default.
+
+    Returns
+    -------
+    str
+    """
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return "pass" if value else "FAIL"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if spec:
+            return format(value, spec)
+        a = abs(value)
+        return f"{value:.4g}" if value == 0 or (1e-3 <= a < 1e5 and math.isfinite(a)) else f"{value:.3e}"
+    return str(value)
+
+
+def _environment():
+    import jinja2
+
+    env = jinja2.Environment(loader=jinja2.PackageLoader("reports", "templates"),
+                             autoescape=jinja2.select_autoescape(("html",)), undefined=jinja2.StrictUndefined,
+                             keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True)
+    env.filters["fmt"] = fmt
+    env.filters["header"] = lambda name: HEADERS.get(name, name)
+    env.filters["verdict"] = lambda ok: "PASS" if ok else "FAIL"
+    env.filters["tojson_pretty"] = lambda obj: json.dumps(obj, indent=2, sort_keys=False)
+    return env
+
+
+def _data_uri(path: Path) -> str:
+    return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode("ascii")
+
+
+def _rel(target: Path, start: Path) -> str:
+    return Path(os.path.relpath(target, start)).as_posix()
+
+
+def _case_view(root: Path, folder: Path, model: dict, page_dir: Path, embed: bool) -> dict:
+    """What a template needs of one case beyond its model: image sources, links, the data files."""
+    case_dir = root / folder
+    src = {f["file"]: (_data_uri(case_dir / f["file"]) if embed else _rel(case_dir / f["file"], page_dir))
+           for f in model["figures"]}
+    files = sorted(p for p in case_dir.iterdir() if p.is_file() and not p.name.startswith(".")
+                   and p.suffix != ".png" and p.name not in RENDERED)
+    # the plan beside the case (gflat paper: <scenario>/plan) or inside it (gflat compare), never outside the run
+    plan_dir = next((d for d in (case_dir / PLAN_FOLDER, case_dir.parent / PLAN_FOLDER)
+                     if d.is_dir() and d.resolve().is_relative_to(root.resolve())), None)
+    plan_files = sorted(p for p in plan_dir.iterdir() if p.is_file() and not p.name.startswith(".")) \
+        if plan_dir else []
+    return {"model": model, "folder": folder.as_posix() or ".", "img": src,
+            "page": _rel(case_dir / CASE_PAGE, page_dir),
+            "files": [{"name": p.name, "href": _rel(p, page_dir)} for p in files],
+            "plan_files": [{"name": f"{PLAN_FOLDER}/{p.name}", "href": _rel(p, page_dir)} for p in plan_files]}
+
+
+def _manifest(root: Path):
+    p = root / "manifest.json"
+    return json.loads(p.read_text(encoding="utf-8")) if p.is_file() else None
+
+
+def _run_order(cases: list, manifest) -> list:
+    """The cases in the order the run flew them (the manifest's ``cases``), the others after, as found."""
+    flown = [(c.get("scenario"), c.get("loop")) for c in (manifest or {}).get("cases", []) if isinstance(c, dict)]
+    rank = {key: i for i, key in reversed(list(enumerate(flown)))}
+    return sorted(cases, key=lambda c: rank.get((c[1]["scenario"]["name"], c[1]["loop"]), len(rank)))
+
+
+def render_date() -> str:
+    """The current UTC time as the reports print it (ISO 8601, seconds).
+
+    Returns
+    -------
+    str
+    """
+    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+
+
+def render_documents(run_dir: str | Path, *, date: str | None = None, embed: bool = False) -> dict[Path, str]:
+    """The HTML documents of a run folder, as text (nothing written).
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        A run folder holding ``report.json`` files (:func:`reports.model.write_case_report`).
+    date : str, optional
+        Render date printed on every page (default now, UTC).
+    embed : bool
+        Also render the single-file report (every case, images as data URIs).
+
+    Returns
+    -------
+    dict
+        Path of each document -> its HTML: the index, every case page and, with
+        ``embed``, the single-file report at the top of the run folder.
+
+    Raises
+    ------
+    InputError
+        No ``report.json`` under ``run_dir``.
+    """
+    root = Path(run_dir)
+    cases = load_case_models(root)
+    if not cases:
+        raise InputError(f"no {REPORT_JSON} under {root}: not the output folder of a gflat run "
+                         f"(gflat paper --out DIR, gflat compare --out DIR)")
+    env = _environment()
+    date = date or render_date()
+    manifest = _manifest(root)
+    cases = _run_order(cases, manifest)
+    common = {"date": date, "manifest": manifest, "n_pass": sum(m["passed"] for _, m in cases), "n": len(cases)}
+    docs = {}
+    index_views = [_case_view(root, f, m, root, False) for f, m in cases]
+    docs[root / INDEX_PAGE] = env.get_template("index.html").render(cases=index_views, **common)
+    for folder, model in cases:
+        page_dir = root / folder
+        view = _case_view(root, folder, model, page_dir, False)
+        docs[page_dir / CASE_PAGE] = env.get_template("case.html").render(
+            case=view, index=_rel(root / INDEX_PAGE, page_dir), **common)
+    if embed:
+        single = root / SINGLE_PAGE
+        views = [_case_view(root, f, m, root, True) for f, m in cases]
+        docs[single] = env.get_template("single.html").render(cases=views, **common)
+    return docs
+
+
+def single_document(run_dir: str | Path, *, date: str | None = None) -> str:
+    """The whole run as one HTML document with images as paths relative to ``run_dir`` (what the PDF prints).
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        A run folder holding ``report.json`` files.
+    date : str, optional
+        Render date (default now, UTC).
+
+    Returns
+    -------
+    str
+        HTML; resolve its links and images against ``run_dir``.
+
+    Raises
+    ------
+    InputError
+        No ``report.json`` under ``run_dir``.
+    """
+    root = Path(run_dir)
+    cases = load_case_models(root)
+    if not cases:
+        raise InputError(f"no {REPORT_JSON} under {root}: not the output folder of a gflat run")
+    manifest = _manifest(root)
+    views = [_case_view(root, f, m, root, False) for f, m in _run_order(cases, manifest)]
+    return _environment().get_template("single.html").render(
+        cases=views, date=date or render_date(), manifest=manifest,
+        n_pass=sum(m["passed"] for _, m in cases), n=len(cases), pdf=True)
+
+
+def _remove_orphan_pages(root: Path) -> None:
+    """Remove the case pages of an earlier rendering whose case is gone (a rerun flew fewer cases)."""
+    for page in root.rglob(CASE_PAGE):
+        if not (page.parent / REPORT_JSON).exists() and GENERATOR in page.read_text(encoding="utf-8",
+                                                                                     errors="replace")[:2000]:
+            page.unlink()
+
+
+def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool = True,
+               date: str | None = None) -> dict[str, Path]:
+    """Render a run folder's reports: ``index.html``, a page per case, optionally the single file and the PDF.
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        A run folder holding ``report.json`` files.
+    self_contained : bool
+        Also write the single-file ``report.html`` (images embedded) at the top of ``run_dir``.
+    pdf : bool
+        Also write ``report.pdf`` (:func:`reports.pdf.write_pdf`).
+    date : str, optional
+        Render date printed on every page (default now, UTC).
+
+    Returns
+    -------
+    dict
+        ``"index"``, ``"pages"`` (list), and ``"single"``/``"pdf"`` when written -> Path.
+
+    Raises
+    ------
+    InputError
+        No ``report.json`` under ``run_dir``.
+    """
+    root = Path(run_dir)
+    date = date or render_date()
+    docs = render_documents(root, date=date, embed=self_contained)
+    _remove_orphan_pages(root)
+    for path, text in docs.items():
+        write_text_atomic(path, text)
+    out = {"index": root / INDEX_PAGE, "pages": [p for p in docs if p.name == CASE_PAGE]}
+    if self_contained:
+        out["single"] = root / SINGLE_PAGE
+    if pdf:
+        from .pdf import write_pdf
+
+        out["pdf"] = write_pdf(single_document(root, date=date), root, root / PDF_FILE)
+    return out

@@ -1,0 +1,232 @@
+"""The report model of a validation case: a JSON-serialisable dict built from result objects.
+
+:func:`case_model` gathers what a report page shows -- the scenario (its TOML
+text), the plan summary and convergence table, the singularity monitor, run
+status and settings, difference tables against the reference engine and
+against the plan, warnings, the verdict, provenance, and the figures of the
+case folder -- from a :class:`harness.validation.CaseResult`, never by flying
+anything again.  :func:`write_case_report` draws the report's own figures
+(:mod:`reports.report_figures`) and saves the model as ``report.json`` in the
+case folder, from which :mod:`reports.html` renders, now or later.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+
+from harness.outdir import json_safe as _json_safe, replacing
+from planners.scenario import load_scenario
+
+from .report_figures import (CONTROLS_LIMITS_PNG, SIGNED_DIFFERENCES_PNG, control_limits,
+                             write_controls_limits_figure, write_signed_differences_figure,
+                             write_singularity_figure)
+
+#: Version of the model's layout (bumped when keys change meaning).
+SCHEMA = 1
+
+#: File name of a case's saved model.
+REPORT_JSON = "report.json"
+
+#: Figures a case page shows, in order: file name -> caption (those present in the case folder).
+FIGURES: dict[str, str] = {
+    "tracking.png": "The paper's four curves: flat plan J = 0 (red), closed loop (dark blue), generalized plan "
+                    "(green), generalized controls open loop (cyan); bottom right, the position error.",
+    "states.png": "States of every engine; the plan dotted.",
+    CONTROLS_LIMITS_PNG: "Applied controls; the plan dotted, the aircraft's limits dash-dotted in red.",
+    SIGNED_DIFFERENCES_PNG: "Signed differences to the reference engine, in the units of the state plots.",
+    "differences.png": "Absolute differences to the reference engine (log scale), tolerances dotted in red.",
+    "singularity.png": "Singularity monitor along the flat plan: a zero or a sign change is a singularity.",
+}
+
+
+def json_safe(obj):
+    """A copy of ``obj`` for a report model: :func:`harness.outdir.json_safe` with NaN and infinities as text.
+
+    Parameters
+    ----------
+    obj : object
+        Nested dicts, lists, tuples, numpy scalars and arrays, paths, dataclasses.
+
+    Returns
+    -------
+    object
+        Plain JSON types; a non-finite float becomes ``"nan"``, ``"inf"`` or ``"-inf"``.
+    """
+    return _json_safe(obj, nonfinite="text")
+
+
+def _records(frame) -> dict:
+    """A DataFrame as ``{"columns": [...], "rows": [[...], ...]}`` (index first)."""
+    flat = frame.reset_index()
+    return {"columns": [str(c) for c in flat.columns], "rows": json_safe(flat.to_numpy(dtype=object).tolist())}
+
+
+def _table(tab, engine: str, window: str) -> dict:
+    return {"engine": engine, "window": window, "labels": list(tab.labels), "span": list(tab.window),
+            "samples": tab.samples, "notes": list(tab.notes), "passed": tab.passed,
+            "informative": all(r.tolerance is None for r in tab.rows), **_records(tab.to_frame())}
+
+
+def _scenario_section(result, scenario) -> dict:
+    text = Path(scenario.path).read_text(encoding="utf-8") if scenario.path else ""
+    plan = result.plan
+    return {"name": scenario.name, "description": scenario.description.strip(),
+            "aircraft": {"id": plan.aircraft.id, "name": plan.aircraft.name},
+            "flat_outputs": {str(k): str(v) for k, v in scenario.raw.get("flat_outputs", {}).items()},
+            "span_s": [plan.t0, plan.t1], "node_step_s": scenario.step, "file": Path(scenario.path).name
+            if scenario.path else None, "toml": text}
+
+
+def _plan_section(result, scenario) -> dict:
+    plan = result.plan
+    times, variables = scenario.report_times or [plan.t0], scenario.report_variables or ("F", "dl", "dm", "dn")
+    sing = plan.singularities
+    return {"J": plan.J, "nodes": len(plan.t_nodes), "flat_output": plan.problem.zeta.kind,
+            "orders": [it.order for it in plan.iterates], "feasible": plan.feasible,
+            "worst_newton_residual": plan.worst_newton_residual(), "timings_s": dict(plan.timings),
+            "planning_time_s": result.planning_time_s, "warnings": list(plan.warnings),
+            "convergence": _records(plan.convergence_table(variables, times)),
+            "singularity": None if sing is None else {"condition": sing.condition, "warnings": list(sing.warnings)}}
+
+
+def _runs_section(result) -> dict:
+    out = {}
+    for label, res in result.runs.items():
+        settings = json_safe(res.settings)
+        if isinstance(settings.get("extra"), dict):
+            settings["extra"].pop("wall_time_s", None)       # machine load, not a setting
+        out[label] = {"status": res.status, "message": res.message, "t_end": res.t_end,
+                      "warnings": list(res.warnings), "settings": settings}
+    return out
+
+
+def case_model(result, figures=(), *, scenario=None) -> dict:
+    """The report model of one validation case.
+
+    Parameters
+    ----------
+    result : harness.validation.CaseResult
+        The case's plan, runs, difference tables and provenance.
+    figures : sequence of str
+        File names of the figures in the case folder, shown in the order of :data:`FIGURES`.
+    scenario : planners.scenario.Scenario, optional
+        The loaded scenario (its file text, flat outputs, report times); loaded
+        again from ``result.case.scenario`` when not given (parsing only).
+
+    Returns
+    -------
+    dict
+        JSON-serialisable (:func:`json_safe`): ``schema``, ``title``, ``loop``,
+        ``engines``, ``reference_engine``, ``passed``, ``verdict``, ``settings``
+        (tolerances, windows, output grid, JSBSim step and where each came
+        from), ``scenario``, ``plan``, ``runs``, ``tables`` (between engines,
+        against the plan, JSBSim self-convergence),
+        ``limits``, ``closed_loop``, ``warnings``, ``figures``, ``provenance``.
+    """
+    plan, case = result.plan, result.case
+    if scenario is None:
+        scenario = getattr(result, "scenario", None) or load_scenario(case.scenario, J=case.J)
+    verdict = result.verdict()
+    tables = [_table(t, eng, w) for eng, per in result.tables.items() for w, t in per.items()]
+    vs_plan = [_table(t, eng, "whole span") for eng, t in result.vs_plan.items()]
+    self_conv = [_table(t, eng, w) for eng, per in getattr(result, "self_convergence", {}).items()
+                 for w, t in per.items()]
+    settings = result.settings.to_dict() if getattr(result, "settings", None) is not None else {
+        "tolerances": case.tolerance_spec, "windows": case.window_spec, "dt_out": case.dt_out}
+    warnings = [f"plan: {w}" for w in plan.warnings]
+    for label, res in result.runs.items():
+        if res.status != "completed":
+            warnings.append(f"{label}: run {res.status}{(': ' + res.message) if res.message else ''}")
+        warnings += [f"{label}: {w}" for w in res.warnings]
+    warnings += [f"{t['labels'][1]} - {t['labels'][0]} ({t['window']}): {n}" for t in tables for n in t["notes"]]
+    closed = None
+    if result.closed_loop is not None:
+        ctl = result.closed_loop.controller
+        closed = {"feedforward_iterate": result.closed_loop.feedforward_iterate,
+                  "lambdas": [list(x) for x in getattr(ctl, "lambdas", ())], "saturated_s": result.saturated_s()}
+    shown = [{"file": f, "caption": c} for f, c in FIGURES.items() if f in set(map(str, figures))]
+    model = {"schema": SCHEMA, "title": f"{plan.name} (J = {plan.J}), {case.loop} loop", "id": f"{plan.name}-{case.loop}",
+             "loop": case.loop, "engines": list(result.runs), "reference_engine": result.reference_engine,
+             "passed": bool(verdict["pass"]), "verdict": verdict, "settings": settings,
+             "scenario": _scenario_section(result, scenario), "plan": _plan_section(result, scenario),
+             "runs": _runs_section(result), "tables": {"engines": tables, "plan": vs_plan, "self_convergence": self_conv},
+             "limits": control_limits(plan.aircraft), "closed_loop": closed, "warnings": warnings,
+             "figures": shown, "provenance": dict(result.provenance)}
+    return json_safe(model)
+
+
+def write_text_atomic(path: str | Path, text: str) -> Path:
+    """Write ``text`` to ``path`` through a temporary file renamed into place (never half-written).
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination; its folder must exist.
+    text : str
+        UTF-8 content.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    path = Path(path)
+    with replacing(path) as tmp:
+        tmp.write_text(text, encoding="utf-8", newline="\n")
+    return path
+
+
+def write_case_report(result, out, *, figures=(), scenario=None) -> Path:
+    """Draw the report's figures into a case folder and save the case's model as ``report.json``.
+
+    Parameters
+    ----------
+    result : harness.validation.CaseResult
+        The case's result.
+    out : str, Path or harness.outdir.OutputDir
+        The case folder (created if needed; written atomically through an OutputDir).
+    figures : sequence of str
+        File names of the figures already in the folder (:func:`reports.case_files.write_case`).
+    scenario : planners.scenario.Scenario, optional
+        See :func:`case_model`.
+
+    Returns
+    -------
+    Path
+        The ``report.json`` written.
+    """
+    if not hasattr(out, "write_text"):
+        Path(out).mkdir(parents=True, exist_ok=True)
+    drawn = [write_singularity_figure(result.plan, out), write_controls_limits_figure(result, out),
+             write_signed_differences_figure(result, out)]
+    names = list(map(str, figures)) + [p.name for p in drawn if p is not None]
+    text = json.dumps(case_model(result, names, scenario=scenario), indent=1, allow_nan=False) + "\n"
+    if hasattr(out, "write_text"):
+        return out.write_text(REPORT_JSON, text=text)
+    return write_text_atomic(Path(out) / REPORT_JSON, text)
+
+
+def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:
+    """The saved case models under a run folder, in a stable order (scenario folder, then open before closed).
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        A run's output folder (``gflat paper --out``, ``gflat compare --out``).
+
+    Returns
+    -------
+    list of (Path, dict)
+        Case folder relative to ``run_dir``, and its model.
+    """
+    root = Path(run_dir)
+    found = []
+    for p in root.rglob(REPORT_JSON):
+        model = json.loads(p.read_text(encoding="utf-8"))
+        rel = p.parent.relative_to(root)
+        found.append((rel, model))
+    order = {"open": 0, "closed": 1}
+    found.sort(key=lambda item: (item[0].parent.as_posix(), order.get(item[1].get("loop"), 2), item[0].as_posix()))
+    return found

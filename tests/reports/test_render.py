@@ -1,0 +1,109 @@
+"""Rendering: deterministic apart from the render date; ``gflat report DIR`` reproduces a run's pages."""
+
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+
+from harness.cli import main
+from reports.html import render_documents, render_run
+
+from .conftest import CASE_FOLDERS, DATE, SCENARIO
+
+RENDERED = re.compile(r'<p class="rendered">Rendered [^<]*</p>')
+
+
+def _pages(root):
+    return {p.relative_to(root): p.read_bytes() for p in sorted(root.rglob("*.html"))}
+
+
+def _undated(data: bytes) -> bytes:
+    text = data.decode("utf-8")
+    assert len(RENDERED.findall(text)) == 1          # the date appears once, in the footer
+    return RENDERED.sub("", text).encode("utf-8")
+
+
+def test_render_is_the_same_apart_from_the_date(report_run):
+    a = render_documents(report_run.root, date=DATE, embed=True)
+    b = render_documents(report_run.root, date="2099-12-31T23:59:59+00:00", embed=True)
+    assert a.keys() == b.keys()
+    for path in a:
+        assert a[path] != b[path] and _undated(a[path].encode()) == _undated(b[path].encode())
+        assert a[path].encode() == (report_run.root / path).read_bytes()      # what the run wrote, date included
+
+
+def test_gflat_paper_writes_the_report_and_says_where(report_run):
+    root = report_run.root
+    assert f"report: {root.resolve() / 'index.html'} (PDF: {root.resolve() / 'report.pdf'})" in report_run.paper_output
+    for f in ("index.html", "report.pdf", "manifest.json", f"{SCENARIO}/open/case.html",
+              f"{SCENARIO}/closed/case.html"):
+        assert (root / f).stat().st_size > 0, f
+    for folder in CASE_FOLDERS.values():
+        for engine in ("inhouse", "jsbsim"):
+            assert (root / SCENARIO / folder / f"trajectory-{engine}.parquet").is_file()
+    assert set(report_run.paper_pages) == {Path("index.html"), Path(SCENARIO, "open", "case.html"),
+                                           Path(SCENARIO, "closed", "case.html")}
+
+
+def test_gflat_report_reproduces_the_html_of_a_run(report_run, tmp_path, capsys):
+    copy = tmp_path / "run"
+    shutil.copytree(report_run.root, copy)
+    before = dict(report_run.paper_pages)         # as gflat paper rendered them
+    before[Path("report.html")] = (report_run.root / "report.html").read_bytes()
+    for p in copy.rglob("*.html"):
+        p.unlink()
+    (copy / "report.pdf").unlink()
+    assert main(["report", str(copy), "--self-contained", "--no-pdf"]) == 0
+    out = capsys.readouterr().out
+    assert f"report: {copy / 'index.html'} (2 case page(s))" in out
+    after = _pages(copy)
+    assert after.keys() == before.keys()
+    for rel in before:
+        assert _undated(after[rel]) == _undated(before[rel]), rel
+    assert not (copy / "report.pdf").exists()
+    assert main(["report", str(copy)]) == 0 and (copy / "report.pdf").stat().st_size > 0
+
+
+def test_report_of_a_folder_without_results_is_one_clear_error(tmp_path, capsys):
+    assert main(["report", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "no report.json under" in err and "Traceback" not in err
+
+
+def test_the_self_contained_file_embeds_every_image(report_run):
+    text = (report_run.root / "report.html").read_text(encoding="utf-8")
+    srcs = re.findall(r'<img src="([^"]*)"', text)
+    n_figures = sum(len(list((report_run.root / SCENARIO / f).glob("*.png"))) for f in CASE_FOLDERS.values())
+    assert srcs and all(s.startswith("data:image/png;base64,") for s in srcs)
+    assert len(srcs) == n_figures - 2         # every figure but the plain controls.png (drawn with limits instead)
+    hrefs = re.findall(r'href="([^"]*)"', text)
+    assert hrefs and all(h.startswith(("#", "data:")) for h in hrefs)    # one file to mail: no link leaves it
+
+
+def test_a_rerun_with_fewer_cases_leaves_no_page_of_the_missing_case(report_run, tmp_path):
+    copy = tmp_path / "run"
+    shutil.copytree(report_run.root, copy)
+    closed = copy / SCENARIO / CASE_FOLDERS["closed"]
+    (closed / "report.json").unlink()              # what gflat paper --loop open into the same folder removes
+    mine = copy / "notes" / "case.html"            # a page gflat did not write stays
+    mine.parent.mkdir()
+    mine.write_text("<p>my notes</p>")
+    assert main(["report", str(copy), "--no-pdf"]) == 0
+    assert not (closed / "case.html").exists() and mine.exists()
+    index = (copy / "index.html").read_text(encoding="utf-8")
+    assert f"{SCENARIO}/{CASE_FOLDERS['open']}/case.html" in index and CASE_FOLDERS["closed"] + "/case.html" not in index
+
+
+def test_a_case_folder_alone_renders_the_same_twice(report_run, tmp_path):
+    # gflat compare --out DIR: the case folder is the run folder; the pages rendered there are not data files
+    case = tmp_path / "case"
+    shutil.copytree(report_run.root / SCENARIO / CASE_FOLDERS["open"], case)
+    for p in case.glob("*.html"):
+        p.unlink()
+    first = render_run(case, self_contained=True, pdf=False, date=DATE)
+    assert first["index"] == case / "index.html" and first["pages"] == [case / "case.html"]
+    again = render_documents(case, date="2099-12-31T23:59:59+00:00", embed=True)
+    for path, text in again.items():
+        assert _undated(text.encode()) == _undated(path.read_bytes()), path.name
+    assert 'href="index.html"' in (case / "case.html").read_text() and "report.html" not in (case / "case.html").read_text()
