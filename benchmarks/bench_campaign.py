@@ -64,6 +64,10 @@ def main(argv=None) -> None:
           f"batched evaluations) -> {60.0 * args.samples / t_batch:.0f} samples per 60 s "
           f"({t_single * args.samples / t_batch:.1f}x the single-run engine)")
     print(f"batched vs single runs ({len(singles)} samples): max position difference {diff:.2e} m")
+    if res.steps is not None:
+        order = np.argsort(res.steps)[::-1][:3]
+        print(f"steps per sample: median {int(np.median(res.steps))}, largest "
+              + ", ".join(f"{res.steps[i]} (sample {i}, seed {draws[i].seed})" for i in order))
     print(f"completed {done}/{args.samples}; max distance to the flat outputs: median {np.nanmedian(errs):.3f} m, "
           f"worst {np.nanmax(errs):.3f} m")
 

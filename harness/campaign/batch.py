@@ -129,6 +129,8 @@ class BatchResult:
         End of the valid part of each run [s].
     nfev : int
         Evaluations of the batched derivative.
+    steps : ndarray of int, shape (n,) or None
+        Steps tried per sample (accepted and rejected; per-sample DOP853 only).
     """
 
     t: np.ndarray
@@ -137,6 +139,7 @@ class BatchResult:
     status: np.ndarray
     t_end: np.ndarray
     nfev: int
+    steps: np.ndarray | None = None
 
     def positions(self) -> np.ndarray:
         """Positions ``(x, y, z)`` on the grid.
@@ -219,7 +222,8 @@ def simulate_batch(aircraft, x0: np.ndarray, controls, t_span, *, env: Environme
         out = fixed(system, grid, t0, t1, max_step, TABLEAUS[method]())
     system.t_end[np.isinf(system.t_end)] = t1
     status = np.where(system.t_end < t1, "domain", "completed")
-    return BatchResult(t=grid, X=out[:, :12], XC=out[:, 12:], status=status, t_end=system.t_end, nfev=system.nfev)
+    return BatchResult(t=grid, X=out[:, :12], XC=out[:, 12:], status=status, t_end=system.t_end, nfev=system.nfev,
+                       steps=getattr(system, "steps", None))
 
 
 class _System:

@@ -166,6 +166,7 @@ def per_sample(system, grid, t0, t1, rtol, atol):
     h = np.full(n, min(1e-3, t1 - t0))
     rejected = np.zeros(n, dtype=bool)
     F = np.zeros((rows, n))
+    system.steps = np.zeros(n, dtype=int)
     idx = np.nonzero(system.alive & (gi < G))[0]
     if idx.size:
         F[:, idx] = system.rhs(t[idx], Y[:, idx], idx)
@@ -192,6 +193,7 @@ def per_sample(system, grid, t0, t1, rtol, atol):
         factor = np.where(ok & rejected[idx], np.minimum(factor, 1.0), factor)
         h[idx] = np.where(ok & last, np.maximum(hi * factor, h[idx]), hi * factor)
         rejected[idx] = ~ok
+        system.steps[idx] += 1
         # Output times inside the accepted steps: DOP853's 7th-order dense output (3 more stages).
         dense = ok & (grid[np.minimum(gi[idx], G - 1)] <= tnew + 1e-12) & (gi[idx] < G)
         if dense.any():

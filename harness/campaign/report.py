@@ -1,17 +1,15 @@
-"""The campaign report: a JSON summary, figures, an HTML page and a PDF, in ``DIR/report``.
+"""The campaign report's data: a JSON summary and figures, in ``DIR/report``.
 
 :func:`campaign_summary` reads the store (pass rate per case, distributions of
 the tracking error, saturation time and engine differences, the worst cases,
 and the Spearman rank correlation of the reference engine's tracking error with
-every dispersed parameter); :func:`write_report` writes ``summary.json``, the
-figures (PNG, and all of them in ``report.pdf``) and renders the page with
-:func:`render_campaign`, the hook through which the reports package's HTML/PDF
-rendering takes over when it offers a campaign page.
+every dispersed parameter); :func:`write_report` writes ``summary.json`` and the
+figures (PNG).  The page and its PDF are rendered by :func:`reports.campaign.render_campaign`
+(``gflat campaign report`` does both).
 """
 
 from __future__ import annotations
 
-import html
 import json
 import math
 from pathlib import Path
@@ -20,7 +18,7 @@ import numpy as np
 
 from .store import CampaignStore
 
-__all__ = ["campaign_summary", "write_report", "render_campaign"]
+__all__ = ["campaign_summary", "write_report"]
 
 #: Worst cases listed per case label.
 N_WORST = 5
@@ -64,7 +62,7 @@ def campaign_summary(folder: str | Path) -> dict:
     Returns
     -------
     dict
-        ``campaign`` (name, seed), ``counts`` (cases, done, failed, pending),
+        ``campaign`` (name, seed), ``description``, ``counts`` (cases, done, failed, pending),
         ``groups``: per case label and dispersion, ``n``, ``passed``,
         ``pass_rate``, ``status`` (engine -> run status -> count),
         ``tracking_error_m`` / ``saturated_s`` (engine -> min, median, p90,
@@ -115,14 +113,14 @@ def campaign_summary(folder: str | Path) -> dict:
         g["correlations"] = [[p, rho] for p, rho in sorted(corr.items(), key=lambda kv: -abs(kv[1]))]
         out_groups[key] = g
     failed = {r["case_id"]: (r["error"] or "").splitlines()[0] for r in rows if r["status"] == "failed"}
-    return {"campaign": meta.get("campaign"), "counts": counts, "groups": out_groups, "failed": failed}
+    return {"campaign": meta.get("campaign"), "description": (meta.get("definition") or {}).get("description", ""),
+            "counts": counts, "groups": out_groups, "failed": failed}
 
 
 def _figures(folder: Path, summary: dict, rows: list, outdir: Path) -> list[Path]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.backends.backend_pdf import PdfPages
     paths = []
     groups = summary["groups"]
     by_group: dict[str, list] = {}
@@ -142,14 +140,16 @@ def _figures(folder: Path, summary: dict, rows: list, outdir: Path) -> list[Path
                                 ("saturated_s", "Time with a control commanded beyond its limits", "s")):
         fig, axes = plt.subplots(1, len(keys), figsize=(3.2 * max(len(keys), 1), 3), squeeze=False)
         for ax, k in zip(axes[0], keys):
-            for e in groups[k]["engines"]:
-                v = [r["metrics"]["runs"][e][metric] for r in by_group[k]]
-                v = [x for x in v if x is not None and math.isfinite(x)]
+            vals = {e: [x for x in (r["metrics"]["runs"][e][metric] for r in by_group[k])
+                        if x is not None and math.isfinite(x)] for e in groups[k]["engines"]}
+            flat = [x for v in vals.values() for x in v]
+            # A diverged run (1e20 m) hides the rest on a linear axis: decades then.
+            logx = metric == "max_position_error_m" and flat and min(flat) > 0 and max(flat) > 100 * min(flat)
+            for e, v in vals.items():
                 if v:
-                    ax.hist(v, bins=min(20, max(3, len(v))), alpha=0.6, label=e,
-                            log=metric == "max_position_error_m" and max(v) > 100 * (min(v) + 1e-12))
+                    ax.hist(np.log10(v) if logx else v, bins=min(20, max(3, len(v))), alpha=0.6, label=e)
             ax.set_title(k, fontsize=8)
-            ax.set_xlabel(f"[{unit}]")
+            ax.set_xlabel(f"log10 [{unit}]" if logx else f"[{unit}]")
             ax.legend(fontsize=7)
         fig.suptitle(title, fontsize=9)
         fig.tight_layout()
@@ -178,80 +178,15 @@ def _figures(folder: Path, summary: dict, rows: list, outdir: Path) -> list[Path
     fig.suptitle("Which dispersed parameter the error follows", fontsize=9)
     fig.tight_layout()
     figs.append(("correlations.png", fig))
-    with PdfPages(outdir / "report.pdf") as pdf:
-        for name, fig in figs:
-            fig.savefig(outdir / name, dpi=110)
-            pdf.savefig(fig)
-            plt.close(fig)
-            paths.append(outdir / name)
-    paths.append(outdir / "report.pdf")
+    for name, fig in figs:
+        fig.savefig(outdir / name, dpi=110)
+        plt.close(fig)
+        paths.append(outdir / name)
     return paths
 
 
-def _worst_row(w: dict) -> str:
-    e = html.escape
-    err = "-" if w["tracking_error_m"] is None else f"{w['tracking_error_m']:.3g}"
-    runs = ", ".join(f"{k}: {v}" for k, v in w["status"].items())
-    return (f'<tr><td><a href="../cases/{e(w["case_id"])}/">{e(w["case_id"])}</a></td><td>{w["seed"]}</td>'
-            f"<td>{err}</td><td>{e(runs)}</td><td>{'pass' if w['pass'] else 'FAIL'}</td></tr>")
-
-
-def render_campaign(folder: str | Path, summary: dict | None = None) -> Path:
-    """Render the campaign page ``DIR/report/index.html`` (figures beside it, worst cases linked).
-
-    The hook for the reports package: a self-contained page written here until
-    :mod:`reports.html` offers a campaign template.
-
-    Parameters
-    ----------
-    folder : str or Path
-        The campaign folder (its ``report/`` holds the figures of :func:`write_report`).
-    summary : dict, optional
-        :func:`campaign_summary` (computed when not given).
-
-    Returns
-    -------
-    Path
-        The page written.
-    """
-    folder = Path(folder)
-    s = summary if summary is not None else campaign_summary(folder)
-    e = html.escape
-    c = s["counts"]
-    camp = s.get("campaign") or {}
-    parts = [f"<h1>Campaign {e(str(camp.get('name', folder.name)))}</h1>",
-             f"<p>seed {e(str(camp.get('seed')))}: {c['cases']} cases, {c['done']} done, {c['failed']} failed, "
-             f"{c['pending']} pending.</p>"]
-    for img, alt in (("pass_rate.png", "pass rate per case"), ("max_position_error_m.png", "tracking error"),
-                     ("saturated_s.png", "saturation time"), ("engine_differences.png", "engine differences"),
-                     ("correlations.png", "correlations with the dispersed parameters")):
-        if (folder / "report" / img).exists():
-            parts.append(f'<figure><img src="{img}" alt="{e(alt)}"><figcaption>{e(alt)}</figcaption></figure>')
-    for key, g in s["groups"].items():
-        parts.append(f"<h2>{e(key)}</h2><p>{e(g['scenario'])}, {e(g['loop'])} loop, engines "
-                     f"{e(', '.join(g['engines']))}: {g['passed']} of {g['n']} pass "
-                     f"({100 * g['pass_rate']:.0f} %).</p>")
-        rows = "".join(_worst_row(w) for w in g["worst"])
-        parts.append("<table><caption>Worst cases (largest distance to the flat outputs)</caption><tr><th>case</th>"
-                     "<th>seed</th><th>error [m]</th><th>runs</th><th>verdict</th></tr>" + rows + "</table>")
-        corr = "".join(f"<tr><td>{e(p)}</td><td>{v:+.2f}</td></tr>" for p, v in g["correlations"][:5])
-        parts.append("<table><caption>Spearman rank correlation with the tracking error</caption>"
-                     "<tr><th>parameter</th><th>rho</th></tr>" + corr + "</table>")
-    if s["failed"]:
-        parts.append("<h2>Failed cases</h2><ul>" + "".join(f"<li>{e(k)}: {e(v)}</li>" for k, v in s["failed"].items())
-                     + "</ul>")
-    style = ("body{font-family:sans-serif;max-width:70em;margin:2em auto}img{max-width:100%}"
-             "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:2px 8px}")
-    page = (f"<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>Campaign "
-            f"{e(str(camp.get('name', '')))}</title><style>{style}</style></head><body>{''.join(parts)}"
-            f"<p><a href=\"report.pdf\">PDF</a> - <a href=\"summary.json\">summary.json</a></p></body></html>")
-    path = folder / "report" / "index.html"
-    path.write_text(page, encoding="utf-8")
-    return path
-
-
-def write_report(folder: str | Path) -> list[Path]:
-    """Write ``summary.json``, the figures, ``report.pdf`` and ``index.html`` into ``DIR/report``.
+def write_report(folder: str | Path) -> tuple[dict, list, list[Path]]:
+    """Write ``summary.json`` and the figures into ``DIR/report``.
 
     Parameters
     ----------
@@ -260,8 +195,8 @@ def write_report(folder: str | Path) -> list[Path]:
 
     Returns
     -------
-    list of Path
-        The files written.
+    (dict, list of dict, list of Path)
+        The summary (:func:`campaign_summary`), the stored cases, the files written.
     """
     folder = Path(folder)
     outdir = folder / "report"
@@ -276,5 +211,4 @@ def write_report(folder: str | Path) -> list[Path]:
     paths = [outdir / "summary.json"]
     if summary["groups"]:
         paths += _figures(folder, summary, rows, outdir)
-    paths.append(render_campaign(folder, summary))
-    return paths
+    return summary, rows, paths

@@ -1,9 +1,10 @@
 """``gflat campaign run|status|report``: validation campaigns (Monte Carlo over dispersed aircraft).
 
 ``gflat campaign run NAME_OR_FILE --out DIR [--samples N] [--workers N] [--dask ADDRESS|local:N]
-[--retry-failed] [--only CASE_ID] [--quiet]`` runs or resumes a campaign (done cases are skipped, failed
+[--retry-failed] [--only CASE_ID] [-q/--quiet]`` runs or resumes a campaign (done cases are skipped, failed
 ones rerun only with ``--retry-failed``); ``gflat campaign status DIR [--json]`` counts the cases;
-``gflat campaign report DIR`` writes the campaign report into ``DIR/report``.
+``gflat campaign report DIR`` writes the campaign report (summary.json, figures, index.html, a page per
+worst or failed case, report.pdf) into ``DIR/report``.
 """
 
 from __future__ import annotations
@@ -43,7 +44,6 @@ def register(sub) -> None:
     r.add_argument("--retry-failed", action="store_true", help="run the failed cases again")
     r.add_argument("--only", action="append", default=None, metavar="CASE_ID",
                    help="run only this case (a done case is computed again alone and compared with the store)")
-    r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=run)
     s = csub.add_parser("status", help="count the cases of a campaign folder")
     s.add_argument("dir", metavar="DIR")
@@ -51,6 +51,7 @@ def register(sub) -> None:
     s.set_defaults(func=status)
     t = csub.add_parser("report", help="write the campaign report (summary, figures, HTML) into DIR/report")
     t.add_argument("dir", metavar="DIR")
+    t.add_argument("--no-pdf", action="store_true", help="skip report.pdf")
     t.set_defaults(func=report)
 
 
@@ -78,11 +79,12 @@ def run(args) -> int:
             args.only = [c for c in args.only if c not in done]
             if not args.only:
                 return 0
+    quiet = bool(getattr(args, "quiet", 0))        # gflat's -q/--quiet: no progress bar
     res = run_campaign(args.campaign, args.out, samples=args.samples, workers=args.workers, dask=args.dask,
-                       retry_failed=args.retry_failed, quiet=args.quiet, only=args.only)
+                       retry_failed=args.retry_failed, quiet=quiet, only=args.only)
     note = (f"{res['computed']} computed in {res['elapsed_s']:.1f} s, {res['skipped']} skipped; "
             f"{res['done']} done, {res['failed']} failed, {res['pending']} pending of {res['cases']} -> {res['folder']}")
-    print(note, file=sys.stderr if args.quiet else sys.stdout)
+    print(note, file=sys.stderr if quiet else sys.stdout)
     return 0 if res["pending"] == 0 else 1
 
 
@@ -107,8 +109,10 @@ def status(args) -> int:
 
 def report(args) -> int:
     from harness.campaign.report import write_report
+    from reports.campaign import render_campaign
     _store(args.dir).close()
-    paths = write_report(args.dir)
-    for p in paths:
-        print(p)
+    summary, rows, paths = write_report(args.dir)
+    pages = render_campaign(args.dir, summary, rows, pdf=not args.no_pdf)
+    paths += [pages["index"], *pages["pages"]] + ([pages["pdf"]] if "pdf" in pages else [])
+    print(f"campaign report: {pages['index']} ({len(paths)} files)")
     return 0
