@@ -96,10 +96,16 @@ def _dask(tasks, where, commit):
         from distributed import Client, LocalCluster, as_completed as dask_completed
     except ImportError:
         raise InputError("--dask needs Dask distributed: pip install 'gflat[campaign]'") from None
+    import logging
     kind, arg = where
+    # Dask's loggers carry their own INFO level: at most gflat's level (-v/-q) while the campaign runs.
+    dlog = logging.getLogger("distributed")
+    saved = dlog.level
+    dlog.setLevel(max(logging.WARNING, logging.getLogger().level))
     cluster = None
     if kind == "local":
-        cluster = LocalCluster(n_workers=arg, threads_per_worker=1, processes=True, dashboard_address=None)
+        cluster = LocalCluster(n_workers=arg, threads_per_worker=1, processes=True, dashboard_address=None,
+                               silence_logs=logging.ERROR)
         client = Client(cluster)
     else:
         client = Client(arg, timeout="20s")
@@ -118,6 +124,7 @@ def _dask(tasks, where, commit):
         client.close()
         if cluster is not None:
             cluster.close()
+        dlog.setLevel(saved)
     return left
 
 
