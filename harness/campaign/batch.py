@@ -124,7 +124,7 @@ class BatchResult:
     XC : ndarray, shape (m, n_states, n)
         Controller states.
     status : ndarray of str, shape (n,)
-        ``completed`` or ``domain``.
+        ``completed``, ``domain`` (left the flight domain) or ``stalled`` (``max_steps`` reached).
     t_end : ndarray, shape (n,)
         End of the valid part of each run [s].
     nfev : int
@@ -158,7 +158,8 @@ def _alive_mask(X: np.ndarray) -> np.ndarray:
 
 def simulate_batch(aircraft, x0: np.ndarray, controls, t_span, *, env: Environment | None = None,
                    controller=None, dt_out: float = 0.05, t_eval=None, method: str = "DOP853",
-                   rtol: float = 1e-10, atol: float = 1e-10, max_step: float = 0.01) -> BatchResult:
+                   rtol: float = 1e-10, atol: float = 1e-10, max_step: float = 0.01,
+                   max_steps: int | None = None) -> BatchResult:
     """Integrate n samples of the 12-state model (and a controller's states) at once.
 
     Parameters
@@ -187,6 +188,8 @@ def simulate_batch(aircraft, x0: np.ndarray, controls, t_span, *, env: Environme
         stacked system uses them divided by ``sqrt(n)``.
     max_step : float
         Fixed-step methods: largest step [s].
+    max_steps : int, optional
+        Per-sample DOP853: steps after which a sample is stopped (status ``stalled``).
 
     Returns
     -------
@@ -215,13 +218,13 @@ def simulate_batch(aircraft, x0: np.ndarray, controls, t_span, *, env: Environme
     else:
         grid = np.asarray(t_eval, dtype=float)
     if method == "DOP853":
-        out = per_sample(system, grid, t0, t1, rtol, atol)
+        out = per_sample(system, grid, t0, t1, rtol, atol, max_steps)
     elif method == "DOP853-stacked":
         out = stacked(system, grid, t0, t1, rtol, atol)
     else:
         out = fixed(system, grid, t0, t1, max_step, TABLEAUS[method]())
     system.t_end[np.isinf(system.t_end)] = t1
-    status = np.where(system.t_end < t1, "domain", "completed")
+    status = np.where(system.stalled, "stalled", np.where(system.t_end < t1, "domain", "completed"))
     return BatchResult(t=grid, X=out[:, :12], XC=out[:, 12:], status=status, t_end=system.t_end, nfev=system.nfev,
                        steps=getattr(system, "steps", None))
 
@@ -244,6 +247,7 @@ class _System:
         self.t_end = np.full(self.n, np.inf)
         self.t_end[~self.alive] = t0
         self.nfev = 0
+        self.stalled = np.zeros(self.n, dtype=bool)
         self._subsets = {}
         self.own_feedforward = self.nc > 0 and getattr(ufun, "__self__", None) is controller
 

@@ -129,7 +129,7 @@ def _dop853():
 TABLEAUS = {"rk4": _rk4, "rk8": _dop853}
 
 
-def per_sample(system, grid, t0, t1, rtol, atol):
+def per_sample(system, grid, t0, t1, rtol, atol, max_steps=None):
     """DOP853 with a step size, error control and time per sample, all samples evaluated together.
 
     scipy's DOP853 step, error norm and step-size rule (Hairer, Norsett & Wanner, ODEs I, II.10),
@@ -146,6 +146,10 @@ def per_sample(system, grid, t0, t1, rtol, atol):
         Span [s].
     rtol, atol : float
         Per-sample tolerances (scipy's meaning).
+    max_steps : int, optional
+        Steps (accepted or not) after which a sample is stopped and marked stalled
+        (``system.stalled``): a sliding mode of the conditional integration can
+        shrink the steps without end, for the single-run engine alike.
 
     Returns
     -------
@@ -218,6 +222,9 @@ def per_sample(system, grid, t0, t1, rtol, atol):
         acc = idx[ok]
         Y[:, acc], t[acc], F[:, acc] = ynew[:, ok], tnew[ok], K[12][:, ok]
         system.check_columns(t, Y, acc)
+        if max_steps is not None:
+            over = idx[system.alive[idx] & (system.steps[idx] >= max_steps)]
+            system.alive[over], system.stalled[over], system.t_end[over] = False, True, t[over]
         idx = np.nonzero(system.alive & (gi < G))[0]
     for j in np.nonzero(gi < G)[0]:       # frozen samples keep their last state
         out[gi[j]:, :, j] = Y[:, j]

@@ -21,7 +21,7 @@ __all__ = ["fly_batch", "batch_metrics"]
 
 
 def fly_batch(plan, scenario, draws, *, loop: str = "closed", t_span=None, dt_out: float = 0.05,
-              method: str = "DOP853"):
+              method: str = "DOP853", max_steps: int | None = None):
     """Fly a plan on many dispersed aircraft at once.
 
     Parameters
@@ -40,6 +40,8 @@ def fly_batch(plan, scenario, draws, *, loop: str = "closed", t_span=None, dt_ou
         Output grid [s].
     method : str
         Integrator (:data:`harness.campaign.batch.BATCH_METHODS`).
+    max_steps : int, optional
+        Per-sample step budget (:func:`harness.campaign.batch.simulate_batch`).
 
     Returns
     -------
@@ -54,12 +56,12 @@ def fly_batch(plan, scenario, draws, *, loop: str = "closed", t_span=None, dt_ou
         setup = closed_loop_setup(plan, nominal)
         ctl, j = setup.controller, setup.feedforward_iterate
         res = simulate_batch(aircraft, setup.x0[None, :] + offsets, ctl.controls, span, env=plan.env,
-                             controller=ctl, dt_out=dt_out, method=method)
+                             controller=ctl, dt_out=dt_out, method=method, max_steps=max_steps)
         return res, ctl, j
     j = plan.J
     x0 = np.asarray(plan.initial_state(j), dtype=float)
     res = simulate_batch(aircraft, x0[None, :] + offsets, plan.control_function(j), span, env=plan.env,
-                         dt_out=dt_out, method=method)
+                         dt_out=dt_out, method=method, max_steps=max_steps)
     return res, None, j
 
 
