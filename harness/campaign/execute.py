@@ -25,8 +25,9 @@ from gna.errors import GflatError
 
 from ..engines import fly, get_engine
 from ..metrics import engine_tables, max_position_error
-from ..validation import plan_case
-from ..validation.closed import closed_loop_setup, saturated_seconds
+from ..validation import case_settings, plan_case
+from ..validation.closed import closed_loop_setup, sampled_engines, saturated_seconds
+from ..validation.run import with_step
 from .sampling import dispersed_aircraft, draw_sample
 from .spec import SampleTask
 
@@ -69,23 +70,24 @@ def _fly(task: SampleTask):
     plan, scenario = planned.plan, planned.scenario
     draw = draw_sample(plan.aircraft, task.dispersion, task.seed)
     span = (plan.t0, plan.t1)
-    engines = {n: get_engine(n) for n in case.engines}
+    settings = case_settings(case, scenario)     # as run_case: the case's > the scenario's [compare] > defaults
+    engines = {n: with_step(get_engine(n), settings.jsbsim_dt) for n in case.engines}
     aircraft = dispersed_aircraft(plan.aircraft, draw)
     if case.loop == "closed":
         nominal = replace(scenario, tracking=replace(scenario.tracking, perturbation=None))
         setup = closed_loop_setup(plan, nominal)
         ctl, j = setup.controller, setup.feedforward_iterate
+        engines = sampled_engines(engines, scenario.tracking.controller_dt)
         runs = fly(engines, aircraft, setup.x0 + draw.offsets, ctl.controls, span, env=plan.env, controller=ctl,
-                   dt_out=case.dt_out)
+                   dt_out=settings.dt_out)
     else:
         ctl, j = None, plan.J
         runs = fly(engines, aircraft, np.asarray(plan.initial_state(j), dtype=float) + draw.offsets,
-                   plan.control_function(j), span, env=plan.env, dt_out=case.dt_out)
-    return plan, draw, runs, ctl, j, planned.planning_time_s
+                   plan.control_function(j), span, env=plan.env, dt_out=settings.dt_out)
+    return plan, draw, runs, ctl, j, planned.planning_time_s, settings
 
 
-def _metrics(task: SampleTask, plan, runs, ctl, j) -> dict:
-    case = task.spec.case
+def _metrics(plan, runs, ctl, j, settings) -> dict:
     span = (plan.t0, plan.t1)
     ref = lambda t: plan.state(t, j)  # noqa: E731 - the flat outputs tracked
     out_runs = {}
@@ -98,7 +100,7 @@ def _metrics(task: SampleTask, plan, runs, ctl, j) -> dict:
                            "saturated_s": float(sat)}
     diffs, passed = {}, True
     if len(runs) > 1:
-        tables = engine_tables(runs, span, case.tolerance_spec, case.window_spec)
+        tables = engine_tables(runs, span, settings.tolerances, settings.windows, rtol=settings.rtol or None)
         for label, per in tables.items():
             tab = per.get("whole span") or next(iter(per.values()))
             diffs[label] = {"max_position_m": _finite_or_none(tab.row("position").max_abs),
@@ -138,9 +140,9 @@ def run_sample(task: SampleTask) -> dict:
     out = {"case_id": task.case_id, "status": "failed", "metrics": None, "draw": None, "error": None,
            "timings": {}, "files": {}}
     try:
-        plan, draw, runs, ctl, j, plan_s = _fly(task)
+        plan, draw, runs, ctl, j, plan_s, settings = _fly(task)
         t_fly = time.perf_counter()
-        out["metrics"] = _metrics(task, plan, runs, ctl, j)
+        out["metrics"] = _metrics(plan, runs, ctl, j, settings)
         out["draw"] = draw.parameters()
         if task.trajectories:
             for label, res in runs.items():

@@ -13,7 +13,7 @@ A campaign file (TOML)::
     engines = ["inhouse", "jsbsim"]
     J = 4                         # optional, or [0, 4]
     tolerances = 1e-2             # optional, as in a validation case
-    dt_out = 0.05                 # optional output grid [s]
+    dt_out = 0.05                 # optional output grid [s]; also rtol, jsbsim_dt, windows (the [compare] keys)
 
     [dispersions.fit]             # one or more named dispersion sets (all zero: the nominal aircraft)
     aero = "std_error"            # "std_error" (fitted sets), "relative" or "none"
@@ -55,7 +55,7 @@ __all__ = ["Campaign", "CaseSpec", "Dispersion", "SampleTask", "load_campaign", 
 AERO_MODES: tuple[str, ...] = ("std_error", "relative", "none")
 
 _TOP_KEYS = ("name", "description", "seed", "samples", "cases", "dispersions", "output")
-_CASE_KEYS = ("id", "scenario", "J", "loop", "engines", "tolerances", "dt_out", "windows")
+_CASE_KEYS = ("id", "scenario", "J", "loop", "engines", "tolerances", "rtol", "dt_out", "jsbsim_dt", "windows")
 _EXPANDED = ("scenario", "J", "loop")
 _DISP_KEYS = ("aero", "aero_sigma", "aero_relative", "mass", "inertia", "cg_cbar", "position_m", "speed_mps",
               "angle_rad", "truncate")
@@ -214,9 +214,8 @@ class SampleTask:
         """
         c = self.spec.case
         return {"label": self.spec.label, "scenario": c.scenario, "J": c.J, "loop": c.loop,
-                "engines": list(c.engines), "tolerances": c.tolerance_spec, "dt_out": c.dt_out,
-                "windows": c.window_spec, "dispersion": self.dispersion.to_dict(), "sample": self.sample,
-                "seed": self.seed}
+                "engines": list(c.engines), **c.overrides, "dispersion": self.dispersion.to_dict(),
+                "sample": self.sample, "seed": self.seed}
 
 
 @dataclass(frozen=True)

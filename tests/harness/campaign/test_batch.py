@@ -65,3 +65,11 @@ def test_batched_open_loop_and_shapes(flown):
     with pytest.raises(InputError, match="unknown batched integrator"):
         simulate_batch(plan.aircraft, np.asarray(plan.initial_state(j))[None], plan.control_function(j), (0.0, 1.0),
                        method="euler")
+
+
+def test_a_sample_over_its_step_budget_is_stalled_and_the_others_go_on(flown):
+    planned, draws, setup, singles = flown
+    plan = planned.plan
+    res, _, _ = fly_batch(plan, planned.scenario, draws[:2], dt_out=0.1, max_steps=3)
+    assert list(res.status) == ["stalled", "stalled"] and np.all(res.t_end < plan.t1)
+    assert np.all(res.X[-1] == res.X[-2])                      # frozen at the last state reached
