@@ -49,6 +49,10 @@ COEFFICIENTS: tuple[str, ...] = ("CD", "CY", "CL", "Cl", "Cm", "Cn")
 #: typo, and its powers would overflow the series arithmetic long before they mattered).
 MAX_EXPONENT = 12
 
+#: Named structures a model file may declare: name -> number of terms, indexed theta = 1 .. n
+#: (``gna45``: the paper's 45-term model of the GNA aircraft, the structure of every bundled aircraft).
+STRUCTURES: dict[str, int] = {"gna45": 45}
+
 #: Other spellings accepted in term tables (Grauer--Morelli use de, da, dr).
 _ALIASES = {"a": "alpha", "b": "beta", "de": "dm", "da": "dl", "dr": "dn",
             "ptilde": "phat", "qtilde": "qhat", "rtilde": "rhat"}
@@ -273,6 +277,33 @@ class TermTable:
                 raise InputError(f"{where}: term {t.index} repeats term {pairs[t.coefficient, t.exponents]} "
                                  f"({t.coefficient}, monomial {t.monomial}): give each term once")
             pairs[t.coefficient, t.exponents] = t.index
+
+    def check_structure(self, where: str = "aerodynamic terms") -> None:
+        """Refuse a table declaring a named structure (:data:`STRUCTURES`) whose terms do not match it.
+
+        Parameters
+        ----------
+        where : str
+            File and table, for the message.
+
+        Raises
+        ------
+        InputError
+            The declared structure's term count or indices (theta = 1 .. n) do not match, naming
+            the missing and the extra indices.
+        """
+        n = STRUCTURES.get(self.structure)
+        if n is None:
+            return
+        have = {t.index for t in self.terms}
+        missing = sorted(set(range(1, n + 1)) - have)
+        extra = sorted(have - set(range(1, n + 1)))
+        if missing or extra or len(self.terms) != n:
+            parts = [f"missing theta {', '.join(map(str, missing))}" if missing else "",
+                     f"unexpected theta {', '.join(map(str, extra))}" if extra else ""]
+            raise InputError(f"{where}: structure = {self.structure!r} has {n} terms (theta = 1 .. {n}), "
+                             f"the file gives {len(self.terms)}: " + "; ".join(p for p in parts if p)
+                             + "; give every term (value 0 for an absent one) or declare structure = 'custom'")
 
     def to_records(self) -> list[dict]:
         """Records suitable for a TOML aircraft file.

@@ -368,6 +368,7 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
     aero = TermTable.from_records(a["terms"], structure=str(a.get("structure", "custom")),
                                   where=f"{where} [aero.terms]")
     aero.check_unique(f"{where} [aero.terms]")
+    aero.check_structure(f"{where} [aero.terms]")
     prov = {k: str(val) for k, val in data.get("provenance", {}).items()}
     return Aircraft(id=ident, name=str(data.get("name", ident)), mass=mass, geometry=geometry, propulsion=propulsion,
                     envelope=envelope, aero=aero, provenance=prov, path=path)

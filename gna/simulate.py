@@ -95,8 +95,9 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     Raises
     ------
     InputError
-        Bad span, output grid, initial state, controls (not 5 values),
-        controller, model or integrator name.
+        Not an Aircraft; bad span, output grid, initial state (not 12 values),
+        controls (not 5 values, or not finite at t0), controller, model or
+        integrator name; a non-finite derivative at t0 (naming the variables).
 
     Notes
     -----
@@ -104,6 +105,9 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     ends with ``status == "domain"``, the message naming the time, variable and
     value, and the rows up to the located crossing.
     """
+    if not isinstance(aircraft, Aircraft):
+        raise InputError(f"aircraft must be a gna.aircraft.Aircraft, got {type(aircraft).__name__} {aircraft!r:.60}; "
+                         f"gna.aircraft.load_aircraft(name) makes one")
     env = env if env is not None else Environment()
     t0, t1 = check_span(t_span)
     y0 = initial_state(None, x0)
@@ -113,7 +117,10 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
         raise InputError(f"model must be 'full' or 'simple', got {model!r}")
     grid = output_grid(t0, t1, dt_out, t_eval)
     ufun = control_function(controls)
-    controls_on_grid(ufun, np.array([t0]))  # 5 values, or one clear InputError before integrating
+    u0 = controls_on_grid(ufun, np.array([t0]))[:, 0]  # 5 values, or one clear InputError before integrating
+    if not np.all(np.isfinite(u0)):
+        bad = [f"{n} = {v}" for n, v in zip(CONTROL_NAMES, u0) if not math.isfinite(v)]
+        raise InputError(f"controls at t0 = {t0:g} s are not finite ({', '.join(bad)})")
     start = domain_violation(t0, y0)
     if start is not None:
         raise InputError(f"the initial state is outside the physical domain: {start}")
@@ -140,7 +147,11 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
                 names_bad += [f"control {n} = {v}" for n, v in zip(CONTROL_NAMES, u) if not math.isfinite(v)]
             raise _NonFinite(t, names_bad)
         return d
-    solver = _SOLVERS[method](rhs, t0, y0, t1, rtol=rtol, atol=atol, max_step=max_step)
+    try:
+        solver = _SOLVERS[method](rhs, t0, y0, t1, rtol=rtol, atol=atol, max_step=max_step)
+    except _NonFinite as exc:                              # the first evaluation, at t0
+        raise InputError(f"non-finite derivative at t0 = {t0:g} s ({', '.join(exc.names)}): the initial state, "
+                         f"controls and feedback give no motion") from None
     events = _domain_functions()
     segments = []  # (t_lo, t_hi, dense)
     status, message, t_end = "completed", "", t1
@@ -156,9 +167,12 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
         except _NonFinite as exc:
             if exc.t - t_prev > bracket:
                 span = 0.5 * (exc.t - t_prev)
-                solver = _SOLVERS[method](rhs, t_prev, y_prev, t1, rtol=rtol, atol=atol,
-                                          max_step=min(max_step, span), first_step=0.5 * span)
-                continue
+                try:
+                    solver = _SOLVERS[method](rhs, t_prev, y_prev, t1, rtol=rtol, atol=atol,
+                                              max_step=min(max_step, span), first_step=0.5 * span)
+                    continue
+                except _NonFinite as again:                # non-finite at the last good point itself
+                    exc = again
             status = "domain"
             t_end = t_prev
             message = (f"non-finite derivative ({', '.join(exc.names)}) at t = {exc.t:.6g} s; "

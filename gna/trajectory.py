@@ -118,9 +118,14 @@ def initial_state(source=None, x0=None) -> np.ndarray:
         if x0 is None:
             raise InputError("no initial state: pass x0 or a plan with an initial_state")
     try:
-        y0 = np.asarray(x0, dtype=float).reshape(12)
+        arr = np.asarray(x0, dtype=float)
     except (TypeError, ValueError):
-        raise InputError(f"the initial state must have the 12 wind-frame values {', '.join(STATE_NAMES)}") from None
+        arr = None
+    if arr is None or arr.shape not in ((12,), (12, 1)):
+        shape = "not numbers" if arr is None else f"shape {arr.shape}"
+        raise InputError(f"the initial state must be the 12 wind-frame values {', '.join(STATE_NAMES)} "
+                         f"(shape (12,) or (12, 1)), got {shape}")
+    y0 = arr.reshape(12)
     bad = [n for n, v in zip(STATE_NAMES, y0) if not math.isfinite(v)]
     if bad:
         raise InputError(f"initial state has non-finite values: {', '.join(bad)}")

@@ -25,7 +25,7 @@ from .eom import Controls, HValues, State, derivatives
 from .errors import ConvergenceError, DomainError, InputError
 from .simulate import engine_thrust_warnings
 from .solve import newton
-from .trajectory import UNITS
+from .trajectory import DOMAIN, UNITS, domain_violation
 from .units import G0
 
 TRIM_VARIABLES: tuple[str, ...] = ("V", "gamma", "chi_dot", "F", "alpha", "beta", "mu",
@@ -213,8 +213,10 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
         Newton did not converge (message names the residual, iterations and fixed values).
     DomainError
         The altitude is outside the atmosphere model's range (the ISA's -2 to
-        20 km); with ``check_envelope``, the solution lies outside the
-        aerodynamic model's envelope.
+        20 km); a fixed speed or the solved steady state lies outside the
+        physical domain (:data:`gna.trajectory.DOMAIN`, e.g. V above 3000 m/s);
+        with ``check_envelope``, the solution lies outside the aerodynamic
+        model's envelope.
     """
     env = env if env is not None else Environment()
     unknown = [k for k in fixed if k not in TRIM_VARIABLES]
@@ -230,6 +232,10 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
     env.check_altitude(altitude, "trim")
     if "V" in fixed and fixed["V"] <= 0:
         raise InputError(f"speed must be positive, got V = {fixed['V']} m/s")
+    if "V" in fixed and not DOMAIN.V_min <= fixed["V"] <= DOMAIN.V_max:
+        raise DomainError(f"trim of {aircraft.id}: V = {fixed['V']:g} m/s is outside the physical domain "
+                          f"[{DOMAIN.V_min:g}, {DOMAIN.V_max:g}] m/s (gna.trajectory.DOMAIN)",
+                          variable="V", value=fixed["V"])
     if "beta" in fixed and abs(fixed["beta"]) >= math.pi / 2:
         raise InputError(f"|beta| must be below pi/2, got {fixed['beta']} rad")
     if "gamma" in fixed and abs(fixed["gamma"]) >= math.pi / 2:
@@ -273,6 +279,11 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
     if vals["V"] <= 0:
         raise ConvergenceError(f"trim of {aircraft.id} converged to a non-physical speed V = {vals['V']:.4g} m/s",
                                residual=float(res.residual), iterations=res.iterations)
+    outside = domain_violation(0.0, s)
+    if outside is not None:                               # a free speed or angle solved outside the domain
+        fx = ", ".join(f"{k} = {v:.6g}" for k, v in fixed.items())
+        raise DomainError(f"trim of {aircraft.id} with {fx}: the steady state is outside the physical domain: "
+                          + outside.split(": ", 1)[1])
     warnings = _envelope_check(aircraft, vals, fixed, check_envelope, eta)
     return TrimResult(values={k: float(vals[k]) for k in TRIM_VARIABLES}, fixed=dict(fixed),
                       residuals={n: float(v) for n, v in zip(RESIDUAL_NAMES, r)}, iterations=res.iterations,

@@ -39,7 +39,8 @@ from gna.atmosphere import H_TROPO, LAPSE, R_AIR, T0
 from gna.frames import C_body_ned, euler_from_dcm
 from gna.trajectory import UNITS
 
-from .outdir import OutputDir, json_safe
+from .fileio import json_safe
+from .outdir import OutputDir
 
 #: Units of the columns added to every trajectory written.
 EXTRA_UNITS: dict[str, str] = {"t": "s", "h": "m", "phi": "rad", "theta": "rad", "psi": "rad",
@@ -365,7 +366,8 @@ def _run_meta(res) -> dict:
 
 
 def write_artefacts(result, out: OutputDir | str | Path, *, csv: bool = False, plan: bool = True,
-                    manifest: bool = True, figures=(), extra: dict | None = None) -> dict[str, list[Path]]:
+                    manifest: bool = True, figures=(), extra: dict | None = None,
+                    command_line: list | None = None) -> dict[str, list[Path]]:
     """Write a case result's data: trajectories, ``differences.txt``, ``summary.json``, plan, manifest.
 
     Parameters
@@ -385,6 +387,8 @@ def write_artefacts(result, out: OutputDir | str | Path, *, csv: bool = False, p
         Figures already written, listed in ``summary.json``.
     extra : dict, optional
         Added to ``summary.json``.
+    command_line : list of str, optional
+        The command recorded in the manifest (default ``sys.argv``).
 
     Returns
     -------
@@ -415,7 +419,7 @@ def write_artefacts(result, out: OutputDir | str | Path, *, csv: bool = False, p
     summary.update(extra or {})
     files["summary"] = [od.write_json("summary.json", obj=json_safe(summary))]
     if manifest:
-        files["manifest"] = [write_manifest(od, [result])]
+        files["manifest"] = [write_manifest(od, [result], command_line=command_line)]
     if own:
         od.finish()
     return files

@@ -135,6 +135,11 @@ def setup_logging(verbose: int, quiet: int) -> int:
     handler.setFormatter(logging.Formatter("gflat: %(levelname)s: %(message)s"))
     logger.addHandler(handler)
     logger.setLevel(level)
+    # gflat's own progress lines (a long plan's iterates) are INFO and shown by default; other libraries'
+    # INFO (Dask, matplotlib) only with -v
+    ours = logging.INFO if (verbose, quiet) == (0, 0) else level
+    for name in ("gna", "planners", "harness", "reports"):
+        logging.getLogger(name).setLevel(ours)
     logging.captureWarnings(True)
     return level
 
@@ -154,6 +159,7 @@ def main(argv: list[str] | None = None) -> int:
     """
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.command_line = ["gflat", *(sys.argv[1:] if argv is None else argv)]   # recorded in manifests
     setup_logging(args.verbose, args.quiet)
     log = logging.getLogger("gflat")
     start = time.perf_counter()

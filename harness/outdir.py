@@ -1,27 +1,29 @@
 """Output folders: checked before any work, every file written atomically, nothing written outside the root.
 
 :class:`OutputDir` is the one way the command line writes files.  The folder is
-checked (and created) when the object is made, so that a bad ``--out`` is one
-clear error before planning or flying.  Every file is written to a temporary
+checked when the object is made, so that a bad ``--out`` is one clear error
+before planning or flying; a missing folder is created only when the first
+file is written, so a run that fails before writing leaves nothing.  Every file is written to a temporary
 name in its final folder and renamed over its final name (``os.replace``,
 atomic on POSIX), so a run never leaves a half-written file under its final
 name.  :meth:`OutputDir.finish` writes the completion marker
 ``.gflat-complete.json`` (files written, their sha256, UTC time); a folder
-without it holds an interrupted set.  A rerun into the same folder removes the
-files the previous run's marker lists and this run did not write (never
-anything else), so no stale file of an earlier run survives next to new ones.
+without it holds an interrupted set.  At the first file a run writes, the
+marker is replaced by the in-progress record ``.gflat-incomplete``: the files
+of earlier runs (complete marker and any earlier in-progress record), then one
+line per file this run writes.  :meth:`OutputDir.finish` removes every file
+those lists name that this run did not write (never anything else, so files
+the user put there stay), writes the marker and removes the record: no stale
+file of an earlier run, complete or interrupted, survives next to new ones.
 """
 
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import datetime
 import hashlib
 import json
-import math
 import os
-import secrets
 import tempfile
 from pathlib import Path
 from typing import Iterator
@@ -30,54 +32,17 @@ import numpy as np
 
 from gna.errors import InputError
 
+from .fileio import json_safe, replacing
+
 #: Name of the completion marker written by :meth:`OutputDir.finish`.
 MARKER = ".gflat-complete.json"
+
+#: Name of the in-progress record (one JSON string per line: paths relative to the top folder).
+INCOMPLETE = ".gflat-incomplete"
 
 
 def _cause(exc: OSError) -> str:
     return exc.strerror or str(exc) or type(exc).__name__
-
-
-def json_safe(obj, nonfinite: str = "null"):
-    """A copy of ``obj`` that :func:`json.dumps` takes with ``allow_nan=False``.
-
-    NumPy scalars and arrays become Python numbers and lists, paths strings,
-    tuples and sets lists, dataclasses dicts, other objects their ``str``.
-
-    Parameters
-    ----------
-    obj : object
-        Nested dicts, lists, numbers, strings, paths, NumPy values, dataclasses.
-    nonfinite : {"null", "text"}
-        How a NaN or infinite float is written (JSON has none): ``None``, or
-        the strings ``"nan"``, ``"inf"``, ``"-inf"`` (which keep NaN and
-        infinity apart, as a report shows them).
-
-    Returns
-    -------
-    object
-        The same structure with JSON types only.
-    """
-    if isinstance(obj, dict):
-        return {str(k): json_safe(v, nonfinite) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple, set)):
-        return [json_safe(v, nonfinite) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return json_safe(obj.tolist(), nonfinite)
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        v = float(obj)
-        return v if math.isfinite(v) else (str(v) if nonfinite == "text" else None)
-    if isinstance(obj, os.PathLike):
-        return os.fspath(obj)
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return json_safe(dataclasses.asdict(obj), nonfinite)
-    if obj is None or isinstance(obj, str):
-        return obj
-    return str(obj)
 
 
 def _sha256(path: Path) -> str:
@@ -88,49 +53,6 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
-@contextlib.contextmanager
-def replacing(final: str | Path) -> Iterator[Path]:
-    """A temporary file beside ``final``, renamed over it when the block ends without error.
-
-    The temporary name is hidden, unique (created exclusively) and keeps the
-    final suffix; it gets the permissions the user's umask gives new files.
-    On any error it is removed and ``final`` is untouched: a reader never sees
-    a half-written file under the final name.
-
-    Parameters
-    ----------
-    final : str or Path
-        The file to (re)place; its folder must exist.
-
-    Yields
-    ------
-    Path
-        The temporary path to write.
-
-    Raises
-    ------
-    OSError
-        Creating, writing or renaming failed (disk full, permissions).
-    """
-    final = Path(final)
-    for _ in range(100):
-        tmp = final.with_name(f".{final.stem}.{secrets.token_hex(6)}.tmp{final.suffix}")
-        try:
-            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-            break
-        except FileExistsError:
-            continue
-    else:
-        raise FileExistsError(f"no free temporary name next to {final}")
-    try:
-        yield tmp
-        os.replace(tmp, final)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
-
-
 class _Record:
     """What a set of OutputDir objects (a root and its sub-folders) share."""
 
@@ -138,7 +60,7 @@ class _Record:
         self.root = root
         self.previous = previous
         self.written: list[Path] = []
-        self.marker_removed = False
+        self.started = False
 
 
 class OutputDir:
@@ -147,10 +69,12 @@ class OutputDir:
     Parameters
     ----------
     root : str or Path
-        The folder; created if missing (its parent must exist unless ``parents``).
+        The folder; created, if missing, when the first file is written (its
+        parent must exist unless ``parents``).
     clean : bool
-        Remove, in :meth:`finish`, the files the previous run's completion
-        marker lists that this run did not write.
+        Remove, in :meth:`finish`, the files earlier runs wrote (listed by the
+        completion marker or an interrupted run's in-progress record) that this
+        run did not write.
     parents : bool
         Create missing parent folders too (for default output folders);
         without it a missing parent is refused.
@@ -180,18 +104,22 @@ class OutputDir:
         self.clean = clean
         if _record is not None:
             self._record = _record
-            self._mkdir(path, parents=True)
             return
         if path.exists() and not path.is_dir():
             raise InputError(f"output folder {path}: a file of that name exists (not a folder)")
-        if not path.exists():
+        if path.exists():
+            self._probe(path)
+        else:
             parent = path.parent
             if not parent.is_dir() and not parents:
                 what = "is a file" if parent.exists() else "does not exist"
                 raise InputError(f"output folder {path}: its parent folder {parent} {what}")
-            self._mkdir(path, parents=parents)
-        self._probe(path)
-        self._record = _Record(path, self._previous_files(path) if clean else [])
+            while not parent.exists():                    # nearest existing ancestor (with ``parents``)
+                parent = parent.parent
+            if not parent.is_dir():
+                raise InputError(f"output folder {path}: {parent} is a file, not a folder")
+            self._probe(parent)                           # the folder itself is made at the first file
+        self._record = _Record(path, self._previous_files(path))
 
     # ---- checks ----------------------------------------------------------------------------------
     @staticmethod
@@ -215,11 +143,25 @@ class OutputDir:
 
     @staticmethod
     def _previous_files(root: Path) -> list[str]:
+        """The files earlier runs wrote: the completion marker's list and any in-progress record's, in order."""
+        files: list[str] = []
         try:
             data = json.loads((root / MARKER).read_text(encoding="utf-8"))
-            return [str(f["path"]) for f in data.get("files", []) if isinstance(f, dict) and "path" in f]
+            files += [str(f["path"]) for f in data.get("files", []) if isinstance(f, dict) and "path" in f]
         except (OSError, ValueError, TypeError, AttributeError):
-            return []
+            pass
+        try:
+            lines = (root / INCOMPLETE).read_text(encoding="utf-8").splitlines()
+        except (OSError, ValueError):
+            lines = []
+        for line in lines:
+            try:
+                rel = json.loads(line)
+            except ValueError:                            # a line cut short by an interruption
+                continue
+            if isinstance(rel, str):
+                files.append(rel)
+        return list(dict.fromkeys(files))
 
     # ---- paths -----------------------------------------------------------------------------------
     @property
@@ -281,12 +223,26 @@ class OutputDir:
         return OutputDir(self.path(*parts), clean=self.clean, _record=self._record)
 
     # ---- writing ---------------------------------------------------------------------------------
-    def _drop_marker(self) -> None:
-        """Before the first file: the old marker goes, so an interrupted rerun is seen as such."""
-        if not self._record.marker_removed:
-            with contextlib.suppress(FileNotFoundError):
-                (self._record.root / MARKER).unlink()
-            self._record.marker_removed = True
+    def _note(self, rel: Path) -> None:
+        """Before a file lands: list it in the in-progress record (started, at the first file, in place of the marker).
+
+        The record starts with the files of earlier runs, so that a run
+        interrupted now still lets the next complete run remove them, and
+        grows by one line per file this run writes.
+        """
+        rec = self._record
+        root = rec.root
+        try:
+            if not rec.started:
+                with replacing(root / INCOMPLETE) as tmp:
+                    tmp.write_text("".join(json.dumps(p) + "\n" for p in rec.previous), encoding="utf-8")
+                with contextlib.suppress(FileNotFoundError):
+                    (root / MARKER).unlink()          # no longer a complete set
+                rec.started = True
+            with open(root / INCOMPLETE, "a", encoding="utf-8") as fh:
+                fh.write(json.dumps(str(rel)) + "\n")
+        except OSError as exc:
+            raise InputError(f"cannot write {root / INCOMPLETE}: {_cause(exc)}") from None
 
     @contextlib.contextmanager
     def atomic(self, *parts: str) -> Iterator[Path]:
@@ -313,14 +269,14 @@ class OutputDir:
             the temporary file is removed and nothing is left under the final name.
         """
         final = self.path(*parts)
+        rel = final.relative_to(self._record.root)
         self._mkdir(final.parent, parents=True)
-        self._drop_marker()
         try:
             with replacing(final) as tmp:
                 yield tmp
+                self._note(rel)                           # listed before it lands under its final name
         except OSError as exc:
             raise InputError(f"cannot write {final}: {_cause(exc)}") from None
-        rel = final.relative_to(self._record.root)
         if rel not in self._record.written:
             self._record.written.append(rel)
 
@@ -407,7 +363,11 @@ class OutputDir:
 
     # ---- completion ------------------------------------------------------------------------------
     def finish(self) -> Path:
-        """Remove the previous run's stale files (with ``clean``) and write the completion marker.
+        """Remove earlier runs' stale files (with ``clean``), write the completion marker, drop the in-progress record.
+
+        Stale files are those the completion marker or an interrupted run's
+        in-progress record lists and this run did not write; files never
+        listed (the user's own) are kept.
 
         Returns
         -------
@@ -425,7 +385,7 @@ class OutputDir:
         now = {str(p) for p in rec.written}
         if self.clean:
             for rel in rec.previous:
-                if rel in now or rel == MARKER:
+                if rel in now or rel in (MARKER, INCOMPLETE):
                     continue
                 try:
                     stale = (root / rel).resolve()
@@ -445,14 +405,16 @@ class OutputDir:
                   "files": files}
         text = json.dumps(marker, indent=2) + "\n"
         final = root / MARKER
+        self._mkdir(root, parents=True)
         try:
-            fd, name = tempfile.mkstemp(prefix=".gflat-complete.", suffix=".tmp", dir=root)
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            os.replace(name, final)
+            with replacing(final) as tmp:                 # mode from the umask, like every output
+                tmp.write_text(text, encoding="utf-8")
+            with contextlib.suppress(FileNotFoundError):
+                (root / INCOMPLETE).unlink()              # after the marker: an interruption between keeps both lists
         except OSError as exc:
             raise InputError(f"cannot write {final}: {_cause(exc)}") from None
         rec.previous = [f["path"] for f in files]
+        rec.started = False
         return final
 
     @staticmethod

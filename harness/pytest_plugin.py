@@ -19,6 +19,7 @@ the difference table of each engine that differs.
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Mapping, Sequence
@@ -161,7 +162,7 @@ class GflatFlight:
             Engine names (:func:`harness.engines.fly`); the first one writes the golden file on
             ``--gflat-regen``.
         duration : float, optional
-            Fly only the first ``duration`` seconds of the plan [s].
+            Fly only the first ``duration`` seconds of the plan [s] (at most the scenario's span).
         atol, rtol, columns
             Tolerances and columns of :func:`harness.testing.assert_trajectories_close` (default the
             12 states, 1e-2 m, 1e-3 m/s, 1e-4 rad, 1e-3 rad/s).
@@ -178,7 +179,9 @@ class GflatFlight:
         Raises
         ------
         pytest.fail.Exception
-            When the golden file is missing (the message says how to create it) or a run did not complete.
+            When the golden file is missing (the message says how to create it), a run did not
+            complete, or an argument is bad (``duration`` beyond the scenario's span, a bad
+            tolerance or column: checked before flying or writing).
         AssertionError
             When an engine's run differs from the golden trajectory (difference tables in the message).
         """
@@ -186,14 +189,33 @@ class GflatFlight:
         from planners.generalized import plan_scenario
         from planners.scenario import load_scenario, scenario_from_dict
 
+        from gna.errors import InputError
+        from gna.trajectory import COLUMNS, STATE_NAMES
+
         from .engines import fly
-        from .testing import assert_trajectories_close
+        from .testing import assert_trajectories_close, check_tolerances
 
         if isinstance(scenario, Mapping):
             sc = scenario_from_dict(scenario, J=J)
         else:
             local = self.test_file.parent / str(scenario)
             sc = load_scenario(local if local.is_file() else scenario, J=J)
+        cols = tuple(columns) if columns is not None else STATE_NAMES
+        unknown = [c for c in cols if c not in COLUMNS]
+        try:
+            if unknown:
+                raise InputError(f"columns {', '.join(map(str, unknown))} are not trajectory columns")
+            check_tolerances(atol, rtol, cols)            # before flying, and before --gflat-regen writes
+            span = float(sc.t_nodes[-1] - sc.t_nodes[0])
+            if duration is not None:
+                if isinstance(duration, bool) or not isinstance(duration, (int, float)) \
+                        or not (math.isfinite(duration) and duration > 0):
+                    raise InputError(f"duration must be a positive number of seconds, got {duration!r}")
+                if duration > span * (1 + 1e-12):
+                    raise InputError(f"duration = {duration:g} s is longer than the scenario's span of {span:g} s "
+                                     f"(t = {sc.t_nodes[0]:g} .. {sc.t_nodes[-1]:g} s)")
+        except InputError as exc:
+            pytest.fail(f"gflat_flight({sc.name!r}): {exc}", pytrace=False)
         plan = plan_scenario(sc)
         t0, t1 = plan.t0, plan.t1 if duration is None else min(plan.t1, plan.t0 + float(duration))
         runs = fly(list(engines), sc.aircraft, None, plan, (t0, t1), env=sc.env, dt_out=dt_out)

@@ -132,6 +132,35 @@ def resolve_tolerance(spec, defaults: Mapping[str, float], columns: Sequence[str
     return out
 
 
+def check_tolerances(atol, rtol, columns: Sequence[str]) -> tuple[dict[str, float], dict[str, float]]:
+    """Per-column ``atol`` and ``rtol``, checked before anything is flown or written.
+
+    Parameters
+    ----------
+    atol, rtol : None, float or mapping str -> float
+        As :func:`assert_trajectories_close`.
+    columns : sequence of str
+        The compared columns.
+
+    Returns
+    -------
+    tuple of dict
+        Column -> atol, column -> rtol (:func:`resolve_tolerance`).
+
+    Raises
+    ------
+    InputError
+        A bad tolerance (:func:`resolve_tolerance`), or a column left without any tolerance.
+    """
+    at = resolve_tolerance(atol, DEFAULT_ATOL, columns, "atol")
+    rt = resolve_tolerance(rtol, DEFAULT_RTOL, columns, "rtol")
+    untoleranced = [c for c in columns if c not in at and c not in rt]
+    if untoleranced:
+        raise InputError(f"no tolerance for {', '.join(untoleranced)}: give atol={{'{untoleranced[0]}': ...}} "
+                         "or a single number")
+    return at, rt
+
+
 def _values(df: pd.DataFrame, column: str, t: np.ndarray) -> np.ndarray:
     """``df[column]`` at times ``t`` (linear interpolation; angles unwrapped first)."""
     v = df[column].to_numpy(dtype=float)
@@ -168,12 +197,7 @@ def trajectory_differences(expected, actual, *, atol=None, rtol=None, columns: S
     missing = [c for c in cols if c not in E.columns or c not in A.columns]
     if missing:
         raise InputError(f"cannot compare {', '.join(missing)}: not a column of both {labels[0]} and {labels[1]}")
-    at = resolve_tolerance(atol, DEFAULT_ATOL, cols, "atol")
-    rt = resolve_tolerance(rtol, DEFAULT_RTOL, cols, "rtol")
-    untoleranced = [c for c in cols if c not in at and c not in rt]
-    if untoleranced:
-        raise InputError(f"no tolerance for {', '.join(untoleranced)}: give atol={{'{untoleranced[0]}': ...}} "
-                         "or a single number")
+    at, rt = check_tolerances(atol, rtol, cols)
     te, ta = np.asarray(E.index, dtype=float), np.asarray(A.index, dtype=float)
     problems = []
     if times is None:

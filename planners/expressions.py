@@ -36,6 +36,23 @@ _BINOPS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
            ast.Div: operator.truediv, ast.Pow: operator.pow}
 _UNOPS = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 
+#: Bounds on an expression's size: its text, the nodes of its syntax tree and their nesting.  The paper's
+#: flat outputs have tens of nodes; the bounds keep a pathological file from exhausting the parser's stack
+#: or the planner's time.
+MAX_TEXT = 4000
+MAX_NODES = 2000
+MAX_DEPTH = 200
+
+
+def _depth(tree: ast.AST) -> int:
+    """Nesting depth of a syntax tree (iterative: a deep tree must not exhaust the stack here either)."""
+    deepest, stack = 0, [(tree, 1)]
+    while stack:
+        node, d = stack.pop()
+        deepest = max(deepest, d)
+        stack.extend((child, d + 1) for child in ast.iter_child_nodes(node))
+    return deepest
+
 
 @dataclass(frozen=True)
 class Expression:
@@ -75,11 +92,28 @@ def compile_expression(text: str | float | int, constants: Mapping[str, float] |
     names = dict(CONSTANTS)
     if constants:
         names.update({k: float(v) for k, v in constants.items()})
+    if len(text) > MAX_TEXT:
+        raise InputError(f"{where}: expression of {len(text)} characters; at most {MAX_TEXT} (define "
+                         f"[constants] for repeated parts)")
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
         raise InputError(f"{where}: cannot parse {text!r} ({exc.msg})") from None
+    except (RecursionError, MemoryError):
+        raise InputError(f"{where}: expression nested too deeply to parse ({text[:60]!r}...)") from None
+    n_nodes = sum(1 for _ in ast.walk(tree))
+    if n_nodes > MAX_NODES or _depth(tree) > MAX_DEPTH:
+        raise InputError(f"{where}: expression too large ({n_nodes} syntax nodes, nesting {_depth(tree)}; at most "
+                         f"{MAX_NODES} and {MAX_DEPTH}) in {text[:60]!r}...")
     uses_t = False
+
+    def real_pow(a, b, t):
+        r = operator.pow(a, b)
+        if isinstance(r, complex) or (isinstance(r, np.ndarray) and np.iscomplexobj(r)):
+            at = f" at t = {t:g} s" if isinstance(t, (int, float)) else ""
+            raise InputError(f"{where}: {text!r} is not real{at} (a negative number to a fractional power: "
+                             f"{a!r} ** {b!r})")
+        return r
 
     def build(node) -> Callable:
         nonlocal uses_t
@@ -97,6 +131,9 @@ def compile_expression(text: str | float | int, constants: Mapping[str, float] |
                 return lambda t: v
             raise InputError(f"{where}: unknown name {node.id!r} in {text!r}; "
                              f"use t, {', '.join(sorted(names))}")
+        if isinstance(node, ast.BinOp) and type(node.op) is ast.Pow:
+            a, b = build(node.left), build(node.right)
+            return lambda t: real_pow(a(t), b(t), t)
         if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
             op, a, b = _BINOPS[type(node.op)], build(node.left), build(node.right)
             return lambda t: op(a(t), b(t))
@@ -125,7 +162,9 @@ def compile_expression(text: str | float | int, constants: Mapping[str, float] |
         try:
             with np.errstate(all="raise"):
                 const = fn(0.0)
-        except (ArithmeticError, ValueError, FloatingPointError) as exc:
+        except InputError:
+            raise
+        except (ArithmeticError, ValueError, FloatingPointError, OverflowError) as exc:
             raise InputError(f"{where}: {text!r} cannot be evaluated ({exc})") from None
         fn0 = fn
         fn = lambda t, c=const: c + 0.0 * t  # noqa: E731  keep the shape/type of t

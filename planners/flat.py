@@ -38,6 +38,39 @@ from .newton import newton_series
 from .series import Series
 
 FLAT_KINDS = ("beta", "mu", "F", "mix")
+
+#: Largest number of generalized-flatness iterations J a plan accepts.
+MAX_J = 30
+
+
+def check_iterations(J, where: str = "plan") -> int:
+    """The number of generalized-flatness iterations ``J``, checked: a whole number in 0..:data:`MAX_J`.
+
+    The one check of the scenario files' ``[generalized] J``, of ``--J`` and
+    of the Python API (:func:`planners.generalized.plan_scenario`).
+
+    Parameters
+    ----------
+    J : int
+        Iterations after the flat plan (a float with a whole value, as TOML may give, is accepted).
+    where : str
+        What the message names (file, function).
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    InputError
+        Not a number (a string, a bool, None), not whole, or outside 0..MAX_J.
+    """
+    if isinstance(J, (bool, np.bool_)) or not isinstance(J, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(J) or float(J) != int(J):
+        raise InputError(f"{where}: J must be a whole number, got {J!r} (0 to {MAX_J})")
+    if not 0 <= int(J) <= MAX_J:
+        raise InputError(f"{where}: J must be between 0 and {MAX_J}, got {int(J)}")
+    return int(J)
 STAGE2_UNKNOWNS = ("alpha", "beta", "mu", "F")
 
 #: Order lost at each stage relative to the flat outputs x, y, z.

@@ -21,9 +21,10 @@ import time
 
 import numpy as np
 
+from gna.errors import InputError
 from gna.trajectory import first_domain_violation
 
-from .flat import FlatProblem, parametrize
+from .flat import FlatProblem, check_iterations, parametrize
 from .plan import Plan
 from .singularity import monitor
 
@@ -38,6 +39,10 @@ MAX_PLAN_COST = 5.0e6
 PROGRESS_COST = 5.0e5
 
 _log = logging.getLogger(__name__)
+
+#: Methods of the generalized flat parametrization: the paper's J iterations, or Newton's method
+#: on their fixed point (:mod:`planners.generalized_newton`).
+METHODS = ("fixed-point", "newton")
 
 
 def plan_cost(nodes: int, J: int, e: int = 1) -> float:
@@ -66,8 +71,9 @@ def plan_cost(nodes: int, J: int, e: int = 1) -> float:
 
 
 def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str = "plan",
-                max_cost: float | None = None) -> Plan:
-    """Plan with J generalized-flatness iterations.
+                max_cost: float | None = None, method: str = "fixed-point", newton_tol: float = 1e-12,
+                newton_maxiter: int = 8) -> Plan:
+    """Plan with J generalized-flatness iterations, or Newton's method on their fixed point.
 
     Parameters
     ----------
@@ -85,24 +91,38 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         Bound on :func:`plan_cost` (default :data:`MAX_PLAN_COST`;
         ``math.inf`` removes it).  Plans above :data:`PROGRESS_COST` log each
         iterate (INFO, logger ``planners.generalized``).
+    method : {"fixed-point", "newton"}
+        ``"fixed-point"``: the paper's ``GeneralizedFlatParametrization`` (iterate j uses the H
+        values of iterate j - 1).  ``"newton"``: Newton's method on ``H = G(H)`` at the same starting
+        order ``kappa = e + 4 + 2 J`` (J is then the depth, not the number of iterations), iterates
+        truncated to the orders of the fixed point's iterate J (:func:`planners.generalized_newton.plan_newton`).
+    newton_tol : float
+        ``"newton"`` only: stop when ``max |H - G(H)|`` is below this [rad/s, rad].
+    newton_maxiter : int
+        ``"newton"`` only: Newton steps at most.
 
     Returns
     -------
     Plan
-        Every iterate, the Newton, singularity and envelope warnings, timings.
+        Every iterate, the Newton, singularity and envelope warnings, timings; ``plan.generalized``
+        holds the method and, for Newton, its status and fixed-point residual ``max |H - G(H)|`` of each
+        iterate.
 
     Raises
     ------
     InputError
-        A grid of fewer than two increasing nodes, or a plan costing more than ``max_cost``.
+        A grid of fewer than two increasing nodes, J not a whole number in 0..30, a plan costing more
+        than ``max_cost``, or an unknown method.
     DomainError
         The flat output's altitude ``-z`` at a node is outside the
         atmosphere model's range (the ISA's -2 to 20 km).
     """
+    J = check_iterations(J, f"plan {name}")
     t_nodes = np.asarray(t_nodes, dtype=float)
     if t_nodes.ndim != 1 or len(t_nodes) < 2 or np.any(np.diff(t_nodes) <= 0):
-        from gna.errors import InputError
         raise InputError("the planning grid needs at least two increasing nodes")
+    if method not in METHODS:
+        raise InputError(f"generalized-flatness method must be one of {', '.join(METHODS)}, got {method!r}")
     with np.errstate(all="ignore"):  # a non-finite z is reported by the parametrization with its cause
         z = np.broadcast_to(np.real(np.asarray(problem.z(t_nodes), dtype=complex)), t_nodes.shape)
     finite = np.isfinite(z)
@@ -110,7 +130,6 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
     cost = plan_cost(len(t_nodes), J, e)
     limit = MAX_PLAN_COST if max_cost is None else float(max_cost)
     if cost > limit:
-        from gna.errors import InputError
         raise InputError(f"plan {name}: J = {J} on {len(t_nodes)} nodes costs {cost:.3g} node-order^2 units, "
                          f"above the bound {limit:.3g} (about {6e-6 * cost / 60:.0f} min of planning); use fewer "
                          f"nodes or a smaller J, or raise the bound (--max-cost, max_cost= in Python; inf for none)")
@@ -118,6 +137,17 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
     if verbose:
         _log.info("plan %s: J = %d on %d nodes, cost %.3g units (about %.0f s)", name, J, len(t_nodes), cost,
                   6e-6 * cost)
+    if method == "newton":
+        from .generalized_newton import plan_newton
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            iterates, info = plan_newton(problem, t_nodes, J, e, tol=newton_tol, maxiter=newton_maxiter)
+        plan = Plan(problem, t_nodes, iterates, [], name, info["timings"])
+        plan.generalized = {"method": method, "depth": J, **info}
+        if info["status"] != "converged":
+            plan.warnings.append(f"Newton on the generalized-flatness fixed point {info['status']} after "
+                                 f"{len(info['residual']) - 1} step(s): max |H - G(H)| = {info['residual'][-1]:.3g} "
+                                 f"(tolerance {newton_tol:g})")
+        return _finish(plan)
     kappa = e + STAGES + J * ORDER_LOSS
     iterates, timings = [], {}
     prev = None
@@ -137,6 +167,13 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         prev = sol
         kappa -= ORDER_LOSS
     plan = Plan(problem, t_nodes, iterates, [], name, timings)
+    plan.generalized = {"method": method}
+    return _finish(plan)
+
+
+def _finish(plan: Plan) -> Plan:
+    """Newton failures, domain, singularity monitor and envelope checks of a plan (both methods)."""
+    problem, t_nodes = plan.problem, plan.t_nodes
     plan.warnings.extend(plan.newton_failures)
     plan.domain_failures = domain_failures(plan)
     plan.warnings.extend(plan.domain_failures)
@@ -173,7 +210,7 @@ def domain_failures(plan: Plan) -> list[str]:
     return out
 
 
-def plan_scenario(scenario, J: int | None = None, max_cost: float | None = None) -> Plan:
+def plan_scenario(scenario, J: int | None = None, max_cost: float | None = None, method: str | None = None) -> Plan:
     """Plan a :class:`~planners.scenario.Scenario`.
 
     Parameters
@@ -184,11 +221,31 @@ def plan_scenario(scenario, J: int | None = None, max_cost: float | None = None)
         Generalized-flatness iterations (default: the scenario's).
     max_cost : float, optional
         Bound on :func:`plan_cost` (default :data:`MAX_PLAN_COST`).
+    method : {"fixed-point", "newton"}, optional
+        Generalized-flatness method (default: the scenario's ``[generalized] method`` when it has
+        one, else ``"fixed-point"``).
 
     Returns
     -------
     Plan
         See :func:`plan_motion`.
+
+    Raises
+    ------
+    InputError
+        ``scenario`` is not a Scenario, ``J`` is not a whole number in 0..30, or an unknown
+        ``[generalized] method`` in the scenario.
     """
+    if not (callable(getattr(scenario, "problem", None)) and hasattr(scenario, "t_nodes")):
+        raise InputError(f"a Scenario is needed, got {type(scenario).__name__} {scenario!r:.60}; "
+                         f"planners.scenario.load_scenario(name) makes one")
+    if J is not None:
+        J = check_iterations(J, f"plan_scenario({scenario.name})")
+    if method is None:
+        gen = (getattr(scenario, "raw", None) or {}).get("generalized", {})
+        method = gen.get("method", "fixed-point") if isinstance(gen, dict) else "fixed-point"
+        if method not in METHODS:
+            raise InputError(f"scenario {scenario.name} [generalized]: method must be one of "
+                             f"{', '.join(repr(m) for m in METHODS)}, got {method!r}")
     return plan_motion(scenario.problem(), scenario.t_nodes, scenario.J if J is None else J, name=scenario.name,
-                       max_cost=max_cost)
+                       max_cost=max_cost, method=method)

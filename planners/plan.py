@@ -69,6 +69,9 @@ class Plan:
         Iterates whose node values leave the physical domain
         (:func:`gna.trajectory.domain_violation`: time, variable, value); such
         a plan is not feasible.
+    generalized : dict
+        The generalized-flatness method (``"method"``: ``"fixed-point"`` or ``"newton"``) and, for
+        Newton, its depth, starting order and fixed-point residual ``max |H - G(H)|`` per iterate.
     """
 
     problem: FlatProblem
@@ -79,6 +82,7 @@ class Plan:
     timings: dict = field(default_factory=dict)
     singularities: SingularityReport | None = None
     domain_failures: list = field(default_factory=list)
+    generalized: dict = field(default_factory=dict)
 
     @property
     def aircraft(self) -> Aircraft:

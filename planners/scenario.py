@@ -83,7 +83,7 @@ from gna.perturbation import Perturbation, perturbation_from_dict
 from gna.schema import check_name, find_file, load_schema, read_toml, unknown_key_message, validate
 
 from .expressions import CONSTANTS, FUNCTIONS, Expression, compile_expression
-from .flat import FLAT_KINDS, FlatOutput, FlatProblem
+from .flat import FLAT_KINDS, FlatOutput, FlatProblem, check_iterations
 
 
 #: Largest grid accepted (memory: every node carries ~20 series of order up to 5 + 2J).
@@ -313,12 +313,8 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
     if eta is None and dn is None:
         eta = compile_expression(0.0)
     gen = data.get("generalized", {})
-    J_raw = gen.get("J", 0)
-    if isinstance(J_raw, bool) or not isinstance(J_raw, (int, float)) or float(J_raw) != int(J_raw):
-        raise InputError(f"{where} [generalized]: J must be a whole number, got {J_raw!r}")
-    J = int(J_raw) if J is None else int(J)
-    if J < 0 or J > 30:
-        raise InputError(f"{where}: J must be between 0 and 30, got {J}")
+    J_file = check_iterations(gen.get("J", 0), f"{where} [generalized]")
+    J = J_file if J is None else check_iterations(J, where)
     env = _environment(data.get("environment", {}), f"{where} [environment]")
     cal = data.get("calibration")
     h = HValues()

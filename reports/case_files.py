@@ -32,7 +32,7 @@ def case_title(result) -> str:
 
 
 def write_case(result, out_dir: str | Path | OutputDir, *, csv: bool = False, plan: bool = True,
-               manifest: bool = True) -> dict[str, Path | list[Path]]:
+               manifest: bool = True, command_line: list | None = None) -> dict[str, Path | list[Path]]:
     """Write a case's figures and data (:func:`harness.artefacts.write_artefacts`) to a folder.
 
     Parameters
@@ -49,6 +49,8 @@ def write_case(result, out_dir: str | Path | OutputDir, *, csv: bool = False, pl
         Write the plan of every iterate under ``plan/``.
     manifest : bool
         Write ``manifest.json`` in the folder.
+    command_line : list of str, optional
+        The command recorded in the manifest (default ``sys.argv``).
 
     Returns
     -------
@@ -64,7 +66,8 @@ def write_case(result, out_dir: str | Path | OutputDir, *, csv: bool = False, pl
                             tolerances=tol)
     if result.closed_loop is not None:
         figures.append(write_tracking_figure(result, out))
-    files = write_artefacts(result, out, csv=csv, plan=plan, manifest=manifest, figures=[p.name for p in figures])
+    files = write_artefacts(result, out, csv=csv, plan=plan, manifest=manifest, figures=[p.name for p in figures],
+                            command_line=command_line)
     report = write_case_report(result, out, figures=[p.name for p in figures])
     if own:
         out.finish()

@@ -19,6 +19,7 @@ import os
 from pathlib import Path
 
 from gna.errors import InputError
+from harness.outdir import MARKER
 
 from .model import REPORT_JSON, load_case_models, write_text_atomic
 
@@ -32,7 +33,7 @@ RENDERED = frozenset((CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE))
 GENERATOR = '<meta name="generator" content="gflat report">'
 
 #: Column headings of the difference tables (others print as named).
-HEADERS = {"max_abs": "max |diff|", "t_max": "at t [s]", "rms": "RMS", "delta_pct": "\u03b4 %",
+HEADERS = {"max_abs": "max |diff|", "t_max": "at t [s]", "rms": "RMS", "delta_pct": "\u03b4 %*",
            "ref_max": "max |ref|", "passed": "result"}
 
 #: Sub-folder of a scenario holding its plan's files (linked from the case pages when present).
@@ -40,7 +41,7 @@ PLAN_FOLDER = "plan"
 
 
 def fmt(value, spec: str | None = None) -> str:
-    """Format a table cell: numbers to four significant digits, booleans as pass/FAIL, None as a dash.
+    """Format a value: numbers to four significant digits, booleans as on/off, None as a dash.
 
     Parameters
     ----------
@@ -55,8 +56,8 @@ def fmt(value, spec: str | None = None) -> str:
     """
     if value is None:
         return "-"
-    if isinstance(value, bool):
-        return "pass" if value else "FAIL"
+    if isinstance(value, bool):                           # a setting, not a verdict (see :func:`cell`)
+        return "on" if value else "off"
     if isinstance(value, int):
         return str(value)
     if isinstance(value, float):
@@ -67,6 +68,53 @@ def fmt(value, spec: str | None = None) -> str:
     return str(value)
 
 
+def cell(value, column: str, spec: str | None = None) -> str:
+    """Format a cell of a difference or convergence table.
+
+    The ``passed`` column is a verdict (pass/FAIL); ``delta_pct`` is undefined
+    where the reference is zero over the window (a dash); other cells as :func:`fmt`.
+
+    Parameters
+    ----------
+    value : object
+        The cell.
+    column : str
+        Its column name.
+    spec : str, optional
+        A format spec for numbers.
+
+    Returns
+    -------
+    str
+    """
+    if isinstance(value, bool):
+        return "pass" if value else "FAIL"
+    if column == "delta_pct" and (value is None or value in ("nan", "inf", "-inf")
+                                  or (isinstance(value, float) and not math.isfinite(value))):
+        return "\u2013"
+    return fmt(value, spec)
+
+
+def incomplete_notice(run_dir: str | Path) -> str | None:
+    """What the pages say when the run folder has no completion marker (an interrupted or running run).
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        A run folder, or a case folder inside one (the marker is looked for there and above).
+
+    Returns
+    -------
+    str or None
+        The notice, or None when the run completed.
+    """
+    root = Path(run_dir).resolve()
+    if any((d / MARKER).is_file() for d in (root, *root.parents)):
+        return None
+    return (f"no completion marker {MARKER} in {root}: the run was interrupted (or is still running); "
+            f"cases may be missing or come from an earlier run")
+
+
 def _environment():
     import jinja2
 
@@ -74,6 +122,7 @@ def _environment():
                              autoescape=jinja2.select_autoescape(("html",)), undefined=jinja2.StrictUndefined,
                              keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True)
     env.filters["fmt"] = fmt
+    env.filters["cell"] = cell
     env.filters["header"] = lambda name: HEADERS.get(name, name)
     env.filters["verdict"] = lambda ok: "PASS" if ok else "FAIL"
     env.filters["tojson_pretty"] = lambda obj: json.dumps(obj, indent=2, sort_keys=False)
@@ -160,7 +209,8 @@ def render_documents(run_dir: str | Path, *, date: str | None = None, embed: boo
     date = date or render_date()
     manifest = _manifest(root)
     cases = _run_order(cases, manifest)
-    common = {"date": date, "manifest": manifest, "n_pass": sum(m["passed"] for _, m in cases), "n": len(cases)}
+    common = {"date": date, "manifest": manifest, "n_pass": sum(m["passed"] for _, m in cases), "n": len(cases),
+              "incomplete": incomplete_notice(root)}
     docs = {}
     index_views = [_case_view(root, f, m, root, False) for f, m in cases]
     docs[root / INDEX_PAGE] = env.get_template("index.html").render(cases=index_views, **common)
@@ -204,7 +254,7 @@ def single_document(run_dir: str | Path, *, date: str | None = None) -> str:
     views = [_case_view(root, f, m, root, False) for f, m in _run_order(cases, manifest)]
     return _environment().get_template("single.html").render(
         cases=views, date=date or render_date(), manifest=manifest,
-        n_pass=sum(m["passed"] for _, m in cases), n=len(cases), pdf=True)
+        n_pass=sum(m["passed"] for _, m in cases), n=len(cases), pdf=True, incomplete=incomplete_notice(root))
 
 
 def _remove_orphan_pages(root: Path) -> None:
@@ -233,7 +283,8 @@ def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool =
     Returns
     -------
     dict
-        ``"index"``, ``"pages"`` (list), and ``"single"``/``"pdf"`` when written -> Path.
+        ``"index"``, ``"pages"`` (list), and ``"single"``/``"pdf"`` when written -> Path;
+        ``"removed_pdf"`` when, without ``pdf``, an earlier (now stale) ``report.pdf`` was removed.
 
     Raises
     ------
@@ -253,4 +304,7 @@ def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool =
         from .pdf import write_pdf
 
         out["pdf"] = write_pdf(single_document(root, date=date), root, root / PDF_FILE)
+    elif (root / PDF_FILE).is_file():
+        (root / PDF_FILE).unlink()                        # an earlier rendering's PDF no longer matches the pages
+        out["removed_pdf"] = root / PDF_FILE
     return out

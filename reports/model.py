@@ -16,7 +16,8 @@ import json
 from pathlib import Path
 
 
-from harness.outdir import json_safe as _json_safe, replacing
+from gna.errors import InputError
+from harness.fileio import json_safe as _json_safe, replacing
 from planners.scenario import load_scenario
 
 from .report_figures import (CONTROLS_LIMITS_PNG, SIGNED_DIFFERENCES_PNG, control_limits,
@@ -28,6 +29,11 @@ SCHEMA = 1
 
 #: File name of a case's saved model.
 REPORT_JSON = "report.json"
+
+#: Keys a saved model must have (with their types) for the pages to render.
+MODEL_KEYS = {"schema": int, "title": str, "id": str, "loop": str, "engines": list, "passed": bool,
+              "settings": dict, "scenario": dict, "plan": dict, "runs": dict, "tables": dict, "figures": list,
+              "warnings": list, "provenance": dict}
 
 #: Figures a case page shows, in order: file name -> caption (those present in the case folder).
 FIGURES: dict[str, str] = {
@@ -42,7 +48,7 @@ FIGURES: dict[str, str] = {
 
 
 def json_safe(obj):
-    """A copy of ``obj`` for a report model: :func:`harness.outdir.json_safe` with NaN and infinities as text.
+    """A copy of ``obj`` for a report model: :func:`harness.fileio.json_safe` with NaN and infinities as text.
 
     Parameters
     ----------
@@ -220,11 +226,28 @@ def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:
     -------
     list of (Path, dict)
         Case folder relative to ``run_dir``, and its model.
+
+    Raises
+    ------
+    InputError
+        A ``report.json`` that cannot be read, is not JSON or lacks a key the
+        pages need (naming the file and the cause).
     """
     root = Path(run_dir)
     found = []
     for p in root.rglob(REPORT_JSON):
-        model = json.loads(p.read_text(encoding="utf-8"))
+        try:
+            model = json.loads(p.read_text(encoding="utf-8"))
+        except OSError as exc:
+            raise InputError(f"{p}: cannot read it: {exc.strerror or exc}") from None
+        except ValueError as exc:
+            raise InputError(f"{p}: not a gflat report model (invalid JSON: {exc})") from None
+        if not isinstance(model, dict):
+            raise InputError(f"{p}: not a gflat report model (a JSON {type(model).__name__}, not an object)")
+        bad = [k for k, t in MODEL_KEYS.items() if not isinstance(model.get(k), t)]
+        if bad:
+            raise InputError(f"{p}: not a gflat report model (missing or wrong type: {', '.join(bad)}); "
+                             f"render it again with gflat compare/paper")
         rel = p.parent.relative_to(root)
         found.append((rel, model))
     order = {"open": 0, "closed": 1}

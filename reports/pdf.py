@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from harness.outdir import replacing
+from harness.fileio import replacing
 
 
 def write_pdf(html: str, base_dir: str | Path, path: str | Path) -> Path:

@@ -25,6 +25,7 @@ from gna.perturbation import PERTURBATION_KEYS  # noqa: E402
 from gna.trim import TRIM_VARIABLES  # noqa: E402
 from planners.expressions import CONSTANTS, FUNCTIONS  # noqa: E402
 from planners.flat import FLAT_KINDS  # noqa: E402
+from planners.generalized import METHODS  # noqa: E402
 from planners.plan import PLAN_VARIABLES  # noqa: E402
 from planners.scenario import MAX_NODES, TRACKING_KEYS  # noqa: E402
 
@@ -239,7 +240,10 @@ def scenario_schema() -> dict:
                 conflicts=[("eta", "dn")], required=("x", "y", "z")),
             "generalized": _table("Generalized flatness", {
                 "J": {"type": "integer", "minimum": 0, "maximum": 30, "x-default": "0",
-                      "description": "Number of iterations J"}}),
+                      "description": "Number of iterations J"},
+                "method": {"type": "string", "enum": list(METHODS), "x-default": "fixed-point",
+                           "description": "The paper's J iterations, or Newton's method on their fixed point "
+                                          "(J is then the depth; docs/generalized.md)"}}),
             "constants": {"type": "object", "description": "Named numbers the expressions may use; a name may "
                           "not be t, a built-in constant (" + ", ".join(CONSTANTS) + ") or a function ("
                           + ", ".join(FUNCTIONS) + ")",

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 
 
 def finite_float(text: str) -> float:
@@ -31,3 +32,10 @@ def nonnegative_int(text: str) -> int:
     if v < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
     return v
+
+
+def out_path(text: str) -> Path:
+    """An ``--out`` folder or file: refused when empty (an empty name would silently mean the default)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; give a folder, or leave --out out for the default")
+    return Path(text)

@@ -62,6 +62,11 @@ def compare_overrides(args) -> dict:
     """The ValidationCase keywords the flags set (unset flags are left out)."""
     tol = {q: getattr(args, f"tol_{q}") for q in QUANTITIES if getattr(args, f"tol_{q}") is not None}
     rtol = {q: getattr(args, f"rtol_{q}") for q in QUANTITIES if getattr(args, f"rtol_{q}") is not None}
+    names = [name for name, _ in args.window or ()]
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise InputError(f"--window: each name once, {', '.join(map(repr, repeated))} given "
+                         f"{max(names.count(n) for n in repeated)} times")
     kw = {"tolerances": tol or None, "rtol": rtol or None, "dt_out": args.dt_out, "jsbsim_dt": args.jsbsim_dt,
           "self_convergence": args.self_convergence,
           "windows": dict(args.window) if args.window else None}

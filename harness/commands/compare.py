@@ -15,15 +15,17 @@ the flags, else the scenario's ``[compare]`` table, else the defaults.  With
 from __future__ import annotations
 
 import json
+import math
 
 from planners.scenario import list_scenarios, load_scenario
 from reports.case_files import write_case
 from reports.html import render_run
 
 from ..engines import engine_names, engines_from_names
-from ..outdir import OutputDir, json_safe
+from ..fileio import json_safe
+from ..outdir import OutputDir
 from ..validation import ValidationCase, case_settings, run_case
-from ._args import nonnegative_int
+from ._args import nonnegative_int, out_path
 from ._compare_args import add_compare_arguments, compare_overrides, default_out
 
 
@@ -39,11 +41,16 @@ def register(sub) -> None:
                    help=f"comma-separated engines, the first is the reference ({', '.join(engine_names())})")
     p.add_argument("--loop", choices=("open", "closed"), default="open",
                    help="open: the plan's controls alone; closed: with the tracking feedback (default open)")
-    p.add_argument("--out", default=None, metavar="DIR",
+    p.add_argument("--out", type=out_path, default=None, metavar="DIR",
                    help="output folder (default reports/out/<scenario>/open, or closed)")
     p.add_argument("--json", action="store_true", help="print one JSON object (the verdict) instead of the tables")
     add_compare_arguments(p)
     p.set_defaults(func=run)
+
+
+def error_text(value: float, t_end: float) -> str:
+    """A position error for the command output: metres, or why there is none (the run ended before the window)."""
+    return f"{value:.3e} m" if math.isfinite(value) else f"n/a (run ended at t = {t_end:g} s)"
 
 
 def run(args) -> int:
@@ -53,7 +60,7 @@ def run(args) -> int:
     case_settings(case, scenario)                    # settings and destination checked before planning
     out = OutputDir(args.out) if args.out else default_out(scenario.name, args.loop)
     result = run_case(case, scenario=scenario)
-    write_case(result, out, csv=args.csv)
+    write_case(result, out, csv=args.csv, command_line=getattr(args, "command_line", None))
     out.finish()
     report = render_run(out.root, pdf=False)          # the case page and an index of one
     verdict = result.verdict()
@@ -63,8 +70,9 @@ def run(args) -> int:
     print(result.report_text())
     if args.loop == "closed":
         for label, r in verdict["runs"].items():
+            after = error_text(r["max_position_error_after_5s_m"], result.runs[label].t_end)
             print(f"{label} against the flat outputs: max {r['max_position_error_m']:.3e} m, after 5 s "
-                  f"{r['max_position_error_after_5s_m']:.3e} m; controls saturated {r['saturated_s']:.2f} s")
+                  f"{after}; controls saturated {r['saturated_s']:.2f} s")
     print(f"figures, trajectories and tables written to {out.root}/, report {report['index']}")
     if not verdict["pass"]:
         print("gflat compare: the engines disagree beyond the tolerances (or a run ended early): FAIL")

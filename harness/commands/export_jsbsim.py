@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 from gna.aircraft import list_aircraft, load_aircraft
 from gna.errors import InputError
 from harness.engines.jsbsim import files as jf
 from harness.engines.jsbsim.export import aircraft_xml
 from harness.outdir import OutputDir
+
+from ._args import out_path
 
 
 def register(sub) -> None:
@@ -20,7 +21,7 @@ def register(sub) -> None:
     p.add_argument("aircraft", nargs="*", help="aircraft identifiers or TOML files (default with --all: every bundled "
                                                "aircraft)")
     p.add_argument("--all", action="store_true", help="export every bundled aircraft")
-    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+    p.add_argument("--out", type=out_path, default=None, metavar="DIR",
                    help="output folder (default: the repository's aircraft_xml/)")
     p.add_argument("--check", action="store_true",
                    help="write nothing; exit 1 if a file is missing or differs from a fresh export")

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 from gna.errors import InputError
 from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
 
 from ..engines.jsbsim.script import export_script
-from ._args import nonnegative_int, positive_float
+from ._args import nonnegative_int, out_path, positive_float
 
 
 def register(sub) -> None:
@@ -23,7 +22,7 @@ def register(sub) -> None:
                                    "package's FGFDMExec(DIR).load_script(...). Bundled scenarios: "
                                    + ", ".join(list_scenarios()))
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created)")
+    p.add_argument("--out", type=out_path, required=True, metavar="DIR", help="output folder (created)")
     p.add_argument("--J", type=nonnegative_int, default=None,
                    help="generalized-flatness iterations (default: the scenario's)")
     p.add_argument("--dt-out", type=positive_float, default=0.02, metavar="S",

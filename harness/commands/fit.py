@@ -23,7 +23,7 @@ import datetime
 import math
 from pathlib import Path
 
-from ._args import finite_float, nonnegative_int, positive_float
+from ._args import finite_float, nonnegative_int, out_path, positive_float
 
 
 def _surface_property(text: str) -> tuple[str, tuple[str, float | None]]:
@@ -109,7 +109,7 @@ def register(sub) -> None:
     r = sp.add_parser("regenerate", help="rebuild every bundled fitted aircraft file")
     r.add_argument("ids", nargs="*", help="subset (default: all)")
     r.add_argument("--check", action="store_true", help="only check that the committed files are current")
-    r.add_argument("--out", type=Path, help="output directory (default: the package's aircraft folder)")
+    r.add_argument("--out", type=out_path, help="output directory (default: the package's aircraft folder)")
     r.add_argument("--docs", type=Path, help="also rewrite (or check) the generated block of docs/fit_quality.md")
     p.set_defaults(func=run)
 
@@ -143,7 +143,7 @@ def _common(p) -> None:
     p.add_argument("--id", dest="ident", help="aircraft identifier (default: from the source)")
     p.add_argument("--name", help="aircraft name")
     p.add_argument("--structure", help="aircraft TOML file whose [aero] terms give the structure (default gna45)")
-    p.add_argument("--out", type=Path, help="output TOML file (default: <id>.toml)")
+    p.add_argument("--out", type=out_path, help="output TOML file (default: <id>.toml)")
     p.add_argument("--no-trim-check", action="store_true", help="skip the level-trim comparison")
 
 

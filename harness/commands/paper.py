@@ -26,7 +26,7 @@ from reports.html import render_run
 from ..artefacts import write_manifest, write_plan_iterates
 from ..outdir import OutputDir
 from ..validation import ValidationCase, case_settings, plan_case, run_case
-from ._args import nonnegative_int
+from ._args import nonnegative_int, out_path
 from ._compare_args import add_compare_arguments, compare_overrides
 from .plan import write_plan
 
@@ -37,7 +37,7 @@ ANGLE_STATES = ("gamma", "chi", "alpha", "beta", "mu")
 def register(sub) -> None:
     p = sub.add_parser("paper", help="plan the paper's three manoeuvres and fly them on both engines",
                        description=__doc__.split("\n\n")[1])
-    p.add_argument("--out", default=None, metavar="DIR", help="output folder (default reports/out/paper)")
+    p.add_argument("--out", type=out_path, default=None, metavar="DIR", help="output folder (default reports/out/paper)")
     p.add_argument("--J", type=nonnegative_int, default=None, help="iterations (default: each scenario's)")
     p.add_argument("--loop", choices=("open", "closed", "both"), default="both",
                    help="fly the plans open loop, closed loop with the tracking feedback, or both (default both)")
@@ -115,7 +115,7 @@ def run(args) -> int:
               f"{runs['jsbsim']['status']}, {runs['jsbsim']['max_position_error_m']:.2e} m; in-house vs JSBSim "
               f"{v['differences']['jsbsim']['max_position_m']:.2e} m")
         print(f"  four-curve figure: {out.path(name, 'closed', 'tracking.png')}")
-    write_manifest(out, results)
+    write_manifest(out, results, command_line=getattr(args, "command_line", None))
     out.finish()
     print(f"\nmanifest, plans, trajectories, figures and tables written to {out.root}/")
     failed = [c.scenario for c, ok in zip(cases, passed) if not ok]

@@ -11,9 +11,11 @@ import numpy as np
 
 from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
+from planners.systems.demos import DEMOS, run_demo
 
-from ..outdir import OutputDir, json_safe
-from ._args import nonnegative_int
+from ..fileio import json_safe
+from ..outdir import OutputDir
+from ._args import nonnegative_int, out_path
 from ._compare_args import default_out
 
 
@@ -30,11 +32,12 @@ def _cost_bound(text: str) -> float:
 def register(sub) -> None:
     p = sub.add_parser("plan", help="plan a manoeuvre (flatness + generalized flatness)",
                        description="Plan a scenario: flat parametrization on a grid of power series, then J "
-                                   "generalized-flatness iterations. Bundled scenarios: " + ", ".join(list_scenarios()))
+                                   "generalized-flatness iterations. Bundled scenarios: " + ", ".join(list_scenarios())
+                                   + "; chained-system demos: " + ", ".join(DEMOS))
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
     p.add_argument("--J", type=nonnegative_int, default=None, help="generalized-flatness iterations (default: the "
                                                                    "scenario's)")
-    p.add_argument("--out", default=None, metavar="DIR",
+    p.add_argument("--out", type=out_path, default=None, metavar="DIR",
                    help="output folder (default reports/out/<scenario>)")
     p.add_argument("--max-cost", type=_cost_bound, default=None, metavar="UNITS",
                    help="bound on the plan's cost, nodes x sum of squared orders (default 5e6, about 30 s; "
@@ -141,6 +144,14 @@ def write_plan(sc, plan, elapsed: float, out) -> str:
 
 
 def run(args) -> int:
+    if args.scenario in DEMOS:  # a chained system of planners.systems, not an aircraft scenario
+        out = OutputDir(Path(args.out)) if args.out else default_out(args.scenario)
+        demo = run_demo(args.scenario, J=args.J)
+        out.write_text("plan.csv", text=demo.csv)
+        out.write_json("summary.json", obj=demo.summary)
+        print(demo.text + f"\n  written to {out.root}/")
+        out.finish()
+        return 0
     sc = load_scenario(args.scenario, J=args.J)
     out = OutputDir(Path(args.out)) if args.out else default_out(sc.name)   # checked before planning
     t0 = time.perf_counter()

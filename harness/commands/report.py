@@ -10,11 +10,12 @@ flown again: the pages are the run's, byte for byte apart from the render date.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
 from gna.errors import InputError
-from reports.html import render_run
+from reports.html import incomplete_notice, render_run
 
 
 def register(sub) -> None:
@@ -34,7 +35,12 @@ def run(args) -> int:
         raise InputError(f"{root} is not a folder")
     t0 = time.perf_counter()
     out = render_run(root, self_contained=args.self_contained, pdf=args.pdf)
+    notice = incomplete_notice(root)
+    if notice:
+        print(f"gflat report: warning: incomplete run: {notice}", file=sys.stderr)
     print(f"report: {out['index']} ({len(out['pages'])} case page(s))")
+    if "removed_pdf" in out:
+        print(f"removed the stale {out['removed_pdf']} of an earlier rendering (--no-pdf)")
     for key in ("single", "pdf"):
         if key in out:
             print(f"{key}: {out[key]}")

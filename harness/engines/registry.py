@@ -65,6 +65,43 @@ def get_engine(engine) -> Engine:
     return engine
 
 
+def check_engine_names(names: str | Iterable[str], minimum: int = 1) -> tuple[str, ...]:
+    """The registry names of ``names``, checked: known, distinct, at least ``minimum`` (the CLI's ``--engines`` rule).
+
+    Parameters
+    ----------
+    names : str or iterable of str
+        A comma-separated text (``"inhouse,jsbsim"``) or a list of registry names.
+    minimum : int
+        Least number of engines required (2 for a comparison).
+
+    Returns
+    -------
+    tuple of str
+        The names, in the order given.
+
+    Raises
+    ------
+    InputError
+        Unknown or repeated names, or fewer than ``minimum``.
+    """
+    if not isinstance(names, str):
+        try:
+            names = list(names)
+        except TypeError:
+            raise InputError(f"engines: a list of names of {', '.join(ENGINES)} needed; got {names!r}") from None
+        if not all(isinstance(n, str) for n in names):
+            raise InputError(f"engines: names of {', '.join(ENGINES)} needed; got {names!r}")
+    text = names if isinstance(names, str) else ",".join(names)
+    items = [e.strip() for e in text.split(",") if e.strip()]
+    bad = [e for e in items if e not in ENGINES]
+    if bad or len(items) < minimum or len(set(items)) != len(items):
+        need = f"at least {minimum} distinct" if minimum > 1 else "distinct names"
+        raise InputError(f"engines: {need} of {', '.join(ENGINES)} needed; got {text!r}"
+                         + (f" (unknown: {', '.join(bad)})" if bad else ""))
+    return tuple(items)
+
+
 def engines_from_names(names: str | Iterable[str], minimum: int = 1) -> dict[str, Engine]:
     """Label -> engine for a comma-separated text or a list of registry names (the CLI's ``--engines``).
 
@@ -85,11 +122,4 @@ def engines_from_names(names: str | Iterable[str], minimum: int = 1) -> dict[str
     InputError
         Unknown or repeated names, or fewer than ``minimum``.
     """
-    text = names if isinstance(names, str) else ",".join(names)
-    items = [e.strip() for e in text.split(",") if e.strip()]
-    bad = [e for e in items if e not in ENGINES]
-    if bad or len(items) < minimum or len(set(items)) != len(items):
-        need = f"at least {minimum} distinct" if minimum > 1 else "distinct names"
-        raise InputError(f"engines: {need} of {', '.join(ENGINES)} needed; got {text!r}"
-                         + (f" (unknown: {', '.join(bad)})" if bad else ""))
-    return {n: get_engine(n) for n in items}
+    return {n: get_engine(n) for n in check_engine_names(names, minimum)}

@@ -164,20 +164,22 @@ class DifferenceTable:
         for r in self.rows:
             tol = f"{r.tolerance:10.1e}" if r.tolerance is not None else f"{'-':>10}"
             res = {True: "pass", False: "FAIL", None: ""}[r.passed]
+            delta = f"{r.delta_pct:10.3e}" if math.isfinite(r.delta_pct) else f"{'-':>10}"
             lines.append(f"  {r.variable:<9} {r.unit:<6} {r.max_abs:11.3e} {r.t_max:9.3f} {r.rms:10.3e} "
-                         f"{r.delta_pct:10.3e} {tol}  {res}")
+                         f"{delta} {tol}  {res}")
         for n in self.notes:
             lines.append(f"  note: {n}")
         fails = [r.variable for r in self.failures()]
         if self.passed and all(r.tolerance is None for r in self.rows):
             lines.append("  overall: - (no tolerances given: informative)")
-        if any(r.rtol for r in self.rows):
-            lines.append("  (tolerance = atol + rtol * max |reference| over the window; "
-                         "delta = 100 max|diff| / max|reference|)")
         elif self.passed:
             lines.append("  overall: PASS")
         else:
             lines.append("  overall: FAIL" + (f" ({', '.join(fails)})" if fails else " (coverage)"))
+        foot = "delta = 100 max|diff| / max|reference|, undefined (-) where max|reference| = 0"
+        if any(r.rtol for r in self.rows):
+            foot = "tolerance = atol + rtol * max |reference| over the window; " + foot
+        lines.append(f"  ({foot})")
         return "\n".join(lines)
 
     __str__ = format

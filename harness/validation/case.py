@@ -32,7 +32,7 @@ from typing import Any, Mapping
 
 from gna.errors import InputError
 
-from ..engines import engine_names
+from ..engines import check_engine_names
 from ..metrics import DEFAULT_WINDOWS
 from .tolerances import parse_compare, unknown_key
 
@@ -62,7 +62,7 @@ class ValidationCase:
     J : int or None
         Generalized-flatness iterations (``None``: the scenario's).
     engines : tuple of str
-        Engine names (:func:`engine_names`); the first is the reference.
+        At least two distinct engine names (:func:`harness.engines.engine_names`); the first is the reference.
     loop : {"open", "closed"}
         ``"open"``: the plan's controls alone.  ``"closed"``: with the paper's
         tracking feedback (the scenario's ``[tracking]`` settings,
@@ -105,13 +105,8 @@ class ValidationCase:
             raise InputError(f"scenario must be a name or a path, got {self.scenario!r}")
         if self.J is not None and (isinstance(self.J, bool) or not isinstance(self.J, int) or self.J < 0):
             raise InputError(f"J must be an integer >= 0 or None, got {self.J!r}")
-        engines = (self.engines,) if isinstance(self.engines, str) else tuple(self.engines)
-        bad = [e for e in engines if e not in engine_names()]
-        if not engines or bad:
-            raise InputError(f"engines must be names among {', '.join(engine_names())}; got {list(engines)}")
-        if len(set(engines)) != len(engines):
-            raise InputError(f"engines must be distinct, got {', '.join(engines)}")
-        set_(self, "engines", engines)
+        # a comparison: at least two distinct engines, the rule of gflat compare --engines
+        set_(self, "engines", check_engine_names(self.engines, minimum=2))
         if self.loop not in LOOPS:
             raise InputError(f"loop must be one of {', '.join(LOOPS)}, got {self.loop!r}")
         for name in ("tolerances", "rtol"):
@@ -124,6 +119,10 @@ class ValidationCase:
         if self.windows is not None:
             win = self.windows.items() if isinstance(self.windows, Mapping) else self.windows
             win = tuple((str(k), None if d is None else _positive(d, f"window {k!r}")) for k, d in win)
+            names = [k for k, _ in win]
+            repeated = sorted({k for k in names if names.count(k) > 1})
+            if repeated:
+                raise InputError(f"windows: each name once, {', '.join(map(repr, repeated))} repeated")
             if not win:
                 raise InputError("a case needs at least one comparison window")
             set_(self, "windows", win)

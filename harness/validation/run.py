@@ -18,7 +18,8 @@ import numpy as np
 
 from gna.errors import DomainError, InputError
 from planners.generalized import plan_scenario
-from planners.scenario import load_scenario
+from planners.plan import Plan
+from planners.scenario import Scenario, load_scenario
 
 from ..engines import fly, get_engine
 from ..metrics import DifferenceTable, difference_table, engine_tables, window_span
@@ -269,12 +270,19 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
     Raises
     ------
     InputError
-        Not a case, unknown scenario, or a plan whose J differs from the case's.
+        Not a case, unknown scenario, a plan or scenario of the wrong type, or a plan whose J differs
+        from the case's.
     DomainError
         The plan is not feasible (Newton failed): there is nothing to fly.
     """
     if not isinstance(case, ValidationCase):
         raise InputError(f"run_case needs a ValidationCase, got {type(case).__name__}")
+    if plan is not None and not isinstance(plan, Plan):
+        raise InputError(f"plan must be a planners.plan.Plan, got {type(plan).__name__} {plan!r:.60}; "
+                         f"planners.generalized.plan_scenario(scenario) makes one")
+    if scenario is not None and not isinstance(scenario, Scenario):
+        raise InputError(f"scenario must be a planners.scenario.Scenario, got {type(scenario).__name__} "
+                         f"{scenario!r:.60}; planners.scenario.load_scenario(name) makes one")
     planning_time = None
     if scenario is None:
         scenario = load_scenario(case.scenario, J=case.J)

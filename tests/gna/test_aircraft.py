@@ -71,3 +71,15 @@ def test_envelope_violations_named():
     assert v and "alpha" in v[0]
     assert a.envelope.violations(0.1, 0.0) == []
     assert dataclasses.replace(a, name="y").name == "y"
+
+
+def test_declared_structure_must_have_its_terms(tmp_path):
+    import tomllib
+    src = load_aircraft("f16c").path
+    data = tomllib.loads(open(src, encoding="utf-8").read())
+    data["aero"]["terms"] = [t for t in data["aero"]["terms"] if t.get("theta") not in (7, 30)]
+    assert data["aero"]["structure"] == "gna45"
+    with pytest.raises(InputError, match=r"structure = 'gna45' has 45 terms .* the file gives 43: missing theta 7, 30"):
+        aircraft_from_dict(data, where="f16c-44.toml")
+    data["aero"]["structure"] = "custom"                  # a custom structure may have any terms
+    assert len(aircraft_from_dict(data, where="custom.toml").aero) == 43

@@ -97,3 +97,14 @@ def test_out_of_envelope_refused(f16):
 def test_convergence_failure_message(f16):
     with pytest.raises(ConvergenceError, match=r"did not converge: residual .* after 3 Newton iterations"):
         trim(f16, {"V": 150.0, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0}, maxiter=3, tol=1e-30)
+
+
+@pytest.mark.parametrize("entry", [
+    lambda ac: trim_level(ac, 5000.0, altitude=3048.0),
+    lambda ac: level_alpha(ac, 5000.0),
+    lambda ac: coordinated_turn(ac, 3500.0, 0.01),
+    lambda ac: trim(ac, {"V": 0.5, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0}),
+])
+def test_trim_refuses_a_speed_outside_the_physical_domain(entry):
+    with pytest.raises(DomainError, match=r"V = .* m/s is outside the physical domain \[1, 3000\] m/s"):
+        entry(load_aircraft("f16c"))

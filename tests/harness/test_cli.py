@@ -8,6 +8,7 @@ import sys
 
 import pytest
 
+from gna.errors import InputError
 from harness.cli import main
 
 
@@ -78,6 +79,8 @@ def test_compare_command_prints_tables(tmp_path, capsys):
     engine_part = out.split("[inhouse against the plan")[0]
     assert engine_part.count("overall: PASS") == 2 and "FAIL" not in engine_part
     assert "no tolerances given" in out      # the tables against the plan are informative
+    plan_part = out.split("[inhouse against the plan")[1]
+    assert "overall: PASS" not in plan_part  # an informative table has no verdict line
     assert (tmp_path / "out" / "states.png").is_file()
     assert main(["compare", str(scen), "--engines", "inhouse"]) == 2
 
@@ -92,3 +95,46 @@ def test_compare_fails_when_engines_diverge(tmp_path, capsys):
     out = capsys.readouterr()
     assert rc in (1, 2), out.out[-2000:]
     assert "FAIL" in out.out or "not feasible" in out.err
+
+
+def test_position_error_of_a_run_that_ended_early_is_not_nan():
+    from harness.commands.compare import error_text
+    assert error_text(1.5e-3, 10.0) == "1.500e-03 m"
+    assert error_text(float("nan"), 3.25) == "n/a (run ended at t = 3.25 s)"
+
+
+@pytest.mark.parametrize("command", [["compare", "gtm-aileron-roll"], ["paper"], ["plan", "gtm-aileron-roll"],
+                                     ["export-jsbsim", "f16c"], ["export-jsbsim-script", "gtm-aileron-roll"],
+                                     ["fit", "regenerate"]])
+def test_an_empty_out_is_refused(command, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main([*command, "--out", ""])
+    assert exc.value.code == 2 and "--out: an empty path" in capsys.readouterr().err
+
+
+def test_a_repeated_window_name_is_refused(tmp_path, capsys):
+    assert main(["compare", "gtm-aileron-roll", "--window", "a=1", "--window", "a=2", "--out", str(tmp_path / "o")]) == 2
+    assert "--window: each name once, 'a' given 2 times" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+    from harness.validation import ValidationCase
+    with pytest.raises(InputError, match="windows: each name once, 'a' repeated"):
+        ValidationCase("x", windows=[("a", 1.0), ("a", 2.0)])
+
+
+def test_an_input_error_after_the_checks_leaves_no_output_folder(tmp_path, capsys):
+    scen = tmp_path / "high.toml"
+    scen.write_text('name = "high"\naircraft = "a7"\n[time]\nt0 = 0.0\nt1 = 4.0\nstep = 0.5\n'
+                    '[flat_outputs]\nx = "130*t"\ny = "0"\nz = "-1e6"\nzeta = "beta"\nzeta_value = "0"\n')
+    assert main(["plan", str(scen), "--out", str(tmp_path / "D")]) == 2
+    assert "outside the ISA model" in capsys.readouterr().err
+    assert not (tmp_path / "D").exists()
+
+
+def test_manifest_records_the_gflat_command_line(tmp_path):
+    """The manifest names the gflat command that made the run, also when main() is called in-process."""
+    import json
+
+    out = tmp_path / "c"
+    assert main(["compare", "gtm-aileron-roll", "--out", str(out)]) == 0
+    assert json.loads((out / "manifest.json").read_text())["command_line"] == [
+        "gflat", "compare", "gtm-aileron-roll", "--out", str(out)]

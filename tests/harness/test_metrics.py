@@ -144,3 +144,14 @@ def test_nesc_metric_and_relative_tolerance():
     assert v.tolerance == pytest.approx(0.011) and v.rtol == 1e-4 and v.atol == 0.0
     assert v.passed is True and "delta [%]" in tab.format()
     assert difference_table(a, b, tolerances={"V": 0.0}, rtol={"V": 0.9e-4}).row("V").passed is False
+
+
+def test_informative_table_has_one_overall_line_and_undefined_delta_is_a_dash():
+    t = np.linspace(0.0, 10.0, 101)
+    a = _traj(t, x=t, V=100.0 + 0 * t)
+    b = _traj(t, x=t + 1e-3, V=100.0 + 0 * t)
+    text = difference_table(a, b, labels=("plan", "run"), tolerances={}).format()
+    assert text.count("overall:") == 1 and "overall: - (no tolerances given: informative)" in text
+    assert "overall: PASS" not in text
+    y_line = next(line for line in text.splitlines() if line.split()[:1] == ["y"])   # max|y_ref| = 0
+    assert "nan" not in y_line and "undefined (-) where max|reference| = 0" in text

@@ -10,7 +10,8 @@ import sys
 import pytest
 
 from gna.errors import InputError
-from harness.outdir import MARKER, OutputDir, json_safe
+from harness.fileio import json_safe
+from harness.outdir import INCOMPLETE, MARKER, OutputDir
 
 
 def test_writes_are_recorded_and_marked(tmp_path):
@@ -37,7 +38,10 @@ def test_existing_file_as_out_is_refused(tmp_path):
 def test_missing_parent_is_refused_unless_parents(tmp_path):
     with pytest.raises(InputError, match="does not exist"):
         OutputDir(tmp_path / "no" / "such" / "dir")
-    assert OutputDir(tmp_path / "no" / "such" / "dir", parents=True).root.is_dir()
+    out = OutputDir(tmp_path / "no" / "such" / "dir", parents=True)
+    assert not out.root.exists()                           # made at the first file
+    out.write_text("x.txt", text="1")
+    assert out.root.is_dir()
 
 
 def test_parent_is_a_file(tmp_path):
@@ -73,6 +77,7 @@ def test_escapes_are_refused(tmp_path, parts):
 def test_symlink_out_of_the_folder_is_refused(tmp_path):
     out = OutputDir(tmp_path / "run")
     (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "run").mkdir()
     (tmp_path / "run" / "link").symlink_to(tmp_path / "elsewhere")
     with pytest.raises(InputError, match="leaves the output folder"):
         out.write_text("link", "x.txt", text="no")
@@ -95,6 +100,50 @@ def test_rerun_removes_stale_files_only(tmp_path):
     names = sorted(p.name for p in (tmp_path / "run").rglob("*"))
     assert names == sorted([MARKER, "plan_j0.csv", "mine.txt"])
     assert not (tmp_path / "run" / "sub").exists()
+
+
+def test_interrupted_rerun_then_smaller_run_leaves_no_stale_file(tmp_path):
+    run = tmp_path / "run"
+    first = OutputDir(run)                                 # a complete run: open and closed loop
+    for name in ("open/a.csv", "closed/b.csv", "closed/c.csv", "index.html"):
+        first.write_text(name, text="1")
+    first.finish()
+    (run / "mine.txt").write_text("user's own file")       # never listed: never deleted
+    second = OutputDir(run)                                # interrupted: writes, never finishes
+    second.write_text("open/a.csv", text="2")
+    second.write_text("open/new-name.csv", text="2")
+    assert not (run / MARKER).exists() and (run / INCOMPLETE).is_file()
+    third = OutputDir(run)                                 # a smaller complete run
+    third.write_text("open/a.csv", text="3")
+    third.write_text("index.html", text="3")
+    third.finish()
+    names = sorted(str(p.relative_to(run)) for p in run.rglob("*") if p.is_file())
+    assert names == sorted([MARKER, "index.html", "mine.txt", "open/a.csv"])
+    assert not (run / "closed").exists()
+    listed = [f["path"] for f in json.loads((run / MARKER).read_text())["files"]]
+    assert listed == ["open/a.csv", "index.html"]
+
+
+def test_marker_mode_follows_umask(tmp_path):
+    old = os.umask(0o022)
+    try:
+        out = OutputDir(tmp_path / "run")
+        out.write_text("a.txt", text="1")
+        marker = out.finish()
+    finally:
+        os.umask(old)
+    assert marker.stat().st_mode & 0o777 == 0o644 == (tmp_path / "run" / "a.txt").stat().st_mode & 0o777
+
+
+def test_missing_folder_is_made_at_the_first_file_only(tmp_path):
+    OutputDir(tmp_path / "run")                            # checked, nothing written: nothing left
+    OutputDir(tmp_path / "deep" / "er", parents=True).sub("plan")
+    assert list(tmp_path.iterdir()) == []
+    out = OutputDir(tmp_path / "deep" / "er", parents=True)
+    out.sub("plan").write_text("p.csv", text="1")
+    assert (tmp_path / "deep" / "er" / "plan" / "p.csv").is_file()
+    empty = OutputDir(tmp_path / "empty")
+    assert empty.finish().is_file()                         # a complete run of no file still gets its marker
 
 
 def test_no_clean_keeps_old_files(tmp_path):

@@ -82,3 +82,17 @@ def test_entry_point_declared():
     # When the installed metadata already carries it (pip install of this tree), it is the same.
     installed = [ep for ep in importlib.metadata.entry_points(group="pytest11") if ep.name == "gflat"]
     assert all(ep.value == "harness.pytest_plugin" for ep in installed)
+
+
+@pytest.mark.parametrize("extra, message", [
+    (', duration=1e6', "*duration = 1e+06 s is longer than the scenario's span of * s*"),
+    (', atol={"position": -1.0}', "*atol of position must be a non-negative number, got -1.0*"),
+    (', atol={"positon": 1.0}', "*atol given for positon: neither a group*"),
+])
+def test_bad_arguments_fail_before_flying_or_writing(pytester, run, extra, message):
+    pytester.makepyfile(test_user=USER_TEST.format(extra="").replace("duration=5.0", "duration=5.0" + extra)
+                        if "duration" not in extra else USER_TEST.format(extra="").replace("duration=5.0", extra[2:]))
+    res = run("--gflat-regen")
+    res.assert_outcomes(failed=1)
+    res.stdout.fnmatch_lines([message])
+    assert not (pytester.path / "gflat_golden").exists()

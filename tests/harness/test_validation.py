@@ -51,8 +51,12 @@ def test_case_defaults_normalisation_and_pickling():
 
 
 @pytest.mark.parametrize("kw, match", [
-    ({"engines": ("inhouse", "xplane")}, "engines must be names among"),
+    ({"engines": ("inhouse", "xplane")}, "unknown: xplane"),
     ({"engines": ("inhouse", "inhouse")}, "distinct"),
+    ({"engines": ("inhouse",)}, "engines: at least 2 distinct of .* needed; got 'inhouse'"),
+    ({"engines": "inhouse"}, "at least 2 distinct"),
+    ({"engines": ()}, "at least 2 distinct"),
+    ({"engines": (1, 2)}, "names of"),
     ({"loop": "half"}, "loop must be one of open, closed"),
     ({"J": -1}, "J must be an integer"),
     ({"dt_out": 0.0}, "dt_out must be a positive number"),

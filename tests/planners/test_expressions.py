@@ -43,3 +43,27 @@ def test_on_series_matches_taylor():
 def test_refused(bad, message):
     with pytest.raises(InputError, match=message):
         compile_expression(bad, where="flat_outputs x")
+
+
+def test_size_is_bounded_with_a_clear_message():
+    """Issue kind: a 20 000-term expression raised RecursionError."""
+    from planners.expressions import MAX_NODES, compile_expression
+    with pytest.raises(InputError, match="at most 4000"):
+        compile_expression("+".join(["t"] * 20000), where="[flat_outputs] y")
+    with pytest.raises(InputError, match="too large"):
+        compile_expression("+".join(["t"] * (MAX_NODES // 2 + 10)), where="[flat_outputs] y")
+    with pytest.raises(InputError, match="too large"):
+        compile_expression("-" * 300 + "t", where="[flat_outputs] y")          # nesting
+    assert compile_expression("+".join(["t"] * 100))(1.0) == 100.0
+
+
+def test_complex_values_are_refused():
+    """Issue kind: (-1)**0.5 silently dropped its imaginary part."""
+    from planners.expressions import compile_expression
+    with pytest.raises(InputError, match="not real"):
+        compile_expression("(-1)**0.5", where="[flat_outputs] y")
+    f = compile_expression("(t - 5)**0.5", where="[flat_outputs] y")
+    assert f(9.0) == 2.0
+    with pytest.raises(InputError, match=r"not real at t = 1 s"):
+        f(1.0)
+    assert compile_expression("(-2)**2 * t")(1.0) == 4.0

@@ -60,4 +60,4 @@ def test_json_safe_and_cell_format():
     assert json_safe({"a": (np.float64(1.5), float("nan"), np.int64(3), np.bool_(True), -math.inf)}) == \
         {"a": [1.5, "nan", 3, True, "-inf"]}
     assert [fmt(None), fmt(True), fmt(False), fmt(3), fmt(0.25), fmt(1.2344e-7), fmt("nan"), fmt(-1.9, ".8g")] == \
-        ["-", "pass", "FAIL", "3", "0.25", "1.234e-07", "nan", "-1.9"]
+        ["-", "on", "off", "3", "0.25", "1.234e-07", "nan", "-1.9"]

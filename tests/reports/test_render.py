@@ -7,7 +7,8 @@ import shutil
 from pathlib import Path
 
 from harness.cli import main
-from reports.html import render_documents, render_run
+from harness.outdir import MARKER
+from reports.html import cell, fmt, render_documents, render_run
 
 from .conftest import CASE_FOLDERS, DATE, SCENARIO
 
@@ -107,3 +108,37 @@ def test_a_case_folder_alone_renders_the_same_twice(report_run, tmp_path):
     for path, text in again.items():
         assert _undated(text.encode()) == _undated(path.read_bytes()), path.name
     assert 'href="index.html"' in (case / "case.html").read_text() and "report.html" not in (case / "case.html").read_text()
+
+
+def test_a_corrupt_or_misshapen_model_is_one_clear_error(report_run, tmp_path, capsys):
+    copy = tmp_path / "run"
+    shutil.copytree(report_run.root, copy)
+    model = copy / SCENARIO / CASE_FOLDERS["open"] / "report.json"
+    for text, cause in (("{broken", "invalid JSON"), ("{}", "missing or wrong type"), ("[1]", "not an object")):
+        model.write_text(text)
+        assert main(["report", str(copy), "--no-pdf"]) == 2
+        err = capsys.readouterr().err
+        assert str(model) in err and cause in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_an_incomplete_run_is_rendered_with_a_notice_and_a_stale_pdf_goes(report_run, tmp_path, capsys):
+    copy = tmp_path / "run"
+    shutil.copytree(report_run.root, copy)
+    assert main(["report", str(copy), "--no-pdf"]) == 0          # complete: no notice; the old PDF is stale
+    cap = capsys.readouterr()
+    assert "incomplete" not in cap.err and "removed the stale" in cap.out and not (copy / "report.pdf").exists()
+    assert "incomplete run" not in (copy / "index.html").read_text(encoding="utf-8")
+    (copy / MARKER).unlink()                                       # an interrupted run
+    assert main(["report", str(copy), "--no-pdf"]) == 0
+    assert "warning: incomplete run" in capsys.readouterr().err
+    for page in ("index.html", f"{SCENARIO}/{CASE_FOLDERS['open']}/case.html"):
+        assert "incomplete run: no completion marker" in (copy / page).read_text(encoding="utf-8"), page
+
+
+def test_settings_are_on_off_and_an_undefined_delta_is_a_dash(report_run):
+    assert (fmt(True), fmt(False), cell(True, "passed"), cell(False, "passed")) == ("on", "off", "pass", "FAIL")
+    assert cell("nan", "delta_pct") == cell(None, "delta_pct") == "\u2013" and cell(0.5, "delta_pct") == "0.5"
+    page = (report_run.root / SCENARIO / CASE_FOLDERS["open"] / "case.html").read_text(encoding="utf-8")
+    settings = page.split("Comparison settings")[1].split("Provenance")[0]
+    assert "FAIL" not in settings and "pass" not in settings
+    assert "undefined (&ndash;) where max |ref| = 0" in page

@@ -1,0 +1,160 @@
+"""A car towing two trailers hitched off-axle (the paper's conclusion; Rouchon, Fliess, Levine and
+Martin, "Flatness and motion planning: the car with n trailers", ECC 1993).
+
+Kinematics (no slip, planar): the car's rear-axle midpoint moves at speed ``v0`` with heading ``theta0``,
+``theta0' = v0 tan(phi) / l0`` (steering angle ``phi``, wheelbase ``l0``).  Trailer i is hitched at a
+distance ``d_i`` behind the axle of the vehicle ahead (``d_i = 0``: on-axle) and has its axle ``L_i``
+behind its hitch.  The hitch moves at ``v_(i-1) e_(i-1) - d_i theta_(i-1)' e_(i-1)^perp``, so with
+``c = cos(theta_(i-1) - theta_i)``, ``s = sin(theta_(i-1) - theta_i)``::
+
+    v_i = v_(i-1) c + d_i theta_(i-1)' s,      L_i theta_i' = v_(i-1) s - d_i theta_(i-1)' c.
+
+On-axle (``d_i = 0``) the system is flat with the last trailer's axle ``(x2, y2)`` as flat output;
+off-axle it is not (Rouchon et al. 1993).  The off-axle terms ``d_i theta_(i-1)'`` are the neglected
+terms H of an almost chained system (paper eq. chained-sys), with the heading rates as chained
+variables (as the lag's ``y'``):
+
+* stage 1: ``(x2', y2') = v2 (cos theta2, sin theta2)``                      -> ``v2, theta2``
+* stage 2: trailer-2 relations, ``H_2 = d2 w1^``                              -> ``v1, theta1``
+* stage 3: ``w1 = theta1'`` and the trailer-1 relations, ``H_3 = d1 w0^``     -> ``v0, theta0, w1``
+* stage 4: ``w0 = theta0'``, ``theta0' = v0 tan(phi) / l0``                   -> ``phi, w0``
+
+``l_2 = l_3 = 2``: L = 1.  Iterate 0 (``w^ = 0``) is the on-axle (flat) approximation; the
+generalized iterates correct it.  :func:`simulate_car_two_trailers` integrates the exact model.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..chained import ChainedSystem, Stage
+
+
+@dataclass(frozen=True)
+class CarTrailers:
+    """Geometry of the car with two trailers [m].
+
+    Attributes
+    ----------
+    l0 : float
+        Car wheelbase.
+    d1, L1 : float
+        Trailer 1: hitch offset behind the car's rear axle, hitch-to-axle length.
+    d2, L2 : float
+        Trailer 2: hitch offset behind trailer 1's axle, hitch-to-axle length.
+    """
+
+    l0: float = 2.7
+    d1: float = 0.8
+    L1: float = 3.0
+    d2: float = 0.6
+    L2: float = 3.0
+
+
+def car_two_trailers(geometry: CarTrailers = CarTrailers(), speed: float = 5.0) -> ChainedSystem:
+    """The car with two off-axle trailers as an almost chained system, flat output ``(x2, y2)``.
+
+    Parameters
+    ----------
+    geometry : CarTrailers
+        Lengths [m].
+    speed : float
+        Typical forward speed [m/s]: the Newton starting value of the speeds (headings start at 0).
+
+    Returns
+    -------
+    ChainedSystem
+        Four stages (see the module docstring); unknowns ``v2, theta2, v1, theta1, v0, theta0, w1, phi,
+        w0``.
+    """
+    g = geometry
+
+    def stage1(v):
+        return [v["x2'"] - v["v2"] * np.cos(v["theta2"]), v["y2'"] - v["v2"] * np.sin(v["theta2"])]
+
+    def stage2(v):
+        c, s = np.cos(v["theta1"] - v["theta2"]), np.sin(v["theta1"] - v["theta2"])
+        return [v["v2"] - v["v1"] * c - g.d2 * v["w1"] * s,
+                g.L2 * v["theta2'"] - v["v1"] * s + g.d2 * v["w1"] * c]
+
+    def stage3(v):
+        c, s = np.cos(v["theta0"] - v["theta1"]), np.sin(v["theta0"] - v["theta1"])
+        return [v["w1"] - v["theta1'"],
+                v["v1"] - v["v0"] * c - g.d1 * v["w0"] * s,
+                g.L1 * v["theta1'"] - v["v0"] * s + g.d1 * v["w0"] * c]
+
+    def stage4(v):
+        return [v["w0"] - v["theta0'"], g.l0 * v["theta0'"] - v["v0"] * np.tan(v["phi"])]
+
+    return ChainedSystem(
+        name="car-two-trailers",
+        flat_outputs={"x2": 1, "y2": 1},
+        stages=(Stage(("v2", "theta2"), stage1),
+                Stage(("v1", "theta1"), stage2, neglected=("w1",), ell=2),
+                Stage(("v0", "theta0", "w1"), stage3, neglected=("w0",), ell=2),
+                Stage(("phi", "w0"), stage4)),
+        guess={"v2": speed, "v1": speed, "v0": speed},
+        description=f"car with two trailers hitched off-axle (d1 = {g.d1:g} m, d2 = {g.d2:g} m); flat output "
+                    "(x2, y2) of the on-axle approximation",
+    )
+
+
+def car_trailers_rhs(geometry: CarTrailers, v0: float, phi: float, state) -> np.ndarray:
+    """Right-hand side of the exact (off-axle) kinematics.
+
+    Parameters
+    ----------
+    geometry : CarTrailers
+        Lengths [m].
+    v0 : float
+        Car speed [m/s].
+    phi : float
+        Steering angle [rad].
+    state : array, shape (5,)
+        ``(x2, y2, theta2, theta1, theta0)`` [m, m, rad, rad, rad].
+
+    Returns
+    -------
+    ndarray, shape (5,)
+        Time derivative of ``state``.
+    """
+    g = geometry
+    x2, y2, th2, th1, th0 = state
+    w0 = v0 * np.tan(phi) / g.l0
+    c, s = np.cos(th0 - th1), np.sin(th0 - th1)
+    v1 = v0 * c + g.d1 * w0 * s
+    w1 = (v0 * s - g.d1 * w0 * c) / g.L1
+    c, s = np.cos(th1 - th2), np.sin(th1 - th2)
+    v2 = v1 * c + g.d2 * w1 * s
+    w2 = (v1 * s - g.d2 * w1 * c) / g.L2
+    return np.array([v2 * np.cos(th2), v2 * np.sin(th2), w2, w1, w0])
+
+
+def simulate_car_two_trailers(geometry: CarTrailers, v0, phi, state0, t_eval) -> np.ndarray:
+    """Integrate the exact model open loop with given control functions (RK45, rtol 1e-10).
+
+    Parameters
+    ----------
+    geometry : CarTrailers
+        Lengths [m].
+    v0, phi : callable
+        Car speed [m/s] and steering angle [rad] as functions of t [s].
+    state0 : array, shape (5,)
+        Initial ``(x2, y2, theta2, theta1, theta0)``.
+    t_eval : array, shape (N,)
+        Output times [s], increasing, starting at the initial time.
+
+    Returns
+    -------
+    ndarray, shape (N, 5)
+        The states at ``t_eval``.
+    """
+    from scipy.integrate import solve_ivp
+
+    t_eval = np.asarray(t_eval, dtype=float)
+    sol = solve_ivp(lambda t, x: car_trailers_rhs(geometry, float(v0(t)), float(phi(t)), x),
+                    (t_eval[0], t_eval[-1]), np.asarray(state0, dtype=float), t_eval=t_eval, rtol=1e-10,
+                    atol=1e-10, method="RK45")
+    return sol.y.T
