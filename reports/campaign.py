@@ -52,6 +52,8 @@ def render_campaign(folder: str | Path, summary: dict, rows: list, *, pdf: bool 
     out = folder / "report"
     date = date or render_date()
     env = _environment()
+    pending = summary["counts"]["pending"]
+    incomplete = f"{pending} case(s) of the campaign not run yet" if pending else None
     by_id = {r["case_id"]: r for r in rows}
     listed = {w["case_id"]: key for key, g in summary["groups"].items() for w in g["worst"]}
     listed.update({cid: "failed" for cid in summary["failed"]})
@@ -60,7 +62,7 @@ def render_campaign(folder: str | Path, summary: dict, rows: list, *, pdf: bool 
         page = out / "cases" / f"{cid}.html"
         page.parent.mkdir(parents=True, exist_ok=True)
         html = env.get_template("campaign_case.html").render(c=by_id[cid], group=group, date=date,
-                                                             data_dir=f"../../cases/{cid}")
+                                                             data_dir=f"../../cases/{cid}", incomplete=incomplete)
         write_text_atomic(page, html)
         pages.append(page)
     groups = []
@@ -71,7 +73,7 @@ def render_campaign(folder: str | Path, summary: dict, rows: list, *, pdf: bool 
     n_done = summary["counts"]["done"]
     context = dict(name=camp.get("name", folder.name), seed=camp.get("seed"), description=summary.get("description", ""),
                    counts=summary["counts"], n_done=n_done, n_pass=sum(g["passed"] for g in groups), groups=groups,
-                   failed=summary["failed"], date=date, pdf=pdf,
+                   failed=summary["failed"], date=date, pdf=pdf, incomplete=incomplete,
                    figures=[{"src": f, "alt": alt} for f, alt in FIGURES if (out / f).exists()])
     index = out / "index.html"
     write_text_atomic(index, env.get_template("campaign.html").render(**context))
