@@ -254,7 +254,7 @@ def body_moments(aircraft: Aircraft, s: State, u: Controls, full: Coefficients, 
     M = qS * geo.cbar * full.Cm
     N = qS * geo.b * full.Cn
     d = geo.x_cg - geo.x_ref  # a parameter, not a state: no branching on values
-    if d != 0.0:
+    if np.any(d != 0.0):
         Fby = qS * full.CY
         Fbz = -qS * (np.sin(s.alpha) * full.CD + np.cos(s.alpha) * full.CL)
         # The reference sits at body x = d (x forward) from the CG: M_cg = M_ref + (d, 0, 0) x F.

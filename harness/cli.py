@@ -82,6 +82,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "export_jsbsim",
     "export_script",
     "fit",
+    "campaign",
 )
 
 

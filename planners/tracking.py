@@ -770,6 +770,60 @@ class TrackingController:
         _, _, out, rates = self._evaluate(t, x, xc)
         return out, rates
 
+    def output_and_derivative_many(self, t, X: np.ndarray, XC: np.ndarray, *, with_feedforward: bool = False):
+        """:meth:`output_and_derivative` for many aircraft at once (batched simulation).
+
+        The same arithmetic as :meth:`output_and_derivative`, one column per aircraft.
+
+        Parameters
+        ----------
+        t : float or ndarray, shape (n,)
+            Time [s], common or one per aircraft.
+        X : ndarray, shape (12, n)
+            Aircraft states, one column per aircraft.
+        XC : ndarray, shape (n_states, n)
+            Integrals, one column per aircraft.
+        with_feedforward : bool
+            Also return the feedforward ``u~`` (:meth:`controls`) at ``t``.
+
+        Returns
+        -------
+        (ndarray, ndarray[, ndarray]), shapes (5, n), (n_states, n)[, (5, n)]
+            Corrections ``sat(u~ + K [dx; I]) - u~``, integrands[, feedforward].
+        """
+        X = np.asarray(X, dtype=float)
+        XC = np.asarray(XC, dtype=float)
+        if np.ndim(t) == 0:
+            ref, gain = self._reference_and_gain(float(t))
+            ref = ref[:, None]
+            e = X[:12] - ref[:12]
+            e[_ANGLE_IDX] = (e[_ANGLE_IDX] + math.pi) % _TWO_PI - math.pi
+            du = gain[:, :12] @ e + gain[:, 12:] @ XC
+            c, s = math.cos(ref[_CHI, 0]), math.sin(ref[_CHI, 0])
+        else:
+            i, tau = self._locate_many(np.asarray(t, dtype=float))
+            ref = _horner(self.reference_poly[i], tau[:, None]).T                  # (17, n)
+            gain = _horner(self.gain_poly[i], tau[:, None, None])                 # (n, 5, 12 + n_states)
+            e = X[:12] - ref[:12]
+            e[_ANGLE_IDX] = (e[_ANGLE_IDX] + math.pi) % _TWO_PI - math.pi
+            du = (gain @ np.concatenate([e, XC]).T[:, :, None])[:, :, 0].T
+            c, s = np.cos(ref[_CHI]), np.sin(ref[_CHI])
+        u = ref[12:]
+        rows = [c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2]]
+        if self.zeta_index >= 0:
+            rows.append(e[self.zeta_index])
+        rates = np.array(rows)
+        if self.saturate:
+            total = u + du
+            held = (total < self.lower[:, None]) | (total > self.upper[:, None])
+            if self.anti_windup and held.any():
+                frozen = (self.windup_mask[:, :, None] & held[None, :, :]).any(axis=1)
+                rates[frozen] = 0.0
+            du = np.minimum(np.maximum(total, self.lower[:, None]), self.upper[:, None]) - u
+        if with_feedforward:
+            return du, rates, np.broadcast_to(u, du.shape)
+        return du, rates
+
     def saturated_time(self, df, controller_states=None) -> dict:
         """Time during which the commanded controls exceed their limits, per control.
 
@@ -814,6 +868,14 @@ class TrackingController:
         state = dict(self.__dict__)
         state.pop("_nl", None)
         return state
+
+
+def _horner(coeffs: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """``sum_k coeffs[..., k] tau^k`` by Horner's rule (``tau`` broadcast against ``coeffs[..., 0]``)."""
+    acc = coeffs[..., -1]
+    for k in range(coeffs.shape[-1] - 2, -1, -1):
+        acc = acc * tau + coeffs[..., k]
+    return acc
 
 
 def tracking_controller(plan: Plan, lambdas, *, feedforward_iterate: int = -1,

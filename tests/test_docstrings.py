@@ -70,6 +70,15 @@ MODULES = [
     "reports.html",
     "reports.pdf",
     "reports.report_figures",
+    "harness.campaign.spec",
+    "harness.campaign.sampling",
+    "harness.campaign.execute",
+    "harness.campaign.store",
+    "harness.campaign.runner",
+    "harness.campaign.batch",
+    "harness.campaign.integrators",
+    "harness.campaign.montecarlo",
+    "harness.campaign.report",
 ]
 
 

@@ -1,0 +1,160 @@
+"""One campaign sample, run as a pure function of its task (case, dispersion, seed).
+
+:func:`run_sample` plans the case's scenario on the nominal aircraft (cached
+per process: planning is deterministic), draws the sample
+(:func:`harness.campaign.sampling.draw_sample`), flies the dispersed aircraft
+from the offset initial state on every engine (closed loop: the scenario's
+tracking feedback about the nominal plan) and returns the metrics and the
+trajectories.  It writes nothing: the runner stores the outcome.  A
+``[tracking.perturbation]`` of the scenario is replaced by the campaign's
+dispersion.
+"""
+
+from __future__ import annotations
+
+import functools
+import io
+import math
+import time
+import traceback
+from dataclasses import replace
+
+import numpy as np
+
+from gna.errors import GflatError
+
+from ..engines import fly, get_engine
+from ..metrics import engine_tables, max_position_error
+from ..validation import case_settings, plan_case
+from ..validation.closed import closed_loop_setup, sampled_engines, saturated_seconds
+from ..validation.run import with_step
+from .sampling import dispersed_aircraft, draw_sample
+from .spec import SampleTask
+
+__all__ = ["run_sample", "frame_to_parquet", "SAMPLE_STATUSES"]
+
+#: Outcome of a sample: ``done`` (metrics recorded, whatever the runs did) or ``failed`` (an error).
+SAMPLE_STATUSES: tuple[str, ...] = ("done", "failed")
+
+
+def frame_to_parquet(df) -> bytes:
+    """A trajectory frame as Parquet bytes (the one place the campaign writes Parquet).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Indexed by ``t`` [s].
+
+    Returns
+    -------
+    bytes
+    """
+    buf = io.BytesIO()
+    df.to_parquet(buf, engine="pyarrow", index=True)
+    return buf.getvalue()
+
+
+@functools.lru_cache(maxsize=8)
+def _planned(case):
+    # Planning is deterministic: one plan per case and worker process.
+    return plan_case(case)
+
+
+def _finite_or_none(v: float):
+    return float(v) if math.isfinite(v) else None
+
+
+def _fly(task: SampleTask):
+    case = task.spec.case
+    planned = _planned(case)
+    plan, scenario = planned.plan, planned.scenario
+    draw = draw_sample(plan.aircraft, task.dispersion, task.seed)
+    span = (plan.t0, plan.t1)
+    settings = case_settings(case, scenario)     # as run_case: the case's > the scenario's [compare] > defaults
+    engines = {n: with_step(get_engine(n), settings.jsbsim_dt) for n in case.engines}
+    aircraft = dispersed_aircraft(plan.aircraft, draw)
+    if case.loop == "closed":
+        nominal = replace(scenario, tracking=replace(scenario.tracking, perturbation=None))
+        setup = closed_loop_setup(plan, nominal)
+        ctl, j = setup.controller, setup.feedforward_iterate
+        engines = sampled_engines(engines, scenario.tracking.controller_dt)
+        runs = fly(engines, aircraft, setup.x0 + draw.offsets, ctl.controls, span, env=plan.env, controller=ctl,
+                   dt_out=settings.dt_out)
+    else:
+        ctl, j = None, plan.J
+        runs = fly(engines, aircraft, np.asarray(plan.initial_state(j), dtype=float) + draw.offsets,
+                   plan.control_function(j), span, env=plan.env, dt_out=settings.dt_out)
+    return plan, draw, runs, ctl, j, planned.planning_time_s, settings
+
+
+def _metrics(plan, runs, ctl, j, settings) -> dict:
+    span = (plan.t0, plan.t1)
+    ref = lambda t: plan.state(t, j)  # noqa: E731 - the flat outputs tracked
+    out_runs = {}
+    for label, res in runs.items():
+        sat = saturated_seconds(ctl, res)["any"] if ctl is not None else 0.0
+        out_runs[label] = {"status": res.status, "t_end": float(res.t_end),
+                           "max_position_error_m": _finite_or_none(max_position_error(res, ref)),
+                           "max_position_error_after_5s_m": _finite_or_none(
+                               max_position_error(res, ref, (plan.t0 + 5.0, None))),
+                           "saturated_s": float(sat)}
+    diffs, passed = {}, True
+    if len(runs) > 1:
+        tables = engine_tables(runs, span, settings.tolerances, settings.windows, rtol=settings.rtol or None)
+        for label, per in tables.items():
+            tab = per.get("whole span") or next(iter(per.values()))
+            diffs[label] = {"max_position_m": _finite_or_none(tab.row("position").max_abs),
+                            "max_angle_rad": _finite_or_none(max(tab.row(v).max_abs for v in
+                                                                 ("gamma", "chi", "alpha", "beta", "mu"))),
+                            "pass": bool(all(t.passed for t in per.values())),
+                            "failing": sorted({f"{r.variable} ({w})" for w, t in per.items() for r in t.failures()})}
+            passed = passed and diffs[label]["pass"]
+    ok = passed and all(r.status == "completed" for r in runs.values())
+    return {"runs": out_runs, "differences": diffs, "pass": bool(ok)}
+
+
+def run_sample(task: SampleTask) -> dict:
+    """Run one sample: draw, fly every engine, measure.
+
+    Parameters
+    ----------
+    task : SampleTask
+        The case, dispersion set, sample index and seed.
+
+    Returns
+    -------
+    dict
+        ``case_id``, ``status`` (``done`` or ``failed``), ``metrics`` (``runs``:
+        engine -> status, ``t_end`` [s], ``max_position_error_m``,
+        ``max_position_error_after_5s_m`` [m] (None when not finite),
+        ``saturated_s`` [s]; ``differences``: engine -> ``max_position_m``,
+        ``max_angle_rad``, ``pass``, ``failing`` (variables beyond their
+        tolerance, with the window); ``pass``), ``draw`` (the dispersed
+        parameters by name), ``error`` (message of a failed sample),
+        ``timings`` (``plan_s``, ``fly_s``, ``total_s``) and ``files``
+        (file name -> bytes: ``<engine>.parquet`` trajectories).  Runs that
+        leave the flight domain are data (``done``, ``pass`` false); only an
+        error raised while planning or flying makes a sample ``failed``.
+    """
+    t_start = time.perf_counter()
+    out = {"case_id": task.case_id, "status": "failed", "metrics": None, "draw": None, "error": None,
+           "timings": {}, "files": {}}
+    try:
+        plan, draw, runs, ctl, j, plan_s, settings = _fly(task)
+        t_fly = time.perf_counter()
+        out["metrics"] = _metrics(plan, runs, ctl, j, settings)
+        out["draw"] = draw.parameters()
+        if task.trajectories:
+            for label, res in runs.items():
+                df = res.df
+                if res.controller_states is not None:
+                    df = df.join(res.controller_states)
+                out["files"][f"{label}.parquet"] = frame_to_parquet(df)
+        out["status"] = "done"
+        out["timings"] = {"plan_s": plan_s, "fly_s": t_fly - t_start}
+    except GflatError as exc:
+        out["error"] = f"{type(exc).__name__}: {exc}"
+    except Exception as exc:  # a bug, kept with its traceback in the store
+        out["error"] = f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=8)}"
+    out["timings"]["total_s"] = time.perf_counter() - t_start
+    return out

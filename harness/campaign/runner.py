@@ -1,0 +1,280 @@
+"""Running a campaign: pending cases mapped over a process pool or a Dask cluster, each committed as it ends.
+
+Backends: in this process (``workers=1``), a local
+:class:`concurrent.futures.ProcessPoolExecutor` (default, ``workers`` processes),
+or Dask distributed (``dask="tcp://host:port"`` for a running scheduler,
+``dask="local:N"`` for a :class:`distributed.LocalCluster` of N one-thread
+worker processes).  Every case is a pure function of its task
+(:func:`harness.campaign.execute.run_sample`), so the metrics are bit-for-bit
+the same whatever the backend and number of workers.  Only this process
+writes the store.  A worker that dies mid-case: the pool is restarted (the
+Dask scheduler reruns the case elsewhere) and the case computed again; the
+runner itself killed: the cases committed stay done, the rest pending, and
+the same command resumes.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+
+from gna.errors import InputError
+
+from ..validation import provenance
+from .execute import run_sample
+from .spec import Campaign, load_campaign
+from .store import CampaignStore
+
+__all__ = ["run_campaign", "rerun_case", "parse_dask"]
+
+#: Times a broken process pool is restarted before the remaining cases are left pending.
+MAX_POOL_RESTARTS = 3
+
+
+def parse_dask(spec: str | None):
+    """Interpret ``--dask``: None, ``("local", n)`` or ``("address", address)``.
+
+    Parameters
+    ----------
+    spec : str or None
+        ``local:N`` or a scheduler address.
+
+    Returns
+    -------
+    tuple or None
+
+    Raises
+    ------
+    InputError
+        ``local:`` without a positive worker count.
+    """
+    if spec is None:
+        return None
+    if spec.startswith("local"):
+        _, _, n = spec.partition(":")
+        if not n.isdigit() or int(n) < 1:
+            raise InputError(f"--dask local:N needs a positive number of workers, got {spec!r}")
+        return ("local", int(n))
+    return ("address", spec)
+
+
+def _progress(total: int, quiet: bool, label: str):
+    if quiet or total == 0:
+        return None
+    from tqdm import tqdm
+    return tqdm(total=total, desc=label, unit="case", file=sys.stderr, dynamic_ncols=True,
+                mininterval=0.5, smoothing=0.1)
+
+
+def _local_pool(tasks, workers: int, commit):
+    """Run tasks in a process pool, restarting it when a worker dies."""
+    remaining = {t.case_id: t for t in tasks}
+    for attempt in range(MAX_POOL_RESTARTS + 1):
+        if not remaining:
+            return []
+        try:
+            with ProcessPoolExecutor(max_workers=workers) as pool:
+                futures = [pool.submit(run_sample, t) for t in remaining.values()]
+                for fut in as_completed(futures):
+                    outcome = fut.result()
+                    commit(outcome)
+                    remaining.pop(outcome["case_id"], None)
+        except BrokenProcessPool:
+            print(f"gflat campaign: a worker process died; restarting the pool for the {len(remaining)} cases left "
+                  f"(attempt {attempt + 1} of {MAX_POOL_RESTARTS})", file=sys.stderr)
+    return list(remaining)
+
+
+def _dask(tasks, where, commit):
+    """Run tasks on a Dask cluster (a running scheduler, or a LocalCluster started here)."""
+    try:
+        from distributed import Client, LocalCluster, as_completed as dask_completed
+    except ImportError:
+        raise InputError("--dask needs Dask distributed: pip install 'gflat[campaign]'") from None
+    import logging
+    kind, arg = where
+    # Dask's loggers carry their own INFO level: at most gflat's level (-v/-q) while the campaign runs.
+    dlog = logging.getLogger("distributed")
+    saved = dlog.level
+    dlog.setLevel(max(logging.WARNING, logging.getLogger().level))
+    cluster = None
+    if kind == "local":
+        cluster = LocalCluster(n_workers=arg, threads_per_worker=1, processes=True, dashboard_address=None,
+                               silence_logs=logging.ERROR)
+        client = Client(cluster)
+    else:
+        client = Client(arg, timeout="20s")
+    left = []
+    try:
+        futures = {client.submit(run_sample, t, key=f"gflat-{t.case_id}", pure=False): t for t in tasks}
+        for fut in dask_completed(list(futures)):
+            try:
+                outcome = fut.result()
+            except Exception as exc:  # KilledWorker: the scheduler gave up on this case
+                t = futures[fut]
+                outcome = {"case_id": t.case_id, "status": "failed", "metrics": None, "draw": None,
+                           "error": f"{type(exc).__name__}: {exc}", "timings": {}, "files": {}}
+            commit(outcome)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+        dlog.setLevel(saved)
+    return left
+
+
+def run_campaign(campaign: Campaign | str | Path, out: str | Path, *, samples: int | None = None,
+                 workers: int | None = None, dask: str | None = None, retry_failed: bool = False,
+                 quiet: bool = False, only=None) -> dict:
+    """Run (or resume) a campaign into a folder.
+
+    Parameters
+    ----------
+    campaign : Campaign, str or Path
+        A campaign, a bundled campaign name or a campaign file.
+    out : str or Path
+        The campaign folder (created; an existing one of the same campaign is resumed).
+    samples : int, optional
+        Samples per case and dispersion set; default the campaign's.  A larger
+        count on a rerun adds cases; sample k is the same whatever the count.
+    workers : int, optional
+        Local worker processes (default the number of CPUs; 1 runs in this process).
+    dask : str, optional
+        ``local:N`` or a Dask scheduler address (then ``workers`` is not used).
+    retry_failed : bool
+        Run the failed cases again (by default only the pending ones run).
+    quiet : bool
+        No progress bar or note.
+    only : iterable of str, optional
+        Run only these case ids (pending or failed; see :func:`rerun_case` for a done one).
+
+    Returns
+    -------
+    dict
+        ``cases``, ``done``, ``failed``, ``pending`` (counts after the run),
+        ``computed`` (cases run now), ``skipped`` (already done or failed),
+        ``elapsed_s``, ``folder``.
+
+    Raises
+    ------
+    InputError
+        Unknown campaign, bad settings, or a folder holding another campaign.
+    """
+    camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
+    where = parse_dask(dask)
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise InputError(f"--workers must be a positive integer, got {workers!r}")
+    tasks = camp.tasks(samples)
+    store = CampaignStore(out)
+    try:
+        meta = store.meta()
+        ident = {"name": camp.name, "seed": camp.seed}
+        if meta.get("campaign") and meta["campaign"] != ident:
+            raise InputError(f"{out} holds campaign {meta['campaign']['name']!r} (seed {meta['campaign']['seed']}), "
+                             f"not {camp.name!r} (seed {camp.seed}): use another folder")
+        store.set_meta(campaign=ident, definition=camp.raw, source=camp.source)
+        store.add_cases(tasks)
+        store.clean_stale()
+        status = store.statuses()
+        wanted = {t.case_id for t in tasks}
+        if only is not None:
+            only = set(only)
+            unknown = sorted(only - wanted)
+            if unknown:
+                raise InputError(f"no case {unknown[0]!r} in campaign {camp.name!r} with these samples")
+            tasks = [t for t in tasks if t.case_id in only]
+            wanted = only
+        todo = [t for t in tasks
+                if status[t.case_id] == "pending" or ((retry_failed or only) and status[t.case_id] == "failed")]
+        skipped = len(wanted) - len(todo)
+        if not quiet:
+            print(f"campaign {camp.name}: {len(wanted)} cases, {skipped} already recorded, {len(todo)} to run"
+                  + (" - nothing to compute" if not todo else ""), file=sys.stderr)
+        versions = provenance()
+        versions.pop("date_utc", None)
+        bar = _progress(len(todo), quiet, camp.name)
+        tally = {"done": 0, "failed": 0}
+        t0 = time.perf_counter()
+
+        def commit(outcome):
+            store.commit(outcome, versions)
+            tally[outcome["status"]] += 1
+            if bar is not None:
+                bar.set_postfix(done=tally["done"], failed=tally["failed"], refresh=False)
+                bar.update(1)
+
+        try:
+            if not todo:
+                pass
+            elif where is not None:
+                _dask(todo, where, commit)
+            elif (workers or os.cpu_count() or 1) == 1:
+                for t in todo:
+                    commit(run_sample(t))
+            else:
+                _local_pool(todo, workers or os.cpu_count() or 1, commit)
+        finally:
+            if bar is not None:
+                bar.close()
+        counts = store.counts()
+        return {**counts, "computed": tally["done"] + tally["failed"], "skipped": skipped,
+                "elapsed_s": time.perf_counter() - t0, "folder": str(out)}
+    finally:
+        store.close()
+
+
+def rerun_case(out: str | Path, case_id: str, campaign: Campaign | str | Path | None = None) -> dict:
+    """Compute one stored case again, alone, without touching the store.
+
+    Parameters
+    ----------
+    out : str or Path
+        The campaign folder.
+    case_id : str
+        A case of the folder.
+    campaign : Campaign, str or Path, optional
+        The campaign; default the one recorded in the folder (its stored definition).
+
+    Returns
+    -------
+    dict
+        The outcome (:func:`harness.campaign.execute.run_sample`) plus
+        ``same_as_stored``: True when the stored metrics are identical (None
+        when the case has no stored metrics).
+
+    Raises
+    ------
+    InputError
+        Not a campaign folder, or an unknown case id.
+    """
+    from .spec import campaign_from_dict
+    if not (Path(out) / "campaign.sqlite").is_file():
+        raise InputError(f"{out} is not a campaign folder (no campaign.sqlite)")
+    store = CampaignStore(out)
+    try:
+        meta = store.meta()
+        rows = {r["case_id"]: r for r in store.rows()}
+    finally:
+        store.close()
+    if case_id not in rows:
+        raise InputError(f"no case {case_id!r} in {out}")
+    if campaign is None:
+        src = meta.get("source", "")
+        base = Path(src).parent if src.endswith(".toml") and Path(src).is_absolute() else None
+        camp = campaign_from_dict(meta["definition"], where=src or "campaign", base=base)
+    else:
+        camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
+    row = rows[case_id]
+    task = next((t for t in camp.tasks(row["sample"] + 1) if t.case_id == case_id), None)
+    if task is None:
+        raise InputError(f"case {case_id!r} is not part of campaign {camp.name!r}")
+    outcome = run_sample(task)
+    stored = row["metrics"]
+    outcome["same_as_stored"] = (None if stored is None else
+                                 json.dumps(stored, sort_keys=True) == json.dumps(outcome["metrics"], sort_keys=True))
+    return outcome

@@ -1,0 +1,279 @@
+"""The campaign folder: an SQLite index of every case, and each case's files under ``cases/<case_id>/``.
+
+Layout of ``DIR``::
+
+    campaign.sqlite       # WAL journal; tables ``campaign`` (key, value) and ``cases``
+    cases/<case_id>/      # the case's trajectories (<engine>.parquet), complete or absent
+    report/               # gflat campaign report
+
+A case is committed in three steps: its files are written to a temporary
+folder ``cases/.tmp-<case_id>-<pid>`` (each file flushed to disk), the folder
+is renamed to ``cases/<case_id>``, then one transaction marks the case done
+with its metrics.  A crash before the transaction leaves the case pending (the
+folder, if any, is replaced when the case is run again); the database never
+says ``done`` for a case whose files are incomplete.  One process writes: the
+runner.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sqlite3
+import time
+from pathlib import Path
+
+from gna.errors import InputError
+
+__all__ = ["CampaignStore", "STATUSES", "DB_NAME"]
+
+#: Statuses of a case in the store.
+STATUSES: tuple[str, ...] = ("pending", "done", "failed")
+#: File name of the index.
+DB_NAME = "campaign.sqlite"
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS campaign (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS cases (
+    case_id TEXT PRIMARY KEY,
+    ordinal INTEGER NOT NULL,
+    label TEXT NOT NULL,
+    dispersion TEXT NOT NULL,
+    sample INTEGER NOT NULL,
+    seed INTEGER NOT NULL,
+    params TEXT NOT NULL,
+    status TEXT NOT NULL DEFAULT 'pending' CHECK (status IN ('pending', 'done', 'failed')),
+    pass INTEGER,
+    metrics TEXT,
+    draw TEXT,
+    error TEXT,
+    timings TEXT,
+    files TEXT,
+    versions TEXT,
+    attempts INTEGER NOT NULL DEFAULT 0,
+    finished_utc TEXT
+);
+CREATE INDEX IF NOT EXISTS cases_status ON cases (status);
+"""
+
+
+def _dumps(obj) -> str:
+    return json.dumps(obj, sort_keys=True, allow_nan=True)
+
+
+class CampaignStore:
+    """The SQLite index and case folders of one campaign folder.
+
+    Parameters
+    ----------
+    root : str or Path
+        The campaign folder (created when missing, with its parents).
+
+    Raises
+    ------
+    InputError
+        ``root`` is a file, or the database cannot be opened.
+    """
+
+    def __init__(self, root: str | Path):
+        self.root = Path(root)
+        if self.root.exists() and not self.root.is_dir():
+            raise InputError(f"campaign folder {self.root} is a file")
+        (self.root / "cases").mkdir(parents=True, exist_ok=True)
+        try:
+            self.db = sqlite3.connect(self.root / DB_NAME, timeout=30.0, isolation_level=None)
+            self.db.execute("PRAGMA journal_mode=WAL")
+            self.db.execute("PRAGMA synchronous=FULL")
+            self.db.executescript(_SCHEMA)
+        except sqlite3.DatabaseError as exc:
+            raise InputError(f"cannot open the campaign index {self.root / DB_NAME}: {exc}") from None
+
+    # ------------------------------------------------------------------ campaign-level
+
+    def meta(self) -> dict:
+        """The ``campaign`` table as a dict (values JSON-decoded).
+
+        Returns
+        -------
+        dict
+        """
+        return {k: json.loads(v) for k, v in self.db.execute("SELECT key, value FROM campaign")}
+
+    def set_meta(self, **values) -> None:
+        """Store campaign-level values (JSON-encoded).
+
+        Parameters
+        ----------
+        **values
+            Key -> JSON-able value.
+        """
+        with self.db:
+            self.db.execute("BEGIN IMMEDIATE")
+            self.db.executemany("INSERT OR REPLACE INTO campaign (key, value) VALUES (?, ?)",
+                                [(k, _dumps(v)) for k, v in values.items()])
+
+    def add_cases(self, tasks) -> int:
+        """Register tasks as pending cases (those already present are left untouched).
+
+        Parameters
+        ----------
+        tasks : iterable of SampleTask
+            In campaign order.
+
+        Returns
+        -------
+        int
+            Number of cases added.
+
+        Raises
+        ------
+        InputError
+            A case already stored with other parameters (another campaign in this folder).
+        """
+        known = {cid: p for cid, p in self.db.execute("SELECT case_id, params FROM cases")}
+        rows, n0 = [], len(known)
+        for i, t in enumerate(tasks):
+            params = _dumps(t.parameters())
+            if t.case_id in known:
+                if known[t.case_id] != params:
+                    raise InputError(f"{self.root}: case {t.case_id} is stored with other parameters (another "
+                                     f"campaign or other settings): use a new folder")
+                continue
+            rows.append((t.case_id, n0 + i, t.spec.label, t.dispersion.name, t.sample, t.seed, params))
+        with self.db:
+            self.db.execute("BEGIN IMMEDIATE")
+            self.db.executemany("INSERT INTO cases (case_id, ordinal, label, dispersion, sample, seed, params) "
+                                "VALUES (?, ?, ?, ?, ?, ?, ?)", rows)
+        return len(rows)
+
+    def statuses(self) -> dict:
+        """Case id -> status.
+
+        Returns
+        -------
+        dict
+        """
+        return dict(self.db.execute("SELECT case_id, status FROM cases ORDER BY ordinal"))
+
+    def counts(self) -> dict:
+        """Number of cases per status.
+
+        Returns
+        -------
+        dict
+            ``cases``, ``done``, ``failed``, ``pending``.
+        """
+        c = dict(self.db.execute("SELECT status, COUNT(*) FROM cases GROUP BY status"))
+        out = {s: int(c.get(s, 0)) for s in STATUSES}
+        return {"cases": sum(out.values()), "done": out["done"], "failed": out["failed"], "pending": out["pending"]}
+
+    def rows(self, status: str | None = None) -> list[dict]:
+        """The stored cases as dicts (JSON columns decoded), in campaign order.
+
+        Parameters
+        ----------
+        status : str, optional
+            Only the cases with this status.
+
+        Returns
+        -------
+        list of dict
+        """
+        q = "SELECT * FROM cases" + (" WHERE status = ?" if status else "") + " ORDER BY ordinal"
+        cur = self.db.execute(q, (status,) if status else ())
+        names = [d[0] for d in cur.description]
+        out = []
+        for r in cur:
+            row = dict(zip(names, r))
+            for k in ("params", "metrics", "draw", "timings", "files", "versions"):
+                row[k] = json.loads(row[k]) if row[k] is not None else None
+            out.append(row)
+        return out
+
+    # ------------------------------------------------------------------ one case
+
+    def case_dir(self, case_id: str) -> Path:
+        """Folder of a case's files.
+
+        Parameters
+        ----------
+        case_id : str
+
+        Returns
+        -------
+        Path
+        """
+        return self.root / "cases" / case_id
+
+    def clean_stale(self) -> list[Path]:
+        """Remove temporary folders and the folders of cases not recorded as done (an interrupted commit).
+
+        Returns
+        -------
+        list of Path
+            The folders removed.
+        """
+        done = {cid for cid, s in self.statuses().items() if s == "done"}
+        removed = []
+        for p in (self.root / "cases").iterdir():
+            if p.name.startswith(".tmp-") or (p.is_dir() and p.name not in done):
+                shutil.rmtree(p, ignore_errors=True)
+                removed.append(p)
+        return removed
+
+    def commit(self, outcome: dict, versions: dict) -> None:
+        """Record a sample's outcome: its files first (temp folder, rename), then one transaction.
+
+        Parameters
+        ----------
+        outcome : dict
+            From :func:`harness.campaign.execute.run_sample`.
+        versions : dict
+            Versions the case was computed with (:func:`harness.validation.provenance`).
+        """
+        cid = outcome["case_id"]
+        files = outcome.get("files") or {}
+        names = sorted(files)
+        if outcome["status"] == "done" and files:
+            tmp = self.root / "cases" / f".tmp-{cid}-{os.getpid()}"
+            shutil.rmtree(tmp, ignore_errors=True)
+            tmp.mkdir()
+            for name in names:
+                with open(tmp / name, "wb") as fh:
+                    fh.write(files[name])
+                    fh.flush()
+                    os.fsync(fh.fileno())
+            final = self.case_dir(cid)
+            if final.exists():
+                shutil.rmtree(final)
+            os.rename(tmp, final)
+            fd = os.open(final.parent, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        m = outcome.get("metrics")
+        with self.db:
+            self.db.execute("BEGIN IMMEDIATE")
+            self.db.execute(
+                "UPDATE cases SET status = ?, pass = ?, metrics = ?, draw = ?, error = ?, timings = ?, files = ?, "
+                "versions = ?, attempts = attempts + 1, finished_utc = ? WHERE case_id = ?",
+                (outcome["status"], None if m is None else int(bool(m["pass"])),
+                 None if m is None else _dumps(m), None if outcome.get("draw") is None else _dumps(outcome["draw"]),
+                 outcome.get("error"), _dumps(outcome.get("timings", {})), _dumps(names), _dumps(versions),
+                 time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), cid))
+
+    def integrity(self) -> str:
+        """``PRAGMA integrity_check`` of the index.
+
+        Returns
+        -------
+        str
+            ``"ok"`` for a sound database.
+        """
+        return self.db.execute("PRAGMA integrity_check").fetchone()[0]
+
+    def close(self) -> None:
+        """Close the database."""
+        self.db.close()

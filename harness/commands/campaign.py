@@ -1,0 +1,118 @@
+"""``gflat campaign run|status|report``: validation campaigns (Monte Carlo over dispersed aircraft).
+
+``gflat campaign run NAME_OR_FILE --out DIR [--samples N] [--workers N] [--dask ADDRESS|local:N]
+[--retry-failed] [--only CASE_ID] [-q/--quiet]`` runs or resumes a campaign (done cases are skipped, failed
+ones rerun only with ``--retry-failed``); ``gflat campaign status DIR [--json]`` counts the cases;
+``gflat campaign report DIR`` writes the campaign report (summary.json, figures, index.html, a page per
+worst or failed case, report.pdf) into ``DIR/report``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from gna.errors import InputError
+
+
+def _positive_int(text: str) -> int:
+    import argparse
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
+    return v
+
+
+def register(sub) -> None:
+    p = sub.add_parser("campaign", help="validation campaigns: many cases over dispersed aircraft",
+                       description="Run, inspect and report validation campaigns (a product of validation cases "
+                                   "and aircraft dispersions, stored in an SQLite-indexed folder).")
+    csub = p.add_subparsers(dest="campaign_command", metavar="ACTION")
+    csub.required = True
+    r = csub.add_parser("run", help="run or resume a campaign")
+    r.add_argument("campaign", metavar="NAME_OR_FILE", help="bundled campaign (paper-dispersions) or a TOML file")
+    r.add_argument("--out", required=True, metavar="DIR", help="campaign folder (resumed when it exists)")
+    r.add_argument("--samples", type=_positive_int, default=None, help="samples per case and dispersion set")
+    r.add_argument("--workers", type=_positive_int, default=None,
+                   help="local worker processes (default: the number of CPUs; 1: in this process)")
+    r.add_argument("--dask", default=None, metavar="ADDRESS|local:N",
+                   help="run on Dask distributed: a scheduler address, or local:N for a local cluster")
+    r.add_argument("--retry-failed", action="store_true", help="run the failed cases again")
+    r.add_argument("--only", action="append", default=None, metavar="CASE_ID",
+                   help="run only this case (a done case is computed again alone and compared with the store)")
+    r.set_defaults(func=run)
+    s = csub.add_parser("status", help="count the cases of a campaign folder")
+    s.add_argument("dir", metavar="DIR")
+    s.add_argument("--json", action="store_true", help="one JSON object: cases, done, failed, pending")
+    s.set_defaults(func=status)
+    t = csub.add_parser("report", help="write the campaign report (summary, figures, HTML) into DIR/report")
+    t.add_argument("dir", metavar="DIR")
+    t.add_argument("--no-pdf", action="store_true", help="skip report.pdf")
+    t.set_defaults(func=report)
+
+
+def _store(folder: str):
+    from harness.campaign.store import DB_NAME, CampaignStore
+    if not (Path(folder) / DB_NAME).is_file():
+        raise InputError(f"{folder} is not a campaign folder (no {DB_NAME})")
+    return CampaignStore(folder)
+
+
+def run(args) -> int:
+    from harness.campaign import rerun_case, run_campaign
+    if args.only:
+        from harness.campaign.store import DB_NAME
+        if (Path(args.out) / DB_NAME).is_file():
+            st = _store(args.out)
+            try:
+                done = [c for c in args.only if st.statuses().get(c) == "done"]
+            finally:
+                st.close()
+            for cid in done:
+                out = rerun_case(args.out, cid, args.campaign)
+                print(json.dumps({"case_id": cid, "status": out["status"], "metrics": out["metrics"],
+                                  "same_as_stored": out["same_as_stored"]}, indent=2))
+            args.only = [c for c in args.only if c not in done]
+            if not args.only:
+                return 0
+    quiet = bool(getattr(args, "quiet", 0))        # gflat's -q/--quiet: no progress bar
+    res = run_campaign(args.campaign, args.out, samples=args.samples, workers=args.workers, dask=args.dask,
+                       retry_failed=args.retry_failed, quiet=quiet, only=args.only)
+    note = (f"{res['computed']} computed in {res['elapsed_s']:.1f} s, {res['skipped']} skipped; "
+            f"{res['done']} done, {res['failed']} failed, {res['pending']} pending of {res['cases']} -> {res['folder']}")
+    print(note, file=sys.stderr if quiet else sys.stdout)
+    return 0 if res["pending"] == 0 else 1
+
+
+def status(args) -> int:
+    st = _store(args.dir)
+    try:
+        counts = st.counts()
+        rows = st.rows()
+    finally:
+        st.close()
+    passed = sum(1 for r in rows if r["pass"])
+    if args.json:
+        print(json.dumps({**counts, "passed": passed}, indent=2))
+    else:
+        print(f"{args.dir}: {counts['cases']} cases: {counts['done']} done ({passed} pass), "
+              f"{counts['failed']} failed, {counts['pending']} pending")
+        for r in rows:
+            if r["status"] == "failed":
+                print(f"  failed {r['case_id']}: {(r['error'] or '').splitlines()[0]}")
+    return 0
+
+
+def report(args) -> int:
+    from harness.campaign.report import write_report
+    from reports.campaign import render_campaign
+    _store(args.dir).close()
+    summary, rows, paths = write_report(args.dir)
+    pages = render_campaign(args.dir, summary, rows, pdf=not args.no_pdf)
+    paths += [pages["index"], *pages["pages"]] + ([pages["pdf"]] if "pdf" in pages else [])
+    print(f"campaign report: {pages['index']} ({len(paths)} files)")
+    return 0

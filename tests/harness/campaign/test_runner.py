@@ -1,0 +1,178 @@
+"""Campaign runs: store, resume, rerun of one case, backends bit for bit, faults (worker and runner killed)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from gna.errors import InputError
+from harness.campaign import CampaignStore, rerun_case, run_campaign
+from harness.campaign.runner import parse_dask
+from harness.cli import main
+
+HERE = Path(__file__).parent
+TINY = HERE / "tiny.toml"
+ROOT = HERE.parents[2]
+
+
+def _metrics(folder) -> dict:
+    st = CampaignStore(folder)
+    try:
+        return {r["case_id"]: json.dumps(r["metrics"], sort_keys=True) for r in st.rows()}
+    finally:
+        st.close()
+
+
+def _check_folder(folder, n: int) -> None:
+    """n cases, all done, each with its files, nothing half-written, a sound database."""
+    con = sqlite3.connect(Path(folder) / "campaign.sqlite")
+    try:
+        assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+        rows = con.execute("SELECT case_id, status, files FROM cases").fetchall()
+    finally:
+        con.close()
+    assert len(rows) == n == len({r[0] for r in rows})
+    assert all(r[1] == "done" for r in rows)
+    cases = Path(folder) / "cases"
+    assert sorted(p.name for p in cases.iterdir()) == sorted(r[0] for r in rows)
+    for cid, _, files in rows:
+        assert sorted(p.name for p in (cases / cid).iterdir()) == json.loads(files) == ["inhouse.parquet",
+                                                                                      "jsbsim.parquet"]
+
+
+@pytest.fixture(scope="module")
+def inline(tmp_path_factory):
+    out = tmp_path_factory.mktemp("camp") / "inline"
+    res = run_campaign(TINY, out, workers=1, quiet=True)
+    assert res["computed"] == 3 and res["done"] == 3
+    return out
+
+
+def test_run_status_resume_and_one_case_again(inline, capsys):
+    _check_folder(inline, 3)
+    assert main(["campaign", "status", str(inline), "--json"]) == 0
+    status = json.loads(capsys.readouterr().out)
+    assert {k: status[k] for k in ("cases", "done", "failed", "pending")} == {"cases": 3, "done": 3, "failed": 0,
+                                                                            "pending": 0}
+    assert main(["campaign", "run", str(TINY), "--out", str(inline), "--quiet"]) == 0
+    assert "0 computed" in capsys.readouterr().err
+    again = rerun_case(inline, "level.fit.0001")
+    assert again["same_as_stored"] is True
+    import pandas as pd
+    df = pd.read_parquet(inline / "cases" / "level.fit.0001" / "inhouse.parquet")
+    assert {"x", "V", "I1"} <= set(df.columns) and df.index.name == "t"
+
+
+def test_more_samples_extend_and_other_campaign_is_refused(inline, tmp_path):
+    out = tmp_path / "c"
+    run_campaign(TINY, out, samples=1, workers=1, quiet=True)
+    res = run_campaign(TINY, out, samples=2, workers=1, quiet=True)
+    assert (res["computed"], res["skipped"], res["done"]) == (1, 1, 2)
+    assert _metrics(out) == {k: v for k, v in _metrics(inline).items() if k in _metrics(out)}
+    other = TINY.read_text().replace("seed = 7", "seed = 8")
+    (tmp_path / "tiny.toml").write_text(other)
+    (tmp_path / "tiny-level.toml").write_text((HERE / "tiny-level.toml").read_text())
+    assert main(["campaign", "run", str(tmp_path / "tiny.toml"), "--out", str(out), "--quiet"]) == 2
+
+
+def test_failed_cases_retried_only_when_asked(tmp_path, capsys):
+    bad = TINY.read_text().replace('scenario = "tiny-level.toml"', 'scenario = "tiny-level.toml"\nJ = 99')
+    (tmp_path / "bad.toml").write_text(bad)
+    (tmp_path / "tiny-level.toml").write_text((HERE / "tiny-level.toml").read_text())
+    res = run_campaign(tmp_path / "bad.toml", tmp_path / "out", samples=1, workers=1, quiet=True)
+    assert (res["failed"], res["pending"]) == (1, 0)
+    assert run_campaign(tmp_path / "bad.toml", tmp_path / "out", samples=1, workers=1, quiet=True)["computed"] == 0
+    again = run_campaign(tmp_path / "bad.toml", tmp_path / "out", samples=1, workers=1, quiet=True,
+                         retry_failed=True)
+    assert again["computed"] == 1
+    st = CampaignStore(tmp_path / "out")
+    row = st.rows()[0]
+    st.close()
+    assert row["attempts"] == 2 and row["error"] and not (tmp_path / "out" / "cases" / row["case_id"]).exists()
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cl, distributed.Client(cl) as client:
+        client.run(lambda: __import__("harness.campaign.execute"))      # gflat imported before the clock starts
+        yield cl, client
+
+
+def test_process_pool_and_dask_give_the_same_metrics_bit_for_bit(inline, cluster, tmp_path):
+    run_campaign(TINY, tmp_path / "pool", workers=2, quiet=True)
+    assert _metrics(tmp_path / "pool") == _metrics(inline)
+    run_campaign(TINY, tmp_path / "dask", dask=cluster[0].scheduler_address, quiet=True)
+    assert _metrics(tmp_path / "dask") == _metrics(inline)
+    _check_folder(tmp_path / "dask", 3)
+
+
+def test_dask_worker_killed_mid_campaign(inline, cluster, tmp_path):
+    cl, client = cluster
+    pids = list(client.run(os.getpid).values())
+    out = tmp_path / "killed"
+    result = {}
+    runner = threading.Thread(target=lambda: result.update(
+        run_campaign(TINY, out, samples=5, dask=cl.scheduler_address, quiet=True)))
+    runner.start()
+    deadline = time.time() + 60
+    while time.time() < deadline and not (out / "campaign.sqlite").exists():
+        time.sleep(0.05)
+    time.sleep(0.3)                                                    # both workers busy on a case
+    os.kill(pids[0], signal.SIGKILL)
+    runner.join(120)
+    assert result["done"] == 5 and result["pending"] == 0 and result["failed"] == 0
+    _check_folder(out, 5)
+    assert {k: v for k, v in _metrics(out).items() if k in _metrics(inline)} == _metrics(inline)
+
+
+def test_dask_option_parsing():
+    assert parse_dask("local:2") == ("local", 2) and parse_dask("tcp://h:8786") == ("address", "tcp://h:8786")
+    assert parse_dask(None) is None
+    with pytest.raises(InputError, match="local:N"):
+        parse_dask("local:0")
+
+
+def test_runner_killed_with_sigkill_then_resumed(inline, tmp_path):
+    out = tmp_path / "sigkill"
+    cmd = [sys.executable, "-m", "harness.cli", "campaign", "run", str(TINY), "--out", str(out), "--samples", "5",
+           "--workers", "1", "--quiet"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, start_new_session=True, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.time() + 60
+        done = 0
+        while time.time() < deadline and done < 2:
+            time.sleep(0.1)
+            if (out / "campaign.sqlite").exists():
+                con = sqlite3.connect(out / "campaign.sqlite", timeout=5)
+                try:
+                    done = con.execute("SELECT COUNT(*) FROM cases WHERE status = 'done'").fetchone()[0]
+                except sqlite3.OperationalError:
+                    done = 0
+                finally:
+                    con.close()
+        os.killpg(proc.pid, signal.SIGKILL)
+    finally:
+        proc.wait(30)
+    assert 2 <= done < 5
+    con = sqlite3.connect(out / "campaign.sqlite")
+    assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+    before = dict(con.execute("SELECT case_id, metrics FROM cases WHERE status = 'done'").fetchall())
+    con.close()
+    res = run_campaign(TINY, out, samples=5, workers=1, quiet=True)
+    assert res["skipped"] >= len(before) and res["done"] == 5
+    _check_folder(out, 5)
+    after = _metrics(out)
+    assert all(after[k] == json.dumps(json.loads(v), sort_keys=True) for k, v in before.items())
+    assert {k: v for k, v in after.items() if k in _metrics(inline)} == _metrics(inline)
