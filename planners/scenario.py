@@ -379,7 +379,7 @@ def _tracking(table: Mapping[str, Any], kind: str, J: int, where: str) -> Tracki
     sat = table.get("saturate", True)
     if not isinstance(sat, bool):
         raise InputError(f"{where}: saturate must be true or false, got {sat!r}")
-    cdt = table.get("controller_dt", DEFAULT_CONTROLLER_DT)
+    cdt = table.get("controller_dt", "step" if DEFAULT_CONTROLLER_DT is None else DEFAULT_CONTROLLER_DT)
     if isinstance(cdt, str) and cdt == "step":
         cdt = None
     elif isinstance(cdt, bool) or not isinstance(cdt, (int, float)) or not (math.isfinite(cdt) and cdt > 0):
