@@ -44,6 +44,12 @@ def _domain_functions():
     return [(i, (lambda y, i=i: domain_margins(y)[i])) for i in range(len(DOMAIN_TESTS))]
 
 
+#: Stall detection: a run whose last ``STALL_STEPS`` integrator steps advanced less than
+#: ``STALL_FRACTION`` of the span is stopped ("integrator stalled"), instead of creeping for hours.
+STALL_STEPS = 5000
+STALL_FRACTION = 1e-4
+
+
 def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
              env: Environment | None = None, model: str = "full", h: HValues | None = None,
              controller=None, dt_out: float = 0.02, t_eval: np.ndarray | None = None,
@@ -158,6 +164,7 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     # A non-finite derivative met inside a step: restart from the last good point with smaller steps
     # until the failure is bracketed within this span, so the valid part of the run is kept.
     bracket = 1e-6 * max(1.0, t1 - t0)
+    n_steps, t_mark = 0, t0
     while solver.status == "running":
         t_prev, y_prev = solver.t, solver.y.copy()
         try:
@@ -208,6 +215,17 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
             message = f"{text}; integration stopped, partial result kept up to t = {te:.6g} s"
             break
         segments.append((t_prev, solver.t, dense))
+        n_steps += 1
+        if n_steps % STALL_STEPS == 0:
+            if solver.t - t_mark < STALL_FRACTION * (t1 - t0):
+                # A right-hand side that switches faster than any step (a feedback chattering at a control
+                # limit, Filippov sliding) makes an adaptive integrator creep forever: stop and say so.
+                status, t_end = "failed", solver.t
+                message = (f"integrator stalled at t = {solver.t:.6g} s: {STALL_STEPS} steps advanced only "
+                           f"{solver.t - t_mark:.3g} s (a right-hand side switching faster than the step, e.g. a "
+                           f"feedback chattering at a control limit); partial result kept up to t = {solver.t:.6g} s")
+                break
+            t_mark = solver.t
     if status == "completed":
         t_end = t1
 

@@ -143,3 +143,18 @@ def test_controller_states_integrated_with_the_aircraft(f16_trim):
     np.testing.assert_allclose(r.feedback["F"], 10.0 * r.df.index.to_numpy(), rtol=0, atol=1e-10)
     np.testing.assert_allclose(r.df[list(STATE_NAMES)].to_numpy(), open_loop.df[list(STATE_NAMES)].to_numpy(),
                                rtol=1e-8, atol=1e-6)
+
+
+def test_a_chattering_feedback_stops_as_stalled_instead_of_creeping():
+    """A bang-bang pitch feedback on q (a right-hand side switching at every step) used to keep DOP853
+    creeping for hours (a dispersed campaign sample did the same through the tracking feedback's anti-windup)."""
+    from gna.aircraft import load_aircraft
+    from gna.simulate import simulate
+    from gna.trim import trim_level
+
+    a = load_aircraft("f16c")
+    tr = trim_level(a, 150.0, 3000.0)
+    x0, u0 = np.array(tr.state, float), np.array(tr.controls, float)
+    r = simulate(a, u0, (0.0, 20.0), x0, controller=lambda t, x: np.array([0, 0, 0, 0.05 * np.sign(x[10]), 0]))
+    assert r.status == "failed" and "stalled" in r.message and r.t_end < 1.0
+    assert len(r.df) >= 1 and np.all(np.isfinite(r.df[["V", "alpha"]].to_numpy()))
