@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import Mapping
 
 import numpy as np
-from scipy.optimize import minimize_scalar
+from scipy.optimize import brentq, minimize_scalar
 
 from .aircraft import Aircraft
 from .atmosphere import ConstantDensity, Environment
@@ -469,6 +469,15 @@ def stall_speed(aircraft: Aircraft, altitude: float = 0.0, **kw) -> StallResult:
     else:
         best_alpha = float(minimize_scalar(V_of, bounds=(a_lo, a_hi), method="bounded",
                                            options={"xatol": 1e-7}).x)
+        # V is flat at its minimum, so alpha is known there only to ~sqrt(tolerance): refine it as the
+        # root of dV/dalpha (central difference), where it is sharp (a rank test at the stall needs it).
+        h = 1e-5
+
+        def dV(alpha):
+            return (V_of(alpha + h) - V_of(alpha - h)) / (2 * h)
+
+        if dV(a_lo + h) < 0 < dV(a_hi - h):
+            best_alpha = float(brentq(dV, a_lo + h, a_hi - h, xtol=1e-12))
     V_of(best_alpha)
     t = cache[best_alpha]
     return StallResult(V_stall=t.values["V"], alpha_stall=best_alpha, trim=t)

@@ -247,10 +247,8 @@ def stall_line(aircraft, altitude: float = 0.0, env=None) -> tuple[float, float]
 
     The paper calls stalling "a maximum of the lift": with the elevator trimming the pitching moment
     (its own lift ``C_L,dm dm``) and the thrust along the thrust line, the lift of the trimmed aircraft
-    is maximal where the level-flight speed is minimal, ``dV/dalpha = 0`` -- found here by Brent's
-    method on a central difference of ``V(alpha)`` from full-model trims
-    (:func:`gna.trim.trim`), bracketed from the GNA ``C_L`` maximum (:func:`lift_maximum`) to the
-    envelope's largest alpha.
+    is maximal where the level-flight speed is minimal, ``dV/dalpha = 0``: :func:`gna.trim.stall_speed`
+    (full-model trims, the root of dV/dalpha to 1e-12 rad).
 
     Parameters
     ----------
@@ -269,25 +267,15 @@ def stall_line(aircraft, altitude: float = 0.0, env=None) -> tuple[float, float]
     Raises
     ------
     DomainError
-        No minimum of V(alpha) between the ``C_L`` maximum and the envelope limit.
+        The minimum of V(alpha) lies on the envelope's edge (no interior stall).
     """
-    from scipy.optimize import brentq
-
     from gna.errors import DomainError
-    from gna.trim import trim
+    from gna.trim import stall_speed
 
-    def V(alpha):
-        return trim(aircraft, {"alpha": alpha, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0}, altitude=altitude,
-                    env=env, check_envelope=False).values["V"]
-
-    h = 1e-5
-
-    def dV(alpha):
-        return (V(alpha + h) - V(alpha - h)) / (2 * h)
-
-    lo, hi = lift_maximum(aircraft) - 0.05, aircraft.envelope.alpha_max
-    if not dV(lo) < 0 < dV(hi):
-        raise DomainError(f"no minimum of the level-flight speed for alpha in [{lo:.4g}, {hi:.4g}] rad",
-                          variable="alpha", value=hi)
-    alpha = float(brentq(dV, lo, hi, xtol=1e-12))
-    return alpha, float(V(alpha))
+    kw = {} if env is None else {"env": env}
+    r = stall_speed(aircraft, altitude, **kw)
+    env_a = aircraft.envelope
+    if not max(env_a.alpha_min, 0.0) < r.alpha_stall < env_a.alpha_max:
+        raise DomainError(f"no interior minimum of the level-flight speed (alpha = {r.alpha_stall:.4g} rad at the "
+                          f"envelope's edge)", variable="alpha", value=r.alpha_stall)
+    return float(r.alpha_stall), float(r.V_stall)
