@@ -29,6 +29,7 @@ import numpy as np
 
 from gna.errors import InputError
 
+from .flat import check_grid
 from .newton import newton_series
 from .series import Series
 
@@ -322,9 +323,7 @@ def generalized_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[st
     InputError
         Fewer than two increasing nodes or a negative J.
     """
-    t_nodes = np.asarray(t_nodes, dtype=float)
-    if t_nodes.ndim != 1 or len(t_nodes) < 2 or np.any(np.diff(t_nodes) <= 0):
-        raise InputError("the planning grid needs at least two increasing nodes")
+    t_nodes = check_grid(t_nodes)
     if J < 0:
         raise InputError(f"J must be >= 0, got {J}")
     kappa = e + system.r + J * system.L
@@ -472,9 +471,7 @@ def newton_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[str, Ca
     InputError
         Fewer than two increasing nodes or a negative J.
     """
-    t_nodes = np.asarray(t_nodes, dtype=float)
-    if t_nodes.ndim != 1 or len(t_nodes) < 2 or np.any(np.diff(t_nodes) <= 0):
-        raise InputError("the planning grid needs at least two increasing nodes")
+    t_nodes = check_grid(t_nodes)
     if J < 0:
         raise InputError(f"J must be >= 0, got {J}")
     from .generalized_newton import _gauss_solve

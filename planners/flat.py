@@ -71,6 +71,31 @@ def check_iterations(J, where: str = "plan") -> int:
     if not 0 <= int(J) <= MAX_J:
         raise InputError(f"{where}: J must be between 0 and {MAX_J}, got {int(J)}")
     return int(J)
+
+
+def check_grid(t_nodes) -> np.ndarray:
+    """The planning grid as a float array: at least two increasing nodes.
+
+    Parameters
+    ----------
+    t_nodes : array_like, shape (N,)
+        Node times [s].
+
+    Returns
+    -------
+    ndarray, shape (N,)
+
+    Raises
+    ------
+    InputError
+        Not a 1-D sequence of at least two increasing times.
+    """
+    t = np.asarray(t_nodes, dtype=float)
+    if t.ndim != 1 or len(t) < 2 or np.any(np.diff(t) <= 0):
+        raise InputError("the planning grid needs at least two increasing nodes")
+    return t
+
+
 STAGE2_UNKNOWNS = ("alpha", "beta", "mu", "F")
 
 #: Order lost at each stage relative to the flat outputs x, y, z.

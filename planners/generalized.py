@@ -24,7 +24,7 @@ import numpy as np
 from gna.errors import InputError
 from gna.trajectory import first_domain_violation
 
-from .flat import FlatProblem, check_iterations, parametrize
+from .flat import FlatProblem, check_grid, check_iterations, parametrize
 from .plan import Plan
 from .singularity import monitor
 
@@ -118,9 +118,7 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         atmosphere model's range (the ISA's -2 to 20 km).
     """
     J = check_iterations(J, f"plan {name}")
-    t_nodes = np.asarray(t_nodes, dtype=float)
-    if t_nodes.ndim != 1 or len(t_nodes) < 2 or np.any(np.diff(t_nodes) <= 0):
-        raise InputError("the planning grid needs at least two increasing nodes")
+    t_nodes = check_grid(t_nodes)
     if method not in METHODS:
         raise InputError(f"generalized-flatness method must be one of {', '.join(METHODS)}, got {method!r}")
     with np.errstate(all="ignore"):  # a non-finite z is reported by the parametrization with its cause
