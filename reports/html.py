@@ -177,6 +177,18 @@ def render_date() -> str:
     return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
 
 
+def _run_context(root: Path, date: str | None):
+    """The run's case models in run order and what every page shows: date, manifest, counts, notice."""
+    cases = load_case_models(root)
+    if not cases:
+        raise InputError(f"no {REPORT_JSON} under {root}: not the output folder of a gflat run "
+                         f"(gflat paper --out DIR, gflat compare --out DIR)")
+    manifest = _manifest(root)
+    cases = _run_order(cases, manifest)
+    return cases, {"date": date or render_date(), "manifest": manifest, "n_pass": sum(m["passed"] for _, m in cases),
+                   "n": len(cases), "incomplete": incomplete_notice(root)}
+
+
 def render_documents(run_dir: str | Path, *, date: str | None = None, embed: bool = False) -> dict[Path, str]:
     """The HTML documents of a run folder, as text (nothing written).
 
@@ -201,16 +213,8 @@ def render_documents(run_dir: str | Path, *, date: str | None = None, embed: boo
         No ``report.json`` under ``run_dir``.
     """
     root = Path(run_dir)
-    cases = load_case_models(root)
-    if not cases:
-        raise InputError(f"no {REPORT_JSON} under {root}: not the output folder of a gflat run "
-                         f"(gflat paper --out DIR, gflat compare --out DIR)")
+    cases, common = _run_context(root, date)
     env = _environment()
-    date = date or render_date()
-    manifest = _manifest(root)
-    cases = _run_order(cases, manifest)
-    common = {"date": date, "manifest": manifest, "n_pass": sum(m["passed"] for _, m in cases), "n": len(cases),
-              "incomplete": incomplete_notice(root)}
     docs = {}
     index_views = [_case_view(root, f, m, root, False) for f, m in cases]
     docs[root / INDEX_PAGE] = env.get_template("index.html").render(cases=index_views, **common)
@@ -247,14 +251,9 @@ def single_document(run_dir: str | Path, *, date: str | None = None) -> str:
         No ``report.json`` under ``run_dir``.
     """
     root = Path(run_dir)
-    cases = load_case_models(root)
-    if not cases:
-        raise InputError(f"no {REPORT_JSON} under {root}: not the output folder of a gflat run")
-    manifest = _manifest(root)
-    views = [_case_view(root, f, m, root, False) for f, m in _run_order(cases, manifest)]
-    return _environment().get_template("single.html").render(
-        cases=views, date=date or render_date(), manifest=manifest,
-        n_pass=sum(m["passed"] for _, m in cases), n=len(cases), pdf=True, incomplete=incomplete_notice(root))
+    cases, common = _run_context(root, date)
+    views = [_case_view(root, f, m, root, False) for f, m in cases]
+    return _environment().get_template("single.html").render(cases=views, pdf=True, **common)
 
 
 def _remove_orphan_pages(root: Path) -> None:
