@@ -37,14 +37,13 @@ from __future__ import annotations
 
 import itertools
 import math
-import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
 
-from gna.catalogue import bundled, resolve
+from gna.catalogue import bundled
 from gna.errors import InputError
-from gna.perturbation import unknown_key_message
+from gna.schema import find_file, read_toml, unknown_key_message
 
 from ..validation import ValidationCase
 
@@ -382,15 +381,9 @@ def load_campaign(name_or_path: str | Path) -> Campaign:
         Unknown name, unreadable or invalid file, unknown keys, bad values.
     """
     cat = bundled_campaigns()
-    path = resolve(name_or_path, cat)
+    path = find_file(name_or_path, cat, "campaign")    # a missing file, a folder, a name not ending in .toml
     if path is None:
         raise InputError(f"unknown campaign {str(name_or_path)!r}; bundled campaigns: {', '.join(cat)} "
                          f"(or give the path of a .toml file)")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise InputError(f"cannot read the campaign file {path}: {exc.strerror}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{path.name}: not valid TOML ({exc})") from None
-    camp = campaign_from_dict(data, where=path.name, base=path.parent)
+    camp = campaign_from_dict(read_toml(path), where=path.name, base=path.parent)   # UTF-8 (BOM accepted), TOML
     return replace(camp, source=str(path.resolve()))

@@ -65,3 +65,18 @@ def test_draws_are_reproducible_and_follow_the_standard_errors():
     assert [t.value for t in flown.aero.terms] == list(a.aero_values)
     nominal = draw_sample(ac, Dispersion(aero="none"), 11)
     assert np.array_equal(nominal.aero_values, values) and not nominal.offsets.any()
+
+
+def test_campaign_file_paths_are_checked_like_scenario_files(tmp_path):
+    """A folder, a missing file and a non-UTF-8 file each give their own one-line error (the loaders' shared
+    gna.schema.find_file and read_toml); a byte-order mark is accepted."""
+    with pytest.raises(InputError, match="is a folder"):
+        load_campaign(tmp_path)
+    with pytest.raises(InputError, match="no such file"):
+        load_campaign(tmp_path / "none.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_bytes(b"\xff\xfe")
+    with pytest.raises(InputError, match="not UTF-8"):
+        load_campaign(bad)
+    with pytest.raises(InputError, match="unknown campaign"):
+        load_campaign("no-such-campaign")
