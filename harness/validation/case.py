@@ -25,12 +25,12 @@ Every comparison setting left unset (None) is taken from the scenario's
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
 from gna.errors import InputError
+from gna.schema import read_toml
 
 from ..engines import check_engine_names
 from ..metrics import DEFAULT_WINDOWS
@@ -212,13 +212,9 @@ class ValidationCase:
             Missing file, invalid TOML, unknown keys or bad values.
         """
         p = Path(path)
-        try:
-            data = tomllib.loads(p.read_text(encoding="utf-8"))
-        except OSError as exc:
-            raise InputError(f"cannot read the case file {p}: {exc.strerror}") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise InputError(f"{p.name}: not valid TOML ({exc})") from None
-        return cls.from_dict(data, where=p.name, base=p.parent)
+        if not p.is_file():
+            raise InputError(f"cannot read the case file {p}: {'it is a folder' if p.is_dir() else 'no such file'}")
+        return cls.from_dict(read_toml(p), where=p.name, base=p.parent)    # UTF-8 (BOM accepted), valid TOML
 
 
 def load_case(path: str | Path) -> ValidationCase:

@@ -228,3 +228,11 @@ def test_a_plan_flies_open_loop_on_both_engines():
     assert c.results["jsbsim"].settings["environment"].startswith(plan.env.atmosphere.describe())
     assert c.table("whole span").window == (0.0, 10.0)
     assert c.passed, c.report()
+
+
+def test_case_file_not_utf8_is_one_clear_error(tmp_path):
+    from harness.validation import ValidationCase
+    bad = tmp_path / "case.toml"
+    bad.write_bytes(b"scenario = \"gtm-aileron-roll\"\n\xff")
+    with pytest.raises(InputError, match="not UTF-8"):
+        ValidationCase.from_toml(bad)
