@@ -311,7 +311,8 @@ def case_record(result) -> dict:
             "compare": result.settings.to_dict() if result.settings is not None else None}
 
 
-def write_manifest(out: OutputDir, results=(), *, command_line: list | None = None) -> Path:
+def write_manifest(out: OutputDir, results=(), *, command_line: list | None = None,
+                   execution: dict | None = None) -> Path:
     """Write ``manifest.json`` for the case results of a run.
 
     Parameters
@@ -322,6 +323,8 @@ def write_manifest(out: OutputDir, results=(), *, command_line: list | None = No
         The cases run.
     command_line : list of str, optional
         Default ``sys.argv``.
+    execution : dict, optional
+        How the run was executed (e.g. worker processes), recorded as ``"execution"``.
 
     Returns
     -------
@@ -332,7 +335,10 @@ def write_manifest(out: OutputDir, results=(), *, command_line: list | None = No
     for r in results:
         inputs.update(case_inputs(r))
         cases.append(case_record(r))
-    return out.write_json("manifest.json", obj=manifest(inputs=inputs, cases=cases, command_line=command_line))
+    record = manifest(inputs=inputs, cases=cases, command_line=command_line)
+    if execution is not None:
+        record["execution"] = json_safe(execution)
+    return out.write_json("manifest.json", obj=record)
 
 
 def write_plan_iterates(out: OutputDir, plan, times, *, csv: bool = False) -> list[Path]:

@@ -16,6 +16,7 @@ plan's series, CSV tables, ``plan-j<k>.parquet`` of every iterate,
 
 from __future__ import annotations
 
+import argparse
 import time
 from dataclasses import replace
 
@@ -25,13 +26,23 @@ from reports.html import render_run
 
 from ..artefacts import write_manifest, write_plan_iterates
 from ..outdir import OutputDir
-from ..validation import ValidationCase, case_settings, plan_case, run_case
+from ..parallel import ForkPool, MemoryOutputDir, default_jobs, replay
+from ..validation import ValidationCase, case_settings, plan_case
+from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
 from ._args import nonnegative_int, out_path
 from ._compare_args import add_compare_arguments, compare_overrides
 from .plan import write_plan
 
 PAPER_SCENARIOS = ("twin-otter-single-engine", "gtm-forward-slip", "gtm-aileron-roll")
 ANGLE_STATES = ("gamma", "chi", "alpha", "beta", "mu")
+
+
+def positive_int(text: str) -> int:
+    """A ``--jobs`` count: an integer >= 1."""
+    v = nonnegative_int(text)
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
+    return v
 
 
 def register(sub) -> None:
@@ -41,6 +52,9 @@ def register(sub) -> None:
     p.add_argument("--J", type=nonnegative_int, default=None, help="iterations (default: each scenario's)")
     p.add_argument("--loop", choices=("open", "closed", "both"), default="both",
                    help="fly the plans open loop, closed loop with the tracking feedback, or both (default both)")
+    p.add_argument("--jobs", type=positive_int, default=None, metavar="N",
+                   help="worker processes flying the cases and drawing their figures concurrently (default: the "
+                        "CPUs available; 1: everything in this process); the results and files are the same")
     add_compare_arguments(p)
     p.set_defaults(func=run)
 
@@ -66,56 +80,157 @@ def paper_cases(J: int | None = None, loop: str = "open", **overrides) -> list[V
             for name in PAPER_SCENARIOS]
 
 
+def _timed(fn):
+    """``fn`` wrapped to return ``(value, wall time [s])``."""
+    def timed():
+        t0 = time.perf_counter()
+        return fn(), time.perf_counter() - t0
+    return timed
+
+
+def _write_task(result, root, sub: tuple, plan_sub: tuple | None, csv: bool):
+    """A case folder's files (and the plan iterates with ``plan_sub``) written to memory, in the serial order."""
+    def write():
+        mem = MemoryOutputDir(root)
+        write_case(result, mem.sub(*sub), csv=csv, plan=False, manifest=False)
+        if plan_sub is not None:
+            write_plan_iterates(mem.sub(*plan_sub), result.plan, result.runs[result.reference_engine].df.index,
+                                csv=csv)
+        return mem.files
+    return write
+
+
+class _Scenario:
+    """One scenario of the run: its plan, the flights and files of its cases (in worker processes), its lines.
+
+    The plan is made in this process (the workers, forked later, inherit it);
+    the closed loop's open-loop run is the open case's reference run when it is
+    the same flight (:func:`harness.validation.flights.reusable_open_loop`).
+    """
+
+    def __init__(self, case, loops: tuple, root, csv: bool):
+        self.case, self.loops, self.root, self.csv = case, loops, root, csv
+        self.name = case.scenario
+        self.lines = [f"=== {case.scenario}"]
+        self.flights, self.runs, self.results, self.files = {}, {}, {}, {}
+        self.elapsed = {loop: 0.0 for loop in loops}
+        self.submitted: set = set()
+        self.t_plan = 0.0
+
+    def plan(self, pool: ForkPool) -> None:
+        """Plan, write the plan's files to memory, set the cases up and submit their flights."""
+        t0 = time.perf_counter()
+        planned = plan_case(self.case)
+        self.name = planned.scenario.name
+        mem = MemoryOutputDir(self.root)
+        self.lines.append(write_plan(planned.scenario, planned.plan, planned.planning_time_s,
+                                     mem.sub(self.name, "plan")))
+        self.files["plan"] = mem.files
+        for loop in self.loops:
+            self.flights[loop] = case_flights(replace(self.case, loop=loop), plan=planned.plan,
+                                              scenario=planned.scenario)
+            self.runs[loop] = {}
+        self.t_plan = time.perf_counter() - t0
+        for loop in self.loops:
+            for name in self.flights[loop].flights:
+                if not (loop == "closed" and name == OPEN_LOOP and "open" in self.loops):
+                    self._fly(pool, loop, name)     # the open-loop run waits for the open case's
+
+    def _fly(self, pool: ForkPool, loop: str, name: str) -> None:
+        self.submitted.add((loop, name))
+        pool.submit(("fly", self.name, loop, name), _timed(self.flights[loop].flights[name]), priority=1,
+                    what=f"flying {self.name} ({loop} loop, {name})")
+
+    def receive(self, pool: ForkPool, key: tuple, value) -> None:
+        """A worker's result: a run, or a case folder's files; the next steps submitted."""
+        (out, dt), loop = value, key[2]
+        self.elapsed[loop] += dt
+        if key[0] == "write":
+            self.files[loop] = out
+            return
+        self.runs[loop][key[3]] = out
+        runs = self.runs.get("closed")
+        ref = self.case.engines[0]
+        if runs is not None and "open" in self.loops and OPEN_LOOP not in runs and ref in self.runs["open"]:
+            if reusable_open_loop(self.flights["closed"], self.runs["open"][ref]):
+                runs[OPEN_LOOP] = self.runs["open"][ref]
+            elif ("closed", OPEN_LOOP) not in self.submitted:
+                self._fly(pool, "closed", OPEN_LOOP)
+        for lp in self.loops:
+            cf = self.flights[lp]
+            if lp in self.results or any(name not in self.runs[lp] for name in cf.flights):
+                continue
+            self.results[lp] = result = finish_case(cf, self.runs[lp])
+            plan_sub = (self.name, "plan") if lp == self.loops[0] else None
+            pool.submit(("write", self.name, lp), _timed(_write_task(result, self.root, (self.name, lp), plan_sub,
+                                                                     self.csv)),
+                        priority=2, what=f"writing the {lp}-loop files of {self.name}")
+
+    @property
+    def done(self) -> bool:
+        """Every case's files are back."""
+        return all(loop in self.files for loop in self.loops)
+
+
 def run(args) -> int:
     rows, passed, closed_rows, results = [], [], [], []
     cases = paper_cases(args.J, **compare_overrides(args))
     for case in cases:                         # every scenario's [compare] table checked before any planning
         case_settings(case, load_scenario(case.scenario, J=case.J))
     out = OutputDir(args.out) if args.out else OutputDir("reports/out/paper", parents=True)
-    for case in cases:
-        print(f"=== {case.scenario}")
-        t0 = time.perf_counter()
-        planned = plan_case(case)
-        name = planned.scenario.name
-        plan_dir = out.sub(name, "plan")
-        print(write_plan(planned.scenario, planned.plan, planned.planning_time_s, plan_dir))
-        passed.append(True)
-        iterates_written = False
-        if args.loop in ("open", "both"):
-            result = run_case(case, plan=planned.plan, scenario=planned.scenario)   # the plan just made: planned once
-            write_case(result, out.sub(name, "open"), csv=args.csv, plan=False, manifest=False)
-            write_plan_iterates(plan_dir, planned.plan, result.runs[result.reference_engine].df.index, csv=args.csv)
-            iterates_written = True
-            results.append(result)
-            passed[-1] = result.passed
-            first, whole = result.tables["jsbsim"]["first 10 s"], result.tables["jsbsim"]["whole span"]
-            pos = lambda tab: tab.row("position").max_abs  # noqa: E731
-            ang = lambda tab: max(tab.row(v).max_abs for v in ANGLE_STATES)  # noqa: E731
-            J = result.plan.J
-            rows.append((name, planned.scenario.aircraft.id, J, pos(first), ang(first), pos(whole), ang(whole),
-                         time.perf_counter() - t0))
-            print(f"  in-house vs JSBSim (open loop, J = {J}): first 10 s {pos(first):.2e} m, "
-                  f"{ang(first):.2e} rad; whole span {pos(whole):.2e} m, {ang(whole):.2e} rad")
-            print(f"  figures, trajectories and tables: {out.path(name, 'open')}/")
-        if args.loop == "open":
-            continue
-        closed = run_case(replace(case, loop="closed"), plan=planned.plan, scenario=planned.scenario)
-        write_case(closed, out.sub(name, "closed"), csv=args.csv, plan=False, manifest=False)
-        if not iterates_written:
-            write_plan_iterates(plan_dir, planned.plan, closed.runs[closed.reference_engine].df.index, csv=args.csv)
-        results.append(closed)
-        v = closed.verdict()
-        passed[-1] = passed[-1] and v["pass"]
-        runs = v["runs"]
-        closed_rows.append((name, runs["inhouse"]["max_position_error_m"], runs["jsbsim"]["max_position_error_m"],
-                            v["differences"]["jsbsim"]["max_position_m"], runs["inhouse"]["saturated_s"],
-                            v["pass"]))
-        print(f"  closed loop (tracking feedback): in-house {runs['inhouse']['status']}, max "
-              f"{runs['inhouse']['max_position_error_m']:.2e} m from the flat outputs; JSBSim "
-              f"{runs['jsbsim']['status']}, {runs['jsbsim']['max_position_error_m']:.2e} m; in-house vs JSBSim "
-              f"{v['differences']['jsbsim']['max_position_m']:.2e} m")
-        print(f"  four-curve figure: {out.path(name, 'closed', 'tracking.png')}")
-    write_manifest(out, results, command_line=getattr(args, "command_line", None))
+    loops = ("open", "closed") if args.loop == "both" else (args.loop,)
+    with ForkPool(args.jobs or default_jobs()) as pool:
+        scenarios = [_Scenario(case, loops, out.root, args.csv) for case in cases]
+        by_name = {}
+        for sc in scenarios:
+            sc.plan(pool)
+            by_name[sc.name] = sc
+        emitted = 0
+        while emitted < len(scenarios):
+            if not scenarios[emitted].done:
+                key, value = pool.next_result()
+                by_name[key[1]].receive(pool, key, value)
+                continue
+            sc = scenarios[emitted]                    # files written and lines printed in the scenarios' order
+            emitted += 1
+            name = sc.name
+            for part in ("plan", *loops):
+                replay(out, sc.files[part])
+            print("\n".join(sc.lines))
+            passed.append(True)
+            if "open" in loops:
+                result = sc.results["open"]
+                results.append(result)
+                passed[-1] = result.passed
+                first, whole = result.tables["jsbsim"]["first 10 s"], result.tables["jsbsim"]["whole span"]
+                pos = lambda tab: tab.row("position").max_abs  # noqa: E731
+                ang = lambda tab: max(tab.row(v).max_abs for v in ANGLE_STATES)  # noqa: E731
+                J = result.plan.J
+                rows.append((name, result.plan.aircraft.id, J, pos(first), ang(first), pos(whole), ang(whole),
+                             sc.t_plan + sc.elapsed["open"]))
+                print(f"  in-house vs JSBSim (open loop, J = {J}): first 10 s {pos(first):.2e} m, "
+                      f"{ang(first):.2e} rad; whole span {pos(whole):.2e} m, {ang(whole):.2e} rad")
+                print(f"  figures, trajectories and tables: {out.path(name, 'open')}/")
+            if "closed" not in loops:
+                continue
+            closed = sc.results["closed"]
+            results.append(closed)
+            v = closed.verdict()
+            passed[-1] = passed[-1] and v["pass"]
+            runs = v["runs"]
+            closed_rows.append((name, runs["inhouse"]["max_position_error_m"], runs["jsbsim"]["max_position_error_m"],
+                                v["differences"]["jsbsim"]["max_position_m"], runs["inhouse"]["saturated_s"],
+                                v["pass"]))
+            print(f"  closed loop (tracking feedback): in-house {runs['inhouse']['status']}, max "
+                  f"{runs['inhouse']['max_position_error_m']:.2e} m from the flat outputs; JSBSim "
+                  f"{runs['jsbsim']['status']}, {runs['jsbsim']['max_position_error_m']:.2e} m; in-house vs JSBSim "
+                  f"{v['differences']['jsbsim']['max_position_m']:.2e} m")
+            print(f"  four-curve figure: {out.path(name, 'closed', 'tracking.png')}")
+        jobs = pool.jobs
+    write_manifest(out, results, command_line=getattr(args, "command_line", None),
+                   execution={"jobs": jobs, "how": "cases flown and drawn in forked worker processes, files written "
+                                                    "by the main process in the serial order" if jobs > 1 else
+                                                    "in one process"})
     out.finish()
     print(f"\nmanifest, plans, trajectories, figures and tables written to {out.root}/")
     failed = [c.scenario for c, ok in zip(cases, passed) if not ok]

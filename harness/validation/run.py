@@ -14,18 +14,15 @@ import time
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-import numpy as np
-
-from gna.errors import DomainError, InputError
+from gna.errors import InputError
 from planners.generalized import plan_scenario
-from planners.plan import Plan
-from planners.scenario import Scenario, load_scenario
+from planners.scenario import load_scenario
 
-from ..engines import fly, get_engine
+from ..engines import fly
 from ..metrics import DifferenceTable, difference_table, engine_tables, window_span
 from .case import ValidationCase
-from .closed import closed_loop_setup, sampled_engines
-from .provenance import provenance
+from .flights import case_flights, finish_case
+from .provenance import provenance  # noqa: F401  (re-exported by the package)
 from .result import CaseResult, _runs_report
 from .tolerances import CompareSettings, resolve_compare
 
@@ -240,7 +237,7 @@ def _self_convergence(engines, runs, problem, span, settings: CompareSettings):
     return half, tables
 
 
-def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
+def run_case(case: ValidationCase, *, plan=None, scenario=None, open_loop=None) -> CaseResult:
     """Plan a case's scenario (once), fly it on every engine and tabulate the differences.
 
     Parameters
@@ -254,6 +251,10 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
         The loaded scenario (its ``[compare]`` table sets the comparison,
         :func:`case_settings`; its ``[tracking]`` settings serve the closed
         loop); loaded from ``case.scenario`` when not given.
+    open_loop : gna.trajectory.SimulationResult, optional
+        Closed loop: the open-loop case's run on the reference engine, reused
+        as the open-loop curve instead of flying it again when it is the same
+        flight (:func:`harness.validation.flights.case_flights`).
 
     Returns
     -------
@@ -266,6 +267,8 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
         engine also flies the plan open loop (``CaseResult.open_loop``).
         With ``self_convergence``, every JSBSim engine flies again at half its
         step (``CaseResult.half_step``, ``CaseResult.self_convergence``).
+        The flights are those of :func:`harness.validation.flights.case_flights`,
+        flown in sequence, and tabulated by :func:`harness.validation.flights.finish_case`.
 
     Raises
     ------
@@ -275,57 +278,5 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None) -> CaseResult:
     DomainError
         The plan is not feasible (Newton failed): there is nothing to fly.
     """
-    if not isinstance(case, ValidationCase):
-        raise InputError(f"run_case needs a ValidationCase, got {type(case).__name__}")
-    if plan is not None and not isinstance(plan, Plan):
-        raise InputError(f"plan must be a planners.plan.Plan, got {type(plan).__name__} {plan!r:.60}; "
-                         f"planners.generalized.plan_scenario(scenario) makes one")
-    if scenario is not None and not isinstance(scenario, Scenario):
-        raise InputError(f"scenario must be a planners.scenario.Scenario, got {type(scenario).__name__} "
-                         f"{scenario!r:.60}; planners.scenario.load_scenario(name) makes one")
-    planning_time = None
-    if scenario is None:
-        scenario = load_scenario(case.scenario, J=case.J)
-    settings = case_settings(case, scenario)      # a bad [compare] table is refused before planning
-    if plan is None:
-        t_start = time.perf_counter()
-        plan = plan_scenario(scenario)
-        planning_time = time.perf_counter() - t_start
-    elif case.J is not None and plan.J != case.J:
-        raise InputError(f"the plan given has J = {plan.J}, the case asks for J = {case.J}")
-    if not plan.feasible:
-        raise DomainError(f"{plan.name}: the plan is not feasible, nothing to fly: {plan.newton_failures[0]}")
-    J = plan.J
-    span = (plan.t0, plan.t1)
-    dt_out = settings.dt_out
-    engines = {n: with_step(get_engine(n), settings.jsbsim_dt) for n in case.engines}
-    setup, open_loop, flat_loop = None, None, None
-    if case.loop == "closed":
-        setup = closed_loop_setup(plan, scenario)
-        ctl = setup.controller
-        engines = sampled_engines(engines, scenario.tracking.controller_dt)
-        problem = ((setup.aircraft, setup.x0, ctl.controls, span), dict(env=plan.env, controller=ctl, dt_out=dt_out))
-        runs = fly(engines, *problem[0], **problem[1])
-        ref = case.engines[0]
-        open_loop = fly({ref: engines[ref]}, setup.aircraft, setup.x0, plan.control_function(J), span,
-                        env=plan.env, dt_out=dt_out)[ref]
-        flat_loop = runs[ref]
-        if setup.feedforward_iterate != 0:          # the paper's dark-blue run: the flat plan's feedforward
-            flat = closed_loop_setup(plan, scenario, feedforward_iterate=0)
-            flat_loop = fly({ref: engines[ref]}, flat.aircraft, flat.x0, flat.controller.controls, span,
-                            env=plan.env, controller=flat.controller, dt_out=dt_out)[ref]
-    else:
-        problem = ((plan.aircraft, plan.initial_state(J), plan.control_function(J), span),
-                   dict(env=plan.env, dt_out=dt_out))
-        runs = fly(engines, *problem[0], **problem[1])
-    tables = engine_tables(runs, span, settings.tolerances, settings.windows, rtol=settings.rtol or None)
-    half, self_conv = _self_convergence(engines, runs, problem, span, settings) if settings.self_convergence \
-        else ({}, {})
-    grid = np.arange(plan.t0, plan.t1 + 0.5 * dt_out, dt_out)
-    plan_df = plan.to_dataframe(grid[grid <= plan.t1 + 1e-9], j=J)
-    # no tolerances: the open-loop drift from the plan is information, not a pass/fail criterion
-    vs_plan = {label: difference_table(plan_df, res.df, tolerances={}, labels=("plan", label))
-               for label, res in runs.items()}
-    return CaseResult(case=case, plan=plan, runs=runs, tables=tables, vs_plan=vs_plan, provenance=provenance(),
-                      planning_time_s=planning_time, closed_loop=setup, open_loop=open_loop, settings=settings,
-                      half_step=half, self_convergence=self_conv, scenario=scenario, flat_closed_loop=flat_loop)
+    flights = case_flights(case, plan=plan, scenario=scenario, open_loop=open_loop)
+    return finish_case(flights, {name: fly_it() for name, fly_it in flights.flights.items()})

@@ -1,0 +1,345 @@
+"""Independent pieces of a command run concurrently in forked worker processes, files written by the parent only.
+
+:class:`ForkPool` runs zero-argument callables in child processes forked from
+the caller, at most ``jobs`` at a time, highest priority first: a child
+inherits everything the callable refers to (plans, compiled expressions,
+results), so nothing but the callable's return value is pickled (back).  A
+child ignores Ctrl-C; the parent, interrupted, terminates its children when
+the pool's ``with`` block ends, so the command stops with its usual one-line
+message.  An error raised in a child is raised again in the parent, with the
+same type and message where it can be rebuilt there (the child's traceback
+attached as its cause).  ``jobs = 1``, or a platform without ``fork``, runs
+every callable in the parent, in the same order of priorities.
+
+:class:`MemoryOutputDir` is the :class:`harness.outdir.OutputDir` a child
+writes to: every file is kept in memory, in the order written, for the parent
+to write through its own ``OutputDir`` (:func:`replay`), so that the output
+folder's record, atomic writes and completion marker stay in one process and
+the files are byte for byte those of a serial run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import heapq
+import multiprocessing
+import os
+import pickle
+import shutil
+import signal
+import sys
+import tempfile
+import traceback
+from multiprocessing.connection import wait as wait_connections
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+from gna.errors import GflatError, InputError
+
+from .outdir import OutputDir
+
+
+def default_jobs() -> int:
+    """Worker processes used by default: the CPUs this process may run on.
+
+    Returns
+    -------
+    int
+        At least 1.
+    """
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except (AttributeError, OSError):
+        return max(os.cpu_count() or 1, 1)
+
+
+class RemoteTraceback(Exception):
+    """The traceback of an error raised in a worker process (attached as the cause of the error raised again)."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
+
+
+def _portable(exc: BaseException) -> BaseException:
+    """``exc``, or the nearest class of it rebuilt from its message, such that it survives pickling."""
+    try:
+        pickle.loads(pickle.dumps(exc))
+        return exc
+    except Exception:
+        pass
+    for cls in type(exc).__mro__:
+        if not (isinstance(cls, type) and issubclass(cls, BaseException)):
+            continue
+        try:
+            copy = cls(str(exc))
+            pickle.loads(pickle.dumps(copy))
+            return copy
+        except Exception:
+            continue
+    return RuntimeError(f"{type(exc).__name__}: {exc}")
+
+
+def _child(conn, fn: Callable[[], Any]) -> None:
+    """Body of a worker: run ``fn``, send ``("ok", value)`` or ``("err", exception, traceback text)``."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)         # the parent handles Ctrl-C and ends its children
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    try:
+        out = ("ok", fn())
+    except BaseException as exc:                          # noqa: BLE001  (sent to the parent, raised there)
+        out = ("err", _portable(exc), traceback.format_exc())
+    try:
+        conn.send(out)
+    except Exception as exc:                              # an unpicklable result
+        conn.send(("err", RuntimeError(f"a worker's result could not be sent back: {exc}"), traceback.format_exc()))
+    finally:
+        conn.close()
+        sys.stdout.flush()
+        sys.stderr.flush()
+
+
+class ForkPool:
+    """Run zero-argument callables in forked child processes, at most ``jobs`` at a time.
+
+    Parameters
+    ----------
+    jobs : int
+        Most children running at once; 1 (or no ``fork`` on the platform)
+        runs the callables in the calling process.
+
+    Attributes
+    ----------
+    jobs : int
+        The number of worker processes in use (1: in process).
+    """
+
+    def __init__(self, jobs: int):
+        if jobs < 1:
+            raise InputError(f"jobs must be at least 1, got {jobs}")
+        forkable = "fork" in multiprocessing.get_all_start_methods() and hasattr(signal, "pthread_sigmask")
+        self.jobs = jobs if forkable else 1
+        self._ctx = multiprocessing.get_context("fork") if self.jobs > 1 else None
+        self._queue: list = []                           # heap of (-priority, sequence, key, fn, what)
+        self._running: dict = {}                         # parent end of the pipe -> (process, key, what)
+        self._seq = 0
+
+    def __enter__(self) -> ForkPool:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    @property
+    def pending(self) -> int:
+        """Callables submitted whose result has not been returned by :meth:`next_result` yet."""
+        return len(self._queue) + len(self._running)
+
+    def submit(self, key, fn: Callable[[], Any], *, priority: float = 0.0, what: str = "") -> None:
+        """Queue ``fn`` (started at once if a worker is free).
+
+        Parameters
+        ----------
+        key : hashable
+            Returned with the result.
+        fn : callable
+            Zero-argument callable; its return value must be picklable.
+        priority : float
+            Higher starts first among the queued callables (ties: in submission order).
+        what : str
+            Description used in the message when a worker dies without a result.
+        """
+        heapq.heappush(self._queue, (-priority, self._seq, key, fn, what))
+        self._seq += 1
+        self._start()
+
+    def _start(self) -> None:
+        if self._ctx is None:
+            return
+        while self._queue and len(self._running) < self.jobs:
+            _, _, key, fn, what = heapq.heappop(self._queue)
+            parent_end, child_end = self._ctx.Pipe(duplex=False)
+            sys.stdout.flush()
+            sys.stderr.flush()
+            old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})   # no Ctrl-C before the child ignores it
+            try:
+                proc = self._ctx.Process(target=_child, args=(child_end, fn), daemon=True)
+                proc.start()
+            finally:
+                signal.pthread_sigmask(signal.SIG_SETMASK, old)
+            child_end.close()
+            self._running[parent_end] = (proc, key, what)
+
+    def next_result(self) -> tuple[Any, Any]:
+        """The next finished callable's key and return value (the earliest started among those done).
+
+        Returns
+        -------
+        (key, value)
+
+        Raises
+        ------
+        InputError
+            Nothing pending.
+        Exception
+            The callable's own error, raised again here.
+        """
+        if not self.pending:
+            raise InputError("no task pending")
+        if self._ctx is None:
+            _, _, key, fn, _ = heapq.heappop(self._queue)
+            return key, fn()
+        ready = wait_connections(list(self._running))
+        conn = min(ready, key=lambda c: list(self._running).index(c))
+        proc, key, what = self._running.pop(conn)
+        try:
+            msg = conn.recv()
+        except (EOFError, OSError):
+            msg = None
+        conn.close()
+        proc.join()
+        self._start()
+        if msg is None:
+            raise GflatError(f"a worker process ended without a result (exit code {proc.exitcode})"
+                             + (f" while {what}" if what else ""))
+        if msg[0] == "err":
+            exc = msg[1]
+            if not isinstance(exc, GflatError):
+                exc.__cause__ = RemoteTraceback(msg[2])
+            raise exc
+        return key, msg[1]
+
+    def close(self) -> None:
+        """End every running child (after an error or an interruption) and drop the queue."""
+        self._queue.clear()
+        for conn, (proc, _, _) in list(self._running.items()):
+            if proc.is_alive():
+                proc.terminate()
+            proc.join()
+            conn.close()
+        self._running.clear()
+
+
+class _MemoryRecord:
+    """The files a :class:`MemoryOutputDir` tree wrote: (path relative to the top folder, bytes), in order."""
+
+    def __init__(self, root: Path):
+        self.root = root
+        self.files: list[tuple[Path, bytes]] = []
+        self.written: list[Path] = []
+
+
+class MemoryOutputDir(OutputDir):
+    """An :class:`harness.outdir.OutputDir` of a worker process: files kept in memory for the parent to write.
+
+    Parameters
+    ----------
+    root : str or Path
+        The folder of the real output (top folder of the paths recorded); nothing is written there.
+    sub : str or Path, optional
+        This folder relative to ``root``.
+
+    Attributes
+    ----------
+    files : list of (Path, bytes)
+        Every file written under the tree (path relative to ``root``), in order.
+    """
+
+    def __init__(self, root: str | Path, sub: str | Path = "", *, _record: _MemoryRecord | None = None):
+        top = Path(root)
+        self._record = _record or _MemoryRecord(top)
+        self.root = self._record.root / sub if str(sub) else self._record.root
+        self.clean = False
+
+    @property
+    def files(self) -> list[tuple[Path, bytes]]:
+        """Every file written under the tree, in order."""
+        return list(self._record.files)
+
+    def path(self, *parts: str) -> Path:
+        """The path of ``parts`` under this folder (in the real output).
+
+        Parameters
+        ----------
+        *parts : str
+            Relative path components.
+
+        Returns
+        -------
+        Path
+
+        Raises
+        ------
+        InputError
+            No part, or an absolute part or ``..``.
+        """
+        if not parts or any(not str(p) or Path(p).is_absolute() or ".." in Path(p).parts for p in parts):
+            raise InputError(f"output path under {self.root}: invalid component in {parts!r}")
+        return self.root.joinpath(*parts)
+
+    def sub(self, *parts: str) -> MemoryOutputDir:
+        """A sub-folder sharing this tree's record.
+
+        Parameters
+        ----------
+        *parts : str
+            Relative path of the sub-folder.
+
+        Returns
+        -------
+        MemoryOutputDir
+        """
+        return MemoryOutputDir(self._record.root, self.path(*parts).relative_to(self._record.root),
+                               _record=self._record)
+
+    @contextlib.contextmanager
+    def atomic(self, *parts: str) -> Iterator[Path]:
+        """A temporary path (same suffix) whose content is kept as the file ``parts`` when the block ends.
+
+        Parameters
+        ----------
+        *parts : str
+            Relative path of the file.
+
+        Yields
+        ------
+        Path
+        """
+        final = self.path(*parts)
+        rel = final.relative_to(self._record.root)
+        tmpdir = tempfile.mkdtemp(prefix="gflat-worker-")
+        try:
+            tmp = Path(tmpdir) / ("file" + "".join(final.suffixes))
+            yield tmp
+            data = tmp.read_bytes()
+        finally:
+            shutil.rmtree(tmpdir, ignore_errors=True)
+        self._record.files.append((rel, data))
+        if rel not in self._record.written:
+            self._record.written.append(rel)
+
+    def finish(self) -> Path:
+        """Nothing to finish: the parent's output folder writes the marker.
+
+        Returns
+        -------
+        Path
+            This folder.
+        """
+        return self.root
+
+
+def replay(out: OutputDir, files) -> list[Path]:
+    """Write files kept by a :class:`MemoryOutputDir` through the real output folder, in their order.
+
+    Parameters
+    ----------
+    out : OutputDir
+        The run's top output folder (the ``root`` the memory folder was made with).
+    files : iterable of (Path, bytes)
+        :attr:`MemoryOutputDir.files`.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    return [out.write_bytes(*Path(rel).parts, data=data) for rel, data in files]
