@@ -256,6 +256,77 @@ def single_document(run_dir: str | Path, *, date: str | None = None) -> str:
     return _environment().get_template("single.html").render(cases=views, pdf=True, **common)
 
 
+#: Weight of a figure in :func:`document_parts`' balance, in characters of HTML.
+FIGURE_WEIGHT = 3000
+
+
+def _split(costs: list[float], parts: int) -> list[int]:
+    """Start index of each of ``parts`` contiguous groups of ``costs`` minimising the largest group's sum."""
+    n = len(costs)
+    parts = max(1, min(parts, n))
+    best: tuple[float, list[int]] = (float("inf"), [0])
+    def search(start: int, left: int, acc: list[int], worst: float):
+        nonlocal best
+        if worst >= best[0]:
+            return
+        if left == 1:
+            total = max(worst, sum(costs[start:]))
+            if total < best[0]:
+                best = (total, acc)
+            return
+        for cut in range(start + 1, n - left + 2):
+            search(cut, left - 1, acc + [cut], max(worst, sum(costs[start:cut])))
+    search(0, parts, [0], 0.0)
+    return best[1]
+
+
+def document_parts(run_dir: str | Path, parts: int, *, date: str | None = None) -> list[str]:
+    """:func:`single_document` cut at case boundaries into documents of about equal work, to print separately.
+
+    The first part holds the front matter (summary table of every case,
+    manifest) and the first cases, the last the footer; each case starts a new
+    page in print anyway, so the printed parts put end to end are the pages
+    of the single document (:func:`reports.pdf.write_pdf`).  The first part
+    also carries empty anchors named after the cases of the later parts, so
+    that its summary links are printed; a later part's destination of the
+    same name replaces the anchor's when the parts are put together.
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        A run folder holding ``report.json`` files.
+    parts : int
+        Number of documents wanted (fewer when the run has fewer cases).
+    date : str, optional
+        Render date (default now, UTC).
+
+    Returns
+    -------
+    list of str
+        HTML documents; resolve their links and images against ``run_dir``.
+
+    Raises
+    ------
+    InputError
+        No ``report.json`` under ``run_dir``.
+    """
+    root = Path(run_dir)
+    cases, common = _run_context(root, date)
+    views = [_case_view(root, f, m, root, False) for f, m in cases]
+    template = _environment().get_template("single.html")
+    if parts <= 1 or len(views) <= 1:
+        return [template.render(cases=views, pdf=True, **common)]
+    front = len(template.render(cases=[], all_cases=views, pdf=True, last_part=False, **common))
+    costs = [len(template.render(cases=[v], pdf=True, first_part=False, last_part=False, **common))
+             + FIGURE_WEIGHT * len(v["model"]["figures"]) for v in views]
+    costs[0] += front
+    starts = _split(costs, parts) + [len(views)]
+    later = [v["model"]["id"] for v in views[starts[1]:]]
+    return [template.render(cases=views[a:b], all_cases=views, pdf=True, first_part=(i == 0), later_ids=later,
+                            last_part=(b == len(views)), **common)
+            for i, (a, b) in enumerate(zip(starts, starts[1:]))]
+
+
 def _remove_orphan_pages(root: Path) -> None:
     """Remove the case pages of an earlier rendering whose case is gone (a rerun flew fewer cases)."""
     for page in root.rglob(CASE_PAGE):
@@ -265,7 +336,7 @@ def _remove_orphan_pages(root: Path) -> None:
 
 
 def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool = True,
-               date: str | None = None) -> dict[str, Path]:
+               date: str | None = None, jobs: int = 1) -> dict[str, Path]:
     """Render a run folder's reports: ``index.html``, a page per case, optionally the single file and the PDF.
 
     Parameters
@@ -278,6 +349,9 @@ def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool =
         Also write ``report.pdf`` (:func:`reports.pdf.write_pdf`).
     date : str, optional
         Render date printed on every page (default now, UTC).
+    jobs : int
+        Worker processes printing the PDF in parts (:func:`document_parts`,
+        :func:`reports.pdf.write_pdf`); 1 prints it in one piece.
 
     Returns
     -------
@@ -300,9 +374,10 @@ def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool =
     if self_contained:
         out["single"] = root / SINGLE_PAGE
     if pdf:
-        from .pdf import write_pdf
+        from .pdf import can_merge, write_pdf
 
-        out["pdf"] = write_pdf(single_document(root, date=date), root, root / PDF_FILE)
+        parts = jobs if jobs > 1 and can_merge() else 1
+        out["pdf"] = write_pdf(document_parts(root, parts, date=date), root, root / PDF_FILE, jobs=parts)
     elif (root / PDF_FILE).is_file():
         (root / PDF_FILE).unlink()                        # an earlier rendering's PDF no longer matches the pages
         out["removed_pdf"] = root / PDF_FILE
