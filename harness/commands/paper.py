@@ -250,7 +250,7 @@ def run(args) -> int:
         print("  (beyond limits: time the commanded controls exceed the aircraft's limits, clipped when the scenario's\n"
               "   [tracking] saturate is on; the forward slip's plan itself needs dl of about -28 deg, beyond the GTM's\n"
               "   20 deg, and is flown unclipped)")
-    report = render_run(out.root)                     # HTML and PDF from the saved report.json files
+    report = render_run(out.root, jobs=jobs)          # HTML and PDF from the saved report.json files
     print(f"\nreport: {report['index']} (PDF: {report['pdf']})")
     if failed:
         print(f"gflat paper: engines disagree beyond the tolerances, or a run ended early, for {', '.join(failed)}: FAIL")

@@ -17,6 +17,8 @@ from pathlib import Path
 from gna.errors import InputError
 from reports.html import incomplete_notice, render_run
 
+from ..parallel import default_jobs
+
 
 def register(sub) -> None:
     p = sub.add_parser("report", help="render a run's HTML and PDF reports again from its saved results",
@@ -34,7 +36,7 @@ def run(args) -> int:
     if not root.is_dir():
         raise InputError(f"{root} is not a folder")
     t0 = time.perf_counter()
-    out = render_run(root, self_contained=args.self_contained, pdf=args.pdf)
+    out = render_run(root, self_contained=args.self_contained, pdf=args.pdf, jobs=default_jobs())
     notice = incomplete_notice(root)
     if notice:
         print(f"gflat report: warning: incomplete run: {notice}", file=sys.stderr)

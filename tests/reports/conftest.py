@@ -38,16 +38,16 @@ class Run:
 def report_run(tmp_path_factory) -> Run:
     root = tmp_path_factory.mktemp("run") / "paper"
     results = {}
-    real = paper.run_case
+    real = paper.finish_case                  # each case's flights tabulated: its CaseResult
 
-    def keep(case, **kw):
-        r = real(case, **kw)
-        results[case.loop] = r
+    def keep(flights, runs):
+        r = real(flights, runs)
+        results[r.case.loop] = r
         return r
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(paper, "PAPER_SCENARIOS", (SCENARIO,))
-        mp.setattr(paper, "run_case", keep)
+        mp.setattr(paper, "finish_case", keep)
         import contextlib
         import io
 
