@@ -29,6 +29,7 @@ import shutil
 import signal
 import sys
 import tempfile
+import time
 import traceback
 from multiprocessing.connection import wait as wait_connections
 from pathlib import Path
@@ -79,18 +80,32 @@ def _portable(exc: BaseException) -> BaseException:
     return RuntimeError(f"{type(exc).__name__}: {exc}")
 
 
+class _Terminated(BaseException):
+    """Raised in a worker by SIGTERM (the parent ending it): unwinds its ``finally`` blocks (temporary files)."""
+
+
+def _terminate(signum, frame):
+    raise _Terminated()
+
+
 def _child(conn, fn: Callable[[], Any]) -> None:
     """Body of a worker: run ``fn``, send ``("ok", value)`` or ``("err", exception, traceback text)``."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)         # the parent handles Ctrl-C and ends its children
+    signal.signal(signal.SIGTERM, _terminate)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    w0, c0 = time.perf_counter(), time.process_time()
     try:
         out = ("ok", fn())
+    except _Terminated:
+        os._exit(143)                                     # cleaned up; nothing to report to a parent that is ending
     except BaseException as exc:                          # noqa: BLE001  (sent to the parent, raised there)
         out = ("err", _portable(exc), traceback.format_exc())
+    out += (time.perf_counter() - w0, time.process_time() - c0)
     try:
         conn.send(out)
     except Exception as exc:                              # an unpicklable result
-        conn.send(("err", RuntimeError(f"a worker's result could not be sent back: {exc}"), traceback.format_exc()))
+        conn.send(("err", RuntimeError(f"a worker's result could not be sent back: {exc}"), traceback.format_exc(),
+                   0.0, 0.0))
     finally:
         conn.close()
         sys.stdout.flush()
@@ -110,6 +125,9 @@ class ForkPool:
     ----------
     jobs : int
         The number of worker processes in use (1: in process).
+    log : list of dict
+        Per callable finished, in the order returned: ``what``, ``wall_s`` and
+        ``cpu_s`` (its process's CPU time) [s].
     """
 
     def __init__(self, jobs: int):
@@ -121,6 +139,7 @@ class ForkPool:
         self._queue: list = []                           # heap of (-priority, sequence, key, fn, what)
         self._running: dict = {}                         # parent end of the pipe -> (process, key, what)
         self._seq = 0
+        self.log: list[dict] = []
 
     def __enter__(self) -> ForkPool:
         return self
@@ -185,8 +204,11 @@ class ForkPool:
         if not self.pending:
             raise InputError("no task pending")
         if self._ctx is None:
-            _, _, key, fn, _ = heapq.heappop(self._queue)
-            return key, fn()
+            _, _, key, fn, what = heapq.heappop(self._queue)
+            w0, c0 = time.perf_counter(), time.process_time()
+            value = fn()
+            self.log.append({"what": what, "wall_s": time.perf_counter() - w0, "cpu_s": time.process_time() - c0})
+            return key, value
         ready = wait_connections(list(self._running))
         conn = min(ready, key=lambda c: list(self._running).index(c))
         proc, key, what = self._running.pop(conn)
@@ -200,6 +222,7 @@ class ForkPool:
         if msg is None:
             raise GflatError(f"a worker process ended without a result (exit code {proc.exitcode})"
                              + (f" while {what}" if what else ""))
+        self.log.append({"what": what, "wall_s": msg[-2], "cpu_s": msg[-1]})
         if msg[0] == "err":
             exc = msg[1]
             if not isinstance(exc, GflatError):

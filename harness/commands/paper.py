@@ -226,11 +226,12 @@ def run(args) -> int:
                   f"{runs['jsbsim']['status']}, {runs['jsbsim']['max_position_error_m']:.2e} m; in-house vs JSBSim "
                   f"{v['differences']['jsbsim']['max_position_m']:.2e} m")
             print(f"  four-curve figure: {out.path(name, 'closed', 'tracking.png')}")
-        jobs = pool.jobs
+        jobs, log = pool.jobs, pool.log
+    how = ("cases flown and drawn in forked worker processes, files written by the main process in the serial order"
+           if jobs > 1 else "in one process")
     write_manifest(out, results, command_line=getattr(args, "command_line", None),
-                   execution={"jobs": jobs, "how": "cases flown and drawn in forked worker processes, files written "
-                                                    "by the main process in the serial order" if jobs > 1 else
-                                                    "in one process"})
+                   execution={"jobs": jobs, "how": how,
+                              "planning_s": {sc.name: sc.t_plan for sc in scenarios}, "tasks": log})
     out.finish()
     print(f"\nmanifest, plans, trajectories, figures and tables written to {out.root}/")
     failed = [c.scenario for c, ok in zip(cases, passed) if not ok]

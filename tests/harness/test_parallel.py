@@ -1,0 +1,125 @@
+"""Worker processes of ``gflat paper``: results, errors and files as in one process; the open-loop run reused."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from gna.errors import DomainError, GflatError, InputError
+from harness.outdir import OutputDir
+from harness.parallel import ForkPool, MemoryOutputDir, replay
+from harness.validation import ValidationCase, run_case
+
+from .test_validation import short_scenario  # noqa: F401  (fixture)
+
+
+class _Unpicklable(Exception):
+    def __init__(self, message, extra):
+        super().__init__(message)
+        self.extra = lambda: extra
+
+
+def _raise(exc):
+    def fn():
+        raise exc
+    return fn
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_pool_returns_every_result_and_raises_the_workers_errors(jobs):
+    big = np.arange(100_000.0)
+    with ForkPool(jobs) as pool:
+        for i in range(5):
+            pool.submit(i, lambda i=i: (i, os.getpid(), big.sum()), priority=i, what=f"task {i}")
+        got = {}
+        while pool.pending:
+            key, value = pool.next_result()
+            got[key] = value
+    assert sorted(got) == list(range(5)) and all(v[0] == k and v[2] == big.sum() for k, v in got.items())
+    assert (len({v[1] for v in got.values()} - {os.getpid()}) > 0) == (jobs > 1)
+    assert [t["what"] for t in pool.log] and all(t["wall_s"] >= 0 for t in pool.log)
+    with ForkPool(jobs) as pool:
+        pool.submit("a", _raise(DomainError("x left the domain at t = 1 s")))
+        with pytest.raises(DomainError, match="left the domain at t = 1 s"):
+            pool.next_result()
+
+
+def test_errors_that_do_not_pickle_or_a_dying_worker_are_one_clear_error():
+    with ForkPool(2) as pool:
+        pool.submit("a", _raise(_Unpicklable("bad thing at t = 2 s", 3)))
+        with pytest.raises(Exception, match="bad thing at t = 2 s"):
+            pool.next_result()
+        pool.submit("b", lambda: os._exit(3), what="flying the test case")
+        with pytest.raises(GflatError, match=r"exit code 3\) while flying the test case"):
+            pool.next_result()
+    with pytest.raises(InputError, match="at least 1"):
+        ForkPool(0)
+
+
+def test_memory_folder_replayed_gives_the_files_of_a_direct_write(tmp_path):
+    def write(out):
+        out.write_text("a.txt", text="alpha\n")
+        sub = out.sub("case", "open")
+        sub.write_json("summary.json", obj={"x": 1.5})
+        with sub.atomic("fig.png") as tmp:
+            Path(tmp).write_bytes(b"\x89PNG...")
+        return sub.path("fig.png")
+
+    direct = OutputDir(tmp_path / "direct")
+    p1 = write(direct)
+    mem = MemoryOutputDir(tmp_path / "replayed")
+    p2 = write(mem)
+    assert p2 == tmp_path / "replayed" / "case" / "open" / "fig.png" and not p2.exists()
+    real = OutputDir(tmp_path / "replayed")
+    replay(real, mem.files)
+    assert real.written == direct.written and p1.read_bytes() == p2.read_bytes()
+    for rel in direct.written:
+        assert (tmp_path / "replayed" / rel).read_bytes() == (tmp_path / "direct" / rel).read_bytes()
+    with pytest.raises(InputError, match="invalid component"):
+        mem.path("..", "x")
+
+
+def test_closed_loop_reuses_the_open_cases_run(short_scenario):  # noqa: F811
+    open_case = run_case(ValidationCase(str(short_scenario)))
+    closed = ValidationCase(str(short_scenario), loop="closed")
+    reused = run_case(closed, plan=open_case.plan, scenario=open_case.scenario,
+                      open_loop=open_case.runs["inhouse"])
+    flown = run_case(closed, plan=open_case.plan, scenario=open_case.scenario)
+    assert reused.open_loop is open_case.runs["inhouse"]
+    assert flown.open_loop.df.equals(reused.open_loop.df)
+    assert json.dumps(reused.verdict()["runs"]) == json.dumps(flown.verdict()["runs"])   # NaN included
+
+
+def test_paper_in_workers_writes_the_files_of_one_process(short_scenario, tmp_path, monkeypatch, capsys):  # noqa: F811
+    from harness.cli import main
+    from harness.commands import paper
+
+    monkeypatch.setattr(paper, "PAPER_SCENARIOS", (str(short_scenario),))
+    outs = {}
+    for jobs in (1, 2):
+        root = tmp_path / f"jobs{jobs}"
+        assert main(["paper", "--jobs", str(jobs), "--out", str(root)]) == 0
+        outs[jobs] = capsys.readouterr().out
+        execution = json.loads((root / "manifest.json").read_text())["execution"]
+        assert execution["jobs"] == jobs and len(execution["tasks"]) == 7     # 2 + 3 flights, 2 case folders
+    files = {j: sorted(p.relative_to(tmp_path / f"jobs{j}") for p in (tmp_path / f"jobs{j}").rglob("*")
+                       if p.is_file()) for j in (1, 2)}
+    assert files[1] == files[2]
+    volatile = {"index.html", "case.html", "report.pdf", "manifest.json", ".gflat-complete.json", "report.json",
+                "summary.json"}
+    for rel in files[1]:
+        a, b = tmp_path / "jobs1" / rel, tmp_path / "jobs2" / rel
+        if rel.suffix == ".parquet":                  # JSBSim's metadata carries its wall times
+            assert pd.read_parquet(a).equals(pd.read_parquet(b)), rel
+        elif rel.name not in volatile:
+            assert a.read_bytes() == b.read_bytes(), rel
+    marker = [json.loads((tmp_path / f"jobs{j}" / ".gflat-complete.json").read_text()) for j in (1, 2)]
+    assert [f["path"] for f in marker[0]["files"]] == [f["path"] for f in marker[1]["files"]]
+    strip = lambda text: [line for line in text.splitlines() if "time" not in line and "jobs" not in line  # noqa: E731
+                          and str(tmp_path) not in line and not line.startswith("  short ")]
+    assert strip(outs[1]) == strip(outs[2])
