@@ -21,6 +21,7 @@ the files are byte for byte those of a serial run.
 from __future__ import annotations
 
 import contextlib
+import gc
 import heapq
 import multiprocessing
 import os
@@ -92,6 +93,7 @@ def _child(conn, fn: Callable[[], Any]) -> None:
     """Body of a worker: run ``fn``, send ``("ok", value)`` or ``("err", exception, traceback text)``."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)         # the parent handles Ctrl-C and ends its children
     signal.signal(signal.SIGTERM, _terminate)
+    gc.freeze()            # the inherited objects are not scanned by this process's collections (nor copied by them)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     w0, c0 = time.perf_counter(), time.process_time()
     try:
