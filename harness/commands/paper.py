@@ -12,6 +12,12 @@ plan's series, CSV tables, ``plan-j<k>.parquet`` of every iterate,
 ``summary.json``); ``DIR/<scenario>/open/`` and ``DIR/<scenario>/closed/``
 (``trajectory-<engine>.parquet``, figures, ``differences.txt``,
 ``summary.json``); ``DIR/.gflat-complete.json`` once everything is written.
+
+The plans are made in this process; the flights of the cases and the writing
+of their folders run in forked worker processes (``--jobs``,
+:class:`harness.parallel.ForkPool`), whose files this process writes in the
+order of a one-process run; the closed loop's open-loop curve is the open-loop
+case's reference run (the same flight, flown once).
 """
 
 from __future__ import annotations

@@ -17,8 +17,11 @@ result
     :class:`CaseResult` (verdict, summary, report text).
 run
     :func:`run_case`, :func:`case_settings`, :func:`plan_case`, :func:`provenance`,
-    and :func:`compare_engines` (any control source, no scenario).  The closed
-    loop (the paper's tracking feedback) plugs in at ``run._feedback``.
+    and :func:`compare_engines` (any control source, no scenario).
+flights
+    A case split into independent flights (:func:`~.flights.case_flights`, to fly
+    in any order or process) and their tabulation (:func:`~.flights.finish_case`);
+    :func:`run_case` is the two in sequence.
 """
 
 from .case import LOOPS, ValidationCase, load_case
