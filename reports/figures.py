@@ -49,6 +49,29 @@ def _draw_runs(ax, results: Mapping, name: str) -> None:
     ax.grid(alpha=0.3)
 
 
+#: Fixed margins of the figure grids [in]: room for the y tick labels and label (left, between columns), the
+#: x tick labels and label (bottom), the title (top).  Fixed margins cost nothing at drawing time, where
+#: matplotlib's constrained layout measured every axis twice (about 40 % of a figure's drawing time).
+MARGINS_IN = {"left": 0.95, "right": 0.2, "bottom": 0.6, "top": 0.55, "wspace": 1.0, "hspace": 0.3}
+
+
+def grid_margins(fig) -> None:
+    """Place a figure's grid of axes with the fixed margins :data:`MARGINS_IN`.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        A figure whose axes come from one ``fig.subplots(nrows, ncols)`` grid.
+    """
+    w, h = fig.get_size_inches()
+    nrows, ncols = fig.axes[0].get_subplotspec().get_gridspec().get_geometry()
+    m = MARGINS_IN
+    ax_w = (w - m["left"] - m["right"] - (ncols - 1) * m["wspace"]) / ncols
+    ax_h = (h - m["bottom"] - m["top"] - (nrows - 1) * m["hspace"]) / nrows
+    fig.subplots_adjust(left=m["left"] / w, right=1 - m["right"] / w, bottom=m["bottom"] / h, top=1 - m["top"] / h,
+                        wspace=m["wspace"] / ax_w, hspace=m["hspace"] / ax_h)
+
+
 def save_figure(fig, out, name: str, dpi: int = 110) -> Path:
     """Save a figure as ``name`` in ``out``: through the OutputDir's atomic write, or into a folder path.
 
@@ -108,7 +131,7 @@ def write_figures(results: Mapping, out_dir, *, reference: pd.DataFrame | None =
     labels = list(results)
     paths = []
 
-    fig = Figure(figsize=(13, 11), layout="constrained")
+    fig = Figure(figsize=(13, 11), layout=None)
     axs = fig.subplots(4, 3, sharex=True)
     for ax, name in zip(axs.ravel(), STATE_NAMES):
         if reference is not None and name in reference.columns:
@@ -118,9 +141,10 @@ def write_figures(results: Mapping, out_dir, *, reference: pd.DataFrame | None =
         ax.set_xlabel("t [s]")
     axs[0, 0].legend(fontsize=8)
     fig.suptitle(f"{title}: states")
+    grid_margins(fig)
     paths.append(save_figure(fig, out, "states.png"))
 
-    fig = Figure(figsize=(13, 7), layout="constrained")
+    fig = Figure(figsize=(13, 7), layout=None)
     axs = fig.subplots(2, 3, sharex=True)
     for ax, name in zip(axs.ravel(), CONTROL_NAMES):
         _draw_runs(ax, results, name)
@@ -129,11 +153,12 @@ def write_figures(results: Mapping, out_dir, *, reference: pd.DataFrame | None =
         ax.set_xlabel("t [s]")
     axs[0, 0].legend(fontsize=8)
     fig.suptitle(f"{title}: applied controls")
+    grid_margins(fig)
     paths.append(save_figure(fig, out, "controls.png"))
 
     if len(labels) > 1:
         tol = resolve_tolerances(tolerances, DEFAULT_VARIABLES)
-        fig = Figure(figsize=(13, 12), layout="constrained")
+        fig = Figure(figsize=(13, 12), layout=None)
         axs = fig.subplots(5, 3, sharex=True)
         ref = results[labels[0]]
         names = DEFAULT_VARIABLES
@@ -151,6 +176,7 @@ def write_figures(results: Mapping, out_dir, *, reference: pd.DataFrame | None =
         for ax in axs[-1]:
             ax.set_xlabel("t [s]")
         fig.suptitle(f"{title}: differences to {labels[0]}")
+        grid_margins(fig)
         paths.append(save_figure(fig, out, "differences.png"))
     return paths
 

@@ -14,7 +14,7 @@ import numpy as np
 from gna.eom import CONTROL_NAMES
 from harness.metrics import differences
 
-from .figures import plot_scale, save_figure
+from .figures import grid_margins, plot_scale, save_figure
 
 #: Variables of the signed-difference figure: the position components, then the other states.
 SIGNED_VARIABLES: tuple[str, ...] = ("x", "y", "z", "V", "gamma", "chi", "alpha", "beta", "mu", "p", "q", "r")
@@ -69,7 +69,7 @@ def write_singularity_figure(plan, out_dir: str | Path) -> Path | None:
     if sing is None:
         return None
     tab = sing.table
-    fig = Figure(figsize=(12, 3.6), layout="constrained")
+    fig = Figure(figsize=(12, 3.6), layout=None)
     axs = fig.subplots(1, len(tab.columns), sharex=True)
     units = {"V_cos_gamma": "m/s", "cos_beta": "-"}
     for ax, col in zip(np.atleast_1d(axs), tab.columns):
@@ -79,6 +79,7 @@ def write_singularity_figure(plan, out_dir: str | Path) -> Path | None:
         ax.set_xlabel("t [s]")
         ax.grid(alpha=0.3)
     fig.suptitle(f"{plan.name}: singularity monitor along the flat plan (zero = singular)")
+    grid_margins(fig)
     return save_figure(fig, out_dir, SINGULARITY_PNG, dpi=90)
 
 
@@ -101,7 +102,7 @@ def write_controls_limits_figure(result, out_dir: str | Path) -> Path:
 
     ref = result.reference_frame()
     limits = control_limits(result.plan.aircraft)
-    fig = Figure(figsize=(12, 6.5), layout="constrained")
+    fig = Figure(figsize=(12, 6.5), layout=None)
     axs = fig.subplots(2, 3, sharex=True)
     for ax, name in zip(axs.ravel(), CONTROL_NAMES):
         k, unit = plot_scale(name)
@@ -117,6 +118,7 @@ def write_controls_limits_figure(result, out_dir: str | Path) -> Path:
         ax.set_xlabel("t [s]")
     axs[0, 0].legend(fontsize=7)
     fig.suptitle(f"{result.plan.name} ({result.case.loop} loop): applied controls and their limits")
+    grid_margins(fig)
     return save_figure(fig, out_dir, CONTROLS_LIMITS_PNG, dpi=90)
 
 
@@ -141,7 +143,7 @@ def write_signed_differences_figure(result, out_dir: str | Path) -> Path | None:
     if len(labels) < 2:
         return None
     ref = result.runs[labels[0]]
-    fig = Figure(figsize=(12, 9), layout="constrained")
+    fig = Figure(figsize=(12, 9), layout=None)
     axs = fig.subplots(4, 3, sharex=True)
     for ax, name in zip(axs.ravel(), SIGNED_VARIABLES):
         k, unit = plot_scale(name)
@@ -154,4 +156,5 @@ def write_signed_differences_figure(result, out_dir: str | Path) -> Path | None:
         ax.set_xlabel("t [s]")
     axs[0, 0].legend(fontsize=7)
     fig.suptitle(f"{result.plan.name} ({result.case.loop} loop): signed differences to {labels[0]}")
+    grid_margins(fig)
     return save_figure(fig, out_dir, SIGNED_DIFFERENCES_PNG, dpi=90)

@@ -19,7 +19,7 @@ import numpy as np
 
 from harness.metrics import position_error
 
-from .figures import plot_scale, save_figure
+from .figures import grid_margins, plot_scale, save_figure
 
 #: Variables drawn, in panel order (the paper's figures show the angles and the surfaces).
 TRACKING_VARIABLES: tuple[str, ...] = ("V", "alpha", "beta", "mu", "F", "dl", "dm", "dn")
@@ -62,7 +62,7 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
     flat = plan.to_dataframe(t, j=0)
     gen = plan.to_dataframe(t, j=plan.J)
     opened = result.open_loop.df
-    fig = Figure(figsize=(13, 11), layout="constrained")
+    fig = Figure(figsize=(13, 11), layout=None)
     axs = fig.subplots(3, 3, sharex=True)
     for ax, var in zip(axs.ravel(), TRACKING_VARIABLES):
         k, unit = plot_scale(var)
@@ -96,4 +96,5 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
     ax.legend(fontsize=7)
     fig.suptitle(f"{plan.name}: closed loop with the tracking feedback (engine {result.reference_engine}) "
                  f"against the flat (J = 0) and generalized (J = {plan.J}) plans")
+    grid_margins(fig)
     return save_figure(fig, out_dir, name)
