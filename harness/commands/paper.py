@@ -128,19 +128,18 @@ class _Scenario:
         t0 = time.perf_counter()
         planned = plan_case(self.case)
         self.name = planned.scenario.name
+        for loop in self.loops:                       # each case's flights submitted as soon as it is set up
+            self.flights[loop] = case_flights(replace(self.case, loop=loop), plan=planned.plan,
+                                              scenario=planned.scenario)
+            self.runs[loop] = {}
+            for name in self.flights[loop].flights:
+                if not (loop == "closed" and name == OPEN_LOOP and "open" in self.loops):
+                    self._fly(pool, loop, name)     # the open-loop run waits for the open case's
         mem = MemoryOutputDir(self.root)
         self.lines.append(write_plan(planned.scenario, planned.plan, planned.planning_time_s,
                                      mem.sub(self.name, "plan")))
         self.files["plan"] = mem.files
-        for loop in self.loops:
-            self.flights[loop] = case_flights(replace(self.case, loop=loop), plan=planned.plan,
-                                              scenario=planned.scenario)
-            self.runs[loop] = {}
         self.t_plan = time.perf_counter() - t0
-        for loop in self.loops:
-            for name in self.flights[loop].flights:
-                if not (loop == "closed" and name == OPEN_LOOP and "open" in self.loops):
-                    self._fly(pool, loop, name)     # the open-loop run waits for the open case's
 
     def _fly(self, pool: ForkPool, loop: str, name: str) -> None:
         self.submitted.add((loop, name))
