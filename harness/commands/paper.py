@@ -78,7 +78,7 @@ def run(args) -> int:
         planned = plan_case(case)
         name = planned.scenario.name
         plan_dir = out.sub(name, "plan")
-        print(write_plan(planned.scenario, planned.plan, planned.planning_time_s, plan_dir))
+        print(write_plan(planned.scenario, planned.plan, planned.planning_time_s, plan_dir)[0])
         passed.append(True)
         iterates_written = False
         if args.loop in ("open", "both"):
