@@ -237,7 +237,7 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     warnings = envelope_warnings(aircraft, df)
     settings = RunSettings(
         engine="gna.simulate", method=method, rtol=rtol, atol=atol, max_step=max_step, model=model,
-        environment=env.atmosphere.describe(), g=env.g,
+        environment=env.describe(), g=env.g,
         controller=None if ctrl is None else "evaluated continuously on the integrated state",
         controller_states=nc,
         controller_scheme=None if ctrl is None else f"{method} (integrated with the aircraft states)",
