@@ -120,7 +120,7 @@ def plan_summary(sc, plan, elapsed: float, check=None) -> dict:
     Returns
     -------
     dict
-        ``scenario``, ``aircraft``, ``J``, ``nodes``, ``orders``, ``planning_time_s``, ``timings_s``
+        ``scenario``, ``aircraft``, ``environment`` (atmosphere and ground effect), ``g`` [m/s^2], ``J``, ``nodes``, ``orders``, ``planning_time_s``, ``timings_s``
         (per iterate), ``feasible``, ``worst_newton_residual``, ``equation_residual_per_iterate`` (max
         over the 12 full-model equations at the nodes, SI units), ``warnings``; with ``check`` also
         ``open_loop_max_position_error_m`` [m] (None when the flight stopped early),
@@ -129,7 +129,8 @@ def plan_summary(sc, plan, elapsed: float, check=None) -> dict:
     """
     res = [float(plan.equation_residuals("full", j).abs().max(skipna=False).max(skipna=False))
            for j in range(plan.J + 1)]
-    out = {"scenario": sc.name, "aircraft": sc.aircraft.id, "J": plan.J, "nodes": len(plan.t_nodes),
+    out = {"scenario": sc.name, "aircraft": sc.aircraft.id, "environment": plan.env.describe(), "g": plan.env.g,
+           "J": plan.J, "nodes": len(plan.t_nodes),
            "orders": [it.order for it in plan.iterates], "planning_time_s": elapsed, "timings_s": plan.timings,
            "feasible": bool(plan.feasible and not plan.domain_failures),
            "worst_newton_residual": plan.worst_newton_residual(), "equation_residual_per_iterate": res,
