@@ -11,7 +11,7 @@ import numpy as np
 
 from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
-from planners.systems.demos import DEMOS, run_demo
+from planners.systems.demos import DEMOS, is_chained_scenario, run_demo
 
 from ..fileio import json_safe
 from ..outdir import OutputDir
@@ -144,9 +144,9 @@ def write_plan(sc, plan, elapsed: float, out) -> str:
 
 
 def run(args) -> int:
-    if args.scenario in DEMOS:  # a chained system of planners.systems, not an aircraft scenario
-        out = OutputDir(Path(args.out)) if args.out else default_out(args.scenario)
+    if is_chained_scenario(args.scenario):  # a chained system of planners.systems, not an aircraft scenario
         demo = run_demo(args.scenario, J=args.J)
+        out = OutputDir(Path(args.out)) if args.out else default_out(demo.summary["scenario"])
         out.write_text("plan.csv", text=demo.csv)
         out.write_json("summary.json", obj=demo.summary)
         print(demo.text + f"\n  written to {out.root}/")

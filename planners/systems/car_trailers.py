@@ -158,3 +158,34 @@ def simulate_car_two_trailers(geometry: CarTrailers, v0, phi, state0, t_eval) ->
                     (t_eval[0], t_eval[-1]), np.asarray(state0, dtype=float), t_eval=t_eval, rtol=1e-10,
                     atol=1e-10, method="RK45")
     return sol.y.T
+
+
+def open_loop_error(plan, geometry: CarTrailers, x2, y2, samples: int = 241) -> float:
+    """Max distance of the exact model's last trailer, flown open loop with a plan's controls, from the flat output.
+
+    The exact off-axle model (:func:`simulate_car_two_trailers`) starts on the plan's state at its
+    first node and is driven by the planned ``v0(t), phi(t)`` (the two-sided interpolation of the
+    last iterate).
+
+    Parameters
+    ----------
+    plan : planners.chained.ChainedPlan
+        A plan of :func:`car_two_trailers`.
+    geometry : CarTrailers
+        The exact model's lengths [m].
+    x2, y2 : callable
+        The flat output (last trailer's axle midpoint) [m] as functions of t [s].
+    samples : int
+        Number of equally spaced comparison times over the plan's span.
+
+    Returns
+    -------
+    float
+        ``max_t |(x2, y2)_simulated - (x2, y2)_planned|`` [m].
+    """
+    te = np.linspace(plan.t_nodes[0], plan.t_nodes[-1], samples)
+    x0 = [plan.evaluate(n, te[0]) for n in ("x2", "y2", "theta2", "theta1", "theta0")]
+    X = simulate_car_two_trailers(geometry, lambda t: plan.evaluate("v0", t), lambda t: plan.evaluate("phi", t),
+                                  x0, te)
+    return float(np.max(np.hypot(X[:, 0] - np.broadcast_to(x2(te), te.shape),
+                                 X[:, 1] - np.broadcast_to(y2(te), te.shape))))
