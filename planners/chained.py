@@ -78,6 +78,40 @@ class Stage:
 
 
 @dataclass(frozen=True)
+class StateSpaceModel:
+    """Explicit form ``x' = f(x, u)`` of a chained system, for the tracking feedback
+    (paper section "Design of the feed-back"; :func:`planners.tracking.design_chained`).
+
+    Attributes
+    ----------
+    states : tuple of str
+        State variables (variables of the system's plans).
+    controls : tuple of str
+        Control variables.
+    rhs : callable
+        ``rhs(x, u, hat) -> list`` of the state derivatives, on floats, arrays and Series alike:
+        ``hat=None`` gives the exact model; ``hat`` a mapping of the neglected variables gives the
+        design model, where the neglected terms H take those values (the model the plan solves, as
+        the aircraft's force coefficients with H frozen along the plan).
+    integrands : callable
+        ``integrands(ref) -> rows``: the tracking integrals ``I_p' = sum_b C[p][b] (x_b - x~_b)``, one
+        row of ``len(states)`` coefficients per integral (floats or Series), given the reference
+        ``ref`` (a mapping of the plan's variables; floats or Series).
+    degrees : tuple of int
+        Relative degree of each integral with respect to its inputs in the design model.
+    stages : tuple
+        Sequential decoupling: ``((integral indices), (control indices))`` per stage.
+    """
+
+    states: tuple
+    controls: tuple
+    rhs: Callable
+    integrands: Callable
+    degrees: tuple
+    stages: tuple
+
+
+@dataclass(frozen=True)
 class ChainedSystem:
     """An almost chained system (paper eq. chained-sys).
 
@@ -103,6 +137,8 @@ class ChainedSystem:
         default :attr:`guess`.
     newton_tol : float
         Tolerance of the pointwise Newton of the stages (units of the residuals).
+    model : StateSpaceModel, optional
+        The explicit model, for tracking.
     """
 
     name: str
@@ -114,6 +150,7 @@ class ChainedSystem:
     outputs: Mapping | None = None
     neglected_values: Mapping | None = None
     newton_tol: float = 1e-13
+    model: StateSpaceModel | None = None
 
     @property
     def r(self) -> int:

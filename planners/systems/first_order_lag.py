@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..chained import ChainedSystem, Stage
+from ..chained import ChainedSystem, Stage, StateSpaceModel
 
 
 def first_order_lag(eps: float = 0.1) -> ChainedSystem:
@@ -43,6 +43,11 @@ def first_order_lag(eps: float = 0.1) -> ChainedSystem:
         stages=(Stage(("y",), lambda v: [v["x'"] - v["y"] - eps * v["y1"]], neglected=("y1",), ell=2),
                 Stage(("y1",), lambda v: [v["y'"] - v["y1"]])),
         description=f"x' = y + eps y' with eps = {eps:g} s; x is a generalized flat output",
+        # states x, y, control y1 = y'; the design model freezes H_1 = eps y1 at the plan's values:
+        # I = int dx has relative degree 3 (dx, then dy, then dy1)
+        model=StateSpaceModel(("x", "y"), ("y1",),
+                              lambda x, u, hat=None: [x[1] + eps * (u[0] if hat is None else hat["y1"]), u[0]],
+                              lambda ref: [[1.0, 0.0]], degrees=(3,), stages=(((0,), (0,)),)),
     )
 
 
