@@ -60,24 +60,29 @@ def test_design_places_the_poles_of_each_integral(car_plan):
         design_chained(plan, [[1.0], [1.0]])
 
 
-def test_car_closed_loop_converges_to_the_plan_from_a_perturbed_start(car_plan):
-    """The exact off-axle model in closed loop from 0.5 m off the lane, trailer 2 turned by 3 deg and the car
-    by 6 deg: back on the plan within 5 mm after 12 s (measured 1.0 mm), while the same start flown open loop stays off."""
-    sc, plan = car_plan
-    ctl = chained_tracking(plan, CAR_LAMBDAS)
-    te = np.linspace(0.0, 12.0, 121)
+def test_car_closed_loop_converges_to_the_plan_from_a_perturbed_start():
+    """The exact off-axle model in closed loop, the rig started 0.3 m behind and 0.3 m beside its plan,
+    trailer 2 turned by 1 deg and the car by 2 deg, on the scenario's weave over 24 s: back on the plan
+    (0.42 m -> 0.16 mm measured) with the steering within 0.11 rad (the plan's: 0.06), while the same
+    start flown open loop stays off."""
+    sc = load_chained_scenario("car-two-trailers")
+    T = 24.0
+    plan = generalized_parametrization(sc.system, np.linspace(0.0, T, 97), sc.flat_outputs, J=4, e=3)
+    ctl = chained_tracking(plan, ((1.0, 1.5), (0.6, 0.8, 1.0, 1.2, 1.4)))
+    te = np.linspace(0.0, T, 241)
     ref = np.column_stack([sc.flat_outputs["x2"](te), sc.flat_outputs["y2"](te)])
-    x0 = np.array([plan.evaluate(n, 0.0) for n in ctl.states]) + np.array([0.0, 0.5, 0.05, 0.0, 0.1])
+    dx = np.array([0.3, 0.3, 0.02, 0.0, 0.03])
+    x0 = np.array([plan.evaluate(n, 0.0) for n in ctl.states]) + dx
     X, U = ctl.simulate(x0, te)
     err = np.hypot(*(X[:, :2] - ref).T)
-    assert err[0] == pytest.approx(0.5) and err[-1] < 5e-3 and np.all(np.isfinite(U))
-    assert np.all(err[te >= 8.0] < 2e-2)
+    assert err[0] == pytest.approx(0.3 * np.sqrt(2)) and err[-1] < 1e-3 and np.all(err[te >= 16.0] < 1e-2)
+    assert np.max(np.abs(U[:, 1])) < 0.2 and np.all(np.abs(U[:, 0] - 5.0) < 1.0)
     g = CarTrailers(**{k: sc.parameters[k] for k in ("l0", "d1", "L1", "d2", "L2")})
     Xo = simulate_car_two_trailers(g, lambda t: plan.evaluate("v0", t), lambda t: plan.evaluate("phi", t), x0, te)
-    assert np.hypot(*(Xo[-1, :2] - ref[-1])) > 0.3
-    # unperturbed: the loop keeps the exact model on the plan at least as well as the open loop (4e-5 m)
-    X, _ = ctl.simulate(x0 - np.array([0.0, 0.5, 0.05, 0.0, 0.1]), te)
-    assert np.max(np.hypot(*(X[:, :2] - ref).T)) < 4e-5
+    assert np.hypot(*(Xo[-1, :2] - ref[-1])) > 0.2
+    # unperturbed: the loop keeps the exact model on the plan (the plan's own open-loop error is 4e-5 m)
+    X, _ = ctl.simulate(x0 - dx, te)
+    assert np.max(np.hypot(*(X[:, :2] - ref).T)) < 1e-4
 
 
 def test_lag_closed_loop_converges():
