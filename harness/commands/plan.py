@@ -20,7 +20,7 @@ import numpy as np
 
 from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
-from planners.systems.demos import DEMOS, run_demo
+from planners.systems.demos import DEMOS, is_chained_scenario, run_demo
 from planners.verify import open_loop_error
 
 from ..fileio import json_safe
@@ -212,9 +212,10 @@ def write_plan(sc, plan, elapsed: float, out, check=None) -> tuple[str, dict]:
 
 
 def run(args) -> int:
-    if args.scenario in DEMOS:  # a chained system of planners.systems, not an aircraft scenario
-        out = OutputDir(Path(args.out)) if args.out else default_out(args.scenario)
+    if is_chained_scenario(args.scenario):  # a chained system of planners.systems, not an aircraft scenario
+        out = OutputDir(Path(args.out)) if args.out else None        # a given folder is checked before planning
         demo = run_demo(args.scenario, J=args.J)
+        out = out if out is not None else default_out(demo.summary["scenario"])
         out.write_text("plan.csv", text=demo.csv)
         out.write_json("summary.json", obj=demo.summary)
         print(json.dumps(json_safe(demo.summary), indent=2) if args.json
