@@ -22,7 +22,7 @@ from scipy.optimize import brentq
 from .aircraft import Aircraft
 from .atmosphere import Environment
 from .controller import as_controller, checked_initial_state, evaluate, state_names
-from .eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, derivatives, loads
+from .eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, loads
 from .errors import InputError
 from .piecewise import PiecewisePolynomial
 from .tape import compile_derivatives
