@@ -42,7 +42,7 @@ from .errors import InputError
 __all__ = ["CompiledDerivatives", "compile_derivatives", "TraceError"]
 
 #: Traced programs kept per compiled model (one per side of each guard met, e.g. the ISA layers).
-MAX_PROGRAMS = 4
+MAX_PROGRAMS = 8
 
 
 class TraceError(Exception):
@@ -224,12 +224,24 @@ class _Traced:
         return self
 
     def __array_ufunc__(self, ufunc, method, *inputs, **kwargs):
+        if method == "__call__" and not kwargs and ufunc in (np.minimum, np.maximum):
+            return _select(self.tape, ufunc is np.minimum, *inputs)
         name = _UFUNCS.get(ufunc)
         if method != "__call__" or kwargs or name is None:
             raise TraceError(f"numpy {ufunc.__name__}.{method} is not traced")
         if name in _COMPARE:
             return self.tape.compare(name, *inputs)
         return self.tape.apply(name, inputs)
+
+    def __array_function__(self, func, types, args, kwargs):
+        # The value-dependent choices of numpy on one float: a guard decides, the chosen operand is kept.
+        if func is np.real and len(args) == 1 and not kwargs:
+            return args[0]
+        if func is np.where and len(args) == 3 and not kwargs and isinstance(args[0], (bool, np.bool_)):
+            return args[1] if args[0] else args[2]
+        if func is np.clip and len(args) == 3 and not kwargs:
+            return _select(self.tape, True, _select(self.tape, False, args[0], args[1]), args[2])
+        raise TraceError(f"numpy.{func.__name__} is not traced")
 
     # Anything that would turn the traced value into a constant, or branch on it unguarded.
     def __float__(self):
@@ -243,6 +255,17 @@ class _Traced:
 
     def __index__(self):
         raise TraceError("a traced value used as an index")
+
+
+def _select(tape: _Tape, smaller: bool, a, b):
+    """``np.minimum(a, b)`` (``smaller``) or ``np.maximum(a, b)`` on one float: a guard on ``a <= b``."""
+    values = [tape.values[v.slot] if isinstance(v, _Traced) else v for v in (a, b)]
+    if any(isinstance(v, float) and math.isnan(v) for v in values):
+        raise TraceError("minimum or maximum of a NaN")         # numpy propagates it; a guard would not
+    if not isinstance(a, _Traced) and not isinstance(b, _Traced):
+        return min(a, b) if smaller else max(a, b)
+    a_first = tape.compare("le", a, b) if isinstance(a, _Traced) else not tape.compare("lt", b, a)
+    return (a if a_first else b) if smaller else (b if a_first else a)
 
 
 def _emit(tape: _Tape, outputs: list) -> tuple[str, list[tuple]]:

@@ -132,6 +132,32 @@ def test_untraceable_definition_uses_the_generic_evaluation():
     assert f.programs == [] and f.reason and f.generic_calls == 1
 
 
+@dataclasses.dataclass(frozen=True)
+class _LayeredDensity:
+    """Value-dependent numpy choices (maximum, clip, where): recorded as guards."""
+
+    def density(self, h):
+        hc = np.clip(h, -1000.0, 15000.0)
+        base = 1.2 * np.exp(-np.maximum(hc, 0.0) / 8500.0)
+        return np.where(h > 5000.0, 0.98 * base, base)
+
+    def describe(self):
+        return "layered"
+
+
+def test_value_dependent_choices_become_guards():
+    craft = load_aircraft("f4")
+    env = Environment(_LayeredDensity())
+    f = compile_derivatives(craft, env)
+    rng = np.random.default_rng(3)
+    for high in (False, True, False):
+        X, U = _random_points(rng, 40, high)
+        X[:5, 2] = 500.0                   # below the ground of the clip
+        for x, u in zip(X, U):
+            _assert_equal(f(x, u), _generic(craft, env, x, u), f"layered at z = {x[2]}")
+    assert f.reason is None and f.generic_calls == 0 and 2 <= len(f.programs) <= 8
+
+
 def test_bad_model_is_refused():
     with pytest.raises(ValueError, match="model"):
         CompiledDerivatives(load_aircraft("gtm"), Environment(), "coarse")
