@@ -15,8 +15,8 @@ The controls are the plan's :meth:`planners.plan.Plan.control_function` when it 
 ``PiecewisePolynomial`` of the planned controls and their derivatives at the nodes, so the
 figures measure the engine rather than the evaluation of the plan's series.
 
-Printed per scenario: simulated span, wall median [s], real-time factor (span / wall), right-hand-side
-calls and the wall per call [us]; the ratio in-house / JSBSim of the real-time factors; the cost of
+Printed per scenario: simulated span, wall and CPU medians [s], real-time factor (span / wall),
+right-hand-side calls and the wall per call [us]; the ratio in-house / JSBSim of the real-time factors; the cost of
 one derivative evaluation alone (generic and traced); the trajectory difference fast - generic;
 and the forward slip flown closed loop with the paper's tracking feedback::
 
@@ -136,22 +136,24 @@ def bench_scenario(name: str, repeats: int, jsbsim: bool) -> dict:
     if jsbsim:
         runs["JSBSim"] = lambda: run_jsbsim(plan, controls)
     walls: dict[str, list[float]] = {k: [] for k in runs}
+    cpus: dict[str, list[float]] = {k: [] for k in runs}
     last = {}
     for _ in range(repeats):
         for label, run in runs.items():
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             res = run()
             walls[label].append(time.perf_counter() - t)
+            cpus[label].append(time.process_time() - c)
             assert res.status == "completed", f"{name} {label}: {res.message}"
             last[label] = res
     n = rhs_calls(plan, controls)
     generic_us, traced_us = per_call_us(plan, controls)
     print(f"{name}: {span:g} s flown open loop, controls: {how}; medians of {repeats}")
-    print(f"  {'engine':<18} {'wall [s]':>9} {'x real time':>12} {'rhs calls':>10} {'us/call':>8}")
+    print(f"  {'engine':<18} {'wall [s]':>9} {'CPU [s]':>8} {'x real time':>12} {'rhs calls':>10} {'us/call':>8}")
     med = {k: statistics.median(v) for k, v in walls.items()}
     for label, w in med.items():
         calls = f"{n:10d} {1e6 * w / n:8.1f}" if label.startswith("in-house") else f"{'':10} {'':8}"
-        print(f"  {label:<18} {w:9.3f} {span / w:12.1f} {calls}")
+        print(f"  {label:<18} {w:9.3f} {statistics.median(cpus[label]):8.3f} {span / w:12.1f} {calls}")
     if jsbsim:
         print(f"  in-house / JSBSim real-time factor: {med['JSBSim'] / med['in-house']:.2f} "
               f"(generic evaluation: {med['JSBSim'] / med['in-house generic']:.2f})")
