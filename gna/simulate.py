@@ -8,6 +8,12 @@ the located time with a message naming the variable and value, and the valid
 part of the result is kept.  A controller with its own states
 (:class:`gna.controller.Controller`) is integrated together with the aircraft:
 the integrated vector is ``(x, xc)`` with ``12 + n_states`` components.
+
+The right-hand side evaluates :func:`gna.eom.derivatives` through
+:func:`gna.tape.compile_derivatives`: the same definition traced once per run
+into a straight-line program on Python floats (about 20x cheaper per call than
+the generic evaluation on numpy floats, and equal to it; ``docs/equations.md``,
+"Evaluating the equations on one state").
 """
 
 from __future__ import annotations
