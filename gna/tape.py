@@ -49,6 +49,10 @@ class TraceError(Exception):
     """The definition did something the tracer cannot record (the fast path is then not used)."""
 
 
+class _TraceArithmeticError(TraceError):
+    """A floating-point exception while tracing at one state: another state may trace."""
+
+
 # Unary and binary operations: (code template, float implementation).  The float implementation
 # computes the traced value, with exactly the operation the generated code performs.
 _UNARY = {
@@ -130,7 +134,7 @@ class _Tape:
         try:
             value = (_UNARY[name][1] if len(vals) == 1 else _BINARY[name][1])(*vals)
         except (ArithmeticError, ValueError) as exc:
-            raise TraceError(f"{name} of {vals} while tracing: {exc}") from None
+            raise _TraceArithmeticError(f"{name} of {vals} while tracing: {exc}") from None
         self.ops.append((name, operands))
         self.values.append(float(value))
         self.memo[key] = len(self.ops) - 1
@@ -261,15 +265,15 @@ def _select(tape: _Tape, smaller: bool, a, b):
     """``np.minimum(a, b)`` (``smaller``) or ``np.maximum(a, b)`` on one float: a guard on ``a <= b``."""
     values = [tape.values[v.slot] if isinstance(v, _Traced) else v for v in (a, b)]
     if any(isinstance(v, float) and math.isnan(v) for v in values):
-        raise TraceError("minimum or maximum of a NaN")         # numpy propagates it; a guard would not
+        raise _TraceArithmeticError("minimum or maximum of a NaN")   # numpy propagates it; a guard would not
     if not isinstance(a, _Traced) and not isinstance(b, _Traced):
         return min(a, b) if smaller else max(a, b)
     a_first = tape.compare("le", a, b) if isinstance(a, _Traced) else not tape.compare("lt", b, a)
     return (a if a_first else b) if smaller else (b if a_first else a)
 
 
-def _emit(tape: _Tape, outputs: list) -> tuple[str, list[tuple]]:
-    """Python source of the traced program, and its guards ``(slot, comparison, other, outcome)``."""
+def _emit(tape: _Tape, outputs: list) -> str:
+    """Python source of the traced program (guards re-checked where their operands are known)."""
     n_in = len(STATE_NAMES) + len(CONTROL_NAMES)
     need = [False] * len(tape.ops)
     for o in outputs:
@@ -332,7 +336,7 @@ def _emit(tape: _Tape, outputs: list) -> tuple[str, list[tuple]]:
             lines.append(f"    if {'not ' if outcome else ''}({test}):\n        return None")
     outs = [f"v{o.slot}" if isinstance(o, _Traced) else repr(float(o)) for o in outputs]
     lines.append("    return (" + ", ".join(outs) + ",)")
-    return "\n".join(lines) + "\n", tape.guards
+    return "\n".join(lines) + "\n"
 
 
 #: Deepest nesting of inlined operations in one expression of a generated program.
@@ -393,7 +397,7 @@ def trace_program(aircraft: Aircraft, env: Environment, x, u, model: str = "full
     for o in outputs:
         if not isinstance(o, (_Traced,) + _NUMBER):
             raise TraceError(f"a derivative of type {type(o).__name__}")
-    source, _ = _emit(tape, outputs)
+    source = _emit(tape, outputs)
     namespace = dict(_NAMESPACE)
     exec(compile(source, f"<gna.tape: {getattr(aircraft, 'id', 'aircraft')} {model}>", "exec"), namespace)
     return namespace["program"], source
@@ -439,14 +443,18 @@ class CompiledDerivatives:
         self.sources: list[str] = []
         self.reason: str | None = None
         self.generic_calls = 0
+        self._failed_traces = 0
         if x0 is not None and u0 is not None:
             self._add_program(list(map(float, x0)), list(map(float, u0)))
 
     def _add_program(self, s: list, u: list) -> Callable | None:
-        if self.reason is not None or len(self.programs) >= MAX_PROGRAMS:
+        if self.reason is not None or len(self.programs) + self._failed_traces >= MAX_PROGRAMS:
             return None
         try:
             program, source = trace_program(self.aircraft, self.env, s, u, self.model, self.h)
+        except _TraceArithmeticError:
+            self._failed_traces += 1          # this state only (e.g. V = 0): the generic evaluation answers
+            return None
         except TraceError as exc:
             if not self.programs:
                 self.reason = str(exc)

@@ -109,6 +109,10 @@ def test_float_exceptions_fall_back_to_the_generic_evaluation():
     got = f(x, u)
     np.testing.assert_array_equal(np.isfinite(got), np.isfinite(ref))
     assert f.generic_calls == 1 and not np.all(np.isfinite(got))
+    # The failure belonged to that state: the next one is traced.
+    x[3] = 120.0
+    _assert_equal(f(x, u), _generic(craft, Environment(), x, u), "after a failed trace")
+    assert f.reason is None and len(f.programs) == 1 and f.generic_calls == 1
 
 
 @dataclasses.dataclass(frozen=True)
