@@ -107,8 +107,9 @@ class PiecewisePolynomial:
         s = t - b[i]
         out = []
         for row in self._rows[i]:
-            acc = row[0]
-            for c in row[1:]:
+            coefficients = iter(row)
+            acc = next(coefficients)
+            for c in coefficients:
                 acc = acc * s + c
             out.append(acc)
         return np.array(out)
