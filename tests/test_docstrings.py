@@ -46,6 +46,7 @@ MODULES = [
     "planners.singularity",
     "planners.tracking",
     "gna.simulate",
+    "gna.tape",
     "gna.trajectory",
     "harness.engines.base",
     "harness.engines.registry",
