@@ -69,6 +69,7 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import dataclasses  # noqa: E402
+import gc  # noqa: E402
 import json  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
@@ -508,6 +509,7 @@ def planner_guess(scenario) -> Callable:
 
 
 def _clock():
+    gc.collect()  # every timed section starts from the same collector state
     return time.process_time(), time.perf_counter()
 
 
@@ -609,11 +611,13 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
                 tt = g["times"][gname]
                 start = _clock()
                 prob = CollocationProblem(sc, f, guess, graph=gname)
-                tt["build"].append(_since(start))
-                s2 = _clock()
+                build = _since(start)
+                start = _clock()
                 prob.solve()
-                tt["solve"].append(_since(s2))
-                tt["scratch"].append(_since(start))
+                solve = _since(start)
+                tt["build"].append(build)
+                tt["solve"].append(solve)
+                tt["scratch"].append((build[0] + solve[0], build[1] + solve[1]))
                 start = _clock()
                 prebuilt[f, gname].solve()
                 tt["resolve"].append(_since(start))
