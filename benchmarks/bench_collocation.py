@@ -14,7 +14,8 @@ equations hold at the three Radau points of every interval (order 5 for the stat
 with s = 3; stiffly accurate, the standard choice of pseudospectral and ``casadi`` collocation).
 The flat outputs and the prescribed inputs are imposed at every point (they are known numbers there,
 so they enter as constants, which is what IPOPT's ``fixed_variable_treatment = make_parameter`` would
-do with equal bounds).
+do with equal bounds); a mixed fourth output ``f1(t) beta + f2(t) mu = value(t)`` is a constraint at
+every point.
 
 The equations do not fix every unknown: there are 12 equations per Radau point but none at t0, so the
 initial values of the non-flat states and the controls at t0 are left free; and on the full model the rate and surface terms of the
@@ -344,6 +345,14 @@ class CollocationProblem:
         Dg_sp = ca.sparsify(ca.DM(Dg))
         dyn = ca.mtimes(X, Dg_sp) - f.map(len(radau))(X[:, radau], U[:, radau])
         dyn = ca.vec(ca.diag(ca.DM(1.0 / sx)) @ dyn)
+        self.n_dynamics = int(dyn.numel())
+        if zeta.kind == "mix":
+            # The mixed fourth output f1(t) beta + f2(t) mu = value(t) at every point.
+            f1 = np.broadcast_to(np.asarray(zeta.f1(t), dtype=float), t.shape)
+            f2 = np.broadcast_to(np.asarray(zeta.f2(t), dtype=float), t.shape)
+            ib, im = eom.STATE_NAMES.index("beta"), eom.STATE_NAMES.index("mu")
+            mix = X[ib, :] * ca.DM(f1).T + X[im, :] * ca.DM(f2).T - ca.DM(zv).T
+            dyn = ca.vertcat(dyn, ca.vec(mix))
         # Objective: the integral of the squared control rates (scaled), exact for the piecewise cubics
         # (Radau quadrature, exact to degree 2 d - 2 = 4).
         quad = np.concatenate([quad_w * h[k] for k in range(n)]) / (scenario.t1 - scenario.t0)
@@ -403,7 +412,10 @@ class CollocationProblem:
         for i in range(5):
             U[i] = self.fixed_u[i] if i in self.fixed_u else self._su[i] * W[len(self.free_x) + self.free_u.index(i)]
         ctl = cubic_pieces(self.breaks, self.t, U)
-        viol = float(np.max(np.abs(g.reshape(12, -1, order="F") * self._sx[:, None]))) if g.size else 0.0
+        gd = g[:self.n_dynamics]
+        viol = float(np.max(np.abs(gd.reshape(12, -1, order="F") * self._sx[:, None]))) if gd.size else 0.0
+        if g.size > gd.size:
+            viol = max(viol, float(np.max(np.abs(g[gd.size:]))))
         return CollocationSolution(self.t, X, U, ctl, bool(stats.get("success", False)),
                                    str(stats.get("return_status", "")), int(stats.get("iter_count", -1)), viol)
 

@@ -88,3 +88,18 @@ def test_roll_open_loop_accuracy(bc):
     err = bc.open_loop_error_of(sc, sol.control_function, sol.initial_state)
     # 10 intervals of 0.8 s on the 8 s roll: about 1.4 cm (0.34 mm on 20 intervals).
     assert 1e-4 < err < 0.05
+
+
+def test_mixed_fourth_output(bc):
+    from tests.planners.conftest import make_scenario
+
+    sc = make_scenario(flat_outputs={"zeta": "mix", "zeta_value": "0.01", "f1": "1", "f2": "0.5 + 0.1*sin(t/7)"},
+                       generalized={"J": 1})
+    pb = sc.problem()
+    prob = bc.CollocationProblem(sc, 4.0, bc.planner_guess(sc))
+    sol = prob.solve()
+    assert sol.success, sol.status
+    t, X = sol.t, sol.states
+    beta, mu = X[eom.STATE_NAMES.index("beta")], X[eom.STATE_NAMES.index("mu")]
+    assert np.allclose(pb.zeta.f1(t) * beta + pb.zeta.f2(t) * mu, 0.01, atol=1e-9)
+    assert sol.constraint_violation < 1e-8
