@@ -706,6 +706,48 @@ def format_table(res: dict) -> str:
     return "\n".join(lines)
 
 
+def markdown_table(results: list) -> str:
+    """One Markdown table of every scenario's results (for the note and ``docs/collocation.md``).
+
+    Parameters
+    ----------
+    results : list of dict
+        Results of :func:`bench_scenario`.
+
+    Returns
+    -------
+    str
+        Per scenario a planner row and one row per grid: intervals, NLP variables, build, solve and
+        re-solve times (median wall (CPU) [s], the quicker graph for re-solve and built-from-scratch),
+        open-loop accuracy; then the ratios at matched accuracy.
+    """
+    def t(x, key):
+        return f"{x[key + '_wall_s']:.3f} ({x[key + '_cpu_s']:.3f})"
+
+    lines = ["| scenario | solver | intervals | NLP variables | built from scratch [s] | re-solve [s] | "
+             "open-loop accuracy [m] |", "|---|---|---|---|---|---|---|"]
+    for r in results:
+        p = r["planner"]
+        lines.append(f"| {r['scenario']} | planner J = {p['J']} | {p['nodes'] - 1} | | "
+                     f"{t(p, 'time')} | | {p['accuracy_m']:.2g} |")
+        for g in r["grids"]:
+            lines.append(f"| | collocation {g['factor']:g}x ({g['iterations']} it.) | {g['intervals']} | "
+                         f"{g['variables']} | {t(g, 'scratch')} {g['scratch_wall_graph']} | "
+                         f"{t(g, 'resolve')} {g['resolve_wall_graph']} | {g['accuracy_m']:.2g} |")
+    lines += ["", "| scenario | planner | matched grid | re-solved / planner | built from scratch / planner |",
+              "|---|---|---|---|---|"]
+    for r in results:
+        p, m = r["planner"], r["matched"]
+        if m:
+            lines.append(f"| {r['scenario']} | {p['time_wall_s']:.3f} s, {p['accuracy_m']:.2g} m | "
+                         f"{m['factor']:g}x, {m['accuracy_m']:.2g} m | {m['resolve_over_planner_wall']:.2f} wall "
+                         f"({m['resolve_over_planner_cpu']:.2f} CPU) | {m['scratch_over_planner_wall']:.2f} wall "
+                         f"({m['scratch_over_planner_cpu']:.2f} CPU) |")
+        else:
+            lines.append(f"| {r['scenario']} | {p['time_wall_s']:.3f} s, {p['accuracy_m']:.2g} m | none | | |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
@@ -715,6 +757,7 @@ def main(argv=None) -> None:
     ap.add_argument("--quick", action="store_true", help="smoke run: one repetition, grids 4x and 8x, no finer")
     ap.add_argument("--graphs", default="MX,SX", help="CasADi graphs timed, comma-separated (MX, SX)")
     ap.add_argument("--json", help="write the results to this JSON file")
+    ap.add_argument("--markdown", help="write the results as a Markdown table to this file")
     args = ap.parse_args(argv)
     _require_casadi()
     factors = [float(v) for v in args.factors.split(",")]
@@ -727,6 +770,9 @@ def main(argv=None) -> None:
         res = bench_scenario(name, factors, repeat, finer, tuple(args.graphs.split(",")))
         print(format_table(res), flush=True)
         results.append(res)
+    if args.markdown:
+        with open(args.markdown, "w", encoding="utf-8") as fh:
+            fh.write(markdown_table(results) + "\n")
     if args.json:
         meta = {"repeat": repeat, "scheme": f"Legendre-Gauss-Radau degree {DEGREE}", "ipopt_tol": IPOPT_TOL,
                 "linear_solver": "mumps", "casadi": ca.CasadiMeta.version(), "cpu_count": os.cpu_count(),
