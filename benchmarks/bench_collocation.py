@@ -320,7 +320,9 @@ class CollocationProblem:
         free_x = [i for i in range(12) if i not in fixed_x]
         free_u = [i for i in range(5) if i not in fixed_u]
         self.free_x, self.free_u = free_x, free_u
-        sym = {"MX": ca.MX, "SX": ca.SX}[graph]
+        if graph not in ("MX", "SX"):
+            raise ValueError(f"graph must be 'MX' or 'SX', got {graph!r}")
+        sym = ca.MX if graph == "MX" else ca.SX
         w = sym.sym("w", (len(free_x) + len(free_u)) * P)
         W = ca.reshape(w, len(free_x) + len(free_u), P)
         rows_x, rows_u = [], []
