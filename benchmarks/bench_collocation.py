@@ -82,8 +82,8 @@ import numpy as np  # noqa: E402
 from gna import eom  # noqa: E402
 from gna.atmosphere import H_TROPO, ISA, LAPSE, R_AIR, RHO0, RHO_TROPO, T0, T_TROPO  # noqa: E402
 from gna.piecewise import PiecewisePolynomial  # noqa: E402
-from gna.simulate import simulate  # noqa: E402
 from gna.units import G0  # noqa: E402
+from planners import verify  # noqa: E402
 
 try:  # an optional dependency: the ``bench`` extra
     import casadi as ca
@@ -95,9 +95,6 @@ DEFAULT_FACTORS = (1.0, 2.0, 4.0, 8.0)
 FINER_FACTORS = (0.5, 0.25)
 DEGREE = 3
 IPOPT_TOL = 1e-8
-
-#: The open-loop verification flight (the settings of :mod:`planners.verify`).
-VERIFY_METHOD, VERIFY_RTOL, VERIFY_ATOL = "DOP853", 1e-10, 1e-10
 
 
 def _require_casadi():
@@ -451,56 +448,18 @@ def cubic_pieces(breaks: np.ndarray, t: np.ndarray, values: np.ndarray) -> Piece
 
 
 def verification_grid(scenario) -> np.ndarray:
-    """Output times of the open-loop flights: a tenth of the scenario's node step, at most 0.01 s.
-
-    Parameters
-    ----------
-    scenario : planners.scenario.Scenario
-        The scenario (span and node step).
-
-    Returns
-    -------
-    ndarray, shape (N,)
-        Times [s] from ``t0`` to ``t1``.
-    """
-    dt_out = min(0.01, scenario.step / 10.0)
-    n = max(1, int(round((scenario.t1 - scenario.t0) / dt_out)))
-    return np.linspace(scenario.t0, scenario.t1, n + 1)
+    """Output times of the open-loop flights (:func:`planners.verify.verification_grid` of the scenario's nodes)."""
+    return verify.verification_grid(scenario.t_nodes)
 
 
 def open_loop_error_of(scenario, controls, x0, t_eval=None) -> float:
-    """Largest distance to the flat outputs when ``controls`` are flown open loop from ``x0``.
+    """Largest distance [m] to the flat outputs when ``controls`` are flown open loop from ``x0``.
 
-    The flight of :func:`planners.verify.open_loop_error`: the full model, DOP853,
-    rtol = atol = 1e-10, distance of ``(x, y, z)`` to the scenario's exact flat outputs.
-
-    Parameters
-    ----------
-    scenario : planners.scenario.Scenario
-        Aircraft, environment, span and flat outputs.
-    controls : callable
-        ``t [s] -> (F [N], eta, dl, dm, dn [rad])``.
-    x0 : array_like, shape (12,)
-        Initial state (SI, rad).
-    t_eval : array_like, optional
-        Output times [s]; default :func:`verification_grid`.
-
-    Returns
-    -------
-    float
-        ``max_t |(x, y, z)(t) - (x, y, z)_flat(t)|`` [m]; NaN when the flight stops early.
+    :func:`planners.verify.open_loop_check` (full model, DOP853, rtol = atol = 1e-10); NaN when
+    the flight stops early.
     """
-    pb = scenario.problem()
     grid = verification_grid(scenario) if t_eval is None else np.asarray(t_eval, dtype=float)
-    run = simulate(pb.aircraft, controls, (scenario.t0, scenario.t1), np.asarray(x0, dtype=float), env=pb.env,
-                   t_eval=grid, method=VERIFY_METHOD, rtol=VERIFY_RTOL, atol=VERIFY_ATOL)
-    df = run.df
-    t = df.index.to_numpy(dtype=float)
-    flat = np.stack([np.broadcast_to(np.asarray(f(t), dtype=float), t.shape) for f in (pb.x, pb.y, pb.z)])
-    err = np.sqrt(((df[["x", "y", "z"]].to_numpy().T - flat) ** 2).sum(axis=0))
-    if run.status != "completed" or not np.all(np.isfinite(err)):
-        return float("nan")
-    return float(np.max(err))
+    return verify.open_loop_check(scenario.problem(), controls, np.asarray(x0, dtype=float), grid).max_position_error_m
 
 
 def planner_guess(scenario) -> Callable:
