@@ -24,6 +24,7 @@ from typing import ClassVar
 import numpy as np
 
 from .errors import DomainError, InputError
+from .ground_effect import GroundEffect
 from .units import G0
 
 # ISA constants (ISO 2533).
@@ -167,14 +168,26 @@ class Environment:
     atmosphere : ConstantDensity or ISA
     g : float
         Gravity acceleration [m/s^2], uniform (flat Earth).
+    ground_effect : GroundEffect, optional
+        Ground effect on lift and induced drag over a flat ground (:mod:`gna.ground_effect`);
+        default None: free air.
     """
 
     atmosphere: ConstantDensity | ISA = ISA()
     g: float = G0
+    ground_effect: GroundEffect | None = None
 
     def __post_init__(self):
         if not (np.isfinite(self.g) and self.g > 0):
             raise InputError(f"gravity must be positive and finite, got {self.g}")
+        if self.ground_effect is not None and not isinstance(self.ground_effect, GroundEffect):
+            raise InputError(f"ground_effect must be a gna.ground_effect.GroundEffect or None, "
+                             f"got {type(self.ground_effect).__name__}")
+
+    def describe(self) -> str:
+        """The atmosphere's description, and the ground effect's when there is one (run settings)."""
+        d = self.atmosphere.describe()
+        return d if self.ground_effect is None else f"{d}; {self.ground_effect.describe()}"
 
     def density(self, z):
         """Density at NED coordinate ``z`` (altitude ``-z``)."""
@@ -195,7 +208,8 @@ class Environment:
         Raises
         ------
         DomainError
-            An altitude outside the range or not finite; the message names it (and its time).
+            An altitude outside the range or not finite, or at or below the ground with ground effect;
+            the message names it (and its time).
         """
         atm = self.atmosphere
         if isinstance(atm, ISA):
@@ -203,6 +217,8 @@ class Environment:
                                                        "layer)", times)
         else:
             _check_range(h, (-np.inf, np.inf), where, atm.describe(), times)
+        if self.ground_effect is not None:
+            self.ground_effect.check_height(h, where, times)
 
     @classmethod
     def constant(cls, altitude: float = 0.0, g: float = G0) -> "Environment":

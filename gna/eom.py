@@ -56,6 +56,7 @@ from .aero import AeroState, Coefficients
 from .aircraft import Aircraft
 from .atmosphere import Environment
 from .errors import InputError
+from .ground_effect import ground_effect_coefficients
 
 STATE_NAMES: tuple[str, ...] = ("x", "y", "z", "V", "gamma", "chi", "alpha", "beta", "mu", "p", "q", "r")
 CONTROL_NAMES: tuple[str, ...] = ("F", "eta", "dl", "dm", "dn")
@@ -278,7 +279,9 @@ def loads(aircraft: Aircraft, env: Environment, s: State, u: Controls,
     aircraft : Aircraft
         The aircraft model.
     env : Environment
-        Atmosphere (density at altitude ``-z``) and gravity.
+        Atmosphere (density at altitude ``-z``), gravity, and the ground effect on ``CL, CD``
+        (:mod:`gna.ground_effect`, when ``env.ground_effect`` is set; the moments transferred to the CG
+        use the corrected forces).
     s : State
         The 12 states (SI, rad); floats, arrays or series, broadcast together.
     u : Controls
@@ -304,8 +307,10 @@ def loads(aircraft: Aircraft, env: Environment, s: State, u: Controls,
         raise InputError(f"model must be 'full' or 'simple', got {model!r}")
     rho = env.density(s.z)
     qbar = 0.5 * rho * s.V * s.V
-    full = aero_coefficients(aircraft, s, u, None)
-    fc = full if model == "full" else aero_coefficients(aircraft, s, u, h if h is not None else HValues())
+    # Free-air coefficients, corrected for the ground when env.ground_effect is set (gna.ground_effect).
+    full = ground_effect_coefficients(aircraft, env, s.z, aero_coefficients(aircraft, s, u, None))
+    fc = full if model == "full" else ground_effect_coefficients(
+        aircraft, env, s.z, aero_coefficients(aircraft, s, u, h if h is not None else HValues()))
     X, Y, Z, Xa, Ya, Za = wind_forces(aircraft, env, s, u, fc, qbar)
     L, M, N = body_moments(aircraft, s, u, full, qbar)
     return Loads(qbar, rho, fc, full, X, Y, Z, L, M, N, Xa, Ya, Za)

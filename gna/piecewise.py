@@ -3,7 +3,8 @@
 A plan's controls between nodes are polynomials of ``t - t_i`` on each interval ``[t_i, t_(i+1)]``.
 The integrators call them once per right-hand-side evaluation at a single time, so the scalar path
 (:meth:`PiecewisePolynomial.__call__`) is written for one float: a bisection on a Python list and a
-Horner loop on the ``(m,)`` coefficient rows of one interval.  :meth:`PiecewisePolynomial.evaluate`
+Horner sum on Python floats per function of one interval (the same operations, in the same order, as
+the vectorised path).  :meth:`PiecewisePolynomial.evaluate`
 is the vectorised path for output grids.
 """
 
@@ -61,9 +62,9 @@ class PiecewisePolynomial:
             raise InputError("a piecewise polynomial's breaks and coefficients must be finite")
         object.__setattr__(self, "breaks", b)
         object.__setattr__(self, "coeffs", c)
-        # Horner rows, highest power first, one (m,) array per power: the scalar path's data.
-        object.__setattr__(self, "_rows", [[np.ascontiguousarray(c[i, :, k]) for k in range(c.shape[2] - 1, -1, -1)]
-                                           for i in range(c.shape[0])])
+        # The scalar path's data: per interval, per function, the coefficients highest power first as
+        # Python floats (a Horner sum on floats costs less than numpy calls on (m,) rows).
+        object.__setattr__(self, "_rows", [[row.tolist() for row in c[i, :, ::-1]] for i in range(c.shape[0])])
         object.__setattr__(self, "_b", b.tolist())
 
     @property
@@ -104,11 +105,14 @@ class PiecewisePolynomial:
                 raise InputError(f"time outside the span [{b[0]:g}, {b[-1]:g}] s: {t:g}")
             i = 0 if i < 0 else len(b) - 2
         s = t - b[i]
-        rows = self._rows[i]
-        out = rows[0]
-        for r in rows[1:]:
-            out = out * s + r
-        return out.copy() if len(rows) == 1 else out
+        out = []
+        for row in self._rows[i]:
+            coefficients = iter(row)
+            acc = next(coefficients)
+            for c in coefficients:
+                acc = acc * s + c
+            out.append(acc)
+        return np.array(out)
 
     def evaluate(self, t, derivative: int = 0) -> np.ndarray:
         """Values (or a derivative) of the ``m`` functions at many times.

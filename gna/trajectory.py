@@ -65,7 +65,8 @@ def control_function(source) -> ControlFunction:
     ----------
     source : callable, object with ``controls(t)``, or sequence of 5 floats
         A function of time ``t [s] -> (F [N], eta [-], dl, dm, dn [rad])``, a
-        plan (anything exposing a ``controls`` method), or constant controls.
+        plan (its ``control_function()`` when it has one -- a plan's cheap
+        piecewise polynomial -- else its ``controls`` method), or constant controls.
 
     Returns
     -------
@@ -76,6 +77,9 @@ def control_function(source) -> ControlFunction:
     InputError
         If ``source`` is none of these, or constants are not 5 numbers.
     """
+    factory = getattr(source, "control_function", None)
+    if callable(factory):
+        return factory()
     method = getattr(source, "controls", None)
     if callable(method):
         return method

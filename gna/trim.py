@@ -241,7 +241,7 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
     if "gamma" in fixed and abs(fixed["gamma"]) >= math.pi / 2:
         raise InputError(f"|gamma| must be below pi/2, got {fixed['gamma']} rad")
     rho = float(env.density(-altitude))
-    cenv = Environment(ConstantDensity(rho), env.g)
+    cenv = Environment(ConstantDensity(rho), env.g, env.ground_effect)  # density frozen at the altitude
     free = [k for k in TRIM_VARIABLES if k not in fixed]
     g0 = _default_guess(aircraft, rho, fixed)
     if guess:

@@ -14,9 +14,12 @@ previous iterate as ``X^``, the order decreasing by ``L = max l_h - 1`` per iter
 Here a system is a :class:`ChainedSystem`: its flat outputs with their stage, and one
 :class:`Stage` per h with a residual function written once with plain arithmetic (it runs on
 truncated power series, batched over the nodes), solved by Newton's method on series
-(:func:`planners.newton.newton_series`).  The aircraft (:mod:`planners.flat`) is the instance with
-r = 4, Z_1 = {x, y, z}, Z_3 = {zeta} and H = H_2(p, q, r, dl, dm, dn); :mod:`planners.systems`
-bundles others.
+(:func:`planners.newton.newton_series`), or in closed form when the stage gives one
+(:attr:`Stage.solve`).  Prescribed functions of time that are neither flat outputs nor unknowns
+(the aircraft's thrust asymmetry ``eta(t)`` or fixed rudder ``dn(t)``) are the system's
+:attr:`ChainedSystem.inputs`.  The aircraft (:mod:`planners.flat`) is the instance
+:func:`planners.systems.aircraft.aircraft_system` with r = 4, Z_1 = {x, y, z}, Z_3 = {zeta} and
+H = H_2(p, q, r, dl, dm, dn); :mod:`planners.systems` bundles others.
 """
 
 from __future__ import annotations
@@ -51,12 +54,61 @@ class Stage:
         Variables of ``H_h`` (they appear in ``v`` with their values from the previous iterate).
     ell : int
         ``l_h``: H_h depends on ``X_(h+2) .. X_(h+l_h)`` (1: no neglected terms).
+    solve : callable, optional
+        Closed form of the stage, ``solve(v, t_nodes) -> list`` of the unknowns at the stage's order
+        ``k``: ``v`` maps every variable known so far (and the neglected ones) to its Series truncated
+        to order ``k + 1`` (never padded).  The residual then only serves the Jacobians (Newton on
+        the fixed point, linearizations).
+    start : callable, optional
+        Node-wise starting values of the Newton iterations when no previous iterate is given,
+        ``start(v, t_nodes) -> list`` of arrays (nodes,); ``v`` maps the known variables to their
+        constant terms.  Default: the system's :attr:`ChainedSystem.guess`.
+    post : callable, optional
+        ``post(list of Series) -> list of Series`` applied to the stage's solution (e.g. angles made
+        continuous along the nodes).
     """
 
     unknowns: tuple
     residual: Callable
     neglected: tuple = ()
     ell: int = 1
+    solve: Callable | None = None
+    start: Callable | None = None
+    post: Callable | None = None
+
+
+@dataclass(frozen=True)
+class StateSpaceModel:
+    """Explicit form ``x' = f(x, u)`` of a chained system, for the tracking feedback
+    (paper section "Design of the feed-back"; :func:`planners.tracking.design_chained`).
+
+    Attributes
+    ----------
+    states : tuple of str
+        State variables (variables of the system's plans).
+    controls : tuple of str
+        Control variables.
+    rhs : callable
+        ``rhs(x, u, hat) -> list`` of the state derivatives, on floats, arrays and Series alike:
+        ``hat=None`` gives the exact model; ``hat`` a mapping of the neglected variables gives the
+        design model, where the neglected terms H take those values (the model the plan solves, as
+        the aircraft's force coefficients with H frozen along the plan).
+    integrands : callable
+        ``integrands(ref) -> rows``: the tracking integrals ``I_p' = sum_b C[p][b] (x_b - x~_b)``, one
+        row of ``len(states)`` coefficients per integral (floats or Series), given the reference
+        ``ref`` (a mapping of the plan's variables; floats or Series).
+    degrees : tuple of int
+        Relative degree of each integral with respect to its inputs in the design model.
+    stages : tuple
+        Sequential decoupling: ``((integral indices), (control indices))`` per stage.
+    """
+
+    states: tuple
+    controls: tuple
+    rhs: Callable
+    integrands: Callable
+    degrees: tuple
+    stages: tuple
 
 
 @dataclass(frozen=True)
@@ -75,6 +127,18 @@ class ChainedSystem:
         Starting values of the unknowns and of the neglected variables (default 0).
     description : str
         What the system is.
+    inputs : mapping of str -> callable
+        Prescribed functions of t (floats, arrays, Series) that are neither flat outputs nor
+        unknowns; every stage sees them, and they are part of the solution.
+    outputs : mapping of str -> callable, optional
+        Default functions of t of the flat outputs (used when a planner is given none).
+    neglected_values : mapping of str -> float or Series, optional
+        Values of the neglected variables in iterate 0 (the paper's ``v``: zero or a calibration);
+        default :attr:`guess`.
+    newton_tol : float
+        Tolerance of the pointwise Newton of the stages (units of the residuals).
+    model : StateSpaceModel, optional
+        The explicit model, for tracking.
     """
 
     name: str
@@ -82,6 +146,11 @@ class ChainedSystem:
     stages: tuple
     guess: Mapping = field(default_factory=dict)
     description: str = ""
+    inputs: Mapping = field(default_factory=dict)
+    outputs: Mapping | None = None
+    neglected_values: Mapping | None = None
+    newton_tol: float = 1e-13
+    model: StateSpaceModel | None = None
 
     @property
     def r(self) -> int:
@@ -95,8 +164,30 @@ class ChainedSystem:
 
     @property
     def variables(self) -> tuple:
-        """Flat outputs, then the unknowns of every stage."""
-        return tuple(self.flat_outputs) + tuple(u for s in self.stages for u in s.unknowns)
+        """Flat outputs, then the unknowns of every stage, then the prescribed inputs."""
+        return tuple(self.flat_outputs) + tuple(u for s in self.stages for u in s.unknowns) + tuple(
+            n for n in self.inputs if n not in self.flat_outputs)
+
+    @property
+    def neglected(self) -> tuple:
+        """The neglected variables of all stages, in order of first use."""
+        return tuple(dict.fromkeys(n for s in self.stages for n in s.neglected))
+
+    def neglected_start(self, name: str):
+        """Value of a neglected variable in iterate 0 (:attr:`neglected_values`, else :attr:`guess`, else 0).
+
+        Parameters
+        ----------
+        name : str
+            A neglected variable.
+
+        Returns
+        -------
+        float or Series
+        """
+        if self.neglected_values is not None and name in self.neglected_values:
+            return self.neglected_values[name]
+        return self.guess.get(name, 0.0)
 
     def stage_of(self, name: str) -> int:
         """Stage h of a variable: ``Z_h`` for a flat output, ``X_h`` (found by stage h - 1) otherwise.
@@ -109,7 +200,7 @@ class ChainedSystem:
         Returns
         -------
         int
-            Its stage index h.
+            Its stage index h (1 for a prescribed input).
 
         Raises
         ------
@@ -121,6 +212,8 @@ class ChainedSystem:
         for h, s in enumerate(self.stages, start=1):
             if name in s.unknowns:
                 return h + 1
+        if name in self.inputs:
+            return 1
         raise InputError(f"{self.name}: unknown variable {name!r}; known: {', '.join(self.variables)}")
 
 
@@ -138,9 +231,26 @@ def _at_order(data: Mapping, k: int) -> dict:
     return out
 
 
-def flat_parametrization(system: ChainedSystem, t_nodes, order: int, zeta: Mapping[str, Callable],
+def _as_series(v, nodes: int, order: int) -> Series:
+    """A Series of batch shape (nodes,): a Series as is, a float or array as a constant series."""
+    if isinstance(v, Series):
+        return v
+    return Series.constant(np.broadcast_to(np.asarray(v, dtype=float), (nodes,)), order)
+
+
+def _flat_outputs(system: ChainedSystem, zeta: Mapping | None) -> Mapping:
+    """The flat-output functions to use: ``zeta``, else the system's defaults."""
+    if zeta is None:
+        if system.outputs is None:
+            raise InputError(f"{system.name}: no functions given for the flat outputs "
+                             f"{', '.join(system.flat_outputs)} and the system has no default ones")
+        return system.outputs
+    return zeta
+
+
+def flat_parametrization(system: ChainedSystem, t_nodes, order: int, zeta: Mapping[str, Callable] | None = None,
                          hat: Mapping | None = None, guess: Mapping | None = None,
-                         newton_tol: float = 1e-13) -> tuple[dict, dict]:
+                         newton_tol: float | None = None) -> tuple[dict, dict]:
     """``FlatParametrization(t0, kappa, zeta, X^)`` of the paper at every node.
 
     Parameters
@@ -150,22 +260,24 @@ def flat_parametrization(system: ChainedSystem, t_nodes, order: int, zeta: Mappi
     t_nodes : array, shape (nodes,)
         Node times.
     order : int
-        kappa: order of the flat outputs of stage 1; ``X_(h+1)`` comes out at ``kappa - h``.
-    zeta : mapping of str -> callable
-        Each flat output as a function of t (floats, arrays, Series).
+        kappa: order of the flat outputs of stage 1; ``X_(h+1)`` comes out at ``kappa - h``, a flat
+        output of stage h at ``kappa - h + 1``, the prescribed inputs at ``kappa``.
+    zeta : mapping of str -> callable, optional
+        Each flat output as a function of t (floats, arrays, Series); default the system's
+        :attr:`ChainedSystem.outputs`.
     hat : mapping of str -> Series or float, optional
-        Values of the neglected variables (default: the system's guesses, else 0).
+        Values of the neglected variables (default: :meth:`ChainedSystem.neglected_start`).
     guess : mapping of str -> Series, optional
         Starting values of the Newton iterations (a previous iterate).
-    newton_tol : float
-        Tolerance of the pointwise Newton (units of the residuals).
+    newton_tol : float, optional
+        Tolerance of the pointwise Newton (units of the residuals); default the system's.
 
     Returns
     -------
     series : dict of str -> Series
         Every variable, batch shape (nodes,).
     reports : dict of int -> SeriesNewtonReport
-        Newton diagnostics per stage.
+        Newton diagnostics per stage solved by Newton.
 
     Raises
     ------
@@ -173,17 +285,20 @@ def flat_parametrization(system: ChainedSystem, t_nodes, order: int, zeta: Mappi
         A missing flat output, or ``order`` below the number of stages.
     """
     t_nodes = np.asarray(t_nodes, dtype=float)
+    tol = system.newton_tol if newton_tol is None else newton_tol
     if order < system.r:
         raise InputError(f"{system.name}: order {order} below the number of stages {system.r}")
+    zeta = _flat_outputs(system, zeta)
     missing = [z for z in system.flat_outputs if z not in zeta]
     if missing:
         raise InputError(f"{system.name}: no function given for the flat output(s) {', '.join(missing)}")
     nodes = len(t_nodes)
-    known = {z: zeta[z](Series.variable(t_nodes, order - h + 1)) for z, h in system.flat_outputs.items()}
-    for z, v in known.items():
-        if not isinstance(v, Series):
-            k = order - int(system.flat_outputs[z]) + 1
-            known[z] = Series.constant(np.broadcast_to(np.asarray(v, dtype=float), (nodes,)), k)
+    known = {}
+    for z, h in system.flat_outputs.items():
+        k = order - int(h) + 1
+        known[z] = _as_series(zeta[z](Series.variable(t_nodes, k)), nodes, k)
+    for name, f in system.inputs.items():
+        known[name] = _as_series(f(Series.variable(t_nodes, order)), nodes, order)
     reports = {}
     for h, stage in enumerate(system.stages, start=1):
         k = order - h
@@ -192,27 +307,33 @@ def flat_parametrization(system: ChainedSystem, t_nodes, order: int, zeta: Mappi
             if v.order >= 1:
                 data[name + "'"] = v.derivative()
         for name in stage.neglected:
-            v = (hat or {}).get(name, system.guess.get(name, 0.0))
-            data[name] = v if isinstance(v, Series) else Series.constant(
-                np.broadcast_to(np.asarray(v, dtype=float), (nodes,)), k)
-        cache: dict[int, dict] = {}
+            v = (hat or {}).get(name, system.neglected_start(name))
+            data[name] = _as_series(v, nodes, k)
+        if stage.solve is not None:
+            v = {n: s.truncate(min(s.order, k + 1)) for n, s in data.items()}
+            u = [_as_series(s, nodes, k) for s in stage.solve(v, t_nodes)]
+            u = [s.truncate(k) if s.order > k else s for s in u]
+        else:
+            cache: dict[int, dict] = {}
 
-        def residual(u, kk, stage=stage, data=data, cache=cache):
-            if kk not in cache:
-                cache[kk] = _at_order(data, kk)
-            v = dict(cache[kk])
-            v.update(zip(stage.unknowns, u))
-            return stage.residual(v)
+            def residual(u, kk, stage=stage, data=data, cache=cache):
+                if kk not in cache:
+                    cache[kk] = _at_order(data, kk)
+                v = dict(cache[kk])
+                v.update(zip(stage.unknowns, u))
+                return stage.residual(v)
 
-        u0 = []
-        for name in stage.unknowns:
-            g = (guess or {}).get(name)
-            if g is None:
-                g = Series.constant(np.full(nodes, float(system.guess.get(name, 0.0))), 0)
-            u0.append(g)
-        u, rep = newton_series(residual, u0, k, tol=newton_tol, names=stage.unknowns, t_nodes=t_nodes)
+            if guess is not None and all(n in guess for n in stage.unknowns):
+                u0 = [guess[n] for n in stage.unknowns]
+            elif stage.start is not None:
+                u0 = [Series.constant(np.broadcast_to(np.asarray(c, dtype=float), (nodes,)), 0)
+                      for c in stage.start(_at_order(data, 0), t_nodes)]
+            else:
+                u0 = [Series.constant(np.full(nodes, float(system.guess.get(n, 0.0))), 0) for n in stage.unknowns]
+            u, reports[h] = newton_series(residual, u0, k, tol=tol, names=stage.unknowns, t_nodes=t_nodes)
+        if stage.post is not None:
+            u = list(stage.post(list(u)))
         known.update(zip(stage.unknowns, u))
-        reports[h] = rep
     return known, reports
 
 
@@ -294,8 +415,9 @@ class ChainedPlan:
         return out[0] if np.ndim(t) else float(out[0][0])
 
 
-def generalized_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[str, Callable], J: int = 0,
-                                e: int = 1, v: Mapping | None = None) -> ChainedPlan:
+def generalized_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[str, Callable] | None = None,
+                                J: int = 0, e: int = 1, v: Mapping | None = None,
+                                newton_tol: float | None = None) -> ChainedPlan:
     """``GeneralizedFlatParametrization(v, zeta, J, e)`` of the paper for a chained system.
 
     Parameters
@@ -304,14 +426,17 @@ def generalized_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[st
         The system.
     t_nodes : array, shape (nodes,)
         Increasing node times.
-    zeta : mapping of str -> callable
-        The flat outputs as functions of t.
+    zeta : mapping of str -> callable, optional
+        The flat outputs as functions of t (default: the system's :attr:`ChainedSystem.outputs`).
     J : int
         Iterations after the plain flat parametrization.
     e : int
         Order of the last stage's unknowns in the last iterate.
     v : mapping, optional
-        Guessed values of the neglected variables for iterate 0 (default: the system's guesses).
+        Values of the neglected variables for iterate 0 (default:
+        :meth:`ChainedSystem.neglected_start`).
+    newton_tol : float, optional
+        Tolerance of the stages' pointwise Newton (default: the system's).
 
     Returns
     -------
@@ -331,12 +456,11 @@ def generalized_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[st
     hat, guess = dict(v or {}), None
     for j in range(J + 1):
         t0 = time.perf_counter()
-        sol, rep = flat_parametrization(system, t_nodes, kappa, zeta, hat=hat, guess=guess)
+        sol, rep = flat_parametrization(system, t_nodes, kappa, zeta, hat=hat, guess=guess, newton_tol=newton_tol)
         timings[j] = time.perf_counter() - t0
         iterates.append(sol)
         reports.append(rep)
-        neglected = {n for s in system.stages for n in s.neglected}
-        hat = {n: sol[n] for n in neglected}
+        hat = {n: sol[n] for n in system.neglected}
         guess = sol
         kappa -= system.L
     return ChainedPlan(system, t_nodes, iterates, reports, timings)
@@ -384,8 +508,9 @@ def _chained_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapp
             sel[:, offsets[n]:offsets[n] + horders[n] + 1] = np.eye(horders[n] + 1)
             v = hat[n]
             inputs[n] = (v, _resize_matrix(1, horders[n], k) @ sel)
-        fixed = {z: sol[z] for z in system.flat_outputs}
-        fixed.update({z + "'": sol[z].derivative() for z in system.flat_outputs if sol[z].order >= 1})
+        given = list(system.flat_outputs) + list(system.inputs)      # independent of the neglected terms
+        fixed = {z: sol[z] for z in given}
+        fixed.update({z + "'": sol[z].derivative() for z in given if sol[z].order >= 1})
         pnames = list(stage.unknowns) + list(inputs)
         base = [sol[u] for u in stage.unknowns] + [inputs[p][0] for p in inputs]
         base = [b.truncate(k) if b.order >= k else b.pad(k) for b in base]
@@ -410,7 +535,8 @@ def _chained_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapp
             orders[u] = k
     dG = np.zeros((nodes, size, size))
     for n in names:
-        dG[:, offsets[n]:offsets[n] + horders[n] + 1] = _mm(_resize_matrix(1, orders[n], horders[n]), sens[n])
+        if n in sens:                                   # a prescribed input does not depend on them
+            dG[:, offsets[n]:offsets[n] + horders[n] + 1] = _mm(_resize_matrix(1, orders[n], horders[n]), sens[n])
     return dG
 
 
@@ -419,7 +545,7 @@ def _hat_vector(system, order, values: Mapping, nodes: int) -> np.ndarray:
     from .generalized_newton import _coeffs
 
     horders = _hat_orders(system, order)
-    parts = [_coeffs(values.get(n, system.guess.get(n, 0.0)), nodes, horders[n]) for n in horders]
+    parts = [_coeffs(values.get(n, system.neglected_start(n)), nodes, horders[n]) for n in horders]
     return np.concatenate(parts, axis=1)
 
 
@@ -431,8 +557,8 @@ def _hat_dict(system, order, vec: np.ndarray) -> dict:
     return out
 
 
-def newton_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[str, Callable], J: int = 0, e: int = 1,
-                           v: Mapping | None = None, tol: float = 1e-13, maxiter: int = 8) -> ChainedPlan:
+def newton_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[str, Callable] | None = None, J: int = 0,
+                           e: int = 1, v: Mapping | None = None, tol: float = 1e-13, maxiter: int = 8) -> ChainedPlan:
     """Newton's method on the fixed point of :func:`generalized_parametrization` (same starting order).
 
     The neglected variables ``X^`` are the unknowns of ``F(X^) = X^ - G~(X^)``, ``G~`` the flat
@@ -446,8 +572,8 @@ def newton_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[str, Ca
         The system.
     t_nodes : array, shape (nodes,)
         Increasing node times.
-    zeta : mapping of str -> callable
-        The flat outputs as functions of t.
+    zeta : mapping of str -> callable, optional
+        The flat outputs as functions of t (default: the system's :attr:`ChainedSystem.outputs`).
     J : int
         Depth: the starting order ``kappa = e + r + J L`` of the fixed point with J iterations.
     e : int

@@ -32,6 +32,7 @@ from gna.atmosphere import Environment
 from gna.eom import (Controls, HValues, State, aero_coefficients, aero_state, body_moments, force_equations,
                      rotational_dynamics, wind_forces)
 from gna.errors import DomainError, InputError
+from gna.ground_effect import ground_effect_coefficients
 
 from .expressions import Expression
 from .newton import newton_series
@@ -357,7 +358,7 @@ def force_residuals(ac: Aircraft, env: Environment, z, V, gamma, chi, Vd, gd, ch
     ctl = Controls(F, eta, 0.0, 0.0, 0.0)
     rho = env.density(z)
     qbar = 0.5 * rho * V * V
-    fc = aero_coefficients(ac, s, ctl, h)
+    fc = ground_effect_coefficients(ac, env, z, aero_coefficients(ac, s, ctl, h))  # free air: fc itself
     X, Y, Z, *_ = wind_forces(ac, env, s, ctl, fc, qbar)
     Vd_m, gd_m, chid_m = force_equations(ac, s, X, Y, Z)
     # Scaled to specific forces over g (dimensionless): the Newton tolerance is on these.
@@ -471,7 +472,7 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         st = State(0.0, 0.0, d["z"], d["V"], d["gamma"], d["chi"], d["alpha"], d["beta"], d["mu"],
                    d["p"], d["q"], d["r"])
         ctl = controls_of(u, d)
-        full = aero_coefficients(ac, st, ctl)
+        full = ground_effect_coefficients(ac, env, st.z, aero_coefficients(ac, st, ctl))
         L, M, N = body_moments(ac, st, ctl, full, d["qbar"])
         a_p, a_q, a_r = rotational_dynamics(ac, st.p, st.q, st.r, L, M, N)
         return [a_p - d["pd"], a_q - d["qd"], a_r - d["rd"]]

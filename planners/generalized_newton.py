@@ -35,6 +35,7 @@ import time
 import numpy as np
 
 from gna.eom import Controls, HValues, State, aero_coefficients, body_moments, rotational_dynamics
+from gna.ground_effect import ground_effect_coefficients
 
 from .flat import STAGE_OF, FlatProblem, NodeSolution, force_residuals, parametrize, stage1, stage3
 from .series import Series
@@ -302,7 +303,7 @@ def h_jacobian(problem: FlatProblem, t_nodes: np.ndarray, order: int, sol: NodeS
         alpha, beta, mu, F, pp, qq, rr, pdd, qdd, rdd, c1, c2, c3 = v
         st = State(0.0, 0.0, z4, V4, g4, c4, alpha, beta, mu, pp, qq, rr)
         ctl = Controls(F, eta4, c1, c2, c3) if problem.eta is not None else Controls(F, c3, c1, c2, dn4)
-        full = aero_coefficients(ac, st, ctl)
+        full = ground_effect_coefficients(ac, env, st.z, aero_coefficients(ac, st, ctl))
         L, M, Nm = body_moments(ac, st, ctl, full, qbar4)
         a_p, a_q, a_r = rotational_dynamics(ac, st.p, st.q, st.r, L, M, Nm)
         return [a_p - pdd, a_q - qdd, a_r - rdd]

@@ -76,6 +76,7 @@ import numpy as np
 
 from gna.aircraft import Aircraft, load_aircraft
 from gna.atmosphere import ConstantDensity, Environment, ISA
+from gna.ground_effect import GroundEffect
 from gna.catalogue import bundled
 from gna.eom import HValues
 from gna.errors import GflatError, InputError
@@ -401,13 +402,18 @@ def _lambda(v: Any, where: str) -> float:
 def _environment(table: Mapping[str, Any], where: str) -> Environment:
     kind = str(table.get("density", "isa")).lower()
     g = _num(table, "g", where, 9.80665)
+    ge = None
+    if "ground_effect" in table:  # [environment.ground_effect]: present = on (gna.ground_effect)
+        t, w = table["ground_effect"], f"{where[:-1]}.ground_effect]"
+        ge = GroundEffect(_num(t, "elevation", w, 0.0), _num(t, "oswald", w, 0.8),
+                          _num(t, "section_lift_slope", w, 2.0 * math.pi))
     if kind == "isa":
         if "rho" in table:
             raise InputError(f"{where}: rho = {table['rho']!r} is used only with density = 'constant' "
                              f"(here density = 'isa')")
-        return Environment(ISA(), g)
+        return Environment(ISA(), g, ge)
     if kind == "constant":
-        return Environment(ConstantDensity(_num(table, "rho", where)), g)
+        return Environment(ConstantDensity(_num(table, "rho", where)), g, ge)
     raise InputError(f"{where}: density must be 'isa' or 'constant', got {kind!r}")
 
 

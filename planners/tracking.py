@@ -79,6 +79,7 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass, field, replace
+from typing import Callable
 
 import numpy as np
 
@@ -215,24 +216,45 @@ def linearize(plan: Plan, j: int = -1, *, model: str = "full", order: int = 1) -
     n_nodes = len(plan.t_nodes)
     base = np.stack([np.broadcast_to(np.real(np.asarray(sol.series[n].coeffs))[..., :K], (n_nodes, K))
                      for n in names])                                     # (17, N, K)
-    nv = len(names)
-    h = 1e-30
-    pert = np.broadcast_to(base, (nv + 1,) + base.shape).astype(complex)  # (18, 17, N, K)
-    for v in range(nv):
-        pert[v + 1, v, :, 0] += 1j * h
-    s = State(*(Series(pert[:, v]) for v in range(12)))
-    u = Controls(*(Series(pert[:, 12 + v]) for v in range(5)))
     if model == "design":
         hv = HValues(*(Series(base[names.index(n)]) for n in ("p", "q", "r", "dl", "dm", "dn")))
-        f = derivatives(plan.aircraft, plan.env, s, u, "simple", hv)
+
+        def f(v):
+            return derivatives(plan.aircraft, plan.env, State(*v[:12]), Controls(*v[12:]), "simple", hv)
     else:
-        f = derivatives(plan.aircraft, plan.env, s, u, "full")
-    R = np.stack([np.broadcast_to(fa.coeffs if isinstance(fa, Series) else np.asarray(fa)[..., None],
-                                  (nv + 1, n_nodes, K)) for fa in f])     # (12, 18, N, K)
-    jac = np.imag(R[:, 1:]) / h                                             # (12, 17, N, K)
-    jac = np.moveaxis(jac, 2, 0)                                            # (N, 12, 17, K)
+        def f(v):
+            return derivatives(plan.aircraft, plan.env, State(*v[:12]), Controls(*v[12:]), "full")
+    jac = series_jacobian(f, base)                                          # (N, 12, 17, K)
     return Linearization(np.asarray(plan.t_nodes, dtype=float), np.ascontiguousarray(jac[:, :, :12]),
                          np.ascontiguousarray(jac[:, :, 12:]), model, j % len(plan.iterates))
+
+
+def series_jacobian(f, base: np.ndarray) -> np.ndarray:
+    """Jacobian series of ``f`` at series values: one batched complex step on the series.
+
+    Parameters
+    ----------
+    f : callable
+        ``f(list of Series) -> list`` of outputs (Series, arrays or floats), pointwise in t (no time
+        derivatives inside), on Series of batch shape ``(n_in + 1, N)``.
+    base : ndarray, shape (n_in, N, K)
+        Taylor coefficients of the inputs at the N nodes.
+
+    Returns
+    -------
+    ndarray, shape (N, n_out, n_in, K)
+        ``[i, a, b, k]``: k-th coefficient at node i of ``d f_a / d input_b`` (exact to rounding).
+    """
+    nv, n_nodes, K = base.shape
+    h = 1e-30
+    pert = np.broadcast_to(base, (nv + 1,) + base.shape).astype(complex)  # (n_in + 1, n_in, N, K)
+    for v in range(nv):
+        pert[v + 1, v, :, 0] += 1j * h
+    out = f([Series(pert[:, v]) for v in range(nv)])
+    R = np.stack([np.broadcast_to(fa.coeffs if isinstance(fa, Series) else np.asarray(fa)[..., None],
+                                  (nv + 1, n_nodes, K)) for fa in out])   # (n_out, n_in + 1, N, K)
+    jac = np.imag(R[:, 1:]) / h                                             # (n_out, n_in, N, K)
+    return np.moveaxis(jac, 2, 0)
 
 
 # --------------------------------------------------------------------------------------------
@@ -396,6 +418,20 @@ def _place(A: np.ndarray, B: np.ndarray, n_x: int, degrees, polys, stages, t_nod
     return Kout
 
 
+def _gain_series(A: np.ndarray, B: np.ndarray, n_x: int, degrees, polys, stages, t) -> np.ndarray:
+    """Frozen-time gains (N, m, n, K) at the nodes, value and (for K > 1) first derivative."""
+    N, n, _, K = A.shape
+    gains = np.zeros((N, B.shape[2], n, K))
+    gains[..., 0] = _place(A[..., 0], B[..., 0], n_x, degrees, polys, stages, t, check=True)
+    if K > 1:
+        # d/dt of the frozen-time gains: complex step through the (analytic) design formula.
+        h = 1e-30
+        Kc = _place(A[..., 0] + 1j * h * A[..., 1], B[..., 0] + 1j * h * B[..., 1], n_x, degrees, polys, stages, t,
+                    check=False)
+        gains[..., 1] = np.imag(Kc) / h
+    return gains
+
+
 def design(plan: Plan, lambdas, *, j: int = -1) -> TrackingDesign:
     """Frozen-time gains at every node of a plan, as series of order 1 (see module notes).
 
@@ -442,15 +478,7 @@ def design(plan: Plan, lambdas, *, j: int = -1) -> TrackingDesign:
     B[:, :12] = lin.B[:, :, cols]
     polys = [np.poly(-np.asarray(row))[::-1].real for row in lam]       # increasing powers, monic
     t = plan.t_nodes
-    K0 = _place(A[..., 0], B[..., 0], 12, degrees, polys, stages, t, check=True)
-    gains = np.zeros((N, len(inputs), n, K))
-    gains[..., 0] = K0
-    if K > 1:
-        # d/dt of the frozen-time gains: complex step through the (analytic) design formula.
-        h = 1e-30
-        Kc = _place(A[..., 0] + 1j * h * A[..., 1], B[..., 0] + 1j * h * B[..., 1], 12, degrees, polys, stages, t,
-                    check=False)
-        gains[..., 1] = np.imag(Kc) / h
+    gains = _gain_series(A, B, 12, degrees, polys, stages, t)
     return TrackingDesign(np.asarray(t, dtype=float), A, B, gains, inputs, integrals, degrees, lam, polys, stages,
                           lin.iterate)
 
@@ -949,3 +977,298 @@ def tracking_controller(plan: Plan, lambdas, *, feedforward_iterate: int = -1,
     return TrackingController(np.asarray(plan.t_nodes, dtype=float), reference_poly, gain_poly, zeta_index, lower,
                               upper, bool(saturate), des.integrals, des.inputs, des.lambdas, j, len(des.integrals),
                               mask, bool(anti_windup))
+
+
+# --------------------------------------------------------------------------------------------
+# Tracking on a chained system (planners.chained)
+# --------------------------------------------------------------------------------------------
+
+
+def _chained_model(plan):
+    model = plan.system.model
+    if model is None:
+        raise InputError(f"{plan.system.name}: the system gives no explicit model (ChainedSystem.model) to "
+                         f"design a tracking feedback on")
+    return model
+
+
+def linearize_chained(plan, j: int = -1, *, model: str = "design", order: int = 1) -> Linearization:
+    """Jacobians of a chained system's explicit model along a plan, as series at the nodes.
+
+    The generic form of :func:`linearize`: one complex step on the plan's series of the states and
+    controls of :attr:`planners.chained.ChainedSystem.model`.
+
+    Parameters
+    ----------
+    plan : planners.chained.ChainedPlan
+        A plan of a system with an explicit model.
+    j : int
+        Iterate (default: the last).
+    model : {"design", "full"}
+        ``"design"``: the neglected terms H frozen at the plan's own values (the model the plan
+        solves); ``"full"``: the exact model.
+    order : int
+        Requested order of the series (lowered to the lowest order the iterate carries).
+
+    Returns
+    -------
+    Linearization
+        ``A`` (N, n_x, n_x, K) and ``B`` (N, n_x, n_u, K), in the model's state and control order.
+
+    Raises
+    ------
+    InputError
+        No explicit model, unknown model kind, negative order or iterate not in the plan.
+    """
+    ssm = _chained_model(plan)
+    if model not in ("full", "design"):
+        raise InputError(f"model must be 'full' or 'design', got {model!r}")
+    if not (isinstance(order, (int, np.integer)) and order >= 0):
+        raise InputError(f"order must be a non-negative integer, got {order!r}")
+    if not -len(plan.iterates) <= j < len(plan.iterates):
+        raise InputError(f"iterate j = {j} not in the plan (J = {plan.J})")
+    sol = plan.iterates[j]
+    names = tuple(ssm.states) + tuple(ssm.controls)
+    order = int(min(order, min(sol[n].order for n in names)))
+    K, N, n_x = order + 1, len(plan.t_nodes), len(ssm.states)
+
+    def coeffs(name):
+        return np.broadcast_to(np.real(np.asarray(sol[name].coeffs))[..., :K], (N, K))
+
+    base = np.stack([coeffs(n) for n in names])
+    hat = {n: Series(coeffs(n)) for n in plan.system.neglected} if model == "design" else None
+    jac = series_jacobian(lambda v: ssm.rhs(v[:n_x], v[n_x:], hat), base)
+    return Linearization(np.asarray(plan.t_nodes, dtype=float), np.ascontiguousarray(jac[:, :, :n_x]),
+                         np.ascontiguousarray(jac[:, :, n_x:]), model, j % len(plan.iterates))
+
+
+def design_chained(plan, lambdas, *, j: int = -1) -> TrackingDesign:
+    """The paper's tracking feedback designed on a chained system (frozen-time gains at the nodes).
+
+    As :func:`design` for the aircraft: the design model (H frozen along the plan) is augmented with
+    the integrals of the system's :attr:`~planners.chained.StateSpaceModel.integrands`, and the gains
+    place the poles of each integral at ``-lambda`` by sequential input-output decoupling
+    (:attr:`~planners.chained.StateSpaceModel.stages`), frozen at every node, as series of order 1.
+
+    Parameters
+    ----------
+    plan : planners.chained.ChainedPlan
+        A plan of a system with an explicit model.
+    lambdas : list of list of float, or float
+        Positive pole magnitudes [1/s], one list per integral, of the lengths of the model's
+        relative degrees (or one number for all).
+    j : int
+        Iterate linearized about (and tracked).
+
+    Returns
+    -------
+    TrackingDesign
+        Augmented matrices ``A`` (N, n, n, K), ``B``, gains ``K`` (N, m, n, K) with
+        ``n = n_x + n_I``, the model's controls as ``inputs``.
+
+    Raises
+    ------
+    InputError
+        No explicit model, bad lambdas, iterate not in the plan.
+    DomainError
+        A node where an integral's relative degree is below the model's, or the decoupling matrix is
+        singular.
+    """
+    ssm = _chained_model(plan)
+    degrees = tuple(ssm.degrees)
+    lam = _check_lambdas(lambdas, degrees)
+    lin = linearize_chained(plan, j, model="design", order=1)
+    N, K, n_x, n_i = len(plan.t_nodes), lin.order + 1, len(ssm.states), len(degrees)
+    n = n_x + n_i
+    sol = plan.iterates[lin.iterate]
+    ref = {name: s.truncate(min(s.order, K - 1)) for name, s in sol.items()}
+    A = np.zeros((N, n, n, K))
+    A[:, :n_x, :n_x] = lin.A
+    for p, row in enumerate(ssm.integrands(ref)):
+        for b, c in enumerate(row):
+            if isinstance(c, Series):
+                cf = np.broadcast_to(np.real(np.asarray(c.coeffs)), (N, c.order + 1))[:, :K]
+                A[:, n_x + p, b, :cf.shape[1]] = cf
+            else:
+                A[:, n_x + p, b, 0] = float(np.real(c))
+    B = np.zeros((N, n, len(ssm.controls), K))
+    B[:, :n_x] = lin.B
+    polys = [np.poly(-np.asarray(row))[::-1].real for row in lam]
+    gains = _gain_series(A, B, n_x, degrees, polys, ssm.stages, plan.t_nodes)
+    names = tuple(f"I{p + 1}" for p in range(n_i))
+    return TrackingDesign(np.asarray(plan.t_nodes, dtype=float), A, B, gains, tuple(ssm.controls), names, degrees,
+                          lam, polys, tuple(ssm.stages), lin.iterate)
+
+
+@dataclass
+class ChainedTracking:
+    """The tracking feedback of a chained-system plan: ``u = u~(t) + K(t) [x - x~(t); I]``, ``I' = C(t) (x - x~(t))``.
+
+    Built by :func:`chained_tracking`.  Reference, feedforward and gains between the nodes by the
+    plan's two-sided formula (as :class:`TrackingController`).
+
+    Attributes
+    ----------
+    design : TrackingDesign
+        Gains at the nodes.
+    t_nodes : ndarray, shape (N,)
+        Nodes [s].
+    states, controls : tuple of str
+        The model's variables.
+    reference_poly : ndarray, shape (N - 1, n_x + n_u, K + 1)
+        Per-interval polynomials of the reference states and feedforward controls.
+    gain_poly : ndarray, shape (N - 1, n_u, n, K + 1)
+        Per-interval polynomials of the gains.
+    rhs : callable
+        The exact model ``rhs(x, u, None)``.
+    integrands : callable
+        The model's integrands.
+    """
+
+    design: TrackingDesign
+    t_nodes: np.ndarray
+    states: tuple
+    controls: tuple
+    reference_poly: np.ndarray
+    gain_poly: np.ndarray
+    rhs: Callable
+    integrands: Callable
+
+    def _interval(self, t: float):
+        i = min(max(bisect.bisect_right(self.t_nodes, t) - 1, 0), len(self.t_nodes) - 2)
+        return i, t - self.t_nodes[i]
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Reference states and feedforward controls at ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        tuple of ndarray
+            ``(x~(t), u~(t))``, shapes (n_x,) and (n_u,).
+        """
+        i, tau = self._interval(t)
+        v = _horner(self.reference_poly[i], tau)
+        return v[:len(self.states)], v[len(self.states):]
+
+    def controls_at(self, t: float, x: np.ndarray, integrals: np.ndarray) -> np.ndarray:
+        """The applied controls ``u~(t) + K(t) [x - x~(t); I]``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        x : ndarray, shape (n_x,)
+            State of the system.
+        integrals : ndarray, shape (n_I,)
+            Integral states.
+
+        Returns
+        -------
+        ndarray, shape (n_u,)
+        """
+        xr, ur = self.reference(t)
+        i, tau = self._interval(t)
+        return ur + _horner(self.gain_poly[i], tau) @ np.concatenate([x - xr, integrals])
+
+    def closed_loop_rhs(self, t: float, z: np.ndarray) -> np.ndarray:
+        """Right-hand side of the exact model in closed loop, state ``z = (x, I)``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        z : ndarray, shape (n_x + n_I,)
+            States then integrals.
+
+        Returns
+        -------
+        ndarray, shape (n_x + n_I,)
+        """
+        n_x = len(self.states)
+        x, integrals = z[:n_x], z[n_x:]
+        xr, _ = self.reference(t)
+        u = self.controls_at(t, x, integrals)
+        C = np.array(self.integrands(dict(zip(self.states, xr))), dtype=float)
+        return np.concatenate([np.asarray(self.rhs(list(x), list(u), None), dtype=float), C @ (x - xr)])
+
+    def simulate(self, x0, t_eval, rtol: float = 1e-9, atol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+        """Fly the exact model in closed loop from ``x0`` (integrals starting at 0), DOP853.
+
+        Parameters
+        ----------
+        x0 : array, shape (n_x,)
+            Initial state (e.g. the plan's, perturbed).
+        t_eval : array, shape (M,)
+            Output times [s], increasing, within the plan, the first the initial time.
+        rtol, atol : float
+            Integrator tolerances.
+
+        Returns
+        -------
+        X : ndarray, shape (M, n_x)
+            States.
+        U : ndarray, shape (M, n_u)
+            Applied controls.
+
+        Raises
+        ------
+        ConvergenceError
+            The integrator failed.
+        """
+        from scipy.integrate import solve_ivp
+
+        from gna.errors import ConvergenceError
+
+        t_eval = np.asarray(t_eval, dtype=float)
+        n_x = len(self.states)
+        z0 = np.concatenate([np.asarray(x0, dtype=float), np.zeros(len(self.design.integrals))])
+        sol = solve_ivp(self.closed_loop_rhs, (t_eval[0], t_eval[-1]), z0, t_eval=t_eval, method="DOP853",
+                        rtol=rtol, atol=atol)
+        if not sol.success:
+            raise ConvergenceError(f"closed-loop simulation failed at t = {sol.t[-1]:.6g} s: {sol.message}")
+        Z = sol.y.T
+        U = np.array([self.controls_at(t, z[:n_x], z[n_x:]) for t, z in zip(t_eval, Z)])
+        return Z[:, :n_x], U
+
+
+def chained_tracking(plan, lambdas, *, j: int = -1) -> ChainedTracking:
+    """The tracking feedback of a chained-system plan (:func:`design_chained`), ready to simulate.
+
+    Parameters
+    ----------
+    plan : planners.chained.ChainedPlan
+        A plan of a system with an explicit model.
+    lambdas : list of list of float, or float
+        Positive pole magnitudes [1/s] (see :func:`design_chained`).
+    j : int
+        Iterate tracked (its states the reference, its controls the feedforward).
+
+    Returns
+    -------
+    ChainedTracking
+
+    Raises
+    ------
+    InputError
+        No explicit model, bad lambdas, iterate not in the plan.
+    DomainError
+        See :func:`design_chained`.
+    """
+    des = design_chained(plan, lambdas, j=j)
+    ssm = plan.system.model
+    sol = plan.iterates[des.iterate]
+    names = tuple(ssm.states) + tuple(ssm.controls)
+    N = len(plan.t_nodes)
+    Kr = max(sol[n].order for n in names) + 1
+    series = np.zeros((N, len(names), Kr))
+    for v, n in enumerate(names):
+        c = np.broadcast_to(np.real(np.asarray(sol[n].coeffs)), (N, sol[n].order + 1))
+        series[:, v, :c.shape[1]] = c
+    return ChainedTracking(des, np.asarray(plan.t_nodes, dtype=float), tuple(ssm.states), tuple(ssm.controls),
+                           _two_sided(series, plan.t_nodes), _two_sided(des.K, plan.t_nodes), ssm.rhs,
+                           ssm.integrands)

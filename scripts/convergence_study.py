@@ -361,11 +361,16 @@ def car_section() -> str:
     L.append(f"| Newton depth 4 ({len(plan.residuals) - 1} steps, max \\|X^ − G(X^)\\| = "
              f"{plan.residuals[-1]:.1e}) | {err(plan):.2e} |")
     L.append("")
-    L.append("`gflat plan first-order-lag` and `gflat plan car-two-trailers [--J N]` run these demos "
-             "(`planners.systems.demos`: the plan, its check against the exact reference, `plan.csv` and "
-             "`summary.json`); chained systems have no scenario files yet.  Python API: "
+    L.append("`gflat plan first-order-lag`, `gflat plan car-two-trailers [--J N]` and `gflat plan my-system.toml` "
+             "run the chained-system scenario files (`planners/systems/scenarios/*.toml`, read by "
+             "`planners.systems.scenario`: `system`, `[parameters]`, `[constants]`, `[time]`, `[flat_outputs]`, "
+             "`[generalized]` J, e, method; `planners.systems.demos`: the plan, its check against the exact "
+             "reference, `plan.csv` and `summary.json`).  Python API: "
              "`planners.chained.generalized_parametrization` / `newton_parametrization` with "
-             "`planners.systems.SYSTEMS`.\n")
+             "`planners.systems.SYSTEMS`.  The aircraft is the instance `planners.systems.aircraft_system(problem)` "
+             "(r = 4, Z_1 = {x, y, z}, Z_3 = {zeta}, H = H_2(p, q, r, dl, dm, dn)), on which the generic planner "
+             "reproduces `planners.generalized.plan_motion` to the last bit; the tracking feedback runs on a "
+             "chained system's explicit model (`planners.tracking.chained_tracking`, docs/tracking.md).\n")
     return "\n".join(L) + "\n"
 
 

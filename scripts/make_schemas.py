@@ -271,7 +271,16 @@ def scenario_schema() -> dict:
                 "rho": dict(num, exclusiveMinimum=0, description="Density with density = 'constant' (required "
                             "then)", **{"x-unit": "kg/m^3"}),
                 "g": dict(num, exclusiveMinimum=0, description="Gravity", **{"x-unit": "m/s^2",
-                                                                             "x-default": "9.80665"})}),
+                                                                             "x-default": "9.80665"}),
+                "ground_effect": _table("Ground effect on lift and induced drag over a flat ground "
+                                        "(gna.ground_effect, docs/ground_effect.md); the table present turns it on", {
+                    "elevation": dict(num, description="Ground elevation (altitude of the ground plane)",
+                                      **{"x-unit": "m", "x-default": "0"}),
+                    "oswald": dict(num, exclusiveMinimum=0, maximum=1, description="Oswald factor e of the "
+                                   "induced drag CL^2/(pi e A)", **{"x-default": "0.8"}),
+                    "section_lift_slope": dict(num, exclusiveMinimum=0, description="Section lift slope a0 of the "
+                                               "lifting-line lift factor", **{"x-unit": "1/rad",
+                                                                               "x-default": "2 pi"})})}),
             "tracking": tracking,
             "compare": {"type": "object", "description": "Engine comparison settings (checked by the harness)"},
         },

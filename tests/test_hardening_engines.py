@@ -81,7 +81,7 @@ def test_k6_plan_leaving_the_domain_by_orders_of_magnitude_is_infeasible(tmp_pat
     p = _scenario_file(tmp_path, ("h_apex = 1000.0", "h_apex = 100000.0"),
                        ('density = "isa"', 'density = "constant"\nrho = 5.6e-7'))
     assert main(["plan", str(p), "--J", "1", "--out", str(tmp_path / "out")]) == 1
-    last = capsys.readouterr().out.strip().splitlines()[-1]
+    last = capsys.readouterr().err.strip().splitlines()[-1]
     assert last.startswith("gflat plan: the plan is not feasible: iterate j = 1: left the physical domain at t = ")
     assert "rad =" in last and ("alpha" in last or "beta" in last)
 

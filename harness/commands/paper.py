@@ -137,7 +137,7 @@ class _Scenario:
                     self._fly(pool, loop, name)     # the open-loop run waits for the open case's
         mem = MemoryOutputDir(self.root)
         self.lines.append(write_plan(planned.scenario, planned.plan, planned.planning_time_s,
-                                     mem.sub(self.name, "plan")))
+                                     mem.sub(self.name, "plan"))[0])
         self.files["plan"] = mem.files
         self.t_plan = time.perf_counter() - t0
 

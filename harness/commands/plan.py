@@ -1,9 +1,18 @@
-"""``gflat plan SCENARIO [--J N] [--out DIR]``: plan a manoeuvre by (generalized) flatness."""
+"""``gflat plan SCENARIO [--J N] [--out DIR] [--json] [--verify]``: plan a manoeuvre by (generalized) flatness.
+
+``--json`` prints one JSON object (the plan's summary: ``planning_time_s``, ``feasible``, the full-model
+equation residual per iterate, ...) instead of the text report; ``--verify`` flies the planned controls
+open loop on the full model (:func:`planners.verify.open_loop_error`) and adds
+``open_loop_max_position_error_m``.
+"""
 
 from __future__ import annotations
 
 import argparse
 import io
+import json
+import math
+import sys
 import time
 from pathlib import Path
 
@@ -11,7 +20,8 @@ import numpy as np
 
 from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
-from planners.systems.demos import DEMOS, run_demo
+from planners.systems.demos import DEMOS, is_chained_scenario, run_demo
+from planners.verify import open_loop_error
 
 from ..fileio import json_safe
 from ..outdir import OutputDir
@@ -42,6 +52,13 @@ def register(sub) -> None:
     p.add_argument("--max-cost", type=_cost_bound, default=None, metavar="UNITS",
                    help="bound on the plan's cost, nodes x sum of squared orders (default 5e6, about 30 s; "
                         "'inf' for none)")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object (planning_time_s, feasible, residual per iterate, ...) instead of "
+                        "the text report")
+    p.add_argument("--verify", action="store_true",
+                   help="fly the planned controls open loop on the full model (DOP853, rtol = atol = 1e-10) from "
+                        "the plan's initial state and report the largest distance to the flat outputs "
+                        "(open_loop_max_position_error_m)")
     p.set_defaults(func=run)
 
 
@@ -86,8 +103,51 @@ def save_plan_files(plan, out: OutputDir, step: float | None = None) -> dict:
     return written
 
 
-def write_plan(sc, plan, elapsed: float, out) -> str:
-    """Write a plan's files (series, CSV tables, convergence table, summary) to ``out``; return the report text.
+def plan_summary(sc, plan, elapsed: float, check=None) -> dict:
+    """The numbers of a plan that ``summary.json`` and ``gflat plan --json`` carry.
+
+    Parameters
+    ----------
+    sc : planners.scenario.Scenario
+        The scenario planned.
+    plan : planners.plan.Plan
+        Its plan.
+    elapsed : float
+        Planning wall time [s].
+    check : planners.verify.OpenLoopCheck, optional
+        The open-loop verification flight, when made.
+
+    Returns
+    -------
+    dict
+        ``scenario``, ``aircraft``, ``environment`` (atmosphere and ground effect), ``g`` [m/s^2], ``J``, ``nodes``, ``orders``, ``planning_time_s``, ``timings_s``
+        (per iterate), ``feasible``, ``worst_newton_residual``, ``equation_residual_per_iterate`` (max
+        over the 12 full-model equations at the nodes, SI units), ``warnings``; with ``check`` also
+        ``open_loop_max_position_error_m`` [m] (None when the flight stopped early),
+        ``open_loop_t_worst_s``, ``open_loop_max_angle_error_rad``, ``open_loop_status`` and
+        ``open_loop_settings``.
+    """
+    res = [float(plan.equation_residuals("full", j).abs().max(skipna=False).max(skipna=False))
+           for j in range(plan.J + 1)]
+    out = {"scenario": sc.name, "aircraft": sc.aircraft.id, "environment": plan.env.describe(), "g": plan.env.g,
+           "J": plan.J, "nodes": len(plan.t_nodes),
+           "orders": [it.order for it in plan.iterates], "planning_time_s": elapsed, "timings_s": plan.timings,
+           "feasible": bool(plan.feasible and not plan.domain_failures),
+           "worst_newton_residual": plan.worst_newton_residual(), "equation_residual_per_iterate": res,
+           "warnings": plan.warnings}
+    if check is not None:
+        ok = math.isfinite(check.max_position_error_m)
+        out.update({"open_loop_max_position_error_m": check.max_position_error_m if ok else None,
+                    "open_loop_t_worst_s": check.t_worst, "open_loop_max_angle_error_rad":
+                    check.max_angle_error_rad if ok else None, "open_loop_status": check.status,
+                    "open_loop_settings": check.settings})
+        if not ok:
+            out["open_loop_message"] = check.message
+    return out
+
+
+def write_plan(sc, plan, elapsed: float, out, check=None) -> tuple[str, dict]:
+    """Write a plan's files (series, CSV tables, convergence table, summary) to ``out``.
 
     Parameters
     ----------
@@ -99,26 +159,37 @@ def write_plan(sc, plan, elapsed: float, out) -> str:
         Planning wall time [s].
     out : OutputDir or str or Path
         Folder (a path is opened as an OutputDir, parents created, and finished here).
+    check : planners.verify.OpenLoopCheck, optional
+        The open-loop verification flight, when made (reported and saved in the summary).
 
     Returns
     -------
-    str
+    text : str
         The report printed by ``gflat plan``.
+    summary : dict
+        The contents of ``summary.json`` (:func:`plan_summary` plus the files written).
     """
     own = not isinstance(out, OutputDir)
     od = OutputDir(out, parents=True) if own else out
     written = save_plan_files(plan, od)
+    summary = plan_summary(sc, plan, elapsed, check)
     tn = plan.t_nodes
     lines = [f"{sc.name}: {sc.aircraft.id}, t = {tn[0]:g} .. {tn[-1]:g} s, {len(tn)} nodes, flat output "
              f"{sc.zeta.kind}, J = {plan.J}"]
-    orders = [it.order for it in plan.iterates]
+    orders = summary["orders"]
     lines.append(f"  orders of x, y, z per iterate: {orders} (controls at order {orders[-1] - 4})")
     lines.append(f"  planning time {elapsed:.3f} s ({', '.join(f'j={j}: {t:.3f}' for j, t in plan.timings.items())})")
     lines.append(f"  worst Newton residual: {plan.worst_newton_residual():.2e}")
-    res = [float(plan.equation_residuals("full", j).abs().max(skipna=False).max(skipna=False))
-           for j in range(plan.J + 1)]
     lines.append("  full-model equation residual at the nodes (max over the 12 equations) per iterate: "
-                 + ", ".join(f"j={j}: {r:.2e}" for j, r in enumerate(res)))
+                 + ", ".join(f"j={j}: {r:.2e}" for j, r in enumerate(summary["equation_residual_per_iterate"])))
+    if check is not None:
+        if summary["open_loop_max_position_error_m"] is None:
+            lines.append(f"  open-loop check: the flight stopped ({check.status}): {check.message}")
+        else:
+            lines.append(f"  open-loop check (full model, {check.settings['method']}, rtol = atol = "
+                         f"{check.settings['rtol']:g}): max distance to the flat outputs "
+                         f"{check.max_position_error_m:.3g} m at t = {check.t_worst:g} s; angles within "
+                         f"{check.max_angle_error_rad:.2g} rad of the plan")
     if plan.warnings:
         lines.append(f"  warnings ({len(plan.warnings)}):")
         lines += [f"    - {w}" for w in plan.warnings]
@@ -132,37 +203,43 @@ def write_plan(sc, plan, elapsed: float, out) -> str:
     buf = io.StringIO()
     table.to_csv(buf, float_format="%.10g")
     written["convergence"] = str(od.write_text("convergence.csv", text=buf.getvalue()))
-    summary = {"scenario": sc.name, "aircraft": sc.aircraft.id, "J": plan.J, "nodes": len(tn),
-               "orders": orders, "planning_time_s": elapsed, "timings_s": plan.timings,
-               "worst_newton_residual": plan.worst_newton_residual(), "full_residual_per_iterate": res,
-               "warnings": plan.warnings, "files": written}
+    summary["files"] = written
     od.write_json("summary.json", obj=json_safe(summary))
     if own:
         od.finish()
     lines.append(f"  written to {od.root}/")
-    return "\n".join(lines)
+    return "\n".join(lines), summary
 
 
 def run(args) -> int:
-    if args.scenario in DEMOS:  # a chained system of planners.systems, not an aircraft scenario
-        out = OutputDir(Path(args.out)) if args.out else default_out(args.scenario)
+    if is_chained_scenario(args.scenario):  # a chained system of planners.systems, not an aircraft scenario
+        out = OutputDir(Path(args.out)) if args.out else None        # a given folder is checked before planning
         demo = run_demo(args.scenario, J=args.J)
+        out = out if out is not None else default_out(demo.summary["scenario"])
         out.write_text("plan.csv", text=demo.csv)
         out.write_json("summary.json", obj=demo.summary)
-        print(demo.text + f"\n  written to {out.root}/")
+        print(json.dumps(json_safe(demo.summary), indent=2) if args.json
+              else demo.text + f"\n  written to {out.root}/")
         out.finish()
         return 0
     sc = load_scenario(args.scenario, J=args.J)
     out = OutputDir(Path(args.out)) if args.out else default_out(sc.name)   # checked before planning
     t0 = time.perf_counter()
     plan = plan_scenario(sc, max_cost=args.max_cost)
-    print(write_plan(sc, plan, time.perf_counter() - t0, out))
+    elapsed = time.perf_counter() - t0
+    feasible = plan.feasible and not plan.domain_failures
+    check = open_loop_error(plan) if args.verify and feasible else None
+    text, summary = write_plan(sc, plan, elapsed, out, check)
     out.finish()
+    print(json.dumps(json_safe(summary), indent=2) if args.json else text)
     if plan.domain_failures:
-        print(f"gflat plan: the plan is not feasible: {plan.domain_failures[-1]}")
+        print(f"gflat plan: the plan is not feasible: {plan.domain_failures[-1]}", file=sys.stderr)
         return 1
     if not plan.feasible:
         print(f"gflat plan: the plan is not feasible: Newton failed ({len(plan.newton_failures)} warning(s) "
-              f"above); its values at those times are not a solution of the model")
+              f"above); its values at those times are not a solution of the model", file=sys.stderr)
+        return 1
+    if check is not None and summary["open_loop_max_position_error_m"] is None:
+        print(f"gflat plan: the open-loop check did not reach the end of the plan: {check.message}", file=sys.stderr)
         return 1
     return 0

@@ -29,7 +29,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..chained import ChainedSystem, Stage
+from ..chained import ChainedSystem, Stage, StateSpaceModel
+
+#: States and controls of the exact model.
+STATES = ("x2", "y2", "theta2", "theta1", "theta0")
+CONTROLS = ("v0", "phi")
 
 
 @dataclass(frozen=True)
@@ -88,6 +92,15 @@ def car_two_trailers(geometry: CarTrailers = CarTrailers(), speed: float = 5.0) 
     def stage4(v):
         return [v["w0"] - v["theta0'"], g.l0 * v["theta0'"] - v["v0"] * np.tan(v["phi"])]
 
+    def integrands(ref):
+        # along-track and cross-track errors of the last trailer (as the aircraft's I1, I2)
+        c, s = np.cos(ref["theta2"]), np.sin(ref["theta2"])
+        return [[c, s, 0.0, 0.0, 0.0], [-s, c, 0.0, 0.0, 0.0]]
+
+    # I1 (along track): second derivative dv2 -> dv0 (degree 2); I2 (cross track): theta2 -> theta1 ->
+    # theta0 -> phi (degree 5), decoupled after I1 (the aircraft's sequential construction)
+    model = StateSpaceModel(STATES, CONTROLS, lambda x, u, hat=None: kinematics(g, x, u, hat), integrands,
+                            degrees=(2, 5), stages=(((0,), (0,)), ((1,), (1,))))
     return ChainedSystem(
         name="car-two-trailers",
         flat_outputs={"x2": 1, "y2": 1},
@@ -98,7 +111,43 @@ def car_two_trailers(geometry: CarTrailers = CarTrailers(), speed: float = 5.0) 
         guess={"v2": speed, "v1": speed, "v0": speed},
         description=f"car with two trailers hitched off-axle (d1 = {g.d1:g} m, d2 = {g.d2:g} m); flat output "
                     "(x2, y2) of the on-axle approximation",
+        model=model,
     )
+
+
+def kinematics(geometry: CarTrailers, x, u, hat=None) -> list:
+    """The exact off-axle kinematics (module docstring), or the design model with the off-axle terms frozen.
+
+    Parameters
+    ----------
+    geometry : CarTrailers
+        Lengths [m].
+    x : sequence of 5
+        ``(x2, y2, theta2, theta1, theta0)`` [m, m, rad, rad, rad]: floats, arrays or Series.
+    u : sequence of 2
+        ``(v0, phi)``: car speed [m/s] and steering angle [rad].
+    hat : mapping, optional
+        Values of the heading rates ``w0, w1`` [rad/s] in the off-axle terms ``d_i w_(i-1)`` (the
+        neglected terms H); None for the exact model (the rates of the state).
+
+    Returns
+    -------
+    list of 5
+        Time derivatives of ``x``.
+    """
+    g = geometry
+    x2, y2, th2, th1, th0 = x
+    v0, phi = u
+    w0 = v0 * np.tan(phi) / g.l0
+    w0h = w0 if hat is None else hat["w0"]
+    c, s = np.cos(th0 - th1), np.sin(th0 - th1)
+    v1 = v0 * c + g.d1 * w0h * s
+    w1 = (v0 * s - g.d1 * w0h * c) / g.L1
+    w1h = w1 if hat is None else hat["w1"]
+    c, s = np.cos(th1 - th2), np.sin(th1 - th2)
+    v2 = v1 * c + g.d2 * w1h * s
+    w2 = (v1 * s - g.d2 * w1h * c) / g.L2
+    return [v2 * np.cos(th2), v2 * np.sin(th2), w2, w1, w0]
 
 
 def car_trailers_rhs(geometry: CarTrailers, v0: float, phi: float, state) -> np.ndarray:
@@ -120,16 +169,7 @@ def car_trailers_rhs(geometry: CarTrailers, v0: float, phi: float, state) -> np.
     ndarray, shape (5,)
         Time derivative of ``state``.
     """
-    g = geometry
-    x2, y2, th2, th1, th0 = state
-    w0 = v0 * np.tan(phi) / g.l0
-    c, s = np.cos(th0 - th1), np.sin(th0 - th1)
-    v1 = v0 * c + g.d1 * w0 * s
-    w1 = (v0 * s - g.d1 * w0 * c) / g.L1
-    c, s = np.cos(th1 - th2), np.sin(th1 - th2)
-    v2 = v1 * c + g.d2 * w1 * s
-    w2 = (v1 * s - g.d2 * w1 * c) / g.L2
-    return np.array([v2 * np.cos(th2), v2 * np.sin(th2), w2, w1, w0])
+    return np.array(kinematics(geometry, state, (v0, phi)))
 
 
 def simulate_car_two_trailers(geometry: CarTrailers, v0, phi, state0, t_eval) -> np.ndarray:
@@ -158,3 +198,34 @@ def simulate_car_two_trailers(geometry: CarTrailers, v0, phi, state0, t_eval) ->
                     (t_eval[0], t_eval[-1]), np.asarray(state0, dtype=float), t_eval=t_eval, rtol=1e-10,
                     atol=1e-10, method="RK45")
     return sol.y.T
+
+
+def open_loop_error(plan, geometry: CarTrailers, x2, y2, samples: int = 241) -> float:
+    """Max distance of the exact model's last trailer, flown open loop with a plan's controls, from the flat output.
+
+    The exact off-axle model (:func:`simulate_car_two_trailers`) starts on the plan's state at its
+    first node and is driven by the planned ``v0(t), phi(t)`` (the two-sided interpolation of the
+    last iterate).
+
+    Parameters
+    ----------
+    plan : planners.chained.ChainedPlan
+        A plan of :func:`car_two_trailers`.
+    geometry : CarTrailers
+        The exact model's lengths [m].
+    x2, y2 : callable
+        The flat output (last trailer's axle midpoint) [m] as functions of t [s].
+    samples : int
+        Number of equally spaced comparison times over the plan's span.
+
+    Returns
+    -------
+    float
+        ``max_t |(x2, y2)_simulated - (x2, y2)_planned|`` [m].
+    """
+    te = np.linspace(plan.t_nodes[0], plan.t_nodes[-1], samples)
+    x0 = [plan.evaluate(n, te[0]) for n in ("x2", "y2", "theta2", "theta1", "theta0")]
+    X = simulate_car_two_trailers(geometry, lambda t: plan.evaluate("v0", t), lambda t: plan.evaluate("phi", t),
+                                  x0, te)
+    return float(np.max(np.hypot(X[:, 0] - np.broadcast_to(x2(te), te.shape),
+                                 X[:, 1] - np.broadcast_to(y2(te), te.shape))))

@@ -1,8 +1,8 @@
-"""Bundled demonstrations of the chained systems, run by ``gflat plan <name>``.
+"""Chained-system scenarios run by ``gflat plan <name or file>``.
 
-Each demo plans its system by generalized flatness (:mod:`planners.chained`) and checks the plan
-against an exact reference: the operator relation for the first-order lag, the exact off-axle model
-flown open loop for the car with two trailers.
+Each scenario (:mod:`planners.systems.scenario`) is planned by generalized flatness
+(:mod:`planners.chained`) and its plan checked against an exact reference: the operator relation for
+the first-order lag, the exact off-axle model flown open loop for the car with two trailers.
 """
 
 from __future__ import annotations
@@ -13,47 +13,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gna.errors import InputError
+from .scenario import (ChainedScenario, is_chained_scenario, list_chained_scenarios, load_chained_scenario,
+                       plan_chained_scenario)
 
-from ..chained import generalized_parametrization, newton_parametrization
-from .car_trailers import CarTrailers, car_two_trailers, simulate_car_two_trailers
-from .first_order_lag import first_order_lag, lag_reference
-
-
-def _lag(J):
-    eps, w = 0.1, 1.0
-    system = first_order_lag(eps)
-    zeta = {"x": lambda t: np.sin(w * t)}
-    ref = lag_reference((w, 0.0), eps, w)
-
-    def check(plan):
-        tn = plan.t_nodes
-        y = np.real(plan.iterates[-1]["y"].constant_term)
-        return {"max |y - (1 + eps d/dt)^-1 x'| at the nodes": float(np.max(np.abs(y - ref(tn))))}
-
-    desc = f"x' = y + eps y', eps = {eps:g} s, generalized flat output x = sin({w:g} t)"
-    return system, np.linspace(0.0, 3.0, 13), zeta, 12 if J is None else J, 1, desc, check
-
-
-def _car(J):
-    g, V, A, w = CarTrailers(), 5.0, 2.0, 0.5
-    system = car_two_trailers(g, V)
-    zeta = {"x2": lambda t: V * t, "y2": lambda t: A * np.sin(w * t)}
-
-    def check(plan):
-        te = np.linspace(plan.t_nodes[0], plan.t_nodes[-1], 241)
-        x0 = [plan.evaluate(n, te[0]) for n in ("x2", "y2", "theta2", "theta1", "theta0")]
-        X = simulate_car_two_trailers(g, lambda t: plan.evaluate("v0", t), lambda t: plan.evaluate("phi", t), x0, te)
-        err = np.hypot(X[:, 0] - zeta["x2"](te), X[:, 1] - zeta["y2"](te))
-        return {"open-loop error of the exact off-axle model [m]": float(np.max(err))}
-
-    desc = (f"car + two off-axle trailers (d1 = {g.d1:g} m, d2 = {g.d2:g} m), last trailer on x2 = {V:g} t, "
-            f"y2 = {A:g} sin({w:g} t)")
-    return system, np.linspace(0.0, 12.0, 49), zeta, 4 if J is None else J, 3, desc, check
-
-
-#: Demo name -> builder ``f(J) -> (system, t_nodes, zeta, J, e, description, check)``.
-DEMOS = {"first-order-lag": _lag, "car-two-trailers": _car}
+#: The bundled chained-system scenarios (``planners/systems/scenarios/*.toml``), run by ``gflat plan NAME``.
+DEMOS = tuple(list_chained_scenarios())
 
 
 @dataclass
@@ -78,17 +42,17 @@ class DemoResult:
     plan: object
 
 
-def run_demo(name: str, J: int | None = None, method: str = "fixed-point") -> DemoResult:
-    """Plan a bundled chained-system demo and check it against its exact reference.
+def run_demo(name: str, J: int | None = None, method: str | None = None) -> DemoResult:
+    """Plan a chained-system scenario (bundled name or TOML path) and check it against its exact reference.
 
     Parameters
     ----------
     name : str
-        A key of :data:`DEMOS`.
+        A bundled chained scenario (:data:`DEMOS`) or the path of a chained scenario file.
     J : int, optional
-        Iterations (fixed point) or depth (Newton); default the demo's.
-    method : {"fixed-point", "newton"}
-        Generalized-flatness method.
+        Iterations (fixed point) or depth (Newton); default the scenario's.
+    method : {"fixed-point", "newton"}, optional
+        Generalized-flatness method; default the scenario's.
 
     Returns
     -------
@@ -98,21 +62,19 @@ def run_demo(name: str, J: int | None = None, method: str = "fixed-point") -> De
     Raises
     ------
     InputError
-        An unknown demo or method.
+        An unknown scenario or method, or a bad scenario file.
     """
-    if name not in DEMOS:
-        raise InputError(f"unknown chained-system demo {name!r}; known: {', '.join(DEMOS)}")
-    if method not in ("fixed-point", "newton"):
-        raise InputError(f"method must be 'fixed-point' or 'newton', got {method!r}")
-    system, tn, zeta, J, e, desc, check = DEMOS[name](J)
+    sc: ChainedScenario = load_chained_scenario(name, J=J)
     t0 = time.perf_counter()
-    if method == "newton":
-        plan = newton_parametrization(system, tn, zeta, J=J, e=e)
-    else:
-        plan = generalized_parametrization(system, tn, zeta, J=J, e=e)
+    plan = plan_chained_scenario(sc, method=method)
     elapsed = time.perf_counter() - t0
-    checks = check(plan)
-    lines = [f"{name}: {desc}", f"  {len(tn)} nodes, t = {tn[0]:g} .. {tn[-1]:g}, {method}, J = {J}, "
+    method = sc.method if method is None else method
+    checks = sc.spec.check(plan, sc)
+    tn = plan.t_nodes
+    outputs = ", ".join(f"{z} = {e.text}" for z, e in sc.flat_outputs.items())
+    params = ", ".join(f"{k} = {v:g}" for k, v in sc.parameters.items())
+    lines = [f"{sc.name}: {sc.system.description}", f"  parameters: {params}; flat outputs: {outputs}",
+             f"  {len(tn)} nodes, t = {tn[0]:g} .. {tn[-1]:g}, {method}, J = {sc.J}, e = {sc.e}, "
              f"{len(plan.iterates)} iterate(s), planning time {elapsed:.3f} s"]
     if plan.residuals:
         lines.append("  Newton max |X^ - G(X^)| per step: " + ", ".join(f"{r:.2e}" for r in plan.residuals))
@@ -122,6 +84,11 @@ def run_demo(name: str, J: int | None = None, method: str = "fixed-point") -> De
     buf = io.StringIO()
     np.savetxt(buf, np.column_stack([grid] + [plan.evaluate(n, grid) for n in names]), delimiter=",",
                header=",".join(["t"] + names), comments="", fmt="%.10g")
-    summary = {"system": name, "description": desc, "method": method, "J": J, "nodes": len(tn),
-               "planning_time_s": elapsed, "checks": checks, "newton_residuals": plan.residuals}
+    summary = {"scenario": sc.name, "system": sc.system_name, "description": sc.description,
+               "parameters": sc.parameters, "flat_outputs": {z: e.text for z, e in sc.flat_outputs.items()},
+               "method": method, "J": sc.J, "e": sc.e, "nodes": len(tn), "planning_time_s": elapsed,
+               "checks": checks, "newton_residuals": plan.residuals}
     return DemoResult("\n".join(lines), buf.getvalue(), summary, plan)
+
+
+__all__ = ["DEMOS", "DemoResult", "is_chained_scenario", "run_demo"]

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..chained import ChainedSystem, Stage
+from ..chained import ChainedSystem, Stage, StateSpaceModel
 
 
 def first_order_lag(eps: float = 0.1) -> ChainedSystem:
@@ -43,6 +43,11 @@ def first_order_lag(eps: float = 0.1) -> ChainedSystem:
         stages=(Stage(("y",), lambda v: [v["x'"] - v["y"] - eps * v["y1"]], neglected=("y1",), ell=2),
                 Stage(("y1",), lambda v: [v["y'"] - v["y1"]])),
         description=f"x' = y + eps y' with eps = {eps:g} s; x is a generalized flat output",
+        # states x, y, control y1 = y'; the design model freezes H_1 = eps y1 at the plan's values:
+        # I = int dx has relative degree 3 (dx, then dy, then dy1)
+        model=StateSpaceModel(("x", "y"), ("y1",),
+                              lambda x, u, hat=None: [x[1] + eps * (u[0] if hat is None else hat["y1"]), u[0]],
+                              lambda ref: [[1.0, 0.0]], degrees=(3,), stages=(((0,), (0,)),)),
     )
 
 
@@ -69,3 +74,37 @@ def lag_reference(x_derivative, eps: float, omega: float):
     A = (a - eps * omega * b) / d
     B = (b + eps * omega * a) / d
     return lambda t: A * np.cos(omega * np.asarray(t)) + B * np.sin(omega * np.asarray(t))
+
+
+def lag_exact(x, eps: float, t, points: int = 80) -> np.ndarray:
+    """The exact ``y = (1 + eps d/dt)^-1 x'`` for any analytic ``x``, by the Laplace integral of the operator.
+
+    ``(1 + eps D)^-1 = int_0^inf e^-u e^(-eps u D) du``, so ``y(t) = int_0^inf e^-u x'(t - eps u) du``:
+    termwise it is the paper's series ``sum_i (-eps)^i x^(i+1)`` (``int e^-u u^i du = i!``), and its
+    (Borel) sum where that series diverges; for exponential-polynomial ``x`` it is the exact operator
+    relation (``x = e^(l t)``: ``y = l e^(l t) / (1 + eps l)``).  Gauss-Laguerre quadrature with
+    ``points`` nodes, exact for polynomial ``x`` of degree up to ``2 points``.
+
+    Parameters
+    ----------
+    x : callable
+        The flat output as a function of t (evaluated on Series for its derivative).
+    eps : float
+        Lag time constant [s], positive.
+    t : array, shape (N,)
+        Times [s].
+    points : int
+        Quadrature nodes.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        ``y`` at ``t``.
+    """
+    from ..series import Series
+
+    u, w = np.polynomial.laguerre.laggauss(points)
+    tt = np.asarray(t, dtype=float)[:, None] - float(eps) * u[None, :]
+    xs = x(Series.variable(tt.ravel(), 1))
+    xd = np.real(np.broadcast_to(xs.coeffs[..., 1], tt.size) if isinstance(xs, Series) else np.zeros(tt.size))
+    return xd.reshape(tt.shape) @ w

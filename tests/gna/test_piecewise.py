@@ -20,6 +20,7 @@ def test_scalar_and_vector_paths_agree_with_the_definition():
         ref = sum(pp.coeffs[i, :, k] * s ** k for k in range(4))
         np.testing.assert_allclose(pp(tt), ref, rtol=1e-14, atol=1e-14)
         np.testing.assert_allclose(many[:, n], ref, rtol=1e-14, atol=1e-14)
+        np.testing.assert_array_equal(pp(tt), many[:, n])          # the same Horner sums, bit for bit
 
 
 def test_derivatives_are_exact():

@@ -59,6 +59,6 @@ def test_gflat_plan_runs_the_chained_demos(tmp_path, capsys):
     assert "written to" in capsys.readouterr().out
     from gna.errors import InputError
     from planners.systems.demos import run_demo
-    with pytest.raises(InputError, match="unknown chained-system demo"):
+    with pytest.raises(InputError, match="unknown chained-system scenario"):
         run_demo("unicycle")
     assert "Newton max" in run_demo("first-order-lag", J=2, method="newton").text

@@ -111,7 +111,7 @@ class JSBSimEngine:
         aircraft : Aircraft
             The aircraft to export.
         env : Environment
-            Its g sets the flat planet's GM.
+            Its g sets the flat planet's GM; its ground effect, if any, is written into the file.
         x0 : ndarray, shape (12,)
             Initial state; ``-x0[2]`` is the planet's reference altitude [m].
 
@@ -122,7 +122,7 @@ class JSBSimEngine:
         """
         planet = (jx.FlatPlanet(g=env.g, h_ref=-float(x0[2]), radius_ft=self.planet_radius_ft)
                   if self.earth == "flat" else None)
-        return jx.aircraft_xml(aircraft, planet)
+        return jx.aircraft_xml(aircraft, planet, ground_effect=env.ground_effect)
 
     def simulate(self, aircraft: Aircraft, controls, t_span, x0=None, *, env: Environment | None = None,
                  controller=None, dt_out: float = 0.02, t_eval: np.ndarray | None = None) -> SimulationResult:
@@ -219,5 +219,5 @@ class _ExportRun(JSBSimRun):
                    "GM_ft3_s2": jx.FlatPlanet(env.g, h_ref, e.planet_radius_ft).GM, "gravity_model": 0}
                   if self.geo is None else {"model": "JSBSim default WGS84, rotating, J2 gravity",
                                             "latitude_rad": e.latitude, "longitude_rad": e.longitude})
-        return (env.atmosphere.describe() + " (written into the aircraft file)",
+        return (env.describe() + " (written into the aircraft file)",
                 {"earth": e.earth, "planet": planet})

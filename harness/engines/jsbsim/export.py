@@ -28,6 +28,9 @@ The file is generated from the aircraft's data alone, so that any aircraft of
   the same two forces, both on the symmetry plane, so that every aircraft has
   the same interface (F1 + F2 = F);
 * **controls**: declared properties ``ctrl/delta-{l,m,n}-rad``;
+* **ground effect**, only when asked (an engine flying an environment with one): the correction of
+  :mod:`gna.ground_effect` as functions of JSBSim's ``aero/h_b-cg-ft`` (:mod:`.ground`); the lift and drag
+  axes then use the corrected coefficients.  The free-air file is unchanged;
 * **planet**: a flat-earth approximation, a non-rotating sphere of radius :data:`PLANET_RADIUS_FT`
   without J2 whose ``GM = g (R + h_ref)^2`` gives exactly ``g`` at the reference altitude ``h_ref``;
 * **mass**: ``emptywt = m[slug] * 32.174049`` lbf (JSBSim divides by that number),
@@ -47,7 +50,9 @@ from gna.aero import AERO_VARIABLES, COEFFICIENTS
 from gna.aircraft import Aircraft
 from gna.atmosphere import H_TROPO, LAPSE, R_AIR, RHO0, RHO_TROPO, T0, T_TROPO
 from gna.errors import InputError
+from gna.ground_effect import GroundEffect
 
+from .ground import ground_effect_functions
 from .xmlwriter import XMLWriter, comment_text, number_text
 
 #: Version of the file layout (bump when the generated structure changes).
@@ -234,13 +239,14 @@ def _axis(w: XMLWriter, axis: str, frame: str | None, fname: str, coefficient: s
     w.open("product")
     w.leaf("property", QBAR_PROPERTY)
     w.leaf("value", scale)
-    w.leaf("property", COEFFICIENT_PROPERTIES[coefficient])
+    w.leaf("property", COEFFICIENT_PROPERTIES.get(coefficient, coefficient))
     w.close("product")
     w.close("function")
     w.close("axis")
 
 
-def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -> str:
+def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet(),
+                 ground_effect: GroundEffect | None = None) -> str:
     """JSBSim aircraft file of ``aircraft`` (text).
 
     Parameters
@@ -250,6 +256,8 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
     planet : FlatPlanet or None
         The flat-earth planet written into the file; ``None`` writes no
         ``<planet>`` (JSBSim then flies its default rotating WGS84 Earth).
+    ground_effect : GroundEffect, optional
+        Adds the ground effect of :mod:`gna.ground_effect` (:mod:`.ground`); None (default): free air.
 
     Returns
     -------
@@ -369,9 +377,14 @@ def aircraft_xml(aircraft: Aircraft, planet: FlatPlanet | None = FlatPlanet()) -
             w.close("sum")
         w.close("function")
     w.line()
-    _axis(w, "X", "STABILITY", "aero/force/gflat-drag-lbs", "CD", S_ft2, "drag, positive aft along -x_s")
+    cl, cd = "CL", "CD"
+    if ground_effect is not None:
+        cl, cd = ground_effect_functions(w, aircraft, ground_effect, COEFFICIENT_PROPERTIES["CL"],
+                                         COEFFICIENT_PROPERTIES["CD"])
+        w.line()
+    _axis(w, "X", "STABILITY", "aero/force/gflat-drag-lbs", cd, S_ft2, "drag, positive aft along -x_s")
     _axis(w, "Y", "STABILITY", "aero/force/gflat-side-lbs", "CY", S_ft2, "side force along y")
-    _axis(w, "Z", "STABILITY", "aero/force/gflat-lift-lbs", "CL", S_ft2, "lift, positive along -z_s")
+    _axis(w, "Z", "STABILITY", "aero/force/gflat-lift-lbs", cl, S_ft2, "lift, positive along -z_s")
     _axis(w, "ROLL", None, "aero/moment/gflat-roll-lbsft", "Cl", S_ft2 * b_ft, "body axes, about AERORP")
     _axis(w, "PITCH", None, "aero/moment/gflat-pitch-lbsft", "Cm", S_ft2 * c_ft, "body axes, about AERORP")
     _axis(w, "YAW", None, "aero/moment/gflat-yaw-lbsft", "Cn", S_ft2 * b_ft, "body axes, about AERORP")

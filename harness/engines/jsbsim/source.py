@@ -192,6 +192,9 @@ class JSBSimSourceEngine:
         if not isinstance(atmosphere, ISA):
             raise InputError(f"jsbsim-source flies in JSBSim's own ISA atmosphere; got "
                              f"{type(atmosphere).__name__} (use density = 'isa')")
+        if environment_of(controls, env).ground_effect is not None:
+            raise InputError("jsbsim-source flies JSBSim's own aerodynamics: gflat's ground effect cannot be "
+                             "applied to it (fly without ground effect, or use the 'jsbsim' engine)")
         return _SourceRun.fly(self, aircraft, controls, t_span, x0, env=env, controller=controller, dt_out=dt_out,
                               t_eval=t_eval)
 

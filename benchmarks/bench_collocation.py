@@ -1,0 +1,746 @@
+"""The planner against direct collocation (CasADi + IPOPT) on the full model, side by side.
+
+Both solve the same inverse problem on a scenario: find the 12 states and 5 controls such that the
+full model's equations (``gna.eom.derivatives``, the project's one definition, evaluated on CasADi
+symbols) hold, the flat outputs ``x, y, z`` and the fourth flat output (beta, mu, F or the mix) take
+the scenario's values, and eta (or the fixed rudder dn when eta is the fourth control) is the
+prescribed one.
+
+Collocation scheme: Legendre--Gauss--Radau (Radau IIA), degree 3, on intervals of the scenario's node
+step times a factor (1, 2, 4, 8 by default).  On each interval the states and the controls are the
+degree-3 polynomials through their values at the interval start and at the three Radau points
+(the last one is the interval end), so both are continuous piecewise cubics; the full model's
+equations hold at the three Radau points of every interval (order 5 for the states of an ODE, 2s - 1
+with s = 3; stiffly accurate, the standard choice of pseudospectral and ``casadi`` collocation).
+The flat outputs and the prescribed inputs are imposed at every point (they are known numbers there,
+so they enter as constants, which is what IPOPT's ``fixed_variable_treatment = make_parameter`` would
+do with equal bounds); a mixed fourth output ``f1(t) beta + f2(t) mu = value(t)`` is a constraint at
+every point.
+
+The equations do not fix every unknown: there are 12 equations per Radau point but none at t0, so the
+initial values of the non-flat states and the controls at t0 are left free; and on the full model the rate and surface terms of the
+force coefficients (the paper's H) feed the controls back into the force equations, so the inverse
+problem is a boundary-value problem with fast modes rather than the pointwise chain of the simple
+model (collocating also at t0 makes the system square, but its Jacobian is then singular on the
+aileron roll's grids).  As usual in direct collocation, an objective picks the solution, a sum of two terms of weight 1:
+the squared defect of the model's equations at t0 (scaled like the constraints: the equations at
+t0 in the least-squares sense, which fixes the initial state where the equations allow it) and the
+integral over the span of the squared control rates (each control over its scale: F over m g,
+surfaces and eta as they are; exact on the piecewise cubics by the Radau quadrature), which picks
+the smooth member of the fast modes.  The constraints hold to IPOPT's tolerance whatever the
+weights; the objective only chooses among their solutions.  (Measured alternatives: without the t0
+term the open-loop error is 2 to 3000 times larger, the initial state being chosen by smoothness
+alone; with the rate term's weight 1e-3 or 1e-6 the roll needs 17 to 39 IPOPT iterations on the
+finer grids instead of 3.)
+
+Initial guess (the same for every grid): the planner's J = 0 plan (flat, simple model) evaluated at
+the collocation points; computing it is not counted in the collocation's time.
+
+Accuracy of both: the planned controls flown open loop on the full model from the plan's own initial
+state (``gna.simulate.simulate``, DOP853, rtol = atol = 1e-10), largest distance of ``(x, y, z)`` to
+the exact flat outputs on an output grid of a tenth of the scenario's node step (at most 0.01 s):
+:func:`planners.verify.open_loop_error` for the planner, :func:`open_loop_error_of` (the same flight)
+for collocation.
+
+Timing: interleaved repetitions, per repetition the planner (``plan_scenario`` at the bundled
+settings), then per grid and CasADi graph (MX: the model an SX function mapped over the points, quick
+to build; SX: everything expanded, slow to build, quicker to evaluate) the collocation built from
+scratch (symbolic NLP, ``nlpsol``, solve) and re-solved (the solver built once, called again with the
+same initial guess); medians of CPU (``time.process_time``) and wall time, BLAS threads pinned to 1.
+The ratio at matched accuracy takes the cheapest grid whose accuracy is at least the planner's and
+the quicker graph for each of re-solve and built-from-scratch.  IPOPT: MUMPS, exact Hessian,
+``tol = 1e-8``, ``print_level = 0``, other options at their defaults.
+
+Usage::
+
+    python benchmarks/bench_collocation.py [--scenarios NAME ...] [--repeat N] [--factors 1,2,4,8]
+                                           [--graphs MX,SX] [--quick] [--json PATH]
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+if __package__ in (None, ""):  # run as a script: the repository's packages, not an installed copy
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import argparse  # noqa: E402
+import dataclasses  # noqa: E402
+import gc  # noqa: E402
+import json  # noqa: E402
+import statistics  # noqa: E402
+import time  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+from typing import Callable  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from gna import eom  # noqa: E402
+from gna.atmosphere import H_TROPO, ISA, LAPSE, R_AIR, RHO0, RHO_TROPO, T0, T_TROPO  # noqa: E402
+from gna.piecewise import PiecewisePolynomial  # noqa: E402
+from gna.units import G0  # noqa: E402
+from planners import verify  # noqa: E402
+
+try:  # an optional dependency: the ``bench`` extra
+    import casadi as ca
+except ImportError:  # pragma: no cover - reported by main()
+    ca = None
+
+SCENARIOS = ("gtm-aileron-roll", "twin-otter-single-engine", "gtm-forward-slip")
+DEFAULT_FACTORS = (1.0, 2.0, 4.0, 8.0)
+FINER_FACTORS = (0.5, 0.25)
+DEGREE = 3
+IPOPT_TOL = 1e-8
+
+
+def _require_casadi():
+    if ca is None:
+        raise SystemExit("bench_collocation needs CasADi: pip install 'gflat[bench]' (or pip install casadi)")
+    try:  # casadi >= 3.7 warns once when numpy functions meet casadi values unless told the mode
+        ca.GlobalOptions.setNumpyMode(1)
+    except AttributeError:
+        pass
+
+
+class SymbolicISA(ISA):
+    """The ISA density of :class:`gna.atmosphere.ISA` that also takes CasADi symbols.
+
+    ``ISA.density`` picks the layer from the altitude's numeric value, which a symbol does not
+    have; on a symbol both layers' formulas (the same constants) are combined by ``if_else``.
+    Numbers go to ``ISA.density`` itself.
+    """
+
+    def density(self, h):
+        """Density [kg/m^3] at altitude ``h`` [m] (float, array, series or CasADi symbol)."""
+        if ca is not None and isinstance(h, (ca.SX, ca.MX)):
+            tropo = RHO0 * (1.0 - LAPSE * h / T0) ** (G0 / (R_AIR * LAPSE) - 1.0)
+            strato = RHO_TROPO * ca.exp(-G0 * (h - H_TROPO) / (R_AIR * T_TROPO))
+            return ca.if_else(h <= H_TROPO, tropo, strato)
+        return super().density(h)
+
+
+def symbolic_environment(env):
+    """The environment ``env`` with a density that evaluates on CasADi symbols.
+
+    Parameters
+    ----------
+    env : gna.atmosphere.Environment
+        Gravity and atmosphere of the scenario.
+
+    Returns
+    -------
+    gna.atmosphere.Environment
+        The same, with :class:`SymbolicISA` in place of an ISA atmosphere (constant density works
+        on symbols as it is).
+    """
+    if isinstance(env.atmosphere, ISA):
+        return dataclasses.replace(env, atmosphere=SymbolicISA())
+    return env
+
+
+def radau_matrices(degree: int = DEGREE):
+    """Legendre--Gauss--Radau points and differentiation weights on [0, 1].
+
+    Parameters
+    ----------
+    degree : int
+        Number of Radau points (the polynomial degree of states and controls on an interval).
+
+    Returns
+    -------
+    tau : ndarray, shape (degree + 1,)
+        0 followed by the Radau points (the last is 1).
+    D : ndarray, shape (degree + 1, degree + 1)
+        ``D[j, i]``: derivative at ``tau[i]`` of the Lagrange basis polynomial of ``tau[j]``.
+    """
+    tau = np.concatenate([[0.0], np.asarray(ca.collocation_points(degree, "radau"), dtype=float)])
+    D = np.zeros((degree + 1, degree + 1))
+    for j in range(degree + 1):
+        others = np.delete(tau, j)
+        basis = np.poly1d(others, r=True) / np.prod(tau[j] - others)
+        D[j] = basis.deriv()(tau)
+    return tau, D
+
+
+def _state_scales(aircraft, env, guess_states, guess_controls):
+    """Typical magnitudes of the 12 states and 5 controls (objective weights, F's unit)."""
+    sx = np.ones(12)
+    sx[eom.STATE_NAMES.index("V")] = max(1.0, float(np.mean(np.abs(guess_states[3]))))
+    su = np.ones(5)
+    su[0] = aircraft.mass.mass * env.g
+    return sx, su
+
+
+def radau_weights(points: np.ndarray) -> np.ndarray:
+    """Quadrature weights on [0, 1] of the interpolation polynomial through ``points``.
+
+    Parameters
+    ----------
+    points : ndarray, shape (d,)
+        Distinct points in [0, 1] (the Radau points: exact to degree 2 d - 2).
+
+    Returns
+    -------
+    ndarray, shape (d,)
+        ``sum_j w_j g(points[j])`` approximates ``int_0^1 g``.
+    """
+    w = np.zeros(len(points))
+    for j in range(len(points)):
+        others = np.delete(points, j)
+        basis = np.poly1d(others, r=True) / np.prod(points[j] - others)
+        integral = basis.integ()
+        w[j] = integral(1.0) - integral(0.0)
+    return w
+
+
+@dataclass
+class CollocationSolution:
+    """States and controls of a solved collocation problem.
+
+    Attributes
+    ----------
+    t : ndarray, shape (P,)
+        Times of the points (interval starts and Radau points) [s].
+    states : ndarray, shape (12, P)
+        States at the points (SI, rad), in the order of :data:`gna.eom.STATE_NAMES`.
+    controls : ndarray, shape (5, P)
+        Controls at the points ``(F [N], eta, dl, dm, dn [rad])``.
+    control_function : PiecewisePolynomial
+        The controls between the points: on each interval the cubic through its four points.
+    success : bool
+        IPOPT's verdict.
+    status : str
+        IPOPT's return status.
+    iterations : int
+        IPOPT iterations.
+    constraint_violation : float
+        Largest violation of the collocation equations (units of the states).
+    """
+
+    t: np.ndarray
+    states: np.ndarray
+    controls: np.ndarray
+    control_function: PiecewisePolynomial
+    success: bool
+    status: str
+    iterations: int
+    constraint_violation: float
+
+    @property
+    def initial_state(self) -> np.ndarray:
+        """The 12 states at the first point (SI, rad)."""
+        return self.states[:, 0].copy()
+
+
+class CollocationProblem:
+    """The collocation NLP of a scenario on intervals of ``factor`` times the scenario's node step.
+
+    Building it creates the symbolic NLP and the IPOPT solver (the "build" time); :meth:`solve`
+    runs IPOPT from the initial guess and returns a :class:`CollocationSolution`.
+
+    Parameters
+    ----------
+    scenario : planners.scenario.Scenario
+        The scenario (aircraft, environment, flat outputs, eta or fixed rudder).
+    factor : float
+        Interval length over the scenario's node step.
+    guess : callable
+        ``guess(t) -> (states (12, P), controls (5, P))`` at times ``t`` (shape (P,)) [SI, rad].
+    tol : float
+        IPOPT's tolerance (``tol``).
+    ipopt : dict, optional
+        Further IPOPT options (without the ``ipopt.`` prefix), e.g. ``{"print_level": 5}``.
+    weight : float
+        Weight of the integral over the span of the squared scaled control rates in the objective.
+    start_weight : float
+        Weight of the squared (scaled) defect of the model's equations at t0 in the objective.
+    graph : {"MX", "SX"}
+        CasADi graph of the NLP: ``"MX"`` (the model an ``SX`` function mapped over the points; quick
+        to build) or ``"SX"`` (everything expanded to scalar operations: slow to build, quicker to
+        evaluate).  The model's equations are the same.
+
+    Attributes
+    ----------
+    n_intervals : int
+        Number of intervals.
+    P : int
+        Number of points (``3 n_intervals + 1``).
+    n_variables, n_constraints : int
+        Size of the NLP.
+    t : ndarray, shape (P,)
+        Times of the points [s].
+    """
+
+    def __init__(self, scenario, factor: float, guess: Callable, tol: float = IPOPT_TOL, ipopt: dict | None = None,
+                 weight: float = 1.0, start_weight: float = 1.0, graph: str = "MX"):
+        _require_casadi()
+        pb = scenario.problem()
+        ac, env = pb.aircraft, pb.env
+        span = scenario.t1 - scenario.t0
+        n = max(1, int(round(span / (scenario.step * factor))))
+        self.n_intervals = n
+        self.breaks = np.linspace(scenario.t0, scenario.t1, n + 1)
+        h = np.diff(self.breaks)
+        tau, D = radau_matrices(DEGREE)
+        quad_w = radau_weights(tau[1:])
+        d = DEGREE
+        P = d * n + 1
+        self.t = np.concatenate([[self.breaks[0]]] + [self.breaks[k] + tau[1:] * h[k] for k in range(n)])
+        t = self.t
+        g_states, g_controls = guess(t)
+        g_states = np.asarray(g_states, dtype=float)
+        g_controls = np.asarray(g_controls, dtype=float)
+        sx, su = _state_scales(ac, env, g_states, g_controls)
+
+        # Known values: flat outputs, the fourth flat output, eta or the fixed rudder.
+        fixed_x: dict[int, np.ndarray] = {}
+        fixed_u: dict[int, np.ndarray] = {}
+        for name, f in (("x", pb.x), ("y", pb.y), ("z", pb.z)):
+            fixed_x[eom.STATE_NAMES.index(name)] = np.broadcast_to(np.asarray(f(t), dtype=float), t.shape)
+        zeta = pb.zeta
+        zv = np.broadcast_to(np.asarray(zeta.value(t), dtype=float), t.shape)
+        if zeta.kind in ("beta", "mu"):
+            fixed_x[eom.STATE_NAMES.index(zeta.kind)] = zv
+        elif zeta.kind == "F":
+            fixed_u[0] = zv
+        if pb.eta is not None:
+            fixed_u[1] = np.broadcast_to(np.asarray(pb.eta(t), dtype=float), t.shape)
+        else:
+            fixed_u[4] = np.broadcast_to(np.asarray(pb.dn(t), dtype=float), t.shape)
+        self.fixed_x, self.fixed_u = fixed_x, fixed_u
+
+        # Decision variables (scaled by sx, su), one symbol row per free state / control.
+        free_x = [i for i in range(12) if i not in fixed_x]
+        free_u = [i for i in range(5) if i not in fixed_u]
+        self.free_x, self.free_u = free_x, free_u
+        if graph not in ("MX", "SX"):
+            raise ValueError(f"graph must be 'MX' or 'SX', got {graph!r}")
+        sym = ca.MX if graph == "MX" else ca.SX
+        w = sym.sym("w", (len(free_x) + len(free_u)) * P)
+        W = ca.reshape(w, len(free_x) + len(free_u), P)
+        rows_x, rows_u = [], []
+        for i in range(12):
+            rows_x.append(ca.DM(fixed_x[i]).T if i in fixed_x else sx[i] * W[free_x.index(i), :])
+        for i in range(5):
+            rows_u.append(ca.DM(fixed_u[i]).T if i in fixed_u else su[i] * W[len(free_x) + free_u.index(i), :])
+        X = ca.vertcat(*rows_x)
+        U = ca.vertcat(*rows_u)
+
+        # The full model on symbols: the project's equations, once, mapped over the Radau points.
+        xs, us = ca.SX.sym("xs", 12), ca.SX.sym("us", 5)
+        rhs = eom.derivatives(ac, symbolic_environment(env), eom.State(*ca.vertsplit(xs)),
+                              eom.Controls(*ca.vertsplit(us)))
+        f = ca.Function("f", [xs, us], [ca.vertcat(*rhs)])
+        # The equations at every Radau point: X @ Dg = f(X, U) there.
+        radau = np.array([k * d + i for k in range(n) for i in range(1, d + 1)])
+        Dg = np.zeros((P, d * n))
+        for k in range(n):
+            idx = k * d + np.arange(d + 1)
+            Dg[np.ix_(idx, k * d + np.arange(d))] = D[:, 1:] / h[k]
+        Dg_sp = ca.sparsify(ca.DM(Dg))
+        dyn = ca.mtimes(X, Dg_sp) - f.map(len(radau))(X[:, radau], U[:, radau])
+        dyn = ca.vec(ca.diag(ca.DM(1.0 / sx)) @ dyn)
+        self.n_dynamics = int(dyn.numel())
+        if zeta.kind == "mix":
+            # The mixed fourth output f1(t) beta + f2(t) mu = value(t) at every point.
+            f1 = np.broadcast_to(np.asarray(zeta.f1(t), dtype=float), t.shape)
+            f2 = np.broadcast_to(np.asarray(zeta.f2(t), dtype=float), t.shape)
+            ib, im = eom.STATE_NAMES.index("beta"), eom.STATE_NAMES.index("mu")
+            mix = X[ib, :] * ca.DM(f1).T + X[im, :] * ca.DM(f2).T - ca.DM(zv).T
+            dyn = ca.vertcat(dyn, ca.vec(mix))
+        # Objective: the integral of the squared control rates (scaled), exact for the piecewise cubics
+        # (Radau quadrature, exact to degree 2 d - 2 = 4).
+        quad = np.concatenate([quad_w * h[k] for k in range(n)]) / (scenario.t1 - scenario.t0)
+        Ud = ca.diag(ca.DM(1.0 / su)) @ ca.mtimes(U, Dg_sp)
+        obj = weight * ca.sum2(ca.sum1(Ud * Ud) * ca.DM(quad).T) if weight else 0
+        if start_weight:
+            # The model's equations at t0 too, in the least-squares sense (scaled like the constraints).
+            d0 = ca.DM(D[:, 0] / h[0])
+            defect0 = (ca.mtimes(X[:, :d + 1], d0) - f(X[:, 0], U[:, 0])) / ca.DM(sx)
+            obj = obj + start_weight * ca.sumsqr(defect0)
+        self.n_variables = int(w.numel())
+        self.n_constraints = int(dyn.numel())
+        opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": tol,
+                "ipopt.linear_solver": "mumps"}
+        opts.update({f"ipopt.{k}": v for k, v in (ipopt or {}).items()})
+        self.solver = ca.nlpsol("collocation", "ipopt", {"x": w, "f": obj, "g": dyn}, opts)
+        w0 = np.concatenate([(g_states[free_x] / sx[free_x, None]), (g_controls[free_u] / su[free_u, None])])
+        self.w0 = w0.ravel(order="F")
+        self._sx, self._su = sx, su
+        self.P = P
+
+    def solve(self) -> CollocationSolution:
+        """Run IPOPT from the initial guess.
+
+        Returns
+        -------
+        CollocationSolution
+            States and controls at the points, the controls as a piecewise cubic, IPOPT's status.
+        """
+        sol = self.solver(x0=self.w0, lbg=0.0, ubg=0.0)
+        stats = self.solver.stats()
+        return self.unpack(np.asarray(sol["x"], dtype=float).ravel(), np.asarray(sol["g"], dtype=float).ravel(),
+                           stats)
+
+    def unpack(self, w: np.ndarray, g: np.ndarray, stats: dict) -> CollocationSolution:
+        """States, controls and piecewise-cubic controls from the NLP's solution vector.
+
+        Parameters
+        ----------
+        w : ndarray, shape (n_variables,)
+            Scaled decision variables.
+        g : ndarray, shape (n_constraints,)
+            Collocation equations at ``w`` (scaled).
+        stats : dict
+            IPOPT's statistics (``success``, ``return_status``, ``iter_count``).
+
+        Returns
+        -------
+        CollocationSolution
+        """
+        nf = len(self.free_x) + len(self.free_u)
+        W = w.reshape(nf, self.P, order="F")
+        X = np.zeros((12, self.P))
+        U = np.zeros((5, self.P))
+        for i in range(12):
+            X[i] = self.fixed_x[i] if i in self.fixed_x else self._sx[i] * W[self.free_x.index(i)]
+        for i in range(5):
+            U[i] = self.fixed_u[i] if i in self.fixed_u else self._su[i] * W[len(self.free_x) + self.free_u.index(i)]
+        ctl = cubic_pieces(self.breaks, self.t, U)
+        gd = g[:self.n_dynamics]
+        viol = float(np.max(np.abs(gd.reshape(12, -1, order="F") * self._sx[:, None]))) if gd.size else 0.0
+        if g.size > gd.size:
+            viol = max(viol, float(np.max(np.abs(g[gd.size:]))))
+        return CollocationSolution(self.t, X, U, ctl, bool(stats.get("success", False)),
+                                   str(stats.get("return_status", "")), int(stats.get("iter_count", -1)), viol)
+
+
+def cubic_pieces(breaks: np.ndarray, t: np.ndarray, values: np.ndarray) -> PiecewisePolynomial:
+    """The piecewise polynomial through the values at the collocation points of each interval.
+
+    Parameters
+    ----------
+    breaks : ndarray, shape (n + 1,)
+        Interval ends [s].
+    t : ndarray, shape (d n + 1,)
+        Times of the points: ``breaks[0]``, then the ``d`` Radau points of each interval [s].
+    values : ndarray, shape (m, d n + 1)
+        Values at the points.
+
+    Returns
+    -------
+    PiecewisePolynomial
+        Degree ``d`` on each interval, continuous at the interval ends.
+    """
+    n = len(breaks) - 1
+    d = (len(t) - 1) // n
+    coeffs = np.zeros((n, values.shape[0], d + 1))
+    for k in range(n):
+        idx = k * d + np.arange(d + 1)
+        s = t[idx] - breaks[k]
+        V = np.vander(s, d + 1, increasing=True)
+        coeffs[k] = np.linalg.solve(V, values[:, idx].T).T
+    return PiecewisePolynomial(breaks, coeffs)
+
+
+def verification_grid(scenario) -> np.ndarray:
+    """Output times of the open-loop flights (:func:`planners.verify.verification_grid` of the scenario's nodes)."""
+    return verify.verification_grid(scenario.t_nodes)
+
+
+def open_loop_error_of(scenario, controls, x0, t_eval=None) -> float:
+    """Largest distance [m] to the flat outputs when ``controls`` are flown open loop from ``x0``.
+
+    :func:`planners.verify.open_loop_check` (full model, DOP853, rtol = atol = 1e-10); NaN when
+    the flight stops early.
+    """
+    grid = verification_grid(scenario) if t_eval is None else np.asarray(t_eval, dtype=float)
+    return verify.open_loop_check(scenario.problem(), controls, np.asarray(x0, dtype=float), grid).max_position_error_m
+
+
+def planner_guess(scenario) -> Callable:
+    """The initial guess of every grid: the planner's J = 0 plan (flat, simple model).
+
+    Parameters
+    ----------
+    scenario : planners.scenario.Scenario
+        The scenario.
+
+    Returns
+    -------
+    callable
+        ``guess(t) -> (states (12, P), controls (5, P))`` at times ``t`` [s] (SI, rad).
+    """
+    from planners.generalized import plan_scenario
+
+    plan = plan_scenario(scenario, J=0)
+    return lambda t: (plan.state(np.asarray(t, dtype=float), 0), plan.controls(np.asarray(t, dtype=float), 0))
+
+
+def _clock():
+    gc.collect()  # every timed section starts from the same collector state
+    return time.process_time(), time.perf_counter()
+
+
+def _since(start):
+    c, w = _clock()
+    return c - start[0], w - start[1]
+
+
+def _median(pairs):
+    return [statistics.median(p[i] for p in pairs) for i in (0, 1)]
+
+
+GRAPHS = ("MX", "SX")
+
+
+def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FINER_FACTORS,
+                   graphs=GRAPHS, log=print) -> dict:
+    """Time and accuracy of the planner and of collocation on grids of a scenario.
+
+    Parameters
+    ----------
+    name : str
+        Bundled scenario name (or path).
+    factors : sequence of float
+        Interval lengths of the collocation grids over the scenario's node step.
+    repeat : int
+        Interleaved repetitions (medians are reported).
+    finer : sequence of float
+        Factors tried in turn when no grid of ``factors`` reaches the planner's accuracy.
+    graphs : sequence of str
+        CasADi graphs timed (``"MX"``, ``"SX"``); the comparison takes the quicker of them.
+    log : callable
+        Progress messages.
+
+    Returns
+    -------
+    dict
+        ``planner``: time (CPU, wall medians) [s] and accuracy [m]; ``grids``: per factor the
+        intervals, points, variables, per graph the build / solve / re-solve medians [s] and the
+        accuracy [m]; ``matched``: the cheapest grid at least as accurate as the planner and the
+        time ratios (re-solved and built from scratch over the planner, the quicker graph).
+    """
+    from planners.generalized import plan_scenario
+    from planners.scenario import load_scenario
+    from planners.verify import open_loop_error
+
+    _require_casadi()
+    sc = load_scenario(name)
+    t_guess = _clock()
+    guess = planner_guess(sc)
+    guess_time = _since(t_guess)
+    plan = plan_scenario(sc)  # warm-up, and the accuracy (deterministic)
+    check = open_loop_error(plan)
+    planner_acc = check.max_position_error_m
+    out = {"scenario": sc.name, "step_s": sc.step, "span_s": sc.t1 - sc.t0,
+           "guess": {"what": "planner J = 0 plan at the points", "time_cpu_s": guess_time[0],
+                     "time_wall_s": guess_time[1]},
+           "planner": {"J": plan.J, "nodes": len(plan.t_nodes), "accuracy_m": planner_acc,
+                       "feasible": bool(plan.feasible), "settings": {k: getattr(plan, k) for k in ("e",)
+                                                                     if hasattr(plan, k)}}}
+    log(f"{sc.name}: planner J = {plan.J}, accuracy {planner_acc:.3g} m")
+    grids: dict[float, dict] = {}
+    prebuilt: dict[tuple[float, str], CollocationProblem] = {}
+
+    def add_grid(f):
+        row = {"factor": f}
+        sols = {}
+        for gname in graphs:
+            prob = CollocationProblem(sc, f, guess, graph=gname)
+            sols[gname] = prob.solve()
+            prebuilt[f, gname] = prob
+        sol = sols[graphs[0]]
+        acc = open_loop_error_of(sc, sol.control_function, sol.initial_state)
+        spread = max(float(np.max(np.abs(s.controls - sol.controls))) for s in sols.values())
+        row.update({"intervals": prob.n_intervals, "points": prob.P, "variables": prob.n_variables,
+                    "constraints": prob.n_constraints, "accuracy_m": acc,
+                    "success": all(s.success for s in sols.values()), "status": sol.status,
+                    "iterations": sol.iterations, "constraint_violation": sol.constraint_violation,
+                    "graphs_max_control_difference": spread, "times": {g: {"build": [], "solve": [], "scratch": [],
+                                                                            "resolve": []} for g in graphs}})
+        grids[f] = row
+        log(f"  grid {f:g} x step: {prob.n_intervals} intervals, accuracy {acc:.3g} m, {sol.status}, "
+            f"{sol.iterations} iterations")
+
+    for f in factors:
+        add_grid(float(f))
+    for f in finer:
+        if any(g["accuracy_m"] <= planner_acc for g in grids.values()):
+            break
+        add_grid(float(f))
+
+    planner_t = []
+    for _ in range(repeat):
+        start = _clock()
+        plan_scenario(sc)
+        planner_t.append(_since(start))
+        for f, g in grids.items():
+            for gname in graphs:
+                tt = g["times"][gname]
+                start = _clock()
+                prob = CollocationProblem(sc, f, guess, graph=gname)
+                build = _since(start)
+                start = _clock()
+                prob.solve()
+                solve = _since(start)
+                tt["build"].append(build)
+                tt["solve"].append(solve)
+                tt["scratch"].append((build[0] + solve[0], build[1] + solve[1]))
+                start = _clock()
+                prebuilt[f, gname].solve()
+                tt["resolve"].append(_since(start))
+    out["planner"]["time_cpu_s"], out["planner"]["time_wall_s"] = _median(planner_t)
+    rows = []
+    for f in sorted(grids):
+        g = grids[f]
+        for gname in graphs:
+            tt = g["times"][gname]
+            for key in ("build", "solve", "scratch", "resolve"):
+                tt[f"{key}_cpu_s"], tt[f"{key}_wall_s"] = _median(tt.pop(key))
+        for key in ("scratch", "resolve"):
+            for clock in ("cpu", "wall"):
+                best = min(graphs, key=lambda gn: g["times"][gn][f"{key}_{clock}_s"])
+                g[f"{key}_{clock}_s"] = g["times"][best][f"{key}_{clock}_s"]
+                g[f"{key}_{clock}_graph"] = best
+        rows.append(g)
+    out["grids"] = rows
+    ok = [g for g in rows if g["success"] and g["accuracy_m"] <= planner_acc]
+    p = out["planner"]
+    if ok:
+        best = min(ok, key=lambda g: g["resolve_wall_s"])
+        out["matched"] = {"factor": best["factor"], "accuracy_m": best["accuracy_m"],
+                          "resolve_over_planner_wall": best["resolve_wall_s"] / p["time_wall_s"],
+                          "resolve_over_planner_cpu": best["resolve_cpu_s"] / p["time_cpu_s"],
+                          "scratch_over_planner_wall": best["scratch_wall_s"] / p["time_wall_s"],
+                          "scratch_over_planner_cpu": best["scratch_cpu_s"] / p["time_cpu_s"]}
+    else:
+        out["matched"] = None
+    same = [g for g in rows if g["factor"] == 1.0]
+    if same:
+        out["same_grid_accuracy_m"] = same[0]["accuracy_m"]
+    return out
+
+
+def format_table(res: dict) -> str:
+    """The table of one scenario's results (medians: wall time, CPU time in parentheses).
+
+    Parameters
+    ----------
+    res : dict
+        A result of :func:`bench_scenario`.
+
+    Returns
+    -------
+    str
+    """
+    p = res["planner"]
+    graphs = list(res["grids"][0]["times"]) if res["grids"] else []
+    lines = [f"{res['scenario']} (node step {res['step_s']:g} s, span {res['span_s']:g} s); times: median wall "
+             f"(CPU) [s]",
+             f"  planner J={p['J']}, {p['nodes']} nodes: {p['time_wall_s']:.3f} ({p['time_cpu_s']:.3f}), "
+             f"open-loop accuracy {p['accuracy_m']:.3g} m",
+             f"  {'grid':>6} {'interv.':>7} {'vars':>6} "
+             + " ".join(f"{k + ' ' + gn:>16}" for k in ("build", "solve", "re-solve") for gn in graphs)
+             + f" {'accuracy [m]':>12} {'it':>3}"]
+    for g in res["grids"]:
+        cells = []
+        for key in ("build", "solve", "resolve"):
+            for gn in graphs:
+                tt = g["times"][gn]
+                cells.append(f"{tt[key + '_wall_s']:.3f} ({tt[key + '_cpu_s']:.3f})")
+        lines.append(f"  {g['factor']:>5g}x {g['intervals']:>7} {g['variables']:>6} "
+                     + " ".join(f"{c:>16}" for c in cells)
+                     + f" {g['accuracy_m']:>12.3g} {g['iterations']:>3}" + ("" if g["success"] else f" {g['status']}"))
+    m = res["matched"]
+    if m:
+        lines.append(f"  matched accuracy: grid {m['factor']:g}x ({m['accuracy_m']:.3g} m): re-solved / planner = "
+                     f"{m['resolve_over_planner_wall']:.2f} wall ({m['resolve_over_planner_cpu']:.2f} CPU), "
+                     f"built from scratch / planner = {m['scratch_over_planner_wall']:.2f} wall "
+                     f"({m['scratch_over_planner_cpu']:.2f} CPU)")
+    else:
+        lines.append("  matched accuracy: no collocation grid reached the planner's accuracy")
+    return "\n".join(lines)
+
+
+def markdown_table(results: list) -> str:
+    """One Markdown table of every scenario's results (for the note and ``docs/collocation.md``).
+
+    Parameters
+    ----------
+    results : list of dict
+        Results of :func:`bench_scenario`.
+
+    Returns
+    -------
+    str
+        Per scenario a planner row and one row per grid: intervals, NLP variables, build, solve and
+        re-solve times (median wall (CPU) [s], the quicker graph for re-solve and built-from-scratch),
+        open-loop accuracy; then the ratios at matched accuracy.
+    """
+    def t(x, key):
+        return f"{x[key + '_wall_s']:.3f} ({x[key + '_cpu_s']:.3f})"
+
+    lines = ["| scenario | solver | intervals | NLP variables | built from scratch [s] | re-solve [s] | "
+             "open-loop accuracy [m] |", "|---|---|---|---|---|---|---|"]
+    for r in results:
+        p = r["planner"]
+        lines.append(f"| {r['scenario']} | planner J = {p['J']} | {p['nodes'] - 1} | | "
+                     f"{t(p, 'time')} | | {p['accuracy_m']:.2g} |")
+        for g in r["grids"]:
+            lines.append(f"| | collocation {g['factor']:g}x ({g['iterations']} it.) | {g['intervals']} | "
+                         f"{g['variables']} | {t(g, 'scratch')} {g['scratch_wall_graph']} | "
+                         f"{t(g, 'resolve')} {g['resolve_wall_graph']} | {g['accuracy_m']:.2g} |")
+    lines += ["", "| scenario | planner | matched grid | re-solved / planner | built from scratch / planner |",
+              "|---|---|---|---|---|"]
+    for r in results:
+        p, m = r["planner"], r["matched"]
+        if m:
+            lines.append(f"| {r['scenario']} | {p['time_wall_s']:.3f} s, {p['accuracy_m']:.2g} m | "
+                         f"{m['factor']:g}x, {m['accuracy_m']:.2g} m | {m['resolve_over_planner_wall']:.2f} wall "
+                         f"({m['resolve_over_planner_cpu']:.2f} CPU) | {m['scratch_over_planner_wall']:.2f} wall "
+                         f"({m['scratch_over_planner_cpu']:.2f} CPU) |")
+        else:
+            lines.append(f"| {r['scenario']} | {p['time_wall_s']:.3f} s, {p['accuracy_m']:.2g} m | none | | |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
+    ap.add_argument("--repeat", type=int, default=5, help="interleaved repetitions (medians)")
+    ap.add_argument("--factors", default=",".join(f"{f:g}" for f in DEFAULT_FACTORS),
+                    help="collocation interval / scenario node step, comma-separated")
+    ap.add_argument("--quick", action="store_true", help="smoke run: one repetition, grids 4x and 8x, no finer")
+    ap.add_argument("--graphs", default="MX,SX", help="CasADi graphs timed, comma-separated (MX, SX)")
+    ap.add_argument("--json", help="write the results to this JSON file")
+    ap.add_argument("--markdown", help="write the results as a Markdown table to this file")
+    args = ap.parse_args(argv)
+    _require_casadi()
+    factors = [float(v) for v in args.factors.split(",")]
+    finer = FINER_FACTORS
+    repeat = args.repeat
+    if args.quick:
+        factors, finer, repeat = [8.0], (), 1
+    results = []
+    for name in args.scenarios:
+        res = bench_scenario(name, factors, repeat, finer, tuple(args.graphs.split(",")))
+        print(format_table(res), flush=True)
+        results.append(res)
+    if args.markdown:
+        with open(args.markdown, "w", encoding="utf-8") as fh:
+            fh.write(markdown_table(results) + "\n")
+    if args.json:
+        meta = {"repeat": repeat, "scheme": f"Legendre-Gauss-Radau degree {DEGREE}", "ipopt_tol": IPOPT_TOL,
+                "linear_solver": "mumps", "casadi": ca.CasadiMeta.version(), "cpu_count": os.cpu_count(),
+                "loadavg": os.getloadavg(), "date_utc": time.strftime("%Y-%m-%d %H:%M", time.gmtime())}
+        with open(args.json, "w", encoding="utf-8") as fh:
+            json.dump({"meta": meta, "results": results}, fh, indent=2)
+
+
+if __name__ == "__main__":
+    main()

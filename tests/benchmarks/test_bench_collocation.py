@@ -1,0 +1,105 @@
+"""The collocation benchmark's NLP: the full model's equations hold at the Radau points, the flat
+outputs and prescribed inputs are met, the controls fly."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ca = pytest.importorskip("casadi")
+
+from gna import eom  # noqa: E402
+from gna.atmosphere import ISA  # noqa: E402
+from planners.scenario import load_scenario  # noqa: E402
+
+_PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_collocation.py"
+
+
+@pytest.fixture(scope="module")
+def bc():
+    spec = importlib.util.spec_from_file_location("bench_collocation", _PATH)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # dataclasses look their module up
+    spec.loader.exec_module(mod)
+    yield mod
+    sys.modules.pop(spec.name, None)
+
+
+def test_symbolic_isa_matches_isa(bc):
+    h = ca.SX.sym("h")
+    f = ca.Function("rho", [h], [bc.SymbolicISA().density(h)])
+    for alt in (-500.0, 0.0, 1000.0, 10999.0, 11001.0, 15000.0):
+        assert float(f(alt)) == pytest.approx(float(ISA().density(alt)), rel=1e-14)
+    assert float(bc.SymbolicISA().density(500.0)) == float(ISA().density(500.0))
+
+
+def test_radau_matrices_differentiate_cubics(bc):
+    tau, D = bc.radau_matrices(3)
+    assert tau[0] == 0.0 and tau[-1] == pytest.approx(1.0)
+    p = np.poly1d([0.3, -1.2, 0.7, 2.0])
+    assert np.allclose(p(tau) @ D, p.deriv()(tau), atol=1e-12)
+    w = bc.radau_weights(tau[1:])
+    q = np.poly1d([1.0, -2.0, 0.5, 3.0, 1.0])  # degree 4: exact
+    assert w @ q(tau[1:]) == pytest.approx(q.integ()(1.0) - q.integ()(0.0), rel=1e-13)
+
+
+@pytest.mark.parametrize("name, factor", [("gtm-aileron-roll", 8.0), ("gtm-forward-slip", 16.0)])
+def test_collocation_meets_equations_and_flat_outputs(bc, name, factor):
+    sc = load_scenario(name)
+    pb = sc.problem()
+    prob = bc.CollocationProblem(sc, factor, bc.planner_guess(sc))
+    sol = prob.solve()
+    assert sol.success, sol.status
+    t, X, U = sol.t, sol.states, sol.controls
+    # Flat outputs, fourth flat output and prescribed inputs at every point.
+    for i, f in enumerate((pb.x, pb.y, pb.z)):
+        assert np.allclose(X[i], f(t), rtol=0, atol=1e-9)
+    zeta = np.broadcast_to(pb.zeta.value(t), t.shape)
+    if pb.zeta.kind in ("beta", "mu"):
+        assert np.allclose(X[eom.STATE_NAMES.index(pb.zeta.kind)], zeta, atol=1e-12)
+    elif pb.zeta.kind == "F":
+        assert np.allclose(U[0], zeta, atol=1e-12)
+    assert np.allclose(U[1], pb.eta(t), atol=1e-12)
+    # Dynamics defect at the Radau points, recomputed on floats with gna.eom (not through CasADi).
+    tau, D = bc.radau_matrices(3)
+    n, d = prob.n_intervals, 3
+    defect = 0.0
+    for k in range(n):
+        idx = k * d + np.arange(d + 1)
+        h = prob.breaks[k + 1] - prob.breaks[k]
+        rates = X[:, idx] @ D[:, 1:] / h
+        f = np.stack(eom.derivatives(pb.aircraft, pb.env, eom.State(*X[:, idx[1:]]), eom.Controls(*U[:, idx[1:]])))
+        scale = np.maximum(1.0, np.abs(f))
+        defect = max(defect, float(np.max(np.abs(rates - f) / scale)))
+    assert defect < 1e-7
+    # The controls between the points are the piecewise cubics through them.
+    assert np.allclose(sol.control_function.evaluate(t), U, atol=1e-9)
+    assert np.allclose(sol.control_function(t[5]), U[:, 5], atol=1e-9)
+
+
+def test_roll_open_loop_accuracy(bc):
+    sc = load_scenario("gtm-aileron-roll")
+    prob = bc.CollocationProblem(sc, 8.0, bc.planner_guess(sc))
+    sol = prob.solve()
+    err = bc.open_loop_error_of(sc, sol.control_function, sol.initial_state)
+    # 10 intervals of 0.8 s on the 8 s roll: about 1.4 cm (0.34 mm on 20 intervals).
+    assert 1e-4 < err < 0.05
+
+
+def test_mixed_fourth_output(bc):
+    from tests.planners.conftest import make_scenario
+
+    sc = make_scenario(flat_outputs={"zeta": "mix", "zeta_value": "0.01", "f1": "1", "f2": "0.5 + 0.1*sin(t/7)"},
+                       generalized={"J": 1})
+    pb = sc.problem()
+    prob = bc.CollocationProblem(sc, 4.0, bc.planner_guess(sc))
+    sol = prob.solve()
+    assert sol.success, sol.status
+    t, X = sol.t, sol.states
+    beta, mu = X[eom.STATE_NAMES.index("beta")], X[eom.STATE_NAMES.index("mu")]
+    assert np.allclose(pb.zeta.f1(t) * beta + pb.zeta.f2(t) * mu, 0.01, atol=1e-9)
+    assert sol.constraint_violation < 1e-8
