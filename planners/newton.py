@@ -13,7 +13,9 @@ from typing import Callable
 
 import numpy as np
 
-from gna.solve import NewtonResult, batched_solve, jacobian, newton
+from gna.solve import COMPLEX_STEP, NewtonResult, batched_solve, jacobian, newton
+
+from . import series as _series_kernels
 
 __all__ = ["PAPER_TOL", "PAPER_MAXITER", "NewtonResult", "NewtonFailure", "SeriesNewtonReport", "batched_solve",
            "jacobian", "newton", "newton_series"]
@@ -150,13 +152,62 @@ def _series_solve(Jc: np.ndarray, Gc: np.ndarray) -> np.ndarray:
         J0inv = np.linalg.pinv(J0)
     Jr = np.moveaxis(Jc.reshape(n, n, -1, K), 2, 0)                  # (B, n, n, K)
     Gr = np.moveaxis(Gc.reshape(n, -1, K), 1, 0)                     # (B, n, K)
-    D = np.zeros_like(Gr)
-    for mth in range(K):
-        rhs = Gr[..., mth].copy()
-        for l in range(1, mth + 1):
-            rhs -= np.einsum("bij,bj->bi", Jr[..., l], D[..., mth - l])
-        D[..., mth] = np.einsum("bij,bj->bi", J0inv, rhs)
+    D = _series_kernels._K.series_solve(Jr, J0inv, Gr)
     return np.moveaxis(D, 0, 1).reshape((n,) + batch + (K,))
+
+
+def _batched_jacobian(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray) -> np.ndarray:
+    """Complex-step Jacobian ``J[i, j, *batch]`` with all columns in one evaluation of ``fun``.
+
+    The same derivatives as :func:`gna.solve.jacobian` (step 1e-30; exact to rounding for an analytic
+    ``fun``), from one call on the batch ``(n, *batch)`` of perturbed points instead of ``n`` calls:
+    ``fun`` must broadcast over a leading batch axis (the stage residuals do).
+    """
+    n = x.shape[0]
+    h = COMPLEX_STEP
+    xs = np.broadcast_to(x.astype(complex), (n,) + x.shape).copy()      # (n_col, n, *batch)
+    for j in range(n):
+        xs[j, j] += 1j * h
+    f = fun(np.moveaxis(xs, 0, 1))                                       # (m, n_col, *batch)
+    return np.imag(f) / h
+
+
+def _pointwise_newton(fun: Callable[[np.ndarray], np.ndarray], x0, *, tol: float, maxiter: int) -> NewtonResult:
+    """Damped Newton of :func:`gna.solve.newton` (complex-step Jacobian, backtracking), all columns of
+    the Jacobian from one evaluation (:func:`_batched_jacobian`)."""
+    x = np.array(x0, dtype=float)
+
+    def norm(f):
+        return np.max(np.abs(f), axis=0)
+
+    f = np.real(fun(x))
+    res = norm(f)
+    history = [float(np.max(res))]
+    it = 0
+    while it < maxiter and not np.all(res <= tol):
+        it += 1
+        if not np.all(np.isfinite(f)):
+            break
+        J = _batched_jacobian(fun, x)
+        dx = batched_solve(J, -f)
+        active = res > tol
+        dx = np.where(active, dx, 0.0)
+        step = np.ones_like(res)
+        xn = x + dx
+        fn = np.real(fun(xn))
+        rn = norm(fn)
+        for _ in range(10):
+            bad = ~(rn < res) & active & ~(rn <= tol)
+            bad &= ~np.isfinite(rn) | (rn >= res)
+            if not np.any(bad):
+                break
+            step = np.where(bad, step * 0.5, step)
+            xn = x + dx * step
+            fn = np.real(fun(xn))
+            rn = norm(fn)
+        x, f, res = xn, fn, np.where(np.isfinite(rn), rn, np.inf)
+        history.append(float(np.max(res)))
+    return NewtonResult(x=x, residual=res, iterations=it, converged=res <= tol, history=history)
 
 
 def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-12,
@@ -208,7 +259,7 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
                          for r in residual(list(x), 0)])
 
     x0 = np.stack([np.broadcast_to(np.real(u.constant_term), batch) for u in base]).astype(float)
-    res = newton(const_fun, x0, tol=tol, maxiter=maxiter)
+    res = _pointwise_newton(const_fun, x0, tol=tol, maxiter=maxiter)
     x, cres, its = res.x, res.residual, res.iterations
     # Memory Newton: restart failed nodes from their nearest converged neighbour, sweeping outwards.
     for _ in range(8):
@@ -220,7 +271,7 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         nearest = good_idx[np.argmin(np.abs(bad_idx[:, None] - good_idx[None, :]), axis=1)]
         xs = x.copy()
         xs[:, bad_idx] = x[:, nearest]
-        r2 = newton(const_fun, xs, tol=tol, maxiter=maxiter)
+        r2 = _pointwise_newton(const_fun, xs, tol=tol, maxiter=maxiter)
         improved = r2.residual < cres
         if not np.any(improved & bad):
             break

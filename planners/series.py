@@ -50,13 +50,15 @@ Design
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import numbers
+import os
 from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
-__all__ = ["Series"]
+__all__ = ["BACKEND", "BACKENDS", "BACKEND_ENV", "Series"]
 
 _NO_TRUTH_MSG = (
     "a truncated power series has no truth value and cannot be compared; "
@@ -275,6 +277,244 @@ def _coeff_axis_last(c: np.ndarray) -> np.ndarray:
 def _factorials(m: int) -> np.ndarray:
     """``[0!, 1!, ..., (m-1)!]`` as floats."""
     return np.array([math.factorial(k) for k in range(m)], dtype=float)
+
+
+# ---------------------------------------------------------------------------
+# Backends: the numpy reference kernels above, or their compiled (numba) versions
+# ---------------------------------------------------------------------------
+
+def _series_solve_kernel(J: np.ndarray, J0inv: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """Order by order ``D_m = J_0^{-1} (G_m - sum_{l=1..m} J_l D_{m-l})``.
+
+    ``J`` (B, n, n, K), ``J0inv`` (B, n, n), ``G`` (B, n, K); returns ``D`` (B, n, K).
+    """
+    K = G.shape[-1]
+    D = np.zeros_like(G)
+    for mth in range(K):
+        rhs = G[..., mth].copy()
+        for l in range(1, mth + 1):
+            rhs -= np.einsum("bij,bj->bi", J[..., l], D[..., mth - l])
+        D[..., mth] = np.einsum("bij,bj->bi", J0inv, rhs)
+    return D
+
+
+def _full3(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two ``(m, R|1, S)`` operands broadcast to ``(m * ..., R * S)`` 2-D arrays (copies where broadcast)."""
+    m, _, S = a.shape
+    R = max(a.shape[1], b.shape[1])
+    if a.shape[1] != R:
+        a = np.broadcast_to(a, (m, R, S))
+    if b.shape[1] != R:
+        b = np.broadcast_to(b, (m, R, S))
+    return a.reshape(m, R * S), b.reshape(m, R * S)
+
+
+class _NumpyKernels:
+    """The pure-numpy reference kernels (coefficient-first arrays)."""
+
+    name = "numpy"
+
+    @staticmethod
+    def mul(a, b):
+        return _mul_kernel(a, b)
+
+    @staticmethod
+    def div(a, b):
+        return _div_kernel(a, b)
+
+    @staticmethod
+    def mul3(a, b):
+        af, bf = _full3(a, b)
+        return _mul_kernel(af, bf).reshape(a.shape[0], -1, a.shape[2])
+
+    @staticmethod
+    def div3(a, b):
+        af, bf = _full3(a, b)
+        return _div_kernel(af, bf).reshape(a.shape[0], -1, a.shape[2])
+
+    @staticmethod
+    def exp(u, c0=None):
+        return _exp_kernel(u, c0)
+
+    @staticmethod
+    def sincos(u, hyperbolic):
+        return _sincos_kernel(u, hyperbolic)
+
+    @staticmethod
+    def pow(u, p, c0=None):
+        return _pow_kernel(u, p, c0)
+
+    @staticmethod
+    def pow_array(u, p):
+        return _pow_array_kernel(u, p)
+
+    @staticmethod
+    def tan(u, hyperbolic):
+        return _tan_kernel(u, hyperbolic)
+
+    @staticmethod
+    def series_solve(J, J0inv, G):
+        return _series_solve_kernel(J, J0inv, G)
+
+
+_F8, _C16 = np.dtype(np.float64), np.dtype(np.complex128)
+
+
+_OTHER_FLOATS = frozenset(np.dtype(t) for t in (np.float16, np.float32, np.longdouble, np.complex64,
+                                                  np.clongdouble)) - {_F8, _C16}
+
+
+def _kernel_dtype(*arrays: Any) -> np.dtype | None:
+    """float64 or complex128, the dtype a compiled kernel computes in; None for other precisions
+    (float32, long double: left to the numpy kernels, which keep them)."""
+    dt = _F8
+    for x in arrays:
+        xd = x.dtype
+        if xd in _OTHER_FLOATS:
+            return None
+        if xd.kind == "c":
+            dt = _C16
+    return dt
+
+
+def _ready(x: np.ndarray, dt: np.dtype) -> np.ndarray:
+    """``x`` as a C-contiguous array of dtype ``dt`` (no copy when it already is one)."""
+    if x.dtype == dt and x.flags.c_contiguous:
+        return x
+    return np.ascontiguousarray(x, dtype=dt)
+
+
+class _CompiledKernels:
+    """The same kernels compiled by numba (:mod:`planners._series_compiled`), same call signatures."""
+
+    name = "compiled"
+
+    @staticmethod
+    def mul3(a, b):
+        dt = _kernel_dtype(a, b)
+        if dt is None:
+            return _NumpyKernels.mul3(a, b)
+        a, b = _ready(a, dt), _ready(b, dt)
+        out = np.empty((a.shape[0], max(a.shape[1], b.shape[1]), a.shape[2]), dt)
+        _sc.mul3(a, b, out)
+        return out
+
+    @staticmethod
+    def div3(a, b):
+        dt = _kernel_dtype(a, b)
+        if dt is None:
+            return _NumpyKernels.div3(a, b)
+        a, b = _ready(a, dt), _ready(b, dt)
+        out = np.empty((a.shape[0], max(a.shape[1], b.shape[1]), a.shape[2]), dt)
+        _sc.div3(a, b, out)
+        return out
+
+    @staticmethod
+    def mul(a, b):
+        return _CompiledKernels.mul3(a[:, None], b[:, None])[:, 0]
+
+    @staticmethod
+    def div(a, b):
+        return _CompiledKernels.div3(a[:, None], b[:, None])[:, 0]
+
+    @staticmethod
+    def exp(u, c0=None):
+        dt = _kernel_dtype(u)
+        if dt is None:
+            return _exp_kernel(u, c0)
+        u = _ready(u, dt)
+        out = np.empty_like(u)
+        out[0] = np.exp(u[0])
+        _sc.exp2(u, out)
+        if c0 is not None:
+            out[0] = c0
+        return out
+
+    @staticmethod
+    def sincos(u, hyperbolic):
+        dt = _kernel_dtype(u)
+        if dt is None:
+            return _sincos_kernel(u, hyperbolic)
+        u = _ready(u, dt)
+        s, c = np.empty_like(u), np.empty_like(u)
+        if hyperbolic:
+            s[0], c[0] = np.sinh(u[0]), np.cosh(u[0])
+        else:
+            s[0], c[0] = np.sin(u[0]), np.cos(u[0])
+        _sc.sincos2(u, s, c, 1.0 if hyperbolic else -1.0)
+        return s, c
+
+    @staticmethod
+    def pow(u, p, c0=None):
+        if _kernel_dtype(u) is None:
+            return _pow_kernel(u, p, c0)
+        if isinstance(p, complex) or np.iscomplexobj(p):
+            dt, p = _C16, complex(p)
+        else:
+            dt, p = _kernel_dtype(u), float(p)
+        u = _ready(u, dt)
+        out = np.empty_like(u)
+        out[0] = np.power(u[0], p) if c0 is None else c0
+        _sc.pow2(u, p, out)
+        return out
+
+    @staticmethod
+    def pow_array(u, p):
+        dt = _kernel_dtype(u, p)
+        if dt is None:
+            return _pow_array_kernel(u, p)
+        u, p = _ready(u, dt), _ready(p, dt)
+        out = np.empty_like(u)
+        out[0] = np.power(u[0], p)
+        _sc.pow_array2(u, p, out)
+        return out
+
+    @staticmethod
+    def tan(u, hyperbolic):
+        dt = _kernel_dtype(u)
+        if dt is None:
+            return _tan_kernel(u, hyperbolic)
+        u = _ready(u, dt)
+        t = np.empty_like(u)
+        t[0] = np.tanh(u[0]) if hyperbolic else np.tan(u[0])
+        _sc.tan2(u, t, -1.0 if hyperbolic else 1.0)
+        return t
+
+    @staticmethod
+    def series_solve(J, J0inv, G):
+        dt = _kernel_dtype(J, J0inv, G)
+        if dt is None:
+            return _series_solve_kernel(J, J0inv, G)
+        D = np.empty(G.shape, dt)
+        _sc.series_solve(_ready(J, dt), _ready(J0inv, dt), _ready(G, dt), D)
+        return D
+
+
+#: Environment variable selecting the kernels of the series arithmetic (read once, at import).
+BACKEND_ENV = "GFLAT_SERIES_BACKEND"
+#: The kernel sets: ``"numpy"`` (the reference) and ``"compiled"`` (numba).
+BACKENDS = ("numpy", "compiled")
+
+
+def _select_backend() -> str:
+    """The backend named by :data:`BACKEND_ENV` (default: compiled when numba is installed)."""
+    want = os.environ.get(BACKEND_ENV, "").strip().lower()
+    if want not in ("",) + BACKENDS:
+        raise ImportError(f"{BACKEND_ENV}={want!r}: the series backend must be one of {', '.join(BACKENDS)}")
+    if want == "numpy":
+        return "numpy"
+    if importlib.util.find_spec("numba") is None:
+        if want == "compiled":
+            raise ImportError(f"{BACKEND_ENV}=compiled needs numba (pip install numba)")
+        return "numpy"
+    return "compiled"
+
+
+#: The series backend in use, chosen once at import from :data:`BACKEND_ENV`.
+BACKEND = _select_backend()
+if BACKEND == "compiled":
+    from . import _series_compiled as _sc
+_K = _CompiledKernels if BACKEND == "compiled" else _NumpyKernels
 
 
 # ---------------------------------------------------------------------------
@@ -676,7 +916,7 @@ class Series:
         r = np.zeros((m, f.shape[1]), np.result_type(f, gg))
         r[0] = f[m - 1]
         for k in range(m - 2, -1, -1):
-            r = _mul_kernel(r, gg)
+            r = _K.mul(r, gg)
             r[0] += f[k]
         return Series._wrap(_unflat(r, shape))
 
@@ -696,18 +936,18 @@ class Series:
     def square(self) -> "Series":
         """``self * self``."""
         u = _flat(self._c)
-        return Series._wrap(_unflat(_mul_kernel(u, u), self.batch_shape))
+        return Series._wrap(_unflat(_K.mul(u, u), self.batch_shape))
 
     def reciprocal(self) -> "Series":
         """``1 / self`` (requires a non-zero constant term)."""
         u = _flat(self._c)
         one = np.zeros_like(u)
         one[0] = 1.0
-        return Series._wrap(_unflat(_div_kernel(one, u), self.batch_shape))
+        return Series._wrap(_unflat(_K.div(one, u), self.batch_shape))
 
     def sqrt(self) -> "Series":
         """Principal square root (requires a non-zero constant term)."""
-        return self._apply(lambda u: _pow_kernel(u, 0.5, np.sqrt(u[0])))
+        return self._apply(lambda u: _K.pow(u, 0.5, np.sqrt(u[0])))
 
     def exp(self) -> "Series":
         """Exponential."""
@@ -715,7 +955,7 @@ class Series:
 
     def expm1(self) -> "Series":
         """``exp(self) - 1`` with an accurate constant term."""
-        return self._apply(lambda u: _exp_kernel(u, np.expm1(u[0])))
+        return self._apply(lambda u: _K.exp(u, np.expm1(u[0])))
 
     def _log_like(self, c0_fun: Callable, shift_one: bool) -> "Series":
         def kernel(u: np.ndarray) -> np.ndarray:
@@ -726,7 +966,7 @@ class Series:
             if shift_one:
                 den = den.copy()
                 den[0] += 1.0
-            return _int_kernel(_div_kernel(_diff_kernel(u), den), c0)
+            return _int_kernel(_K.div(_diff_kernel(u), den), c0)
         return self._apply(kernel)
 
     def log(self) -> "Series":
@@ -740,7 +980,7 @@ class Series:
     def sincos(self) -> tuple["Series", "Series"]:
         """``(sin(self), cos(self))`` by the coupled recurrence (memoised)."""
         def compute() -> tuple[Series, Series]:
-            s, c = _sincos_kernel(_flat(self._c), hyperbolic=False)
+            s, c = _K.sincos(_flat(self._c), hyperbolic=False)
             return Series._wrap(_unflat(s, self.batch_shape)), Series._wrap(_unflat(c, self.batch_shape))
         return self._memoised("sincos", compute)
 
@@ -755,7 +995,7 @@ class Series:
     def sinhcosh(self) -> tuple["Series", "Series"]:
         """``(sinh(self), cosh(self))`` by the coupled recurrence (memoised)."""
         def compute() -> tuple[Series, Series]:
-            s, c = _sincos_kernel(_flat(self._c), hyperbolic=True)
+            s, c = _K.sincos(_flat(self._c), hyperbolic=True)
             return Series._wrap(_unflat(s, self.batch_shape)), Series._wrap(_unflat(c, self.batch_shape))
         return self._memoised("sinhcosh", compute)
 
@@ -769,11 +1009,11 @@ class Series:
 
     def tan(self) -> "Series":
         """Tangent, by the recurrence of ``t' = (1 + t^2) u'``."""
-        return self._apply(lambda u: _tan_kernel(u, hyperbolic=False))
+        return self._apply(lambda u: _K.tan(u, hyperbolic=False))
 
     def tanh(self) -> "Series":
         """Hyperbolic tangent, by the recurrence of ``t' = (1 - t^2) u'``."""
-        return self._apply(lambda u: _tan_kernel(u, hyperbolic=True))
+        return self._apply(lambda u: _K.tan(u, hyperbolic=True))
 
     def arctan(self) -> "Series":
         """Arc tangent, ``arctan(c0) + integral(u'/(1 + u^2))``."""
@@ -782,9 +1022,9 @@ class Series:
             if u.shape[0] == 1:
                 return c0[None]
             v = u[:-1]
-            den = _mul_kernel(v, v)
+            den = _K.mul(v, v)
             den[0] += 1.0
-            return _int_kernel(_div_kernel(_diff_kernel(u), den), c0)
+            return _int_kernel(_K.div(_diff_kernel(u), den), c0)
         return self._apply(kernel)
 
     def _arcsin_like(self, c0_fun: Callable, sign: float) -> "Series":
@@ -793,9 +1033,9 @@ class Series:
             if u.shape[0] == 1:
                 return c0[None]
             v = u[:-1]
-            w = -_mul_kernel(v, v)
+            w = -_K.mul(v, v)
             w[0] += 1.0
-            d = _mul_kernel(_diff_kernel(u), _pow_kernel(w, -0.5))
+            d = _K.mul(_diff_kernel(u), _K.pow(w, -0.5))
             if sign < 0:
                 d = -d
             return _int_kernel(d, c0)
@@ -881,6 +1121,30 @@ def _pair(a: Series, b: Series) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]
     return _bcast(a._c[:m], shape), _bcast(b._c[:m], shape), shape
 
 
+def _pair3(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+    """Internal arrays truncated to the common order as ``(m, R|1, S)`` operands, and the batch shape.
+
+    Equal batches give ``R = 1``; a batch that is a trailing part of the other (``(nodes,)`` against
+    ``(n + 1, nodes)``) is broadcast along the middle axis without a copy; other broadcasts are
+    materialised.
+    """
+    m = min(a.shape[0], b.shape[0])
+    sa, sb = a.shape[1:], b.shape[1:]
+    if sa == sb:
+        n = math.prod(sa)
+        return a[:m].reshape(m, 1, n), b[:m].reshape(m, 1, n), sa
+    la, lb = len(sa), len(sb)
+    if lb < la and sa[la - lb:] == sb:
+        n = math.prod(sb)
+        return a[:m].reshape(m, -1, n) if n else a[:m].reshape(m, 1, 0), b[:m].reshape(m, 1, n), sa
+    if la < lb and sb[lb - la:] == sa:
+        n = math.prod(sa)
+        return a[:m].reshape(m, 1, n), b[:m].reshape(m, -1, n) if n else b[:m].reshape(m, 1, 0), sb
+    shape = np.broadcast_shapes(sa, sb)
+    n = math.prod(shape)
+    return (_bcast(a[:m], shape).reshape(m, 1, n), _bcast(b[:m], shape).reshape(m, 1, n), shape)
+
+
 def _operands(x: Any, y: Any) -> tuple[Any, Any] | None:
     """Classify operands: Series stay, other numeric values become constants."""
     if not isinstance(x, Series):
@@ -894,6 +1158,10 @@ def _operands(x: Any, y: Any) -> tuple[Any, Any] | None:
 
 def _plus_constant(s_c: np.ndarray, const: Any) -> np.ndarray:
     """Internal array ``s_c`` plus a constant in the constant term (new array)."""
+    if type(const) is float or type(const) is int:
+        out = s_c.copy()
+        out[0] += const
+        return out
     shape = s_c.shape[1:]
     if np.ndim(const):
         shape = np.broadcast_shapes(shape, np.shape(const))
@@ -902,27 +1170,39 @@ def _plus_constant(s_c: np.ndarray, const: Any) -> np.ndarray:
     return out
 
 
+def _add_sub(a: np.ndarray, b: np.ndarray, subtract: bool) -> np.ndarray:
+    """Sum (difference) of two internal arrays, truncated to the common order, batches broadcast."""
+    a3, b3, shape = _pair3(a, b)
+    r = np.subtract(a3, b3) if subtract else np.add(a3, b3)
+    return r.reshape((r.shape[0],) + shape)
+
+
 def _add(x: Any, y: Any) -> Series:
+    if type(x) is Series:
+        if type(y) is Series:
+            return Series._wrap(_add_sub(x._c, y._c, False))
+        if type(y) is float:
+            return Series._wrap(_plus_constant(x._c, y))
     ops = _operands(x, y)
     if ops is None:
         return NotImplemented
     x, y = ops
     if isinstance(x, Series) and isinstance(y, Series):
-        a, b, _ = _pair(x, y)
-        return Series._wrap(a + b)
+        return Series._wrap(_add_sub(x._c, y._c, False))
     if isinstance(x, Series):
         return Series._wrap(_plus_constant(x._c, y))
     return Series._wrap(_plus_constant(y._c, x))
 
 
 def _sub(x: Any, y: Any) -> Series:
+    if type(x) is Series and type(y) is Series:
+        return Series._wrap(_add_sub(x._c, y._c, True))
     ops = _operands(x, y)
     if ops is None:
         return NotImplemented
     x, y = ops
     if isinstance(x, Series) and isinstance(y, Series):
-        a, b, _ = _pair(x, y)
-        return Series._wrap(a - b)
+        return Series._wrap(_add_sub(x._c, y._c, True))
     if isinstance(x, Series):
         return Series._wrap(_plus_constant(x._c, np.negative(y)))
     return Series._wrap(_plus_constant(-y._c, x))
@@ -930,19 +1210,41 @@ def _sub(x: Any, y: Any) -> Series:
 
 def _scale(s: Series, const: Any, divide: bool = False) -> Series:
     """Coefficient-wise product (quotient) with a constant broadcast over the batch."""
+    if type(const) is float or type(const) is int:
+        return Series._wrap(s._c / const if divide else s._c * const)
     nd = max(len(s.batch_shape), np.ndim(const))
     c = _bcast(s._c, (1,) * (nd - len(s.batch_shape)) + s.batch_shape) if nd > len(s.batch_shape) else s._c
     return Series._wrap(c / const if divide else c * const)
 
 
+def _series_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cauchy product of two internal arrays (common order, batches broadcast)."""
+    a3, b3, shape = _pair3(a, b)
+    r = _K.mul3(a3, b3)
+    return r.reshape((r.shape[0],) + shape)
+
+
+def _series_div(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Quotient of two internal arrays (common order, batches broadcast)."""
+    a3, b3, shape = _pair3(a, b)
+    r = _K.div3(a3, b3)
+    return r.reshape((r.shape[0],) + shape)
+
+
 def _mul(x: Any, y: Any) -> Series:
+    if type(x) is Series:
+        if type(y) is Series:
+            return Series._wrap(_series_mul(x._c, y._c))
+        if type(y) is float:
+            return Series._wrap(x._c * y)
+    elif type(y) is Series and type(x) is float:
+        return Series._wrap(y._c * x)
     ops = _operands(x, y)
     if ops is None:
         return NotImplemented
     x, y = ops
     if isinstance(x, Series) and isinstance(y, Series):
-        a, b, shape = _pair(x, y)
-        return Series._wrap(_unflat(_mul_kernel(_flat(a), _flat(b)), shape))
+        return Series._wrap(_series_mul(x._c, y._c))
     if isinstance(x, Series):
         return _scale(x, y)
     return _scale(y, x)
@@ -957,6 +1259,11 @@ def _constant_like(const: Any, s: Series) -> Series:
 
 
 def _div(x: Any, y: Any) -> Series:
+    if type(y) is Series:
+        if type(x) is Series:
+            return Series._wrap(_series_div(x._c, y._c))
+    elif type(x) is Series and type(y) is float:
+        return Series._wrap(x._c / y)
     ops = _operands(x, y)
     if ops is None:
         return NotImplemented
@@ -964,8 +1271,7 @@ def _div(x: Any, y: Any) -> Series:
     if isinstance(y, Series):
         if not isinstance(x, Series):
             x = _constant_like(x, y)
-        a, b, shape = _pair(x, y)
-        return Series._wrap(_unflat(_div_kernel(_flat(a), _flat(b)), shape))
+        return Series._wrap(_series_div(x._c, y._c))
     return _scale(x, y, divide=True)
 
 
@@ -978,10 +1284,10 @@ def _int_power(s: Series, p: int) -> Series:
     base = u
     while p:
         if p & 1:
-            result = base if result is None else _mul_kernel(result, base)
+            result = base if result is None else _K.mul(result, base)
         p >>= 1
         if p:
-            base = _mul_kernel(base, base)
+            base = _K.mul(base, base)
     if result is None:
         result = np.zeros_like(u)
         result[0] = 1.0
@@ -1008,10 +1314,10 @@ def _pow(x: Any, y: Any) -> Series:
             return _int_power(x, int(p))
         if p == 0.5:
             return x.sqrt()
-        return x._apply(lambda u: _pow_kernel(u, p))
+        return x._apply(lambda u: _K.pow(u, p))
     shape = np.broadcast_shapes(x.batch_shape, p.shape)
     u = _flat(_bcast(x._c, shape))
-    return Series._wrap(_unflat(_pow_array_kernel(u, np.broadcast_to(p, shape).reshape(-1)), shape))
+    return Series._wrap(_unflat(_K.pow_array(u, np.broadcast_to(p, shape).reshape(-1)), shape))
 
 
 def _promote(x: Any, like: Series) -> Series | None:
@@ -1034,9 +1340,9 @@ def _arctan2(y: Any, x: Any) -> Series:
     if m == 1:
         return Series._wrap(_unflat(c0[None], shape))
     y1, x1 = yf[:-1], xf[:-1]
-    num = _mul_kernel(x1, _diff_kernel(yf)) - _mul_kernel(y1, _diff_kernel(xf))
-    den = _mul_kernel(x1, x1) + _mul_kernel(y1, y1)
-    return Series._wrap(_unflat(_int_kernel(_div_kernel(num, den), c0), shape))
+    num = _K.mul(x1, _diff_kernel(yf)) - _K.mul(y1, _diff_kernel(xf))
+    den = _K.mul(x1, x1) + _K.mul(y1, y1)
+    return Series._wrap(_unflat(_int_kernel(_K.div(num, den), c0), shape))
 
 
 def _hypot(x: Any, y: Any) -> Series:
