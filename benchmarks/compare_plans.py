@@ -80,7 +80,7 @@ def main() -> int:
                 w = step ** np.arange(x.shape[-1])
                 scale = np.max(np.abs(x) * w)
                 # a variable that is zero to rounding (beta = 0 prescribed: ~1e-15) is compared absolutely
-                d = float(np.max(np.abs(x - y) * w) / max(scale, 1e-12))
+                d = float(np.max(np.abs(x - y) * w)) / (scale if scale >= 1e-12 else 1.0)
                 if d > worst:
                     worst, where = d, k
             worst_all = max(worst_all, worst)

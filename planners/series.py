@@ -298,15 +298,15 @@ def _series_solve_kernel(J: np.ndarray, J0inv: np.ndarray, G: np.ndarray) -> np.
     return D
 
 
-def _full3(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _full3(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[int, int, int]]:
     """Two ``(m, R|1, S)`` operands broadcast to ``(m * ..., R * S)`` 2-D arrays (copies where broadcast)."""
     m, _, S = a.shape
-    R = max(a.shape[1], b.shape[1])
+    R = b.shape[1] if a.shape[1] == 1 else a.shape[1]
     if a.shape[1] != R:
         a = np.broadcast_to(a, (m, R, S))
     if b.shape[1] != R:
         b = np.broadcast_to(b, (m, R, S))
-    return a.reshape(m, R * S), b.reshape(m, R * S)
+    return a.reshape(m, R * S), b.reshape(m, R * S), (m, R, S)
 
 
 class _NumpyKernels:
@@ -324,13 +324,13 @@ class _NumpyKernels:
 
     @staticmethod
     def mul3(a, b):
-        af, bf = _full3(a, b)
-        return _mul_kernel(af, bf).reshape(a.shape[0], -1, a.shape[2])
+        af, bf, shape = _full3(a, b)
+        return _mul_kernel(af, bf).reshape(shape)
 
     @staticmethod
     def div3(a, b):
-        af, bf = _full3(a, b)
-        return _div_kernel(af, bf).reshape(a.shape[0], -1, a.shape[2])
+        af, bf, shape = _full3(a, b)
+        return _div_kernel(af, bf).reshape(shape)
 
     @staticmethod
     def exp(u, c0=None):
@@ -395,7 +395,7 @@ class _CompiledKernels:
         if dt is None:
             return _NumpyKernels.mul3(a, b)
         a, b = _ready(a, dt), _ready(b, dt)
-        out = np.empty((a.shape[0], max(a.shape[1], b.shape[1]), a.shape[2]), dt)
+        out = np.empty((a.shape[0], b.shape[1] if a.shape[1] == 1 else a.shape[1], a.shape[2]), dt)
         _sc.mul3(a, b, out)
         return out
 
@@ -405,7 +405,7 @@ class _CompiledKernels:
         if dt is None:
             return _NumpyKernels.div3(a, b)
         a, b = _ready(a, dt), _ready(b, dt)
-        out = np.empty((a.shape[0], max(a.shape[1], b.shape[1]), a.shape[2]), dt)
+        out = np.empty((a.shape[0], b.shape[1] if a.shape[1] == 1 else a.shape[1], a.shape[2]), dt)
         _sc.div3(a, b, out)
         return out
 
