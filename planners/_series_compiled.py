@@ -19,12 +19,30 @@ The numpy kernels stay the reference; the property tests of
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
 
 
-@njit(**_JIT)
+def _arr(dtype, ndim: int, readonly: bool = False):
+    return types.Array(dtype, ndim, "C", readonly=readonly)
+
+
+# Explicit signatures: inputs typed read-only (series storage is read-only; writable arrays convert),
+# outputs writable, so that one compiled version per dtype serves every call -- compiled once, on import
+# of this module, then loaded from numba's cache.
+_F, _C = types.float64, types.complex128
+
+
+def _binary(ndim: int):
+    return [types.void(_arr(t, ndim, True), _arr(t, ndim, True), _arr(t, ndim)) for t in (_F, _C)]
+
+
+def _unary_out(ndim: int = 2):
+    return [types.void(_arr(t, ndim, True), _arr(t, ndim)) for t in (_F, _C)]
+
+
+@njit(_binary(3), **_JIT)
 def mul3(a, b, out):
     """Truncated Cauchy product ``out_k = sum_{j+l=k} a_j b_l`` on ``(m, R|1, S)`` operands, out ``(m, R, S)``."""
     m, R, S = out.shape
@@ -41,7 +59,7 @@ def mul3(a, b, out):
                     out[k, r, i] += a[j, ra, i] * b[l, rb, i]
 
 
-@njit(**_JIT)
+@njit(_binary(3), **_JIT)
 def div3(a, b, out):
     """Quotient ``a / b``: ``q_k = (a_k - sum_{j>=1} b_j q_{k-j}) / b_0`` on ``(m, R|1, S)`` operands."""
     m, R, S = out.shape
@@ -63,7 +81,7 @@ def div3(a, b, out):
                 out[k, r, i] *= inv[i]
 
 
-@njit(**_JIT)
+@njit(_unary_out(), **_JIT)
 def exp2(u, out):
     """``exp(u)`` given ``out[0]``: ``k e_k = sum_{j=1}^{k} j u_j e_{k-j}``; ``(m, N)`` arrays."""
     m, n = u.shape
@@ -76,7 +94,7 @@ def exp2(u, out):
                 out[k, i] += w * u[j, i] * out[k - j, i]
 
 
-@njit(**_JIT)
+@njit([types.void(_arr(t, 2, True), _arr(t, 2), _arr(t, 2), _F) for t in (_F, _C)], **_JIT)
 def sincos2(u, s, c, sign):
     """Coupled recurrence, ``s[0], c[0]`` given: ``k s_k = sum j u_j c_{k-j}``, ``k c_k = sign sum j u_j s_{k-j}``.
 
@@ -98,7 +116,8 @@ def sincos2(u, s, c, sign):
             c[k, i] *= sign * ik
 
 
-@njit(**_JIT)
+@njit([types.void(_arr(_F, 2, True), _F, _arr(_F, 2)), types.void(_arr(_C, 2, True), _C, _arr(_C, 2))],
+      **_JIT)
 def pow2(u, p, out):
     """``u ** p`` for a scalar ``p`` given ``out[0]``: ``c_k = sum_{j=1}^{k} ((p + 1) j / k - 1) (u_j / u_0) c_{k-j}``."""
     m, n = u.shape
@@ -117,7 +136,7 @@ def pow2(u, p, out):
                 out[k, i] += w * ut[j, i] * out[k - j, i]
 
 
-@njit(**_JIT)
+@njit([types.void(_arr(t, 2, True), _arr(t, 1, True), _arr(t, 2)) for t in (_F, _C)], **_JIT)
 def pow_array2(u, p, out):
     """``u ** p`` with one exponent per batch element (``p`` of shape ``(N,)``), given ``out[0]``."""
     m, n = u.shape
@@ -134,7 +153,7 @@ def pow_array2(u, p, out):
                 out[k, i] += ((p[i] + 1) * (j / k) - 1.0) * ut[j, i] * out[k - j, i]
 
 
-@njit(**_JIT)
+@njit([types.void(_arr(t, 2, True), _arr(t, 2), _F) for t in (_F, _C)], **_JIT)
 def tan2(u, t, sign):
     """``tan u`` (``sign = +1``) or ``tanh u`` (``sign = -1``) given ``t[0]``: ``t' = (1 + sign t^2) u'``."""
     m, n = u.shape
@@ -158,7 +177,7 @@ def tan2(u, t, sign):
                 w[k, i] *= sign
 
 
-@njit(**_JIT)
+@njit([types.void(_arr(_F, 4, True), _arr(_F, 3, True), _arr(_F, 3, True), _arr(_F, 3))], **_JIT)
 def series_solve(J, J0inv, G, D):
     """Order by order ``D_m = J_0^{-1} (G_m - sum_{l=1..m} J_l D_{m-l})`` for every batch element.
 

@@ -110,7 +110,9 @@ class SeriesNewtonReport:
     constant_iterations : int
         Pointwise Newton iterations (the largest over the memory restarts).
     series_residual : ndarray (nodes,)
-        Max abs coefficient of the residual series at the final order.
+        Max abs coefficient of the residual series at the final order.  A check of the
+        solution, not needed to produce it: evaluated on first access (one more residual
+        evaluation), then kept; a report is pickled with it evaluated.
     doubling_orders : list of int
         Working orders of the precision-doubling steps.
     warnings : list of str
@@ -124,15 +126,27 @@ class SeriesNewtonReport:
     t_nodes: np.ndarray
     constant_residual: np.ndarray
     constant_iterations: int
-    series_residual: np.ndarray
+    _series_residual: object  # ndarray, or a callable computing it on first access
     doubling_orders: list
     warnings: list = field(default_factory=list)
     failures: list = field(default_factory=list)
 
     @property
+    def series_residual(self) -> np.ndarray:
+        """Max abs coefficient of the residual series at the final order, per node."""
+        if callable(self._series_residual):
+            self._series_residual = self._series_residual()
+        return self._series_residual
+
+    @property
     def worst_residual(self) -> float:
         """Largest of the constant-term and series residuals over the nodes."""
         return float(max(np.max(self.constant_residual), np.max(self.series_residual)))
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_series_residual"] = self.series_residual
+        return state
 
 
 def _series_solve(Jc: np.ndarray, Gc: np.ndarray) -> np.ndarray:
@@ -317,9 +331,12 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         u = [Series(stacked[j] - D[j]) for j in range(n)]
         u = [Series(np.concatenate([ui.coeffs, padded(base[j], order).coeffs[..., k + 1:]], axis=-1))
              if k < order else ui for j, ui in enumerate(u)]
-    final = residual(u, order)
-    sres = np.max(np.stack([np.max(np.abs(np.broadcast_to(r.coeffs, batch + (order + 1,))), axis=-1)
-                            for r in final]), axis=0)
-    rep = SeriesNewtonReport(tuple(names), t_nodes, cres, its, sres, orders,
+    def series_residual() -> np.ndarray:
+        final = residual(u, order)
+        return np.max(np.stack([np.max(np.abs(np.broadcast_to(r.coeffs if isinstance(r, Series) else
+                                                              np.asarray(r)[..., None], batch + (order + 1,))),
+                                       axis=-1) for r in final]), axis=0)
+
+    rep = SeriesNewtonReport(tuple(names), t_nodes, cres, its, series_residual, orders,
                              [f.message for f in failures], failures)
     return u, rep
