@@ -44,6 +44,16 @@ Design
 * **Mixed operands.**  Python/numpy scalars and ndarrays act as constant
   series; an ndarray is broadcast against the batch shape (numpy rules), on
   either side of an operator (``arr * s``, ``s - arr``, ``np.float64(2) * s``).
+* **Backends.**  The kernels (Cauchy product, quotient, the recurrences, the
+  order-by-order solve of :mod:`planners.newton`) exist twice: the numpy
+  functions of this module, the reference and the default, and numba-compiled
+  loops (:mod:`planners._series_compiled`, ``pip install gflat[fast]``).  The
+  environment variable ``GFLAT_SERIES_BACKEND`` (``numpy`` or ``compiled``) is
+  read once, at import (:data:`BACKEND`).  Both agree to 1e-12 relative to the
+  coefficient scale (``tests/planners/test_series_backends.py``).  A product
+  of a batch ``(nodes,)`` and a batch ``(k, nodes)`` (the complex-step
+  Jacobians of Newton on series) is computed without materialising the
+  broadcast in the compiled kernels.
 * **No truth value.**  Comparisons and ``bool(s)`` raise :class:`TypeError`:
   a truncated series cannot be ordered, and model code must not branch on it.
 """
@@ -296,10 +306,9 @@ def _series_solve_kernel(J: np.ndarray, J0inv: np.ndarray, G: np.ndarray) -> np.
     """
     K = G.shape[-1]
     D = np.zeros_like(G)
-    for mth in range(K):
-        rhs = G[..., mth].copy()
-        for l in range(1, mth + 1):
-            rhs -= np.einsum("bij,bj->bi", J[..., l], D[..., mth - l])
+    D[..., 0] = np.einsum("bij,bj->bi", J0inv, G[..., 0])
+    for mth in range(1, K):
+        rhs = G[..., mth] - np.einsum("bijl,bjl->bi", J[..., 1:mth + 1], D[..., mth - 1::-1])
         D[..., mth] = np.einsum("bij,bj->bi", J0inv, rhs)
     return D
 
@@ -517,17 +526,19 @@ BACKENDS = ("numpy", "compiled")
 
 
 def _select_backend() -> str:
-    """The backend named by :data:`BACKEND_ENV` (default: compiled when numba is installed)."""
-    want = os.environ.get(BACKEND_ENV, "").strip().lower()
-    if want not in ("",) + BACKENDS:
+    """The backend named by :data:`BACKEND_ENV`: ``"numpy"`` (the default) or ``"compiled"``.
+
+    numpy is the default because numba's import and the loading of the compiled code cost about
+    0.6-1 s per process (several seconds to compile them once on a fresh install), more than the
+    compiled kernels save on the few plans of a command; long runs (campaigns, benchmarks, many plans
+    per process, high orders) gain from ``GFLAT_SERIES_BACKEND=compiled`` (``pip install gflat[fast]``).
+    """
+    want = os.environ.get(BACKEND_ENV, "").strip().lower() or "numpy"
+    if want not in BACKENDS:
         raise ImportError(f"{BACKEND_ENV}={want!r}: the series backend must be one of {', '.join(BACKENDS)}")
-    if want == "numpy":
-        return "numpy"
-    if importlib.util.find_spec("numba") is None:
-        if want == "compiled":
-            raise ImportError(f"{BACKEND_ENV}=compiled needs numba (pip install numba)")
-        return "numpy"
-    return "compiled"
+    if want == "compiled" and importlib.util.find_spec("numba") is None:
+        raise ImportError(f"{BACKEND_ENV}=compiled needs numba (pip install numba, or the 'fast' extra)")
+    return want
 
 
 #: The series backend in use, chosen once at import from :data:`BACKEND_ENV`.
@@ -969,7 +980,7 @@ class Series:
 
     def exp(self) -> "Series":
         """Exponential."""
-        return self._apply(_exp_kernel)
+        return self._apply(_K.exp)
 
     def expm1(self) -> "Series":
         """``exp(self) - 1`` with an accurate constant term."""

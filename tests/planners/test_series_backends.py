@@ -222,3 +222,30 @@ def test_backend_selection_is_read_once_from_the_environment():
     bad = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env={**__import__("os").environ, S.BACKEND_ENV: "fortran"})
     assert bad.returncode != 0 and "GFLAT_SERIES_BACKEND" in bad.stderr
+
+
+@pytest.mark.parametrize("name", ["gtm-aileron-roll", "twin-otter-single-engine", "gtm-forward-slip"])
+def test_paper_plans_are_the_same_with_both_backends(name):
+    """Every iterate's node series of the paper's three plans, coefficient k weighted by step^k (its
+    contribution over one node interval), agree to 1e-12 relative to the variable's scale (absolutely for
+    a variable that is zero to rounding, such as a prescribed beta = 0)."""
+    from planners.generalized import plan_scenario
+    from planners.scenario import load_scenario
+    sc = load_scenario(name)
+    plans = {}
+    for label, kernels in (("numpy", NUMPY), ("compiled", COMPILED)):
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(S, "_K", kernels)
+            plans[label] = plan_scenario(sc)
+    a, b = plans["numpy"], plans["compiled"]
+    step = float(np.min(np.diff(sc.t_nodes)))
+    assert len(a.iterates) == len(b.iterates)
+    for ia, ib in zip(a.iterates, b.iterates):
+        assert ia.series.keys() == ib.series.keys()
+        for var in ia.series:
+            x, y = np.asarray(ia[var].coeffs), np.asarray(ib[var].coeffs)
+            w = step ** np.arange(x.shape[-1])
+            scale = float(np.max(np.abs(x) * w))
+            err = float(np.max(np.abs(x - y) * w))
+            assert err <= 1e-12 * (scale if scale >= 1e-12 else 1.0), (var, err, scale)
+    assert a.feasible == b.feasible and len(a.warnings) == len(b.warnings)
