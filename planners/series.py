@@ -339,6 +339,17 @@ class _NumpyKernels:
 
     @staticmethod
     def mul3(a, b):
+        m, ra, n = a.shape
+        r = b.shape[1] if ra == 1 else ra
+        dt = np.result_type(a, b)
+        if dt.kind == "c" and r * n >= 128:
+            # row updates c_(j..) += x_j y_(..m-j), the operand broadcast along the middle axis as x
+            # (no copy of the broadcast; a real x times a complex y costs half a complex product)
+            x, y = (a, b) if ra == 1 else (b, a)
+            out = np.multiply(x[0], y, dtype=dt)
+            for j in range(1, m):
+                out[j:] += x[j] * y[:m - j]
+            return out
         af, bf, shape = _full3(a, b)
         return _mul_kernel(af, bf).reshape(shape)
 
@@ -920,6 +931,54 @@ class Series:
         shape = np.broadcast_shapes(self.batch_shape, c0.shape)
         r = _int_kernel(_flat(_bcast(self._c, shape)), np.broadcast_to(c0, shape).reshape(-1))
         return Series._wrap(_unflat(r, shape))
+
+    @staticmethod
+    def linear_combinations(weights: Any, items: Sequence[Any]) -> list["Series"]:
+        """Rows of a weight matrix applied to a list of series and constants, ``sum_j w[i, j] items[j]``.
+
+        One matrix product on the coefficient-first storage (the aerodynamic model's coefficients
+        are such combinations of its monomials, :meth:`gna.aero.TermTable.coefficients`); a complex
+        stack is multiplied as its real and imaginary parts by the real weights.
+
+        Parameters
+        ----------
+        weights : array_like, shape (p, q)
+            Real weights.
+        items : sequence of length q
+            Series (at least one) and numeric constants (scalars or arrays broadcast against the
+            batch); series are truncated to the smallest order.
+
+        Returns
+        -------
+        list of Series
+            ``p`` series, batch shapes broadcast.
+
+        Raises
+        ------
+        TypeError
+            No series among ``items``.
+        """
+        series = [x for x in items if isinstance(x, Series)]
+        if not series:
+            raise TypeError("linear_combinations needs at least one Series among the items")
+        w = np.asarray(weights, dtype=float)
+        m = min(x._c.shape[0] for x in series)
+        shape = np.broadcast_shapes(*(x._c.shape[1:] for x in series),
+                                    *(np.shape(x) for x in items if not isinstance(x, Series)))
+        dt = np.result_type(*(x._c for x in series), *(x for x in items if not isinstance(x, Series)), 1.0)
+        stack = np.zeros((len(items), m) + shape, dt)
+        for i, x in enumerate(items):
+            if isinstance(x, Series):
+                stack[i] = _bcast(x._c[:m], shape)
+            else:
+                stack[i, 0] = x
+        flat = stack.reshape(len(items), -1)
+        if dt.kind == "c":
+            out = (w @ flat.view(np.float64)).view(dt)
+        else:
+            out = w @ flat
+        out = out.reshape((w.shape[0], m) + shape)
+        return [Series._wrap(out[i]) for i in range(w.shape[0])]
 
     def compose(self, g: "Series") -> "Series":
         """Composition ``f(g(t)) = sum_k c_k g(t)^k`` (Horner in series arithmetic).

@@ -249,3 +249,21 @@ def test_paper_plans_are_the_same_with_both_backends(name):
             err = float(np.max(np.abs(x - y) * w))
             assert err <= 1e-12 * (scale if scale >= 1e-12 else 1.0), (var, err, scale)
     assert a.feasible == b.feasible and len(a.warnings) == len(b.warnings)
+
+
+@SET
+@given(seed=st.integers(0, 2 ** 32 - 1), order=ORDERS, kind=KINDS, bshape=st.sampled_from([(4,), (3, 4)]))
+def test_linear_combinations_are_the_sums(seed, order, kind, bshape):
+    """Series.linear_combinations (the aerodynamic model's contraction) equals the explicit sums."""
+    rng = np.random.default_rng(seed)
+    items = [Series(coefficients(seed, order, bshape, kind)), Series(coefficients(seed + 1, order + 2, (4,), "real")),
+             0.5, rng.uniform(-1, 1, (4,))]
+    w = rng.uniform(-1, 1, (3, len(items)))
+    w[0, 1] = 0.0
+    got = Series.linear_combinations(w, items)
+    for i in range(3):
+        ref = sum(float(w[i, j]) * items[j] for j in range(len(items)))
+        ref = ref.truncate(order) if ref.order > order else ref
+        assert_agree(ref, got[i], 1e-14)
+    with pytest.raises(TypeError):
+        Series.linear_combinations(w, [1.0, 2.0, 3.0, 4.0])
