@@ -18,7 +18,7 @@ from gna.solve import COMPLEX_STEP, NewtonResult, batched_solve, jacobian, newto
 from . import series as _series_kernels
 
 __all__ = ["PAPER_TOL", "PAPER_MAXITER", "NewtonResult", "NewtonFailure", "SeriesNewtonReport", "batched_solve",
-           "jacobian", "newton", "newton_series"]
+           "doubling_orders", "jacobian", "newton", "newton_series"]
 
 #: The paper's failure rule (section "Newton operator with series"):
 #: a residual above this after ``PAPER_MAXITER`` iterations is reported.
@@ -224,6 +224,33 @@ def _pointwise_newton(fun: Callable[[np.ndarray], np.ndarray], x0, *, tol: float
     return NewtonResult(x=x, residual=res, iterations=it, converged=res <= tol, history=history)
 
 
+def doubling_orders(order: int) -> list:
+    """Working orders of Newton's iteration on series with precision doubling, up to ``order``.
+
+    A step at working order ``K`` from a solution exact to order ``k`` gives one exact to ``K`` when
+    ``K <= 2 k + 1`` (Bostan et al., th. 3.12).  The orders are chosen from the top,
+    ``k = ceil((K - 1) / 2)``, so that each step is as low as the next one allows: as few steps as
+    doubling from 0 (``1, 3, 7, 15, ...``) but at lower working orders (18: ``1, 2, 4, 9, 18``
+    instead of ``1, 3, 7, 15, 18``).
+
+    Parameters
+    ----------
+    order : int
+        Final order (>= 0).
+
+    Returns
+    -------
+    list of int
+        Increasing working orders ending at ``order`` (empty for ``order = 0``).
+    """
+    out = []
+    k = int(order)
+    while k > 0:
+        out.append(k)
+        k = k // 2  # ceil((k - 1) / 2)
+    return out[::-1]
+
+
 def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-12,
                   maxiter: int = PAPER_MAXITER, names: tuple = (), t_nodes=None):
     """Solve ``residual(u) = 0`` for power series ``u`` (batched over nodes) up to ``order``.
@@ -310,27 +337,28 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         c = np.array(padded(base[j], order).coeffs, dtype=float)
         c[..., 0] = x[j]
         u.append(Series(c))
-    orders = []
-    k = 0
-    h = 1e-30
-    while k < order:
-        k = min(2 * k + 1, order)
-        orders.append(k)
+    orders = doubling_orders(order)
+    h = COMPLEX_STEP
+    for k in orders:
         cur = [ui.truncate(k) for ui in u]
         stacked = np.stack([np.broadcast_to(ci.coeffs, batch + (k + 1,)) for ci in cur])   # (n, *batch, K)
-        pert = np.broadcast_to(stacked, (n + 1,) + stacked.shape).astype(complex).copy()  # (n+1, n, *batch, K)
+        # One evaluation on the batch of the n complex steps (one per unknown): the imaginary parts
+        # give the Jacobian series, the real part of any of them the residual itself (the step's
+        # effect on it is O(h^2) = 1e-60 relative).
+        pert = np.broadcast_to(stacked, (n,) + stacked.shape).astype(complex)             # (n, n, *batch, K)
         for j in range(n):
-            pert[j + 1, j, ..., 0] += 1j * h
+            pert[j, j, ..., 0] += 1j * h
         us = [Series(pert[:, j]) for j in range(n)]
         rs = residual(us, k)
         R = np.stack([np.broadcast_to(r.coeffs if isinstance(r, Series) else np.asarray(r)[..., None],
-                                      (n + 1,) + batch + (k + 1,)) for r in rs])  # (neq, n+1, *batch, K)
+                                      (n,) + batch + (k + 1,)) for r in rs])  # (neq, n, *batch, K)
         G = np.real(R[:, 0])
-        Jc = np.imag(R[:, 1:]) / h                    # (neq, n, *batch, K)
+        Jc = np.imag(R) / h                           # (neq, n, *batch, K)
         D = _series_solve(Jc, G)
         u = [Series(stacked[j] - D[j]) for j in range(n)]
         u = [Series(np.concatenate([ui.coeffs, padded(base[j], order).coeffs[..., k + 1:]], axis=-1))
              if k < order else ui for j, ui in enumerate(u)]
+
     def series_residual() -> np.ndarray:
         final = residual(u, order)
         return np.max(np.stack([np.max(np.abs(np.broadcast_to(r.coeffs if isinstance(r, Series) else
