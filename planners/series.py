@@ -60,6 +60,7 @@ Design
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import math
 import numbers
@@ -410,17 +411,13 @@ def _ready(x: np.ndarray, dt: np.dtype) -> np.ndarray:
     return np.ascontiguousarray(x, dtype=dt)
 
 
-class _LazyCompiled:
+@functools.cache
+def _sc() -> Any:
     """The module of compiled kernels, imported on first use (numba's import and the loading of the
-    compiled code cost a few tenths of a second: paid by the first series operation, not by every
-    ``import planners``)."""
-
-    def __getattr__(self, name: str) -> Any:
-        from . import _series_compiled
-        return getattr(_series_compiled, name)
-
-
-_sc = _LazyCompiled()
+    compiled code cost a few tenths of a second: paid by the first series operation of the compiled
+    backend, not by every ``import planners``)."""
+    from . import _series_compiled
+    return _series_compiled
 
 
 class _CompiledKernels:
@@ -435,7 +432,7 @@ class _CompiledKernels:
             return _NumpyKernels.mul3(a, b)
         a, b = _ready(a, dt), _ready(b, dt)
         out = np.empty((a.shape[0], b.shape[1] if a.shape[1] == 1 else a.shape[1], a.shape[2]), dt)
-        _sc.mul3(a, b, out)
+        _sc().mul3(a, b, out)
         return out
 
     @staticmethod
@@ -445,7 +442,7 @@ class _CompiledKernels:
             return _NumpyKernels.div3(a, b)
         a, b = _ready(a, dt), _ready(b, dt)
         out = np.empty((a.shape[0], b.shape[1] if a.shape[1] == 1 else a.shape[1], a.shape[2]), dt)
-        _sc.div3(a, b, out)
+        _sc().div3(a, b, out)
         return out
 
     @staticmethod
@@ -464,7 +461,7 @@ class _CompiledKernels:
         u = _ready(u, dt)
         out = np.empty_like(u)
         out[0] = np.exp(u[0])
-        _sc.exp2(u, out)
+        _sc().exp2(u, out)
         if c0 is not None:
             out[0] = c0
         return out
@@ -480,7 +477,7 @@ class _CompiledKernels:
             s[0], c[0] = np.sinh(u[0]), np.cosh(u[0])
         else:
             s[0], c[0] = np.sin(u[0]), np.cos(u[0])
-        _sc.sincos2(u, s, c, 1.0 if hyperbolic else -1.0)
+        _sc().sincos2(u, s, c, 1.0 if hyperbolic else -1.0)
         return s, c
 
     @staticmethod
@@ -495,7 +492,7 @@ class _CompiledKernels:
         u = _ready(u, dt)
         out = np.empty_like(u)
         out[0] = np.power(u[0], p) if c0 is None else c0
-        _sc.pow2(u, p, out)
+        _sc().pow2(u, p, out)
         return out
 
     @staticmethod
@@ -506,7 +503,7 @@ class _CompiledKernels:
         u, p = _ready(u, dt), _ready(p, dt)
         out = np.empty_like(u)
         out[0] = np.power(u[0], p)
-        _sc.pow_array2(u, p, out)
+        _sc().pow_array2(u, p, out)
         return out
 
     @staticmethod
@@ -517,7 +514,7 @@ class _CompiledKernels:
         u = _ready(u, dt)
         t = np.empty_like(u)
         t[0] = np.tanh(u[0]) if hyperbolic else np.tan(u[0])
-        _sc.tan2(u, t, -1.0 if hyperbolic else 1.0)
+        _sc().tan2(u, t, -1.0 if hyperbolic else 1.0)
         return t
 
     @staticmethod
@@ -526,7 +523,7 @@ class _CompiledKernels:
             return _series_solve_kernel(J, J0inv, G)
         dt = _F8
         D = np.empty(G.shape, dt)
-        _sc.series_solve(_ready(J, dt), _ready(J0inv, dt), _ready(G, dt), D)
+        _sc().series_solve(_ready(J, dt), _ready(J0inv, dt), _ready(G, dt), D)
         return D
 
 
