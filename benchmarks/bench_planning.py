@@ -9,6 +9,7 @@ at e = 1 (the bundled setting), and J = 8, e = 3 (series of order e + 4 + 2J = 2
 accuracy work asks for)::
 
     python benchmarks/bench_planning.py [--rounds 5] [--inner 3] [--ref /work/main] [--scenarios ...]
+                                        [--blas-threads 1|default]
 
 The compiled kernels are loaded (or compiled, on a fresh clone) before the first timed plan; the
 one-time cost of that is printed separately (``first use``), from a process of its own.
@@ -64,9 +65,17 @@ print(S.BACKEND, f"{t1 - t0:.3f}", f"{t2 - t1:.3f}")
 """
 
 
+#: BLAS threads of the child processes: "1" (pinned) or "default" (the library's own choice, as `gflat` runs).
+BLAS_THREADS = {"value": "1"}
+
+
 def _env(tree: Path, backend: str | None) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(tree), OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
-               MKL_NUM_THREADS="1")
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    for v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        if BLAS_THREADS["value"] == "1":
+            env[v] = "1"
+        else:
+            env.pop(v, None)
     env.pop("GFLAT_SERIES_BACKEND", None)
     if backend:
         env["GFLAT_SERIES_BACKEND"] = backend
@@ -96,7 +105,10 @@ def main() -> None:
     ap.add_argument("--ref", help="a reference source tree (e.g. a checkout of main), numpy kernels")
     ap.add_argument("--scenarios", nargs="+", default=list(PAPER))
     ap.add_argument("--no-high-order", action="store_true", help="skip the J = 8, e = 3 cases")
+    ap.add_argument("--blas-threads", choices=("1", "default"), default="1",
+                    help="pin BLAS to one thread in the children (default), or leave it to the library")
     args = ap.parse_args()
+    BLAS_THREADS["value"] = args.blas_threads
     cases = [(n, None, 1) for n in args.scenarios]
     if not args.no_high_order:
         cases += [(n, 8, 3) for n in args.scenarios]
@@ -115,7 +127,8 @@ def main() -> None:
     head = f"{'case':<40}" + "".join(f"{v + ' [s]':>14}" for v in variants) + f"{'numpy/compiled':>16}"
     if args.ref:
         head += f"{'ref/numpy':>11}{'ref/compiled':>14}"
-    print(f"median over {args.rounds} interleaved rounds of the median of {args.inner} plans (1 BLAS thread)")
+    threads = "1 BLAS thread" if args.blas_threads == "1" else "BLAS threads left to the library"
+    print(f"median over {args.rounds} interleaved rounds of the median of {args.inner} plans ({threads})")
     print(head)
     for k in keys:
         row = f"{k:<40}" + "".join(f"{med[v][k]:>14.4f}" for v in variants)
