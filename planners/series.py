@@ -455,8 +455,17 @@ class _CompiledKernels:
         dt = _kernel_dtype(a, b)
         if dt is None:
             return _NumpyKernels.mul3(a, b)
+        rows = b.shape[1] if a.shape[1] == 1 else a.shape[1]
+        if dt == _C16 and (a.dtype == _F8 or b.dtype == _F8):
+            # real times complex: the real kernel on the (re, im) pairs, the real factor duplicated
+            x, y = (a, b) if b.dtype == _F8 else (b, a)
+            xv = _ready(x, _C16).view(np.float64)
+            y2 = np.repeat(_ready(y, _F8), 2, axis=2)
+            out = np.empty((a.shape[0], rows, 2 * a.shape[2]), _F8)
+            _sc().mul3(xv, y2, out)
+            return out.view(_C16)
         a, b = _ready(a, dt), _ready(b, dt)
-        out = np.empty((a.shape[0], b.shape[1] if a.shape[1] == 1 else a.shape[1], a.shape[2]), dt)
+        out = np.empty((a.shape[0], rows, a.shape[2]), dt)
         _sc().mul3(a, b, out)
         return out
 
@@ -465,6 +474,13 @@ class _CompiledKernels:
         dt = _kernel_dtype(a, b)
         if dt is None:
             return _NumpyKernels.div3(a, b)
+        if dt == _C16 and b.dtype == _F8:
+            # complex over real: the recurrence is linear in the numerator, run on its (re, im) pairs
+            av = _ready(a, _C16).view(np.float64)
+            b2 = np.repeat(_ready(b, _F8), 2, axis=2)
+            out = np.empty((a.shape[0], b.shape[1] if a.shape[1] == 1 else a.shape[1], 2 * a.shape[2]), _F8)
+            _sc().div3(av, b2, out)
+            return out.view(_C16)
         a, b = _ready(a, dt), _ready(b, dt)
         out = np.empty((a.shape[0], b.shape[1] if a.shape[1] == 1 else a.shape[1], a.shape[2]), dt)
         _sc().div3(a, b, out)
