@@ -218,6 +218,36 @@ def _horner(c: np.ndarray, s: np.ndarray, k: int) -> np.ndarray:
     return out.T.copy()
 
 
+@dataclass(frozen=True)
+class PlanFunctions(PiecewisePolynomial):
+    """Plan variables as a :class:`gna.piecewise.PiecewisePolynomial` that also takes arrays of times.
+
+    A call with one time (the integrators' path) is the piecewise polynomial's scalar call; a call with an
+    array of times (batched integrators) is :meth:`~gna.piecewise.PiecewisePolynomial.evaluate`.
+    """
+
+    def __call__(self, t) -> np.ndarray:
+        """Values of the functions at one time, or at each of an array of times.
+
+        Parameters
+        ----------
+        t : float or array_like, shape (N,)
+            Time(s) [s] within the breaks.
+
+        Returns
+        -------
+        ndarray, shape (m,) or (m, N)
+
+        Raises
+        ------
+        InputError
+            A time outside the span.
+        """
+        if isinstance(t, (float, int, np.floating, np.integer)) or np.ndim(t) == 0:
+            return PiecewisePolynomial.__call__(self, t)
+        return self.evaluate(np.asarray(t, dtype=float).ravel()).reshape((self.n_functions,) + np.shape(t))
+
+
 @dataclass
 class Plan:
     """A planned manoeuvre: the iterates j = 0..J of the (generalized) flat parametrization.
@@ -377,9 +407,10 @@ class Plan:
 
         Returns
         -------
-        gna.piecewise.PiecewisePolynomial
-            ``len(names)`` functions on the node intervals; calling it at one time returns shape
-            ``(len(names),)``.
+        PlanFunctions
+            A :class:`gna.piecewise.PiecewisePolynomial` of ``len(names)`` functions on the node
+            intervals; calling it at one time returns shape ``(len(names),)``, at an array of N times
+            ``(len(names), N)``.
 
         Raises
         ------
@@ -396,7 +427,7 @@ class Plan:
                 bad = int(np.argmax(~np.all(np.isfinite(c), axis=(1, 2))))
                 raise InputError(f"plan {self.name}, iterate j = {j}: non-finite series at t = "
                                  f"{self.t_nodes[bad]:g} s (a node where Newton failed)")
-            cache[key] = PiecewisePolynomial(np.asarray(self.t_nodes, dtype=float), c)
+            cache[key] = PlanFunctions(np.asarray(self.t_nodes, dtype=float), c)
         return cache[key]
 
     def state(self, t, j: int = -1) -> np.ndarray:
@@ -432,6 +463,18 @@ class Plan:
         ndarray, shape (5,) or (5, N)
             ``(F, eta, dl, dm, dn)`` [N, -, rad, rad, rad].
         """
+        if np.ndim(t) == 0:  # the integrators' path: one time, the cached piecewise polynomial
+            self._iterate(j)
+            try:
+                f = self.piecewise(CONTROL_NAMES, j)
+            except InputError:      # non-finite series (an infeasible plan): the general path below
+                pass
+            else:
+                t = float(t)
+                lo, hi = self.t0, self.t1
+                if not lo - 1e-9 * max(1.0, abs(lo)) <= t <= hi + 1e-9 * max(1.0, abs(hi)):
+                    self._check_times(t)        # raises, naming the plan's span
+                return f(t)
         out = self._evaluate_many(CONTROL_NAMES, t, j)
         return out if np.ndim(t) else out[:, 0]
 
