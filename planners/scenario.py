@@ -369,7 +369,7 @@ def _iterations(J, where: str) -> int | str:
     if isinstance(J, str) and J == AUTO_J:
         return J
     if isinstance(J, str):
-        raise InputError(f"{where}: J must be a whole number (0 to 30) or \"auto\", got {J!r}")
+        raise InputError(f"{where}: J must be a whole number, got {J!r} (0 to 30, or \"auto\")")
     return check_iterations(J, where)
 
 

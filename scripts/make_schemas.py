@@ -239,7 +239,8 @@ def scenario_schema() -> dict:
                 "f2": _expr("With zeta = 'mix': f1 beta + f2 mu = zeta_value")},
                 conflicts=[("eta", "dn")], required=("x", "y", "z")),
             "generalized": _table("Generalized flatness", {
-                "J": {"anyOf": [{"type": "integer", "minimum": 0, "maximum": 30}, {"const": AUTO_J}],
+                "J": {"anyOf": [{"type": "integer"}, {"enum": [AUTO_J]}], "minimum": 0, "maximum": 30,
+                      "x-type": "integer or \"auto\"",
                       "x-default": "0",
                       "description": "Number of iterations J, or \"auto\": chosen by the convergence test on the "
                                      "full-model equation residual at the nodes (J_tol, J_max; docs/planning.md)"},
