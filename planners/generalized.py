@@ -51,9 +51,11 @@ AUTO_J = "auto"
 AUTO_J_TOL = 1e-8
 AUTO_J_RATIO = 0.9
 AUTO_J_MAX = 12
-#: ``J = "auto"`` first plans with this J, then with J + :data:`AUTO_J_STEP` (up to the maximum) while
-#: the rule has not stopped: the iterates 0..J' of a plan with J >= J' are, truncated, those of the
-#: plan with J' (truncated power series: a coefficient depends only on the coefficients below it).
+#: ``J = "auto"`` first plans with this J, then, while the rule has not stopped, with the J at which the
+#: last ratio of decrease reaches the tolerance (:data:`AUTO_J_STEP` more when no ratio is usable; up
+#: to the maximum), the Newton iterations of each iterate starting from the previous attempt's.  The
+#: iterates 0..J' of a plan with J >= J' are, truncated, those of the plan with J' (truncated power
+#: series: a coefficient depends only on the coefficients below it), so only the last attempt is kept.
 AUTO_J_START = 4
 AUTO_J_STEP = 4
 
@@ -295,6 +297,17 @@ def _fixed_point(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name
     return iterates, timings
 
 
+def _more_iterations(res: list, tol: float) -> int:
+    """Iterations to add so that the residual reaches ``tol`` at the last ratio of decrease (at least 1),
+    or :data:`AUTO_J_STEP` when there is no usable ratio."""
+    if len(res) < 2 or not (tol > 0 and np.isfinite(res[-1]) and np.isfinite(res[-2]) and res[-1] > 0):
+        return AUTO_J_STEP
+    q = res[-2] / res[-1]
+    if not q > 1.0:
+        return AUTO_J_STEP
+    return max(1, int(np.ceil(np.log(res[-1] / tol) / np.log(q))))
+
+
 def _auto_J(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str, tol: float, J_max: int,
             limit: float) -> tuple[list, dict, dict]:
     """``J = "auto"``: plans with J, J + AUTO_J_STEP, ... until :func:`choose_J` stops; the chosen iterates."""
@@ -308,7 +321,7 @@ def _auto_J(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str
         res = Plan(problem, t_nodes, iterates).iterate_residuals()
         chosen, stop = choose_J(res, tol)
         if chosen is None:
-            nxt = min(J_max, J + AUTO_J_STEP)
+            nxt = min(J_max, J + _more_iterations(res, tol))
             if J >= J_max:
                 stop = "J_max"
             elif plan_cost(len(t_nodes), nxt, e) > limit:
