@@ -75,7 +75,8 @@ def hermite_matrix(m: int) -> np.ndarray:
 
     The polynomial ``P(w) = sum_k c_k w^k`` of degree ``2 m + 1`` whose Taylor coefficients at
     ``w = 0`` are ``A_0..A_m`` and at ``w = 1`` are ``B_0..B_m`` is ``c = M @ concat(A, B)``
-    (computed in exact rational arithmetic, then rounded).
+    (computed in exact rational arithmetic, then rounded).  Hermite interpolation with two nodes of
+    multiplicity ``m + 1`` (Stoer & Bulirsch, *Introduction to Numerical Analysis*, sec. 2.1.5).
 
     Parameters
     ----------
@@ -99,7 +100,9 @@ def hermite_matrix(m: int) -> np.ndarray:
     rows = [[Fraction(int(j == k)) for j in range(n)] for k in range(m + 1)]
     rows += [[Fraction(math.comb(j, k)) for j in range(n)] for k in range(m + 1)]
     inv = _rational_inverse(rows)
-    return np.array([[float(v) for v in r] for r in inv])
+    out = np.array([[float(v) for v in r] for r in inv])
+    out.setflags(write=False)               # cached: shared by every caller
+    return out
 
 
 def _rational_inverse(a: list) -> list:
@@ -125,13 +128,15 @@ def _shift_matrix(K: int) -> np.ndarray:
     for k in range(K + 1):
         for j in range(k + 1):
             T[j, k] = math.comb(k, j) * (-1.0) ** (k - j)
+    T.setflags(write=False)
     return T
 
 
 def interval_coefficients(a: np.ndarray, b: np.ndarray, h: np.ndarray, interpolation: str) -> np.ndarray:
     """Polynomial on each interval ``[t_i, t_i + h_i]`` from the node series at both ends.
 
-    ``"paper"``: the two-sided formula ``[(h - s) A(s) + s B(s - h)] / h`` (degree K + 1);
+    ``"paper"``: the two-sided formula ``[(h - s) A(s) + s B(s - h)] / h`` (degree K + 1; paper
+    section "Motion planning");
     ``"hermite"``: the polynomial of degree ``2 m + 1`` with the Taylor coefficients ``0..m`` of
     ``A`` at ``s = 0`` and of ``B`` at ``s = h``, ``m = min(K, HERMITE_MAX_ORDER)`` (C^m at the
     nodes, error O(h^(2 m + 2)) for smooth data).
@@ -167,7 +172,7 @@ def interval_coefficients(a: np.ndarray, b: np.ndarray, h: np.ndarray, interpola
     elif interpolation == "paper":
         Bw = np.einsum("jk,nvk->nvj", _shift_matrix(K), B)
         c = np.zeros(A.shape[:-1] + (K + 2,))
-        c[..., :K + 1] += A + 0.0
+        c[..., :K + 1] = A                                  # (1 - w) A(w) + w B(w - 1), w = s / h
         c[..., 1:] -= A
         c[..., 1:] += Bw
     else:
