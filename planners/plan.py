@@ -6,7 +6,8 @@ once per interval from the series ``s_i`` and ``s_{i+1}`` of the two ends, by on
 
 * ``"hermite"`` (default): two-point Hermite interpolation, the polynomial of degree ``2 m + 1``
   whose derivatives up to order ``m`` at both ends are those of the series (``m`` the series'
-  order, at most :data:`HERMITE_MAX_ORDER`).  It is ``C^m`` at the nodes and its error is
+  order, at most :data:`HERMITE_MAX_ORDER`; for the five controls the surfaces' order, ``e`` in the
+  last iterate, although F's series is two orders longer).  It is ``C^m`` at the nodes and its error is
   ``O(h^(2 m + 2))``: for the controls of the last iterate (order ``e``), ``O(h^(2 e + 2))``.
 * ``"paper"``: the paper's two-sided formula (section "Motion planning")::
 
@@ -361,7 +362,7 @@ class Plan:
         """Per-interval polynomial coefficients of several variables: (intervals, len(names), d + 1).
 
         Built once per (names, iterate) from the node series by :attr:`interpolation`; each variable
-        uses its own series order (zero-padded to the group's degree).
+        uses its own series order (the controls: the surfaces' order), zero-padded to the group's degree.
         """
         sol = self._iterate(j)
         cache = self.__dict__.setdefault("_coeff_cache", {})
@@ -373,9 +374,16 @@ class Plan:
             tn = np.asarray(self.t_nodes, dtype=float)
             h = np.diff(tn)
             polys = []
+            # Hermite: the controls with the derivatives of the surfaces' order (e in the last iterate);
+            # F's series is two orders longer (stage 2), but its extra derivatives changed the open-loop
+            # accuracy by < 1e-8 m on the paper's scenarios while adding 4 Horner steps to every call of
+            # control_function (measured: docs/planning.md).
+            k_controls = min((sol.series[n].order for n in CONTROL_NAMES if n in sol.series), default=None)
             for n in names:
                 c = np.real(np.asarray(sol.series[n].coeffs))
                 c = np.broadcast_to(c, (len(tn), c.shape[-1]))
+                if self.interpolation == "hermite" and n in CONTROL_NAMES:
+                    c = c[:, :k_controls + 1]
                 polys.append(interval_coefficients(c[:-1, None, :], c[1:, None, :], h, self.interpolation)[:, 0])
             d = max(p.shape[-1] for p in polys)
             out = np.zeros((len(tn) - 1, len(names), d))

@@ -94,6 +94,8 @@ def test_control_function_is_a_piecewise_polynomial(weave_plan):
     _, plan = weave_plan
     f = plan.control_function()
     assert isinstance(f, PiecewisePolynomial) and f.n_functions == 5
+    assert f.degree == 2 * plan.e + 1          # every control with the surfaces' e derivatives at both ends
+    assert f(np.array([plan.t0, plan.t1])).shape == (5, 2)      # arrays of times (batched integrators)
     t = np.linspace(plan.t0, plan.t1, 173)
     np.testing.assert_allclose(np.stack([f(v) for v in t], axis=1), plan.controls(t), rtol=1e-13, atol=1e-13)
     np.testing.assert_allclose(f.evaluate(t, derivative=1), np.stack([plan.evaluate(n, t, derivative=1) for n in
