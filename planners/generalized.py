@@ -310,7 +310,8 @@ def _more_iterations(res: list, tol: float) -> int:
 
 def _auto_J(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str, tol: float, J_max: int,
             limit: float) -> tuple[list, dict, dict]:
-    """``J = "auto"``: plans with J, J + AUTO_J_STEP, ... until :func:`choose_J` stops; the chosen iterates."""
+    """``J = "auto"``: plans with J, then with the J :func:`_more_iterations` predicts, until :func:`choose_J`
+    stops (or J_max, or the cost bound); the chosen iterates, truncated to the orders of a plan with that J."""
     from .generalized_newton import truncate_solution
 
     attempts, total, guesses = [], 0.0, None

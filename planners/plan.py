@@ -230,6 +230,18 @@ class PlanFunctions(PiecewisePolynomial):
 
     A call with one time (the integrators' path) is the piecewise polynomial's scalar call; a call with an
     array of times (batched integrators) is :meth:`~gna.piecewise.PiecewisePolynomial.evaluate`.
+
+    Parameters
+    ----------
+    breaks : ndarray, shape (n + 1,)
+        The plan's nodes [s].
+    coeffs : ndarray, shape (n, m, d + 1)
+        Per-interval coefficients in ascending powers of ``t - breaks[i]`` (:meth:`Plan.piecewise`).
+
+    Raises
+    ------
+    InputError
+        As :class:`gna.piecewise.PiecewisePolynomial` (shapes, order of the breaks, non-finite values).
     """
 
     def __call__(self, t) -> np.ndarray:
@@ -376,7 +388,7 @@ class Plan:
             polys = []
             # Hermite: the controls with the derivatives of the surfaces' order (e in the last iterate);
             # F's series is two orders longer (stage 2), but its extra derivatives changed the open-loop
-            # accuracy by < 1e-8 m on the paper's scenarios while adding 4 Horner steps to every call of
+            # accuracy by at most 6e-8 m on the paper's scenarios while adding 4 Horner steps to every call of
             # control_function (measured: docs/planning.md).
             k_controls = min((sol.series[n].order for n in CONTROL_NAMES if n in sol.series), default=None)
             for n in names:
