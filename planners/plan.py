@@ -730,7 +730,8 @@ class Plan:
 
 
 def save_plan(plan: Plan, out_dir, step: float | None = None) -> dict:
-    """Write a plan to ``out_dir``: node series (npz), CSV tables of iterates 0 and J, singularity table.
+    """Write a plan to ``out_dir``: node series (npz, with the formula between nodes and e), CSV tables of
+    iterates 0 and J, singularity table.
 
     Parameters
     ----------
@@ -751,7 +752,7 @@ def save_plan(plan: Plan, out_dir, step: float | None = None) -> dict:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = {}
-    arrays = {"t_nodes": plan.t_nodes}
+    arrays = {"t_nodes": plan.t_nodes, "interpolation": np.array(plan.interpolation), "e": np.array(plan.e)}
     for j, it in enumerate(plan.iterates):
         for name, s in it.series.items():
             arrays[f"j{j}/{name}"] = np.real(np.asarray(s.coeffs))
