@@ -418,6 +418,8 @@ class TermTable:
         if series:
             # Truncated power series: one tensor contraction instead of 45 scalings and additions.
             cls = type(series[0])
+            if hasattr(cls, "linear_combinations"):  # the series class contracts in its own storage layout
+                return Coefficients(*cls.linear_combinations(self._theta, mons))
             order = min(m.order for m in series)
             batch = np.broadcast_shapes(*(m.batch_shape for m in series),
                                         *(np.shape(m) for m in mons if not hasattr(m, "coeffs")))

@@ -25,7 +25,7 @@ from gna.errors import InputError
 from gna.trajectory import first_domain_violation
 
 from .flat import FlatProblem, check_grid, check_iterations, parametrize
-from .plan import Plan
+from .plan import DEFAULT_INTERPOLATION, Plan, check_interpolation
 from .singularity import monitor
 
 #: Order lost per iteration (the paper's L = max l_h - 1 = 2 for aircraft).
@@ -40,9 +40,84 @@ PROGRESS_COST = 5.0e5
 
 _log = logging.getLogger(__name__)
 
+#: Largest output order e a plan accepts (the controls' series order in the last iterate).
+MAX_E = 10
+#: ``J = "auto"``: the rule choosing J from the full-model equation residual at the nodes of each iterate
+#: (:meth:`~planners.plan.Plan.iterate_residuals`, max over the 12 equations [m/s^2 for V, rad/s for
+#: the angles]): stop at the first iterate whose residual is at most :data:`AUTO_J_TOL`, or, when an
+#: iterate decreases it by less than 10 % (ratio to the previous above :data:`AUTO_J_RATIO`), at the
+#: iterate of least residual so far; never beyond :data:`AUTO_J_MAX`.
+AUTO_J = "auto"
+AUTO_J_TOL = 1e-8
+AUTO_J_RATIO = 0.9
+AUTO_J_MAX = 12
+#: ``J = "auto"`` first plans with this J, then, while the rule has not stopped, with the J at which the
+#: last ratio of decrease reaches the tolerance (:data:`AUTO_J_STEP` more when no ratio is usable; up
+#: to the maximum), the Newton iterations of each iterate starting from the previous attempt's.  The
+#: iterates 0..J' of a plan with J >= J' are, truncated, those of the plan with J' (truncated power
+#: series: a coefficient depends only on the coefficients below it), so only the last attempt is kept.
+AUTO_J_START = 4
+AUTO_J_STEP = 4
+
 #: Methods of the generalized flat parametrization: the paper's J iterations, or Newton's method
 #: on their fixed point (:mod:`planners.generalized_newton`).
 METHODS = ("fixed-point", "newton")
+
+
+def check_output_order(e, where: str = "plan") -> int:
+    """The output order ``e`` (the controls' series order in the last iterate), checked.
+
+    Parameters
+    ----------
+    e : int
+        A whole number in 0..:data:`MAX_E` (a float with a whole value, as TOML may give, is accepted).
+    where : str
+        What the message names (file, function).
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    InputError
+        Not a whole number, or outside 0..MAX_E.
+    """
+    if isinstance(e, (bool, np.bool_)) or not isinstance(e, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(e) or float(e) != int(e):
+        raise InputError(f"{where}: the output order e must be a whole number, got {e!r} (0 to {MAX_E})")
+    if not 0 <= int(e) <= MAX_E:
+        raise InputError(f"{where}: the output order e must be between 0 and {MAX_E}, got {int(e)}")
+    return int(e)
+
+
+def choose_J(residuals, tol: float = AUTO_J_TOL, ratio: float = AUTO_J_RATIO) -> tuple[int | None, str]:
+    """The rule of ``J = "auto"`` on the residuals of iterates 0, 1, ... (module constants).
+
+    Parameters
+    ----------
+    residuals : sequence of float
+        Full-model equation residual at the nodes of iterates 0..n [m/s^2, rad/s].
+    tol : float
+        Stop at the first iterate with a residual at most ``tol``.
+    ratio : float
+        Stop when an iterate's residual exceeds ``ratio`` times the previous one (or is not finite),
+        choosing the iterate of least residual so far.
+
+    Returns
+    -------
+    J : int or None
+        The chosen number of iterations, or None when the rule has not stopped within ``residuals``.
+    reason : str
+        ``"tolerance"``, ``"stagnation"`` or ``""`` (not stopped).
+    """
+    res = [float(r) if np.isfinite(r) else np.inf for r in residuals]
+    for j, r in enumerate(res):
+        if r <= tol:
+            return j, "tolerance"
+        if j > 0 and not r <= ratio * res[j - 1]:
+            return int(np.argmin(res[:j + 1])), "stagnation"
+    return None, ""
 
 
 def plan_cost(nodes: int, J: int, e: int = 1) -> float:
@@ -70,21 +145,25 @@ def plan_cost(nodes: int, J: int, e: int = 1) -> float:
     return float(nodes) * sum((kappa0 - ORDER_LOSS * j) ** 2 for j in range(J + 1))
 
 
-def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str = "plan",
+def plan_motion(problem: FlatProblem, t_nodes, J: int | str = 0, e: int = 1, name: str = "plan",
                 max_cost: float | None = None, method: str = "fixed-point", newton_tol: float = 1e-12,
-                newton_maxiter: int = 8) -> Plan:
+                newton_maxiter: int = 8, interpolation: str | None = None, J_tol: float = AUTO_J_TOL,
+                J_max: int = AUTO_J_MAX) -> Plan:
     """Plan with J generalized-flatness iterations, or Newton's method on their fixed point.
 
     Parameters
     ----------
     problem : FlatProblem
-    t_nodes : array
-        Increasing grid of at least two nodes.
-    J : int
-        Iterations after the plain flat plan (J = 0: flat plan only).
+        Aircraft, environment, flat outputs and first-iterate H values.
+    t_nodes : array, shape (nodes,)
+        Increasing grid of at least two nodes [s].
+    J : int or "auto"
+        Iterations after the plain flat plan (J = 0: flat plan only), or ``"auto"``: chosen by the
+        convergence test of :func:`choose_J` on the full-model equation residual at the nodes
+        (tolerance ``J_tol``, at most ``J_max``; fixed-point method only).
     e : int
-        Order of the controls in the last iterate (>= 1 for the two-sided
-        interpolation to carry slopes).
+        The paper's output order: the controls' series order in the last iterate (0..:data:`MAX_E`;
+        the flat outputs start at order ``kappa_0 = e + 4 + 2 J``).
     name : str
         Name of the plan (for messages and outputs).
     max_cost : float, optional
@@ -100,24 +179,45 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         ``"newton"`` only: stop when ``max |H - G(H)|`` is below this [rad/s, rad].
     newton_maxiter : int
         ``"newton"`` only: Newton steps at most.
+    interpolation : {"hermite", "paper"}, optional
+        Evaluation between nodes (default :data:`planners.plan.DEFAULT_INTERPOLATION`; see
+        :mod:`planners.plan`).
+    J_tol : float
+        ``J = "auto"`` only: residual tolerance [m/s^2, rad/s] (default :data:`AUTO_J_TOL`).
+    J_max : int
+        ``J = "auto"`` only: largest J tried (default :data:`AUTO_J_MAX`).
 
     Returns
     -------
     Plan
         Every iterate, the Newton, singularity and envelope warnings, timings; ``plan.generalized``
-        holds the method and, for Newton, its status and fixed-point residual ``max |H - G(H)|`` of each
-        iterate.
+        holds the method, ``"J_rule"`` (how J was chosen) and ``"J_residuals"`` (the residual of every
+        iterate computed), and for Newton its status and fixed-point residual ``max |H - G(H)|`` of
+        each iterate; ``plan.e`` and ``plan.interpolation`` the output order and formula.
 
     Raises
     ------
     InputError
-        A grid of fewer than two increasing nodes, J not a whole number in 0..30, a plan costing more
-        than ``max_cost``, or an unknown method.
+        A grid of fewer than two increasing nodes, J neither a whole number in 0..30 nor ``"auto"``,
+        ``"auto"`` with the Newton method, e not in 0..MAX_E, an unknown interpolation, a plan
+        costing more than ``max_cost``, or an unknown method.
     DomainError
         The flat output's altitude ``-z`` at a node is outside the
         atmosphere model's range (the ISA's -2 to 20 km).
     """
-    J = check_iterations(J, f"plan {name}")
+    auto = isinstance(J, str) and J == AUTO_J
+    if auto:
+        J_max = check_iterations(J_max, f"plan {name}: J_max")
+        if not (isinstance(J_tol, (int, float)) and not isinstance(J_tol, bool) and J_tol >= 0):
+            raise InputError(f"plan {name}: J_tol must be a number >= 0 [m/s^2, rad/s], got {J_tol!r}")
+        if method != "fixed-point":
+            raise InputError(f"plan {name}: J = \"auto\" needs the fixed-point method, got method {method!r}")
+        J = min(AUTO_J_START, J_max)
+    else:
+        J = check_iterations(J, f"plan {name}")
+    e = check_output_order(e, f"plan {name}")
+    interpolation = check_interpolation(DEFAULT_INTERPOLATION if interpolation is None else interpolation,
+                                        f"plan {name}")
     t_nodes = check_grid(t_nodes)
     if method not in METHODS:
         raise InputError(f"generalized-flatness method must be one of {', '.join(METHODS)}, got {method!r}")
@@ -125,36 +225,66 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         z = np.broadcast_to(np.real(np.asarray(problem.z(t_nodes), dtype=complex)), t_nodes.shape)
     finite = np.isfinite(z)
     problem.env.check_altitude(-z[finite], f"plan {name}, flat output z", times=t_nodes[finite])
-    cost = plan_cost(len(t_nodes), J, e)
     limit = MAX_PLAN_COST if max_cost is None else float(max_cost)
-    if cost > limit:
-        raise InputError(f"plan {name}: J = {J} on {len(t_nodes)} nodes costs {cost:.3g} node-order^2 units, "
-                         f"above the bound {limit:.3g} (about {6e-6 * cost / 60:.0f} min of planning); use fewer "
-                         f"nodes or a smaller J, or raise the bound (--max-cost, max_cost= in Python; inf for none)")
-    verbose = cost > PROGRESS_COST
-    if verbose:
-        _log.info("plan %s: J = %d on %d nodes, cost %.3g units (about %.0f s)", name, J, len(t_nodes), cost,
-                  6e-6 * cost)
+    _check_cost(name, len(t_nodes), J, e, limit)
     if method == "newton":
         from .generalized_newton import plan_newton
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             iterates, info = plan_newton(problem, t_nodes, J, e, tol=newton_tol, maxiter=newton_maxiter)
-        plan = Plan(problem, t_nodes, iterates, [], name, info["timings"])
-        plan.generalized = {"method": method, "depth": J, **info}
+        plan = Plan(problem, t_nodes, iterates, [], name, info["timings"], interpolation=interpolation, e=e)
+        plan.generalized = {"method": method, "depth": J, "J_rule": "given", **info}
         if info["status"] != "converged":
             plan.warnings.append(f"Newton on the generalized-flatness fixed point {info['status']} after "
                                  f"{len(info['residual']) - 1} step(s): max |H - G(H)| = {info['residual'][-1]:.3g} "
                                  f"(tolerance {newton_tol:g})")
         return _finish(plan)
+    if not auto:
+        iterates, timings = _fixed_point(problem, t_nodes, J, e, name)
+        plan = Plan(problem, t_nodes, iterates, [], name, timings, interpolation=interpolation, e=e)
+        plan.generalized = {"method": method, "J_rule": "given"}
+        return _finish(plan)
+    iterates, timings, info = _auto_J(problem, t_nodes, J, e, name, J_tol, J_max, limit)
+    plan = Plan(problem, t_nodes, iterates, [], name, timings, interpolation=interpolation, e=e)
+    plan.generalized = {"method": method, **info}
+    if info["J_stop"] in ("J_max", "cost"):
+        plan.warnings.append(f"J = \"auto\": the residual {info['J_residuals'][plan.J]:.3g} of iterate J = {plan.J} "
+                             f"is above the tolerance {J_tol:g} and still decreasing; stopped by "
+                             f"{'J_max' if info['J_stop'] == 'J_max' else 'the cost bound'}")
+    return _finish(plan)
+
+
+def _check_cost(name: str, nodes: int, J: int, e: int, limit: float) -> float:
+    cost = plan_cost(nodes, J, e)
+    if cost > limit:
+        raise InputError(f"plan {name}: J = {J} on {nodes} nodes costs {cost:.3g} node-order^2 units, "
+                         f"above the bound {limit:.3g} (about {6e-6 * cost / 60:.0f} min of planning); use fewer "
+                         f"nodes or a smaller J, or raise the bound (--max-cost, max_cost= in Python; inf for none)")
+    return cost
+
+
+def _fixed_point(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str,
+                 guesses: list | None = None) -> tuple[list, dict]:
+    """The paper's J iterations: iterates 0..J (orders ``e + 4 + 2 (J - j)``) and their wall times.
+
+    Iterate j starts its Newton iterations from ``guesses[j]`` when given (a lower-order solution of
+    the same iterate), else from iterate j - 1.
+    """
+    cost = plan_cost(len(t_nodes), J, e)
+    verbose = cost > PROGRESS_COST
+    if verbose:
+        _log.info("plan %s: J = %d on %d nodes, cost %.3g units (about %.0f s)", name, J, len(t_nodes), cost,
+                  6e-6 * cost)
     kappa = e + STAGES + J * ORDER_LOSS
     iterates, timings = [], {}
     prev = None
     for j in range(J + 1):
         t_start = time.perf_counter()
         h = None if prev is None else prev.h_values()
+        guess = guesses[j].series if guesses is not None and j < len(guesses) else \
+            (None if prev is None else prev.series)
         # Near a singularity Newton may overflow: reported through the Newton and monitor warnings.
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            sol = parametrize(problem, t_nodes, kappa, h=h, guess=None if prev is None else prev.series)
+            sol = parametrize(problem, t_nodes, kappa, h=h, guess=guess)
         timings[j] = time.perf_counter() - t_start
         if verbose:
             done = sum(timings.values())
@@ -164,9 +294,50 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int = 0, e: int = 1, name: str
         iterates.append(sol)
         prev = sol
         kappa -= ORDER_LOSS
-    plan = Plan(problem, t_nodes, iterates, [], name, timings)
-    plan.generalized = {"method": method}
-    return _finish(plan)
+    return iterates, timings
+
+
+def _more_iterations(res: list, tol: float) -> int:
+    """Iterations to add so that the residual reaches ``tol`` at the last ratio of decrease (at least 1),
+    or :data:`AUTO_J_STEP` when there is no usable ratio."""
+    if len(res) < 2 or not (tol > 0 and np.isfinite(res[-1]) and np.isfinite(res[-2]) and res[-1] > 0):
+        return AUTO_J_STEP
+    q = res[-2] / res[-1]
+    if not q > 1.0:
+        return AUTO_J_STEP
+    return max(1, int(np.ceil(np.log(res[-1] / tol) / np.log(q))))
+
+
+def _auto_J(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str, tol: float, J_max: int,
+            limit: float) -> tuple[list, dict, dict]:
+    """``J = "auto"``: plans with J, then with the J :func:`_more_iterations` predicts, until :func:`choose_J`
+    stops (or J_max, or the cost bound); the chosen iterates, truncated to the orders of a plan with that J."""
+    from .generalized_newton import truncate_solution
+
+    attempts, total, guesses = [], 0.0, None
+    while True:
+        iterates, timings = _fixed_point(problem, t_nodes, J, e, name, guesses)
+        total += sum(timings.values())
+        attempts.append(J)
+        res = Plan(problem, t_nodes, iterates).iterate_residuals()
+        chosen, stop = choose_J(res, tol)
+        if chosen is None:
+            nxt = min(J_max, J + _more_iterations(res, tol))
+            if J >= J_max:
+                stop = "J_max"
+            elif plan_cost(len(t_nodes), nxt, e) > limit:
+                stop = "cost"
+            else:
+                J, guesses = nxt, iterates
+                continue
+            chosen = int(np.argmin([r if np.isfinite(r) else np.inf for r in res]))
+        break
+    kept = [truncate_solution(it, e + STAGES + ORDER_LOSS * (chosen - j)) for j, it in enumerate(iterates[:chosen + 1])]
+    rule = (f"auto: the first iterate with full-model residual <= {tol:g}, or at a ratio to the previous "
+            f"> {AUTO_J_RATIO:g} the least so far, J <= {J_max}")
+    info = {"J_rule": rule, "J_stop": stop, "J_residuals": res, "J_attempts": attempts, "J_tol": tol,
+            "J_max": J_max, "J_planning_s": total}
+    return kept, {j: timings[j] for j in range(chosen + 1)}, info
 
 
 def _finish(plan: Plan) -> Plan:
@@ -208,20 +379,26 @@ def domain_failures(plan: Plan) -> list[str]:
     return out
 
 
-def plan_scenario(scenario, J: int | None = None, max_cost: float | None = None, method: str | None = None) -> Plan:
+def plan_scenario(scenario, J: int | str | None = None, max_cost: float | None = None, method: str | None = None,
+                  e: int | None = None, interpolation: str | None = None) -> Plan:
     """Plan a :class:`~planners.scenario.Scenario`.
 
     Parameters
     ----------
     scenario : Scenario
-        Flat outputs, aircraft, grid and J.
-    J : int, optional
-        Generalized-flatness iterations (default: the scenario's).
+        Flat outputs, aircraft, grid, J, e and the evaluation between nodes.
+    J : int or "auto", optional
+        Generalized-flatness iterations, or ``"auto"`` (:func:`choose_J`, with the scenario's
+        ``J_tol`` and ``J_max``); default: the scenario's.
     max_cost : float, optional
         Bound on :func:`plan_cost` (default :data:`MAX_PLAN_COST`).
     method : {"fixed-point", "newton"}, optional
         Generalized-flatness method (default: the scenario's ``[generalized] method`` when it has
         one, else ``"fixed-point"``).
+    e : int, optional
+        Output order (the controls' series order in the last iterate); default: the scenario's.
+    interpolation : {"hermite", "paper"}, optional
+        Evaluation between nodes; default: the scenario's.
 
     Returns
     -------
@@ -231,13 +408,14 @@ def plan_scenario(scenario, J: int | None = None, max_cost: float | None = None,
     Raises
     ------
     InputError
-        ``scenario`` is not a Scenario, ``J`` is not a whole number in 0..30, or an unknown
-        ``[generalized] method`` in the scenario.
+        ``scenario`` is not a Scenario, ``J`` is neither a whole number in 0..30 nor ``"auto"``, ``e``
+        is not in 0..MAX_E, an unknown interpolation, or an unknown ``[generalized] method`` in the
+        scenario.
     """
     if not (callable(getattr(scenario, "problem", None)) and hasattr(scenario, "t_nodes")):
         raise InputError(f"a Scenario is needed, got {type(scenario).__name__} {scenario!r:.60}; "
                          f"planners.scenario.load_scenario(name) makes one")
-    if J is not None:
+    if J is not None and not (isinstance(J, str) and J == AUTO_J):
         J = check_iterations(J, f"plan_scenario({scenario.name})")
     if method is None:
         gen = (getattr(scenario, "raw", None) or {}).get("generalized", {})
@@ -245,5 +423,8 @@ def plan_scenario(scenario, J: int | None = None, max_cost: float | None = None,
         if method not in METHODS:
             raise InputError(f"scenario {scenario.name} [generalized]: method must be one of "
                              f"{', '.join(repr(m) for m in METHODS)}, got {method!r}")
-    return plan_motion(scenario.problem(), scenario.t_nodes, scenario.J if J is None else J, name=scenario.name,
-                       max_cost=max_cost, method=method)
+    e = getattr(scenario, "e", 1) if e is None else check_output_order(e, f"plan_scenario({scenario.name})")
+    interpolation = getattr(scenario, "interpolation", None) if interpolation is None else interpolation
+    return plan_motion(scenario.problem(), scenario.t_nodes, scenario.J if J is None else J, e=e,
+                       name=scenario.name, max_cost=max_cost, method=method, interpolation=interpolation,
+                       J_tol=getattr(scenario, "J_tol", AUTO_J_TOL), J_max=getattr(scenario, "J_max", AUTO_J_MAX))

@@ -13,10 +13,12 @@ from typing import Callable
 
 import numpy as np
 
-from gna.solve import NewtonResult, batched_solve, jacobian, newton
+from gna.solve import COMPLEX_STEP, NewtonResult, batched_solve, jacobian, newton
+
+from . import series as _series_kernels
 
 __all__ = ["PAPER_TOL", "PAPER_MAXITER", "NewtonResult", "NewtonFailure", "SeriesNewtonReport", "batched_solve",
-           "jacobian", "newton", "newton_series"]
+           "doubling_orders", "jacobian", "newton", "newton_series"]
 
 #: The paper's failure rule (section "Newton operator with series"):
 #: a residual above this after ``PAPER_MAXITER`` iterations is reported.
@@ -108,7 +110,9 @@ class SeriesNewtonReport:
     constant_iterations : int
         Pointwise Newton iterations (the largest over the memory restarts).
     series_residual : ndarray (nodes,)
-        Max abs coefficient of the residual series at the final order.
+        Max abs coefficient of the residual series at the final order.  A check of the
+        solution, not needed to produce it: evaluated on first access (one more residual
+        evaluation), then kept; a report is pickled with it evaluated.
     doubling_orders : list of int
         Working orders of the precision-doubling steps.
     warnings : list of str
@@ -122,15 +126,27 @@ class SeriesNewtonReport:
     t_nodes: np.ndarray
     constant_residual: np.ndarray
     constant_iterations: int
-    series_residual: np.ndarray
+    _series_residual: object  # ndarray, or a callable computing it on first access
     doubling_orders: list
     warnings: list = field(default_factory=list)
     failures: list = field(default_factory=list)
 
     @property
+    def series_residual(self) -> np.ndarray:
+        """Max abs coefficient of the residual series at the final order, per node."""
+        if callable(self._series_residual):
+            self._series_residual = self._series_residual()
+        return self._series_residual
+
+    @property
     def worst_residual(self) -> float:
         """Largest of the constant-term and series residuals over the nodes."""
         return float(max(np.max(self.constant_residual), np.max(self.series_residual)))
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_series_residual"] = self.series_residual
+        return state
 
 
 def _series_solve(Jc: np.ndarray, Gc: np.ndarray) -> np.ndarray:
@@ -150,13 +166,89 @@ def _series_solve(Jc: np.ndarray, Gc: np.ndarray) -> np.ndarray:
         J0inv = np.linalg.pinv(J0)
     Jr = np.moveaxis(Jc.reshape(n, n, -1, K), 2, 0)                  # (B, n, n, K)
     Gr = np.moveaxis(Gc.reshape(n, -1, K), 1, 0)                     # (B, n, K)
-    D = np.zeros_like(Gr)
-    for mth in range(K):
-        rhs = Gr[..., mth].copy()
-        for l in range(1, mth + 1):
-            rhs -= np.einsum("bij,bj->bi", Jr[..., l], D[..., mth - l])
-        D[..., mth] = np.einsum("bij,bj->bi", J0inv, rhs)
+    D = _series_kernels._K.series_solve(Jr, J0inv, Gr)
     return np.moveaxis(D, 0, 1).reshape((n,) + batch + (K,))
+
+
+def _batched_jacobian(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray) -> np.ndarray:
+    """Complex-step Jacobian ``J[i, j, *batch]`` with all columns in one evaluation of ``fun``.
+
+    The same derivatives as :func:`gna.solve.jacobian` (step 1e-30; exact to rounding for an analytic
+    ``fun``), from one call on the batch ``(n, *batch)`` of perturbed points instead of ``n`` calls:
+    ``fun`` must broadcast over a leading batch axis (the stage residuals do).
+    """
+    n = x.shape[0]
+    h = COMPLEX_STEP
+    xs = np.broadcast_to(x.astype(complex), (n,) + x.shape).copy()      # (n_col, n, *batch)
+    for j in range(n):
+        xs[j, j] += 1j * h
+    f = fun(np.moveaxis(xs, 0, 1))                                       # (m, n_col, *batch)
+    return np.imag(f) / h
+
+
+def _pointwise_newton(fun: Callable[[np.ndarray], np.ndarray], x0, *, tol: float, maxiter: int) -> NewtonResult:
+    """Damped Newton of :func:`gna.solve.newton` (complex-step Jacobian, backtracking), all columns of
+    the Jacobian from one evaluation (:func:`_batched_jacobian`)."""
+    x = np.array(x0, dtype=float)
+
+    def norm(f):
+        return np.max(np.abs(f), axis=0)
+
+    f = np.real(fun(x))
+    res = norm(f)
+    history = [float(np.max(res))]
+    it = 0
+    while it < maxiter and not np.all(res <= tol):
+        it += 1
+        if not np.all(np.isfinite(f)):
+            break
+        J = _batched_jacobian(fun, x)
+        dx = batched_solve(J, -f)
+        active = res > tol
+        dx = np.where(active, dx, 0.0)
+        step = np.ones_like(res)
+        xn = x + dx
+        fn = np.real(fun(xn))
+        rn = norm(fn)
+        for _ in range(10):
+            bad = ~(rn < res) & active & ~(rn <= tol)
+            bad &= ~np.isfinite(rn) | (rn >= res)
+            if not np.any(bad):
+                break
+            step = np.where(bad, step * 0.5, step)
+            xn = x + dx * step
+            fn = np.real(fun(xn))
+            rn = norm(fn)
+        x, f, res = xn, fn, np.where(np.isfinite(rn), rn, np.inf)
+        history.append(float(np.max(res)))
+    return NewtonResult(x=x, residual=res, iterations=it, converged=res <= tol, history=history)
+
+
+def doubling_orders(order: int) -> list:
+    """Working orders of Newton's iteration on series with precision doubling, up to ``order``.
+
+    A step at working order ``K`` from a solution exact to order ``k`` gives one exact to ``K`` when
+    ``K <= 2 k + 1`` (Bostan et al., th. 3.12).  The orders are chosen from the top,
+    ``k = ceil((K - 1) / 2)``, so that each step is as low as the next one allows: as few steps as
+    doubling from 0 (``1, 3, 7, 15, ...``) but at lower working orders (18: ``1, 2, 4, 9, 18``
+    instead of ``1, 3, 7, 15, 18``).
+
+    Parameters
+    ----------
+    order : int
+        Final order (>= 0).
+
+    Returns
+    -------
+    list of int
+        Increasing working orders ending at ``order`` (empty for ``order = 0``).
+    """
+    out = []
+    k = int(order)
+    while k > 0:
+        out.append(k)
+        k = k // 2  # ceil((k - 1) / 2)
+    return out[::-1]
 
 
 def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-12,
@@ -208,7 +300,7 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
                          for r in residual(list(x), 0)])
 
     x0 = np.stack([np.broadcast_to(np.real(u.constant_term), batch) for u in base]).astype(float)
-    res = newton(const_fun, x0, tol=tol, maxiter=maxiter)
+    res = _pointwise_newton(const_fun, x0, tol=tol, maxiter=maxiter)
     x, cres, its = res.x, res.residual, res.iterations
     # Memory Newton: restart failed nodes from their nearest converged neighbour, sweeping outwards.
     for _ in range(8):
@@ -220,7 +312,7 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         nearest = good_idx[np.argmin(np.abs(bad_idx[:, None] - good_idx[None, :]), axis=1)]
         xs = x.copy()
         xs[:, bad_idx] = x[:, nearest]
-        r2 = newton(const_fun, xs, tol=tol, maxiter=maxiter)
+        r2 = _pointwise_newton(const_fun, xs, tol=tol, maxiter=maxiter)
         improved = r2.residual < cres
         if not np.any(improved & bad):
             break
@@ -245,30 +337,34 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         c = np.array(padded(base[j], order).coeffs, dtype=float)
         c[..., 0] = x[j]
         u.append(Series(c))
-    orders = []
-    k = 0
-    h = 1e-30
-    while k < order:
-        k = min(2 * k + 1, order)
-        orders.append(k)
+    orders = doubling_orders(order)
+    h = COMPLEX_STEP
+    for k in orders:
         cur = [ui.truncate(k) for ui in u]
         stacked = np.stack([np.broadcast_to(ci.coeffs, batch + (k + 1,)) for ci in cur])   # (n, *batch, K)
-        pert = np.broadcast_to(stacked, (n + 1,) + stacked.shape).astype(complex).copy()  # (n+1, n, *batch, K)
+        # One evaluation on the batch of the n complex steps (one per unknown): the imaginary parts
+        # give the Jacobian series, the real part of any of them the residual itself (the step's
+        # effect on it is O(h^2) = 1e-60 relative).
+        pert = np.broadcast_to(stacked, (n,) + stacked.shape).astype(complex)             # (n, n, *batch, K)
         for j in range(n):
-            pert[j + 1, j, ..., 0] += 1j * h
+            pert[j, j, ..., 0] += 1j * h
         us = [Series(pert[:, j]) for j in range(n)]
         rs = residual(us, k)
         R = np.stack([np.broadcast_to(r.coeffs if isinstance(r, Series) else np.asarray(r)[..., None],
-                                      (n + 1,) + batch + (k + 1,)) for r in rs])  # (neq, n+1, *batch, K)
+                                      (n,) + batch + (k + 1,)) for r in rs])  # (neq, n, *batch, K)
         G = np.real(R[:, 0])
-        Jc = np.imag(R[:, 1:]) / h                    # (neq, n, *batch, K)
+        Jc = np.imag(R) / h                           # (neq, n, *batch, K)
         D = _series_solve(Jc, G)
         u = [Series(stacked[j] - D[j]) for j in range(n)]
         u = [Series(np.concatenate([ui.coeffs, padded(base[j], order).coeffs[..., k + 1:]], axis=-1))
              if k < order else ui for j, ui in enumerate(u)]
-    final = residual(u, order)
-    sres = np.max(np.stack([np.max(np.abs(np.broadcast_to(r.coeffs, batch + (order + 1,))), axis=-1)
-                            for r in final]), axis=0)
-    rep = SeriesNewtonReport(tuple(names), t_nodes, cres, its, sres, orders,
+
+    def series_residual() -> np.ndarray:
+        final = residual(u, order)
+        return np.max(np.stack([np.max(np.abs(np.broadcast_to(r.coeffs if isinstance(r, Series) else
+                                                              np.asarray(r)[..., None], batch + (order + 1,))),
+                                       axis=-1) for r in final]), axis=0)
+
+    rep = SeriesNewtonReport(tuple(names), t_nodes, cres, its, series_residual, orders,
                              [f.message for f in failures], failures)
     return u, rep

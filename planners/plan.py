@@ -1,18 +1,32 @@
 """The result of motion planning: every node's series, evaluated anywhere.
 
-Between nodes ``t_i <= t <= t_{i+1}`` a variable is evaluated with the
-paper's two-sided formula (section "Motion planning")::
+Between nodes ``t_i <= t <= t_{i+1}`` (``h = t_{i+1} - t_i``) a variable ``s`` is a polynomial built
+once per interval from the series ``s_i`` and ``s_{i+1}`` of the two ends, by one of two formulas
+(:data:`INTERPOLATIONS`, the plan's ``interpolation``):
 
-    [(t_{i+1} - t) s_i(t - t_i) + (t - t_i) s_{i+1}(t - t_{i+1})] / (t_{i+1} - t_i)
+* ``"hermite"`` (default): two-point Hermite interpolation, the polynomial of degree ``2 m + 1``
+  whose derivatives up to order ``m`` at both ends are those of the series (``m`` the series'
+  order, at most :data:`HERMITE_MAX_ORDER`; for the five controls the surfaces' order, ``e`` in the
+  last iterate, although F's series is two orders longer).  It is ``C^m`` at the nodes and its error is
+  ``O(h^(2 m + 2))``: for the controls of the last iterate (order ``e``), ``O(h^(2 e + 2))``.
+* ``"paper"``: the paper's two-sided formula (section "Motion planning")::
 
-and its k-th derivative is the exact k-th derivative of that expression
-(Leibniz rule).  Everything is vectorised over the evaluation times.
+      [(t_{i+1} - t) s_i(t - t_i) + (t - t_i) s_{i+1}(t - t_{i+1})] / h
+
+  a polynomial of degree ``K + 1`` for series of order ``K``, only ``C^0`` at the nodes and
+  ``O(h^(e + 1))`` accurate for the controls.
+
+Values and derivatives (``Plan.evaluate(..., derivative=k)``) are those of these polynomials,
+exactly; :meth:`Plan.control_function` returns them as a :class:`gna.piecewise.PiecewisePolynomial`
+for the integrators.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from fractions import Fraction
+from functools import lru_cache
 
 import numpy as np
 import pandas as pd
@@ -21,6 +35,7 @@ from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, derivatives
 from gna.errors import InputError
+from gna.piecewise import PiecewisePolynomial
 
 from .flat import FlatProblem, NodeSolution
 from .newton import NewtonFailure
@@ -43,6 +58,212 @@ def _taylor_derivative(coeffs: np.ndarray, dt: np.ndarray, k: int) -> np.ndarray
     for i in range(c.shape[-1] - 2, -1, -1):
         out = out * dt + c[..., i]
     return out
+
+
+#: Evaluation between nodes: two-point Hermite interpolation of the node series, or the paper's
+#: two-sided formula (section "Motion planning").
+INTERPOLATIONS = ("hermite", "paper")
+#: Default evaluation between nodes (measured in docs/planning.md, "Accuracy between nodes").
+DEFAULT_INTERPOLATION = "hermite"
+#: Highest derivative order the Hermite interpolation matches at each end (degree 2 m + 1 <= 17): the
+#: monomial form of the two-point Taylor basis grows like 4^m, so higher orders would only add rounding.
+HERMITE_MAX_ORDER = 8
+
+
+@lru_cache(maxsize=None)
+def hermite_matrix(m: int) -> np.ndarray:
+    """Monomial coefficients of the two-point Hermite interpolant on ``[0, 1]`` from Taylor data at both ends.
+
+    The polynomial ``P(w) = sum_k c_k w^k`` of degree ``2 m + 1`` whose Taylor coefficients at
+    ``w = 0`` are ``A_0..A_m`` and at ``w = 1`` are ``B_0..B_m`` is ``c = M @ concat(A, B)``
+    (computed in exact rational arithmetic, then rounded).  Hermite interpolation with two nodes of
+    multiplicity ``m + 1`` (Stoer & Bulirsch, *Introduction to Numerical Analysis*, sec. 2.1.5).
+
+    Parameters
+    ----------
+    m : int
+        Highest derivative order matched at each end (>= 0).
+
+    Returns
+    -------
+    ndarray, shape (2 m + 2, 2 m + 2)
+        ``M``: columns ``0..m`` multiply ``A``, columns ``m + 1..2 m + 1`` multiply ``B``.
+
+    Raises
+    ------
+    InputError
+        A negative ``m``.
+    """
+    if m < 0:
+        raise InputError(f"the Hermite order must be >= 0, got {m}")
+    n = 2 * m + 2
+    # Rows: Taylor coefficient k at 0 is c_k; at 1 it is sum_j C(j, k) c_j.
+    rows = [[Fraction(int(j == k)) for j in range(n)] for k in range(m + 1)]
+    rows += [[Fraction(math.comb(j, k)) for j in range(n)] for k in range(m + 1)]
+    inv = _rational_inverse(rows)
+    out = np.array([[float(v) for v in r] for r in inv])
+    out.setflags(write=False)               # cached: shared by every caller
+    return out
+
+
+def _rational_inverse(a: list) -> list:
+    """Inverse of a square matrix of Fractions (Gauss-Jordan, exact)."""
+    n = len(a)
+    aug = [list(r) + [Fraction(int(i == j)) for j in range(n)] for i, r in enumerate(a)]
+    for col in range(n):
+        piv = next(r for r in range(col, n) if aug[r][col] != 0)
+        aug[col], aug[piv] = aug[piv], aug[col]
+        p = aug[col][col]
+        aug[col] = [v / p for v in aug[col]]
+        for r in range(n):
+            if r != col and aug[r][col] != 0:
+                f = aug[r][col]
+                aug[r] = [v - f * w for v, w in zip(aug[r], aug[col])]
+    return [r[n:] for r in aug]
+
+
+@lru_cache(maxsize=None)
+def _shift_matrix(K: int) -> np.ndarray:
+    """``T`` with ``sum_k B_k (w - 1)^k = sum_j (T @ B)_j w^j`` for ``k, j = 0..K``."""
+    T = np.zeros((K + 1, K + 1))
+    for k in range(K + 1):
+        for j in range(k + 1):
+            T[j, k] = math.comb(k, j) * (-1.0) ** (k - j)
+    T.setflags(write=False)
+    return T
+
+
+def interval_coefficients(a: np.ndarray, b: np.ndarray, h: np.ndarray, interpolation: str) -> np.ndarray:
+    """Polynomial on each interval ``[t_i, t_i + h_i]`` from the node series at both ends.
+
+    ``"paper"``: the two-sided formula ``[(h - s) A(s) + s B(s - h)] / h`` (degree K + 1; paper
+    section "Motion planning");
+    ``"hermite"``: the polynomial of degree ``2 m + 1`` with the Taylor coefficients ``0..m`` of
+    ``A`` at ``s = 0`` and of ``B`` at ``s = h``, ``m = min(K, HERMITE_MAX_ORDER)`` (C^m at the
+    nodes, error O(h^(2 m + 2)) for smooth data).
+
+    Parameters
+    ----------
+    a, b : ndarray, shape (n, v, K + 1)
+        Taylor coefficients (ascending powers of ``t - t_i``, resp. ``t - t_(i+1)``) of ``v``
+        functions at the left and right ends of ``n`` intervals.
+    h : ndarray, shape (n,)
+        Interval lengths [s].
+    interpolation : {"hermite", "paper"}
+        The formula.
+
+    Returns
+    -------
+    ndarray, shape (n, v, d + 1)
+        Coefficients in ascending powers of ``s = t - t_i``.
+
+    Raises
+    ------
+    InputError
+        An unknown ``interpolation``.
+    """
+    K = a.shape[-1] - 1
+    scale = h[:, None] ** np.arange(K + 1)                 # Taylor coefficients in w = s / h
+    A = a * scale[:, None, :]
+    B = b * scale[:, None, :]
+    if interpolation == "hermite":
+        m = min(K, HERMITE_MAX_ORDER)
+        M = hermite_matrix(m)
+        c = np.einsum("jk,nvk->nvj", M, np.concatenate([A[..., :m + 1], B[..., :m + 1]], axis=-1))
+    elif interpolation == "paper":
+        Bw = np.einsum("jk,nvk->nvj", _shift_matrix(K), B)
+        c = np.zeros(A.shape[:-1] + (K + 2,))
+        c[..., :K + 1] = A                                  # (1 - w) A(w) + w B(w - 1), w = s / h
+        c[..., 1:] -= A
+        c[..., 1:] += Bw
+    else:
+        raise InputError(f"interpolation must be one of {', '.join(repr(v) for v in INTERPOLATIONS)}, "
+                         f"got {interpolation!r}")
+    d = c.shape[-1]
+    return c / h[:, None, None] ** np.arange(d)
+
+
+def check_interpolation(value, where: str = "plan") -> str:
+    """The evaluation between nodes, checked: one of :data:`INTERPOLATIONS`.
+
+    Parameters
+    ----------
+    value : str
+        ``"hermite"`` or ``"paper"``.
+    where : str
+        What the message names (file, function).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InputError
+        Any other value.
+    """
+    if not isinstance(value, str) or value not in INTERPOLATIONS:
+        raise InputError(f"{where}: interpolation must be one of {', '.join(repr(v) for v in INTERPOLATIONS)}, "
+                         f"got {value!r}")
+    return value
+
+
+def _horner(c: np.ndarray, s: np.ndarray, k: int) -> np.ndarray:
+    """k-th derivative of polynomials ``c`` (N, v, d + 1) at offsets ``s`` (N,): (v, N)."""
+    d = c.shape[-1] - 1
+    if k > d:
+        return np.zeros((c.shape[1], s.size))
+    m = np.arange(k, d + 1)
+    fall = np.ones(m.size)
+    for j in range(k):
+        fall = fall * (m - j)
+    c = c[..., k:] * fall
+    out = c[..., -1]
+    for p in range(c.shape[-1] - 2, -1, -1):
+        out = out * s[:, None] + c[..., p]
+    return out.T.copy()
+
+
+@dataclass(frozen=True)
+class PlanFunctions(PiecewisePolynomial):
+    """Plan variables as a :class:`gna.piecewise.PiecewisePolynomial` that also takes arrays of times.
+
+    A call with one time (the integrators' path) is the piecewise polynomial's scalar call; a call with an
+    array of times (batched integrators) is :meth:`~gna.piecewise.PiecewisePolynomial.evaluate`.
+
+    Parameters
+    ----------
+    breaks : ndarray, shape (n + 1,)
+        The plan's nodes [s].
+    coeffs : ndarray, shape (n, m, d + 1)
+        Per-interval coefficients in ascending powers of ``t - breaks[i]`` (:meth:`Plan.piecewise`).
+
+    Raises
+    ------
+    InputError
+        As :class:`gna.piecewise.PiecewisePolynomial` (shapes, order of the breaks, non-finite values).
+    """
+
+    def __call__(self, t) -> np.ndarray:
+        """Values of the functions at one time, or at each of an array of times.
+
+        Parameters
+        ----------
+        t : float or array_like, shape (N,)
+            Time(s) [s] within the breaks.
+
+        Returns
+        -------
+        ndarray, shape (m,) or (m, N)
+
+        Raises
+        ------
+        InputError
+            A time outside the span.
+        """
+        if isinstance(t, (float, int, np.floating, np.integer)) or np.ndim(t) == 0:
+            return PiecewisePolynomial.__call__(self, t)
+        return self.evaluate(np.asarray(t, dtype=float).ravel()).reshape((self.n_functions,) + np.shape(t))
 
 
 @dataclass
@@ -71,7 +292,14 @@ class Plan:
         a plan is not feasible.
     generalized : dict
         The generalized-flatness method (``"method"``: ``"fixed-point"`` or ``"newton"``) and, for
-        Newton, its depth, starting order and fixed-point residual ``max |H - G(H)|`` per iterate.
+        Newton, its depth, starting order and fixed-point residual ``max |H - G(H)|`` per iterate;
+        with ``J = "auto"`` the rule that chose J (``"J_rule"``) and the residual of every iterate
+        computed (``"J_residuals"``).
+    interpolation : {"hermite", "paper"}
+        Evaluation between nodes: two-point Hermite interpolation of the node series (default) or the
+        paper's two-sided formula (module docstring).
+    e : int
+        Order of the controls' series in the last iterate (the paper's output order e).
     """
 
     problem: FlatProblem
@@ -83,6 +311,11 @@ class Plan:
     singularities: SingularityReport | None = None
     domain_failures: list = field(default_factory=list)
     generalized: dict = field(default_factory=dict)
+    interpolation: str = DEFAULT_INTERPOLATION
+    e: int = 1
+
+    def __post_init__(self):
+        check_interpolation(self.interpolation, f"plan {self.name}")
 
     @property
     def aircraft(self) -> Aircraft:
@@ -137,44 +370,90 @@ class Plan:
         out = self._evaluate_many((name,), t, j, derivative)[0]
         return out if np.ndim(t) else out[0]
 
-    def _stack(self, names: tuple, j: int) -> np.ndarray:
-        """Coefficients of several variables, zero-padded to a common order: (len(names), nodes, K)."""
+    def _coefficients(self, names: tuple, j: int) -> np.ndarray:
+        """Per-interval polynomial coefficients of several variables: (intervals, len(names), d + 1).
+
+        Built once per (names, iterate) from the node series by :attr:`interpolation`; each variable
+        uses its own series order (the controls: the surfaces' order), zero-padded to the group's degree.
+        """
         sol = self._iterate(j)
-        cache = self.__dict__.setdefault("_stack_cache", {})
-        key = (names, j % len(self.iterates))
+        cache = self.__dict__.setdefault("_coeff_cache", {})
+        key = (names, j % len(self.iterates), self.interpolation)
         if key not in cache:
             for n in names:
                 if n not in sol.series:
                     raise InputError(f"unknown plan variable {n!r}; known: {', '.join(sol.series)}")
-            arrs = [np.real(np.asarray(sol.series[n].coeffs)) for n in names]
-            K = max(a.shape[-1] for a in arrs)
-            st = np.zeros((len(names), len(self.t_nodes), K))
-            for i, a in enumerate(arrs):
-                st[i, :, :a.shape[-1]] = a
-            cache[key] = st
+            tn = np.asarray(self.t_nodes, dtype=float)
+            h = np.diff(tn)
+            polys = []
+            # Hermite: the controls with the derivatives of the surfaces' order (e in the last iterate);
+            # F's series is two orders longer (stage 2), but its extra derivatives changed the open-loop
+            # accuracy by at most 6e-8 m on the paper's scenarios while adding 4 Horner steps to every call of
+            # control_function (measured: docs/planning.md).
+            k_controls = min((sol.series[n].order for n in CONTROL_NAMES if n in sol.series), default=None)
+            for n in names:
+                c = np.real(np.asarray(sol.series[n].coeffs))
+                c = np.broadcast_to(c, (len(tn), c.shape[-1]))
+                if self.interpolation == "hermite" and n in CONTROL_NAMES:
+                    c = c[:, :k_controls + 1]
+                polys.append(interval_coefficients(c[:-1, None, :], c[1:, None, :], h, self.interpolation)[:, 0])
+            d = max(p.shape[-1] for p in polys)
+            out = np.zeros((len(tn) - 1, len(names), d))
+            for i, p in enumerate(polys):
+                out[:, i, :p.shape[-1]] = p
+            cache[key] = out
         return cache[key]
 
-    def _evaluate_many(self, names: tuple, t, j: int = -1, derivative: int = 0) -> np.ndarray:
-        """(len(names), N) values at times ``t`` by the two-sided formula."""
-        c = self._stack(tuple(names), j)
+    def _check_times(self, t) -> np.ndarray:
         t_arr = np.atleast_1d(np.asarray(t, dtype=float))
         lo, hi = self.t0, self.t1
         if np.any(t_arr < lo - 1e-9 * max(1.0, abs(lo))) or np.any(t_arr > hi + 1e-9 * max(1.0, abs(hi))):
             raise InputError(f"time outside the plan [{lo:g}, {hi:g}] s: "
                              f"{float(t_arr.min()):g} .. {float(t_arr.max()):g}")
+        return t_arr
+
+    def _evaluate_many(self, names: tuple, t, j: int = -1, derivative: int = 0) -> np.ndarray:
+        """(len(names), N) values at times ``t`` by the plan's formula between nodes."""
+        c = self._coefficients(tuple(names), j)
+        t_arr = self._check_times(t)
         tn = self.t_nodes
         i = np.clip(np.searchsorted(tn, t_arr, side="right") - 1, 0, len(tn) - 2)
-        ti, tj = tn[i], tn[i + 1]
-        dt = tj - ti
-        w = (t_arr - ti) / dt
-        A = _taylor_derivative(c[:, i], t_arr - ti, derivative)
-        B = _taylor_derivative(c[:, i + 1], t_arr - tj, derivative)
-        out = (1 - w) * A + w * B
-        if derivative > 0:
-            A1 = _taylor_derivative(c[:, i], t_arr - ti, derivative - 1)
-            B1 = _taylor_derivative(c[:, i + 1], t_arr - tj, derivative - 1)
-            out = out + derivative * (B1 - A1) / dt
-        return out
+        return _horner(c[i], t_arr - tn[i], derivative)
+
+    def piecewise(self, names=CONTROL_NAMES, j: int = -1) -> PiecewisePolynomial:
+        """Variables of iterate ``j`` as piecewise polynomials of time (the plan's formula between nodes).
+
+        Parameters
+        ----------
+        names : sequence of str
+            Plan variables (default the 5 controls ``F, eta, dl, dm, dn``).
+        j : int
+            Iterate (default: the last).
+
+        Returns
+        -------
+        PlanFunctions
+            A :class:`gna.piecewise.PiecewisePolynomial` of ``len(names)`` functions on the node
+            intervals; calling it at one time returns shape ``(len(names),)``, at an array of N times
+            ``(len(names), N)``.
+
+        Raises
+        ------
+        InputError
+            Unknown variable or iterate, or non-finite series (an infeasible plan).
+        """
+        names = tuple(names)
+        self._iterate(j)
+        cache = self.__dict__.setdefault("_pp_cache", {})
+        key = (names, j % len(self.iterates), self.interpolation)
+        if key not in cache:
+            c = self._coefficients(names, j)
+            if not np.all(np.isfinite(c)):
+                bad = int(np.argmax(~np.all(np.isfinite(c), axis=(1, 2))))
+                raise InputError(f"plan {self.name}, iterate j = {j}: non-finite series at t = "
+                                 f"{self.t_nodes[bad]:g} s (a node where Newton failed)")
+            cache[key] = PlanFunctions(np.asarray(self.t_nodes, dtype=float), c)
+        return cache[key]
 
     def state(self, t, j: int = -1) -> np.ndarray:
         """The 12 states at ``t``.
@@ -209,6 +488,18 @@ class Plan:
         ndarray, shape (5,) or (5, N)
             ``(F, eta, dl, dm, dn)`` [N, -, rad, rad, rad].
         """
+        if np.ndim(t) == 0:  # the integrators' path: one time, the cached piecewise polynomial
+            self._iterate(j)
+            try:
+                f = self.piecewise(CONTROL_NAMES, j)
+            except InputError:      # non-finite series (an infeasible plan): the general path below
+                pass
+            else:
+                t = float(t)
+                lo, hi = self.t0, self.t1
+                if not lo - 1e-9 * max(1.0, abs(lo)) <= t <= hi + 1e-9 * max(1.0, abs(hi)):
+                    self._check_times(t)        # raises, naming the plan's span
+                return f(t)
         out = self._evaluate_many(CONTROL_NAMES, t, j)
         return out if np.ndim(t) else out[:, 0]
 
@@ -223,9 +514,20 @@ class Plan:
         Returns
         -------
         callable
-            ``f(t) -> ndarray, shape (5,)``: the controls of :meth:`controls` at time ``t`` [s].
+            ``f(t) -> ndarray, shape (5,)``: the controls of :meth:`controls` at time ``t`` [s]; a
+            :class:`gna.piecewise.PiecewisePolynomial` (about 2 us per call) built once from the node
+            series, or for an infeasible plan with non-finite series a slower function giving them.
+
+        Raises
+        ------
+        InputError
+            Unknown iterate.
         """
-        return lambda t: self.controls(t, j)
+        self._iterate(j)
+        try:
+            return self.piecewise(CONTROL_NAMES, j)
+        except InputError:
+            return lambda t: self.controls(t, j)
 
     def initial_state(self, j: int = -1) -> np.ndarray:
         """The 12 states at the start of the plan.
@@ -314,6 +616,27 @@ class Plan:
         """
         s = self._iterate(j).series
         return State(*(np.real(s[n].coeffs[..., 1]) for n in STATE_NAMES))
+
+    def iterate_residuals(self) -> list[float]:
+        """The full-model equation residual at the nodes of every iterate j = 0..J: the convergence test of J.
+
+        ``max`` over nodes and the 12 equations of :meth:`equation_residuals` ``("full", j)``; the
+        test of ``J = "auto"`` (:func:`planners.generalized.choose_J`).
+
+        Returns
+        -------
+        list of float
+            One residual per iterate [m/s^2 for V, rad/s for the angles; the position and rate
+            equations hold exactly]; NaN where an iterate has non-finite values.
+        """
+        cache = self.__dict__.setdefault("_residual_cache", {})
+        if len(cache) != len(self.iterates):
+            with np.errstate(all="ignore"):
+                for j in range(len(self.iterates)):
+                    if j not in cache:
+                        r = np.abs(self.equation_residuals("full", j).to_numpy())
+                        cache[j] = float(np.max(r)) if np.all(np.isfinite(r)) else float("nan")
+        return [cache[j] for j in range(len(self.iterates))]
 
     def equation_residuals(self, model: str = "full", j: int = -1, h: HValues | None = None) -> pd.DataFrame:
         """Residual ``d/dt state - f(state, controls)`` of the model's 12 equations at the nodes.
@@ -407,7 +730,8 @@ class Plan:
 
 
 def save_plan(plan: Plan, out_dir, step: float | None = None) -> dict:
-    """Write a plan to ``out_dir``: node series (npz), CSV tables of iterates 0 and J, singularity table.
+    """Write a plan to ``out_dir``: node series (npz, with the formula between nodes and e), CSV tables of
+    iterates 0 and J, singularity table.
 
     Parameters
     ----------
@@ -428,7 +752,7 @@ def save_plan(plan: Plan, out_dir, step: float | None = None) -> dict:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = {}
-    arrays = {"t_nodes": plan.t_nodes}
+    arrays = {"t_nodes": plan.t_nodes, "interpolation": np.array(plan.interpolation), "e": np.array(plan.e)}
     for j, it in enumerate(plan.iterates):
         for name, s in it.series.items():
             arrays[f"j{j}/{name}"] = np.real(np.asarray(s.coeffs))

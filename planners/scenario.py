@@ -23,7 +23,9 @@ Example (the paper's forward slip)::
     zeta_value = "0"
     eta = "0"
     [generalized]
-    J = 4
+    J = 6                  # or "auto" (J_tol, J_max: planners.generalized.choose_J)
+    e = 1                  # output order: the controls' series order in the last iterate
+    interpolation = "hermite"   # between nodes; or "paper" (the two-sided formula)
     [calibration]          # H values of the first iterate from a full-model trim
     alpha = 0.15
     beta = 0.35
@@ -85,6 +87,8 @@ from gna.schema import check_name, find_file, load_schema, read_toml, unknown_ke
 
 from .expressions import CONSTANTS, FUNCTIONS, Expression, compile_expression
 from .flat import FLAT_KINDS, FlatOutput, FlatProblem, check_iterations
+from .generalized import AUTO_J, AUTO_J_MAX, AUTO_J_TOL, check_output_order
+from .plan import DEFAULT_INTERPOLATION, check_interpolation
 
 
 #: Largest grid accepted (memory: every node carries ~20 series of order up to 5 + 2J).
@@ -150,9 +154,13 @@ class Scenario:
     zeta: FlatOutput
     eta: Expression | None
     dn: Expression | None
-    J: int
+    J: int | str
     h: HValues
     calibration: dict | None
+    e: int = 1
+    interpolation: str = DEFAULT_INTERPOLATION
+    J_tol: float = AUTO_J_TOL
+    J_max: int = AUTO_J_MAX
     start: dict | None = None
     report_times: list = field(default_factory=list)
     report_variables: list = field(default_factory=list)
@@ -211,8 +219,9 @@ def load_scenario(name_or_path: str | Path, J: int | None = None) -> Scenario:
     ----------
     name_or_path : str or pathlib.Path
         A bundled name (``gtm-aileron-roll``) or the path of a ``.toml`` file.
-    J : int, optional
-        Number of generalized-flatness iterations, instead of the file's.
+    J : int or "auto", optional
+        Number of generalized-flatness iterations (or ``"auto"``: the convergence test of
+        :func:`planners.generalized.choose_J`), instead of the file's.
 
     Returns
     -------
@@ -243,8 +252,9 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
         The parsed file (``planners/schemas/scenario.schema.json``).
     where : str
         The file's name, for messages.
-    J : int, optional
-        Number of generalized-flatness iterations, instead of the file's.
+    J : int or "auto", optional
+        Number of generalized-flatness iterations (or ``"auto"``: the convergence test of
+        :func:`planners.generalized.choose_J`), instead of the file's.
     path : str, optional
         The file's path: an aircraft path in the file is resolved from its folder.
 
@@ -316,8 +326,14 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
     if eta is None and dn is None:
         eta = compile_expression(0.0)
     gen = data.get("generalized", {})
-    J_file = check_iterations(gen.get("J", 0), f"{where} [generalized]")
-    J = J_file if J is None else check_iterations(J, where)
+    J_file = _iterations(gen.get("J", 0), f"{where} [generalized]")
+    J = J_file if J is None else _iterations(J, where)
+    e = check_output_order(gen.get("e", 1), f"{where} [generalized]")
+    interpolation = check_interpolation(gen.get("interpolation", DEFAULT_INTERPOLATION), f"{where} [generalized]")
+    J_tol = _num(gen, "J_tol", f"{where} [generalized]", AUTO_J_TOL)
+    if J_tol < 0:
+        raise InputError(f"{where} [generalized]: J_tol must be >= 0 [m/s^2, rad/s], got {J_tol:g}")
+    J_max = check_iterations(gen.get("J_max", AUTO_J_MAX), f"{where} [generalized] J_max")
     env = _environment(data.get("environment", {}), f"{where} [environment]")
     cal = data.get("calibration")
     h = HValues()
@@ -340,11 +356,22 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
     return Scenario(name=name,
                     description=str(data.get("description", "")), aircraft=aircraft, env=env, t0=t0, t1=t1,
                     step=step, x=expr("x"), y=expr("y"), z=expr("z"), zeta=zeta, eta=eta, dn=dn, J=J, h=h,
+                    e=e, interpolation=interpolation, J_tol=J_tol, J_max=J_max,
                     calibration=dict(cal) if cal is not None else None, start=start,
                     report_times=[float(v) for v in times], report_variables=[str(v) for v in rvars],
                     raw=dict(data), path=path,
-                    tracking=_tracking(data.get("tracking", {}), kind, J, f"{where} [tracking]"),
+                    tracking=_tracking(data.get("tracking", {}), kind, J_max if J == AUTO_J else J,
+                                       f"{where} [tracking]"),
                     compare=data.get("compare", {}))
+
+
+def _iterations(J, where: str) -> int | str:
+    """``[generalized] J``: a whole number in 0..30 or ``"auto"``."""
+    if isinstance(J, str) and J == AUTO_J:
+        return J
+    if isinstance(J, str):
+        raise InputError(f"{where}: J must be a whole number, got {J!r} (0 to 30, or \"auto\")")
+    return check_iterations(J, where)
 
 
 def _tracking(table: Mapping[str, Any], kind: str, J: int, where: str) -> Tracking:

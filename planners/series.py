@@ -44,19 +44,32 @@ Design
 * **Mixed operands.**  Python/numpy scalars and ndarrays act as constant
   series; an ndarray is broadcast against the batch shape (numpy rules), on
   either side of an operator (``arr * s``, ``s - arr``, ``np.float64(2) * s``).
+* **Backends.**  The kernels (Cauchy product, quotient, the recurrences, the
+  order-by-order solve of :mod:`planners.newton`) exist twice: the numpy
+  functions of this module, the reference and the default, and numba-compiled
+  loops (:mod:`planners._series_compiled`, ``pip install gflat[fast]``).  The
+  environment variable ``GFLAT_SERIES_BACKEND`` (``numpy`` or ``compiled``) is
+  read once, at import (:data:`BACKEND`).  Both agree to 1e-12 relative to the
+  coefficient scale (``tests/planners/test_series_backends.py``).  A product
+  of a batch ``(nodes,)`` and a batch ``(k, nodes)`` (the complex-step
+  Jacobians of Newton on series) is computed without materialising the
+  broadcast in the compiled kernels.
 * **No truth value.**  Comparisons and ``bool(s)`` raise :class:`TypeError`:
   a truncated series cannot be ordered, and model code must not branch on it.
 """
 
 from __future__ import annotations
 
+import functools
+import importlib.util
 import math
 import numbers
+import os
 from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
-__all__ = ["Series"]
+__all__ = ["BACKEND", "BACKENDS", "BACKEND_ENV", "Series"]
 
 _NO_TRUTH_MSG = (
     "a truncated power series has no truth value and cannot be compared; "
@@ -80,6 +93,12 @@ def _mul_kernel(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     dt = np.result_type(a, b)
     if n_b == 0:
         return np.zeros((m, 0), dt)
+    if n_b >= 128 and dt.kind == "c":
+        # complex einsum is slow: m row updates c_(j..) += a_j b_(..m-j) are about 2x faster here
+        out = np.multiply(a[0], b, dtype=dt)
+        for j in range(1, m):
+            out[j:] += a[j] * b[:m - j]
+        return out
     bp = np.zeros((2 * m - 1, n_b), dt)
     bp[m - 1:] = b
     s0, s1 = bp.strides
@@ -224,6 +243,31 @@ def _atan2_constant(y0: np.ndarray, x0: np.ndarray) -> np.ndarray:
     return np.arctan2(yr, xr) + np.arctan((xr * y0 - yr * x0) / (xr * x0 + yr * y0))
 
 
+#: Largest ``rows * inner * columns`` of one matrix product in :func:`_small_gemm`: below OpenBLAS's
+#: threshold for threading a gemm (65536 * 4), so that no BLAS thread is woken.
+_GEMM_CHUNK = 200_000
+
+
+def _small_gemm(w: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``w @ x`` for a small ``w`` and a wide ``x``, in column blocks each below BLAS's threading threshold.
+
+    A threaded BLAS (OpenBLAS's default: one thread per core) spins its threads after a product large
+    enough to be split; on a loaded machine those threads take the cores from the planner's own
+    arithmetic (measured: the roll plan 4x slower).  Blocks of columns keep every product single-threaded
+    (the same sums per column, so the same result to rounding) without touching the process's BLAS
+    settings.
+    """
+    p, q = w.shape
+    n = x.shape[1]
+    block = max(1, _GEMM_CHUNK // max(1, p * q))
+    if n <= block:
+        return w @ x
+    out = np.empty((p, n), np.result_type(w, x))
+    for j in range(0, n, block):
+        np.matmul(w, x[:, j:j + block], out=out[:, j:j + block])
+    return out
+
+
 # ---------------------------------------------------------------------------
 # Shape helpers for internal (coefficient-first) arrays
 # ---------------------------------------------------------------------------
@@ -275,6 +319,280 @@ def _coeff_axis_last(c: np.ndarray) -> np.ndarray:
 def _factorials(m: int) -> np.ndarray:
     """``[0!, 1!, ..., (m-1)!]`` as floats."""
     return np.array([math.factorial(k) for k in range(m)], dtype=float)
+
+
+# ---------------------------------------------------------------------------
+# Backends: the numpy reference kernels above, or their compiled (numba) versions
+# ---------------------------------------------------------------------------
+
+def _series_solve_kernel(J: np.ndarray, J0inv: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """Order by order ``D_m = J_0^{-1} (G_m - sum_{l=1..m} J_l D_{m-l})``.
+
+    ``J`` (B, n, n, K), ``J0inv`` (B, n, n), ``G`` (B, n, K); returns ``D`` (B, n, K).
+    """
+    K = G.shape[-1]
+    D = np.zeros_like(G)
+    D[..., 0] = np.einsum("bij,bj->bi", J0inv, G[..., 0])
+    for mth in range(1, K):
+        rhs = G[..., mth] - np.einsum("bijl,bjl->bi", J[..., 1:mth + 1], D[..., mth - 1::-1])
+        D[..., mth] = np.einsum("bij,bj->bi", J0inv, rhs)
+    return D
+
+
+def _full3(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[int, int, int]]:
+    """Two ``(m, R|1, S)`` operands broadcast to ``(m * ..., R * S)`` 2-D arrays (copies where broadcast)."""
+    m, _, S = a.shape
+    R = b.shape[1] if a.shape[1] == 1 else a.shape[1]
+    if a.shape[1] != R:
+        a = np.broadcast_to(a, (m, R, S))
+    if b.shape[1] != R:
+        b = np.broadcast_to(b, (m, R, S))
+    return a.reshape(m, R * S), b.reshape(m, R * S), (m, R, S)
+
+
+class _NumpyKernels:
+    """The pure-numpy reference kernels (coefficient-first arrays)."""
+
+    name = "numpy"
+
+    @staticmethod
+    def mul(a, b):
+        return _mul_kernel(a, b)
+
+    @staticmethod
+    def div(a, b):
+        return _div_kernel(a, b)
+
+    @staticmethod
+    def mul3(a, b):
+        m, ra, n = a.shape
+        r = b.shape[1] if ra == 1 else ra
+        dt = np.result_type(a, b)
+        if dt.kind == "c" and r * n >= 128:
+            # row updates c_(j..) += x_j y_(..m-j), the operand broadcast along the middle axis as x
+            # (no copy of the broadcast; a real x times a complex y costs half a complex product)
+            x, y = (a, b) if ra == 1 else (b, a)
+            out = np.multiply(x[0], y, dtype=dt)
+            for j in range(1, m):
+                out[j:] += x[j] * y[:m - j]
+            return out
+        af, bf, shape = _full3(a, b)
+        return _mul_kernel(af, bf).reshape(shape)
+
+    @staticmethod
+    def div3(a, b):
+        af, bf, shape = _full3(a, b)
+        return _div_kernel(af, bf).reshape(shape)
+
+    @staticmethod
+    def exp(u, c0=None):
+        return _exp_kernel(u, c0)
+
+    @staticmethod
+    def sincos(u, hyperbolic):
+        return _sincos_kernel(u, hyperbolic)
+
+    @staticmethod
+    def pow(u, p, c0=None):
+        return _pow_kernel(u, p, c0)
+
+    @staticmethod
+    def pow_array(u, p):
+        return _pow_array_kernel(u, p)
+
+    @staticmethod
+    def tan(u, hyperbolic):
+        return _tan_kernel(u, hyperbolic)
+
+    @staticmethod
+    def series_solve(J, J0inv, G):
+        return _series_solve_kernel(J, J0inv, G)
+
+
+_F8, _C16 = np.dtype(np.float64), np.dtype(np.complex128)
+
+
+_OTHER_FLOATS = frozenset(np.dtype(t) for t in (np.float16, np.float32, np.longdouble, np.complex64,
+                                                  np.clongdouble)) - {_F8, _C16}
+
+
+def _kernel_dtype(*arrays: Any) -> np.dtype | None:
+    """float64 or complex128, the dtype a compiled kernel computes in; None for other precisions
+    (float32, long double: left to the numpy kernels, which keep them)."""
+    dt = _F8
+    for x in arrays:
+        xd = x.dtype
+        if xd in _OTHER_FLOATS:
+            return None
+        if xd.kind == "c":
+            dt = _C16
+    return dt
+
+
+def _ready(x: np.ndarray, dt: np.dtype) -> np.ndarray:
+    """``x`` as a C-contiguous array of dtype ``dt`` (no copy when it already is one)."""
+    if x.dtype == dt and x.flags.c_contiguous:
+        return x
+    return np.ascontiguousarray(x, dtype=dt)
+
+
+@functools.cache
+def _sc() -> Any:
+    """The module of compiled kernels, imported on first use (numba's import and the loading of the
+    compiled code cost a few tenths of a second: paid by the first series operation of the compiled
+    backend, not by every ``import planners``)."""
+    from . import _series_compiled
+    return _series_compiled
+
+
+class _CompiledKernels:
+    """The same kernels compiled by numba (:mod:`planners._series_compiled`), same call signatures."""
+
+    name = "compiled"
+
+    @staticmethod
+    def mul3(a, b):
+        dt = _kernel_dtype(a, b)
+        if dt is None:
+            return _NumpyKernels.mul3(a, b)
+        rows = b.shape[1] if a.shape[1] == 1 else a.shape[1]
+        if dt == _C16 and (a.dtype == _F8 or b.dtype == _F8):
+            # real times complex: the real kernel on the (re, im) pairs, the real factor duplicated
+            x, y = (a, b) if b.dtype == _F8 else (b, a)
+            xv = _ready(x, _C16).view(np.float64)
+            y2 = np.repeat(_ready(y, _F8), 2, axis=2)
+            out = np.empty((a.shape[0], rows, 2 * a.shape[2]), _F8)
+            _sc().mul3(xv, y2, out)
+            return out.view(_C16)
+        a, b = _ready(a, dt), _ready(b, dt)
+        out = np.empty((a.shape[0], rows, a.shape[2]), dt)
+        _sc().mul3(a, b, out)
+        return out
+
+    @staticmethod
+    def div3(a, b):
+        dt = _kernel_dtype(a, b)
+        if dt is None:
+            return _NumpyKernels.div3(a, b)
+        if dt == _C16 and b.dtype == _F8:
+            # complex over real: the recurrence is linear in the numerator, run on its (re, im) pairs
+            av = _ready(a, _C16).view(np.float64)
+            b2 = np.repeat(_ready(b, _F8), 2, axis=2)
+            out = np.empty((a.shape[0], b.shape[1] if a.shape[1] == 1 else a.shape[1], 2 * a.shape[2]), _F8)
+            _sc().div3(av, b2, out)
+            return out.view(_C16)
+        a, b = _ready(a, dt), _ready(b, dt)
+        out = np.empty((a.shape[0], b.shape[1] if a.shape[1] == 1 else a.shape[1], a.shape[2]), dt)
+        _sc().div3(a, b, out)
+        return out
+
+    @staticmethod
+    def mul(a, b):
+        return _CompiledKernels.mul3(a[:, None], b[:, None])[:, 0]
+
+    @staticmethod
+    def div(a, b):
+        return _CompiledKernels.div3(a[:, None], b[:, None])[:, 0]
+
+    @staticmethod
+    def exp(u, c0=None):
+        dt = _kernel_dtype(u)
+        if dt is None:
+            return _exp_kernel(u, c0)
+        u = _ready(u, dt)
+        out = np.empty_like(u)
+        out[0] = np.exp(u[0])
+        _sc().exp2(u, out)
+        if c0 is not None:
+            out[0] = c0
+        return out
+
+    @staticmethod
+    def sincos(u, hyperbolic):
+        dt = _kernel_dtype(u)
+        if dt is None:
+            return _sincos_kernel(u, hyperbolic)
+        u = _ready(u, dt)
+        s, c = np.empty_like(u), np.empty_like(u)
+        if hyperbolic:
+            s[0], c[0] = np.sinh(u[0]), np.cosh(u[0])
+        else:
+            s[0], c[0] = np.sin(u[0]), np.cos(u[0])
+        _sc().sincos2(u, s, c, 1.0 if hyperbolic else -1.0)
+        return s, c
+
+    @staticmethod
+    def pow(u, p, c0=None):
+        if _kernel_dtype(u) is None:
+            return _pow_kernel(u, p, c0)
+        if isinstance(p, complex) or np.iscomplexobj(p):
+            dt = _C16
+        else:
+            dt = _kernel_dtype(u)
+        p = complex(p) if dt == _C16 else float(p)
+        u = _ready(u, dt)
+        out = np.empty_like(u)
+        out[0] = np.power(u[0], p) if c0 is None else c0
+        _sc().pow2(u, p, out)
+        return out
+
+    @staticmethod
+    def pow_array(u, p):
+        dt = _kernel_dtype(u, p)
+        if dt is None:
+            return _pow_array_kernel(u, p)
+        u, p = _ready(u, dt), _ready(p, dt)
+        out = np.empty_like(u)
+        out[0] = np.power(u[0], p)
+        _sc().pow_array2(u, p, out)
+        return out
+
+    @staticmethod
+    def tan(u, hyperbolic):
+        dt = _kernel_dtype(u)
+        if dt is None:
+            return _tan_kernel(u, hyperbolic)
+        u = _ready(u, dt)
+        t = np.empty_like(u)
+        t[0] = np.tanh(u[0]) if hyperbolic else np.tan(u[0])
+        _sc().tan2(u, t, -1.0 if hyperbolic else 1.0)
+        return t
+
+    @staticmethod
+    def series_solve(J, J0inv, G):
+        if _kernel_dtype(J, J0inv, G) != _F8:
+            return _series_solve_kernel(J, J0inv, G)
+        dt = _F8
+        D = np.empty(G.shape, dt)
+        _sc().series_solve(_ready(J, dt), _ready(J0inv, dt), _ready(G, dt), D)
+        return D
+
+
+#: Environment variable selecting the kernels of the series arithmetic (read once, at import).
+BACKEND_ENV = "GFLAT_SERIES_BACKEND"
+#: The kernel sets: ``"numpy"`` (the reference) and ``"compiled"`` (numba).
+BACKENDS = ("numpy", "compiled")
+
+
+def _select_backend() -> str:
+    """The backend named by :data:`BACKEND_ENV`: ``"numpy"`` (the default) or ``"compiled"``.
+
+    numpy is the default because numba's import and the loading of the compiled code cost about
+    0.6-1 s per process (several seconds to compile them once on a fresh install), more than the
+    compiled kernels save on the few plans of a command; long runs (campaigns, benchmarks, many plans
+    per process, high orders) gain from ``GFLAT_SERIES_BACKEND=compiled`` (``pip install gflat[fast]``).
+    """
+    want = os.environ.get(BACKEND_ENV, "").strip().lower() or "numpy"
+    if want not in BACKENDS:
+        raise ImportError(f"{BACKEND_ENV}={want!r}: the series backend must be one of {', '.join(BACKENDS)}")
+    if want == "compiled" and importlib.util.find_spec("numba") is None:
+        raise ImportError(f"{BACKEND_ENV}=compiled needs numba (pip install numba, or the 'fast' extra)")
+    return want
+
+
+#: The series backend in use, chosen once at import from :data:`BACKEND_ENV`.
+BACKEND = _select_backend()
+_K = _CompiledKernels if BACKEND == "compiled" else _NumpyKernels
 
 
 # ---------------------------------------------------------------------------
@@ -652,6 +970,51 @@ class Series:
         r = _int_kernel(_flat(_bcast(self._c, shape)), np.broadcast_to(c0, shape).reshape(-1))
         return Series._wrap(_unflat(r, shape))
 
+    @staticmethod
+    def linear_combinations(weights: Any, items: Sequence[Any]) -> list["Series"]:
+        """Rows of a weight matrix applied to a list of series and constants, ``sum_j w[i, j] items[j]``.
+
+        One matrix product on the coefficient-first storage (the aerodynamic model's coefficients
+        are such combinations of its monomials, :meth:`gna.aero.TermTable.coefficients`); a complex
+        stack is multiplied as its real and imaginary parts by the real weights.
+
+        Parameters
+        ----------
+        weights : array_like, shape (p, q)
+            Real weights.
+        items : sequence of length q
+            Series (at least one) and numeric constants (scalars or arrays broadcast against the
+            batch); series are truncated to the smallest order.
+
+        Returns
+        -------
+        list of Series
+            ``p`` series, batch shapes broadcast.
+
+        Raises
+        ------
+        TypeError
+            No series among ``items``.
+        """
+        series = [x for x in items if isinstance(x, Series)]
+        if not series:
+            raise TypeError("linear_combinations needs at least one Series among the items")
+        w = np.asarray(weights, dtype=float)
+        m = min(x._c.shape[0] for x in series)
+        shape = np.broadcast_shapes(*(x._c.shape[1:] for x in series),
+                                    *(np.shape(x) for x in items if not isinstance(x, Series)))
+        dt = np.result_type(*(x._c for x in series), *(x for x in items if not isinstance(x, Series)), 1.0)
+        stack = np.zeros((len(items), m) + shape, dt)
+        for i, x in enumerate(items):
+            if isinstance(x, Series):
+                stack[i] = _bcast(x._c[:m], shape)
+            else:
+                stack[i, 0] = x
+        flat = stack.reshape(len(items), -1)
+        out = _small_gemm(w, flat.view(np.float64) if dt.kind == "c" else flat)
+        out = out.view(dt).reshape((w.shape[0], m) + shape)
+        return [Series._wrap(out[i]) for i in range(w.shape[0])]
+
     def compose(self, g: "Series") -> "Series":
         """Composition ``f(g(t)) = sum_k c_k g(t)^k`` (Horner in series arithmetic).
 
@@ -676,7 +1039,7 @@ class Series:
         r = np.zeros((m, f.shape[1]), np.result_type(f, gg))
         r[0] = f[m - 1]
         for k in range(m - 2, -1, -1):
-            r = _mul_kernel(r, gg)
+            r = _K.mul(r, gg)
             r[0] += f[k]
         return Series._wrap(_unflat(r, shape))
 
@@ -696,26 +1059,26 @@ class Series:
     def square(self) -> "Series":
         """``self * self``."""
         u = _flat(self._c)
-        return Series._wrap(_unflat(_mul_kernel(u, u), self.batch_shape))
+        return Series._wrap(_unflat(_K.mul(u, u), self.batch_shape))
 
     def reciprocal(self) -> "Series":
         """``1 / self`` (requires a non-zero constant term)."""
         u = _flat(self._c)
         one = np.zeros_like(u)
         one[0] = 1.0
-        return Series._wrap(_unflat(_div_kernel(one, u), self.batch_shape))
+        return Series._wrap(_unflat(_K.div(one, u), self.batch_shape))
 
     def sqrt(self) -> "Series":
         """Principal square root (requires a non-zero constant term)."""
-        return self._apply(lambda u: _pow_kernel(u, 0.5, np.sqrt(u[0])))
+        return self._apply(lambda u: _K.pow(u, 0.5, np.sqrt(u[0])))
 
     def exp(self) -> "Series":
         """Exponential."""
-        return self._apply(_exp_kernel)
+        return self._apply(_K.exp)
 
     def expm1(self) -> "Series":
         """``exp(self) - 1`` with an accurate constant term."""
-        return self._apply(lambda u: _exp_kernel(u, np.expm1(u[0])))
+        return self._apply(lambda u: _K.exp(u, np.expm1(u[0])))
 
     def _log_like(self, c0_fun: Callable, shift_one: bool) -> "Series":
         def kernel(u: np.ndarray) -> np.ndarray:
@@ -726,7 +1089,7 @@ class Series:
             if shift_one:
                 den = den.copy()
                 den[0] += 1.0
-            return _int_kernel(_div_kernel(_diff_kernel(u), den), c0)
+            return _int_kernel(_K.div(_diff_kernel(u), den), c0)
         return self._apply(kernel)
 
     def log(self) -> "Series":
@@ -740,7 +1103,7 @@ class Series:
     def sincos(self) -> tuple["Series", "Series"]:
         """``(sin(self), cos(self))`` by the coupled recurrence (memoised)."""
         def compute() -> tuple[Series, Series]:
-            s, c = _sincos_kernel(_flat(self._c), hyperbolic=False)
+            s, c = _K.sincos(_flat(self._c), hyperbolic=False)
             return Series._wrap(_unflat(s, self.batch_shape)), Series._wrap(_unflat(c, self.batch_shape))
         return self._memoised("sincos", compute)
 
@@ -755,7 +1118,7 @@ class Series:
     def sinhcosh(self) -> tuple["Series", "Series"]:
         """``(sinh(self), cosh(self))`` by the coupled recurrence (memoised)."""
         def compute() -> tuple[Series, Series]:
-            s, c = _sincos_kernel(_flat(self._c), hyperbolic=True)
+            s, c = _K.sincos(_flat(self._c), hyperbolic=True)
             return Series._wrap(_unflat(s, self.batch_shape)), Series._wrap(_unflat(c, self.batch_shape))
         return self._memoised("sinhcosh", compute)
 
@@ -769,11 +1132,11 @@ class Series:
 
     def tan(self) -> "Series":
         """Tangent, by the recurrence of ``t' = (1 + t^2) u'``."""
-        return self._apply(lambda u: _tan_kernel(u, hyperbolic=False))
+        return self._apply(lambda u: _K.tan(u, hyperbolic=False))
 
     def tanh(self) -> "Series":
         """Hyperbolic tangent, by the recurrence of ``t' = (1 - t^2) u'``."""
-        return self._apply(lambda u: _tan_kernel(u, hyperbolic=True))
+        return self._apply(lambda u: _K.tan(u, hyperbolic=True))
 
     def arctan(self) -> "Series":
         """Arc tangent, ``arctan(c0) + integral(u'/(1 + u^2))``."""
@@ -782,9 +1145,9 @@ class Series:
             if u.shape[0] == 1:
                 return c0[None]
             v = u[:-1]
-            den = _mul_kernel(v, v)
+            den = _K.mul(v, v)
             den[0] += 1.0
-            return _int_kernel(_div_kernel(_diff_kernel(u), den), c0)
+            return _int_kernel(_K.div(_diff_kernel(u), den), c0)
         return self._apply(kernel)
 
     def _arcsin_like(self, c0_fun: Callable, sign: float) -> "Series":
@@ -793,9 +1156,9 @@ class Series:
             if u.shape[0] == 1:
                 return c0[None]
             v = u[:-1]
-            w = -_mul_kernel(v, v)
+            w = -_K.mul(v, v)
             w[0] += 1.0
-            d = _mul_kernel(_diff_kernel(u), _pow_kernel(w, -0.5))
+            d = _K.mul(_diff_kernel(u), _K.pow(w, -0.5))
             if sign < 0:
                 d = -d
             return _int_kernel(d, c0)
@@ -881,6 +1244,30 @@ def _pair(a: Series, b: Series) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]
     return _bcast(a._c[:m], shape), _bcast(b._c[:m], shape), shape
 
 
+def _pair3(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+    """Internal arrays truncated to the common order as ``(m, R|1, S)`` operands, and the batch shape.
+
+    Equal batches give ``R = 1``; a batch that is a trailing part of the other (``(nodes,)`` against
+    ``(n + 1, nodes)``) is broadcast along the middle axis without a copy; other broadcasts are
+    materialised.
+    """
+    m = min(a.shape[0], b.shape[0])
+    sa, sb = a.shape[1:], b.shape[1:]
+    if sa == sb:
+        n = math.prod(sa)
+        return a[:m].reshape(m, 1, n), b[:m].reshape(m, 1, n), sa
+    la, lb = len(sa), len(sb)
+    if lb < la and sa[la - lb:] == sb:
+        n = math.prod(sb)
+        return a[:m].reshape(m, -1, n) if n else a[:m].reshape(m, 1, 0), b[:m].reshape(m, 1, n), sa
+    if la < lb and sb[lb - la:] == sa:
+        n = math.prod(sa)
+        return a[:m].reshape(m, 1, n), b[:m].reshape(m, -1, n) if n else b[:m].reshape(m, 1, 0), sb
+    shape = np.broadcast_shapes(sa, sb)
+    n = math.prod(shape)
+    return (_bcast(a[:m], shape).reshape(m, 1, n), _bcast(b[:m], shape).reshape(m, 1, n), shape)
+
+
 def _operands(x: Any, y: Any) -> tuple[Any, Any] | None:
     """Classify operands: Series stay, other numeric values become constants."""
     if not isinstance(x, Series):
@@ -894,6 +1281,10 @@ def _operands(x: Any, y: Any) -> tuple[Any, Any] | None:
 
 def _plus_constant(s_c: np.ndarray, const: Any) -> np.ndarray:
     """Internal array ``s_c`` plus a constant in the constant term (new array)."""
+    if type(const) is float or type(const) is int:
+        out = s_c.copy()
+        out[0] += const
+        return out
     shape = s_c.shape[1:]
     if np.ndim(const):
         shape = np.broadcast_shapes(shape, np.shape(const))
@@ -902,27 +1293,39 @@ def _plus_constant(s_c: np.ndarray, const: Any) -> np.ndarray:
     return out
 
 
+def _add_sub(a: np.ndarray, b: np.ndarray, subtract: bool) -> np.ndarray:
+    """Sum (difference) of two internal arrays, truncated to the common order, batches broadcast."""
+    a3, b3, shape = _pair3(a, b)
+    r = np.subtract(a3, b3) if subtract else np.add(a3, b3)
+    return r.reshape((r.shape[0],) + shape)
+
+
 def _add(x: Any, y: Any) -> Series:
+    if type(x) is Series:
+        if type(y) is Series:
+            return Series._wrap(_add_sub(x._c, y._c, False))
+        if type(y) is float:
+            return Series._wrap(_plus_constant(x._c, y))
     ops = _operands(x, y)
     if ops is None:
         return NotImplemented
     x, y = ops
     if isinstance(x, Series) and isinstance(y, Series):
-        a, b, _ = _pair(x, y)
-        return Series._wrap(a + b)
+        return Series._wrap(_add_sub(x._c, y._c, False))
     if isinstance(x, Series):
         return Series._wrap(_plus_constant(x._c, y))
     return Series._wrap(_plus_constant(y._c, x))
 
 
 def _sub(x: Any, y: Any) -> Series:
+    if type(x) is Series and type(y) is Series:
+        return Series._wrap(_add_sub(x._c, y._c, True))
     ops = _operands(x, y)
     if ops is None:
         return NotImplemented
     x, y = ops
     if isinstance(x, Series) and isinstance(y, Series):
-        a, b, _ = _pair(x, y)
-        return Series._wrap(a - b)
+        return Series._wrap(_add_sub(x._c, y._c, True))
     if isinstance(x, Series):
         return Series._wrap(_plus_constant(x._c, np.negative(y)))
     return Series._wrap(_plus_constant(-y._c, x))
@@ -930,19 +1333,41 @@ def _sub(x: Any, y: Any) -> Series:
 
 def _scale(s: Series, const: Any, divide: bool = False) -> Series:
     """Coefficient-wise product (quotient) with a constant broadcast over the batch."""
+    if type(const) is float or type(const) is int:
+        return Series._wrap(s._c / const if divide else s._c * const)
     nd = max(len(s.batch_shape), np.ndim(const))
     c = _bcast(s._c, (1,) * (nd - len(s.batch_shape)) + s.batch_shape) if nd > len(s.batch_shape) else s._c
     return Series._wrap(c / const if divide else c * const)
 
 
+def _series_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cauchy product of two internal arrays (common order, batches broadcast)."""
+    a3, b3, shape = _pair3(a, b)
+    r = _K.mul3(a3, b3)
+    return r.reshape((r.shape[0],) + shape)
+
+
+def _series_div(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Quotient of two internal arrays (common order, batches broadcast)."""
+    a3, b3, shape = _pair3(a, b)
+    r = _K.div3(a3, b3)
+    return r.reshape((r.shape[0],) + shape)
+
+
 def _mul(x: Any, y: Any) -> Series:
+    if type(x) is Series:
+        if type(y) is Series:
+            return Series._wrap(_series_mul(x._c, y._c))
+        if type(y) is float:
+            return Series._wrap(x._c * y)
+    elif type(y) is Series and type(x) is float:
+        return Series._wrap(y._c * x)
     ops = _operands(x, y)
     if ops is None:
         return NotImplemented
     x, y = ops
     if isinstance(x, Series) and isinstance(y, Series):
-        a, b, shape = _pair(x, y)
-        return Series._wrap(_unflat(_mul_kernel(_flat(a), _flat(b)), shape))
+        return Series._wrap(_series_mul(x._c, y._c))
     if isinstance(x, Series):
         return _scale(x, y)
     return _scale(y, x)
@@ -957,6 +1382,11 @@ def _constant_like(const: Any, s: Series) -> Series:
 
 
 def _div(x: Any, y: Any) -> Series:
+    if type(y) is Series:
+        if type(x) is Series:
+            return Series._wrap(_series_div(x._c, y._c))
+    elif type(x) is Series and type(y) is float:
+        return Series._wrap(x._c / y)
     ops = _operands(x, y)
     if ops is None:
         return NotImplemented
@@ -964,8 +1394,7 @@ def _div(x: Any, y: Any) -> Series:
     if isinstance(y, Series):
         if not isinstance(x, Series):
             x = _constant_like(x, y)
-        a, b, shape = _pair(x, y)
-        return Series._wrap(_unflat(_div_kernel(_flat(a), _flat(b)), shape))
+        return Series._wrap(_series_div(x._c, y._c))
     return _scale(x, y, divide=True)
 
 
@@ -978,10 +1407,10 @@ def _int_power(s: Series, p: int) -> Series:
     base = u
     while p:
         if p & 1:
-            result = base if result is None else _mul_kernel(result, base)
+            result = base if result is None else _K.mul(result, base)
         p >>= 1
         if p:
-            base = _mul_kernel(base, base)
+            base = _K.mul(base, base)
     if result is None:
         result = np.zeros_like(u)
         result[0] = 1.0
@@ -1008,10 +1437,10 @@ def _pow(x: Any, y: Any) -> Series:
             return _int_power(x, int(p))
         if p == 0.5:
             return x.sqrt()
-        return x._apply(lambda u: _pow_kernel(u, p))
+        return x._apply(lambda u: _K.pow(u, p))
     shape = np.broadcast_shapes(x.batch_shape, p.shape)
     u = _flat(_bcast(x._c, shape))
-    return Series._wrap(_unflat(_pow_array_kernel(u, np.broadcast_to(p, shape).reshape(-1)), shape))
+    return Series._wrap(_unflat(_K.pow_array(u, np.broadcast_to(p, shape).reshape(-1)), shape))
 
 
 def _promote(x: Any, like: Series) -> Series | None:
@@ -1034,9 +1463,9 @@ def _arctan2(y: Any, x: Any) -> Series:
     if m == 1:
         return Series._wrap(_unflat(c0[None], shape))
     y1, x1 = yf[:-1], xf[:-1]
-    num = _mul_kernel(x1, _diff_kernel(yf)) - _mul_kernel(y1, _diff_kernel(xf))
-    den = _mul_kernel(x1, x1) + _mul_kernel(y1, y1)
-    return Series._wrap(_unflat(_int_kernel(_div_kernel(num, den), c0), shape))
+    num = _K.mul(x1, _diff_kernel(yf)) - _K.mul(y1, _diff_kernel(xf))
+    den = _K.mul(x1, x1) + _K.mul(y1, y1)
+    return Series._wrap(_unflat(_int_kernel(_K.div(num, den), c0), shape))
 
 
 def _hypot(x: Any, y: Any) -> Series:

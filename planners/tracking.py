@@ -68,9 +68,9 @@ by the plan's two-sided formula.
 
 Evaluation cost
 ---------------
-:class:`TrackingController` precomputes, per interval, the two-sided
-interpolant of the reference (states and controls of the feedforward iterate)
-and of the gains as polynomials in ``t - t_i``: one feedback evaluation is a
+:class:`TrackingController` precomputes, per interval, the reference (states
+and controls of the feedforward iterate, by the plan's own formula between
+nodes) and the two-sided interpolant of the gains as polynomials in ``t - t_i``: one feedback evaluation is a
 bisection and three small matrix-vector products (no series, no model).
 """
 
@@ -945,14 +945,9 @@ def tracking_controller(plan: Plan, lambdas, *, feedforward_iterate: int = -1,
     des = design(plan, lambdas, j=feedforward_iterate)
     j = des.iterate
     names = STATE_NAMES + CONTROL_NAMES
-    sol = plan.iterates[j]
-    Kr = max(sol.series[n].order for n in names) + 1
     N = len(plan.t_nodes)
-    series = np.zeros((N, len(names), Kr))
-    for v, n in enumerate(names):
-        cf = np.broadcast_to(np.real(np.asarray(sol.series[n].coeffs)), (N, sol.series[n].order + 1))
-        series[:, v, :cf.shape[1]] = cf
-    reference_poly = _two_sided(series, plan.t_nodes)
+    # The feedforward is the plan's own states and controls between nodes (its interpolation formula).
+    reference_poly = plan._coefficients(names, j)
     n = des.n
     gains5 = np.zeros((N, 5, n, des.K.shape[-1]))
     for k, u in enumerate(des.inputs):

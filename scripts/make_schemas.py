@@ -25,8 +25,8 @@ from gna.perturbation import PERTURBATION_KEYS  # noqa: E402
 from gna.trim import TRIM_VARIABLES  # noqa: E402
 from planners.expressions import CONSTANTS, FUNCTIONS  # noqa: E402
 from planners.flat import FLAT_KINDS  # noqa: E402
-from planners.generalized import METHODS  # noqa: E402
-from planners.plan import PLAN_VARIABLES  # noqa: E402
+from planners.generalized import AUTO_J, AUTO_J_MAX, AUTO_J_TOL, MAX_E, METHODS  # noqa: E402
+from planners.plan import DEFAULT_INTERPOLATION, INTERPOLATIONS, PLAN_VARIABLES  # noqa: E402
 from planners.scenario import MAX_NODES, TRACKING_KEYS  # noqa: E402
 
 AIRCRAFT_SCHEMA = ROOT / "gna" / "data" / "schemas" / "aircraft.schema.json"
@@ -239,8 +239,22 @@ def scenario_schema() -> dict:
                 "f2": _expr("With zeta = 'mix': f1 beta + f2 mu = zeta_value")},
                 conflicts=[("eta", "dn")], required=("x", "y", "z")),
             "generalized": _table("Generalized flatness", {
-                "J": {"type": "integer", "minimum": 0, "maximum": 30, "x-default": "0",
-                      "description": "Number of iterations J"},
+                "J": {"anyOf": [{"type": "integer"}, {"enum": [AUTO_J]}], "minimum": 0, "maximum": 30,
+                      "x-type": "integer or \"auto\"",
+                      "x-default": "0",
+                      "description": "Number of iterations J, or \"auto\": chosen by the convergence test on the "
+                                     "full-model equation residual at the nodes (J_tol, J_max; docs/planning.md)"},
+                "e": {"type": "integer", "minimum": 0, "maximum": MAX_E, "x-default": "1",
+                      "description": "Output order e: the controls' series order in the last iterate (the flat "
+                                     "outputs start at order e + 4 + 2J)"},
+                "interpolation": {"type": "string", "enum": list(INTERPOLATIONS), "x-default": DEFAULT_INTERPOLATION,
+                                  "description": "Evaluation between nodes: two-point Hermite interpolation of the "
+                                                 "node series, or the paper's two-sided formula (docs/planning.md)"},
+                "J_tol": {"type": "number", "minimum": 0, "x-default": f"{AUTO_J_TOL:g}", "x-unit": "m/s^2, rad/s",
+                          "description": "J = \"auto\": stop at the first iterate whose full-model residual at the "
+                                         "nodes is at most this"},
+                "J_max": {"type": "integer", "minimum": 0, "maximum": 30, "x-default": str(AUTO_J_MAX),
+                          "description": "J = \"auto\": largest J tried"},
                 "method": {"type": "string", "enum": list(METHODS), "x-default": "fixed-point",
                            "description": "The paper's J iterations, or Newton's method on their fixed point "
                                           "(J is then the depth; docs/generalized.md)"}}),

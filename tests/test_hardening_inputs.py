@@ -211,7 +211,7 @@ def test_k3_constant_names_are_identifiers(tmp_path):
     ('density = "isa"', 'density = "isa"\nrho = 1.0', "rho = 1.0 is used only with density = 'constant'"),
     ('eta = "0"', 'eta = "0"\nf1 = "1"', "f1 = '1' is used only with zeta = 'mix'"),
     ('eta = "0"', 'eta = "0"\ndn = "0"', "eta = '0' and dn = '0' give the same quantity twice"),
-    ("J = 4", "J = 1.5", "J must be a whole number, got 1.5"),
+    ("J = 6", "J = 1.5", "J must be a whole number or one of 'auto', got 1.5"),
     ("[calibration]", "[calibration]\nspeed = 3.0", "[calibration]: key 'speed' is not allowed; known keys: V, gamma"),
 ])
 def test_k3_scenario_conflicts_and_types(tmp_path, old, new, message):

@@ -34,6 +34,16 @@ def nonnegative_int(text: str) -> int:
     return v
 
 
+def iterations(text: str) -> int | str:
+    """``--J``: a number of generalized-flatness iterations (>= 0) or ``auto`` (chosen by the convergence test)."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        return nonnegative_int(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"not a whole number >= 0 or 'auto': {text!r}") from None
+
+
 def out_path(text: str) -> Path:
     """An ``--out`` folder or file: refused when empty (an empty name would silently mean the default)."""
     if not text.strip():

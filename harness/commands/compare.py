@@ -25,7 +25,7 @@ from ..engines import engine_names, engines_from_names
 from ..fileio import json_safe
 from ..outdir import OutputDir
 from ..validation import ValidationCase, case_settings, run_case
-from ._args import nonnegative_int, out_path
+from ._args import iterations, out_path
 from ._compare_args import add_compare_arguments, compare_overrides, default_out
 
 
@@ -35,7 +35,7 @@ def register(sub) -> None:
                                    "JSBSim from the same initial state. Bundled scenarios: "
                                    + ", ".join(list_scenarios()))
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
-    p.add_argument("--J", type=nonnegative_int, default=None, help="generalized-flatness iterations "
+    p.add_argument("--J", type=iterations, default=None, help="generalized-flatness iterations, or auto "
                                                                    "(default: the scenario's)")
     p.add_argument("--engines", default="inhouse,jsbsim",
                    help=f"comma-separated engines, the first is the reference ({', '.join(engine_names())})")

@@ -8,7 +8,7 @@ from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
 
 from ..engines.jsbsim.script import export_script
-from ._args import nonnegative_int, out_path, positive_float
+from ._args import iterations, out_path, positive_float
 
 
 def register(sub) -> None:
@@ -23,8 +23,8 @@ def register(sub) -> None:
                                    + ", ".join(list_scenarios()))
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
     p.add_argument("--out", type=out_path, required=True, metavar="DIR", help="output folder (created)")
-    p.add_argument("--J", type=nonnegative_int, default=None,
-                   help="generalized-flatness iterations (default: the scenario's)")
+    p.add_argument("--J", type=iterations, default=None,
+                   help="generalized-flatness iterations, or auto (default: the scenario's)")
     p.add_argument("--dt-out", type=positive_float, default=0.02, metavar="S",
                    help="output interval of the CSV [s] (the JSBSim step divides it; default 0.02)")
     p.add_argument("--table-dt", type=positive_float, default=None, metavar="S",

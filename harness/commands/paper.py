@@ -35,7 +35,7 @@ from ..outdir import OutputDir
 from ..parallel import ForkPool, MemoryOutputDir, default_jobs, replay
 from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
-from ._args import nonnegative_int, out_path
+from ._args import iterations, nonnegative_int, out_path
 from ._compare_args import add_compare_arguments, compare_overrides
 from .plan import write_plan
 
@@ -55,7 +55,7 @@ def register(sub) -> None:
     p = sub.add_parser("paper", help="plan the paper's three manoeuvres and fly them on both engines",
                        description=__doc__.split("\n\n")[1])
     p.add_argument("--out", type=out_path, default=None, metavar="DIR", help="output folder (default reports/out/paper)")
-    p.add_argument("--J", type=nonnegative_int, default=None, help="iterations (default: each scenario's)")
+    p.add_argument("--J", type=iterations, default=None, help="iterations, or auto (default: each scenario's)")
     p.add_argument("--loop", choices=("open", "closed", "both"), default="both",
                    help="fly the plans open loop, closed loop with the tracking feedback, or both (default both)")
     p.add_argument("--jobs", type=positive_int, default=None, metavar="N",

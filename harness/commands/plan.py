@@ -25,7 +25,7 @@ from planners.verify import open_loop_error
 
 from ..fileio import json_safe
 from ..outdir import OutputDir
-from ._args import nonnegative_int, out_path
+from ._args import iterations, out_path
 from ._compare_args import default_out
 
 
@@ -45,7 +45,7 @@ def register(sub) -> None:
                                    "generalized-flatness iterations. Bundled scenarios: " + ", ".join(list_scenarios())
                                    + "; chained-system demos: " + ", ".join(DEMOS))
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
-    p.add_argument("--J", type=nonnegative_int, default=None, help="generalized-flatness iterations (default: the "
+    p.add_argument("--J", type=iterations, default=None, help="generalized-flatness iterations, or auto (a convergence test; default: the "
                                                                    "scenario's)")
     p.add_argument("--out", type=out_path, default=None, metavar="DIR",
                    help="output folder (default reports/out/<scenario>)")
@@ -120,17 +120,19 @@ def plan_summary(sc, plan, elapsed: float, check=None) -> dict:
     Returns
     -------
     dict
-        ``scenario``, ``aircraft``, ``environment`` (atmosphere and ground effect), ``g`` [m/s^2], ``J``, ``nodes``, ``orders``, ``planning_time_s``, ``timings_s``
+        ``scenario``, ``aircraft``, ``environment`` (atmosphere and ground effect), ``g`` [m/s^2], ``J``, ``J_rule``
+        (``"given"`` or the convergence test's stopping reason), ``e``, ``interpolation``, ``nodes``, ``orders``, ``planning_time_s``, ``timings_s``
         (per iterate), ``feasible``, ``worst_newton_residual``, ``equation_residual_per_iterate`` (max
         over the 12 full-model equations at the nodes, SI units), ``warnings``; with ``check`` also
         ``open_loop_max_position_error_m`` [m] (None when the flight stopped early),
         ``open_loop_t_worst_s``, ``open_loop_max_angle_error_rad``, ``open_loop_status`` and
         ``open_loop_settings``.
     """
-    res = [float(plan.equation_residuals("full", j).abs().max(skipna=False).max(skipna=False))
-           for j in range(plan.J + 1)]
+    res = plan.iterate_residuals()
     out = {"scenario": sc.name, "aircraft": sc.aircraft.id, "environment": plan.env.describe(), "g": plan.env.g,
-           "J": plan.J, "nodes": len(plan.t_nodes),
+           "J": plan.J, "J_rule": plan.generalized.get("J_rule", "given"),
+           "J_stop": plan.generalized.get("J_stop"), "e": plan.e,
+           "interpolation": plan.interpolation, "nodes": len(plan.t_nodes),
            "orders": [it.order for it in plan.iterates], "planning_time_s": elapsed, "timings_s": plan.timings,
            "feasible": bool(plan.feasible and not plan.domain_failures),
            "worst_newton_residual": plan.worst_newton_residual(), "equation_residual_per_iterate": res,

@@ -43,9 +43,9 @@ def test_three_line_test_regenerates_passes_and_fails_when_tightened(pytester, r
 
     run().assert_outcomes(passed=1)                  # jsbsim within the default tolerances (1e-2 m, 1e-4 rad)
 
-    # The engines differ by 1.1e-4 m in altitude over these 5 s: a 1e-5 m position tolerance fails on jsbsim,
+    # The engines differ by 4.1e-6 m in altitude over these 5 s: a 1e-6 m position tolerance fails on jsbsim,
     # with the difference table.
-    pytester.makepyfile(test_user=USER_TEST.format(extra=', atol={"position": 1e-5}'))
+    pytester.makepyfile(test_user=USER_TEST.format(extra=', atol={"position": 1e-6}'))
     tight = run()
     tight.assert_outcomes(failed=1)
     out = tight.stdout.str()

@@ -47,7 +47,7 @@ def test_newton_series_sqrt_and_arctan():
                                 order, names=("u", "v"), t_nodes=t0)
     np.testing.assert_allclose(np.real(u.coeffs), np.sqrt(1 + t).coeffs, atol=1e-13)
     np.testing.assert_allclose(np.real(v.coeffs), np.arctan(t).coeffs, atol=1e-13)
-    assert rep.doubling_orders == [1, 3, 7, 9]
+    assert rep.doubling_orders == [1, 2, 4, 9]
     assert rep.worst_residual < 1e-12 and rep.warnings == []
 
 
@@ -90,3 +90,12 @@ def test_pointwise_newton_lives_in_the_model_package():
     pn = importlib.import_module("planners.newton")  # the package re-exports the function ``newton``
     assert pn.newton is gna.solve.newton and pn.jacobian is gna.solve.jacobian
     assert pn.NewtonResult is gna.solve.NewtonResult
+
+
+def test_doubling_orders_from_the_top():
+    from planners.newton import doubling_orders
+    assert doubling_orders(0) == [] and doubling_orders(1) == [1] and doubling_orders(18) == [1, 2, 4, 9, 18]
+    for order in range(1, 70):
+        ks = doubling_orders(order)
+        assert ks[-1] == order and all(b <= 2 * a + 1 for a, b in zip([0] + ks, ks))
+        assert len(ks) == order.bit_length()  # as few steps as doubling from 0

@@ -1,4 +1,4 @@
-"""Plan evaluation (two-sided formula), generalized-flatness convergence (8b), open loop (8c)."""
+"""Plan evaluation (the paper's two-sided formula), generalized-flatness convergence (8b), open loop (8c)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,10 @@ from gna.simulate import simulate
 
 
 def test_two_sided_formula_at_and_between_nodes(weave_plan):
+    from dataclasses import replace
+
     sc, plan = weave_plan
+    plan = replace(plan, interpolation="paper")   # the paper's formula (the default is Hermite)
     sol = plan.iterates[-1]
     tn = plan.t_nodes
     # at the nodes: the series' constant terms
