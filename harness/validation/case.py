@@ -59,8 +59,9 @@ class ValidationCase:
     ----------
     scenario : str
         Bundled scenario name or path of a scenario TOML file.
-    J : int or None
-        Generalized-flatness iterations (``None``: the scenario's).
+    J : int, "auto" or None
+        Generalized-flatness iterations (``"auto"``: chosen by the convergence test,
+        :func:`planners.generalized.choose_J`; ``None``: the scenario's).
     engines : tuple of str
         At least two distinct engine names (:func:`harness.engines.engine_names`); the first is the reference.
     loop : {"open", "closed"}
@@ -87,7 +88,7 @@ class ValidationCase:
     """
 
     scenario: str
-    J: int | None = None
+    J: int | str | None = None
     engines: tuple = ("inhouse", "jsbsim")
     loop: str = "open"
     tolerances: Any = None
@@ -103,8 +104,9 @@ class ValidationCase:
             set_(self, "scenario", str(self.scenario))
         if not isinstance(self.scenario, str) or not self.scenario:
             raise InputError(f"scenario must be a name or a path, got {self.scenario!r}")
-        if self.J is not None and (isinstance(self.J, bool) or not isinstance(self.J, int) or self.J < 0):
-            raise InputError(f"J must be an integer >= 0 or None, got {self.J!r}")
+        if self.J is not None and self.J != "auto" and (isinstance(self.J, bool) or not isinstance(self.J, int)
+                                                        or self.J < 0):
+            raise InputError(f"J must be an integer >= 0, 'auto' or None, got {self.J!r}")
         # a comparison: at least two distinct engines, the rule of gflat compare --engines
         set_(self, "engines", check_engine_names(self.engines, minimum=2))
         if self.loop not in LOOPS:

@@ -168,7 +168,7 @@ def case_flights(case: ValidationCase, *, plan=None, scenario=None, open_loop=No
         t_start = time.perf_counter()
         plan = plan_scenario(scenario)
         planning_time = time.perf_counter() - t_start
-    elif case.J is not None and plan.J != case.J:
+    elif isinstance(case.J, int) and plan.J != case.J:
         raise InputError(f"the plan given has J = {plan.J}, the case asks for J = {case.J}")
     if not plan.feasible:
         raise DomainError(f"{plan.name}: the plan is not feasible, nothing to fly: {plan.newton_failures[0]}")
