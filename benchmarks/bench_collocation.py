@@ -629,7 +629,8 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
     repeat : int
         Interleaved repetitions (medians are reported).
     finer : sequence of float
-        Factors tried in turn when no grid of ``factors`` reaches the planner's accuracy (per guess).
+        Factors tried in turn when no grid of ``factors`` reaches the planner's accuracy (per guess),
+        as long as the finest grid so far converged and its open-loop flight finished.
     graphs : sequence of str
         CasADi graphs timed (``"MX"``, ``"SX"``); the comparison takes the quicker of them.
     guesses : sequence of str
@@ -692,7 +693,10 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
         for f in factors:
             add_grid(gname, grids, float(f))
         for f in finer:
-            if any(g["success"] and g["accuracy_m"] <= planner_acc for g in grids.values()):
+            # Finer grids buy accuracy, not convergence: none after a grid that failed or does not fly.
+            last = grids[min(grids)]
+            if (any(g["success"] and g["accuracy_m"] <= planner_acc for g in grids.values())
+                    or not (last["success"] and np.isfinite(last["accuracy_m"]))):
                 break
             add_grid(gname, grids, float(f))
         by_guess[gname] = {"grids": grids, "guess_times": []}
