@@ -33,8 +33,20 @@ term the open-loop error is 2 to 3000 times larger, the initial state being chos
 alone; with the rate term's weight 1e-3 or 1e-6 the roll needs 17 to 39 IPOPT iterations on the
 finer grids instead of 3.)
 
-Initial guess (the same for every grid): the planner's J = 0 plan (flat, simple model) evaluated at
-the collocation points; computing it is not counted in the collocation's time.
+Initial guess, a setting (``--guess``, both by default, reported side by side):
+
+* ``plan-j0``: the planner's J = 0 plan (flat parametrization of the simple model) evaluated at the
+  collocation points: a guess only a user of this planner has;
+* ``trim``: what a collocation user without flatness starts from: positions from the flat outputs at
+  the points, V, gamma, chi from their first derivatives (kinematics, exact), and alpha, beta, mu,
+  p, q, r and the controls held at one trim of the full model at the start: steady straight flight
+  with the flat outputs' speed and flight-path angle at t0, no sideslip, at the altitude and eta of
+  t0 (:data:`TRIM_RULE`; the same rule for every scenario, whatever the manoeuvre does next).
+
+Computing the guess (the J = 0 plan, or the trim and the kinematics) is part of solving a new problem,
+so it is counted in every collocation time below, built from scratch and re-solved alike.  A solution
+IPOPT accepts but whose points leave the model's physical domain, or whose open-loop flight does not
+finish, has no accuracy (NaN) and never counts as matched; no option is tuned per guess or scenario.
 
 Accuracy of both: the planned controls flown open loop on the full model from the plan's own initial
 state (``gna.simulate.simulate``, DOP853, rtol = atol = 1e-10), largest distance of ``(x, y, z)`` to
@@ -43,18 +55,21 @@ the exact flat outputs on an output grid of a tenth of the scenario's node step 
 for collocation.
 
 Timing: interleaved repetitions, per repetition the planner (``plan_scenario`` at the bundled
-settings), then per grid and CasADi graph (MX: the model an SX function mapped over the points, quick
-to build; SX: everything expanded, slow to build, quicker to evaluate) the collocation built from
-scratch (symbolic NLP, ``nlpsol``, solve) and re-solved (the solver built once, called again with the
-same initial guess); medians of CPU (``time.process_time``) and wall time, BLAS threads pinned to 1.
-The ratio at matched accuracy takes the cheapest grid whose accuracy is at least the planner's and
-the quicker graph for each of re-solve and built-from-scratch.  IPOPT: MUMPS, exact Hessian,
-``tol = 1e-8``, ``print_level = 0``, other options at their defaults.
+settings), then per guess, grid and CasADi graph (MX: the model an SX function mapped over the points,
+quick to build; SX: everything expanded, slow to build, quicker to evaluate) the collocation built from
+scratch (guess, symbolic NLP and ``nlpsol``, solve) and re-solved (guess, then the solver built once
+called from it); medians of CPU (``time.process_time``) and wall time, BLAS threads pinned to 1, the
+collector run before (not inside) every timed section.  The ratio at matched accuracy takes the
+cheapest successful grid whose accuracy is at least the planner's and the quicker graph for each of
+re-solve and built-from-scratch.  Finer grids than ``--factors`` are tried only while the finest grid
+so far converged and flew.  IPOPT: MUMPS, exact Hessian, ``tol = 1e-8``, ``print_level = 0``, other
+options at their defaults, the same for every scenario and guess.
 
 Usage::
 
     python benchmarks/bench_collocation.py [--scenarios NAME ...] [--repeat N] [--factors 1,2,4,8]
-                                           [--graphs MX,SX] [--quick] [--json PATH]
+                                           [--graphs MX,SX] [--guess plan-j0,trim] [--quick]
+                                           [--json PATH] [--markdown PATH]
 """
 
 from __future__ import annotations
