@@ -236,9 +236,10 @@ class CollocationSolution:
     constraint_violation : float
         Largest violation of the collocation equations (units of the states).
     domain : str or None
-        The first point outside the model's physical domain (:func:`gna.trajectory.domain_violation`:
-        airspeed, ``|beta| < pi/2``, ``|alpha|``), None when every point is inside; a solution outside
-        it solves the NLP but is no flight (the open loop is then not flown).
+        (Property.) The first point outside the model's physical domain
+        (:func:`gna.trajectory.domain_violation`: airspeed, ``|beta| < pi/2``, ``cos(gamma)``, ``|alpha|``),
+        None when every point is inside; a solution outside it solves the NLP but is no flight (the open
+        loop is then not flown).
     """
 
     t: np.ndarray
@@ -249,7 +250,12 @@ class CollocationSolution:
     status: str
     iterations: int
     constraint_violation: float
-    domain: str | None = None
+
+    @property
+    def domain(self) -> str | None:
+        """The first point outside the physical domain (message), None when every point is inside."""
+        return next((msg for k in range(len(self.t))
+                     if (msg := domain_violation(float(self.t[k]), self.states[:, k]))), None)
 
     @property
     def initial_state(self) -> np.ndarray:
@@ -452,10 +458,8 @@ class CollocationProblem:
         viol = float(np.max(np.abs(gd.reshape(12, -1, order="F") * self._sx[:, None]))) if gd.size else 0.0
         if g.size > gd.size:
             viol = max(viol, float(np.max(np.abs(g[gd.size:]))))
-        domain = next((msg for k in range(self.P) if (msg := domain_violation(float(self.t[k]), X[:, k]))), None)
         return CollocationSolution(self.t, X, U, ctl, bool(stats.get("success", False)),
-                                   str(stats.get("return_status", "")), int(stats.get("iter_count", -1)), viol,
-                                   domain)
+                                   str(stats.get("return_status", "")), int(stats.get("iter_count", -1)), viol)
 
 
 def cubic_pieces(breaks: np.ndarray, t: np.ndarray, values: np.ndarray) -> PiecewisePolynomial:
