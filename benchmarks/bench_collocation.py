@@ -33,8 +33,20 @@ term the open-loop error is 2 to 3000 times larger, the initial state being chos
 alone; with the rate term's weight 1e-3 or 1e-6 the roll needs 17 to 39 IPOPT iterations on the
 finer grids instead of 3.)
 
-Initial guess (the same for every grid): the planner's J = 0 plan (flat, simple model) evaluated at
-the collocation points; computing it is not counted in the collocation's time.
+Initial guess, a setting (``--guess``, both by default, reported side by side):
+
+* ``plan-j0``: the planner's J = 0 plan (flat parametrization of the simple model) evaluated at the
+  collocation points: a guess only a user of this planner has;
+* ``trim``: what a collocation user without flatness starts from: positions from the flat outputs at
+  the points, V, gamma, chi from their first derivatives (kinematics, exact), and alpha, beta, mu,
+  p, q, r and the controls held at one trim of the full model at the start: steady straight flight
+  with the flat outputs' speed and flight-path angle at t0, no sideslip, at the altitude and eta of
+  t0 (:data:`TRIM_RULE`; the same rule for every scenario, whatever the manoeuvre does next).
+
+Computing the guess (the J = 0 plan, or the trim and the kinematics) is part of solving a new problem,
+so it is counted in every collocation time below, built from scratch and re-solved alike.  A solution
+IPOPT accepts but whose points leave the model's physical domain, or whose open-loop flight does not
+finish, has no accuracy (NaN) and never counts as matched; no option is tuned per guess or scenario.
 
 Accuracy of both: the planned controls flown open loop on the full model from the plan's own initial
 state (``gna.simulate.simulate``, DOP853, rtol = atol = 1e-10), largest distance of ``(x, y, z)`` to
@@ -43,18 +55,21 @@ the exact flat outputs on an output grid of a tenth of the scenario's node step 
 for collocation.
 
 Timing: interleaved repetitions, per repetition the planner (``plan_scenario`` at the bundled
-settings), then per grid and CasADi graph (MX: the model an SX function mapped over the points, quick
-to build; SX: everything expanded, slow to build, quicker to evaluate) the collocation built from
-scratch (symbolic NLP, ``nlpsol``, solve) and re-solved (the solver built once, called again with the
-same initial guess); medians of CPU (``time.process_time``) and wall time, BLAS threads pinned to 1.
-The ratio at matched accuracy takes the cheapest grid whose accuracy is at least the planner's and
-the quicker graph for each of re-solve and built-from-scratch.  IPOPT: MUMPS, exact Hessian,
-``tol = 1e-8``, ``print_level = 0``, other options at their defaults.
+settings), then per guess, grid and CasADi graph (MX: the model an SX function mapped over the points,
+quick to build; SX: everything expanded, slow to build, quicker to evaluate) the collocation built from
+scratch (guess, symbolic NLP and ``nlpsol``, solve) and re-solved (guess, then the solver built once
+called from it); medians of CPU (``time.process_time``) and wall time, BLAS threads pinned to 1, the
+collector run before (not inside) every timed section.  The ratio at matched accuracy takes the
+cheapest successful grid whose accuracy is at least the planner's and the quicker graph for each of
+re-solve and built-from-scratch.  Finer grids than ``--factors`` are tried only while the finest grid
+so far converged and flew.  IPOPT: MUMPS, exact Hessian, ``tol = 1e-8``, ``print_level = 0``, other
+options at their defaults, the same for every scenario and guess.
 
 Usage::
 
     python benchmarks/bench_collocation.py [--scenarios NAME ...] [--repeat N] [--factors 1,2,4,8]
-                                           [--graphs MX,SX] [--quick] [--json PATH]
+                                           [--graphs MX,SX] [--guess plan-j0,trim] [--quick]
+                                           [--json PATH] [--markdown PATH]
 """
 
 from __future__ import annotations
@@ -82,6 +97,7 @@ import numpy as np  # noqa: E402
 from gna import eom  # noqa: E402
 from gna.atmosphere import H_TROPO, ISA, LAPSE, R_AIR, RHO0, RHO_TROPO, T0, T_TROPO  # noqa: E402
 from gna.piecewise import PiecewisePolynomial  # noqa: E402
+from gna.trajectory import domain_violation  # noqa: E402
 from gna.units import G0  # noqa: E402
 from planners import verify  # noqa: E402
 
@@ -219,6 +235,11 @@ class CollocationSolution:
         IPOPT iterations.
     constraint_violation : float
         Largest violation of the collocation equations (units of the states).
+    domain : str or None
+        (Property.) The first point outside the model's physical domain
+        (:func:`gna.trajectory.domain_violation`: airspeed, ``|beta| < pi/2``, ``cos(gamma)``, ``|alpha|``),
+        None when every point is inside; a solution outside it solves the NLP but is no flight (the open
+        loop is then not flown).
     """
 
     t: np.ndarray
@@ -229,6 +250,12 @@ class CollocationSolution:
     status: str
     iterations: int
     constraint_violation: float
+
+    @property
+    def domain(self) -> str | None:
+        """The first point outside the physical domain (message), None when every point is inside."""
+        return next((msg for k in range(len(self.t))
+                     if (msg := domain_violation(float(self.t[k]), self.states[:, k]))), None)
 
     @property
     def initial_state(self) -> np.ndarray:
@@ -368,10 +395,26 @@ class CollocationProblem:
                 "ipopt.linear_solver": "mumps"}
         opts.update({f"ipopt.{k}": v for k, v in (ipopt or {}).items()})
         self.solver = ca.nlpsol("collocation", "ipopt", {"x": w, "f": obj, "g": dyn}, opts)
-        w0 = np.concatenate([(g_states[free_x] / sx[free_x, None]), (g_controls[free_u] / su[free_u, None])])
-        self.w0 = w0.ravel(order="F")
         self._sx, self._su = sx, su
         self.P = P
+        self.w0 = self._scaled(g_states, g_controls)
+
+    def _scaled(self, states: np.ndarray, controls: np.ndarray) -> np.ndarray:
+        """The decision vector of states (12, P) and controls (5, P): the free rows over their scales."""
+        fx, fu = self.free_x, self.free_u
+        w0 = np.concatenate([(states[fx] / self._sx[fx, None]), (controls[fu] / self._su[fu, None])])
+        return w0.ravel(order="F")
+
+    def set_guess(self, guess: Callable) -> None:
+        """Replace the initial guess of the next :meth:`solve` (the NLP and its scales stay).
+
+        Parameters
+        ----------
+        guess : callable
+            ``guess(t) -> (states (12, P), controls (5, P))`` at the points' times ``t`` [SI, rad].
+        """
+        g_states, g_controls = guess(self.t)
+        self.w0 = self._scaled(np.asarray(g_states, dtype=float), np.asarray(g_controls, dtype=float))
 
     def solve(self) -> CollocationSolution:
         """Run IPOPT from the initial guess.
@@ -456,14 +499,16 @@ def open_loop_error_of(scenario, controls, x0, t_eval=None) -> float:
     """Largest distance [m] to the flat outputs when ``controls`` are flown open loop from ``x0``.
 
     :func:`planners.verify.open_loop_check` (full model, DOP853, rtol = atol = 1e-10); NaN when
-    the flight stops early.
+    the flight stops early or the initial state is outside the physical domain.
     """
     grid = verification_grid(scenario) if t_eval is None else np.asarray(t_eval, dtype=float)
+    if domain_violation(float(grid[0]), np.asarray(x0, dtype=float)) is not None:
+        return float("nan")
     return verify.open_loop_check(scenario.problem(), controls, np.asarray(x0, dtype=float), grid).max_position_error_m
 
 
 def planner_guess(scenario) -> Callable:
-    """The initial guess of every grid: the planner's J = 0 plan (flat, simple model).
+    """Initial guess ``plan-j0``: the planner's J = 0 plan (flat parametrization, simple model).
 
     Parameters
     ----------
@@ -481,13 +526,105 @@ def planner_guess(scenario) -> Callable:
     return lambda t: (plan.state(np.asarray(t, dtype=float), 0), plan.controls(np.asarray(t, dtype=float), 0))
 
 
+def flat_output_kinematics(problem, t: np.ndarray) -> np.ndarray:
+    """Positions and the velocity vector's V, gamma, chi from the flat outputs x, y, z and their first derivatives.
+
+    No wind: the air-path velocity is the time derivative of the position (NED), so
+    ``V = |(x', y', z')|``, ``gamma = atan2(-z', sqrt(x'^2 + y'^2))``, ``chi = atan2(y', x')`` (unwrapped).
+    The derivatives are exact (order-1 Taylor series of the scenario's expressions).
+
+    Parameters
+    ----------
+    problem : planners.flat.FlatProblem
+        The scenario's problem (flat outputs x, y, z of t).
+    t : ndarray, shape (P,)
+        Times [s].
+
+    Returns
+    -------
+    ndarray, shape (6, P)
+        ``x, y, z`` [m], ``V`` [m/s], ``gamma, chi`` [rad].
+    """
+    from planners.series import Series
+
+    t = np.asarray(t, dtype=float)
+    ts = Series.variable(t, 1)
+    rows = []
+    for f in (problem.x, problem.y, problem.z):
+        s = f(ts)
+        if isinstance(s, Series):
+            c = s.coeffs
+            rows.append((np.broadcast_to(c[..., 0], t.shape), np.broadcast_to(c[..., 1], t.shape)))
+        else:  # an expression without t is a number
+            rows.append((np.full(t.shape, float(s)), np.zeros(t.shape)))
+    (x, xd), (y, yd), (z, zd) = rows
+    V = np.sqrt(xd ** 2 + yd ** 2 + zd ** 2)
+    gamma = np.arctan2(-zd, np.hypot(xd, yd))
+    chi = np.unwrap(np.arctan2(yd, xd))
+    return np.stack([x, y, z, V, gamma, chi])
+
+
+TRIM_RULE = ("steady straight flight along the initial velocity: gna.trim.trim(aircraft, {V, gamma: from the flat "
+             "outputs' derivatives at t0, chi_dot: 0, beta: 0}, altitude -z(t0), eta(t0)), full model")
+
+
+def trim_guess(scenario) -> Callable:
+    """Initial guess ``trim``: what a collocation user without the flat parametrization would start from.
+
+    Positions from the flat outputs at the points, ``V, gamma, chi`` from their first derivatives
+    (:func:`flat_output_kinematics`, exact), and ``alpha, beta, mu, p, q, r`` and the five controls held
+    at one trim of the full model at the start (:data:`TRIM_RULE`): steady straight flight with the
+    speed and flight-path angle of the flat outputs at t0, no sideslip, at the altitude -z(t0) and the
+    thrust asymmetry eta(t0) (0 when eta is the fourth control).  The same rule for every scenario,
+    whatever its manoeuvre does next.
+
+    Parameters
+    ----------
+    scenario : planners.scenario.Scenario
+        The scenario.
+
+    Returns
+    -------
+    callable
+        ``guess(t) -> (states (12, P), controls (5, P))`` at times ``t`` [s] (SI, rad); its attribute
+        ``trim`` is the :class:`gna.trim.TrimResult`.
+
+    Raises
+    ------
+    gna.errors.ConvergenceError
+        The trim does not converge.
+    """
+    from gna.trim import trim
+
+    pb = scenario.problem()
+    k0 = flat_output_kinematics(pb, np.array([scenario.t0]))[:, 0]
+    eta0 = float(np.asarray(pb.eta(scenario.t0))) if pb.eta is not None else 0.0
+    tr = trim(pb.aircraft, {"V": float(k0[3]), "gamma": float(k0[4]), "chi_dot": 0.0, "beta": 0.0},
+              altitude=float(-k0[2]), env=pb.env, eta=eta0)
+    held = np.array([tr.values[k] for k in ("alpha", "beta", "mu", "p", "q", "r")])
+    u = np.array([tr.values["F"], eta0, tr.values["dl"], tr.values["dm"], tr.values["dn"]])
+
+    def guess(t):
+        t = np.asarray(t, dtype=float)
+        states = np.concatenate([flat_output_kinematics(pb, t), np.repeat(held[:, None], t.size, axis=1)])
+        return states, np.repeat(u[:, None], t.size, axis=1)
+
+    guess.trim = tr
+    return guess
+
+
+GUESSES = {"plan-j0": planner_guess, "trim": trim_guess}
+GUESS_TEXT = {"plan-j0": "the planner's J = 0 plan (flat parametrization, simple model) at the points",
+              "trim": "flat outputs and their kinematics at the points, the rest held at a trim: " + TRIM_RULE}
+
+
 def _clock():
     gc.collect()  # every timed section starts from the same collector state
     return time.process_time(), time.perf_counter()
 
 
 def _since(start):
-    c, w = _clock()
+    c, w = time.process_time(), time.perf_counter()  # the collection belongs to the next section's start
     return c - start[0], w - start[1]
 
 
@@ -499,8 +636,8 @@ GRAPHS = ("MX", "SX")
 
 
 def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FINER_FACTORS,
-                   graphs=GRAPHS, log=print) -> dict:
-    """Time and accuracy of the planner and of collocation on grids of a scenario.
+                   graphs=GRAPHS, guesses=tuple(GUESSES), log=print) -> dict:
+    """Time and accuracy of the planner and of collocation on grids of a scenario, per initial guess.
 
     Parameters
     ----------
@@ -511,19 +648,23 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
     repeat : int
         Interleaved repetitions (medians are reported).
     finer : sequence of float
-        Factors tried in turn when no grid of ``factors`` reaches the planner's accuracy.
+        Factors tried in turn when no grid of ``factors`` reaches the planner's accuracy (per guess),
+        as long as the finest grid so far converged and its open-loop flight finished.
     graphs : sequence of str
         CasADi graphs timed (``"MX"``, ``"SX"``); the comparison takes the quicker of them.
+    guesses : sequence of str
+        Initial guesses (keys of :data:`GUESSES`: ``"plan-j0"``, ``"trim"``).
     log : callable
         Progress messages.
 
     Returns
     -------
     dict
-        ``planner``: time (CPU, wall medians) [s] and accuracy [m]; ``grids``: per factor the
-        intervals, points, variables, per graph the build / solve / re-solve medians [s] and the
-        accuracy [m]; ``matched``: the cheapest grid at least as accurate as the planner and the
-        time ratios (re-solved and built from scratch over the planner, the quicker graph).
+        ``planner``: time (CPU, wall medians) [s] and accuracy [m]; ``guesses``: per guess its
+        description and time (median, counted in every collocation time below), ``grids`` (per factor
+        the intervals, points, variables, IPOPT's status and iterations, per graph the guess / build /
+        solve / re-solve medians [s], the accuracy [m]) and ``matched`` (the cheapest successful grid at
+        least as accurate as the planner, and the time ratios over the planner, the quicker graph).
     """
     from planners.generalized import plan_scenario
     from planners.scenario import load_scenario
@@ -531,99 +672,139 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
 
     _require_casadi()
     sc = load_scenario(name)
-    t_guess = _clock()
-    guess = planner_guess(sc)
-    guess_time = _since(t_guess)
     plan = plan_scenario(sc)  # warm-up, and the accuracy (deterministic)
     check = open_loop_error(plan)
     planner_acc = check.max_position_error_m
     out = {"scenario": sc.name, "step_s": sc.step, "span_s": sc.t1 - sc.t0,
-           "guess": {"what": "planner J = 0 plan at the points", "time_cpu_s": guess_time[0],
-                     "time_wall_s": guess_time[1]},
            "planner": {"J": plan.J, "nodes": len(plan.t_nodes), "accuracy_m": planner_acc,
                        "feasible": bool(plan.feasible), "settings": {k: getattr(plan, k) for k in ("e",)
-                                                                     if hasattr(plan, k)}}}
+                                                                     if hasattr(plan, k)}},
+           "guesses": {}}
     log(f"{sc.name}: planner J = {plan.J}, accuracy {planner_acc:.3g} m")
-    grids: dict[float, dict] = {}
-    prebuilt: dict[tuple[float, str], CollocationProblem] = {}
+    prebuilt: dict[tuple[str, float, str], CollocationProblem] = {}
 
-    def add_grid(f):
+    def add_grid(gname, grids, f):
         row = {"factor": f}
         sols = {}
-        for gname in graphs:
-            prob = CollocationProblem(sc, f, guess, graph=gname)
-            sols[gname] = prob.solve()
-            prebuilt[f, gname] = prob
+        for graph in graphs:
+            prob = CollocationProblem(sc, f, GUESSES[gname](sc), graph=graph)
+            sols[graph] = prob.solve()
+            prebuilt[gname, f, graph] = prob
         sol = sols[graphs[0]]
-        acc = open_loop_error_of(sc, sol.control_function, sol.initial_state)
+        acc = open_loop_error_of(sc, sol.control_function, sol.initial_state) if sol.domain is None else float("nan")
         spread = max(float(np.max(np.abs(s.controls - sol.controls))) for s in sols.values())
         row.update({"intervals": prob.n_intervals, "points": prob.P, "variables": prob.n_variables,
                     "constraints": prob.n_constraints, "accuracy_m": acc,
                     "success": all(s.success for s in sols.values()), "status": sol.status,
-                    "iterations": sol.iterations, "constraint_violation": sol.constraint_violation,
-                    "graphs_max_control_difference": spread, "times": {g: {"build": [], "solve": [], "scratch": [],
-                                                                            "resolve": []} for g in graphs}})
+                    "iterations": sol.iterations, "iterations_by_graph": {g: s.iterations for g, s in sols.items()},
+                    "constraint_violation": sol.constraint_violation, "domain": sol.domain,
+                    "graphs_max_control_difference": spread,
+                    "times": {g: {k: [] for k in ("guess", "build", "solve", "scratch", "resolve")} for g in graphs}})
         grids[f] = row
-        log(f"  grid {f:g} x step: {prob.n_intervals} intervals, accuracy {acc:.3g} m, {sol.status}, "
-            f"{sol.iterations} iterations")
+        log(f"  {gname}: grid {f:g} x step: {prob.n_intervals} intervals, accuracy {acc:.3g} m, {sol.status}, "
+            f"{sol.iterations} iterations" + (f"; solution outside the domain: {sol.domain}" if sol.domain else ""))
 
-    for f in factors:
-        add_grid(float(f))
-    for f in finer:
-        if any(g["accuracy_m"] <= planner_acc for g in grids.values()):
-            break
-        add_grid(float(f))
+    by_guess: dict[str, dict] = {}
+    for gname in guesses:
+        if gname not in GUESSES:
+            raise ValueError(f"unknown initial guess {gname!r}; choose from {', '.join(GUESSES)}")
+        grids: dict[float, dict] = {}
+        for f in factors:
+            add_grid(gname, grids, float(f))
+        for f in finer:
+            # Finer grids buy accuracy, not convergence: none after a grid that failed or does not fly.
+            last = grids[min(grids)]
+            if (any(g["success"] and g["accuracy_m"] <= planner_acc for g in grids.values())
+                    or not (last["success"] and np.isfinite(last["accuracy_m"]))):
+                break
+            add_grid(gname, grids, float(f))
+        by_guess[gname] = {"grids": grids, "guess_times": []}
 
+    # Each collocation time includes its initial guess (computed afresh: it is part of every new
+    # problem's solve): built from scratch = guess + build (guess at the points) + solve, re-solved =
+    # guess + the pre-built solver's solve from it.
     planner_t = []
     for _ in range(repeat):
         start = _clock()
         plan_scenario(sc)
         planner_t.append(_since(start))
-        for f, g in grids.items():
-            for gname in graphs:
-                tt = g["times"][gname]
-                start = _clock()
-                prob = CollocationProblem(sc, f, guess, graph=gname)
-                build = _since(start)
-                start = _clock()
-                prob.solve()
-                solve = _since(start)
-                tt["build"].append(build)
-                tt["solve"].append(solve)
-                tt["scratch"].append((build[0] + solve[0], build[1] + solve[1]))
-                start = _clock()
-                prebuilt[f, gname].solve()
-                tt["resolve"].append(_since(start))
+        for gname in guesses:
+            make_guess = GUESSES[gname]
+            for f, g in by_guess[gname]["grids"].items():
+                for graph in graphs:
+                    tt = g["times"][graph]
+                    start = _clock()
+                    guess = make_guess(sc)
+                    gt = _since(start)
+                    start = _clock()
+                    prob = CollocationProblem(sc, f, guess, graph=graph)
+                    build = _since(start)
+                    start = _clock()
+                    prob.solve()
+                    solve = _since(start)
+                    tt["build"].append(build)
+                    tt["solve"].append(solve)
+                    tt["scratch"].append((gt[0] + build[0] + solve[0], gt[1] + build[1] + solve[1]))
+                    pre = prebuilt[gname, f, graph]
+                    start = _clock()
+                    pre.set_guess(make_guess(sc))
+                    gt2 = _since(start)
+                    start = _clock()
+                    pre.solve()
+                    resolve = _since(start)
+                    tt["guess"].append(gt2)
+                    tt["resolve"].append((gt2[0] + resolve[0], gt2[1] + resolve[1]))
     out["planner"]["time_cpu_s"], out["planner"]["time_wall_s"] = _median(planner_t)
-    rows = []
-    for f in sorted(grids):
-        g = grids[f]
-        for gname in graphs:
-            tt = g["times"][gname]
-            for key in ("build", "solve", "scratch", "resolve"):
-                tt[f"{key}_cpu_s"], tt[f"{key}_wall_s"] = _median(tt.pop(key))
-        for key in ("scratch", "resolve"):
-            for clock in ("cpu", "wall"):
-                best = min(graphs, key=lambda gn: g["times"][gn][f"{key}_{clock}_s"])
-                g[f"{key}_{clock}_s"] = g["times"][best][f"{key}_{clock}_s"]
-                g[f"{key}_{clock}_graph"] = best
-        rows.append(g)
-    out["grids"] = rows
-    ok = [g for g in rows if g["success"] and g["accuracy_m"] <= planner_acc]
     p = out["planner"]
-    if ok:
-        best = min(ok, key=lambda g: g["resolve_wall_s"])
-        out["matched"] = {"factor": best["factor"], "accuracy_m": best["accuracy_m"],
-                          "resolve_over_planner_wall": best["resolve_wall_s"] / p["time_wall_s"],
-                          "resolve_over_planner_cpu": best["resolve_cpu_s"] / p["time_cpu_s"],
-                          "scratch_over_planner_wall": best["scratch_wall_s"] / p["time_wall_s"],
-                          "scratch_over_planner_cpu": best["scratch_cpu_s"] / p["time_cpu_s"]}
-    else:
-        out["matched"] = None
-    same = [g for g in rows if g["factor"] == 1.0]
-    if same:
-        out["same_grid_accuracy_m"] = same[0]["accuracy_m"]
+    for gname in guesses:
+        grids = by_guess[gname]["grids"]
+        rows = []
+        for f in sorted(grids):
+            g = grids[f]
+            for graph in graphs:
+                tt = g["times"][graph]
+                for key in ("guess", "build", "solve", "scratch", "resolve"):
+                    tt[f"{key}_cpu_s"], tt[f"{key}_wall_s"] = _median(tt.pop(key))
+            for key in ("scratch", "resolve"):
+                for clock in ("cpu", "wall"):
+                    best = min(graphs, key=lambda gn: g["times"][gn][f"{key}_{clock}_s"])
+                    g[f"{key}_{clock}_s"] = g["times"][best][f"{key}_{clock}_s"]
+                    g[f"{key}_{clock}_graph"] = best
+            rows.append(g)
+        gtimes = [g["times"][graph][f"guess_{c}_s"] for g in rows for graph in graphs for c in ("cpu", "wall")]
+        res = {"what": GUESS_TEXT[gname], "counted_in_times": True,
+               "time_cpu_s": statistics.median(gtimes[0::2]) if gtimes else float("nan"),
+               "time_wall_s": statistics.median(gtimes[1::2]) if gtimes else float("nan"), "grids": rows}
+        if gname == "trim":
+            tr = GUESSES[gname](sc).trim
+            res["trim"] = {"fixed": tr.fixed, "values": tr.values, "altitude_m": tr.altitude, "eta": tr.eta,
+                           "warnings": list(tr.warnings)}
+        ok = [g for g in rows if g["success"] and g["accuracy_m"] <= planner_acc]
+        if ok:
+            best = min(ok, key=lambda g: g["resolve_wall_s"])
+            res["matched"] = {"factor": best["factor"], "accuracy_m": best["accuracy_m"],
+                              "iterations": best["iterations"],
+                              "resolve_over_planner_wall": best["resolve_wall_s"] / p["time_wall_s"],
+                              "resolve_over_planner_cpu": best["resolve_cpu_s"] / p["time_cpu_s"],
+                              "scratch_over_planner_wall": best["scratch_wall_s"] / p["time_wall_s"],
+                              "scratch_over_planner_cpu": best["scratch_cpu_s"] / p["time_cpu_s"]}
+        else:
+            res["matched"] = None
+        same = [g for g in rows if g["factor"] == 1.0]
+        if same:
+            res["same_grid_accuracy_m"] = same[0]["accuracy_m"]
+        out["guesses"][gname] = res
     return out
+
+
+def _grid_note(g: dict) -> str:
+    """IPOPT's status when it is not success, and a solution outside the physical domain."""
+    note = "" if g["success"] else f" {g['status']}"
+    if g.get("domain"):
+        note += " (solution outside the domain)"
+    elif not np.isfinite(g["accuracy_m"]):
+        note += " (open loop leaves the domain)"
+    return note
 
 
 def format_table(res: dict) -> str:
@@ -639,31 +820,33 @@ def format_table(res: dict) -> str:
     str
     """
     p = res["planner"]
-    graphs = list(res["grids"][0]["times"]) if res["grids"] else []
     lines = [f"{res['scenario']} (node step {res['step_s']:g} s, span {res['span_s']:g} s); times: median wall "
-             f"(CPU) [s]",
+             f"(CPU) [s]; every collocation time includes its initial guess",
              f"  planner J={p['J']}, {p['nodes']} nodes: {p['time_wall_s']:.3f} ({p['time_cpu_s']:.3f}), "
-             f"open-loop accuracy {p['accuracy_m']:.3g} m",
-             f"  {'grid':>6} {'interv.':>7} {'vars':>6} "
-             + " ".join(f"{k + ' ' + gn:>16}" for k in ("build", "solve", "re-solve") for gn in graphs)
-             + f" {'accuracy [m]':>12} {'it':>3}"]
-    for g in res["grids"]:
-        cells = []
-        for key in ("build", "solve", "resolve"):
-            for gn in graphs:
-                tt = g["times"][gn]
-                cells.append(f"{tt[key + '_wall_s']:.3f} ({tt[key + '_cpu_s']:.3f})")
-        lines.append(f"  {g['factor']:>5g}x {g['intervals']:>7} {g['variables']:>6} "
-                     + " ".join(f"{c:>16}" for c in cells)
-                     + f" {g['accuracy_m']:>12.3g} {g['iterations']:>3}" + ("" if g["success"] else f" {g['status']}"))
-    m = res["matched"]
-    if m:
-        lines.append(f"  matched accuracy: grid {m['factor']:g}x ({m['accuracy_m']:.3g} m): re-solved / planner = "
-                     f"{m['resolve_over_planner_wall']:.2f} wall ({m['resolve_over_planner_cpu']:.2f} CPU), "
-                     f"built from scratch / planner = {m['scratch_over_planner_wall']:.2f} wall "
-                     f"({m['scratch_over_planner_cpu']:.2f} CPU)")
-    else:
-        lines.append("  matched accuracy: no collocation grid reached the planner's accuracy")
+             f"open-loop accuracy {p['accuracy_m']:.3g} m"]
+    for gname, gres in res["guesses"].items():
+        graphs = list(gres["grids"][0]["times"]) if gres["grids"] else []
+        lines += [f"  initial guess {gname}: {gres['what']}; {gres['time_wall_s']:.3f} ({gres['time_cpu_s']:.3f})",
+                  f"  {'grid':>6} {'interv.':>7} {'vars':>6} "
+                  + " ".join(f"{k + ' ' + gn:>16}" for k in ("build", "solve", "re-solve") for gn in graphs)
+                  + f" {'accuracy [m]':>12} {'it':>4}"]
+        for g in gres["grids"]:
+            cells = []
+            for key in ("build", "solve", "resolve"):
+                for gn in graphs:
+                    tt = g["times"][gn]
+                    cells.append(f"{tt[key + '_wall_s']:.3f} ({tt[key + '_cpu_s']:.3f})")
+            lines.append(f"  {g['factor']:>5g}x {g['intervals']:>7} {g['variables']:>6} "
+                         + " ".join(f"{c:>16}" for c in cells)
+                         + f" {g['accuracy_m']:>12.3g} {g['iterations']:>4}" + _grid_note(g))
+        m = gres["matched"]
+        if m:
+            lines.append(f"  matched accuracy ({gname}): grid {m['factor']:g}x ({m['accuracy_m']:.3g} m): re-solved / "
+                         f"planner = {m['resolve_over_planner_wall']:.2f} wall ({m['resolve_over_planner_cpu']:.2f} "
+                         f"CPU), built from scratch / planner = {m['scratch_over_planner_wall']:.2f} wall "
+                         f"({m['scratch_over_planner_cpu']:.2f} CPU)")
+        else:
+            lines.append(f"  matched accuracy ({gname}): no successful collocation grid reached the planner's accuracy")
     return "\n".join(lines)
 
 
@@ -678,34 +861,40 @@ def markdown_table(results: list) -> str:
     Returns
     -------
     str
-        Per scenario a planner row and one row per grid: intervals, NLP variables, build, solve and
-        re-solve times (median wall (CPU) [s], the quicker graph for re-solve and built-from-scratch),
-        open-loop accuracy; then the ratios at matched accuracy.
+        Per scenario a planner row and per initial guess one row per grid: intervals, NLP variables,
+        IPOPT iterations (and status when not success), built-from-scratch and re-solve times (median wall
+        (CPU) [s], the initial guess included, the quicker graph), open-loop accuracy; then the ratios at
+        matched accuracy per guess.
     """
     def t(x, key):
         return f"{x[key + '_wall_s']:.3f} ({x[key + '_cpu_s']:.3f})"
 
-    lines = ["| scenario | solver | intervals | NLP variables | built from scratch [s] | re-solve [s] | "
-             "open-loop accuracy [m] |", "|---|---|---|---|---|---|---|"]
+    lines = ["| scenario | solver | intervals | NLP variables | IPOPT iterations | built from scratch [s] | "
+             "re-solve [s] | open-loop accuracy [m] |", "|---|---|---|---|---|---|---|---|"]
     for r in results:
         p = r["planner"]
-        lines.append(f"| {r['scenario']} | planner J = {p['J']} | {p['nodes'] - 1} | | "
+        lines.append(f"| {r['scenario']} | planner J = {p['J']} | {p['nodes'] - 1} | | | "
                      f"{t(p, 'time')} | | {p['accuracy_m']:.2g} |")
-        for g in r["grids"]:
-            lines.append(f"| | collocation {g['factor']:g}x ({g['iterations']} it.) | {g['intervals']} | "
-                         f"{g['variables']} | {t(g, 'scratch')} {g['scratch_wall_graph']} | "
-                         f"{t(g, 'resolve')} {g['resolve_wall_graph']} | {g['accuracy_m']:.2g} |")
-    lines += ["", "| scenario | planner | matched grid | re-solved / planner | built from scratch / planner |",
-              "|---|---|---|---|---|"]
+        for gname, gres in r["guesses"].items():
+            for g in gres["grids"]:
+                lines.append(f"| | collocation {g['factor']:g}x, guess {gname} | {g['intervals']} | "
+                             f"{g['variables']} | {g['iterations']}{_grid_note(g)} | "
+                             f"{t(g, 'scratch')} {g['scratch_wall_graph']} | "
+                             f"{t(g, 'resolve')} {g['resolve_wall_graph']} | {g['accuracy_m']:.2g} |")
+    lines += ["", "| scenario | planner | initial guess (its time, included) | matched grid | re-solved / planner | "
+              "built from scratch / planner |", "|---|---|---|---|---|---|"]
     for r in results:
-        p, m = r["planner"], r["matched"]
-        if m:
-            lines.append(f"| {r['scenario']} | {p['time_wall_s']:.3f} s, {p['accuracy_m']:.2g} m | "
-                         f"{m['factor']:g}x, {m['accuracy_m']:.2g} m | {m['resolve_over_planner_wall']:.2f} wall "
-                         f"({m['resolve_over_planner_cpu']:.2f} CPU) | {m['scratch_over_planner_wall']:.2f} wall "
-                         f"({m['scratch_over_planner_cpu']:.2f} CPU) |")
-        else:
-            lines.append(f"| {r['scenario']} | {p['time_wall_s']:.3f} s, {p['accuracy_m']:.2g} m | none | | |")
+        p = r["planner"]
+        for gname, gres in r["guesses"].items():
+            m = gres["matched"]
+            head = (f"| {r['scenario']} | {p['time_wall_s']:.3f} s, {p['accuracy_m']:.2g} m | {gname} "
+                    f"({gres['time_wall_s']:.3f} s) |")
+            if m:
+                lines.append(f"{head} {m['factor']:g}x, {m['accuracy_m']:.2g} m, {m['iterations']} it. | "
+                             f"{m['resolve_over_planner_wall']:.2f} wall ({m['resolve_over_planner_cpu']:.2f} CPU) | "
+                             f"{m['scratch_over_planner_wall']:.2f} wall ({m['scratch_over_planner_cpu']:.2f} CPU) |")
+            else:
+                lines.append(f"{head} none | | |")
     return "\n".join(lines)
 
 
@@ -717,18 +906,25 @@ def main(argv=None) -> None:
                     help="collocation interval / scenario node step, comma-separated")
     ap.add_argument("--quick", action="store_true", help="smoke run: one repetition, grids 4x and 8x, no finer")
     ap.add_argument("--graphs", default="MX,SX", help="CasADi graphs timed, comma-separated (MX, SX)")
+    ap.add_argument("--guess", default=",".join(GUESSES),
+                    help="initial guesses, comma-separated: plan-j0 (the planner's J = 0 plan), trim (flat outputs, "
+                         "their kinematics and a trim at the start); default: both")
     ap.add_argument("--json", help="write the results to this JSON file")
     ap.add_argument("--markdown", help="write the results as a Markdown table to this file")
     args = ap.parse_args(argv)
     _require_casadi()
     factors = [float(v) for v in args.factors.split(",")]
+    guesses = tuple(v.strip() for v in args.guess.split(",") if v.strip())
+    unknown = [v for v in guesses if v not in GUESSES]
+    if unknown or not guesses:
+        ap.error(f"--guess: unknown {', '.join(unknown) or 'empty list'}; choose from {', '.join(GUESSES)}")
     finer = FINER_FACTORS
     repeat = args.repeat
     if args.quick:
         factors, finer, repeat = [8.0], (), 1
     results = []
     for name in args.scenarios:
-        res = bench_scenario(name, factors, repeat, finer, tuple(args.graphs.split(",")))
+        res = bench_scenario(name, factors, repeat, finer, tuple(args.graphs.split(",")), guesses)
         print(format_table(res), flush=True)
         results.append(res)
     if args.markdown:
@@ -736,7 +932,8 @@ def main(argv=None) -> None:
             fh.write(markdown_table(results) + "\n")
     if args.json:
         meta = {"repeat": repeat, "scheme": f"Legendre-Gauss-Radau degree {DEGREE}", "ipopt_tol": IPOPT_TOL,
-                "linear_solver": "mumps", "casadi": ca.CasadiMeta.version(), "cpu_count": os.cpu_count(),
+                "linear_solver": "mumps", "ipopt_options": "defaults (tol 1e-8, MUMPS)",
+                "guesses": {g: GUESS_TEXT[g] for g in guesses}, "casadi": ca.CasadiMeta.version(), "cpu_count": os.cpu_count(),
                 "loadavg": os.getloadavg(), "date_utc": time.strftime("%Y-%m-%d %H:%M", time.gmtime())}
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump({"meta": meta, "results": results}, fh, indent=2)

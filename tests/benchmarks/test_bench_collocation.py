@@ -47,7 +47,8 @@ def test_radau_matrices_differentiate_cubics(bc):
     assert w @ q(tau[1:]) == pytest.approx(q.integ()(1.0) - q.integ()(0.0), rel=1e-13)
 
 
-@pytest.mark.parametrize("name, factor", [("gtm-aileron-roll", 8.0), ("gtm-forward-slip", 16.0)])
+# 10 intervals each (0.8 s on the 8 s roll, 12 s on the 120 s forward slip).
+@pytest.mark.parametrize("name, factor", [("gtm-aileron-roll", 1.6), ("gtm-forward-slip", 2.0)])
 def test_collocation_meets_equations_and_flat_outputs(bc, name, factor):
     sc = load_scenario(name)
     pb = sc.problem()
@@ -83,7 +84,8 @@ def test_collocation_meets_equations_and_flat_outputs(bc, name, factor):
 
 def test_roll_open_loop_accuracy(bc):
     sc = load_scenario("gtm-aileron-roll")
-    prob = bc.CollocationProblem(sc, 8.0, bc.planner_guess(sc))
+    prob = bc.CollocationProblem(sc, 1.6, bc.planner_guess(sc))
+    assert prob.n_intervals == 10
     sol = prob.solve()
     err = bc.open_loop_error_of(sc, sol.control_function, sol.initial_state)
     # 10 intervals of 0.8 s on the 8 s roll: about 1.4 cm (0.34 mm on 20 intervals).
@@ -103,3 +105,54 @@ def test_mixed_fourth_output(bc):
     beta, mu = X[eom.STATE_NAMES.index("beta")], X[eom.STATE_NAMES.index("mu")]
     assert np.allclose(pb.zeta.f1(t) * beta + pb.zeta.f2(t) * mu, 0.01, atol=1e-9)
     assert sol.constraint_violation < 1e-8
+
+
+def test_trim_guess_kinematics_and_trim(bc):
+    sc = load_scenario("gtm-forward-slip")
+    guess = bc.trim_guess(sc)
+    t = np.linspace(sc.t0, sc.t1, 7)
+    X, U = guess(t)
+    pb = sc.problem()
+    for i, f in enumerate((pb.x, pb.y, pb.z)):
+        assert np.allclose(X[i], f(t), atol=1e-9)
+    # V, gamma, chi: the velocity (x', y', z') of the flat outputs, here by central differences.
+    e = 1e-5
+    vel = np.stack([(f(t + e) - f(t - e)) / (2 * e) for f in (pb.x, pb.y, pb.z)])
+    V, gam, chi = X[3], X[4], X[5]
+    assert np.allclose(vel, V * np.stack([np.cos(gam) * np.cos(chi), np.cos(gam) * np.sin(chi), -np.sin(gam)]),
+                       atol=1e-6)
+    # The rest held at one trim: steady straight flight along the initial velocity, no sideslip.
+    tr = guess.trim
+    assert tr.fixed == pytest.approx({"V": V[0], "gamma": gam[0], "chi_dot": 0.0, "beta": 0.0})
+    assert np.allclose(X[6:], np.array([tr.values[k] for k in ("alpha", "beta", "mu", "p", "q", "r")])[:, None])
+    assert np.allclose(U[[0, 2, 3, 4]], np.array([tr.values[k] for k in ("F", "dl", "dm", "dn")])[:, None])
+
+
+def test_trim_guess_smoke(bc):
+    """The trim guess on one small grid, through the benchmark's own loop (one repetition, one graph)."""
+    res = bc.bench_scenario("twin-otter-single-engine", factors=(8.0,), repeat=1, finer=(), graphs=("SX",),
+                            log=lambda *a: None)
+    assert set(res["guesses"]) == {"plan-j0", "trim"}
+    for gname, gres in res["guesses"].items():
+        (g,) = gres["grids"]
+        assert g["success"], (gname, g["status"])
+        assert g["domain"] is None and 0 < g["iterations"] < 20
+        assert 1e-3 < g["accuracy_m"] < 0.1  # 4 intervals of 16 s: about 3 cm
+        tt = g["times"]["SX"]
+        # The guess is counted: re-solved = guess + solve, built from scratch >= guess + build + solve.
+        assert tt["resolve_wall_s"] >= tt["guess_wall_s"] > 0
+        assert gres["counted_in_times"] and gres["matched"] is None
+    both = res["guesses"]
+    assert both["plan-j0"]["grids"][0]["accuracy_m"] == pytest.approx(both["trim"]["grids"][0]["accuracy_m"],
+                                                                      rel=1e-3)
+    text = bc.markdown_table([res])
+    assert "guess trim" in text and "guess plan-j0" in text and "trim (" in text
+
+
+def test_set_guess_resolves_to_the_same_solution(bc):
+    sc = load_scenario("twin-otter-single-engine")
+    prob = bc.CollocationProblem(sc, 8.0, bc.planner_guess(sc), graph="SX")
+    first = prob.solve()
+    prob.set_guess(bc.trim_guess(sc))
+    again = prob.solve()
+    assert again.success and np.allclose(again.controls, first.controls, atol=1e-6)
