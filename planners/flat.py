@@ -441,7 +441,8 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         u0 = [guess[k] for k in STAGE2_UNKNOWNS]
     else:
         u0 = _stage2_guess(problem, t_nodes, d2[0], hv)
-    u2, rep2 = newton_series(stage2_residual, u0, k2, tol=newton_tol, names=STAGE2_UNKNOWNS, t_nodes=t_nodes)
+    u2, rep2 = newton_series(stage2_residual, u0, k2, tol=newton_tol, names=STAGE2_UNKNOWNS, t_nodes=t_nodes,
+                             warm=guess is not None)
     alpha, beta, mu, F = u2
     mu = _unwrap_constant(mu)  # bank angles of neighbouring nodes on the same branch (no 2 pi jumps)
 
@@ -481,7 +482,8 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         v0 = [guess[n] for n in names4]
     else:
         v0 = [Series.constant(np.zeros(len(t_nodes)), 0) for _ in names4]
-    u4, rep4 = newton_series(stage4_residual, v0, k4, tol=newton_tol, names=names4, t_nodes=t_nodes)
+    u4, rep4 = newton_series(stage4_residual, v0, k4, tol=newton_tol, names=names4, t_nodes=t_nodes,
+                             warm=guess is not None)
     ctl = controls_of(u4, d4[k4])
     out = {"x": x, "y": y, "z": z, "V": V, "gamma": gamma, "chi": chi,
            "alpha": alpha, "beta": beta, "mu": mu, "F": F, "p": p, "q": q, "r": r,
