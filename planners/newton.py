@@ -27,7 +27,11 @@ PAPER_MAXITER = 20
 
 #: Full-order Newton steps tried from a close start (``newton_series(..., warm=True)``) before the
 #: full scheme (pointwise Newton, precision doubling) takes over.
-WARM_MAXSTEPS = 6
+WARM_MAXSTEPS = 8
+
+#: Chord steps (the Jacobian of the last Newton step) go on while the rate of decrease they show reaches
+#: the tolerance within this many more steps; else the next step is a Newton step.
+CHORD_STEPS = 3
 
 
 def _exponent_form(x: float) -> str:
@@ -256,14 +260,21 @@ def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray
     """Newton's iteration on series at the full working order from a close start, or None.
 
     From a start close in every coefficient (the previous generalized-flatness iterate, whose H
-    differs little), each step at working order ``order`` (complex-step Jacobian series, the
+    differs little), a Newton step at working order ``order`` (complex-step Jacobian series, the
     linear series system solved order by order, as in the precision-doubling steps) squares the
     error of every coefficient (Bostan et al., th. 3.12), so a few steps replace the pointwise
-    Newton and the doubling steps.  The test: after a step from a residual series whose
-    coefficients, each weighted by ``step^m`` (step = the smallest node spacing: its contribution
-    over one node interval), are all at most ``tol``, the solution is accepted (the error left is
-    of the order of that residual squared).  None -- the caller then runs the full scheme -- when
-    a residual is not finite, does not decrease, or is still above ``tol`` after ``maxsteps`` steps.
+    Newton and the doubling steps.  After a Newton step, chord steps with its Jacobian follow (a
+    real evaluation of the residual each, without the complex steps of the Jacobian) while the
+    rate of decrease they show reaches ``tol`` within :data:`CHORD_STEPS` more steps; else the next
+    step is a Newton step again.  The test: after a step from a residual series whose coefficients,
+    each weighted by ``step^m`` (step = the smallest node spacing: its contribution over one node
+    interval), are all at most ``tol``, the solution is accepted.  None -- the caller then runs the
+    full scheme -- when a residual is not finite, a Newton step does not decrease it, or it is
+    still above ``tol`` after ``maxsteps`` evaluations.
+
+    Returns
+    -------
+    (list of Series, SeriesNewtonReport) or None
     """
     from .series import Series
 
@@ -275,18 +286,37 @@ def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray
     t = np.ravel(np.asarray(t_nodes, dtype=float))
     step = float(np.min(np.diff(t))) if t.size > 1 and np.all(np.diff(t) > 0) else 1.0
     weights = step ** np.arange(K)
-    previous = np.inf
-    for it in range(maxsteps):
-        G, Jc = _residual_and_jacobian(residual, stacked, order)
-        if not (np.all(np.isfinite(G)) and np.all(np.isfinite(Jc))):
+    Jc, previous, orders, before = None, np.inf, [], None
+    for _ in range(maxsteps):
+        fresh = Jc is None
+        if fresh:
+            G, Jc = _residual_and_jacobian(residual, stacked, order)
+            if not np.all(np.isfinite(Jc)):
+                return None
+        else:
+            G = _residual_only(residual, stacked, order)
+        orders.append(order)
+        if not np.all(np.isfinite(G)):
             return None
         size = float(np.max(np.abs(G) * weights))
-        if not size < previous:
+        if fresh and not size < previous:
             return None
-        stacked = stacked - _series_solve(Jc, G)
-        if size <= tol:
-            break
-        previous = size
+        rate = size / previous
+        if size <= tol or fresh or (rate < 1.0 and np.log(tol / size) / np.log(rate) <= CHORD_STEPS):
+            before = stacked
+            stacked = stacked - _series_solve(Jc, G)
+            if size <= tol:
+                break
+            previous = size
+        elif rate < 1.0:
+            # The chord contracts too slowly: this step with it, then a fresh Jacobian (a Newton step).
+            before = stacked
+            stacked = stacked - _series_solve(Jc, G)
+            Jc, previous = None, size
+        else:
+            # The chord step made it worse: back to where the residual was smaller, a Newton step there.
+            stacked = before
+            Jc = None
     else:
         return None
     if not np.all(np.isfinite(stacked)):
@@ -297,8 +327,18 @@ def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray
     def series_residual() -> np.ndarray:
         return _series_residual_of(residual, u, order, batch)
 
-    rep = SeriesNewtonReport(tuple(names), np.asarray(t_nodes), cres, 0, series_residual, [order] * (it + 1))
+    rep = SeriesNewtonReport(tuple(names), np.asarray(t_nodes), cres, 0, series_residual, orders)
     return u, rep
+
+
+def _residual_only(residual: Callable, stacked: np.ndarray, k: int) -> np.ndarray:
+    """Residual series ``G`` (neq, *batch, K) at the unknowns' coefficients ``stacked`` (n, *batch, K)."""
+    from .series import Series
+
+    batch = stacked.shape[1:-1]
+    rs = residual([Series(stacked[j]) for j in range(stacked.shape[0])], k)
+    return np.stack([np.broadcast_to(np.real(r.coeffs) if isinstance(r, Series) else np.real(np.asarray(r))[..., None],
+                                     batch + (k + 1,)) for r in rs])
 
 
 def _series_residual_of(residual: Callable, u: list, order: int, batch: tuple) -> np.ndarray:
