@@ -151,15 +151,3 @@ def test_warm_newton_series_falls_back_to_the_full_scheme():
     assert warm.warnings == cold.warnings and len(warm.warnings) == 1
     assert warm.doubling_orders == [1, 3]
 
-
-def test_later_iterates_start_newton_at_the_full_order():
-    """Iterates j >= 1 of a plan start from iterate j - 1: stage 2 and 4 Newton at the working order only."""
-    from planners.generalized import plan_scenario
-    from planners.scenario import load_scenario
-
-    plan = plan_scenario(load_scenario("gtm-aileron-roll"), J=2)
-    for j, it in enumerate(plan.iterates):
-        for stage, rep in it.reports.items():
-            orders = set(rep.doubling_orders)
-            assert (len(orders) == 1) == (j >= 1), (j, stage, rep.doubling_orders)
-            assert rep.worst_residual < 1e-10
