@@ -485,8 +485,10 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         v0 = [guess[n] for n in names4]
     else:
         v0 = [Series.constant(np.zeros(len(t_nodes)), 0) for _ in names4]
+    # Newton at the working order from the start, even from zero deflections: the moments are affine in
+    # the controls in the bundled models (one step solves them; the full scheme takes over otherwise).
     u4, rep4 = newton_series(stage4_residual, v0, k4, tol=newton_tol, names=names4, t_nodes=t_nodes,
-                             warm=guess is not None)
+                             warm=True)
     ctl = controls_of(u4, d4[k4])
     out = {"x": x, "y": y, "z": z, "V": V, "gamma": gamma, "chi": chi,
            "alpha": alpha, "beta": beta, "mu": mu, "F": F, "p": p, "q": q, "r": r,

@@ -14,14 +14,16 @@ from planners.scenario import load_scenario
 
 def test_later_iterates_start_newton_at_the_full_order():
     """Stage 2 and 4 Newton of iterates j >= 1 run at the working order only (no pointwise iterations,
-    no low doubling orders); the residual series is at rounding."""
+    no low doubling orders), stage 4 of iterate 0 too (affine in the controls: one Newton step and its
+    check); the residual series is at rounding."""
     plan = plan_scenario(load_scenario("gtm-aileron-roll"), J=2)
     for j, it in enumerate(plan.iterates):
         for stage, rep in it.reports.items():
-            orders = set(rep.doubling_orders)
-            assert (len(orders) == 1) == (j >= 1), (j, stage, rep.doubling_orders)
-            assert (rep.constant_iterations == 0) == (j >= 1)
+            warm = j >= 1 or stage == "stage4"
+            assert (len(set(rep.doubling_orders)) == 1) == warm, (j, stage, rep.doubling_orders)
+            assert (rep.constant_iterations == 0) == warm
             assert rep.worst_residual < 1e-10
+        assert len(it.reports["stage4"].doubling_orders) == 2
 
 
 def test_previous_iterate_lends_its_flat_outputs_bitwise():
