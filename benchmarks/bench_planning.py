@@ -8,7 +8,7 @@ the median over rounds of each run's median plan time, and the ratios.  Cases: t
 at e = 1 (the bundled setting), and J = 8, e = 3 (series of order e + 4 + 2J = 23, the order the
 accuracy work asks for)::
 
-    python benchmarks/bench_planning.py [--rounds 5] [--inner 3] [--ref /work/main] [--scenarios ...]
+    python benchmarks/bench_planning.py [--rounds 5] [--inner 3] [--ref /work/main [--ref-compiled]] [--scenarios ...]
                                         [--blas-threads 1|default]
 
 The compiled kernels are loaded (or compiled, on a fresh clone) before the first timed plan; the
@@ -103,6 +103,7 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--inner", type=int, default=3)
     ap.add_argument("--ref", help="a reference source tree (e.g. a checkout of main), numpy kernels")
+    ap.add_argument("--ref-compiled", action="store_true", help="the reference tree with compiled kernels too")
     ap.add_argument("--scenarios", nargs="+", default=list(PAPER))
     ap.add_argument("--no-high-order", action="store_true", help="skip the J = 8, e = 3 cases")
     ap.add_argument("--blas-threads", choices=("1", "default"), default="1",
@@ -115,6 +116,8 @@ def main() -> None:
     variants = {"numpy": (HERE, "numpy"), "compiled": (HERE, "compiled")}
     if args.ref:
         variants = {"ref": (Path(args.ref).resolve(), None), **variants}
+        if args.ref_compiled:
+            variants = {"ref_c": (Path(args.ref).resolve(), "compiled"), **variants}
     print("first use (own process):", "; ".join(first_use(HERE, b) for b in ("numpy", "compiled")))
     results: dict[str, list[dict]] = {v: [] for v in variants}
     t_start = time.perf_counter()
@@ -127,6 +130,8 @@ def main() -> None:
     head = f"{'case':<40}" + "".join(f"{v + ' [s]':>14}" for v in variants) + f"{'numpy/compiled':>16}"
     if args.ref:
         head += f"{'ref/numpy':>11}{'ref/compiled':>14}"
+        if args.ref_compiled:
+            head += f"{'ref_c/compiled':>16}"
     threads = "1 BLAS thread" if args.blas_threads == "1" else "BLAS threads left to the library"
     print(f"median over {args.rounds} interleaved rounds of the median of {args.inner} plans ({threads})")
     print(head)
@@ -135,6 +140,8 @@ def main() -> None:
         row += f"{med['numpy'][k] / med['compiled'][k]:>16.2f}"
         if args.ref:
             row += f"{med['ref'][k] / med['numpy'][k]:>11.2f}{med['ref'][k] / med['compiled'][k]:>14.2f}"
+            if args.ref_compiled:
+                row += f"{med['ref_c'][k] / med['compiled'][k]:>16.2f}"
         print(row)
 
 

@@ -181,6 +181,14 @@ class NodeSolution:
     series: dict
     order: int
     reports: dict = field(default_factory=dict)
+    # The series that depend only on the problem, the grid and the order (flat outputs, prescribed inputs,
+    # stage 1), at the highest order computed so far: a later iterate (lower order) truncates them.
+    _inputs: dict | None = field(default=None, repr=False, compare=False)
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_inputs"] = None
+        return state
 
     def __getitem__(self, name: str) -> Series:
         return self.series[name]
@@ -369,7 +377,7 @@ def force_residuals(ac: Aircraft, env: Environment, z, V, gamma, chi, Vd, gd, ch
 
 
 def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValues | None = None,
-                guess: Mapping[str, Series] | None = None, newton_tol: float = 1e-12) -> NodeSolution:
+                guess: Mapping[str, Series] | NodeSolution | None = None, newton_tol: float = 1e-12) -> NodeSolution:
     """Flat parametrization at all nodes, flat outputs at ``order`` (kappa).
 
     Parameters
@@ -380,8 +388,10 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         Order of x, y, z; the controls come out at ``order - 4``.
     h : HValues, optional
         Values (constants or series) of the neglected terms; default ``problem.h``.
-    guess : mapping, optional
-        Previous solution (series) used as the starting point of the Newton iterations.
+    guess : mapping or NodeSolution, optional
+        Previous solution (series) used as the starting point of the Newton iterations; a
+        :class:`NodeSolution` of the same problem and grid at an order at least ``order`` (the
+        previous generalized-flatness iterate) also lends its flat outputs and stage 1, truncated.
     newton_tol : float
         Tolerance of the pointwise Newton on the constant terms (stage 2: over g; stage 4: rad/s^2).
 
@@ -401,20 +411,13 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         raise InputError(f"the flat parametrization needs order >= 4 to reach the controls, got {order}")
     ac, env = problem.aircraft, problem.env
     m, g = ac.mass.mass, env.g
-    t = Series.variable(np.asarray(t_nodes, dtype=float), order)
-    x, y, z = problem.x(t), problem.y(t), problem.z(t)
     hv = h if h is not None else problem.h
     k2 = order - 2
     zeta = problem.zeta
-    zv = zeta.value(Series.variable(t_nodes, k2))
-    f1 = zeta.f1(Series.variable(t_nodes, k2)) if zeta.kind == "mix" else None
-    f2 = zeta.f2(Series.variable(t_nodes, k2)) if zeta.kind == "mix" else None
-    eta_pres = problem.eta(Series.variable(t_nodes, order)) if problem.eta is not None else None
-    dn_fixed = problem.dn(Series.variable(t_nodes, order)) if problem.dn is not None else None
-    _check_inputs(t_nodes, {"x": x, "y": y, "z": z, "zeta": zv, "f1": f1, "f2": f2, "eta": eta_pres,
-                            "dn": dn_fixed})
-    V, gamma, chi = stage1(x, y, z)
-    Vd, gd, chid = V.derivative(), gamma.derivative(), chi.derivative()
+    inputs = _flat_inputs(problem, t_nodes, order, guess)
+    x, y, z, zv, f1, f2, eta_pres, dn_fixed, V, gamma, chi, Vd, gd, chid = (
+        None if inputs[k] is None else inputs[k].truncate(min(inputs[k].order, order - _INPUT_NAMES[k]))
+        for k in _INPUT_NAMES)
     z2, V2, gamma2, chi2 = z.truncate(k2), V.truncate(k2), gamma.truncate(k2), chi.truncate(k2)
     eta2 = eta_pres.truncate(k2) if eta_pres is not None else 0.0
 
@@ -441,7 +444,8 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         u0 = [guess[k] for k in STAGE2_UNKNOWNS]
     else:
         u0 = _stage2_guess(problem, t_nodes, d2[0], hv)
-    u2, rep2 = newton_series(stage2_residual, u0, k2, tol=newton_tol, names=STAGE2_UNKNOWNS, t_nodes=t_nodes)
+    u2, rep2 = newton_series(stage2_residual, u0, k2, tol=newton_tol, names=STAGE2_UNKNOWNS, t_nodes=t_nodes,
+                             warm=guess is not None)
     alpha, beta, mu, F = u2
     mu = _unwrap_constant(mu)  # bank angles of neighbouring nodes on the same branch (no 2 pi jumps)
 
@@ -481,7 +485,10 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         v0 = [guess[n] for n in names4]
     else:
         v0 = [Series.constant(np.zeros(len(t_nodes)), 0) for _ in names4]
-    u4, rep4 = newton_series(stage4_residual, v0, k4, tol=newton_tol, names=names4, t_nodes=t_nodes)
+    # Newton at the working order from the start, even from zero deflections: the moments are affine in
+    # the controls in the bundled models (one step solves them; the full scheme takes over otherwise).
+    u4, rep4 = newton_series(stage4_residual, v0, k4, tol=newton_tol, names=names4, t_nodes=t_nodes,
+                             warm=True)
     ctl = controls_of(u4, d4[k4])
     out = {"x": x, "y": y, "z": z, "V": V, "gamma": gamma, "chi": chi,
            "alpha": alpha, "beta": beta, "mu": mu, "F": F, "p": p, "q": q, "r": r,
@@ -489,7 +496,39 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
     for k, v in out.items():
         if not isinstance(v, Series):
             out[k] = Series.constant(np.broadcast_to(np.asarray(v, dtype=float), (len(t_nodes),)), k4)
-    return NodeSolution(out, order, {"stage2": rep2, "stage4": rep4})
+    return NodeSolution(out, order, {"stage2": rep2, "stage4": rep4}, inputs)
+
+
+#: The series :func:`_flat_inputs` gives, with the orders they lose relative to the flat outputs.
+_INPUT_NAMES = {"x": 0, "y": 0, "z": 0, "zv": 2, "f1": 2, "f2": 2, "eta": 0, "dn": 0, "V": 1, "gamma": 1, "chi": 1,
+                "Vd": 2, "gd": 2, "chid": 2}
+
+
+def _flat_inputs(problem: FlatProblem, t_nodes: np.ndarray, order: int, guess) -> dict:
+    """Flat outputs (order ``order``), zeta and its weights (``order - 2``), prescribed eta or dn (``order``)
+    and stage 1 with its derivatives, checked; truncated from ``guess`` (a NodeSolution of the same
+    problem and grid at an order at least ``order``) when it has them: truncating a series of a
+    higher order gives the same coefficients as computing at the lower one."""
+    cached = getattr(guess, "_inputs", None) if isinstance(guess, NodeSolution) else None
+    if cached is not None and cached["problem"] is problem and cached["order"] >= order \
+            and np.array_equal(cached["t_nodes"], t_nodes):
+        return cached
+    t = Series.variable(np.asarray(t_nodes, dtype=float), order)
+    x, y, z = problem.x(t), problem.y(t), problem.z(t)
+    k2 = order - 2
+    zeta = problem.zeta
+    zv = zeta.value(Series.variable(t_nodes, k2))
+    f1 = zeta.f1(Series.variable(t_nodes, k2)) if zeta.kind == "mix" else None
+    f2 = zeta.f2(Series.variable(t_nodes, k2)) if zeta.kind == "mix" else None
+    eta_pres = problem.eta(Series.variable(t_nodes, order)) if problem.eta is not None else None
+    dn_fixed = problem.dn(Series.variable(t_nodes, order)) if problem.dn is not None else None
+    _check_inputs(t_nodes, {"x": x, "y": y, "z": z, "zeta": zv, "f1": f1, "f2": f2, "eta": eta_pres,
+                            "dn": dn_fixed})
+    V, gamma, chi = stage1(x, y, z)
+    Vd, gd, chid = V.derivative(), gamma.derivative(), chi.derivative()
+    values = (x, y, z, zv, f1, f2, eta_pres, dn_fixed, V, gamma, chi, Vd, gd, chid)
+    return {**dict(zip(_INPUT_NAMES, values)), "problem": problem, "t_nodes": np.array(t_nodes, dtype=float),
+            "order": order}
 
 
 def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:

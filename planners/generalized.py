@@ -280,8 +280,7 @@ def _fixed_point(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name
     for j in range(J + 1):
         t_start = time.perf_counter()
         h = None if prev is None else prev.h_values()
-        guess = guesses[j].series if guesses is not None and j < len(guesses) else \
-            (None if prev is None else prev.series)
+        guess = guesses[j] if guesses is not None and j < len(guesses) else prev
         # Near a singularity Newton may overflow: reported through the Newton and monitor warnings.
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             sol = parametrize(problem, t_nodes, kappa, h=h, guess=guess)

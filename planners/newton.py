@@ -25,6 +25,14 @@ __all__ = ["PAPER_TOL", "PAPER_MAXITER", "NewtonResult", "NewtonFailure", "Serie
 PAPER_TOL = 1e-3
 PAPER_MAXITER = 20
 
+#: Full-order Newton steps tried from a close start (``newton_series(..., warm=True)``) before the
+#: full scheme (pointwise Newton, precision doubling) takes over.
+WARM_MAXSTEPS = 8
+
+#: Chord steps (the Jacobian of the last Newton step) go on while the rate of decrease they show reaches
+#: the tolerance within this many more steps; else the next step is a Newton step.
+CHORD_STEPS = 3
+
 
 def _exponent_form(x: float) -> str:
     """``1e-3`` rather than ``0.001`` (the paper's way of writing its tolerance)."""
@@ -224,6 +232,125 @@ def _pointwise_newton(fun: Callable[[np.ndarray], np.ndarray], x0, *, tol: float
     return NewtonResult(x=x, residual=res, iterations=it, converged=res <= tol, history=history)
 
 
+def _residual_and_jacobian(residual: Callable, stacked: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Residual series ``G`` (neq, *batch, K) and Jacobian series ``Jc`` (neq, n, *batch, K) at the
+    unknowns' coefficients ``stacked`` (n, *batch, K), working order ``k = K - 1``.
+
+    One evaluation on the batch of the n complex steps (one per unknown): the imaginary parts
+    give the Jacobian series, the real part of any of them the residual itself (the step's
+    effect on it is O(h^2) = 1e-60 relative).
+    """
+    from .series import Series
+
+    n = stacked.shape[0]
+    batch = stacked.shape[1:-1]
+    h = COMPLEX_STEP
+    pert = np.broadcast_to(stacked, (n,) + stacked.shape).astype(complex)             # (n, n, *batch, K)
+    for j in range(n):
+        pert[j, j, ..., 0] += 1j * h
+    us = [Series(pert[:, j]) for j in range(n)]
+    rs = residual(us, k)
+    R = np.stack([np.broadcast_to(r.coeffs if isinstance(r, Series) else np.asarray(r)[..., None],
+                                  (n,) + batch + (k + 1,)) for r in rs])  # (neq, n, *batch, K)
+    return np.real(R[:, 0]), np.imag(R) / h
+
+
+def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray, tol: float, names: tuple,
+                 maxsteps: int = WARM_MAXSTEPS):
+    """Newton's iteration on series at the full working order from a close start, or None.
+
+    From a start close in every coefficient (the previous generalized-flatness iterate, whose H
+    differs little), a Newton step at working order ``order`` (complex-step Jacobian series, the
+    linear series system solved order by order, as in the precision-doubling steps) squares the
+    error of every coefficient (Bostan et al., th. 3.12), so a few steps replace the pointwise
+    Newton and the doubling steps.  After a Newton step, chord steps with its Jacobian follow (a
+    real evaluation of the residual each, without the complex steps of the Jacobian) while the
+    rate of decrease they show reaches ``tol`` within :data:`CHORD_STEPS` more steps; else the next
+    step is a Newton step again.  The test: after a step from a residual series whose coefficients,
+    each weighted by ``step^m`` (step = the smallest node spacing: its contribution over one node
+    interval), are all at most ``tol``, the solution is accepted.  None -- the caller then runs the
+    full scheme -- when a residual is not finite, a Newton step does not decrease it, or it is
+    still above ``tol`` after ``maxsteps`` evaluations.
+
+    Returns
+    -------
+    (list of Series, SeriesNewtonReport) or None
+    """
+    from .series import Series
+
+    n = len(base)
+    batch = base[0].batch_shape
+    K = order + 1
+    stacked = np.stack([np.broadcast_to(np.real(u.truncate(order).coeffs if u.order >= order else
+                                                u.pad(order).coeffs), batch + (K,)) for u in base]).astype(float)
+    t = np.ravel(np.asarray(t_nodes, dtype=float))
+    step = float(np.min(np.diff(t))) if t.size > 1 and np.all(np.diff(t) > 0) else 1.0
+    weights = step ** np.arange(K)
+    Jc, previous, orders, before = None, np.inf, [], None
+    for _ in range(maxsteps):
+        fresh = Jc is None
+        if fresh:
+            G, Jc = _residual_and_jacobian(residual, stacked, order)
+            if not np.all(np.isfinite(Jc)):
+                return None
+        else:
+            G = _residual_only(residual, stacked, order)
+        orders.append(order)
+        if not np.all(np.isfinite(G)):
+            return None
+        size = float(np.max(np.abs(G) * weights))
+        if fresh and not size < previous:
+            return None
+        rate = size / previous
+        if size <= tol or fresh or (rate < 1.0 and np.log(tol / size) / np.log(rate) <= CHORD_STEPS):
+            before = stacked
+            stacked = stacked - _series_solve(Jc, G)
+            if size <= tol:
+                break
+            previous = size
+        elif rate < 1.0:
+            # The chord contracts too slowly: this step with it, then a fresh Jacobian (a Newton step).
+            before = stacked
+            stacked = stacked - _series_solve(Jc, G)
+            Jc, previous = None, size
+        else:
+            # The chord step made it worse: back to where the residual was smaller, a Newton step there.
+            stacked = before
+            Jc = None
+    else:
+        return None
+    if not np.all(np.isfinite(stacked)):
+        return None
+    u = [Series(stacked[j]) for j in range(n)]
+    cres = np.max(np.abs(G[..., 0]), axis=0)
+
+    def series_residual() -> np.ndarray:
+        return _series_residual_of(residual, u, order, batch)
+
+    rep = SeriesNewtonReport(tuple(names), np.asarray(t_nodes), cres, 0, series_residual, orders)
+    return u, rep
+
+
+def _residual_only(residual: Callable, stacked: np.ndarray, k: int) -> np.ndarray:
+    """Residual series ``G`` (neq, *batch, K) at the unknowns' coefficients ``stacked`` (n, *batch, K)."""
+    from .series import Series
+
+    batch = stacked.shape[1:-1]
+    rs = residual([Series(stacked[j]) for j in range(stacked.shape[0])], k)
+    return np.stack([np.broadcast_to(np.real(r.coeffs) if isinstance(r, Series) else np.real(np.asarray(r))[..., None],
+                                     batch + (k + 1,)) for r in rs])
+
+
+def _series_residual_of(residual: Callable, u: list, order: int, batch: tuple) -> np.ndarray:
+    """Max abs coefficient of the residual series at ``u`` (working order ``order``), per node."""
+    from .series import Series
+
+    final = residual(u, order)
+    return np.max(np.stack([np.max(np.abs(np.broadcast_to(r.coeffs if isinstance(r, Series) else
+                                                          np.asarray(r)[..., None], batch + (order + 1,))),
+                                   axis=-1) for r in final]), axis=0)
+
+
 def doubling_orders(order: int) -> list:
     """Working orders of Newton's iteration on series with precision doubling, up to ``order``.
 
@@ -252,7 +379,7 @@ def doubling_orders(order: int) -> list:
 
 
 def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-12,
-                  maxiter: int = PAPER_MAXITER, names: tuple = (), t_nodes=None):
+                  maxiter: int = PAPER_MAXITER, names: tuple = (), t_nodes=None, warm: bool = False):
     """Solve ``residual(u) = 0`` for power series ``u`` (batched over nodes) up to ``order``.
 
     First the constant terms are found by a damped Newton iteration on the
@@ -282,7 +409,13 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
     names : tuple of str
         Names of the unknowns (for messages).
     t_nodes : ndarray
-        Times of the nodes (for messages).
+        Times of the nodes [s] (for messages; their smallest spacing weights the series test of ``warm``).
+    warm : bool
+        ``u0`` is close to the solution in every coefficient (e.g. the previous generalized-flatness
+        iterate): try Newton steps at the full working order from it first (up to
+        :data:`WARM_MAXSTEPS`; every coefficient of the residual series, weighted by step^m, at most
+        ``tol`` before the last step), and run the full scheme only when they fail.  Then the report
+        lists ``order`` once per step in ``doubling_orders`` and 0 pointwise iterations.
 
     Returns
     -------
@@ -299,6 +432,10 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         return np.stack([np.broadcast_to(r.coeffs[..., 0] if isinstance(r, Series) else r, x.shape[1:])
                          for r in residual(list(x), 0)])
 
+    if warm and order > 0:
+        done = _warm_newton(residual, base, order, t_nodes, tol, names)
+        if done is not None:
+            return done
     x0 = np.stack([np.broadcast_to(np.real(u.constant_term), batch) for u in base]).astype(float)
     res = _pointwise_newton(const_fun, x0, tol=tol, maxiter=maxiter)
     x, cres, its = res.x, res.residual, res.iterations
@@ -338,32 +475,17 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         c[..., 0] = x[j]
         u.append(Series(c))
     orders = doubling_orders(order)
-    h = COMPLEX_STEP
     for k in orders:
         cur = [ui.truncate(k) for ui in u]
         stacked = np.stack([np.broadcast_to(ci.coeffs, batch + (k + 1,)) for ci in cur])   # (n, *batch, K)
-        # One evaluation on the batch of the n complex steps (one per unknown): the imaginary parts
-        # give the Jacobian series, the real part of any of them the residual itself (the step's
-        # effect on it is O(h^2) = 1e-60 relative).
-        pert = np.broadcast_to(stacked, (n,) + stacked.shape).astype(complex)             # (n, n, *batch, K)
-        for j in range(n):
-            pert[j, j, ..., 0] += 1j * h
-        us = [Series(pert[:, j]) for j in range(n)]
-        rs = residual(us, k)
-        R = np.stack([np.broadcast_to(r.coeffs if isinstance(r, Series) else np.asarray(r)[..., None],
-                                      (n,) + batch + (k + 1,)) for r in rs])  # (neq, n, *batch, K)
-        G = np.real(R[:, 0])
-        Jc = np.imag(R) / h                           # (neq, n, *batch, K)
+        G, Jc = _residual_and_jacobian(residual, stacked, k)
         D = _series_solve(Jc, G)
         u = [Series(stacked[j] - D[j]) for j in range(n)]
         u = [Series(np.concatenate([ui.coeffs, padded(base[j], order).coeffs[..., k + 1:]], axis=-1))
              if k < order else ui for j, ui in enumerate(u)]
 
     def series_residual() -> np.ndarray:
-        final = residual(u, order)
-        return np.max(np.stack([np.max(np.abs(np.broadcast_to(r.coeffs if isinstance(r, Series) else
-                                                              np.asarray(r)[..., None], batch + (order + 1,))),
-                                       axis=-1) for r in final]), axis=0)
+        return _series_residual_of(residual, u, order, batch)
 
     rep = SeriesNewtonReport(tuple(names), t_nodes, cres, its, series_residual, orders,
                              [f.message for f in failures], failures)

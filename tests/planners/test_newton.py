@@ -99,3 +99,55 @@ def test_doubling_orders_from_the_top():
         ks = doubling_orders(order)
         assert ks[-1] == order and all(b <= 2 * a + 1 for a, b in zip([0] + ks, ks))
         assert len(ks) == order.bit_length()  # as few steps as doubling from 0
+
+
+def _counting(residual):
+    calls = []
+
+    def wrapped(u, k):
+        calls.append(k)
+        return residual(u, k)
+    return wrapped, calls
+
+
+def test_warm_newton_series_from_a_close_start_matches_the_full_scheme():
+    """From the solution of a nearby problem (as the previous generalized-flatness iterate is), Newton
+    at the full order gives the full scheme's solution to rounding in a few evaluations, all at the
+    working order (no pointwise iterations, no low doubling orders)."""
+    t0 = np.array([0.0, 0.5, 1.0, 1.5])
+    order = 12
+    t = Series.variable(t0, order)
+
+    def problem(eps):
+        def residual(u, k):
+            tk = t.truncate(k) if k else t0
+            return [u[0] * u[0] * (1 + eps * u[1]) - (2 + tk), np.tan(u[1]) + eps * u[0] - tk]
+        return residual
+
+    start = [Series.constant(np.ones(4), 0), Series.constant(np.zeros(4), 0)]
+    near, _ = newton_series(problem(1e-3), start, order, t_nodes=t0)
+    cold_res, cold_calls = _counting(problem(2e-3))
+    cold, _ = newton_series(cold_res, start, order, t_nodes=t0)
+    warm_res, warm_calls = _counting(problem(2e-3))
+    warm, rep = newton_series(warm_res, near, order, t_nodes=t0, warm=True, names=("u", "v"))
+    for a, b in zip(cold, warm):
+        np.testing.assert_allclose(np.real(b.coeffs), np.real(a.coeffs), rtol=0, atol=1e-13)
+    assert set(warm_calls) == {order} and len(warm_calls) < len(cold_calls) / 2
+    assert rep.doubling_orders == [order] * len(warm_calls) and rep.constant_iterations == 0
+    assert rep.worst_residual < 1e-12 and rep.failures == []
+
+
+def test_warm_newton_series_falls_back_to_the_full_scheme():
+    """A start too far for Newton at the full order (here: no real solution at all) runs the full
+    scheme, whose failure record (the paper's rule, memory restarts) is reported as without ``warm``."""
+    t0 = np.array([0.0, 1.0, 2.0])
+
+    def residual(u, k):
+        return [u[0] * u[0] + 1.0 + 0 * u[0]]
+
+    start = [Series(np.ones((3, 4)))]
+    _, cold = newton_series(residual, start, 3, names=("u",), t_nodes=t0)
+    _, warm = newton_series(residual, start, 3, names=("u",), t_nodes=t0, warm=True)
+    assert warm.warnings == cold.warnings and len(warm.warnings) == 1
+    assert warm.doubling_orders == [1, 3]
+
