@@ -65,9 +65,11 @@ def jacobian(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray, method: str
         complex arrays and be complex-analytic in ``x``.
     x : ndarray, shape (n, *batch)
         Point of evaluation (units of the unknowns).
-    method : {"complex", "central"}
-        Complex step (h = 1e-30, exact to rounding for analytic ``fun``) or central
-        differences with a relative step 1e-6.
+    method : {"complex", "complex-batched", "central"}
+        Complex step (h = 1e-30, exact to rounding for analytic ``fun``): one call per column, or
+        ``"complex-batched"``: all columns from one call on the stacked batch ``(n, n, *batch)`` of
+        perturbed points (``fun`` must broadcast over a leading batch axis); or central differences
+        with a relative step 1e-6.
     f0 : ndarray, optional
         Unused; accepted for call compatibility (the value at ``x`` is not needed by either method).
 
@@ -83,6 +85,11 @@ def jacobian(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray, method: str
     """
     n = x.shape[0]
     cols = []
+    if method == "complex-batched":
+        xs = np.broadcast_to(x.astype(complex), (n,) + x.shape).copy()      # (n_col, n, *batch)
+        for j in range(n):
+            xs[j, j] += 1j * COMPLEX_STEP
+        return np.imag(fun(np.moveaxis(xs, 0, 1))) / COMPLEX_STEP           # (m, n_col, *batch)
     if method == "complex":
         h = COMPLEX_STEP
         xc = x.astype(complex)
@@ -144,7 +151,7 @@ def newton(fun: Callable[[np.ndarray], np.ndarray], x0, *, tol: float = 1e-12, m
         Convergence when the weighted ``max|f| <= tol`` for a problem (units of ``fun``).
     maxiter : int
         Maximum number of Newton iterations.
-    jac : {"complex", "central"}
+    jac : {"complex", "complex-batched", "central"}
         Jacobian method of :func:`jacobian`.
     damped : bool
         Backtracking on the residual norm (halving the step up to 10 times).

@@ -178,60 +178,6 @@ def _series_solve(Jc: np.ndarray, Gc: np.ndarray) -> np.ndarray:
     return np.moveaxis(D, 0, 1).reshape((n,) + batch + (K,))
 
 
-def _batched_jacobian(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray) -> np.ndarray:
-    """Complex-step Jacobian ``J[i, j, *batch]`` with all columns in one evaluation of ``fun``.
-
-    The same derivatives as :func:`gna.solve.jacobian` (step 1e-30; exact to rounding for an analytic
-    ``fun``), from one call on the batch ``(n, *batch)`` of perturbed points instead of ``n`` calls:
-    ``fun`` must broadcast over a leading batch axis (the stage residuals do).
-    """
-    n = x.shape[0]
-    h = COMPLEX_STEP
-    xs = np.broadcast_to(x.astype(complex), (n,) + x.shape).copy()      # (n_col, n, *batch)
-    for j in range(n):
-        xs[j, j] += 1j * h
-    f = fun(np.moveaxis(xs, 0, 1))                                       # (m, n_col, *batch)
-    return np.imag(f) / h
-
-
-def _pointwise_newton(fun: Callable[[np.ndarray], np.ndarray], x0, *, tol: float, maxiter: int) -> NewtonResult:
-    """Damped Newton of :func:`gna.solve.newton` (complex-step Jacobian, backtracking), all columns of
-    the Jacobian from one evaluation (:func:`_batched_jacobian`)."""
-    x = np.array(x0, dtype=float)
-
-    def norm(f):
-        return np.max(np.abs(f), axis=0)
-
-    f = np.real(fun(x))
-    res = norm(f)
-    history = [float(np.max(res))]
-    it = 0
-    while it < maxiter and not np.all(res <= tol):
-        it += 1
-        if not np.all(np.isfinite(f)):
-            break
-        J = _batched_jacobian(fun, x)
-        dx = batched_solve(J, -f)
-        active = res > tol
-        dx = np.where(active, dx, 0.0)
-        step = np.ones_like(res)
-        xn = x + dx
-        fn = np.real(fun(xn))
-        rn = norm(fn)
-        for _ in range(10):
-            bad = ~(rn < res) & active & ~(rn <= tol)
-            bad &= ~np.isfinite(rn) | (rn >= res)
-            if not np.any(bad):
-                break
-            step = np.where(bad, step * 0.5, step)
-            xn = x + dx * step
-            fn = np.real(fun(xn))
-            rn = norm(fn)
-        x, f, res = xn, fn, np.where(np.isfinite(rn), rn, np.inf)
-        history.append(float(np.max(res)))
-    return NewtonResult(x=x, residual=res, iterations=it, converged=res <= tol, history=history)
-
-
 def _residual_and_jacobian(residual: Callable, stacked: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Residual series ``G`` (neq, *batch, K) and Jacobian series ``Jc`` (neq, n, *batch, K) at the
     unknowns' coefficients ``stacked`` (n, *batch, K), working order ``k = K - 1``.
@@ -437,7 +383,7 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         if done is not None:
             return done
     x0 = np.stack([np.broadcast_to(np.real(u.constant_term), batch) for u in base]).astype(float)
-    res = _pointwise_newton(const_fun, x0, tol=tol, maxiter=maxiter)
+    res = newton(const_fun, x0, tol=tol, maxiter=maxiter, jac="complex-batched")
     x, cres, its = res.x, res.residual, res.iterations
     # Memory Newton: restart failed nodes from their nearest converged neighbour, sweeping outwards.
     for _ in range(8):
@@ -449,7 +395,7 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         nearest = good_idx[np.argmin(np.abs(bad_idx[:, None] - good_idx[None, :]), axis=1)]
         xs = x.copy()
         xs[:, bad_idx] = x[:, nearest]
-        r2 = _pointwise_newton(const_fun, xs, tol=tol, maxiter=maxiter)
+        r2 = newton(const_fun, xs, tol=tol, maxiter=maxiter, jac="complex-batched")
         improved = r2.residual < cres
         if not np.any(improved & bad):
             break
