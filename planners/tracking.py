@@ -174,6 +174,16 @@ class Linearization:
         return self.A.shape[-1] - 1
 
 
+
+def _check_linearization(plan, model: str, order, j: int) -> None:
+    """The arguments of a linearization along a plan (aircraft or chained system), one message each."""
+    if model not in ("full", "design"):
+        raise InputError(f"model must be 'full' or 'design', got {model!r}")
+    if not (isinstance(order, (int, np.integer)) and order >= 0):
+        raise InputError(f"order must be a non-negative integer, got {order!r}")
+    if not -len(plan.iterates) <= j < len(plan.iterates):
+        raise InputError(f"iterate j = {j} not in the plan (J = {plan.J})")
+
 def linearize(plan: Plan, j: int = -1, *, model: str = "full", order: int = 1) -> Linearization:
     """Jacobians of :func:`gna.eom.derivatives` along iterate ``j`` of a plan, as series at the nodes.
 
@@ -203,12 +213,7 @@ def linearize(plan: Plan, j: int = -1, *, model: str = "full", order: int = 1) -
     InputError
         Unknown model, negative order or iterate not in the plan.
     """
-    if model not in ("full", "design"):
-        raise InputError(f"model must be 'full' or 'design', got {model!r}")
-    if not (isinstance(order, (int, np.integer)) and order >= 0):
-        raise InputError(f"order must be a non-negative integer, got {order!r}")
-    if not -len(plan.iterates) <= j < len(plan.iterates):
-        raise InputError(f"iterate j = {j} not in the plan (J = {plan.J})")
+    _check_linearization(plan, model, order, j)
     sol = plan.iterates[j]
     names = STATE_NAMES + CONTROL_NAMES
     order = int(min(order, min(sol.series[n].order for n in names)))
@@ -1016,12 +1021,7 @@ def linearize_chained(plan, j: int = -1, *, model: str = "design", order: int = 
         No explicit model, unknown model kind, negative order or iterate not in the plan.
     """
     ssm = _chained_model(plan)
-    if model not in ("full", "design"):
-        raise InputError(f"model must be 'full' or 'design', got {model!r}")
-    if not (isinstance(order, (int, np.integer)) and order >= 0):
-        raise InputError(f"order must be a non-negative integer, got {order!r}")
-    if not -len(plan.iterates) <= j < len(plan.iterates):
-        raise InputError(f"iterate j = {j} not in the plan (J = {plan.J})")
+    _check_linearization(plan, model, order, j)
     sol = plan.iterates[j]
     names = tuple(ssm.states) + tuple(ssm.controls)
     order = int(min(order, min(sol[n].order for n in names)))
