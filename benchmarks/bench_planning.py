@@ -36,19 +36,22 @@ import numpy as np
 from planners.generalized import plan_motion
 from planners.scenario import load_scenario
 cases, inner = json.loads(sys.argv[1]), int(sys.argv[2])
-out = {}
+out, settings = {}, {}
 for name, J, e in cases:
     sc = load_scenario(name)
     prob = sc.problem()
+    key = f"{name} J={J} e={e}" if J is not None else f"{name} (bundled)"
     J = sc.J if J is None else J
+    e = getattr(sc, "e", 1) if e is None else e
     plan_motion(prob, sc.t_nodes, J, e=e, name=name, max_cost=float("inf"))  # warm-up
     ts = []
     for _ in range(inner):
         t0 = time.perf_counter()
         plan_motion(prob, sc.t_nodes, J, e=e, name=name, max_cost=float("inf"))
         ts.append(time.perf_counter() - t0)
-    out[f"{name} J={J} e={e}"] = float(np.median(ts))
-print(json.dumps(out))
+    out[key] = float(np.median(ts))
+    settings[key] = f"J = {J}, e = {e}, {len(sc.t_nodes)} nodes"
+print(json.dumps({"times": out, "settings": settings}))
 """
 
 _FIRST_USE = r"""
@@ -67,6 +70,8 @@ print(S.BACKEND, f"{t1 - t0:.3f}", f"{t2 - t1:.3f}")
 
 #: BLAS threads of the child processes: "1" (pinned) or "default" (the library's own choice, as `gflat` runs).
 BLAS_THREADS = {"value": "1"}
+#: case -> tree -> its J, e and node count (the bundled settings differ between trees).
+SETTINGS: dict = {}
 
 
 def _env(tree: Path, backend: str | None) -> dict:
@@ -86,7 +91,10 @@ def run_variant(tree: Path, backend: str | None, cases, inner: int) -> dict:
     """Median plan time of each case, from a fresh process of ``tree`` with ``backend``."""
     out = subprocess.run([sys.executable, "-c", _CHILD, json.dumps(cases), str(inner)], cwd=tree,
                          env=_env(tree, backend), capture_output=True, text=True, check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    res = json.loads(out.stdout.strip().splitlines()[-1])
+    for key, text in res["settings"].items():
+        SETTINGS.setdefault(key, {})[str(tree)] = text
+    return res["times"]
 
 
 def first_use(tree: Path, backend: str) -> str:
@@ -110,7 +118,7 @@ def main() -> None:
                     help="pin BLAS to one thread in the children (default), or leave it to the library")
     args = ap.parse_args()
     BLAS_THREADS["value"] = args.blas_threads
-    cases = [(n, None, 1) for n in args.scenarios]
+    cases = [(n, None, None) for n in args.scenarios]     # each tree's bundled J, e and grid
     if not args.no_high_order:
         cases += [(n, 8, 3) for n in args.scenarios]
     variants = {"numpy": (HERE, "numpy"), "compiled": (HERE, "compiled")}
@@ -143,6 +151,10 @@ def main() -> None:
             if args.ref_compiled:
                 row += f"{med['ref_c'][k] / med['compiled'][k]:>16.2f}"
         print(row)
+    for k in keys:
+        trees = SETTINGS.get(k, {})
+        if len(set(trees.values())) > 1:
+            print(f"  {k}: " + "; ".join(f"{Path(t).name}: {v}" for t, v in trees.items()))
 
 
 if __name__ == "__main__":
