@@ -25,9 +25,23 @@ cli, commands
     (via :mod:`reports`) and writes; no workflow logic.
 """
 
-from .engines import fly
-from .metrics import difference_table
-from .testing import assert_trajectories_close
-from .validation import CaseResult, ValidationCase, run_case
+import importlib
 
 __all__ = ["fly", "run_case", "ValidationCase", "CaseResult", "difference_table", "assert_trajectories_close"]
+
+#: Public name -> the module defining it.  Imported on first use (PEP 562), so that ``harness.cli``
+#: starts without the planners and can report a bad setting read at their import as one line.
+_PUBLIC = {"fly": ".engines", "difference_table": ".metrics", "assert_trajectories_close": ".testing",
+           "run_case": ".validation", "ValidationCase": ".validation", "CaseResult": ".validation"}
+
+
+def __getattr__(name: str):
+    if name in _PUBLIC:
+        value = getattr(importlib.import_module(_PUBLIC[name], __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -157,7 +157,11 @@ def main(argv: list[str] | None = None) -> int:
     int
         The exit status (:data:`EXIT_CODES`).
     """
-    parser = build_parser()
+    try:
+        parser = build_parser()
+    except GflatError as exc:   # a setting read at import (e.g. GFLAT_SERIES_BACKEND)
+        print(f"gflat: error: {exc}", file=sys.stderr)
+        return 2
     args = parser.parse_args(argv)
     args.command_line = ["gflat", *(sys.argv[1:] if argv is None else argv)]   # recorded in manifests
     setup_logging(args.verbose, args.quiet)

@@ -69,6 +69,8 @@ from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
+from gna.errors import InputError
+
 __all__ = ["BACKEND", "BACKENDS", "BACKEND_ENV", "Series"]
 
 _NO_TRUTH_MSG = (
@@ -584,9 +586,11 @@ def _select_backend() -> str:
     """
     want = os.environ.get(BACKEND_ENV, "").strip().lower() or "numpy"
     if want not in BACKENDS:
-        raise ImportError(f"{BACKEND_ENV}={want!r}: the series backend must be one of {', '.join(BACKENDS)}")
+        raise InputError(f"environment variable {BACKEND_ENV}={want!r}: the series backend must be one of "
+                         f"{', '.join(BACKENDS)}")
     if want == "compiled" and importlib.util.find_spec("numba") is None:
-        raise ImportError(f"{BACKEND_ENV}=compiled needs numba (pip install numba, or the 'fast' extra)")
+        raise InputError(f"environment variable {BACKEND_ENV}=compiled needs numba (pip install numba, or the "
+                         f"'fast' extra)")
     return want
 
 

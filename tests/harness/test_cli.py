@@ -138,3 +138,16 @@ def test_manifest_records_the_gflat_command_line(tmp_path):
     assert main(["compare", "gtm-aileron-roll", "--out", str(out)]) == 0
     assert json.loads((out / "manifest.json").read_text())["command_line"] == [
         "gflat", "compare", "gtm-aileron-roll", "--out", str(out)]
+
+
+def test_a_bad_series_backend_is_one_line_not_a_traceback():
+    """GFLAT_SERIES_BACKEND is read when the planners are imported: still one line and exit 2."""
+    import os
+    import subprocess
+    import sys
+    out = subprocess.run([sys.executable, "-m", "harness.cli", "plan", "gtm-aileron-roll"], capture_output=True,
+                         text=True, env={**os.environ, "GFLAT_SERIES_BACKEND": "bogus"})
+    assert out.returncode == 2
+    assert out.stderr.strip().splitlines() == [
+        "gflat: error: environment variable GFLAT_SERIES_BACKEND='bogus': the series backend must be one of "
+        "numpy, compiled"]
