@@ -327,6 +327,10 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
         eta = compile_expression(0.0)
     gen = data.get("generalized", {})
     J_file = _iterations(gen.get("J", 0), f"{where} [generalized]")
+    stray = [k for k in ("J_tol", "J_max") if k in gen and J_file != AUTO_J]
+    if stray:
+        raise InputError(f"{where} [generalized]: {' and '.join(stray)} {'apply' if len(stray) > 1 else 'applies'} only to J = \"auto\" (here J = "
+                         f"{J_file}); remove {'them' if len(stray) > 1 else 'it'} or set J = \"auto\"")
     J = J_file if J is None else _iterations(J, where)
     e = check_output_order(gen.get("e", 1), f"{where} [generalized]")
     interpolation = check_interpolation(gen.get("interpolation", DEFAULT_INTERPOLATION), f"{where} [generalized]")

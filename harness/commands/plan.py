@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gna.errors import InputError
+
 from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
 from planners.systems.demos import DEMOS, is_chained_scenario, run_demo
@@ -215,6 +217,11 @@ def write_plan(sc, plan, elapsed: float, out, check=None) -> tuple[str, dict]:
 
 def run(args) -> int:
     if is_chained_scenario(args.scenario):  # a chained system of planners.systems, not an aircraft scenario
+        refused = [flag for flag, given in (("--verify", args.verify), ("--max-cost", args.max_cost is not None),
+                                            ("--J auto", args.J == "auto")) if given]
+        if refused:
+            raise InputError(f"{', '.join(refused)}: for aircraft scenarios only; a chained system's plan is always "
+                             f"checked against its exact model (summary: checks, feasible) and takes a whole J")
         out = OutputDir(Path(args.out)) if args.out else None        # a given folder is checked before planning
         demo = run_demo(args.scenario, J=args.J)
         out = out if out is not None else default_out(demo.summary["scenario"])
@@ -223,6 +230,9 @@ def run(args) -> int:
         print(json.dumps(json_safe(demo.summary), indent=2) if args.json
               else demo.text + f"\n  written to {out.root}/")
         out.finish()
+        if demo.summary["failure"]:
+            print(f"gflat plan: the plan is not feasible: {demo.summary['failure']}", file=sys.stderr)
+            return 1
         return 0
     sc = load_scenario(args.scenario, J=args.J)
     out = OutputDir(Path(args.out)) if args.out else default_out(sc.name)   # checked before planning

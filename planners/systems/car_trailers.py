@@ -29,6 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gna.errors import DomainError
+
 from ..chained import ChainedSystem, Stage, StateSpaceModel
 
 #: States and controls of the exact model.
@@ -190,6 +192,12 @@ def simulate_car_two_trailers(geometry: CarTrailers, v0, phi, state0, t_eval) ->
     -------
     ndarray, shape (N, 5)
         The states at ``t_eval``.
+
+    Raises
+    ------
+    DomainError
+        The integration stopped before the last time (e.g. a jack-knife: the hitch angles' rates
+        blow up); the message names the time and the integrator's reason.
     """
     from scipy.integrate import solve_ivp
 
@@ -197,6 +205,10 @@ def simulate_car_two_trailers(geometry: CarTrailers, v0, phi, state0, t_eval) ->
     sol = solve_ivp(lambda t, x: car_trailers_rhs(geometry, float(v0(t)), float(phi(t)), x),
                     (t_eval[0], t_eval[-1]), np.asarray(state0, dtype=float), t_eval=t_eval, rtol=1e-10,
                     atol=1e-10, method="RK45")
+    if sol.status != 0 or sol.y.shape[1] != t_eval.size:
+        t_stop = float(sol.t[-1]) if sol.t.size else float(t_eval[0])
+        raise DomainError(f"the exact car-with-trailers model flown open loop stopped at t = {t_stop:.6g} s "
+                          f"(of {t_eval[-1]:g} s): {sol.message}")
     return sol.y.T
 
 
@@ -222,6 +234,11 @@ def open_loop_error(plan, geometry: CarTrailers, x2, y2, samples: int = 241) -> 
     -------
     float
         ``max_t |(x2, y2)_simulated - (x2, y2)_planned|`` [m].
+
+    Raises
+    ------
+    DomainError
+        The open-loop flight stopped early (:func:`simulate_car_two_trailers`).
     """
     te = np.linspace(plan.t_nodes[0], plan.t_nodes[-1], samples)
     x0 = [plan.evaluate(n, te[0]) for n in ("x2", "y2", "theta2", "theta1", "theta0")]

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gna.errors import DomainError
+
 from .scenario import (ChainedScenario, is_chained_scenario, list_chained_scenarios, load_chained_scenario,
                        plan_chained_scenario)
 
@@ -31,7 +33,8 @@ class DemoResult:
     csv : str
         Every variable of the last iterate on a grid four times finer than the nodes (CSV, header ``t, ...``).
     summary : dict
-        System, method, J, nodes, planning time [s], the checks and the Newton residuals.
+        System, method, J, nodes, planning time [s], the checks, ``feasible`` and ``failure`` (why the
+        plan is not a solution of the exact model, or None) and the Newton residuals.
     plan : ChainedPlan
         The plan.
     """
@@ -69,7 +72,11 @@ def run_demo(name: str, J: int | None = None, method: str | None = None) -> Demo
     plan = plan_chained_scenario(sc, method=method)
     elapsed = time.perf_counter() - t0
     method = sc.method if method is None else method
-    checks = sc.spec.check(plan, sc)
+    try:
+        checks = sc.spec.check(plan, sc)
+        failure = sc.spec.verdict(checks, sc) if sc.spec.verdict is not None else None
+    except DomainError as exc:       # the exact model cannot be flown along the plan
+        checks, failure = {}, str(exc)
     tn = plan.t_nodes
     outputs = ", ".join(f"{z} = {e.text}" for z, e in sc.flat_outputs.items())
     params = ", ".join(f"{k} = {v:g}" for k, v in sc.parameters.items())
@@ -79,6 +86,8 @@ def run_demo(name: str, J: int | None = None, method: str | None = None) -> Demo
     if plan.residuals:
         lines.append("  Newton max |X^ - G(X^)| per step: " + ", ".join(f"{r:.2e}" for r in plan.residuals))
     lines += [f"  {k}: {v:.3e}" for k, v in checks.items()]
+    if failure:
+        lines.append(f"  NOT a solution of the exact model: {failure}")
     grid = np.linspace(tn[0], tn[-1], 4 * (len(tn) - 1) + 1)
     names = list(plan.iterates[-1])
     buf = io.StringIO()
@@ -87,7 +96,8 @@ def run_demo(name: str, J: int | None = None, method: str | None = None) -> Demo
     summary = {"scenario": sc.name, "system": sc.system_name, "description": sc.description,
                "parameters": sc.parameters, "flat_outputs": {z: e.text for z, e in sc.flat_outputs.items()},
                "method": method, "J": sc.J, "e": sc.e, "nodes": len(tn), "planning_time_s": elapsed,
-               "checks": checks, "newton_residuals": plan.residuals}
+               "checks": checks, "feasible": failure is None, "failure": failure,
+               "newton_residuals": plan.residuals}
     return DemoResult("\n".join(lines), buf.getvalue(), summary, plan)
 
 

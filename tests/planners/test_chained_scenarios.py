@@ -92,3 +92,21 @@ def test_gflat_plan_runs_a_chained_scenario_file(tmp_path, capsys):
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["J"] == 2 and summary["parameters"]["d2"] == 0.0 and summary["system"] == "car-two-trailers"
     assert summary["checks"]["open-loop error of the exact off-axle model [m]"] < 0.05
+
+
+def test_a_plan_that_is_not_a_solution_of_the_exact_model_exits_1(tmp_path, capsys):
+    """A lag whose series diverges (eps w = 1.5) and a car whose exact model jack-knifes open loop: one line
+    on stderr naming why, exit 1, no traceback."""
+    from harness.cli import main
+    from pathlib import Path
+
+    import planners.systems
+    src = (Path(planners.systems.__file__).parent / "scenarios" / "first-order-lag.toml").read_text()
+    lag = tmp_path / "lag.toml"
+    lag.write_text(src.replace("eps = 0.1", "eps = 0.5").replace("w = 1.0", "w = 3.0"))
+    assert main(["plan", str(lag), "--out", str(tmp_path / "o1")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "converges only where eps" in err[0]
+    for flag in (["--verify"], ["--J", "auto"]):
+        assert main(["plan", "car-two-trailers", *flag, "--out", str(tmp_path / "o2")]) == 2
+        assert "for aircraft scenarios only" in capsys.readouterr().err

@@ -55,3 +55,19 @@ def test_calibration_gives_h_values():
     sc = make_scenario(calibration={"V": 150.0, "gamma": 0.0, "chi_dot": 0.05, "beta": 0.0})
     # a steady turn: nonzero rates and surfaces become the first iterate's H values
     assert sc.h.q > 0 and sc.h.r > 0 and sc.h.dm < 0
+
+
+def test_auto_j_settings_beside_a_fixed_j_are_refused(tmp_path):
+    """J_tol / J_max only mean something with J = "auto": beside a whole J they would be silently ignored."""
+    import pytest as _pytest
+
+    from gna.errors import InputError as _InputError
+    from planners.scenario import load_scenario as _load
+    src = _load("gtm-aileron-roll").path
+    text = open(src, encoding="utf-8").read()
+    p = tmp_path / "s.toml"
+    p.write_text(text.replace("\nJ = 7\n", "\nJ = 7\nJ_max = 9\n"))
+    with _pytest.raises(_InputError, match='J_max applies only to J = "auto" \\(here J = 7\\)'):
+        _load(p)
+    p.write_text(text.replace("\nJ = 7\n", '\nJ = "auto"\nJ_max = 9\n'))
+    assert _load(p).J_max == 9
