@@ -35,7 +35,7 @@ from ..outdir import OutputDir
 from ..parallel import ForkPool, MemoryOutputDir, default_jobs, replay
 from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
-from ._args import iterations, nonnegative_int, out_path
+from ._args import iterations, out_path
 from ._compare_args import add_compare_arguments, compare_overrides
 from .plan import write_plan
 
@@ -45,7 +45,10 @@ ANGLE_STATES = ("gamma", "chi", "alpha", "beta", "mu")
 
 def positive_int(text: str) -> int:
     """A ``--jobs`` count: an integer >= 1."""
-    v = nonnegative_int(text)
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
     if v < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
     return v
