@@ -181,6 +181,9 @@ def write_plan(sc, plan, elapsed: float, out, check=None) -> tuple[str, dict]:
     lines = [f"{sc.name}: {sc.aircraft.id}, t = {tn[0]:g} .. {tn[-1]:g} s, {len(tn)} nodes, flat output "
              f"{sc.zeta.kind}, J = {plan.J}"]
     orders = summary["orders"]
+    if summary["J_rule"] != "given":
+        lines.append(f"  J = {plan.J} chosen by the convergence test (stopped by {summary['J_stop']}): "
+                     f"{summary['J_rule']}")
     lines.append(f"  orders of x, y, z per iterate: {orders} (controls at order {orders[-1] - 4})")
     lines.append(f"  planning time {elapsed:.3f} s ({', '.join(f'j={j}: {t:.3f}' for j, t in plan.timings.items())})")
     lines.append(f"  worst Newton residual: {plan.worst_newton_residual():.2e}")
