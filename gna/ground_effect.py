@@ -56,7 +56,8 @@ wing's lower tip is not brought nearer the ground).  This is exactly JSBSim's
 Every function is rational in ``z`` (no branch on values): it evaluates on
 floats, numpy arrays and truncated power series alike, as :mod:`gna.eom` requires.
 The model holds for ``h > 0``; :meth:`GroundEffect.check_height` refuses a
-height at or below the ground.
+height at or below the ground (trim, plan nodes); the engines stop a flight
+that reaches it (:func:`gna.trajectory.domain_bounds`).
 """
 
 from __future__ import annotations

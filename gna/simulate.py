@@ -3,7 +3,8 @@
 The integrator is scipy's DOP853 driven step by step, so that leaving the
 physical domain (:data:`gna.trajectory.DOMAIN`: airspeed out of
 [1, 3000] m/s, cos(beta) or cos(gamma) near 0, |alpha| beyond pi/2,
-non-finite values; the JSBSim engines apply the same tests) stops the run at
+non-finite values, and with ground effect a CG at or below the ground; the
+JSBSim engines apply the same tests) stops the run at
 the located time with a message naming the variable and value, and the valid
 part of the result is kept.  A controller with its own states
 (:class:`gna.controller.Controller`) is integrated together with the aircraft:
@@ -33,8 +34,8 @@ from .errors import InputError
 from .piecewise import PiecewisePolynomial
 from .tape import compile_derivatives
 from .trajectory import (DOMAIN_TESTS, ControlFunction, RunSettings, SimulationResult, check_span,
-                         control_function, controller_frames, controls_on_grid, domain_margins, domain_text,
-                         domain_violation, initial_state, output_grid)
+                         control_function, controller_frames, controls_on_grid, domain_bounds, domain_margins,
+                         domain_text, domain_violation, initial_state, output_grid)
 
 __all__ = ["ControlFunction", "SimulationResult", "RunSettings", "simulate", "envelope_warnings",
            "engine_thrust_warnings"]
@@ -47,9 +48,9 @@ class _NonFinite(Exception):
         self.t, self.names = t, names
 
 
-def _domain_functions():
+def _domain_functions(bounds):
     """Event functions of :data:`gna.trajectory.DOMAIN_TESTS`: (test index, margin), positive inside."""
-    return [(i, (lambda y, i=i: domain_margins(y)[i])) for i in range(len(DOMAIN_TESTS))]
+    return [(i, (lambda y, i=i: domain_margins(y, bounds)[i])) for i in range(len(DOMAIN_TESTS))]
 
 
 #: Stall detection: a run whose last ``STALL_STEPS`` integrator steps advanced less than
@@ -135,7 +136,8 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     if not np.all(np.isfinite(u0)):
         bad = [f"{n} = {v}" for n, v in zip(CONTROL_NAMES, u0) if not math.isfinite(v)]
         raise InputError(f"controls at t0 = {t0:g} s are not finite ({', '.join(bad)})")
-    start = domain_violation(t0, y0)
+    bounds = domain_bounds(env)      # with ground effect: a CG at or below the ground too (no ground contact)
+    start = domain_violation(t0, y0, bounds)
     if start is not None:
         raise InputError(f"the initial state is outside the physical domain: {start}")
     ctrl = as_controller(controller)
@@ -173,7 +175,7 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     except _NonFinite as exc:                              # the first evaluation, at t0
         raise InputError(f"non-finite derivative at t0 = {t0:g} s ({', '.join(exc.names)}): the initial state, "
                          f"controls and feedback give no motion") from None
-    events = _domain_functions()
+    events = _domain_functions(bounds)
     segments = []  # (t_lo, t_hi, dense)
     status, message, t_end = "completed", "", t1
     # A non-finite derivative met inside a step: restart from the last good point with smaller steps
@@ -203,7 +205,7 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
         if solver.status == "failed":
             status, t_end = "failed", t_prev
             message = f"integrator failed at t = {t_prev:.6g} s: {err}"
-            out = domain_violation(t_prev, y_prev)
+            out = domain_violation(t_prev, y_prev, bounds)
             if out is not None:
                 status, message = "domain", f"{out}; partial result kept up to t = {t_prev:.6g} s"
             break
@@ -211,7 +213,7 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
         hit = None
         if not np.all(np.isfinite(solver.y)):
             hit = (t_prev, None)
-        m0, m1 = domain_margins(y_prev), domain_margins(solver.y)
+        m0, m1 = domain_margins(y_prev, bounds), domain_margins(solver.y, bounds)
         for i, g in events:
             g0, g1 = m0[i], m1[i]
             if g0 > 0 and not g1 > 0:
@@ -224,9 +226,9 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
             ye = dense(te) if te > t_prev else y_prev
             status, t_end = "domain", te
             if i is None:
-                text = domain_violation(solver.t, solver.y) or "left the physical domain"
+                text = domain_violation(solver.t, solver.y, bounds) or "left the physical domain"
             else:
-                text = domain_text(te, i, float(ye[STATE_NAMES.index(DOMAIN_TESTS[i][0])]))
+                text = domain_text(te, i, float(ye[STATE_NAMES.index(DOMAIN_TESTS[i][0])]), bounds)
             message = f"{text}; integration stopped, partial result kept up to t = {te:.6g} s"
             break
         segments.append((t_prev, solver.t, dense))

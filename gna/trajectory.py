@@ -10,7 +10,8 @@
 * The input checks every engine shares: :func:`initial_state`,
   :func:`check_span`, :func:`output_grid`, :func:`environment_of`.
 * The physical domain every engine stops at: :data:`DOMAIN`,
-  :func:`domain_margins` and :func:`domain_violation`.
+  :func:`domain_margins` and :func:`domain_violation`; with ground effect
+  (:func:`domain_bounds`) also a CG at or below the ground.
 * The outcome of a run on any engine: :class:`SimulationResult` with its typed
   settings record :class:`RunSettings`.
 """
@@ -19,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
@@ -243,12 +244,18 @@ class DomainBounds:
         Largest ``|alpha|`` [rad]: pi/2.  Beyond it the air comes from behind
         the wing; the aerodynamic models are fitted over tens of degrees and
         the JSBSim angle swings through +-pi when a run tumbles.
+    ground : float or None
+        Altitude ``-z`` of the ground plane [m] when the environment has
+        ground effect (:func:`domain_bounds`): a CG height ``h = -z - ground``
+        at or below 0 has reached the ground, and neither engine models ground
+        contact.  None (default, free air): no height test.
     """
 
     V_min: float = 1.0
     V_max: float = 3000.0
     cos_min: float = 1e-6
     alpha_max: float = 0.5 * math.pi
+    ground: float | None = None
 
 
 #: The bounds both engines apply at every step.
@@ -261,7 +268,50 @@ DOMAIN_TESTS: tuple[tuple[str, str], ...] = (
     ("beta", "|beta| at pi/2 (cos(beta) below {cos_min:g}: the wind-frame chart is singular)"),
     ("gamma", "cos(gamma) below {cos_min:g} (vertical flight path: the wind-frame chart is singular)"),
     ("alpha", "|alpha| above the domain's {alpha_max_deg:g} deg"),
+    ("z", "height above the ground at or below 0 (ground at {ground:g} m altitude; no ground contact is modelled)"),
 )
+
+#: Index of the height test (ground effect only) in :data:`DOMAIN_TESTS`.
+GROUND_TEST = 5
+
+
+def domain_bounds(env: Environment | None) -> DomainBounds:
+    """The domain of a run in ``env``: :data:`DOMAIN`, with the ground's height test when it has ground effect.
+
+    Parameters
+    ----------
+    env : Environment or None
+        The run's environment (None: free air).
+
+    Returns
+    -------
+    DomainBounds
+        :data:`DOMAIN` itself in free air; else the same bounds with ``ground`` at the ground elevation [m].
+    """
+    ge = getattr(env, "ground_effect", None)
+    return DOMAIN if ge is None else replace(DOMAIN, ground=float(ge.elevation))
+
+
+def ground_violation(t: float, z: float, bounds: DomainBounds = DOMAIN) -> str | None:
+    """The domain's height test alone: None above the ground (or without one), else :func:`domain_text`'s message.
+
+    Parameters
+    ----------
+    t : float
+        Time [s] (for the message).
+    z : float
+        NED down coordinate of the CG [m].
+    bounds : DomainBounds
+        The bounds (their ``ground``; None: no test).
+
+    Returns
+    -------
+    str or None
+        ``"left the physical domain at t = ... s: height above the ground at or below 0 (...) (h = ... m, z = ... m)"``.
+    """
+    if bounds.ground is None or -z - bounds.ground > 0:
+        return None
+    return domain_text(t, GROUND_TEST, z, bounds)
 
 
 def domain_margins(state, bounds: DomainBounds = DOMAIN) -> list[float]:
@@ -284,7 +334,7 @@ def domain_margins(state, bounds: DomainBounds = DOMAIN) -> list[float]:
     if not (math.isfinite(gamma) and math.isfinite(beta)):
         return [math.nan] * len(DOMAIN_TESTS)
     return [V - bounds.V_min, bounds.V_max - V, math.cos(beta) - bounds.cos_min, math.cos(gamma) - bounds.cos_min,
-            bounds.alpha_max - abs(alpha)]
+            bounds.alpha_max - abs(alpha), math.inf if bounds.ground is None else -state[2] - bounds.ground]
 
 
 def domain_text(t: float, test: int, value: float, bounds: DomainBounds = DOMAIN) -> str:
@@ -308,7 +358,11 @@ def domain_text(t: float, test: int, value: float, bounds: DomainBounds = DOMAIN
     """
     name, text = DOMAIN_TESTS[test]
     text = text.format(V_min=bounds.V_min, V_max=bounds.V_max, cos_min=bounds.cos_min,
-                       alpha_max_deg=math.degrees(bounds.alpha_max))
+                       alpha_max_deg=math.degrees(bounds.alpha_max), ground=math.nan if bounds.ground is None
+                       else bounds.ground)
+    if name == "z":          # the height test: the height above the ground, then z itself
+        return (f"left the physical domain at t = {t:.6g} s: {text} "
+                f"(h = {-value - (bounds.ground or 0.0):.6g} m, z = {value:.6g} m)")
     shown = f"{value:.6g} {UNITS[name]}" if name == "V" else f"{value:.6g} rad = {math.degrees(value):.4g} deg"
     return f"left the physical domain at t = {t:.6g} s: {text} ({name} = {shown})"
 
@@ -367,6 +421,8 @@ def first_domain_violation(t, states, bounds: DomainBounds = DOMAIN) -> str | No
         inside = (np.all(np.isfinite(X), axis=0) & (X[3] > bounds.V_min) & (X[3] < bounds.V_max)
                   & (np.cos(X[7]) > bounds.cos_min) & (np.cos(X[4]) > bounds.cos_min)
                   & (np.abs(X[6]) < bounds.alpha_max))
+        if bounds.ground is not None:
+            inside &= -X[2] - bounds.ground > 0
     if inside.all():
         return None
     i = int(np.argmin(inside))

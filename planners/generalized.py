@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from gna.errors import InputError
-from gna.trajectory import first_domain_violation
+from gna.trajectory import domain_bounds, first_domain_violation, ground_violation
 
 from .flat import FlatProblem, check_grid, check_iterations, parametrize
 from .plan import DEFAULT_INTERPOLATION, Plan, check_interpolation
@@ -35,6 +35,8 @@ STAGES = 4
 #: Default bound on :func:`plan_cost`: 5e6 node-order^2 units, about 30 s of planning (about 6 us per unit
 #: measured on 2 cores; the paper's largest plan, the J = 7 aileron roll on 81 nodes, costs 1.07e5).
 MAX_PLAN_COST = 5.0e6
+#: Samples per node interval of the height test along the plan's path (:func:`ground_failures`).
+GROUND_SAMPLES = 64
 #: Plans costing more than this log their progress per iterate (logger ``planners.generalized``, INFO).
 PROGRESS_COST = 5.0e5
 
@@ -343,7 +345,7 @@ def _finish(plan: Plan) -> Plan:
     """Newton failures, domain, singularity monitor and envelope checks of a plan (both methods)."""
     problem, t_nodes = plan.problem, plan.t_nodes
     plan.warnings.extend(plan.newton_failures)
-    plan.domain_failures = domain_failures(plan)
+    plan.domain_failures = domain_failures(plan) + ground_failures(plan)
     plan.warnings.extend(plan.domain_failures)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         plan.singularities = monitor(plan)
@@ -375,6 +377,47 @@ def domain_failures(plan: Plan) -> list[str]:
         bad = first_domain_violation(plan.t_nodes, np.array([np.broadcast_to(v, plan.t_nodes.shape) for v in s]))
         if bad is not None:
             out.append(f"iterate j = {j}: {bad}")
+    return out
+
+
+def ground_failures(plan: Plan) -> list[str]:
+    """With ground effect, the iterates whose path between the nodes reaches the ground, one message each.
+
+    The nodes' heights are refused before planning (:meth:`gna.atmosphere.Environment.check_altitude`); the
+    path between them (the plan's own interpolation of the node series, :meth:`Plan.piecewise`) can still dip
+    to the ground, where the model does not hold (no ground contact): its height ``h = -z - elevation`` is
+    sampled at :data:`GROUND_SAMPLES` points per node interval (nodes included).
+
+    Parameters
+    ----------
+    plan : Plan
+        A plan with its iterates (its problem's environment gives the ground).
+
+    Returns
+    -------
+    list of str
+        ``"iterate j = ...: left the physical domain at t = ... s: height above the ground at or below 0 (...)
+        (h = ... m, z = ... m); lowest h = ... m at t = ... s"`` (:func:`gna.trajectory.ground_violation`:
+        the first sample at or below the ground) for each such iterate; empty in free air.
+    """
+    bounds = domain_bounds(plan.problem.env)
+    if bounds.ground is None:
+        return []
+    tn = np.asarray(plan.t_nodes, dtype=float)
+    frac = np.arange(GROUND_SAMPLES) / GROUND_SAMPLES
+    t = np.append((tn[:-1, None] + np.diff(tn)[:, None] * frac).ravel(), tn[-1])
+    out = []
+    for j in range(plan.J + 1):
+        try:
+            z = plan.piecewise(("z",), j).evaluate(t)[0]
+        except InputError:          # non-finite series: a Newton failure, reported as such
+            continue
+        h = -z - bounds.ground
+        bad = ~(h > 0)
+        if bad.any():
+            i, k = int(np.argmax(bad)), int(np.argmin(np.where(np.isfinite(h), h, -np.inf)))
+            out.append(f"iterate j = {j}: {ground_violation(float(t[i]), float(z[i]), bounds)}; "
+                       f"lowest h = {h[k]:.6g} m at t = {t[k]:.6g} s")
     return out
 
 

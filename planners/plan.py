@@ -288,8 +288,9 @@ class Plan:
         :func:`~planners.generalized.plan_motion`).
     domain_failures : list of str
         Iterates whose node values leave the physical domain
-        (:func:`gna.trajectory.domain_violation`: time, variable, value); such
-        a plan is not feasible.
+        (:func:`gna.trajectory.domain_violation`: time, variable, value), or
+        with ground effect whose path reaches the ground between the nodes
+        (:func:`~planners.generalized.ground_failures`); such a plan is not feasible.
     generalized : dict
         The generalized-flatness method (``"method"``: ``"fixed-point"`` or ``"newton"``) and, for
         Newton, its depth, starting order and fixed-point residual ``max |H - G(H)|`` per iterate;
@@ -715,7 +716,7 @@ class Plan:
     @property
     def feasible(self) -> bool:
         """False when Newton failed somewhere (the plan is not a solution of the model there) or a node
-        leaves the physical domain (:attr:`domain_failures`)."""
+        leaves the physical domain, or the path reaches the ground (:attr:`domain_failures`)."""
         return not self.newton_failure_records and not self.domain_failures
 
     def worst_newton_residual(self) -> float:

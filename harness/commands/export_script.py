@@ -40,8 +40,9 @@ def run(args) -> int:
     sc = load_scenario(args.scenario, J=args.J)
     plan = plan_scenario(sc)
     if not plan.feasible:
-        raise InputError(f"the plan of {sc.name} is not feasible (Newton failed: "
-                         f"{'; '.join(plan.newton_failures[:3])}); nothing written")
+        why = f"Newton failed: {'; '.join(plan.newton_failures[:3])}" if plan.newton_failures else \
+            plan.domain_failures[-1]
+        raise InputError(f"the plan of {sc.name} is not feasible ({why}); nothing written")
     b = export_script(args.out, sc.name, sc.aircraft, plan, (plan.t0, plan.t1), plan.initial_state(), env=sc.env,
                       dt_out=args.dt_out, table_dt=args.table_dt)
     print(f"{sc.name}: t = {b.t_span[0]:g} .. {b.t_span[1]:g} s, JSBSim step {b.dt:.6g} s, "

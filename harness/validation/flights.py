@@ -148,7 +148,7 @@ def case_flights(case: ValidationCase, *, plan=None, scenario=None, open_loop=No
         Not a case, unknown scenario, a plan or scenario of the wrong type, or a plan whose J differs
         from the case's.
     DomainError
-        The plan is not feasible (Newton failed): there is nothing to fly.
+        The plan is not feasible (Newton failed, or it leaves the physical domain): there is nothing to fly.
     """
     from .run import case_settings, with_step
 
@@ -171,7 +171,8 @@ def case_flights(case: ValidationCase, *, plan=None, scenario=None, open_loop=No
     elif isinstance(case.J, int) and plan.J != case.J:
         raise InputError(f"the plan given has J = {plan.J}, the case asks for J = {case.J}")
     if not plan.feasible:
-        raise DomainError(f"{plan.name}: the plan is not feasible, nothing to fly: {plan.newton_failures[0]}")
+        why = (plan.newton_failures or plan.domain_failures[-1:] or ["not feasible"])[0]   # Newton, or domain
+        raise DomainError(f"{plan.name}: the plan is not feasible, nothing to fly: {why}")
     J = plan.J
     span = (plan.t0, plan.t1)
     dt_out = settings.dt_out

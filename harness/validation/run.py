@@ -276,7 +276,7 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None, open_loop=None) 
         Not a case, unknown scenario, a plan or scenario of the wrong type, or a plan whose J differs
         from the case's.
     DomainError
-        The plan is not feasible (Newton failed): there is nothing to fly.
+        The plan is not feasible (Newton failed, or it leaves the physical domain): there is nothing to fly.
     """
     flights = case_flights(case, plan=plan, scenario=scenario, open_loop=open_loop)
     return finish_case(flights, {name: fly_it() for name, fly_it in flights.flights.items()})

@@ -28,7 +28,7 @@ from gna.eom import CONTROL_NAMES
 from gna.errors import InputError
 from gna.simulate import envelope_warnings
 from gna.trajectory import (RunSettings, SimulationResult, check_span, control_function, controller_frames,
-                            controls_on_grid, environment_of, initial_state)
+                            controls_on_grid, domain_bounds, environment_of, initial_state)
 
 from ..base import EngineError
 from .fdm import import_jsbsim
@@ -260,8 +260,10 @@ class JSBSimRun:
         self._configure()
         self.state_readers = [self._node(p).get_double_value for p in self.pos_nodes + STATE_NODES]
         self.derived_readers = [self._node(p).get_double_value for p in self.derived_nodes]
-        self.track_readers = [self._node(p).get_double_value for p in TRACK_NODES]
-        self.to_state = StateConverter(self.x0, self.fdm["inertial/sea-level-radius_ft"], self.geo)
+        bounds = domain_bounds(self.env)    # with ground effect the CG's altitude is tested too (no ground contact)
+        track = TRACK_NODES + (self.pos_nodes[2:] if bounds.ground is not None else ())
+        self.track_readers = [self._node(p).get_double_value for p in track]
+        self.to_state = StateConverter(self.x0, self.fdm["inertial/sea-level-radius_ft"], self.geo, bounds)
         t0, u0 = float(self.times[0]), self.U[:, 0]
         self.d = [0.0] * 5
         self.xc = np.zeros(0)

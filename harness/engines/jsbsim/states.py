@@ -19,7 +19,7 @@ from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.frames import bank_from_euler
-from gna.trajectory import COLUMNS, domain_margins, domain_violation
+from gna.trajectory import COLUMNS, DOMAIN, DomainBounds, domain_margins, domain_violation, ground_violation
 
 from . import export as jx
 from .fdm import WGS84_A_FT, WGS84_B_FT
@@ -70,10 +70,14 @@ class StateConverter:
         Sea-level radius of the flat planet [ft].
     wgs84 : pair of float or None
         Initial (latitude, longitude) [rad] on JSBSim's WGS84 Earth; None on the flat planet.
+    bounds : DomainBounds
+        The domain :meth:`check` tests (:func:`gna.trajectory.domain_bounds` of the run's environment).
     """
 
-    def __init__(self, x0: np.ndarray, radius_ft: float, wgs84: tuple[float, float] | None):
+    def __init__(self, x0: np.ndarray, radius_ft: float, wgs84: tuple[float, float] | None,
+                 bounds: DomainBounds = DOMAIN):
         self.x0 = np.asarray(x0, dtype=float)
+        self.bounds = bounds
         self.wgs84 = wgs84
         if wgs84 is None:
             self.rm = self.rn = radius_ft
@@ -175,23 +179,24 @@ class StateConverter:
         ----------
         t : float
             Time of the step [s].
-        raw : sequence of 7 float
-            Values of :data:`TRACK_NODES`.
+        raw : sequence of 7 or 8 float
+            Values of :data:`TRACK_NODES`, then with a ground (``bounds.ground``) the altitude of the CG [ft].
 
         Returns
         -------
         str or None
-            None inside the physical domain, else :func:`gna.trajectory.domain_violation`'s message.
+            None inside the physical domain, else :func:`gna.trajectory.domain_violation`'s message (or
+            :func:`gna.trajectory.ground_violation`'s: the CG at or below the ground).
         """
         try:
-            x = self.track(*raw)
+            x = self.track(*raw[:7])
         except (ValueError, OverflowError):  # math functions of non-finite outputs
             x = [math.nan] * 12
             x[3] = raw[0] * units.FT
         for m in domain_margins(x):
             if not m > 0:
                 return domain_violation(t, x) or f"left the physical domain at t = {t:.6g} s"
-        return None
+        return ground_violation(t, -units.FT * raw[7], self.bounds) if len(raw) > 7 else None
 
     def scalar(self, raw: Sequence[float]) -> np.ndarray:
         """One step (pure-Python arithmetic), chi and mu continued from the previous call.
