@@ -85,33 +85,53 @@ class _Terminated(BaseException):
     """Raised in a worker by SIGTERM (the parent ending it): unwinds its ``finally`` blocks (temporary files)."""
 
 
-def _terminate(signum, frame):
-    raise _Terminated()
-
-
 def _child(conn, fn: Callable[[], Any]) -> None:
-    """Body of a worker: run ``fn``, send ``("ok", value)`` or ``("err", exception, traceback text)``."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)         # the parent handles Ctrl-C and ends its children
-    signal.signal(signal.SIGTERM, _terminate)
-    gc.freeze()            # the inherited objects are not scanned by this process's collections (nor copied by them)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-    w0, c0 = time.perf_counter(), time.process_time()
+    """Body of a worker: run ``fn``, send ``("ok", value)`` or ``("err", exception, traceback text)``, exit.
+
+    Ended by the parent (SIGTERM), the worker says nothing: its standard error
+    goes to ``/dev/null`` at once, ``_Terminated`` unwinds ``fn``'s ``finally``
+    blocks, and the process leaves by ``os._exit`` (no report of the
+    multiprocessing bootstrap, whatever the moment the signal arrives).
+    """
+    ending = []
+
+    def terminate(signum, frame):
+        if not ending:
+            ending.append(signum)
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, 2)                            # the user's terminal belongs to the parent's message
+            os.close(devnull)
+        raise _Terminated()
+
+    code = 143
     try:
-        out = ("ok", fn())
-    except _Terminated:
-        os._exit(143)                                     # cleaned up; nothing to report to a parent that is ending
-    except BaseException as exc:                          # noqa: BLE001  (sent to the parent, raised there)
-        out = ("err", _portable(exc), traceback.format_exc())
-    out += (time.perf_counter() - w0, time.process_time() - c0)
-    try:
-        conn.send(out)
-    except Exception as exc:                              # an unpicklable result
-        conn.send(("err", RuntimeError(f"a worker's result could not be sent back: {exc}"), traceback.format_exc(),
-                   0.0, 0.0))
-    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)     # the parent handles Ctrl-C and ends its children
+        signal.signal(signal.SIGTERM, terminate)
+        gc.freeze()        # the inherited objects are not scanned by this process's collections (nor copied by them)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        w0, c0 = time.perf_counter(), time.process_time()
+        try:
+            out = ("ok", fn())
+        except _Terminated:
+            raise
+        except BaseException as exc:                      # noqa: BLE001  (sent to the parent, raised there)
+            out = ("err", _portable(exc), traceback.format_exc())
+        if ending:                                        # a _Terminated swallowed by fn (e.g. in a __del__)
+            raise _Terminated()
+        out += (time.perf_counter() - w0, time.process_time() - c0)
+        try:
+            conn.send(out)
+        except Exception as exc:                          # an unpicklable result
+            conn.send(("err", RuntimeError(f"a worker's result could not be sent back: {exc}"),
+                       traceback.format_exc(), 0.0, 0.0))
         conn.close()
         sys.stdout.flush()
         sys.stderr.flush()
+        code = 0
+    except BaseException:                                 # noqa: BLE001  (_Terminated at any moment: end quietly)
+        code = 143 if ending else 1
+    finally:
+        os._exit(code)
 
 
 class ForkPool:
@@ -212,17 +232,25 @@ class ForkPool:
             self.log.append({"what": what, "wall_s": time.perf_counter() - w0, "cpu_s": time.process_time() - c0})
             return key, value
         ready = wait_connections(list(self._running))
-        conn = min(ready, key=lambda c: list(self._running).index(c))
-        proc, key, what = self._running.pop(conn)
+        # Ctrl-C waits while a finished child is collected and the next started: the Process objects dropped
+        # here run weak-reference callbacks, where a KeyboardInterrupt would be printed and lost
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         try:
-            msg = conn.recv()
-        except (EOFError, OSError):
-            msg = None
-        conn.close()
-        proc.join()
-        self._start()
+            conn = min(ready, key=lambda c: list(self._running).index(c))
+            proc, key, what = self._running.pop(conn)
+            try:
+                msg = conn.recv()
+            except (EOFError, OSError):
+                msg = None
+            conn.close()
+            proc.join()
+            exitcode = proc.exitcode
+            del proc
+            self._start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
         if msg is None:
-            raise GflatError(f"a worker process ended without a result (exit code {proc.exitcode})"
+            raise GflatError(f"a worker process ended without a result (exit code {exitcode})"
                              + (f" while {what}" if what else ""))
         self.log.append({"what": what, "wall_s": msg[-2], "cpu_s": msg[-1]})
         if msg[0] == "err":
@@ -235,12 +263,16 @@ class ForkPool:
     def close(self) -> None:
         """End every running child (after an error or an interruption) and drop the queue."""
         self._queue.clear()
-        for conn, (proc, _, _) in list(self._running.items()):
-            if proc.is_alive():
-                proc.terminate()
-            proc.join()
-            conn.close()
-        self._running.clear()
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})   # a second Ctrl-C waits: no child left
+        try:
+            for conn, (proc, _, _) in list(self._running.items()):
+                if proc.is_alive():
+                    proc.terminate()
+                proc.join()
+                conn.close()
+            self._running.clear()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 class _MemoryRecord:

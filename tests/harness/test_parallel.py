@@ -123,3 +123,56 @@ def test_paper_in_workers_writes_the_files_of_one_process(short_scenario, tmp_pa
     strip = lambda text: [line for line in text.splitlines() if "time" not in line and "jobs" not in line  # noqa: E731
                           and str(tmp_path) not in line and not line.startswith("  short ")]
     assert strip(outs[1]) == strip(outs[2])
+
+
+_INTERRUPTED_POOLS = r'''
+import os, random, signal, sys, time
+from harness.parallel import ForkPool, MemoryOutputDir
+
+def task(i):
+    def fn():
+        out = MemoryOutputDir(os.environ["TMPDIR"])
+        with out.atomic(f"f{i}.bin") as tmp:          # a temporary folder the worker must remove when ended
+            tmp.write_bytes(b"x" * 1000)
+            time.sleep(random.uniform(0.0, 0.03))
+            if i % 3 == 1:
+                raise ValueError(f"task {i} fails")    # the traceback-formatting path
+        return b"r" * (1 << 20) if i % 3 == 2 else i   # a result larger than a pipe: the send blocks
+    return fn
+
+signal.signal(signal.SIGALRM, lambda *_: os.killpg(0, signal.SIGINT))   # Ctrl-C: the whole process group
+random.seed(int(sys.argv[1]))
+interrupted = 0
+for round in range(int(sys.argv[2])):
+    signal.setitimer(signal.ITIMER_REAL, random.uniform(0.0, 0.15))
+    try:
+        with ForkPool(2) as pool:
+            for i in range(12):
+                pool.submit(i, task(i))
+            while pool.pending:
+                try:
+                    pool.next_result()
+                except ValueError:
+                    pass
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        time.sleep(0.01)                                # an interruption in flight lands here, not in the next round
+    except KeyboardInterrupt:
+        interrupted += 1
+print(interrupted)
+sys.exit(130 if interrupted else 0)
+'''
+
+
+def test_pool_interrupted_at_any_moment_ends_quietly(tmp_path):
+    # Ctrl-C (SIGINT to the process group) at random moments: workers starting, running, formatting an error,
+    # blocked sending a large result, or ending; the parent terminates them and nothing but its own message
+    # reaches the terminal.
+    import subprocess
+    import sys
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    env = dict(os.environ, TMPDIR=str(scratch), PYTHONPATH=str(Path(__file__).resolve().parents[2]))
+    r = subprocess.run([sys.executable, "-c", _INTERRUPTED_POOLS, "7", "40"], capture_output=True, text=True,
+                       env=env, start_new_session=True, timeout=120)
+    assert r.stderr == ""
+    assert r.returncode == 130 and int(r.stdout) >= 20
