@@ -34,6 +34,17 @@ def nonnegative_int(text: str) -> int:
     return v
 
 
+def positive_int(text: str) -> int:
+    """A count that must be at least 1 (``--jobs``, ``--samples``, ``--workers``)."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
+    return v
+
+
 def iterations(text: str) -> int | str:
     """``--J``: a number of generalized-flatness iterations (>= 0) or ``auto`` (chosen by the convergence test)."""
     if text.strip().lower() == "auto":

@@ -15,16 +15,7 @@ from pathlib import Path
 
 from gna.errors import InputError
 
-
-def _positive_int(text: str) -> int:
-    import argparse
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
-    return v
+from ._args import positive_int
 
 
 def register(sub) -> None:
@@ -36,8 +27,8 @@ def register(sub) -> None:
     r = csub.add_parser("run", help="run or resume a campaign")
     r.add_argument("campaign", metavar="NAME_OR_FILE", help="bundled campaign (paper-dispersions) or a TOML file")
     r.add_argument("--out", required=True, metavar="DIR", help="campaign folder (resumed when it exists)")
-    r.add_argument("--samples", type=_positive_int, default=None, help="samples per case and dispersion set")
-    r.add_argument("--workers", type=_positive_int, default=None,
+    r.add_argument("--samples", type=positive_int, default=None, help="samples per case and dispersion set")
+    r.add_argument("--workers", type=positive_int, default=None,
                    help="local worker processes (default: the number of CPUs; 1: in this process)")
     r.add_argument("--dask", default=None, metavar="ADDRESS|local:N",
                    help="run on Dask distributed: a scheduler address, or local:N for a local cluster")

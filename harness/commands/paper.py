@@ -22,7 +22,6 @@ case's reference run (the same flight, flown once).
 
 from __future__ import annotations
 
-import argparse
 import time
 from dataclasses import replace
 
@@ -35,23 +34,12 @@ from ..outdir import OutputDir
 from ..parallel import ForkPool, MemoryOutputDir, default_jobs, replay
 from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
-from ._args import iterations, out_path
+from ._args import iterations, out_path, positive_int
 from ._compare_args import add_compare_arguments, compare_overrides
 from .plan import write_plan
 
 PAPER_SCENARIOS = ("twin-otter-single-engine", "gtm-forward-slip", "gtm-aileron-roll")
 ANGLE_STATES = ("gamma", "chi", "alpha", "beta", "mu")
-
-
-def positive_int(text: str) -> int:
-    """A ``--jobs`` count: an integer >= 1."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
-    return v
 
 
 def register(sub) -> None:
