@@ -335,6 +335,12 @@ def _remove_orphan_pages(root: Path) -> None:
             page.unlink()
 
 
+
+def _older_than_models(pdf: Path, root: Path) -> bool:
+    """Whether ``pdf`` was printed before some case's saved model (``report.json``) was last written."""
+    stamp = pdf.stat().st_mtime
+    return any(m.stat().st_mtime > stamp for m in root.rglob(REPORT_JSON))
+
 def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool = True,
                date: str | None = None, jobs: int = 1) -> dict[str, Path]:
     """Render a run folder's reports: ``index.html``, a page per case, optionally the single file and the PDF.
@@ -357,7 +363,8 @@ def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool =
     -------
     dict
         ``"index"``, ``"pages"`` (list), and ``"single"``/``"pdf"`` when written -> Path;
-        ``"removed_pdf"`` when, without ``pdf``, an earlier (now stale) ``report.pdf`` was removed.
+        ``"removed_pdf"`` when, without ``pdf``, an earlier ``report.pdf`` older than the saved
+        results (``report.json`` files) was removed as stale; a PDF of the same results is kept.
 
     Raises
     ------
@@ -378,7 +385,7 @@ def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool =
 
         parts = jobs if jobs > 1 and can_merge() else 1
         out["pdf"] = write_pdf(document_parts(root, parts, date=date), root, root / PDF_FILE, jobs=parts)
-    elif (root / PDF_FILE).is_file():
-        (root / PDF_FILE).unlink()                        # an earlier rendering's PDF no longer matches the pages
+    elif (root / PDF_FILE).is_file() and _older_than_models(root / PDF_FILE, root):
+        (root / PDF_FILE).unlink()                        # printed from results that have been replaced since
         out["removed_pdf"] = root / PDF_FILE
     return out

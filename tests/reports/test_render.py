@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 from pathlib import Path
@@ -124,9 +125,14 @@ def test_a_corrupt_or_misshapen_model_is_one_clear_error(report_run, tmp_path, c
 def test_an_incomplete_run_is_rendered_with_a_notice_and_a_stale_pdf_goes(report_run, tmp_path, capsys):
     copy = tmp_path / "run"
     shutil.copytree(report_run.root, copy)
-    assert main(["report", str(copy), "--no-pdf"]) == 0          # complete: no notice; the old PDF is stale
+    assert main(["report", str(copy), "--no-pdf"]) == 0          # complete: no notice; the PDF of these results stays
     cap = capsys.readouterr()
-    assert "incomplete" not in cap.err and "removed the stale" in cap.out and not (copy / "report.pdf").exists()
+    assert "incomplete" not in cap.err and "removed the stale" not in cap.out and (copy / "report.pdf").is_file()
+    model = copy / SCENARIO / CASE_FOLDERS["open"] / "report.json"
+    later = (copy / "report.pdf").stat().st_mtime + 10
+    os.utime(model, (later, later))                                # results saved after the PDF was printed
+    assert main(["report", str(copy), "--no-pdf"]) == 0
+    assert "removed the stale" in capsys.readouterr().out and not (copy / "report.pdf").exists()
     assert "incomplete run" not in (copy / "index.html").read_text(encoding="utf-8")
     (copy / MARKER).unlink()                                       # an interrupted run
     assert main(["report", str(copy), "--no-pdf"]) == 0
