@@ -17,6 +17,7 @@ from pathlib import Path
 from gna.errors import InputError
 from reports.html import incomplete_notice, render_run
 
+from ..outdir import record_in_marker
 from ..parallel import default_jobs
 
 
@@ -37,6 +38,8 @@ def run(args) -> int:
         raise InputError(f"{root} is not a folder")
     t0 = time.perf_counter()
     out = render_run(root, self_contained=args.self_contained, pdf=args.pdf, jobs=default_jobs())
+    # the single page and the PDF join the run's files: a later run into the folder replaces or removes them
+    record_in_marker(root, [out[k] for k in ("single", "pdf") if k in out])
     notice = incomplete_notice(root)
     if notice:
         print(f"gflat report: warning: incomplete run: {notice}", file=sys.stderr)

@@ -206,3 +206,22 @@ def test_files_get_the_permissions_of_the_users_umask(tmp_path):
     finally:
         os.umask(old)
     assert stat.S_IMODE(p.stat().st_mode) == 0o644          # not private to the owner, as mkstemp would make it
+
+
+def test_files_recorded_after_a_run_are_removed_by_the_next_run(tmp_path):
+    """A report rendered again into a finished run's folder joins its files: the next run removes it if stale."""
+    from harness.outdir import record_in_marker
+    od = OutputDir(tmp_path / "run")
+    od.write_text("a.txt", text="a")
+    od.finish()
+    extra = tmp_path / "run" / "report.html"
+    extra.write_text("later")
+    assert record_in_marker(tmp_path / "run", [extra])
+    assert record_in_marker(tmp_path / "run", [extra])          # recorded once, not twice
+    files = [f["path"] for f in json.loads((tmp_path / "run" / ".gflat-complete.json").read_text())["files"]]
+    assert files == ["a.txt", "report.html"]
+    again = OutputDir(tmp_path / "run")
+    again.write_text("a.txt", text="b")
+    again.finish()
+    assert not extra.exists() and (tmp_path / "run" / "a.txt").read_text() == "b"
+    assert not record_in_marker(tmp_path / "elsewhere", [])      # no marker: nothing recorded
