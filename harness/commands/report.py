@@ -17,7 +17,7 @@ from pathlib import Path
 from gna.errors import InputError
 from reports.html import incomplete_notice, render_run
 
-from ..outdir import record_in_marker
+from ..marker import record_in_marker
 from ..parallel import default_jobs
 
 

@@ -210,7 +210,7 @@ def test_files_get_the_permissions_of_the_users_umask(tmp_path):
 
 def test_files_recorded_after_a_run_are_removed_by_the_next_run(tmp_path):
     """A report rendered again into a finished run's folder joins its files: the next run removes it if stale."""
-    from harness.outdir import record_in_marker
+    from harness.marker import record_in_marker
     od = OutputDir(tmp_path / "run")
     od.write_text("a.txt", text="a")
     od.finish()
