@@ -47,7 +47,7 @@ def positive_int(text: str) -> int:
 
 def iterations(text: str) -> int | str:
     """``--J``: a number of generalized-flatness iterations (>= 0) or ``auto`` (chosen by the convergence test)."""
-    if text.strip().lower() == "auto":
+    if text.strip() == "auto":
         return "auto"
     try:
         return nonnegative_int(text)
