@@ -66,12 +66,38 @@ def check_iterations(J, where: str = "plan") -> int:
     InputError
         Not a number (a string, a bool, None), not whole, or outside 0..MAX_J.
     """
-    if isinstance(J, (bool, np.bool_)) or not isinstance(J, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(J) or float(J) != int(J):
-        raise InputError(f"{where}: J must be a whole number, got {J!r} (0 to {MAX_J})")
-    if not 0 <= int(J) <= MAX_J:
-        raise InputError(f"{where}: J must be between 0 and {MAX_J}, got {int(J)}")
-    return int(J)
+    return check_whole(J, "J", MAX_J, where)
+
+
+def check_whole(value, what: str, upper: int, where: str) -> int:
+    """A whole-number setting in ``0..upper`` (J, the output order e), one message per fault.
+
+    Parameters
+    ----------
+    value : int
+        The setting (a float with a whole value, as TOML may give, is accepted).
+    what : str
+        Its name in the message (``"J"``, ``"the output order e"``).
+    upper : int
+        Largest accepted value.
+    where : str
+        What the message names (file, function).
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    InputError
+        Not a number (a string, a bool, None), not whole, or outside 0..upper.
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(value) or float(value) != int(value):
+        raise InputError(f"{where}: {what} must be a whole number, got {value!r} (0 to {upper})")
+    if not 0 <= int(value) <= upper:
+        raise InputError(f"{where}: {what} must be between 0 and {upper}, got {int(value)}")
+    return int(value)
 
 
 def check_grid(t_nodes) -> np.ndarray:

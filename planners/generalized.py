@@ -24,7 +24,7 @@ import numpy as np
 from gna.errors import InputError
 from gna.trajectory import domain_bounds, first_domain_violation, ground_violation
 
-from .flat import FlatProblem, check_grid, check_iterations, parametrize
+from .flat import FlatProblem, check_grid, check_iterations, check_whole, parametrize
 from .plan import DEFAULT_INTERPOLATION, Plan, check_interpolation
 from .singularity import monitor
 
@@ -85,12 +85,7 @@ def check_output_order(e, where: str = "plan") -> int:
     InputError
         Not a whole number, or outside 0..MAX_E.
     """
-    if isinstance(e, (bool, np.bool_)) or not isinstance(e, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(e) or float(e) != int(e):
-        raise InputError(f"{where}: the output order e must be a whole number, got {e!r} (0 to {MAX_E})")
-    if not 0 <= int(e) <= MAX_E:
-        raise InputError(f"{where}: the output order e must be between 0 and {MAX_E}, got {int(e)}")
-    return int(e)
+    return check_whole(e, "the output order e", MAX_E, where)
 
 
 def choose_J(residuals, tol: float = AUTO_J_TOL, ratio: float = AUTO_J_RATIO) -> tuple[int | None, str]:
