@@ -35,7 +35,6 @@ loop with the planned controls.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping
@@ -49,6 +48,7 @@ from gna.schema import SAFE_NAME, check_name, did_you_mean, find_file, read_toml
 from ..chained import ChainedPlan, ChainedSystem, generalized_parametrization, newton_parametrization
 from ..expressions import CONSTANTS, FUNCTIONS, Expression, compile_expression
 from ..flat import check_iterations
+from ..scenario import _num
 from .car_trailers import CarTrailers, car_two_trailers, open_loop_error
 from .first_order_lag import first_order_lag, lag_exact
 
@@ -300,13 +300,6 @@ def load_chained_scenario(name_or_path: str | Path, J: int | None = None) -> Cha
     return chained_scenario_from_dict(read_toml(path), where=path.name, J=J, path=str(path))
 
 
-def _number(table: Mapping, key: str, where: str) -> float:
-    v = table[key]
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)):
-        raise InputError(f"{where}: {key} must be a finite number, got {v!r}")
-    return float(v)
-
-
 def chained_scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int | None = None,
                                path: str | None = None) -> ChainedScenario:
     """Build a :class:`ChainedScenario` from a parsed TOML document.
@@ -343,15 +336,15 @@ def chained_scenario_from_dict(data: Mapping[str, Any], where: str = "scenario",
         Path(path).stem if path else system, "name (from the file name)", where)
     params = {k: v[0] for k, v in spec.parameters.items()}
     for k in data.get("parameters", {}):
-        params[k] = _number(data["parameters"], k, f"{where} [parameters]")
+        params[k] = _num(data["parameters"], k, f"{where} [parameters]")
     consts = dict(data.get("constants", {}))
     reserved = set(CONSTANTS) | set(FUNCTIONS) | {"t"}
     for k in consts:
-        _number(consts, k, f"{where} [constants]")
+        _num(consts, k, f"{where} [constants]")
         if k in reserved:
             raise InputError(f"{where} [constants]: {k} would shadow the built-in name {k!r}; choose another name")
     tm = data["time"]
-    t0, t1, step = (_number(tm, k, f"{where} [time]") for k in ("t0", "t1", "step"))
+    t0, t1, step = (_num(tm, k, f"{where} [time]") for k in ("t0", "t1", "step"))
     if not t1 > t0:
         raise InputError(f"{where} [time]: t1 = {t1:g} must be after t0 = {t0:g}")
     n_steps = (t1 - t0) / step
