@@ -250,10 +250,7 @@ def single_document(run_dir: str | Path, *, date: str | None = None) -> str:
     InputError
         No ``report.json`` under ``run_dir``.
     """
-    root = Path(run_dir)
-    cases, common = _run_context(root, date)
-    views = [_case_view(root, f, m, root, False) for f, m in cases]
-    return _environment().get_template("single.html").render(cases=views, pdf=True, **common)
+    return document_parts(run_dir, 1, date=date)[0]
 
 
 #: Weight of a figure in :func:`document_parts`' balance, in characters of HTML.
