@@ -333,8 +333,38 @@ def domain_margins(state, bounds: DomainBounds = DOMAIN) -> list[float]:
     V, gamma, alpha, beta = state[3], state[4], state[6], state[7]
     if not (math.isfinite(gamma) and math.isfinite(beta)):
         return [math.nan] * len(DOMAIN_TESTS)
-    return [V - bounds.V_min, bounds.V_max - V, math.cos(beta) - bounds.cos_min, math.cos(gamma) - bounds.cos_min,
-            bounds.alpha_max - abs(alpha), math.inf if bounds.ground is None else -state[2] - bounds.ground]
+    return _margins(state[2], V, gamma, alpha, beta, bounds, math.cos, abs, math.inf)
+
+
+def _margins(z, V, gamma, alpha, beta, bounds: DomainBounds, cos, absolute, no_ground) -> list:
+    """The margins of :data:`DOMAIN_TESTS` (one formula for floats and for arrays of samples)."""
+    return [V - bounds.V_min, bounds.V_max - V, cos(beta) - bounds.cos_min, cos(gamma) - bounds.cos_min,
+            bounds.alpha_max - absolute(alpha), no_ground if bounds.ground is None else -z - bounds.ground]
+
+
+def inside_domain(states, bounds: DomainBounds = DOMAIN) -> np.ndarray:
+    """Which of many states lie inside the physical domain (the test of :func:`domain_violation`, vectorised).
+
+    Parameters
+    ----------
+    states : array_like, shape (12, n) or more rows
+        Wind-frame states (:data:`gna.eom.STATE_NAMES`, SI, rad), one column per sample; extra rows
+        (controller states) are ignored.
+    bounds : DomainBounds
+        The bounds (default :data:`DOMAIN`; :func:`domain_bounds` adds the ground's height test).
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+        True where every state is finite and every margin of :func:`domain_margins` is positive.
+    """
+    X = np.asarray(states, dtype=float)[:12]
+    with np.errstate(invalid="ignore"):
+        margins = _margins(X[2], X[3], X[4], X[6], X[7], bounds, np.cos, np.abs, np.inf)
+        inside = np.isfinite(X).all(axis=0)
+        for m in margins:
+            inside &= m > 0
+    return inside
 
 
 def domain_text(t: float, test: int, value: float, bounds: DomainBounds = DOMAIN) -> str:

@@ -10,9 +10,10 @@ error norm is the RMS over all components, so this keeps every sample's local
 error within the single run's (Hairer, Norsett & Wanner, *Solving ODEs I*,
 sec. II.4).  The tracking feedback is evaluated for all samples at once
 (:meth:`planners.tracking.TrackingController.output_and_derivative_many`).  A
-sample that leaves the flight domain (V <= 0, |beta| >= pi/2, cos gamma <= 0,
-a non-finite derivative) is frozen from the end of that step on and marked
-``domain``; the others go on.
+sample that leaves the flight domain (the engines' test, :func:`gna.trajectory.inside_domain`
+with :func:`gna.trajectory.domain_bounds` of the environment: airspeed, sideslip, flight path,
+angle of attack and, with ground effect, the height above the ground; or a non-finite
+derivative) is frozen from the end of that step on and marked ``domain``; the others go on.
 """
 
 from __future__ import annotations
@@ -24,9 +25,9 @@ import numpy as np
 
 from gna.atmosphere import Environment
 from gna.aero import COEFFICIENTS, Coefficients
-from gna.eom import STATE_NAMES, Controls, State, derivatives
+from gna.eom import Controls, State, derivatives
 from gna.errors import InputError
-from gna.trajectory import control_function
+from gna.trajectory import control_function, domain_bounds, inside_domain
 
 from .integrators import TABLEAUS, fixed, per_sample, stacked
 
@@ -151,11 +152,6 @@ class BatchResult:
         return self.X[:, :3, :]
 
 
-def _alive_mask(X: np.ndarray) -> np.ndarray:
-    V, gamma, beta = X[STATE_NAMES.index("V")], X[STATE_NAMES.index("gamma")], X[STATE_NAMES.index("beta")]
-    return np.isfinite(X).all(axis=0) & (V > 0) & (np.cos(beta) > 0) & (np.cos(gamma) > 0)
-
-
 def simulate_batch(aircraft, x0: np.ndarray, controls, t_span, *, env: Environment | None = None,
                    controller=None, dt_out: float = 0.05, t_eval=None, method: str = "DOP853",
                    rtol: float = 1e-10, atol: float = 1e-10, max_step: float = 0.01,
@@ -242,7 +238,8 @@ class _System:
         if self.nc:
             Y0[12:] = np.stack([controller.initial_state(t0, x) for x in X0], axis=1)
         self.Y0 = Y0
-        self.alive = _alive_mask(Y0[:12])
+        self.bounds = domain_bounds(env)
+        self.alive = inside_domain(Y0[:12], self.bounds)
         self.bad = np.zeros(self.n, dtype=bool)
         self.t_end = np.full(self.n, np.inf)
         self.t_end[~self.alive] = t0
@@ -287,13 +284,13 @@ class _System:
 
     def check_columns(self, t, Y, cols) -> None:
         """Freeze the samples among ``cols`` that left the domain (per-sample times ``t``)."""
-        died = cols[self.alive[cols] & (self.bad[cols] | ~_alive_mask(Y[:12, cols]))]
+        died = cols[self.alive[cols] & (self.bad[cols] | ~inside_domain(Y[:12, cols], self.bounds))]
         self.alive[died] = False
         self.t_end[died] = t[died]
 
     def check(self, t, Y) -> bool:
         """Freeze the samples that left the domain; True when some did."""
-        died = self.alive & (self.bad | ~_alive_mask(Y[:12]))
+        died = self.alive & (self.bad | ~inside_domain(Y[:12], self.bounds))
         if died.any():
             self.alive &= ~died
             self.t_end[died] = t

@@ -73,3 +73,28 @@ def test_a_sample_over_its_step_budget_is_stalled_and_the_others_go_on(flown):
     res, _, _ = fly_batch(plan, planned.scenario, draws[:2], dt_out=0.1, max_steps=3)
     assert list(res.status) == ["stalled", "stalled"] and np.all(res.t_end < plan.t1)
     assert np.all(res.X[-1] == res.X[-2])                      # frozen at the last state reached
+
+
+def test_a_sample_reaching_the_ground_stops_as_in_the_single_engine():
+    # The batched engine applies the engines' domain (gna.trajectory.inside_domain): with ground effect a CG
+    # at the ground stops the sample ("domain") near where the single run stops; the sample high above goes on.
+    from gna.aircraft import load_aircraft
+    from gna.atmosphere import ISA, Environment
+    from gna.eom import Controls
+    from gna.ground_effect import GroundEffect
+    from gna.simulate import simulate
+    from gna.trim import trim_level
+
+    ac = load_aircraft("twin-otter")
+    env = Environment(ISA(), ground_effect=GroundEffect(elevation=0.0))
+    tr = trim_level(ac, 45.0, 300.0, env=env)
+    x_high = np.array(tr.state, dtype=float)
+    x_low = x_high.copy()
+    x_low[2], x_low[4] = -6.0, -0.1                  # 6 m above the ground, descending at 0.1 rad
+    u = np.array(Controls(*tr.controls), dtype=float)
+    res = simulate_batch(ac, np.stack([x_low, x_high]), lambda t: u, (0.0, 4.0), env=env, dt_out=0.1)
+    single = simulate(ac, lambda t: u, (0.0, 4.0), x_low, env=env, dt_out=0.1)
+    assert single.status == "domain" and "ground" in single.message
+    assert list(res.status) == ["domain", "completed"]
+    assert 0.5 < res.t_end[0] < 4.0 and single.t_end <= res.t_end[0] <= single.t_end + 0.1  # checked at the output steps (dt_out)
+    assert -res.X[-1, 2, 0] <= 0.5                  # frozen at (one step past) the ground crossing
