@@ -36,6 +36,13 @@ DEFAULT_TOLERANCES: dict[str, float] = {
 DEFAULT_WINDOWS: dict[str, float | None] = {"first 10 s": 10.0, "whole span": None}
 
 
+#: Largest ``max|u_ref|`` (SI units: m, m/s, rad, N, N m, ...) taken as zero for the relative metric
+#: ``delta_pct``: a variable that is zero to rounding (beta of a symmetric flight, 1e-26 rad) would give
+#: percentages like 1e+26 from differences of rounding size.  1e-12 is below any physical value of the
+#: model's variables (1 pm, 1e-12 rad).
+REFERENCE_ZERO = 1e-12
+
+
 @dataclass(frozen=True)
 class DifferenceRow:
     """One variable of a :class:`DifferenceTable` (``passed`` is None without a tolerance).
@@ -59,7 +66,8 @@ class DifferenceRow:
         from the origin for ``"position"``).
     delta_pct : float
         NESC check-case metric ``100 max|u - u_ref| / max|u_ref|`` [%] (NaN
-        when the reference is zero).
+        when the reference is zero to rounding: ``max|u_ref|`` at most
+        :data:`REFERENCE_ZERO`).
     atol, rtol : float or None
         Absolute and relative parts of the tolerance, as given.
     """
@@ -176,7 +184,8 @@ class DifferenceTable:
             lines.append("  overall: PASS")
         else:
             lines.append("  overall: FAIL" + (f" ({', '.join(fails)})" if fails else " (coverage)"))
-        foot = "delta = 100 max|diff| / max|reference|, undefined (-) where max|reference| = 0"
+        foot = (f"delta = 100 max|diff| / max|reference|, undefined (-) where max|reference| = 0 "
+                f"(at most {REFERENCE_ZERO:g}: zero to rounding)")
         if any(r.rtol for r in self.rows):
             foot = "tolerance = atol + rtol * max |reference| over the window; " + foot
         lines.append(f"  ({foot})")
@@ -348,7 +357,7 @@ def difference_table(a, b, tolerances=None, *, variables: Sequence[str] | None =
             rms = float(np.sqrt(np.mean(d * d)))
         ref = np.abs(_reference(v, Av))
         ref_max = float(np.max(ref)) if ref.size and not np.any(np.isnan(ref)) else float("nan")
-        pct = 100.0 * mx / ref_max if ref_max > 0 else float("nan")
+        pct = 100.0 * mx / ref_max if ref_max > REFERENCE_ZERO else float("nan")
         a_, r_ = tol.get(v), rel.get(v)
         t_ = None if a_ is None and r_ is None else (a_ or 0.0) + (r_ or 0.0) * (ref_max if ref_max > 0 else 0.0)
         passed = None if t_ is None else bool(np.isfinite(mx) and mx <= t_)

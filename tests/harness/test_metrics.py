@@ -154,4 +154,16 @@ def test_informative_table_has_one_overall_line_and_undefined_delta_is_a_dash():
     assert text.count("overall:") == 1 and "overall: - (no tolerances given: informative)" in text
     assert "overall: PASS" not in text
     y_line = next(line for line in text.splitlines() if line.split()[:1] == ["y"])   # max|y_ref| = 0
-    assert "nan" not in y_line and "undefined (-) where max|reference| = 0" in text
+    assert "nan" not in y_line and "undefined (-) where max|reference| = 0 (at most 1e-12: zero to rounding)" in text
+
+
+def test_delta_is_undefined_where_the_reference_is_zero_to_rounding():
+    # beta of a symmetric flight is 1e-26 rad, not 0: a rounding-size difference is no 1e+16 % error
+    t = np.linspace(0.0, 10.0, 101)
+    a = _traj(t, beta=1e-26 * np.sin(t), V=100.0 + 0 * t)
+    b = _traj(t, beta=1e-14 * np.cos(t), V=100.0 + 0 * t)
+    row = difference_table(a, b, tolerances={}).row("beta")
+    assert row.ref_max == pytest.approx(1e-26, rel=1e-2) and row.max_abs == pytest.approx(1e-14, rel=1e-2)
+    assert math.isnan(row.delta_pct)
+    c = _traj(t, beta=1e-6 * np.sin(t), V=100.0 + 0 * t)     # a small but physical sideslip keeps its metric
+    assert difference_table(c, b, tolerances={}).row("beta").delta_pct == pytest.approx(100.0, rel=1e-2)
