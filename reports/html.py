@@ -326,11 +326,21 @@ def document_parts(run_dir: str | Path, parts: int, *, date: str | None = None) 
 
 def _remove_orphan_pages(root: Path) -> None:
     """Remove the case pages of an earlier rendering whose case is gone (a rerun flew fewer cases)."""
-    for page in root.rglob(CASE_PAGE):
+    for page in list(root.rglob(CASE_PAGE)):     # listed first: emptied folders are removed on the way
         if not (page.parent / REPORT_JSON).exists() and GENERATOR in page.read_text(encoding="utf-8",
                                                                                      errors="replace")[:2000]:
             page.unlink()
+            _remove_empty_folders(page.parent, root)
 
+
+def _remove_empty_folders(folder: Path, root: Path) -> None:
+    """Remove ``folder`` and its parents below ``root`` while they are empty (a case folder left without files)."""
+    while folder != root and folder.is_relative_to(root):
+        try:
+            folder.rmdir()                                # only an empty folder: the user's files stay
+        except OSError:
+            return
+        folder = folder.parent
 
 
 def _older_than_models(pdf: Path, root: Path) -> bool:

@@ -87,12 +87,15 @@ def test_a_rerun_with_fewer_cases_leaves_no_page_of_the_missing_case(report_run,
     copy = tmp_path / "run"
     shutil.copytree(report_run.root, copy)
     closed = copy / SCENARIO / CASE_FOLDERS["closed"]
-    (closed / "report.json").unlink()              # what gflat paper --loop open into the same folder removes
+    for f in closed.iterdir():                     # what gflat paper --loop open into the same folder removes
+        if f.name != "case.html":
+            f.unlink()
     mine = copy / "notes" / "case.html"            # a page gflat did not write stays
     mine.parent.mkdir()
     mine.write_text("<p>my notes</p>")
     assert main(["report", str(copy), "--no-pdf"]) == 0
     assert not (closed / "case.html").exists() and mine.exists()
+    assert not closed.exists() and closed.parent.exists()     # the emptied case folder goes, its scenario stays
     index = (copy / "index.html").read_text(encoding="utf-8")
     assert f"{SCENARIO}/{CASE_FOLDERS['open']}/case.html" in index and CASE_FOLDERS["closed"] + "/case.html" not in index
 
