@@ -119,7 +119,7 @@ class OutputDir:
                 parent = parent.parent
             if not parent.is_dir():
                 raise InputError(f"output folder {path}: {parent} is a file, not a folder")
-            self._probe(parent)                           # the folder itself is made at the first file
+            self._probe(parent, path)                     # the folder itself is made at the first file
         self._record = _Record(path, self._previous_files(path))
 
     # ---- checks ----------------------------------------------------------------------------------
@@ -133,14 +133,17 @@ class OutputDir:
             raise InputError(f"output folder {path}: cannot create it: {_cause(exc)}") from None
 
     @staticmethod
-    def _probe(path: Path) -> None:
-        """Write and remove a small file: catches read-only folders and file systems, whoever runs."""
+    def _probe(path: Path, target: Path | None = None) -> None:
+        """Write and remove a small file in ``path`` (``target``'s nearest existing folder, when it does not exist
+        yet): catches read-only folders and file systems (/proc, /sys), whoever runs."""
         try:
             fd, name = tempfile.mkstemp(prefix=".gflat-probe-", dir=path)
             os.close(fd)
             os.unlink(name)
         except OSError as exc:
-            raise InputError(f"output folder {path}: cannot write there: {_cause(exc)}") from None
+            where = f"{path}: cannot write there" if target is None or target == path else \
+                f"{target}: cannot create it, its nearest existing folder {path} takes no files"
+            raise InputError(f"output folder {where}: {_cause(exc)}") from None
 
     @staticmethod
     def _previous_files(root: Path) -> list[str]:

@@ -191,7 +191,11 @@ def test_unwritable_folder_is_refused_whoever_runs(tmp_path, monkeypatch):
     def refuse(*a, **k):
         raise PermissionError(13, "Permission denied")
     monkeypatch.setattr(tempfile, "mkstemp", refuse)
-    with pytest.raises(InputError, match=r"output folder .*ro.*: cannot write there: Permission denied"):
+    with pytest.raises(InputError, match=r"output folder .*ro: cannot create it, its nearest existing folder "
+                                         r".* takes no files: Permission denied"):
+        OutputDir(tmp_path / "ro")
+    (tmp_path / "ro").mkdir()
+    with pytest.raises(InputError, match=r"output folder .*ro: cannot write there: Permission denied"):
         OutputDir(tmp_path / "ro")
 
 
@@ -225,3 +229,10 @@ def test_files_recorded_after_a_run_are_removed_by_the_next_run(tmp_path):
     again.finish()
     assert not extra.exists() and (tmp_path / "run" / "a.txt").read_text() == "b"
     assert not record_in_marker(tmp_path / "elsewhere", [])      # no marker: nothing recorded
+
+
+def test_a_new_folder_in_a_virtual_file_system_names_the_folder_asked_for(tmp_path):
+    # /proc takes no new files (ENOENT): the message names the folder asked for and the folder that refused
+    with pytest.raises(InputError, match=r"output folder /proc/gflat-x: cannot create it, its nearest existing "
+                                         r"folder /proc takes no files: "):
+        OutputDir("/proc/gflat-x")
