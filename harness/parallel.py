@@ -85,8 +85,11 @@ class _Terminated(BaseException):
     """Raised in a worker by SIGTERM (the parent ending it): unwinds its ``finally`` blocks (temporary files)."""
 
 
-def _child(conn, fn: Callable[[], Any]) -> None:
+def _child(conn, fn: Callable[[], Any], tmp: str | None = None) -> None:
     """Body of a worker: run ``fn``, send ``("ok", value)`` or ``("err", exception, traceback text)``, exit.
+
+    ``tmp``: the pool's temporary folder, made the worker's default one (``tempfile.tempdir``: this process
+    only), so that whatever a worker ended at any moment leaves there goes with the pool.
 
     Ended by the parent (SIGTERM), the worker says nothing: its standard error
     goes to ``/dev/null`` at once, ``_Terminated`` unwinds ``fn``'s ``finally``
@@ -107,6 +110,8 @@ def _child(conn, fn: Callable[[], Any]) -> None:
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)     # the parent handles Ctrl-C and ends its children
         signal.signal(signal.SIGTERM, terminate)
+        if tmp is not None:
+            tempfile.tempdir = tmp
         gc.freeze()        # the inherited objects are not scanned by this process's collections (nor copied by them)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
         w0, c0 = time.perf_counter(), time.process_time()
@@ -161,6 +166,7 @@ class ForkPool:
         self._queue: list = []                           # heap of (-priority, sequence, key, fn, what)
         self._running: dict = {}                         # parent end of the pipe -> (process, key, what)
         self._seq = 0
+        self._tmp: str | None = None                     # the workers' temporary folder, removed by close()
         self.log: list[dict] = []
 
     def __enter__(self) -> ForkPool:
@@ -195,6 +201,8 @@ class ForkPool:
     def _start(self) -> None:
         if self._ctx is None:
             return
+        if self._tmp is None and self._queue:
+            self._tmp = tempfile.mkdtemp(prefix="gflat-pool-")
         while self._queue and len(self._running) < self.jobs:
             _, _, key, fn, what = heapq.heappop(self._queue)
             parent_end, child_end = self._ctx.Pipe(duplex=False)
@@ -202,7 +210,7 @@ class ForkPool:
             sys.stderr.flush()
             old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})   # no Ctrl-C before the child ignores it
             try:
-                proc = self._ctx.Process(target=_child, args=(child_end, fn), daemon=True)
+                proc = self._ctx.Process(target=_child, args=(child_end, fn, self._tmp), daemon=True)
                 proc.start()
             finally:
                 signal.pthread_sigmask(signal.SIG_SETMASK, old)
@@ -261,7 +269,8 @@ class ForkPool:
         return key, msg[1]
 
     def close(self) -> None:
-        """End every running child (after an error or an interruption) and drop the queue."""
+        """End every running child (after an error or an interruption), drop the queue, remove the workers'
+        temporary folder."""
         self._queue.clear()
         old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})   # a second Ctrl-C waits: no child left
         try:
@@ -271,6 +280,9 @@ class ForkPool:
                 proc.join()
                 conn.close()
             self._running.clear()
+            if self._tmp is not None:
+                shutil.rmtree(self._tmp, ignore_errors=True)
+                self._tmp = None
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, old)
 

@@ -176,3 +176,28 @@ def test_pool_interrupted_at_any_moment_ends_quietly(tmp_path):
                        env=env, start_new_session=True, timeout=120)
     assert r.stderr == ""
     assert r.returncode == 130 and int(r.stdout) >= 20
+
+
+def test_a_killed_worker_leaves_no_temporary_folder(tmp_path):
+    # A worker killed at any moment (here inside its own temporary folder) leaves nothing in the system's temp dir:
+    # its temporary files live in the pool's folder, which the pool removes.
+    import signal
+    import tempfile
+
+    note = tmp_path / "where.txt"
+
+    def dies():
+        where = tempfile.mkdtemp(prefix="gflat-worker-")
+        note.write_text(where)
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    with ForkPool(2) as pool:
+        if pool.jobs < 2:
+            pytest.skip("no fork on this platform")
+        pool.submit("k", dies, what="dying")
+        with pytest.raises(GflatError, match="ended without a result"):
+            pool.next_result()
+        where = Path(note.read_text())
+        assert where.exists() and where.parent.name.startswith("gflat-pool-")
+    assert not where.exists() and not where.parent.exists()
+    assert tempfile.gettempdir() != str(where.parent)          # the parent's own temp dir is untouched
