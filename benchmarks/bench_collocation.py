@@ -668,6 +668,7 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
     """
     from planners.generalized import plan_scenario
     from planners.scenario import load_scenario
+    from planners.series import BACKEND
     from planners.verify import open_loop_error
 
     _require_casadi()
@@ -676,7 +677,7 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
     check = open_loop_error(plan)
     planner_acc = check.max_position_error_m
     out = {"scenario": sc.name, "step_s": sc.step, "span_s": sc.t1 - sc.t0,
-           "planner": {"J": plan.J, "nodes": len(plan.t_nodes), "accuracy_m": planner_acc,
+           "planner": {"J": plan.J, "nodes": len(plan.t_nodes), "accuracy_m": planner_acc, "series_backend": BACKEND,
                        "feasible": bool(plan.feasible), "settings": {k: getattr(plan, k) for k in ("e",)
                                                                      if hasattr(plan, k)}},
            "guesses": {}}
@@ -822,7 +823,8 @@ def format_table(res: dict) -> str:
     p = res["planner"]
     lines = [f"{res['scenario']} (node step {res['step_s']:g} s, span {res['span_s']:g} s); times: median wall "
              f"(CPU) [s]; every collocation time includes its initial guess",
-             f"  planner J={p['J']}, {p['nodes']} nodes: {p['time_wall_s']:.3f} ({p['time_cpu_s']:.3f}), "
+             f"  planner J={p['J']}, {p['nodes']} nodes, series backend {p.get('series_backend', '?')}: "
+             f"{p['time_wall_s']:.3f} ({p['time_cpu_s']:.3f}), "
              f"open-loop accuracy {p['accuracy_m']:.3g} m"]
     for gname, gres in res["guesses"].items():
         graphs = list(gres["grids"][0]["times"]) if gres["grids"] else []
