@@ -554,8 +554,7 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
                alpha.truncate(k4), beta.truncate(k4), mu.truncate(k4), p.truncate(k4), q.truncate(k4),
                r.truncate(k4))
     F4 = F.truncate(k4)
-    rho4 = env.density(s4.z)
-    qbar4 = 0.5 * rho4 * s4.V * s4.V
+    qbar4 = inputs["qbar4"].truncate(k4)
 
     d4 = _OrderCache(dict(z=s4.z, V=s4.V, gamma=s4.gamma, chi=s4.chi, alpha=s4.alpha, beta=s4.beta, mu=s4.mu,
                           p=s4.p, q=s4.q, r=s4.r, pd=pd, qd=qd, rd=rd, F=F4, qbar=qbar4,
@@ -625,7 +624,14 @@ def _flat_inputs(problem: FlatProblem, t_nodes: np.ndarray, order: int, guess) -
     Vd, gd, chid = V.derivative(), gamma.derivative(), chi.derivative()
     values = (x, y, z, zv, f1, f2, eta_pres, dn_fixed, V, gamma, chi, Vd, gd, chid)
     return {**dict(zip(_INPUT_NAMES, values)), "problem": problem, "t_nodes": np.array(t_nodes, dtype=float),
-            "order": order, "path": _path_terms(gamma.truncate(order - 2), chi.truncate(order - 2))}
+            "order": order, "path": _path_terms(gamma.truncate(order - 2), chi.truncate(order - 2)),
+            "qbar4": _dynamic_pressure(problem.env, z.truncate(order - 4), V.truncate(order - 4))}
+
+
+def _dynamic_pressure(env: Environment, z, V):
+    """``qbar = rho(z) V^2 / 2`` [Pa] of stage 4 (depends on the flight path only: computed once per plan)."""
+    rho = env.density(z)
+    return 0.5 * rho * V * V
 
 
 def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:

@@ -115,7 +115,7 @@ def monitor(plan, j: int = 0) -> SingularityReport:
                                                               alpha, beta, mu, F)))
 
     u = np.stack([s["alpha"], s["beta"], s["mu"], s["F"]])
-    Jm = jacobian(lambda x: fun(x), u)   # (3, 4, nodes)
+    Jm = jacobian(fun, u, "complex-batched")   # (3, 4, nodes): one evaluation for the 4 columns
     idx = {"alpha": 0, "beta": 1, "mu": 2, "F": 3}
     if kind in ("beta", "mu", "F"):
         free = [v for v in ("alpha", "beta", "mu", "F") if v != kind]
