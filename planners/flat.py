@@ -311,8 +311,9 @@ def stage1(x: Series, y: Series, z: Series):
         continuous along the nodes.
     """
     xd, yd, zd = x.derivative(), y.derivative(), z.derivative()
-    vh = np.sqrt(xd * xd + yd * yd)
-    V = np.sqrt(xd * xd + yd * yd + zd * zd)
+    vh2 = xd * xd + yd * yd
+    vh = np.sqrt(vh2)
+    V = np.sqrt(vh2 + zd * zd)
     gamma = np.arctan2(-zd, vh)
     chi = _unwrap_constant(np.arctan2(yd, xd))
     return V, gamma, chi

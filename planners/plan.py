@@ -584,9 +584,8 @@ class Plan:
             t = self.t_nodes
         t = np.asarray(t, dtype=float)
         names = PLAN_VARIABLES if variables is None else tuple(variables)
-        vals = self._evaluate_many(names, t, j)
-        data = dict(zip(names, vals))
-        return pd.DataFrame(data, index=pd.Index(t, name="t"))
+        vals = self._evaluate_many(names, t, j)       # (len(names), N): one float block
+        return pd.DataFrame(vals.T, columns=list(names), index=pd.Index(t, name="t"))
 
     def node_values(self, j: int = -1) -> tuple[State, Controls]:
         """States and controls at the nodes (constant terms of the series).
