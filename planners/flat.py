@@ -22,6 +22,7 @@ previous iterate of generalized flatness), i.e. ``gna.eom`` with
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -36,6 +37,7 @@ from gna.ground_effect import ground_effect_coefficients
 
 from .expressions import Expression
 from .newton import newton_series
+from . import series as _series
 from .series import Series
 
 FLAT_KINDS = ("beta", "mu", "F", "mix")
@@ -258,6 +260,8 @@ class _OrderCache:
 def _unwrap_constant(angle: Series) -> Series:
     """Make the constant terms of an angle continuous along the node axis."""
     c0 = np.real(angle.constant_term)
+    if np.all(np.abs(np.diff(c0)) < np.pi):  # np.unwrap's rule: no jump of pi or more, nothing to shift
+        return angle
     shift = np.unwrap(c0) - c0
     if np.any(shift != 0):
         return angle + shift
@@ -307,8 +311,9 @@ def stage1(x: Series, y: Series, z: Series):
         continuous along the nodes.
     """
     xd, yd, zd = x.derivative(), y.derivative(), z.derivative()
-    vh = np.sqrt(xd * xd + yd * yd)
-    V = np.sqrt(xd * xd + yd * yd + zd * zd)
+    vh2 = xd * xd + yd * yd
+    vh = np.sqrt(vh2)
+    V = np.sqrt(vh2 + zd * zd)
     gamma = np.arctan2(-zd, vh)
     chi = _unwrap_constant(np.arctan2(yd, xd))
     return V, gamma, chi
@@ -336,17 +341,84 @@ def stage3(alpha, beta, mu, gamma, chi):
     tuple of Series
         ``(p, q, r)`` [rad/s], one order below the inputs.
     """
+    return _stage3(alpha, beta, mu, _path_terms(gamma, chi))
+
+
+#: The terms of stage 3 that depend on the flight path only (stage 1): gamma', chi' cos gamma and
+#: chi' sin gamma, one order below gamma.
+_PATH_TERMS = ("gd", "chid_cg", "chid_sg")
+
+
+def _path_terms(gamma, chi) -> dict:
+    """The flight-path terms of stage 3 (:data:`_PATH_TERMS`) from gamma and chi (stage 1).
+
+    Computed once at the highest order of a plan and truncated for each iterate: a coefficient of
+    a truncated power series depends only on the coefficients below it.
+    """
     gd, chid = gamma.derivative(), chi.derivative()
+    cg, sg = np.cos(gamma), np.sin(gamma)
+    return {"gd": gd, "chid_cg": chid * cg, "chid_sg": chid * sg}
+
+
+def _stage3(alpha, beta, mu, path: dict):
+    """:func:`stage3` with the flight-path terms ``path`` (:func:`_path_terms`, at the order of
+    ``alpha`` or above: truncated here).
+
+    Real series of one batch shape go through the series kernels directly, the products and
+    quotients that do not depend on each other in one call each (the same kernels on more
+    columns: the same coefficients as the operators of :class:`~planners.series.Series`).
+    """
+    k = alpha.order
+    gd, chid_cg, chid_sg = (path[n].truncate(min(path[n].order, k - 1)) for n in _PATH_TERMS)
+    shape = alpha.batch_shape
+    ops = (alpha, beta, mu, gd, chid_cg, chid_sg)
+    if k < 1 or any(u.dtype != np.float64 or u.batch_shape != shape for u in ops) \
+            or any(u.order != k for u in (beta, mu)) or any(u.order != k - 1 for u in ops[3:]):
+        return _stage3_series(alpha, beta, mu, gd, chid_cg, chid_sg)
+    K = _series._K
+    n = math.prod(shape)
+    m = k + 1
+
+    def flat(u, rows=m):
+        return u._c[:rows].reshape(rows, n)
+
+    s, c = K.sincos(np.concatenate([flat(alpha), flat(beta), flat(mu)], axis=1), False)
+    sa, sb, sm = s[:, :n], s[:, n:2 * n], s[:, 2 * n:]
+    ca, cb, cm = c[:, :n], c[:, n:2 * n], c[:, 2 * n:]
+    d = np.concatenate([flat(alpha), flat(beta), flat(mu)], axis=1)
+    d = d[1:] * np.arange(1, m, dtype=float)[:, None]                    # the derivatives
+    ad, bd, mud = d[:, :n], d[:, n:2 * n], d[:, 2 * n:]
+    gd_, chid_cg_, chid_sg_ = flat(gd, m - 1), flat(chid_cg, m - 1), flat(chid_sg, m - 1)
+    # wy = gd cm + chid cg sm, wz = -gd sm + chid cg cm
+    w = K.mul(np.concatenate([gd_, chid_cg_, -gd_, chid_cg_], axis=1),
+              np.concatenate([cm[:-1], sm[:-1], sm[:-1], cm[:-1]], axis=1))
+    wy = w[:, :n] + w[:, n:2 * n]
+    wz = w[:, 2 * n:3 * n] + w[:, 3 * n:]
+    # tan b = sb / cb and wy / cb
+    qt = K.div(np.concatenate([sb[:-1], wy], axis=1), np.concatenate([cb[:-1], cb[:-1]], axis=1))
+    tb, wy_cb = qt[:, :n], qt[:, n:]
+    P = K.mul(cb[:-1], mud - K.mul(tb, wy) - chid_sg_)
+    R = wz - bd
+    q = ad + K.mul(tb, P) + wy_cb
+    # p = P ca - R sa, r = P sa + R ca
+    pr = K.mul(np.concatenate([P, R, P, R], axis=1), np.concatenate([ca[:-1], sa[:-1], sa[:-1], ca[:-1]], axis=1))
+    p = pr[:, :n] - pr[:, n:2 * n]
+    r = pr[:, 2 * n:3 * n] + pr[:, 3 * n:]
+    return tuple(Series._wrap(np.ascontiguousarray(v).reshape((m - 1,) + shape)) for v in (p, q, r))
+
+
+def _stage3_series(alpha, beta, mu, gd, chid_cg, chid_sg):
+    """:func:`_stage3` with the operators of :class:`~planners.series.Series` (any dtype and batch)."""
     ad, bd, mud = alpha.derivative(), beta.derivative(), mu.derivative()
     cm, sm = np.cos(mu), np.sin(mu)
-    cg, sg = np.cos(gamma), np.sin(gamma)
     cb, sb = np.cos(beta), np.sin(beta)
     ca, sa = np.cos(alpha), np.sin(alpha)
-    wy = gd * cm + chid * cg * sm
-    wz = -gd * sm + chid * cg * cm
-    P = cb * (mud - sb / cb * wy - chid * sg)
+    wy = gd * cm + chid_cg * sm
+    wz = -gd * sm + chid_cg * cm
+    tb = sb / cb
+    P = cb * (mud - tb * wy - chid_sg)
     R = wz - bd
-    q = ad + sb / cb * P + wy / cb
+    q = ad + tb * P + wy / cb
     p = P * ca - R * sa
     r = P * sa + R * ca
     return p, q, r
@@ -476,15 +548,14 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
     mu = _unwrap_constant(mu)  # bank angles of neighbouring nodes on the same branch (no 2 pi jumps)
 
     # Stage 3: rates.
-    p, q, r = stage3(alpha, beta, mu, gamma.truncate(k2), chi.truncate(k2))
+    p, q, r = _stage3(alpha, beta, mu, inputs["path"])
     k4 = order - 4
     pd, qd, rd = p.derivative(), q.derivative(), r.derivative()
     s4 = State(0.0, 0.0, z.truncate(k4), V.truncate(k4), gamma.truncate(k4), chi.truncate(k4),
                alpha.truncate(k4), beta.truncate(k4), mu.truncate(k4), p.truncate(k4), q.truncate(k4),
                r.truncate(k4))
     F4 = F.truncate(k4)
-    rho4 = env.density(s4.z)
-    qbar4 = 0.5 * rho4 * s4.V * s4.V
+    qbar4 = inputs["qbar4"].truncate(k4)
 
     d4 = _OrderCache(dict(z=s4.z, V=s4.V, gamma=s4.gamma, chi=s4.chi, alpha=s4.alpha, beta=s4.beta, mu=s4.mu,
                           p=s4.p, q=s4.q, r=s4.r, pd=pd, qd=qd, rd=rd, F=F4, qbar=qbar4,
@@ -554,7 +625,14 @@ def _flat_inputs(problem: FlatProblem, t_nodes: np.ndarray, order: int, guess) -
     Vd, gd, chid = V.derivative(), gamma.derivative(), chi.derivative()
     values = (x, y, z, zv, f1, f2, eta_pres, dn_fixed, V, gamma, chi, Vd, gd, chid)
     return {**dict(zip(_INPUT_NAMES, values)), "problem": problem, "t_nodes": np.array(t_nodes, dtype=float),
-            "order": order}
+            "order": order, "path": _path_terms(gamma.truncate(order - 2), chi.truncate(order - 2)),
+            "qbar4": _dynamic_pressure(problem.env, z.truncate(order - 4), V.truncate(order - 4))}
+
+
+def _dynamic_pressure(env: Environment, z, V):
+    """``qbar = rho(z) V^2 / 2`` [Pa] of stage 4 (depends on the flight path only: computed once per plan)."""
+    rho = env.density(z)
+    return 0.5 * rho * V * V
 
 
 def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:

@@ -21,6 +21,7 @@ import time
 
 import numpy as np
 
+from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.errors import InputError
 from gna.trajectory import domain_bounds, first_domain_violation, ground_violation
 
@@ -37,6 +38,8 @@ STAGES = 4
 MAX_PLAN_COST = 5.0e6
 #: Samples per node interval of the height test along the plan's path (:func:`ground_failures`).
 GROUND_SAMPLES = 64
+#: The plan variables the envelope check of a plan reads (:func:`gna.simulate.envelope_warnings`).
+ENVELOPE_VARIABLES = ("V", "alpha", "beta") + CONTROL_NAMES
 #: Plans costing more than this log their progress per iterate (logger ``planners.generalized``, INFO).
 PROGRESS_COST = 5.0e5
 
@@ -347,7 +350,8 @@ def _finish(plan: Plan) -> Plan:
     plan.warnings.extend(plan.singularities.warnings)
     if plan.feasible:
         from gna.simulate import envelope_warnings
-        fine = plan.to_dataframe(step=float(np.min(np.diff(t_nodes))) / 8)  # between the nodes too
+        # between the nodes too; the columns gna.simulate.envelope_warnings reads
+        fine = plan.to_dataframe(step=float(np.min(np.diff(t_nodes))) / 8, variables=ENVELOPE_VARIABLES)
         plan.warnings.extend(f"plan (j = {plan.J}): {w}" for w in envelope_warnings(problem.aircraft, fine))
     return plan
 
@@ -366,13 +370,23 @@ def domain_failures(plan: Plan) -> list[str]:
         ``"iterate j = ...: left the physical domain at t = ... s: ..."`` for
         each iterate with a node outside :data:`gna.trajectory.DOMAIN`.
     """
+    t = plan.t_nodes
+    states = [np.array([_node_array(it.series[n], t.shape) for n in STATE_NAMES]) for it in plan.iterates]
+    # All the iterates in one test first (the usual case: every node inside), then iterate by iterate.
+    if first_domain_violation(np.tile(t, len(states)), np.concatenate(states, axis=1)) is None:
+        return []
     out = []
-    for j in range(plan.J + 1):
-        s, _ = plan.node_values(j)
-        bad = first_domain_violation(plan.t_nodes, np.array([np.broadcast_to(v, plan.t_nodes.shape) for v in s]))
+    for j, X in enumerate(states):
+        bad = first_domain_violation(t, X)
         if bad is not None:
             out.append(f"iterate j = {j}: {bad}")
     return out
+
+
+def _node_array(series, shape: tuple) -> np.ndarray:
+    """The real constant terms of a node series, of the grid's shape."""
+    c = np.real(series.constant_term)
+    return c if c.shape == shape else np.broadcast_to(c, shape)
 
 
 def ground_failures(plan: Plan) -> list[str]:

@@ -166,16 +166,17 @@ def _series_solve(Jc: np.ndarray, Gc: np.ndarray) -> np.ndarray:
     n = Jc.shape[0]
     K = Gc.shape[-1]
     batch = Gc.shape[1:-1]
-    J0 = np.moveaxis(Jc[..., 0].reshape(n, n, -1), -1, 0)           # (B, n, n)
+    B = Gc[0, ..., 0].size
+    J0 = Jc[..., 0].reshape(n, n, B).transpose(2, 0, 1)              # (B, n, n), a view
     try:
         J0inv = np.linalg.inv(J0)
     except np.linalg.LinAlgError:
         # A singular node (reported by the caller's warnings): least-squares step there.
         J0inv = np.linalg.pinv(J0)
-    Jr = np.moveaxis(Jc.reshape(n, n, -1, K), 2, 0)                  # (B, n, n, K)
-    Gr = np.moveaxis(Gc.reshape(n, -1, K), 1, 0)                     # (B, n, K)
+    Jr = Jc.reshape(n, n, B, K).transpose(2, 0, 1, 3)                # (B, n, n, K), a view
+    Gr = Gc.reshape(n, B, K).transpose(1, 0, 2)                      # (B, n, K), a view
     D = _series_kernels._K.series_solve(Jr, J0inv, Gr)
-    return np.moveaxis(D, 0, 1).reshape((n,) + batch + (K,))
+    return D.transpose(1, 0, 2).reshape((n,) + batch + (K,))
 
 
 def _residual_and_jacobian(residual: Callable, stacked: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:

@@ -545,7 +545,7 @@ class Plan:
         """
         return self.state(self.t0, j)
 
-    def to_dataframe(self, t=None, j: int = -1, step: float | None = None) -> pd.DataFrame:
+    def to_dataframe(self, t=None, j: int = -1, step: float | None = None, variables=None) -> pd.DataFrame:
         """States and controls of iterate ``j`` on a time grid.
 
         Parameters
@@ -558,16 +558,18 @@ class Plan:
             Step [s] of a regular grid ``t0 + k step`` when ``t`` is not
             given; the grid stops at the last time not after ``t1`` (``t1``
             itself when ``step`` divides the span).
+        variables : sequence of str, optional
+            The columns (plan variables; default every state and control, :data:`PLAN_VARIABLES`).
 
         Returns
         -------
         DataFrame
-            One column per state and control (SI, rad), indexed by ``t``.
+            One column per state and control (SI, rad), or per one of ``variables``, indexed by ``t``.
 
         Raises
         ------
         InputError
-            ``step`` not a positive finite number.
+            ``step`` not a positive finite number, or an unknown variable.
         """
         if t is None and step is not None:
             try:
@@ -581,9 +583,9 @@ class Plan:
         if t is None:
             t = self.t_nodes
         t = np.asarray(t, dtype=float)
-        vals = self._evaluate_many(PLAN_VARIABLES, t, j)
-        data = dict(zip(PLAN_VARIABLES, vals))
-        return pd.DataFrame(data, index=pd.Index(t, name="t"))
+        names = PLAN_VARIABLES if variables is None else tuple(variables)
+        vals = self._evaluate_many(names, t, j)       # (len(names), N): one float block
+        return pd.DataFrame(vals.T, columns=list(names), index=pd.Index(t, name="t"))
 
     def node_values(self, j: int = -1) -> tuple[State, Controls]:
         """States and controls at the nodes (constant terms of the series).

@@ -1000,20 +1000,23 @@ class Series:
         TypeError
             No series among ``items``.
         """
-        series = [x for x in items if isinstance(x, Series)]
-        if not series:
+        cs = [x._c if isinstance(x, Series) else None for x in items]
+        consts = [x for x, c in zip(items, cs) if c is None]
+        if len(consts) == len(cs):
             raise TypeError("linear_combinations needs at least one Series among the items")
         w = np.asarray(weights, dtype=float)
-        m = min(x._c.shape[0] for x in series)
-        shape = np.broadcast_shapes(*(x._c.shape[1:] for x in series),
-                                    *(np.shape(x) for x in items if not isinstance(x, Series)))
-        dt = np.result_type(*(x._c for x in series), *(x for x in items if not isinstance(x, Series)), 1.0)
+        m = min(c.shape[0] for c in cs if c is not None)
+        shapes = {c.shape[1:] for c in cs if c is not None}
+        shape = np.broadcast_shapes(*shapes, *(np.shape(x) for x in consts))
+        dt = np.result_type(*{c.dtype for c in cs if c is not None}, *consts, 1.0)
         stack = np.zeros((len(items), m) + shape, dt)
-        for i, x in enumerate(items):
-            if isinstance(x, Series):
-                stack[i] = _bcast(x._c[:m], shape)
-            else:
+        for i, (x, c) in enumerate(zip(items, cs)):
+            if c is None:
                 stack[i, 0] = x
+            elif c.shape[1:] == shape:
+                stack[i] = c[:m]
+            else:   # leading batch axes of length 1: the assignment broadcasts them
+                stack[i] = c[:m].reshape((m,) + (1,) * (len(shape) - c.ndim + 1) + c.shape[1:])
         flat = stack.reshape(len(items), -1)
         out = _small_gemm(w, flat.view(np.float64) if dt.kind == "c" else flat)
         out = out.view(dt).reshape((w.shape[0], m) + shape)

@@ -46,13 +46,28 @@ class SingularityReport:
     ----------
     table : DataFrame
         Columns: the flat output's determinant (``cond_beta``, ``stalling_cond``,
-        ``cond_F`` or ``det4``), ``V_cos_gamma``, ``cos_beta``.
+        ``cond_F`` or ``det4``), ``V_cos_gamma``, ``cos_beta``.  Built on first access (the
+        warnings do not need it); a report is pickled with it built.
+    condition : str
+        The determinant's column name.
     warnings : list of str
     """
 
-    table: pd.DataFrame
+    _table: object  # DataFrame, or a callable building it on first access
     condition: str
     warnings: list = field(default_factory=list)
+
+    @property
+    def table(self) -> pd.DataFrame:
+        """The conditions at the nodes, indexed by time."""
+        if callable(self._table):
+            self._table = self._table()
+        return self._table
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_table"] = self.table
+        return state
 
 
 def _near_zero_times(t, v, name, what) -> list[str]:
@@ -115,7 +130,7 @@ def monitor(plan, j: int = 0) -> SingularityReport:
                                                               alpha, beta, mu, F)))
 
     u = np.stack([s["alpha"], s["beta"], s["mu"], s["F"]])
-    Jm = jacobian(lambda x: fun(x), u)   # (3, 4, nodes)
+    Jm = jacobian(fun, u, "complex-batched")   # (3, 4, nodes): one evaluation for the 4 columns
     idx = {"alpha": 0, "beta": 1, "mu": 2, "F": 3}
     if kind in ("beta", "mu", "F"):
         free = [v for v in ("alpha", "beta", "mu", "F") if v != kind]
@@ -142,7 +157,10 @@ def monitor(plan, j: int = 0) -> SingularityReport:
     vcg = s["V"] * np.cos(s["gamma"])
     cb = np.cos(s["beta"])
     t = plan.t_nodes
-    table = pd.DataFrame({name: cond, "V_cos_gamma": vcg, "cos_beta": cb}, index=pd.Index(t, name="t"))
+
+    def table() -> pd.DataFrame:
+        return pd.DataFrame({name: cond, "V_cos_gamma": vcg, "cos_beta": cb}, index=pd.Index(t, name="t"))
+
     warnings = _near_zero_times(t, cond, name, what)
     if np.min(np.abs(vcg)) < 1.0:
         warnings.append(f"V cos(gamma) below 1 m/s at t = {_ranges(t[np.abs(vcg) < 1.0])} s (stage 1 singular: "

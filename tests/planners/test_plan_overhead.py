@@ -1,0 +1,89 @@
+"""The work around the stage-residual evaluations, done once or on the series kernels: the same numbers.
+
+Stage 3 on the kernels (independent products in one call) against the operators of the Series class,
+the flight-path terms computed once and truncated against computing them at each order, the domain
+test of all iterates at once against iterate by iterate, the envelope's columns against the whole table,
+and the series linear combinations with broadcast batches against their explicit sums.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planners.flat import _path_terms, _stage3, _stage3_series, stage3
+from planners.generalized import ENVELOPE_VARIABLES, domain_failures
+from planners.series import Series
+
+
+@pytest.mark.parametrize("j", [0, -1])
+def test_stage3_on_kernels_is_bitwise_the_series_operators(weave_plan, j):
+    _, plan = weave_plan
+    s = plan.iterates[j].series
+    k = s["alpha"].order
+    gamma, chi = s["gamma"].truncate(k), s["chi"].truncate(k)
+    path = _path_terms(gamma, chi)
+    fast = _stage3(s["alpha"], s["beta"], s["mu"], path)
+    ref = _stage3_series(s["alpha"], s["beta"], s["mu"], *(path[n] for n in ("gd", "chid_cg", "chid_sg")))
+    for a, b in zip(fast, ref):
+        assert a.order == b.order == k - 1
+        assert np.array_equal(a.coeffs, b.coeffs)
+    # the public function, and the path terms of a higher order truncated: the same coefficients
+    top = plan.iterates[0].series
+    K = top["alpha"].order
+    high = _path_terms(top["gamma"].truncate(K), top["chi"].truncate(K))
+    for a, b in zip(_stage3(s["alpha"], s["beta"], s["mu"], high), stage3(s["alpha"], s["beta"], s["mu"], gamma, chi)):
+        assert np.array_equal(a.coeffs, b.coeffs)
+
+
+def test_stage3_complex_series_take_the_series_operators(weave_plan):
+    _, plan = weave_plan
+    s = plan.iterates[-1].series
+    k = s["alpha"].order
+    a, b, m = (s[n].astype(complex) for n in ("alpha", "beta", "mu"))
+    out = stage3(a, b, m, s["gamma"].truncate(k), s["chi"].truncate(k))
+    ref = stage3(s["alpha"], s["beta"], s["mu"], s["gamma"].truncate(k), s["chi"].truncate(k))
+    for x, y in zip(out, ref):
+        assert x.dtype.kind == "c"
+        assert np.allclose(np.real(x.coeffs), y.coeffs, rtol=1e-13, atol=1e-15)
+
+
+def test_domain_failures_name_each_failed_iterate(weave_plan):
+    from dataclasses import replace
+
+    _, plan = weave_plan
+    assert domain_failures(plan) == []
+    bad = replace(plan, iterates=list(plan.iterates))
+    sol = plan.iterates[1]
+    series = dict(sol.series)
+    c = np.array(series["V"].coeffs)
+    c[3, 0] = -1.0                                       # a negative airspeed at the fourth node
+    series["V"] = Series(c)
+    bad.iterates[1] = replace(sol, series=series)
+    out = domain_failures(bad)
+    assert len(out) == 1 and out[0].startswith("iterate j = 1: ")
+    assert f"t = {plan.t_nodes[3]:g}" in out[0]
+
+
+def test_envelope_columns_are_those_of_the_whole_table(weave_plan):
+    _, plan = weave_plan
+    step = float(np.min(np.diff(plan.t_nodes))) / 8
+    part = plan.to_dataframe(step=step, variables=ENVELOPE_VARIABLES)
+    whole = plan.to_dataframe(step=step)
+    assert list(part.columns) == list(ENVELOPE_VARIABLES)
+    assert np.array_equal(part.to_numpy(), whole[list(ENVELOPE_VARIABLES)].to_numpy())
+    assert np.array_equal(part.index.to_numpy(), whole.index.to_numpy())
+
+
+def test_linear_combinations_broadcast_batches_and_constants():
+    rng = np.random.default_rng(3)
+    a = Series(rng.normal(size=(3, 5, 4)) + 1j * rng.normal(size=(3, 5, 4)))      # batch (3, 5), order 3
+    b = Series(rng.normal(size=(5, 6)))                                           # batch (5,), order 5
+    w = rng.normal(size=(2, 4))
+    out = Series.linear_combinations(w, [a, b, 2.0, np.arange(5.0)])
+    for i in range(2):
+        ref = w[i, 0] * a + w[i, 1] * b.truncate(3) + (w[i, 2] * 2.0 + w[i, 3] * np.arange(5.0))
+        assert out[i].batch_shape == (3, 5) and out[i].order == 3
+        assert np.allclose(out[i].coeffs, ref.coeffs, rtol=1e-14, atol=1e-14)
+    with pytest.raises(TypeError):
+        Series.linear_combinations(w, [1.0, 2.0, 3.0, 4.0])
