@@ -47,7 +47,7 @@ def _kinds(monkeypatch):
 
 
 def test_later_iterates_reuse_the_previous_jacobian(monkeypatch):
-    """Iterates j >= 2 of the bundled roll take no complex-step Jacobian on series: chord steps on the
+    """Iterates j >= 3 of the bundled roll take no complex-step Jacobian on series: chord steps on the
     previous iterate's Jacobian series (its constant term renewed pointwise) reach the tolerance; the
     plan is the one of fresh Jacobians within the Newton tolerance."""
     import importlib
@@ -63,7 +63,7 @@ def test_later_iterates_reuse_the_previous_jacobian(monkeypatch):
     plan = plan_scenario(load_scenario("gtm-aileron-roll"))
     starts = [i for i, e in enumerate(log) if e == ("iterate",)]
     assert len(starts) == plan.J + 1 == 8
-    late = log[starts[2]:]
+    late = log[starts[3]:]
     assert [e for e in late if e[0] == "R"] and not [e for e in late if e[0] == "J"], late
     for it in plan.iterates[1:]:
         for rep in it.reports.values():
