@@ -139,6 +139,9 @@ class SeriesNewtonReport:
     failures : list of NewtonFailure
         The paper's rule broken (residual above 1e-3 after 20 iterations): empty, or one
         record naming the failed nodes, their times and the worst residual.
+    jacobian : ndarray or None
+        (property) Jacobian series (neq, n, *batch, order + 1) of the last step, for the chord steps of
+        the next generalized-flatness iterate (``newton_series(..., jacobian=)``); not pickled.
     """
 
     names: tuple

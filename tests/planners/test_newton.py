@@ -239,3 +239,27 @@ def test_a_jacobian_of_another_shape_is_ignored(monkeypatch):
                             jacobian=np.array(rep_near.jacobian)[..., :order])   # one coefficient short
     assert log[0] == "J"
     assert _weighted_residual(problem(2e-3), warm, order, 0.5) <= 1e-12
+
+
+def test_contraction_accepts_a_chord_step_without_a_check(monkeypatch):
+    """With a carried Jacobian, the last evaluated residual may be above the tolerance when the rate
+    measured with that Jacobian proves the next one below it (theta s <= 0.1 tol): the result's own
+    residual, evaluated here, is then below 0.1 tol, and no evaluation was spent only to check it."""
+    import importlib
+    newton_module = importlib.import_module("planners.newton")
+    t0, order, problem, near, rep_near = _chord_problem()
+    sizes = []
+    ro = newton_module._residual_only
+
+    def residual_only(r, s, k):
+        G = ro(r, s, k)
+        sizes.append(float(np.max(np.abs(G) * 0.5 ** np.arange(k + 1))))
+        return G
+
+    monkeypatch.setattr(newton_module, "_residual_only", residual_only)
+    residual = problem(2e-3)
+    warm, rep = newton_series(residual, near, order, t_nodes=t0, warm=True, jacobian=rep_near.jacobian)
+    assert len(sizes) >= 3 and sizes[-1] > 1e-12, sizes
+    theta = max(b / a for a, b in zip(sizes, sizes[1:]))
+    assert theta * sizes[-1] <= newton_module.CHORD_PROOF * 1e-12
+    assert _weighted_residual(residual, warm, order, 0.5) <= newton_module.CHORD_PROOF * 1e-12
