@@ -543,7 +543,7 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
     else:
         u0 = _stage2_guess(problem, t_nodes, d2[0], hv)
     u2, rep2 = newton_series(stage2_residual, u0, k2, tol=newton_tol, names=STAGE2_UNKNOWNS, t_nodes=t_nodes,
-                             warm=guess is not None)
+                             warm=guess is not None, jacobian=_previous_jacobian(guess, "stage2"))
     alpha, beta, mu, F = u2
     mu = _unwrap_constant(mu)  # bank angles of neighbouring nodes on the same branch (no 2 pi jumps)
 
@@ -585,7 +585,7 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
     # Newton at the working order from the start, even from zero deflections: the moments are affine in
     # the controls in the bundled models (one step solves them; the full scheme takes over otherwise).
     u4, rep4 = newton_series(stage4_residual, v0, k4, tol=newton_tol, names=names4, t_nodes=t_nodes,
-                             warm=True)
+                             warm=True, jacobian=_previous_jacobian(guess, "stage4"))
     ctl = controls_of(u4, d4[k4])
     out = {"x": x, "y": y, "z": z, "V": V, "gamma": gamma, "chi": chi,
            "alpha": alpha, "beta": beta, "mu": mu, "F": F, "p": p, "q": q, "r": r,
@@ -594,6 +594,13 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         if not isinstance(v, Series):
             out[k] = Series.constant(np.broadcast_to(np.asarray(v, dtype=float), (len(t_nodes),)), k4)
     return NodeSolution(out, order, {"stage2": rep2, "stage4": rep4}, inputs)
+
+
+def _previous_jacobian(guess, stage: str):
+    """The Jacobian series of a stage's last Newton step in ``guess`` (a NodeSolution: the previous
+    generalized-flatness iterate), for the chord steps of the same stage; None for other guesses."""
+    rep = guess.reports.get(stage) if isinstance(guess, NodeSolution) else None
+    return getattr(rep, "jacobian", None)
 
 
 #: The series :func:`_flat_inputs` gives, with the orders they lose relative to the flat outputs.

@@ -29,9 +29,18 @@ PAPER_MAXITER = 20
 #: full scheme (pointwise Newton, precision doubling) takes over.
 WARM_MAXSTEPS = 8
 
-#: Chord steps (the Jacobian of the last Newton step) go on while the rate of decrease they show reaches
-#: the tolerance within this many more steps; else the next step is a Newton step.
-CHORD_STEPS = 3
+#: Chord steps (the Jacobian of the last Newton step, or one carried from the previous generalized-flatness
+#: iterate) go on while the rate of decrease they show reaches the tolerance within this many more steps;
+#: else the next step is a Newton step.  Measured on the bundled roll: 2 gives 8 complex-step and 42 real
+#: series evaluations, 3 gives 7 and 47 (the Newton step taken earlier leaves a Jacobian nearer the
+#: solution for the next iterates), 5 gives 6 and 62.
+CHORD_STEPS = 2
+
+#: A chord step's result is accepted without evaluating its residual when the residual ``s`` it started
+#: from, times the largest rate of decrease ``theta`` measured with the same Jacobian, is at most this
+#: fraction of the tolerance (``theta s <= CHORD_PROOF tol``: the contraction bounds the new residual,
+#: with a margin of 10 for a rate that varies from step to step).
+CHORD_PROOF = 0.1
 
 
 def _exponent_form(x: float) -> str:
@@ -114,7 +123,9 @@ class SeriesNewtonReport:
     t_nodes : ndarray
         Times of the nodes [s].
     constant_residual : ndarray (nodes,)
-        Max-norm residual of the constant-term (pointwise) Newton at each node.
+        Max-norm residual of the constant-term (pointwise) Newton at each node (``warm``: of the
+        constant term at the start of the last step, or its bound ``theta`` times that when the
+        contraction rate accepted the step's result).
     constant_iterations : int
         Pointwise Newton iterations (the largest over the memory restarts).
     series_residual : ndarray (nodes,)
@@ -128,6 +139,9 @@ class SeriesNewtonReport:
     failures : list of NewtonFailure
         The paper's rule broken (residual above 1e-3 after 20 iterations): empty, or one
         record naming the failed nodes, their times and the worst residual.
+    jacobian : ndarray or None
+        (property) Jacobian series (neq, n, *batch, order + 1) of the last step, for the chord steps of
+        the next generalized-flatness iterate (``newton_series(..., jacobian=)``); not pickled.
     """
 
     names: tuple
@@ -138,6 +152,14 @@ class SeriesNewtonReport:
     doubling_orders: list
     warnings: list = field(default_factory=list)
     failures: list = field(default_factory=list)
+    # The Jacobian series (neq, n, *batch, order + 1) of the last Newton step, for chord steps of a nearby
+    # problem (the next generalized-flatness iterate: newton_series(..., jacobian=)); not pickled.
+    _jacobian: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def jacobian(self):
+        """Jacobian series (neq, n, *batch, order + 1) of the last Newton step, or None (an unpickled report)."""
+        return self._jacobian
 
     @property
     def series_residual(self) -> np.ndarray:
@@ -154,6 +176,7 @@ class SeriesNewtonReport:
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         state["_series_residual"] = self.series_residual
+        state["_jacobian"] = None
         return state
 
 
@@ -202,22 +225,47 @@ def _residual_and_jacobian(residual: Callable, stacked: np.ndarray, k: int) -> t
     return np.real(R[:, 0]), np.imag(R) / h
 
 
+def _usable_jacobian(jacobian, neq: int, n: int, batch: tuple, K: int):
+    """``jacobian`` (neq, n, *batch, K' >= K) truncated to K coefficients, or None when its shape does not fit."""
+    if jacobian is None:
+        return None
+    Jc = np.asarray(jacobian)
+    if Jc.ndim != 3 + len(batch) or Jc.shape[:2] != (neq, n) or tuple(Jc.shape[2:-1]) != tuple(batch) \
+            or Jc.shape[-1] < K or not np.all(np.isfinite(Jc[..., :K])):
+        return None
+    return Jc[..., :K]
+
+
 def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray, tol: float, names: tuple,
-                 maxsteps: int = WARM_MAXSTEPS):
+                 maxsteps: int = WARM_MAXSTEPS, carried=None, const_fun=None):
     """Newton's iteration on series at the full working order from a close start, or None.
 
     From a start close in every coefficient (the previous generalized-flatness iterate, whose H
     differs little), a Newton step at working order ``order`` (complex-step Jacobian series, the
     linear series system solved order by order, as in the precision-doubling steps) squares the
     error of every coefficient (Bostan et al., th. 3.12), so a few steps replace the pointwise
-    Newton and the doubling steps.  After a Newton step, chord steps with its Jacobian follow (a
-    real evaluation of the residual each, without the complex steps of the Jacobian) while the
-    rate of decrease they show reaches ``tol`` within :data:`CHORD_STEPS` more steps; else the next
-    step is a Newton step again.  The test: after a step from a residual series whose coefficients,
-    each weighted by ``step^m`` (step = the smallest node spacing: its contribution over one node
-    interval), are all at most ``tol``, the solution is accepted.  None -- the caller then runs the
-    full scheme -- when a residual is not finite, a Newton step does not decrease it, or it is
-    still above ``tol`` after ``maxsteps`` evaluations.
+    Newton and the doubling steps.  Chord steps (the linear system of a Jacobian computed earlier,
+    one real evaluation of the residual each, without the complex steps) go on while the rate of
+    decrease they show reaches ``tol`` within :data:`CHORD_STEPS` more steps; else the next step is a
+    Newton step (a fresh Jacobian).  With ``carried`` (the Jacobian series of a nearby problem, e.g.
+    the previous generalized-flatness iterate's, truncated) the first steps are chord steps with it,
+    its constant term replaced by the Jacobian of ``const_fun`` (the residual's constant term on plain
+    arrays) at the start: one pointwise complex-step evaluation, far cheaper than one on series.  On
+    the paper's plans that chord's first step decreases the residual as much as a Newton step (the
+    Jacobian's constant term is what changes most between iterates) and the following ones by 1e-3
+    to 1e-6 each.
+
+    The test: after a step from a residual series whose coefficients, each weighted by ``step^m``
+    (step = the smallest node spacing: its contribution over one node interval), are all at most
+    ``tol``, the solution is accepted; with ``carried``, so is the result of a chord step from a
+    residual ``s`` when ``theta s <= CHORD_PROOF tol``, theta the largest rate of decrease measured
+    with the same Jacobian (a contraction of rate theta leaves a residual of at most about
+    ``theta s``: no evaluation only to check it).  Without ``carried`` (a caller that differentiates
+    the solution with respect to its data, as :mod:`planners.generalized_newton` does, needs it far
+    below the tolerance) the last step always starts from a residual at most ``tol``.  None -- the
+    caller then runs the full scheme -- when a residual
+    is not finite, a Newton step does not decrease it, or it is still above ``tol`` after
+    ``maxsteps`` evaluations.
 
     Returns
     -------
@@ -233,7 +281,19 @@ def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray
     t = np.ravel(np.asarray(t_nodes, dtype=float))
     step = float(np.min(np.diff(t))) if t.size > 1 and np.all(np.diff(t) > 0) else 1.0
     weights = step ** np.arange(K)
-    Jc, previous, orders, before = None, np.inf, [], None
+    # Jc: the Jacobian of the steps; last: residual size where the last step with Jc started (None: no
+    # step with Jc yet); theta: largest rate of decrease measured with Jc; newton_step: the last step
+    # used a Jacobian computed at its start.
+    Jc = _usable_jacobian(carried, n, n, batch, K)
+    proof = Jc is not None
+    if Jc is not None and const_fun is not None:
+        # The constant term of the carried Jacobian at this start: one pointwise complex-step evaluation
+        # on plain arrays (no series); the carried higher terms change less between iterates.
+        Jc = Jc.copy()
+        Jc[..., 0] = jacobian(const_fun, stacked[..., 0], "complex-batched")
+        if not np.all(np.isfinite(Jc[..., 0])):
+            Jc = None
+    last, theta, before, orders, accepted, newton_step = None, 0.0, None, [], False, False
     for _ in range(maxsteps):
         fresh = Jc is None
         if fresh:
@@ -246,35 +306,37 @@ def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray
         if not np.all(np.isfinite(G)):
             return None
         size = float(np.max(np.abs(G) * weights))
-        if fresh and not size < previous:
-            return None
-        rate = size / previous
-        if size <= tol or fresh or (rate < 1.0 and np.log(tol / size) / np.log(rate) <= CHORD_STEPS):
-            before = stacked
-            stacked = stacked - _series_solve(Jc, G)
-            if size <= tol:
-                break
-            previous = size
-        elif rate < 1.0:
-            # The chord contracts too slowly: this step with it, then a fresh Jacobian (a Newton step).
-            before = stacked
-            stacked = stacked - _series_solve(Jc, G)
-            Jc, previous = None, size
+        if last is not None and not size < last:
+            if newton_step:
+                return None   # a Newton step that does not decrease the residual
+            # A chord step that made it worse: back to where the residual was smaller, a Newton step there.
+            stacked, Jc, last, theta = before, None, None, 0.0
+            continue
+        if fresh:
+            last, theta = None, 0.0
+        if last is not None:
+            theta = max(theta, size / last)
+        before, newton_step = stacked, fresh
+        stacked = stacked - _series_solve(Jc, G)
+        if size <= tol:
+            accepted, bound = True, 1.0
+            break
+        if proof and last is not None and theta * size <= CHORD_PROOF * tol:
+            accepted, bound = True, theta   # the contraction bounds the residual of the new point
+            break
+        if last is not None and np.log(tol / size) / np.log(theta) > CHORD_STEPS:
+            Jc, last = None, size   # the chord contracts too slowly: a Newton step next
         else:
-            # The chord step made it worse: back to where the residual was smaller, a Newton step there.
-            stacked = before
-            Jc = None
-    else:
-        return None
-    if not np.all(np.isfinite(stacked)):
+            last = size
+    if not accepted or not np.all(np.isfinite(stacked)):
         return None
     u = [Series(stacked[j]) for j in range(n)]
-    cres = np.max(np.abs(G[..., 0]), axis=0)
+    cres = bound * np.max(np.abs(G[..., 0]), axis=0)
 
     def series_residual() -> np.ndarray:
         return _series_residual_of(residual, u, order, batch)
 
-    rep = SeriesNewtonReport(tuple(names), np.asarray(t_nodes), cres, 0, series_residual, orders)
+    rep = SeriesNewtonReport(tuple(names), np.asarray(t_nodes), cres, 0, series_residual, orders, _jacobian=Jc)
     return u, rep
 
 
@@ -326,7 +388,8 @@ def doubling_orders(order: int) -> list:
 
 
 def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-12,
-                  maxiter: int = PAPER_MAXITER, names: tuple = (), t_nodes=None, warm: bool = False):
+                  maxiter: int = PAPER_MAXITER, names: tuple = (), t_nodes=None, warm: bool = False,
+                  jacobian=None):
     """Solve ``residual(u) = 0`` for power series ``u`` (batched over nodes) up to ``order``.
 
     First the constant terms are found by a damped Newton iteration on the
@@ -363,6 +426,11 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         :data:`WARM_MAXSTEPS`; every coefficient of the residual series, weighted by step^m, at most
         ``tol`` before the last step), and run the full scheme only when they fail.  Then the report
         lists ``order`` once per step in ``doubling_orders`` and 0 pointwise iterations.
+    jacobian : ndarray, shape (neq, n, *batch, K >= order + 1), optional
+        ``warm`` only: the Jacobian series of a nearby problem at a nearby point (the previous
+        generalized-flatness iterate's, :attr:`SeriesNewtonReport.jacobian`), truncated to the working
+        order: the warm start begins with chord steps on it (real evaluations, no complex steps) and
+        computes a fresh Jacobian only when they contract too slowly.  Ignored when its shape does not fit.
 
     Returns
     -------
@@ -380,7 +448,7 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
                          for r in residual(list(x), 0)])
 
     if warm and order > 0:
-        done = _warm_newton(residual, base, order, t_nodes, tol, names)
+        done = _warm_newton(residual, base, order, t_nodes, tol, names, carried=jacobian, const_fun=const_fun)
         if done is not None:
             return done
     x0 = np.stack([np.broadcast_to(np.real(u.constant_term), batch) for u in base]).astype(float)
@@ -422,6 +490,7 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         c[..., 0] = x[j]
         u.append(Series(c))
     orders = doubling_orders(order)
+    Jc = None
     for k in orders:
         cur = [ui.truncate(k) for ui in u]
         stacked = np.stack([np.broadcast_to(ci.coeffs, batch + (k + 1,)) for ci in cur])   # (n, *batch, K)
@@ -435,5 +504,5 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         return _series_residual_of(residual, u, order, batch)
 
     rep = SeriesNewtonReport(tuple(names), t_nodes, cres, its, series_residual, orders,
-                             [f.message for f in failures], failures)
+                             [f.message for f in failures], failures, _jacobian=Jc)
     return u, rep

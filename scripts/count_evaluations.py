@@ -1,12 +1,17 @@
 """Count the stage-residual evaluations of one plan per bundled paper scenario (planning cost, docs/planning.md).
 
-Every call of a stage residual handed to :func:`planners.newton.newton_series` is counted (pointwise,
-series, with or without the complex-step batch).  Usage: ``python scripts/count_evaluations.py``.
+Every call of a stage residual handed to :func:`planners.newton.newton_series` is counted, by kind:
+``J`` on series with the complex-step Jacobian (a batch of one complex step per unknown), ``R`` on
+series, real (chord steps, checks), ``P`` pointwise on plain arrays (order 0: the pointwise Newton and
+the constant term of a carried Jacobian; far cheaper than the series ones).
+Usage: ``python scripts/count_evaluations.py`` (from a worktree: ``PYTHONPATH=. python scripts/count_evaluations.py``).
 """
 
 from __future__ import annotations
 
 import importlib
+
+import numpy as np
 
 from planners.generalized import plan_scenario
 from planners.scenario import load_scenario
@@ -15,23 +20,33 @@ flat = importlib.import_module("planners.flat")
 newton = importlib.import_module("planners.newton")
 
 
+def _kind(u, k) -> str:
+    """``P`` (order 0, plain arrays), ``J`` (complex series: the Jacobian's complex steps) or ``R``."""
+    if k == 0:
+        return "P"
+    return "J" if any(np.iscomplexobj(getattr(x, "coeffs", x)) for x in u) else "R"
+
+
 def main() -> None:
-    calls = [0]
+    calls = {"J": 0, "R": 0, "P": 0}
     original = newton.newton_series
 
     def counting(residual, *args, **kw):
-        def counted(*a, **k):
-            calls[0] += 1
-            return residual(*a, **k)
+        def counted(u, k, *a, **k2):
+            calls[_kind(u, k)] += 1
+            return residual(u, k, *a, **k2)
         return original(counted, *args, **kw)
 
     flat.newton_series = counting
     try:
         for name in ("gtm-aileron-roll", "twin-otter-single-engine", "gtm-forward-slip"):
             sc = load_scenario(name)
-            calls[0] = 0
+            for key in calls:
+                calls[key] = 0
             plan = plan_scenario(sc)
-            print(f"{name:<26} J = {plan.J}, {len(sc.t_nodes)} nodes: {calls[0]} stage-residual evaluations")
+            print(f"{name:<26} J = {plan.J}, {len(sc.t_nodes)} nodes: {sum(calls.values())} stage-residual "
+                  f"evaluations: {calls['J']} J (series, complex-step Jacobian), {calls['R']} R (series, real), "
+                  f"{calls['P']} P (pointwise)")
     finally:
         flat.newton_series = original
 
