@@ -73,7 +73,7 @@ import numpy as np
 from .series import (Series, _add_sub, _as_constant, _constant_like, _plus_constant, _pow, _scale_array,
                      _series_div, _series_mul, _arctan2)
 
-__all__ = ["TapedResidual", "TraceError", "SeriesTape", "trace"]
+__all__ = ["TapedResidual", "TraceError", "SeriesTape", "WHEN", "trace"]
 
 
 class TraceError(Exception):
@@ -129,55 +129,61 @@ def _linear_combinations(weights: np.ndarray, spec: tuple, *args: Any) -> tuple:
 # ---------------------------------------------------------------------------
 
 class _Recorder:
-    """The program under construction: slot values, instructions, the common-subexpression table."""
+    """The program under construction: the value of every slot, and the instructions."""
 
     def __init__(self) -> None:
         self.values: list = []          # trace-time value of every slot (arrays; constants as given)
-        self.traced: list = []          # slot holds a traced value (else a constant)
-        self.instrs: list = []          # (fn, arg slots, first output slot, number of outputs)
-        self.memo: dict = {}            # (fn, arg keys) -> outputs
+        self.traced_slots: list = []    # slots of traced values (replaced at each replay)
+        self.instrs: list = []          # (fn, argument slots, output slot or slice of slots)
         self.const_slots: dict = {}     # constant key -> slot
 
     def input(self, c: np.ndarray) -> "_Traced":
         self.values.append(c)
-        self.traced.append(True)
+        self.traced_slots.append(len(self.values) - 1)
         return _Traced(self, len(self.values) - 1, c)
 
     def const(self, x: Any) -> int:
         """Slot of a constant operand (one slot per object; floats by value)."""
-        if type(x) is _Traced:
-            raise TraceError("a value traced for another evaluation")
         key = x.hex() if type(x) is float else id(x)
         slot = self.const_slots.get(key)
         if slot is None:
+            if type(x) is _Traced:
+                raise TraceError("a value traced for another evaluation")
             self.values.append(x)       # kept alive: its id stays its key
-            self.traced.append(False)
             slot = self.const_slots[key] = len(self.values) - 1
         return slot
 
-    def op(self, fn: Callable, *args: Any, n_out: int = 1) -> Any:
-        """Apply ``fn`` to the values of ``args`` (traced values or constants) and record it.
+    def slot(self, x: Any) -> int:
+        """Slot of an operand: a traced value of this recording, or a constant."""
+        return x.slot if type(x) is _Traced and x.rec is self else self.const(x)
 
-        An instruction applied twice to the same slots is recorded once (its outputs are reused).
-        """
-        slots = tuple([a.slot if type(a) is _Traced and a.rec is self else self.const(a) for a in args])
-        key = (fn, slots)
-        hit = self.memo.get(key)
-        if hit is not None:
-            return hit
+    def emit(self, fn: Callable, slots: tuple) -> "_Traced":
+        """Apply ``fn`` to the values in ``slots``, record it, and return its traced result."""
         values = self.values
         value = fn(*[values[s] for s in slots])
-        first = len(values)
-        outs = (value,) if n_out == 1 else tuple(value)
+        if type(value) is not np.ndarray:
+            raise TraceError(f"{getattr(fn, '__name__', fn)} did not give an array")
+        out = len(values)
+        values.append(value)
+        self.traced_slots.append(out)
+        self.instrs.append((fn, slots, out))
+        return _Traced(self, out, value)
+
+    def op(self, fn: Callable, *args: Any, n_out: int = 1) -> Any:
+        """Apply ``fn`` to the values of ``args`` (traced values or constants) and record it."""
+        slot = self.slot
+        slots = tuple([slot(a) for a in args])
+        if n_out == 1:
+            return self.emit(fn, slots)
+        values = self.values
+        outs = tuple(fn(*[values[s] for s in slots]))
         if len(outs) != n_out or not all(type(v) is np.ndarray for v in outs):
-            raise TraceError(f"{getattr(fn, '__name__', fn)} did not give {n_out} array(s)")
+            raise TraceError(f"{getattr(fn, '__name__', fn)} did not give {n_out} arrays")
+        first = len(values)
         values.extend(outs)
-        self.traced.extend((True,) * n_out)
-        self.instrs.append((fn, slots, first, n_out))
-        result = _Traced(self, first, value) if n_out == 1 else tuple(
-            _Traced(self, first + i, v) for i, v in enumerate(outs))
-        self.memo[key] = result
-        return result
+        self.traced_slots.extend(range(first, first + n_out))
+        self.instrs.append((fn, slots, slice(first, first + n_out)))
+        return tuple(_Traced(self, first + i, v) for i, v in enumerate(outs))
 
 
 class _Opaque:
@@ -224,53 +230,78 @@ def _rec_of(*xs: Any) -> _Recorder:
     raise TraceError("no traced operand")
 
 
+def _binary(x: Any, y: Any) -> tuple | None:
+    """The recorder, the operands' slots and which operands are series (traced or constant), or None
+    when an operand is not a number (the operation is then not ours: NotImplemented)."""
+    tx, ty = type(x), type(y)
+    rec = x.rec if tx is _Traced else y.rec
+    if tx is _Traced:
+        xs, sx = (x.slot if x.rec is rec else rec.const(x)), True
+    elif isinstance(x, Series):
+        xs, sx = rec.const(x._c), True
+    else:
+        c = _as_constant(x)
+        if c is None:
+            return None
+        xs, sx = rec.const(c), False
+    if ty is _Traced:
+        ys, sy = (y.slot if y.rec is rec else rec.const(y)), True
+    elif ty is float:
+        ys, sy = rec.const(y), False
+    elif isinstance(y, Series):
+        ys, sy = rec.const(y._c), True
+    else:
+        c = _as_constant(y)
+        if c is None:
+            return None
+        ys, sy = rec.const(c), False
+    return rec, xs, sx, ys, sy
+
+
 def _t_add(x: Any, y: Any) -> Any:
-    xo, yo = _operand(x), _operand(y)
-    if xo is None or yo is None:
+    b = _binary(x, y)
+    if b is None:
         return NotImplemented
-    rec = _rec_of(x, y)
-    if _is_series_like(xo) and _is_series_like(yo):
-        return rec.op(_add_sub, _internal(xo), _internal(yo), False)
-    if _is_series_like(xo):
-        return rec.op(_plus_constant, _internal(xo), yo)
-    return rec.op(_plus_constant, _internal(yo), xo)
+    rec, xs, sx, ys, sy = b
+    if sx and sy:
+        return rec.emit(_add_sub, (xs, ys, rec.const(False)))
+    return rec.emit(_plus_constant, (xs, ys) if sx else (ys, xs))
 
 
 def _t_sub(x: Any, y: Any) -> Any:
-    xo, yo = _operand(x), _operand(y)
-    if xo is None or yo is None:
+    b = _binary(x, y)
+    if b is None:
         return NotImplemented
-    rec = _rec_of(x, y)
-    if _is_series_like(xo) and _is_series_like(yo):
-        return rec.op(_add_sub, _internal(xo), _internal(yo), True)
-    if _is_series_like(xo):
-        return rec.op(_plus_constant, _internal(xo), np.negative(yo))
-    return rec.op(_rsub_constant, _internal(yo), xo)
+    rec, xs, sx, ys, sy = b
+    if sx and sy:
+        return rec.emit(_add_sub, (xs, ys, rec.const(True)))
+    if sx:
+        # the eager path negates the constant before adding it
+        return rec.emit(_plus_constant, (xs, rec.const(np.negative(rec.values[ys]))))
+    return rec.emit(_rsub_constant, (ys, xs))
 
 
 def _t_mul(x: Any, y: Any) -> Any:
-    xo, yo = _operand(x), _operand(y)
-    if xo is None or yo is None:
+    b = _binary(x, y)
+    if b is None:
         return NotImplemented
-    rec = _rec_of(x, y)
-    if _is_series_like(xo) and _is_series_like(yo):
-        return rec.op(_series_mul, _internal(xo), _internal(yo))
-    if _is_series_like(xo):
-        return rec.op(_scale_array, _internal(xo), yo, False)
-    return rec.op(_scale_array, _internal(yo), xo, False)
+    rec, xs, sx, ys, sy = b
+    if sx and sy:
+        return rec.emit(_series_mul, (xs, ys))
+    return rec.emit(_scale_array, (xs, ys, rec.const(False)) if sx else (ys, xs, rec.const(False)))
 
 
 def _t_div(x: Any, y: Any) -> Any:
-    xo, yo = _operand(x), _operand(y)
-    if xo is None or yo is None:
+    b = _binary(x, y)
+    if b is None:
         return NotImplemented
-    rec = _rec_of(x, y)
-    if _is_series_like(yo):
-        if not _is_series_like(xo):
+    rec, xs, sx, ys, sy = b
+    if sy:
+        if not sx:
             # the eager path makes a constant series of the divisor's order (its order is fixed)
-            xo = _constant_like(xo, Series._wrap(_value(yo)))
-        return rec.op(_series_div, _internal(xo), _internal(yo))
-    return rec.op(_scale_array, _internal(xo), yo, True)
+            xs = rec.const(_constant_like(rec.values[xs], Series._wrap(rec.values[ys]))._c)
+        return rec.emit(_series_div, (xs, ys))
+    return rec.emit(_scale_array, (xs, ys, rec.const(True)))
 
 
 def _value(x: Any) -> np.ndarray:
@@ -496,8 +527,12 @@ class SeriesTape:
     """
 
     def __init__(self, rec: _Recorder, n_inputs: int, outputs: list) -> None:
-        self._rec, self._outputs_traced = rec, outputs
-        self._prog: list | None = None
+        self._prog = rec.instrs
+        self._outputs = tuple(o.slot if type(o) is _Traced else rec.const(o) for o in outputs)
+        template = rec.values.copy()
+        for s in rec.traced_slots:
+            template[s] = None          # the trace-time arrays are not kept
+        self._template = template
         self.n_inputs = n_inputs
         self.order = rec.values[0].shape[0] - 1
         #: Which outputs are traced (replayed as internal arrays); the others are constants.
@@ -505,30 +540,8 @@ class SeriesTape:
 
     @property
     def n_instructions(self) -> int:
-        """Instructions replayed (after dead-code elimination)."""
-        if self._prog is None:
-            self._build()
+        """Number of instructions replayed."""
         return len(self._prog)
-
-    def _build(self) -> None:
-        """The replayed program: instructions some output needs, in order (built at the first replay:
-        a tape that is never replayed costs nothing more than its trace)."""
-        rec, outputs = self._rec, self._outputs_traced
-        out_slots = [o.slot if type(o) is _Traced else rec.const(o) for o in outputs]
-        need = [False] * len(rec.values)
-        for s in out_slots:
-            need[s] = True
-        kept = []
-        for fn, slots, first, n_out in reversed(rec.instrs):
-            if any(need[first:first + n_out]):
-                kept.append((fn, slots, first if n_out == 1 else slice(first, first + n_out)))
-                for s in slots:
-                    need[s] = True
-        kept.reverse()
-        self._template = [None if t else v for v, t in zip(rec.values, rec.traced)]
-        self._outputs = tuple(out_slots)
-        self._prog = kept
-        self._rec = self._outputs_traced = None     # the trace-time arrays are no longer needed
 
     def run(self, inputs: Sequence[np.ndarray]) -> list:
         """Replay the program.
@@ -544,8 +557,6 @@ class SeriesTape:
         list
             One entry per residual output: an internal array, or the constant the residual returned.
         """
-        if self._prog is None:
-            self._build()
         v = self._template.copy()
         v[:self.n_inputs] = inputs
         get = v.__getitem__
@@ -596,6 +607,14 @@ def trace(residual: Callable, u: Sequence[Series], k: int) -> tuple[SeriesTape, 
     return tape, values
 
 
+#: When :class:`TapedResidual` traces: at the first evaluation of every order (``"first"``); at the
+#: first evaluation of the first order met and at the second evaluation of any other (``"first-order"``,
+#: the default: a Newton call at one working order traces at once, the precision-doubling steps, one
+#: evaluation per order, are not traced); at the second evaluation of every order (``"second"``);
+#: never (``"never"``, the eager evaluation, for measurements).
+WHEN = ("first", "first-order", "second", "never")
+
+
 class TapedResidual:
     """A residual evaluated eagerly, traced, or replayed: a drop-in replacement inside one Newton call.
 
@@ -609,6 +628,8 @@ class TapedResidual:
     residual : callable
         ``residual(u, k) -> list``, the data it uses fixed while this object is in use (one
         :func:`planners.newton.newton_series` call).
+    when : str, optional
+        When to trace, one of :data:`WHEN`.
 
     Attributes
     ----------
@@ -620,11 +641,15 @@ class TapedResidual:
         Evaluations by kind: ``"eager"``, ``"trace"``, ``"replay"``.
     """
 
-    def __init__(self, residual: Callable) -> None:
+    def __init__(self, residual: Callable, when: str = "first-order") -> None:
+        if when not in WHEN:
+            raise ValueError(f"when must be one of {', '.join(WHEN)}, got {when!r}")
         self.residual = residual
+        self.when = when
         self.reason: str | None = None
         self.tapes: dict = {}
         self.counts = {"eager": 0, "trace": 0, "replay": 0}
+        self._seen: set = set()
 
     def __call__(self, u: Sequence[Any], k: int) -> list:
         """``residual(u, k)``.
@@ -641,20 +666,25 @@ class TapedResidual:
         list
             The residuals.
         """
-        if self.reason is None and u and all(type(x) is Series and x._c.shape[0] == k + 1 for x in u):
+        if self.when != "never" and self.reason is None and u and all(
+                type(x) is Series and x._c.shape[0] == k + 1 for x in u):
             tape = self.tapes.get(k)
-            if tape is None:
+            if tape is not None:
+                if len(u) == tape.n_inputs:
+                    self.counts["replay"] += 1
+                    return [Series._wrap(o) if t else o
+                            for o, t in zip(tape.run([x._c for x in u]), tape.traced_outputs)]
+            elif self.when == "first" or k in self._seen or (self.when == "first-order" and not self._seen):
                 try:
                     tape, values = trace(self.residual, u, k)
                 except TraceError as exc:
                     self.reason = str(exc)
                 else:
                     self.tapes[k] = tape
+                    self._seen.add(k)
                     self.counts["trace"] += 1
                     return values
-            elif len(u) == tape.n_inputs:
-                self.counts["replay"] += 1
-                return [Series._wrap(o) if t else o for o, t in zip(tape.run([x._c for x in u]), tape.traced_outputs)]
+            self._seen.add(k)
         self.counts["eager"] += 1
         return self.residual(u, k)
 
