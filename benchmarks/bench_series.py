@@ -21,7 +21,10 @@ most 16, its order in that plan), real unknowns ``(nodes,)`` and the complex-ste
 from __future__ import annotations
 
 import os
+import sys
+from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # this tree's planners, not an installed one
 for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
 

@@ -129,17 +129,22 @@ def _linear_combinations(weights: np.ndarray, spec: tuple, *args: Any) -> tuple:
 # ---------------------------------------------------------------------------
 
 class _Recorder:
-    """The program under construction: the value of every slot, and the instructions."""
+    """The program under construction: the constants (by slot) and the instructions.
+
+    Traced values are held by their :class:`_Traced` objects only, as eager series are held by the
+    model code: an intermediate is freed when the model drops it (keeping them all made the trace
+    of the complex-step batch slower than the eager evaluation).
+    """
 
     def __init__(self) -> None:
-        self.values: list = []          # trace-time value of every slot (arrays; constants as given)
-        self.traced_slots: list = []    # slots of traced values (replaced at each replay)
+        self.values: list = []          # constants by slot; None for the slots of traced values
         self.instrs: list = []          # (fn, argument slots, output slot or slice of slots)
         self.const_slots: dict = {}     # constant key -> slot
+        self.n_inputs = 0
 
     def input(self, c: np.ndarray) -> "_Traced":
-        self.values.append(c)
-        self.traced_slots.append(len(self.values) - 1)
+        self.values.append(None)
+        self.n_inputs += 1
         return _Traced(self, len(self.values) - 1, c)
 
     def const(self, x: Any) -> int:
@@ -153,36 +158,34 @@ class _Recorder:
             slot = self.const_slots[key] = len(self.values) - 1
         return slot
 
-    def slot(self, x: Any) -> int:
-        """Slot of an operand: a traced value of this recording, or a constant."""
-        return x.slot if type(x) is _Traced and x.rec is self else self.const(x)
-
-    def emit(self, fn: Callable, slots: tuple) -> "_Traced":
-        """Apply ``fn`` to the values in ``slots``, record it, and return its traced result."""
-        values = self.values
-        value = fn(*[values[s] for s in slots])
+    def emit(self, fn: Callable, slots: tuple, args: list) -> "_Traced":
+        """Apply ``fn`` to ``args`` (the values of ``slots``), record it, and return its traced result."""
+        value = fn(*args)
         if type(value) is not np.ndarray:
             raise TraceError(f"{getattr(fn, '__name__', fn)} did not give an array")
-        out = len(values)
-        values.append(value)
-        self.traced_slots.append(out)
+        out = len(self.values)
+        self.values.append(None)
         self.instrs.append((fn, slots, out))
         return _Traced(self, out, value)
 
     def op(self, fn: Callable, *args: Any, n_out: int = 1) -> Any:
         """Apply ``fn`` to the values of ``args`` (traced values or constants) and record it."""
-        slot = self.slot
-        slots = tuple([slot(a) for a in args])
+        slots, vals = [], []
+        for a in args:
+            if type(a) is _Traced and a.rec is self:
+                slots.append(a.slot)
+                vals.append(a.c)
+            else:
+                slots.append(self.const(a))
+                vals.append(a)
         if n_out == 1:
-            return self.emit(fn, slots)
-        values = self.values
-        outs = tuple(fn(*[values[s] for s in slots]))
+            return self.emit(fn, tuple(slots), vals)
+        outs = tuple(fn(*vals))
         if len(outs) != n_out or not all(type(v) is np.ndarray for v in outs):
             raise TraceError(f"{getattr(fn, '__name__', fn)} did not give {n_out} arrays")
-        first = len(values)
-        values.extend(outs)
-        self.traced_slots.extend(range(first, first + n_out))
-        self.instrs.append((fn, slots, slice(first, first + n_out)))
+        first = len(self.values)
+        self.values.extend([None] * n_out)
+        self.instrs.append((fn, tuple(slots), slice(first, first + n_out)))
         return tuple(_Traced(self, first + i, v) for i, v in enumerate(outs))
 
 
@@ -231,77 +234,75 @@ def _rec_of(*xs: Any) -> _Recorder:
 
 
 def _binary(x: Any, y: Any) -> tuple | None:
-    """The recorder, the operands' slots and which operands are series (traced or constant), or None
-    when an operand is not a number (the operation is then not ours: NotImplemented)."""
-    tx, ty = type(x), type(y)
-    rec = x.rec if tx is _Traced else y.rec
-    if tx is _Traced:
-        xs, sx = (x.slot if x.rec is rec else rec.const(x)), True
-    elif isinstance(x, Series):
-        xs, sx = rec.const(x._c), True
-    else:
-        c = _as_constant(x)
-        if c is None:
-            return None
-        xs, sx = rec.const(c), False
-    if ty is _Traced:
-        ys, sy = (y.slot if y.rec is rec else rec.const(y)), True
-    elif ty is float:
-        ys, sy = rec.const(y), False
-    elif isinstance(y, Series):
-        ys, sy = rec.const(y._c), True
-    else:
-        c = _as_constant(y)
-        if c is None:
-            return None
-        ys, sy = rec.const(c), False
-    return rec, xs, sx, ys, sy
+    """The recorder, each operand's slot and value (a traced value's array, a Series' array, or the
+    numeric constant) and whether it is a series; None when an operand is not a number (the
+    operation is then not ours: NotImplemented)."""
+    rec = x.rec if type(x) is _Traced else y.rec
+    out = [rec]
+    for z in (x, y):
+        tz = type(z)
+        if tz is _Traced and z.rec is rec:
+            out += (z.slot, z.c, True)
+        elif tz is float:
+            out += (rec.const(z), z, False)
+        elif isinstance(z, Series):
+            out += (rec.const(z._c), z._c, True)
+        else:
+            c = _as_constant(z)
+            if c is None:
+                return None
+            out += (rec.const(c), c, False)
+    return out
 
 
 def _t_add(x: Any, y: Any) -> Any:
     b = _binary(x, y)
     if b is None:
         return NotImplemented
-    rec, xs, sx, ys, sy = b
+    rec, xs, xv, sx, ys, yv, sy = b
     if sx and sy:
-        return rec.emit(_add_sub, (xs, ys, rec.const(False)))
-    return rec.emit(_plus_constant, (xs, ys) if sx else (ys, xs))
+        return rec.emit(_add_sub, (xs, ys, rec.const(False)), [xv, yv, False])
+    return rec.emit(_plus_constant, (xs, ys), [xv, yv]) if sx else rec.emit(_plus_constant, (ys, xs), [yv, xv])
 
 
 def _t_sub(x: Any, y: Any) -> Any:
     b = _binary(x, y)
     if b is None:
         return NotImplemented
-    rec, xs, sx, ys, sy = b
+    rec, xs, xv, sx, ys, yv, sy = b
     if sx and sy:
-        return rec.emit(_add_sub, (xs, ys, rec.const(True)))
+        return rec.emit(_add_sub, (xs, ys, rec.const(True)), [xv, yv, True])
     if sx:
         # the eager path negates the constant before adding it
-        return rec.emit(_plus_constant, (xs, rec.const(np.negative(rec.values[ys]))))
-    return rec.emit(_rsub_constant, (ys, xs))
+        neg = np.negative(yv)
+        return rec.emit(_plus_constant, (xs, rec.const(neg)), [xv, neg])
+    return rec.emit(_rsub_constant, (ys, xs), [yv, xv])
 
 
 def _t_mul(x: Any, y: Any) -> Any:
     b = _binary(x, y)
     if b is None:
         return NotImplemented
-    rec, xs, sx, ys, sy = b
+    rec, xs, xv, sx, ys, yv, sy = b
     if sx and sy:
-        return rec.emit(_series_mul, (xs, ys))
-    return rec.emit(_scale_array, (xs, ys, rec.const(False)) if sx else (ys, xs, rec.const(False)))
+        return rec.emit(_series_mul, (xs, ys), [xv, yv])
+    f = rec.const(False)
+    return rec.emit(_scale_array, (xs, ys, f), [xv, yv, False]) if sx else \
+        rec.emit(_scale_array, (ys, xs, f), [yv, xv, False])
 
 
 def _t_div(x: Any, y: Any) -> Any:
     b = _binary(x, y)
     if b is None:
         return NotImplemented
-    rec, xs, sx, ys, sy = b
+    rec, xs, xv, sx, ys, yv, sy = b
     if sy:
         if not sx:
             # the eager path makes a constant series of the divisor's order (its order is fixed)
-            xs = rec.const(_constant_like(rec.values[xs], Series._wrap(rec.values[ys]))._c)
-        return rec.emit(_series_div, (xs, ys))
-    return rec.emit(_scale_array, (xs, ys, rec.const(True)))
+            xv = _constant_like(xv, Series._wrap(yv))._c
+            xs = rec.const(xv)
+        return rec.emit(_series_div, (xs, ys), [xv, yv])
+    return rec.emit(_scale_array, (xs, ys, rec.const(True)), [xv, yv, True])
 
 
 def _value(x: Any) -> np.ndarray:
@@ -526,15 +527,23 @@ class SeriesTape:
         Instructions replayed (after dead-code elimination).
     """
 
-    def __init__(self, rec: _Recorder, n_inputs: int, outputs: list) -> None:
-        self._prog = rec.instrs
+    def __init__(self, rec: _Recorder, n_inputs: int, outputs: list, order: int) -> None:
         self._outputs = tuple(o.slot if type(o) is _Traced else rec.const(o) for o in outputs)
-        template = rec.values.copy()
-        for s in rec.traced_slots:
-            template[s] = None          # the trace-time arrays are not kept
-        self._template = template
+        self._template = rec.values
+        # Each traced intermediate is released after its last use (as the eager evaluation frees it).
+        last: dict = {}
+        for i, (_, slots, _) in enumerate(rec.instrs):
+            for s in slots:
+                if rec.values[s] is None:
+                    last[s] = i
+        for s in self._outputs:
+            last.pop(s, None)
+        release: list = [[] for _ in rec.instrs]
+        for s, i in last.items():
+            release[i].append(s)
+        self._prog = [(fn, slots, out, tuple(rel)) for (fn, slots, out), rel in zip(rec.instrs, release)]
         self.n_inputs = n_inputs
-        self.order = rec.values[0].shape[0] - 1
+        self.order = order
         #: Which outputs are traced (replayed as internal arrays); the others are constants.
         self.traced_outputs = tuple(type(o) is _Traced for o in outputs)
 
@@ -560,8 +569,10 @@ class SeriesTape:
         v = self._template.copy()
         v[:self.n_inputs] = inputs
         get = v.__getitem__
-        for fn, slots, out in self._prog:
+        for fn, slots, out, release in self._prog:
             v[out] = fn(*map(get, slots))
+            for s in release:
+                v[s] = None
         return [v[s] for s in self._outputs]
 
 
@@ -602,7 +613,7 @@ def trace(residual: Callable, u: Sequence[Series], k: int) -> tuple[SeriesTape, 
     for o in outputs:
         if type(o) is not _Traced and not isinstance(o, Series) and _as_constant(o) is None:
             raise TraceError(f"a residual of type {type(o).__name__}")
-    tape = SeriesTape(rec, len(traced), outputs)
+    tape = SeriesTape(rec, len(traced), outputs, k)
     values = [Series._wrap(o.c) if type(o) is _Traced else o for o in outputs]
     return tape, values
 

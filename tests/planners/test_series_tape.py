@@ -119,12 +119,27 @@ def test_tape_is_smaller_than_the_model(stage_residuals):
 
 def test_orders_have_their_own_tapes(stage_residuals):
     residual, u, order = stage_residuals["gtm-aileron-roll"]["stage2"]
-    tr = TapedResidual(residual)
+    tr = TapedResidual(residual, "first")
     for k in (2, 4, 2, 4):
         a = _inputs(u, k, "real")
         _assert_same(tr(a, k), residual(a, k))
     assert tr.counts == {"eager": 0, "trace": 2, "replay": 2}
     assert sorted(tr.tapes) == [2, 4]
+
+
+@pytest.mark.parametrize("when, counts", [
+    ("first", {"eager": 0, "trace": 3, "replay": 3}),
+    ("first-order", {"eager": 2, "trace": 3, "replay": 1}),
+    ("second", {"eager": 3, "trace": 2, "replay": 1}),
+    ("never", {"eager": 6, "trace": 0, "replay": 0})])
+def test_when_to_trace(stage_residuals, when, counts):
+    """The doubling pattern (each order once), then a warm pattern (one order, evaluated again)."""
+    residual, u, order = stage_residuals["gtm-forward-slip"]["stage2"]
+    tr = TapedResidual(residual, when)
+    for k in (1, 2, 4, 4, 4, 2):
+        a = _inputs(u, k, "real", 1e-3 * k)
+        _assert_same(tr(a, k), residual(a, k))
+    assert tr.counts == counts
 
 
 def test_pointwise_arrays_are_eager(stage_residuals):
