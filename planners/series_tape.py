@@ -4,10 +4,10 @@ Newton's method on series (:func:`planners.newton.newton_series`) evaluates one 
 times at one working order: the complex-step batch of a Newton step, the real residuals of the
 chord steps, the residual of the report.  Between those evaluations only the unknowns'
 coefficients change: the residual function, its data (flat outputs, H values, captured by the
-closures of :func:`planners.flat.parametrize`) and the sequence of operations are fixed.  Most of
-an evaluation's time is not arithmetic but interpretation: the model code of :mod:`gna` (named
-tuples, the aerodynamic term table, dictionary look-ups), the dispatch of :class:`Series`
-operators and the construction of intermediate series.
+closures of :func:`planners.flat.parametrize`) and the sequence of operations are fixed.  Part of
+an evaluation's time is interpretation rather than arithmetic: the model code of :mod:`gna`
+(named tuples, the aerodynamic term table, dictionary look-ups), the dispatch of :class:`Series`
+operators, and the terms computed from the data alone, again at every evaluation.
 
 :class:`TapedResidual` wraps a residual.  Its first evaluation at a working order with series
 unknowns runs the residual on *traced series* (:class:`_Traced`): every operation whose result
@@ -43,25 +43,42 @@ trace with a :class:`TraceError`; the evaluation is then eager (the same result,
 :attr:`TapedResidual.reason` says why.  Any other exception raised while tracing also falls back to
 the eager evaluation, which raises it again if it is the residual's own.
 
-Design choices, measured (roll, 17 nodes, stage 2 at order 16, numpy backend, medians):
+Design choices, measured (``python benchmarks/bench_series.py --tape``: the roll's stage residuals,
+17 nodes, medians of interleaved runs on a loaded 2-core machine):
 
+* **What a replay saves.**  The replay runs the kernel calls of the unknown-dependent operations
+  only (stage 2: 59 instructions, stage 4: 33).  Stage 4 depends on its unknowns (the surfaces)
+  through few terms: a replay costs 0.35-0.65 of an eager evaluation.  Stage 2 depends on its
+  unknowns (alpha, beta, mu, F) almost everywhere, and the kernel calls themselves -- a handful of
+  numpy calls each, about 6 us for a product even at order 2, the order-by-order loops of the
+  quotient and of sin/cos at order 16 -- are most of its cost: a replay costs 0.7-0.85 of an eager
+  evaluation on real unknowns, and about as much as one on the complex-step batch with the numpy
+  kernels (whose complex products are arithmetic-bound), 0.9 with the compiled ones.  Cheaper
+  replays would need other kernel calls (a fused or pre-allocated product), whose results are not
+  bit-identical to the eager path's: not done here (the plans must not change).
+* **What a trace costs.**  Recording adds 1-3 us per operation to the eager work: a traced
+  evaluation costs 1.2-1.5 eager ones.  Traced intermediates are held by their traced objects only,
+  as the model code holds eager series, and the replay releases each after its last use: keeping
+  every intermediate alive made both the trace and the replay of the complex-step batch slower than
+  the eager evaluation (memory not reused).
+* **When to trace** (:data:`WHEN`).  A call at one working order (the warm Newton steps, most calls
+  of a plan) is traced at once: its first evaluation, the complex-step batch, and the real ones
+  that follow replay the same tape.  The precision-doubling steps evaluate each order once, so the
+  default ``"first-order"`` traces only the first order of a call and any order met a second time.
+  At plan level the tape is within the timing noise of the eager evaluation (see the report of
+  this work): it pays on stage 4 and with the compiled kernels, about breaks even on stage 2 with
+  the numpy ones.
 * **Interpreter, not generated code.**  The replay is a loop over ``(function, argument slots,
-  output slot)`` tuples with the arguments fetched by ``map(values.__getitem__, slots)``; writing
-  the program out as Python source and compiling it (as :mod:`gna.tape` does for floats) costs a
-  ``compile`` of a few hundred lines per tape, more than the loop's overhead over the two or three
-  replays a tape gets.
-* **Dead code and common subexpressions.**  Instructions no output needs (the forces a stage does
-  not use) are dropped after the trace; an instruction applied twice to the same operands is
-  recorded once (the functions are deterministic: same values, fewer kernel calls).
+  output slot, slots to release)`` tuples, the arguments fetched by ``map(values.__getitem__,
+  slots)`` (under 1 us per instruction); writing the program out as Python source and compiling it
+  (as :mod:`gna.tape` does for floats) costs about 430 us for 60 lines, more than the loop's whole
+  overhead over the one to four replays a tape gets.
+* **No common subexpressions, no dead code.**  Both were implemented and measured: the stage
+  residuals compute nothing they do not return and repeat one operation in 57, so the table look-ups
+  cost more than they saved; they were removed.
 * **Tapes per working order.**  Constants are computed at the working order; truncating the
-  constants of a higher order would change rounding (the kernels' sums are ordered by the
-  order), so a new order is a new trace.  The precision-doubling scheme evaluates each order once,
-  so its evaluations gain nothing; :attr:`TapedResidual.trace_orders` (default: trace from the
-  second evaluation at an order when the first was a real one, and at the first otherwise) keeps
-  the trace's overhead off those.
-
-The figures (eager against replay per evaluation at several orders, the trace's overhead, the plan
-times) are in ``benchmarks/bench_series.py --tape`` and the report of this work.
+  constants of a higher order would change rounding (the kernels' sums depend on the order), so a
+  new order is a new trace.
 """
 
 from __future__ import annotations
@@ -338,11 +355,10 @@ def _t_arctan2(y: Any, x: Any) -> Any:
     yp, xp = _promote(y, like), _promote(x, like)
     if yp is None or xp is None:
         return NotImplemented
-    return like.rec.op(_arctan2_series, _internal(yp), _internal(xp),
-                       type(yp) is _Traced, type(xp) is _Traced)
+    return like.rec.op(_arctan2_series, _internal(yp), _internal(xp))
 
 
-def _arctan2_series(y: np.ndarray, x: np.ndarray, y_traced: bool, x_traced: bool) -> np.ndarray:
+def _arctan2_series(y: np.ndarray, x: np.ndarray) -> np.ndarray:
     """The eager ``_arctan2`` of two series given by their internal arrays."""
     return _arctan2(Series._wrap(y), Series._wrap(x))._c
 
