@@ -158,8 +158,11 @@ class _Recorder:
         self.instrs: list = []          # (fn, argument slots, output slot or slice of slots)
         self.const_slots: dict = {}     # constant key -> slot
         self.n_inputs = 0
+        self.false = self.true = -1     # slots of the flags False and True, after the inputs'
 
     def input(self, c: np.ndarray) -> "_Traced":
+        if len(self.values) != self.n_inputs:
+            raise TraceError("the inputs must be the first slots of a recording")
         self.values.append(None)
         self.n_inputs += 1
         return _Traced(self, len(self.values) - 1, c)
@@ -278,7 +281,7 @@ def _t_add(x: Any, y: Any) -> Any:
         return NotImplemented
     rec, xs, xv, sx, ys, yv, sy = b
     if sx and sy:
-        return rec.emit(_add_sub, (xs, ys, rec.const(False)), [xv, yv, False])
+        return rec.emit(_add_sub, (xs, ys, rec.false), [xv, yv, False])
     return rec.emit(_plus_constant, (xs, ys), [xv, yv]) if sx else rec.emit(_plus_constant, (ys, xs), [yv, xv])
 
 
@@ -288,7 +291,7 @@ def _t_sub(x: Any, y: Any) -> Any:
         return NotImplemented
     rec, xs, xv, sx, ys, yv, sy = b
     if sx and sy:
-        return rec.emit(_add_sub, (xs, ys, rec.const(True)), [xv, yv, True])
+        return rec.emit(_add_sub, (xs, ys, rec.true), [xv, yv, True])
     if sx:
         # the eager path negates the constant before adding it
         neg = np.negative(yv)
@@ -303,7 +306,7 @@ def _t_mul(x: Any, y: Any) -> Any:
     rec, xs, xv, sx, ys, yv, sy = b
     if sx and sy:
         return rec.emit(_series_mul, (xs, ys), [xv, yv])
-    f = rec.const(False)
+    f = rec.false
     return rec.emit(_scale_array, (xs, ys, f), [xv, yv, False]) if sx else \
         rec.emit(_scale_array, (ys, xs, f), [yv, xv, False])
 
@@ -319,7 +322,7 @@ def _t_div(x: Any, y: Any) -> Any:
             xv = _constant_like(xv, Series._wrap(yv))._c
             xs = rec.const(xv)
         return rec.emit(_series_div, (xs, ys), [xv, yv])
-    return rec.emit(_scale_array, (xs, ys, rec.const(True)), [xv, yv, True])
+    return rec.emit(_scale_array, (xs, ys, rec.true), [xv, yv, True])
 
 
 def _value(x: Any) -> np.ndarray:
@@ -546,27 +549,34 @@ class SeriesTape:
     def __init__(self, rec: _Recorder, n_inputs: int, outputs: list, order: int) -> None:
         self._outputs = tuple(o.slot if type(o) is _Traced else rec.const(o) for o in outputs)
         self._template = rec.values
-        # Each traced intermediate is released after its last use (as the eager evaluation frees it).
-        last: dict = {}
-        for i, (_, slots, _) in enumerate(rec.instrs):
-            for s in slots:
-                if rec.values[s] is None:
-                    last[s] = i
-        for s in self._outputs:
-            last.pop(s, None)
-        release: list = [[] for _ in rec.instrs]
-        for s, i in last.items():
-            release[i].append(s)
-        self._prog = [(fn, slots, out, tuple(rel)) for (fn, slots, out), rel in zip(rec.instrs, release)]
+        self._instrs = rec.instrs
+        self._prog: list | None = None
         self.n_inputs = n_inputs
         self.order = order
         #: Which outputs are traced (replayed as internal arrays); the others are constants.
         self.traced_outputs = tuple(type(o) is _Traced for o in outputs)
 
+    def _build(self) -> list:
+        """The replayed program, each traced intermediate released after its last use (as the eager
+        evaluation frees it); built at the first replay (a tape never replayed costs only its trace)."""
+        values, instrs = self._template, self._instrs
+        last: dict = {}
+        for i, (_, slots, _) in enumerate(instrs):
+            for s in slots:
+                if values[s] is None:
+                    last[s] = i
+        for s in self._outputs:
+            last.pop(s, None)
+        release: list = [[] for _ in instrs]
+        for s, i in last.items():
+            release[i].append(s)
+        self._prog = [(fn, slots, out, tuple(rel)) for (fn, slots, out), rel in zip(instrs, release)]
+        return self._prog
+
     @property
     def n_instructions(self) -> int:
         """Number of instructions replayed."""
-        return len(self._prog)
+        return len(self._instrs)
 
     def run(self, inputs: Sequence[np.ndarray]) -> list:
         """Replay the program.
@@ -582,10 +592,11 @@ class SeriesTape:
         list
             One entry per residual output: an internal array, or the constant the residual returned.
         """
+        prog = self._prog if self._prog is not None else self._build()
         v = self._template.copy()
         v[:self.n_inputs] = inputs
         get = v.__getitem__
-        for fn, slots, out, release in self._prog:
+        for fn, slots, out, release in prog:
             v[out] = fn(*map(get, slots))
             for s in release:
                 v[s] = None
@@ -618,7 +629,8 @@ def trace(residual: Callable, u: Sequence[Series], k: int) -> tuple[SeriesTape, 
         exception).
     """
     rec = _Recorder()
-    traced = [rec.input(x._c) for x in u]
+    traced = [rec.input(x._c) for x in u]       # the inputs are the first slots
+    rec.false, rec.true = rec.const(False), rec.const(True)
     try:
         out = residual(traced, k)
     except TraceError:
