@@ -14,7 +14,7 @@ import importlib
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 import planners.series as S
 from planners.newton import newton_series
@@ -293,9 +293,9 @@ def _program_residual(ops, data, nodes):
     return residual
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(programs(), st.integers(0, 8), st.sampled_from(["real", "complex"]), st.integers(0, 2 ** 31))
-def test_random_programs_replay_exactly(ops, k, first, seed):
+def test_random_programs_replay_exactly(kernels, ops, k, first, seed):
     nodes = 5
     rng = np.random.default_rng(seed)
     data = Series(rng.uniform(0.5, 1.5, (nodes, k + 1)) * 0.5 ** np.arange(k + 1))
