@@ -36,6 +36,13 @@ The alternative, one tape per (dtype, batch shape), was not kept: it pays a seco
 eager evaluation) in every call that mixes the two, which is every warm call of stages 2 and 4
 (measured: one complex-step evaluation then one to four real ones per call).
 
+The contract a residual keeps (the stage residuals of :mod:`planners.flat` and of
+:mod:`planners.chained` do): its Python control flow does not depend on its unknowns -- neither on
+their values (series have no truth value anyway) nor on their type (no ``isinstance(u, Series)``
+dispatch: a traced series is not a :class:`Series`) -- and its data do not change while one Newton
+call evaluates it.  It may branch on its data (the ISA layer from the altitude) and on the working
+order.
+
 Operations the tracer does not record -- anything that needs values (comparisons, truth
 values, conversion to arrays), truncation, padding, indexing, stacking, the attributes
 ``coeffs``, ``batch_shape``, ``dtype``, ``constant_term`` beyond a ``hasattr`` test -- abort the
@@ -47,7 +54,7 @@ Design choices, measured (``python benchmarks/bench_series.py --tape``: the roll
 17 nodes, medians of interleaved runs on a loaded 2-core machine):
 
 * **What a replay saves.**  The replay runs the kernel calls of the unknown-dependent operations
-  only (stage 2: 59 instructions, stage 4: 33).  Stage 4 depends on its unknowns (the surfaces)
+  only (stage 2: 57-59 instructions, stage 4: 24-33).  Stage 4 depends on its unknowns (the surfaces)
   through few terms: a replay costs 0.35-0.65 of an eager evaluation.  Stage 2 depends on its
   unknowns (alpha, beta, mu, F) almost everywhere, and the kernel calls themselves -- a handful of
   numpy calls each, about 6 us for a product even at order 2, the order-by-order loops of the
