@@ -159,7 +159,9 @@ def tape_table(orders: list, repeats: int) -> None:
                     tr(x, k)
                     tape = tr.tapes[k]
                     ins = [v._c for v in x]
-                    modes = {"eager": lambda: residual(x, k), "trace": lambda: trace(residual, x, k),
+                    # fresh series objects per evaluation, as Newton makes them (a series memoises its sin/cos)
+                    modes = {"eager": lambda: residual([Series._wrap(c) for c in ins], k),
+                             "trace": lambda: trace(residual, [Series._wrap(c) for c in ins], k),
                              "replay": lambda: tape.run(ins)}
                     loops = {m: max(1, int(3e3 / max(1.0, time_us(f, 3)))) for m, f in modes.items()}
                     t = {m: [] for m in modes}

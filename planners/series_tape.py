@@ -54,17 +54,18 @@ Design choices, measured (``python benchmarks/bench_series.py --tape``: the roll
 17 nodes, medians of interleaved runs on a loaded 2-core machine):
 
 * **What a replay saves.**  The replay runs the kernel calls of the unknown-dependent operations
-  only (stage 2: 57-59 instructions, stage 4: 24-33).  Stage 4 depends on its unknowns (the surfaces)
-  through few terms: a replay costs 0.35-0.65 of an eager evaluation.  Stage 2 depends on its
-  unknowns (alpha, beta, mu, F) almost everywhere, and the kernel calls themselves -- a handful of
-  numpy calls each, about 6 us for a product even at order 2, the order-by-order loops of the
-  quotient and of sin/cos at order 16 -- are most of its cost: a replay costs 0.7-0.85 of an eager
-  evaluation on real unknowns, and about as much as one on the complex-step batch with the numpy
-  kernels (whose complex products are arithmetic-bound), 0.9 with the compiled ones.  Cheaper
-  replays would need other kernel calls (a fused or pre-allocated product), whose results are not
-  bit-identical to the eager path's: not done here (the plans must not change).
+  only (stage 2: 57-59 instructions, stage 4: 24-33).  Stage 4 depends on its unknowns (the
+  surfaces) through few terms: a replay costs 0.37-0.65 of an eager evaluation (orders 2-16, real
+  and complex-step unknowns, both kernel sets).  Stage 2 depends on its unknowns (alpha, beta, mu,
+  F) almost everywhere, and the kernel calls themselves -- a handful of numpy calls each, about
+  6 us for a product even at order 2, the order-by-order loops of the quotient and of sin/cos at
+  order 16 -- are most of its cost: a replay costs 0.63-0.75 of an eager evaluation on real
+  unknowns, 0.75-0.9 on the complex-step batch (whose complex products are arithmetic-bound with
+  the numpy kernels).  Cheaper replays would need other kernel calls (a fused or pre-allocated
+  product), whose results are not bit-identical to the eager path's: not done here (the plans must
+  not change).
 * **What a trace costs.**  Recording adds 1-3 us per operation to the eager work: a traced
-  evaluation costs 1.2-1.5 eager ones.  Traced intermediates are held by their traced objects only,
+  evaluation costs 1.1-1.4 eager ones.  Traced intermediates are held by their traced objects only,
   as the model code holds eager series, and the replay releases each after its last use: keeping
   every intermediate alive made both the trace and the replay of the complex-step batch slower than
   the eager evaluation (memory not reused).
