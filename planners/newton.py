@@ -16,6 +16,7 @@ import numpy as np
 from gna.solve import COMPLEX_STEP, NewtonResult, batched_solve, jacobian, newton
 
 from . import series as _series_kernels
+from .series_tape import TapedResidual
 
 __all__ = ["PAPER_TOL", "PAPER_MAXITER", "NewtonResult", "NewtonFailure", "SeriesNewtonReport", "batched_solve",
            "doubling_orders", "jacobian", "newton", "newton_series"]
@@ -439,6 +440,7 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
     from .series import Series
 
     n = len(u0)
+    residual = TapedResidual(residual)   # traced once per working order, replayed on the following evaluations
     base = [u if isinstance(u, Series) else Series.constant(np.asarray(u, dtype=float), 0) for u in u0]
     batch = base[0].batch_shape
     t_nodes = np.arange(int(np.prod(batch))) if t_nodes is None else np.asarray(t_nodes)

@@ -1002,6 +1002,11 @@ class Series:
         """
         cs = [x._c if isinstance(x, Series) else None for x in items]
         consts = [x for x, c in zip(items, cs) if c is None]
+        for x in consts:
+            # a traced series (planners.series_tape) records the combination on its tape
+            delegate = getattr(type(x), "linear_combinations", None)
+            if delegate is not None:
+                return delegate(weights, items)
         if len(consts) == len(cs):
             raise TypeError("linear_combinations needs at least one Series among the items")
         w = np.asarray(weights, dtype=float)
@@ -1340,11 +1345,18 @@ def _sub(x: Any, y: Any) -> Series:
 
 def _scale(s: Series, const: Any, divide: bool = False) -> Series:
     """Coefficient-wise product (quotient) with a constant broadcast over the batch."""
+    return Series._wrap(_scale_array(s._c, const, divide))
+
+
+def _scale_array(c: np.ndarray, const: Any, divide: bool = False) -> np.ndarray:
+    """Internal array ``c`` times (over) a constant broadcast over the batch (new array)."""
     if type(const) is float or type(const) is int:
-        return Series._wrap(s._c / const if divide else s._c * const)
-    nd = max(len(s.batch_shape), np.ndim(const))
-    c = _bcast(s._c, (1,) * (nd - len(s.batch_shape)) + s.batch_shape) if nd > len(s.batch_shape) else s._c
-    return Series._wrap(c / const if divide else c * const)
+        return c / const if divide else c * const
+    nb = c.ndim - 1
+    nd = max(nb, np.ndim(const))
+    if nd > nb:
+        c = _bcast(c, (1,) * (nd - nb) + c.shape[1:])
+    return c / const if divide else c * const
 
 
 def _series_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
