@@ -447,12 +447,7 @@ def first_domain_violation(t, states, bounds: DomainBounds = DOMAIN) -> str | No
     """
     t = np.atleast_1d(np.asarray(t, dtype=float))
     X = np.asarray(states, dtype=float).reshape(12, t.size)
-    with np.errstate(invalid="ignore"):
-        inside = (np.all(np.isfinite(X), axis=0) & (X[3] > bounds.V_min) & (X[3] < bounds.V_max)
-                  & (np.cos(X[7]) > bounds.cos_min) & (np.cos(X[4]) > bounds.cos_min)
-                  & (np.abs(X[6]) < bounds.alpha_max))
-        if bounds.ground is not None:
-            inside &= -X[2] - bounds.ground > 0
+    inside = inside_domain(X, bounds)
     if inside.all():
         return None
     i = int(np.argmin(inside))
