@@ -23,7 +23,7 @@ import numpy as np
 
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.errors import InputError
-from gna.trajectory import domain_bounds, first_domain_violation, ground_violation
+from gna.trajectory import domain_bounds, first_domain_violation, ground_violation, inside_domain
 
 from .flat import FlatProblem, check_grid, check_iterations, check_whole, parametrize
 from .plan import DEFAULT_INTERPOLATION, Plan, check_interpolation
@@ -372,15 +372,9 @@ def domain_failures(plan: Plan) -> list[str]:
     """
     t = plan.t_nodes
     states = [np.array([_node_array(it.series[n], t.shape) for n in STATE_NAMES]) for it in plan.iterates]
-    # All the iterates in one test first (the usual case: every node inside), then iterate by iterate.
-    if first_domain_violation(np.tile(t, len(states)), np.concatenate(states, axis=1)) is None:
-        return []
-    out = []
-    for j, X in enumerate(states):
-        bad = first_domain_violation(t, X)
-        if bad is not None:
-            out.append(f"iterate j = {j}: {bad}")
-    return out
+    # All the iterates in one test (the usual case: every node inside); the message of each failed one.
+    inside = inside_domain(np.concatenate(states, axis=1)).reshape(len(states), t.size)
+    return [f"iterate j = {j}: {first_domain_violation(t, X)}" for j, X in enumerate(states) if not inside[j].all()]
 
 
 def _node_array(series, shape: tuple) -> np.ndarray:
