@@ -333,11 +333,6 @@ def _t_div(x: Any, y: Any) -> Any:
     return rec.emit(_scale_array, (xs, ys, rec.true), [xv, yv, True])
 
 
-def _value(x: Any) -> np.ndarray:
-    """Trace-time internal array of a traced value or a Series."""
-    return x.c if type(x) is _Traced else x._c
-
-
 def _t_pow(x: Any, y: Any) -> Any:
     xo, yo = _operand(x), _operand(y)
     if xo is None or yo is None:
@@ -551,7 +546,7 @@ class SeriesTape:
     order : int
         Working order of the trace (the unknowns have ``order + 1`` coefficients).
     n_instructions : int
-        Instructions replayed (after dead-code elimination).
+        Instructions replayed (every recorded one: no dead-code elimination).
     """
 
     def __init__(self, rec: _Recorder, n_inputs: int, outputs: list, order: int) -> None:
