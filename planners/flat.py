@@ -382,11 +382,11 @@ def _stage3(alpha, beta, mu, path: dict):
     def flat(u, rows=m):
         return u._c[:rows].reshape(rows, n)
 
-    s, c = K.sincos(np.concatenate([flat(alpha), flat(beta), flat(mu)], axis=1), False)
+    abm = np.concatenate([flat(alpha), flat(beta), flat(mu)], axis=1)
+    s, c = K.sincos(abm, False)
     sa, sb, sm = s[:, :n], s[:, n:2 * n], s[:, 2 * n:]
     ca, cb, cm = c[:, :n], c[:, n:2 * n], c[:, 2 * n:]
-    d = np.concatenate([flat(alpha), flat(beta), flat(mu)], axis=1)
-    d = d[1:] * np.arange(1, m, dtype=float)[:, None]                    # the derivatives
+    d = _series._diff_kernel(abm)                                        # the derivatives
     ad, bd, mud = d[:, :n], d[:, n:2 * n], d[:, 2 * n:]
     gd_, chid_cg_, chid_sg_ = flat(gd, m - 1), flat(chid_cg, m - 1), flat(chid_sg, m - 1)
     # wy = gd cm + chid cg sm, wz = -gd sm + chid cg cm
