@@ -294,7 +294,7 @@ def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray
         Jc[..., 0] = jacobian(const_fun, stacked[..., 0], "complex-batched")
         if not np.all(np.isfinite(Jc[..., 0])):
             Jc = None
-    last, theta, before, orders, accepted, newton_step = None, 0.0, None, [], False, False
+    last, theta, before, orders, newton_step = None, 0.0, None, [], False
     for _ in range(maxsteps):
         fresh = Jc is None
         if fresh:
@@ -320,16 +320,18 @@ def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray
         before, newton_step = stacked, fresh
         stacked = stacked - _series_solve(Jc, G)
         if size <= tol:
-            accepted, bound = True, 1.0
+            bound = 1.0
             break
         if proof and last is not None and theta * size <= CHORD_PROOF * tol:
-            accepted, bound = True, theta   # the contraction bounds the residual of the new point
+            bound = theta   # the contraction bounds the residual of the new point
             break
         if last is not None and np.log(tol / size) / np.log(theta) > CHORD_STEPS:
             Jc, last = None, size   # the chord contracts too slowly: a Newton step next
         else:
             last = size
-    if not accepted or not np.all(np.isfinite(stacked)):
+    else:
+        return None   # still above the tolerance after maxsteps evaluations
+    if not np.all(np.isfinite(stacked)):
         return None
     u = [Series(stacked[j]) for j in range(n)]
     cres = bound * np.max(np.abs(G[..., 0]), axis=0)
