@@ -122,18 +122,8 @@ def test_warm_newton_series_from_a_close_start_matches_the_full_scheme(monkeypat
     working order (no pointwise iterations, no low doubling orders)."""
     # every evaluation calls the residual (no replays of a traced program), so that wrapping it counts them
     monkeypatch.setattr(newton_module, "TapedResidual", functools.partial(TapedResidual, when="never"))
-    t0 = np.array([0.0, 0.5, 1.0, 1.5])
-    order = 12
-    t = Series.variable(t0, order)
-
-    def problem(eps):
-        def residual(u, k):
-            tk = t.truncate(k) if k else t0
-            return [u[0] * u[0] * (1 + eps * u[1]) - (2 + tk), np.tan(u[1]) + eps * u[0] - tk]
-        return residual
-
+    t0, order, problem, near, _ = _chord_problem()
     start = [Series.constant(np.ones(4), 0), Series.constant(np.zeros(4), 0)]
-    near, _ = newton_series(problem(1e-3), start, order, t_nodes=t0)
     cold_res, cold_calls = _counting(problem(2e-3))
     cold, _ = newton_series(cold_res, start, order, t_nodes=t0)
     warm_res, warm_calls = _counting(problem(2e-3))
