@@ -22,6 +22,9 @@ from planners.scenario import load_scenario
 flat = importlib.import_module("planners.flat")
 newton = importlib.import_module("planners.newton")
 
+#: The bundled paper scenarios, one plan each.
+SCENARIOS = ("gtm-aileron-roll", "twin-otter-single-engine", "gtm-forward-slip")
+
 
 def _kind(u, k) -> str:
     """``P`` (order 0, plain arrays), ``J`` (complex series: the Jacobian's complex steps) or ``R``."""
@@ -44,7 +47,7 @@ def main() -> None:
     taped = newton.TapedResidual
     newton.TapedResidual = functools.partial(taped, when="never")
     try:
-        for name in ("gtm-aileron-roll", "twin-otter-single-engine", "gtm-forward-slip"):
+        for name in SCENARIOS:
             sc = load_scenario(name)
             for key in calls:
                 calls[key] = 0
@@ -64,7 +67,7 @@ def main() -> None:
 
     newton.TapedResidual = recording
     try:
-        for name in ("gtm-aileron-roll", "twin-otter-single-engine", "gtm-forward-slip"):
+        for name in SCENARIOS:
             tapes.clear()
             plan_scenario(load_scenario(name))
             total = {k: sum(t.counts[k] for t in tapes) for k in ("trace", "replay", "eager")}
