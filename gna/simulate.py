@@ -325,6 +325,10 @@ def _excursion(df, mask, name: str, values, worst_index: int, text: str) -> str:
     return f"{text} {span}; worst {values[worst_index]} at t = {t[worst_index]:.4g} s"
 
 
+#: The columns :func:`envelope_warnings` reads (a caller may build only these).
+ENVELOPE_VARIABLES: tuple[str, ...] = ("V", "alpha", "beta") + CONTROL_NAMES
+
+
 def envelope_warnings(aircraft, df) -> list[str]:
     """Excursions of a trajectory outside the aircraft's envelope, control limits and thrust range (total, per engine).
 
@@ -333,7 +337,8 @@ def envelope_warnings(aircraft, df) -> list[str]:
     aircraft : Aircraft
         Its envelope, control limits and propulsion.
     df : pandas.DataFrame
-        A trajectory indexed by time [s] with the columns alpha, beta, F, eta, dl, dm, dn.
+        A trajectory indexed by time [s] with the columns :data:`ENVELOPE_VARIABLES` (V, alpha, beta, F, eta,
+        dl, dm, dn).
 
     Returns
     -------

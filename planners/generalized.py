@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from gna.eom import CONTROL_NAMES, STATE_NAMES
+from gna.eom import STATE_NAMES
 from gna.errors import InputError
 from gna.trajectory import domain_bounds, first_domain_violation, ground_violation, inside_domain
 
@@ -38,8 +38,6 @@ STAGES = 4
 MAX_PLAN_COST = 5.0e6
 #: Samples per node interval of the height test along the plan's path (:func:`ground_failures`).
 GROUND_SAMPLES = 64
-#: The plan variables the envelope check of a plan reads (:func:`gna.simulate.envelope_warnings`).
-ENVELOPE_VARIABLES = ("V", "alpha", "beta") + CONTROL_NAMES
 #: Plans costing more than this log their progress per iterate (logger ``planners.generalized``, INFO).
 PROGRESS_COST = 5.0e5
 
@@ -349,7 +347,7 @@ def _finish(plan: Plan) -> Plan:
         plan.singularities = monitor(plan)
     plan.warnings.extend(plan.singularities.warnings)
     if plan.feasible:
-        from gna.simulate import envelope_warnings
+        from gna.simulate import ENVELOPE_VARIABLES, envelope_warnings
         # between the nodes too; the columns gna.simulate.envelope_warnings reads
         fine = plan.to_dataframe(step=float(np.min(np.diff(t_nodes))) / 8, variables=ENVELOPE_VARIABLES)
         plan.warnings.extend(f"plan (j = {plan.J}): {w}" for w in envelope_warnings(problem.aircraft, fine))

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from planners.flat import _path_terms, _stage3, _stage3_series, stage3
-from planners.generalized import ENVELOPE_VARIABLES, domain_failures
+from gna.simulate import ENVELOPE_VARIABLES
+from planners.generalized import domain_failures
 from planners.series import Series
 
 
