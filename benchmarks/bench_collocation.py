@@ -636,7 +636,7 @@ GRAPHS = ("MX", "SX")
 
 
 def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FINER_FACTORS,
-                   graphs=GRAPHS, guesses=tuple(GUESSES), log=print) -> dict:
+                   graphs=GRAPHS, guesses=tuple(GUESSES), log=print, J=None) -> dict:
     """Time and accuracy of the planner and of collocation on grids of a scenario, per initial guess.
 
     Parameters
@@ -656,6 +656,9 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
         Initial guesses (keys of :data:`GUESSES`: ``"plan-j0"``, ``"trim"``).
     log : callable
         Progress messages.
+    J : int, "auto" or None
+        The planner's J (None: the scenario's bundled setting); ``"auto"`` plans with the convergence
+        test (:func:`planners.generalized.choose_J`), the planner's most accurate setting.
 
     Returns
     -------
@@ -673,11 +676,11 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
 
     _require_casadi()
     sc = load_scenario(name)
-    plan = plan_scenario(sc)  # warm-up, and the accuracy (deterministic)
+    plan = plan_scenario(sc, J=J)  # warm-up, and the accuracy (deterministic)
     check = open_loop_error(plan)
     planner_acc = check.max_position_error_m
     out = {"scenario": sc.name, "step_s": sc.step, "span_s": sc.t1 - sc.t0,
-           "planner": {"J": plan.J, "nodes": len(plan.t_nodes), "accuracy_m": planner_acc, "series_backend": BACKEND,
+           "planner": {"J": plan.J, "J_setting": "bundled" if J is None else J, "nodes": len(plan.t_nodes), "accuracy_m": planner_acc, "series_backend": BACKEND,
                        "feasible": bool(plan.feasible), "settings": {k: getattr(plan, k) for k in ("e",)
                                                                      if hasattr(plan, k)}},
            "guesses": {}}
@@ -727,7 +730,7 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
     planner_t = []
     for _ in range(repeat):
         start = _clock()
-        plan_scenario(sc)
+        plan_scenario(sc, J=J)
         planner_t.append(_since(start))
         for gname in guesses:
             make_guess = GUESSES[gname]
@@ -823,7 +826,7 @@ def format_table(res: dict) -> str:
     p = res["planner"]
     lines = [f"{res['scenario']} (node step {res['step_s']:g} s, span {res['span_s']:g} s); times: median wall "
              f"(CPU) [s]; every collocation time includes its initial guess",
-             f"  planner J={p['J']}, {p['nodes']} nodes, series backend {p.get('series_backend', '?')}: "
+             f"  planner J={p['J']} ({p.get('J_setting', 'bundled')}), {p['nodes']} nodes, series backend {p.get('series_backend', '?')}: "
              f"{p['time_wall_s']:.3f} ({p['time_cpu_s']:.3f}), "
              f"open-loop accuracy {p['accuracy_m']:.3g} m"]
     for gname, gres in res["guesses"].items():
@@ -911,9 +914,16 @@ def main(argv=None) -> None:
     ap.add_argument("--guess", default=",".join(GUESSES),
                     help="initial guesses, comma-separated: plan-j0 (the planner's J = 0 plan), trim (flat outputs, "
                          "their kinematics and a trim at the start); default: both")
+    ap.add_argument("--J", dest="J", default=None,
+                    help="the planner's J: a whole number or auto (the convergence test); default: the scenario's")
     ap.add_argument("--json", help="write the results to this JSON file")
     ap.add_argument("--markdown", help="write the results as a Markdown table to this file")
     args = ap.parse_args(argv)
+    J = args.J
+    if J is not None and J != "auto":
+        if not J.isdigit():
+            ap.error(f"--J: a whole number >= 0 or auto, got {J!r}")
+        J = int(J)
     _require_casadi()
     factors = [float(v) for v in args.factors.split(",")]
     guesses = tuple(v.strip() for v in args.guess.split(",") if v.strip())
@@ -926,7 +936,7 @@ def main(argv=None) -> None:
         factors, finer, repeat = [8.0], (), 1
     results = []
     for name in args.scenarios:
-        res = bench_scenario(name, factors, repeat, finer, tuple(args.graphs.split(",")), guesses)
+        res = bench_scenario(name, factors, repeat, finer, tuple(args.graphs.split(",")), guesses, J=J)
         print(format_table(res), flush=True)
         results.append(res)
     if args.markdown:
