@@ -37,10 +37,10 @@ DEFAULT_WINDOWS: dict[str, float | None] = {"first 10 s": 10.0, "whole span": No
 
 
 #: Largest ``max|u_ref|`` (SI units: m, m/s, rad, N, N m, ...) taken as zero for the relative metric
-#: ``delta_pct``: a variable that is zero to rounding (beta of a symmetric flight, 1e-26 rad) would give
-#: percentages like 1e+26 from differences of rounding size.  1e-12 is below any physical value of the
-#: model's variables (1 pm, 1e-12 rad).
-REFERENCE_ZERO = 1e-12
+#: ``delta_pct``: a variable that is zero to rounding (beta of a symmetric flight, 1e-26 rad; gamma of a
+#: "level" trim, 1e-11 rad) would give percentages like 1e+10 % from differences of a few mrad.  1e-9 is
+#: below any physical value of the model's variables (1 nm, 1 nrad, 1 nN).
+REFERENCE_ZERO = 1e-9
 
 
 @dataclass(frozen=True)

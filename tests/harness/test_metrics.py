@@ -154,7 +154,7 @@ def test_informative_table_has_one_overall_line_and_undefined_delta_is_a_dash():
     assert text.count("overall:") == 1 and "overall: - (no tolerances given: informative)" in text
     assert "overall: PASS" not in text
     y_line = next(line for line in text.splitlines() if line.split()[:1] == ["y"])   # max|y_ref| = 0
-    assert "nan" not in y_line and "undefined (-) where max|reference| = 0 (at most 1e-12: zero to rounding)" in text
+    assert "nan" not in y_line and "undefined (-) where max|reference| = 0 (at most 1e-09: zero to rounding)" in text
 
 
 def test_delta_is_undefined_where_the_reference_is_zero_to_rounding():
