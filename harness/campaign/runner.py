@@ -15,8 +15,11 @@ the same command resumes.
 
 from __future__ import annotations
 
+import contextlib
 import json
+import logging
 import os
+import re
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -30,10 +33,21 @@ from .execute import run_sample
 from .spec import Campaign, load_campaign
 from .store import CampaignStore
 
-__all__ = ["run_campaign", "rerun_case", "parse_dask"]
+__all__ = ["run_campaign", "rerun_case", "parse_dask", "DASK_SCHEMES", "DASK_TIMEOUT_S"]
 
 #: Times a broken process pool is restarted before the remaining cases are left pending.
 MAX_POOL_RESTARTS = 3
+
+
+#: Address schemes of a Dask scheduler (``distributed.comm``; ``inproc`` only reaches this process).
+DASK_SCHEMES: tuple[str, ...] = ("tcp", "tls", "ws", "wss", "ucx")
+
+#: Seconds to wait for a Dask scheduler at an address (``--dask-timeout``): Dask retries a refused connection
+#: until then.
+DASK_TIMEOUT_S = 20.0
+
+_ADDRESS = re.compile(r"^(?:(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+)"
+                      r":(?P<port>[0-9]{1,5})$")
 
 
 def parse_dask(spec: str | None):
@@ -42,7 +56,8 @@ def parse_dask(spec: str | None):
     Parameters
     ----------
     spec : str or None
-        ``local:N`` or a scheduler address.
+        ``local:N`` or a scheduler address ``[SCHEME://]HOST:PORT`` (scheme one of
+        :data:`DASK_SCHEMES`, default tcp; an IPv6 host in brackets).
 
     Returns
     -------
@@ -51,16 +66,45 @@ def parse_dask(spec: str | None):
     Raises
     ------
     InputError
-        ``local:`` without a positive worker count.
+        ``local:`` without a positive worker count, or anything that is not
+        one of the two forms (one line naming the value and the forms).
     """
     if spec is None:
         return None
-    if spec.startswith("local"):
+    forms = (f"local:N (a local cluster of N workers) or a scheduler address [SCHEME://]HOST:PORT "
+             f"(SCHEME one of {', '.join(DASK_SCHEMES)}; e.g. tcp://127.0.0.1:8786)")
+    if spec == "local" or spec.startswith("local:"):
         _, _, n = spec.partition(":")
         if not n.isdigit() or int(n) < 1:
             raise InputError(f"--dask local:N needs a positive number of workers, got {spec!r}")
         return ("local", int(n))
+    m = _ADDRESS.match(spec)
+    if m is None or (m["scheme"] or "tcp") not in DASK_SCHEMES or not 1 <= int(m["port"]) <= 65535:
+        raise InputError(f"--dask {spec!r}: expected {forms}")
     return ("address", spec)
+
+
+def _distributed():
+    """The ``distributed`` module, or one line saying how to install it."""
+    try:
+        import distributed
+    except ImportError:
+        raise InputError("--dask needs Dask distributed: pip install 'gflat[campaign]'") from None
+    return distributed
+
+
+def _connect(where, timeout: float):
+    """A Dask client for ``where`` (:func:`parse_dask`) and the LocalCluster started for it (or None)."""
+    Client, LocalCluster = _distributed().Client, _distributed().LocalCluster
+    kind, arg = where
+    if kind == "local":
+        cluster = LocalCluster(n_workers=arg, threads_per_worker=1, processes=True, dashboard_address=None,
+                               silence_logs=logging.ERROR)
+        return Client(cluster), cluster
+    try:
+        return Client(arg, timeout=f"{timeout}s"), None
+    except (OSError, ValueError) as exc:      # refused, unreachable, timed out (OSError); a malformed address
+        raise InputError(f"cannot connect to the Dask scheduler at {arg}: {exc}") from None
 
 
 def _progress(total: int, quiet: bool, label: str):
@@ -90,48 +134,50 @@ def _local_pool(tasks, workers: int, commit):
     return list(remaining)
 
 
-def _dask(tasks, where, commit):
-    """Run tasks on a Dask cluster (a running scheduler, or a LocalCluster started here)."""
-    try:
-        from distributed import Client, LocalCluster, as_completed as dask_completed
-    except ImportError:
-        raise InputError("--dask needs Dask distributed: pip install 'gflat[campaign]'") from None
-    import logging
-    kind, arg = where
-    # Dask's loggers carry their own INFO level: at most gflat's level (-v/-q) while the campaign runs.
+@contextlib.contextmanager
+def _dask_logs():
+    """Dask's loggers carry their own INFO level: at most gflat's level (-v/-q) meanwhile."""
     dlog = logging.getLogger("distributed")
     saved = dlog.level
     dlog.setLevel(max(logging.WARNING, logging.getLogger().level))
-    cluster = None
-    if kind == "local":
-        cluster = LocalCluster(n_workers=arg, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR)
-        client = Client(cluster)
-    else:
-        client = Client(arg, timeout="20s")
-    left = []
     try:
-        futures = {client.submit(run_sample, t, key=f"gflat-{t.case_id}", pure=False): t for t in tasks}
-        for fut in dask_completed(list(futures)):
-            try:
-                outcome = fut.result()
-            except Exception as exc:  # KilledWorker: the scheduler gave up on this case
-                t = futures[fut]
-                outcome = {"case_id": t.case_id, "status": "failed", "metrics": None, "draw": None,
-                           "error": f"{type(exc).__name__}: {exc}", "timings": {}, "files": {}}
-            commit(outcome)
+        yield
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
         dlog.setLevel(saved)
-    return left
+
+
+def _dask(tasks, where, commit, client=None, timeout: float = DASK_TIMEOUT_S):
+    """Run tasks on a Dask cluster: ``client`` (connected and closed by the caller), else one started here."""
+    dask_completed = _distributed().as_completed
+    own, cluster = client is None, None
+    with _dask_logs():
+        try:
+            if own:
+                client, cluster = _connect(where, timeout)
+            futures = {client.submit(run_sample, t, key=f"gflat-{t.case_id}", pure=False): t for t in tasks}
+            for fut in dask_completed(list(futures)):
+                try:
+                    outcome = fut.result()
+                except Exception as exc:  # KilledWorker: the scheduler gave up on this case
+                    t = futures[fut]
+                    outcome = {"case_id": t.case_id, "status": "failed", "metrics": None, "draw": None,
+                               "error": f"{type(exc).__name__}: {exc}", "timings": {}, "files": {}}
+                commit(outcome)
+        finally:
+            if own and client is not None:
+                client.close()
+            if cluster is not None:
+                cluster.close()
 
 
 def run_campaign(campaign: Campaign | str | Path, out: str | Path, *, samples: int | None = None,
                  workers: int | None = None, dask: str | None = None, retry_failed: bool = False,
-                 quiet: bool = False, only=None) -> dict:
+                 quiet: bool = False, only=None, dask_timeout: float = DASK_TIMEOUT_S) -> dict:
     """Run (or resume) a campaign into a folder.
+
+    Everything is checked before the folder is created or touched: the
+    campaign (:func:`harness.campaign.spec.campaign_from_dict`), the settings,
+    the case ids of ``only``, and the Dask scheduler at an address (connected first).
 
     Parameters
     ----------
@@ -145,13 +191,16 @@ def run_campaign(campaign: Campaign | str | Path, out: str | Path, *, samples: i
     workers : int, optional
         Local worker processes (default the number of CPUs; 1 runs in this process).
     dask : str, optional
-        ``local:N`` or a Dask scheduler address (then ``workers`` is not used).
+        ``local:N`` or a Dask scheduler address ``[SCHEME://]HOST:PORT`` (then
+        ``workers`` is not used; :func:`parse_dask`).
     retry_failed : bool
         Run the failed cases again (by default only the pending ones run).
     quiet : bool
         No progress bar or note.
     only : iterable of str, optional
         Run only these case ids (pending or failed; see :func:`rerun_case` for a done one).
+    dask_timeout : float
+        Seconds to wait for the Dask scheduler at an address [s].
 
     Returns
     -------
@@ -163,13 +212,36 @@ def run_campaign(campaign: Campaign | str | Path, out: str | Path, *, samples: i
     Raises
     ------
     InputError
-        Unknown campaign, bad settings, or a folder holding another campaign.
+        Unknown campaign, bad settings, an unknown case id in ``only``, a Dask
+        scheduler that cannot be reached, or a folder holding another campaign.
     """
     camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
     where = parse_dask(dask)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise InputError(f"--workers must be a positive integer, got {workers!r}")
+    if isinstance(dask_timeout, bool) or not isinstance(dask_timeout, (int, float)) or not dask_timeout > 0 \
+            or dask_timeout == float("inf"):
+        raise InputError(f"--dask-timeout must be a positive number of seconds, got {dask_timeout!r}")
     tasks = camp.tasks(samples)
+    if only is not None:
+        unknown = sorted(set(only) - {t.case_id for t in tasks})
+        if unknown:
+            raise InputError(f"no case {unknown[0]!r} in campaign {camp.name!r} with these samples")
+    client = None
+    if where is not None:
+        _distributed()
+    if where is not None and where[0] == "address":
+        with _dask_logs():
+            client, _ = _connect(where, dask_timeout)     # an unreachable scheduler: nothing written
+    try:
+        return _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only)
+    finally:
+        if client is not None:
+            with _dask_logs():
+                client.close()
+
+
+def _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only) -> dict:
     store = CampaignStore(out)
     try:
         meta = store.meta()
@@ -184,9 +256,6 @@ def run_campaign(campaign: Campaign | str | Path, out: str | Path, *, samples: i
         wanted = {t.case_id for t in tasks}
         if only is not None:
             only = set(only)
-            unknown = sorted(only - wanted)
-            if unknown:
-                raise InputError(f"no case {unknown[0]!r} in campaign {camp.name!r} with these samples")
             tasks = [t for t in tasks if t.case_id in only]
             wanted = only
         todo = [t for t in tasks
@@ -212,7 +281,7 @@ def run_campaign(campaign: Campaign | str | Path, out: str | Path, *, samples: i
             if not todo:
                 pass
             elif where is not None:
-                _dask(todo, where, commit)
+                _dask(todo, where, commit, client)
             elif (workers or os.cpu_count() or 1) == 1:
                 for t in todo:
                     commit(run_sample(t))

@@ -30,7 +30,12 @@ A campaign file (TOML)::
     [output]
     trajectories = true           # write each case's trajectories (Parquet)
 
-Unknown keys are refused with one line naming the closest known key.
+Unknown keys are refused with one line naming the closest known key.  Every
+expanded case is checked before anything runs (:func:`harness.campaign.checks.check_case`):
+its scenario exists (the closest bundled name suggested) and loads with the
+case's J, J is within the planner's bounds, the comparison settings are valid
+with the scenario's ``[compare]``, ``dt_out`` divides the scenario's span;
+``id`` and the dispersion names, which name folders, are safe identifiers.
 """
 
 from __future__ import annotations
@@ -43,9 +48,11 @@ from typing import Any, Mapping
 
 from gna.catalogue import bundled
 from gna.errors import InputError
-from gna.schema import find_file, read_toml, unknown_key_message
+from gna.schema import check_name, find_file, read_toml, unknown_key_message
+from planners.flat import check_iterations
 
 from ..validation import ValidationCase
+from .checks import check_case
 
 __all__ = ["Campaign", "CaseSpec", "Dispersion", "SampleTask", "load_campaign", "campaign_from_dict",
            "bundled_campaigns", "AERO_MODES"]
@@ -282,10 +289,12 @@ class Campaign:
         return out
 
 
-def _expand_case(entry: Mapping, where: str, base: Path | None) -> list[CaseSpec]:
+def _expand_case(entry: Mapping, where: str, base: Path | None, loaded: dict) -> list[CaseSpec]:
     _check_keys(entry, _CASE_KEYS, where)
     if "scenario" not in entry:
         raise InputError(f"{where}: missing 'scenario'")
+    if "id" in entry:
+        check_name(entry["id"], "id", where)          # part of every case folder's name
     lists = {k: entry[k] for k in _EXPANDED if isinstance(entry.get(k), list)}
     if any(len(v) == 0 for v in lists.values()):
         raise InputError(f"{where}: an empty list in {', '.join(k for k, v in lists.items() if not v)}")
@@ -296,7 +305,11 @@ def _expand_case(entry: Mapping, where: str, base: Path | None) -> list[CaseSpec
         label = str(entry.get("id") or Path(str(data["scenario"])).stem)
         for k, v in zip(lists, combo):
             label += f"-{Path(str(v)).stem}" if k == "scenario" else f"-{k}{v}" if k == "J" else f"-{v}"
-        out.append(CaseSpec(label, ValidationCase.from_dict(data, where=where, base=base)))
+        if data.get("J") is not None and not isinstance(data["J"], str):     # the planner's bounds, first
+            check_iterations(data["J"], f"{where} (case {label})")
+        case = ValidationCase.from_dict(data, where=where, base=base)
+        check_case(case, f"{where} (case {label})", loaded)
+        out.append(CaseSpec(label, case))
     return out
 
 
@@ -319,7 +332,9 @@ def campaign_from_dict(data: Mapping[str, Any], where: str = "campaign", base: P
     Raises
     ------
     InputError
-        Unknown keys (with the closest known key), missing or bad values, duplicate case labels.
+        Unknown keys (with the closest known key), missing or bad values, duplicate case labels,
+        a case that cannot run (:func:`harness.campaign.checks.check_case`: unknown scenario, J out
+        of bounds, ...): one line naming the file, the case, the key and the value.
     """
     _check_keys(data, _TOP_KEYS, where)
     seed = data.get("seed")
@@ -332,8 +347,9 @@ def campaign_from_dict(data: Mapping[str, Any], where: str = "campaign", base: P
     if not isinstance(cases_raw, list) or not cases_raw:
         raise InputError(f"{where}: needs at least one [[cases]] table")
     cases: list[CaseSpec] = []
+    loaded: dict = {}                                  # scenarios by (name, J), loaded once
     for i, entry in enumerate(cases_raw):
-        cases += _expand_case(entry, f"{where} [[cases]] #{i + 1}", base)
+        cases += _expand_case(entry, f"{where} [[cases]] #{i + 1}", base, loaded)
     labels = [c.label for c in cases]
     dup = sorted({x for x in labels if labels.count(x) > 1})
     if dup:
@@ -341,7 +357,8 @@ def campaign_from_dict(data: Mapping[str, Any], where: str = "campaign", base: P
     disp_raw = data.get("dispersions", {"nominal": {"aero": "none"}})
     if not isinstance(disp_raw, Mapping) or not disp_raw:
         raise InputError(f"{where}: [dispersions.NAME] tables expected, got {disp_raw!r}")
-    disps = tuple(Dispersion.from_dict(str(n), t, f"{where} [dispersions.{n}]") for n, t in disp_raw.items())
+    disps = tuple(Dispersion.from_dict(check_name(n, "name", f"{where} [dispersions.{n}]"), t,
+                                       f"{where} [dispersions.{n}]") for n, t in disp_raw.items())
     out = data.get("output", {})
     _check_keys(out, _OUTPUT_KEYS, f"{where} [output]")
     traj = out.get("trajectories", True)

@@ -1,8 +1,9 @@
 """``gflat campaign run|status|report``: validation campaigns (Monte Carlo over dispersed aircraft).
 
 ``gflat campaign run NAME_OR_FILE --out DIR [--samples N] [--workers N] [--dask ADDRESS|local:N]
-[--retry-failed] [--only CASE_ID] [-q/--quiet]`` runs or resumes a campaign (done cases are skipped, failed
-ones rerun only with ``--retry-failed``); ``gflat campaign status DIR [--json]`` counts the cases;
+[--dask-timeout S] [--retry-failed] [--only CASE_ID] [-q/--quiet]`` runs or resumes a campaign (done cases are
+skipped, failed ones rerun only with ``--retry-failed``); the campaign file, every case, ``--dask`` and the
+scheduler at its address are checked before the folder is created or touched; ``gflat campaign status DIR [--json]`` counts the cases;
 ``gflat campaign report DIR`` writes the campaign report (summary.json, figures, index.html, a page per
 worst or failed case, report.pdf) into ``DIR/report``.
 """
@@ -15,7 +16,7 @@ from pathlib import Path
 
 from gna.errors import InputError
 
-from ._args import positive_int
+from ._args import positive_float, positive_int
 
 
 def register(sub) -> None:
@@ -31,7 +32,10 @@ def register(sub) -> None:
     r.add_argument("--workers", type=positive_int, default=None,
                    help="local worker processes (default: the number of CPUs; 1: in this process)")
     r.add_argument("--dask", default=None, metavar="ADDRESS|local:N",
-                   help="run on Dask distributed: a scheduler address, or local:N for a local cluster")
+                   help="run on Dask distributed: a scheduler address [tcp://]HOST:PORT (also tls, ws, wss, "
+                        "ucx), or local:N for a local cluster of N workers")
+    r.add_argument("--dask-timeout", type=positive_float, default=None, metavar="S",
+                   help="seconds to wait for the scheduler at a --dask address (default 20)")
     r.add_argument("--retry-failed", action="store_true", help="run the failed cases again")
     r.add_argument("--only", action="append", default=None, metavar="CASE_ID",
                    help="run only this case (a done case is computed again alone and compared with the store)")
@@ -55,6 +59,8 @@ def _store(folder: str):
 
 def run(args) -> int:
     from harness.campaign import rerun_case, run_campaign
+    from harness.campaign.runner import parse_dask
+    parse_dask(args.dask)                     # a bad --dask refused first, whatever runs
     if args.only:
         from harness.campaign.store import DB_NAME
         if (Path(args.out) / DB_NAME).is_file():
@@ -71,8 +77,9 @@ def run(args) -> int:
             if not args.only:
                 return 0
     quiet = bool(getattr(args, "quiet", 0))        # gflat's -q/--quiet: no progress bar
+    timeout = {} if args.dask_timeout is None else {"dask_timeout": args.dask_timeout}
     res = run_campaign(args.campaign, args.out, samples=args.samples, workers=args.workers, dask=args.dask,
-                       retry_failed=args.retry_failed, quiet=quiet, only=args.only)
+                       retry_failed=args.retry_failed, quiet=quiet, only=args.only, **timeout)
     note = (f"{res['computed']} computed in {res['elapsed_s']:.1f} s, {res['skipped']} skipped; "
             f"{res['done']} done, {res['failed']} failed, {res['pending']} pending of {res['cases']} -> {res['folder']}")
     print(note, file=sys.stderr if quiet else sys.stdout)

@@ -85,9 +85,12 @@ def test_more_samples_extend_and_other_campaign_is_refused(inline, tmp_path):
 
 
 def test_failed_cases_retried_only_when_asked(tmp_path, capsys):
-    bad = TINY.read_text().replace('scenario = "tiny-level.toml"', 'scenario = "tiny-level.toml"\nJ = 99')
-    (tmp_path / "bad.toml").write_text(bad)
-    (tmp_path / "tiny-level.toml").write_text((HERE / "tiny-level.toml").read_text())
+    """A case that passes the campaign's checks but fails while planning (the flight 20 km below sea level
+    leaves the ISA model: a DomainError of the planner) is recorded failed, and run again only when asked."""
+    (tmp_path / "bad.toml").write_text(TINY.read_text())
+    below = (HERE / "tiny-level.toml").read_text().replace('z = "0"', 'z = "20000"')
+    assert 'z = "20000"' in below
+    (tmp_path / "tiny-level.toml").write_text(below)
     res = run_campaign(tmp_path / "bad.toml", tmp_path / "out", samples=1, workers=1, quiet=True)
     assert (res["failed"], res["pending"]) == (1, 0)
     assert run_campaign(tmp_path / "bad.toml", tmp_path / "out", samples=1, workers=1, quiet=True)["computed"] == 0
@@ -98,6 +101,7 @@ def test_failed_cases_retried_only_when_asked(tmp_path, capsys):
     row = st.rows()[0]
     st.close()
     assert row["attempts"] == 2 and row["error"] and not (tmp_path / "out" / "cases" / row["case_id"]).exists()
+    assert row["error"].startswith("DomainError") and "ISA" in row["error"]
 
 
 @pytest.fixture(scope="module")
@@ -112,7 +116,8 @@ def cluster():
 def test_process_pool_and_dask_give_the_same_metrics_bit_for_bit(inline, cluster, tmp_path):
     run_campaign(TINY, tmp_path / "pool", workers=2, quiet=True)
     assert _metrics(tmp_path / "pool") == _metrics(inline)
-    run_campaign(TINY, tmp_path / "dask", dask=cluster[0].scheduler_address, quiet=True)
+    assert main(["campaign", "run", str(TINY), "--out", str(tmp_path / "dask"), "--quiet",
+                 "--dask", cluster[0].scheduler_address, "--dask-timeout", "10"]) == 0
     assert _metrics(tmp_path / "dask") == _metrics(inline)
     _check_folder(tmp_path / "dask", 3)
 
@@ -141,6 +146,43 @@ def test_dask_option_parsing():
     assert parse_dask(None) is None
     with pytest.raises(InputError, match="local:N"):
         parse_dask("local:0")
+    # a host named local... is an address, not a local cluster of 8786 workers
+    for address in ("localhost:8786", "tls://10.0.0.1:8786", "tcp://[::1]:8786", "ws://sched.example:80"):
+        assert parse_dask(address) == ("address", address)
+    for bad in ("bogus", "tcp://bogus", "foo://h:1", "h:0", "h:99999", "tcp://h:8786/x", "h: 1", ""):
+        with pytest.raises(InputError) as exc:
+            parse_dask(bad)
+        msg = str(exc.value)
+        assert repr(bad) in msg and "local:N" in msg and "HOST:PORT" in msg and "\n" not in msg
+
+
+def _free_port() -> int:
+    """A TCP port nothing listens on (bound, then released)."""
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_bad_dask_address_or_scheduler_refused_before_the_folder_exists(tmp_path, capsys):
+    """A malformed --dask and a scheduler that cannot be reached: one line, exit 2, no folder (nothing written)."""
+    pytest.importorskip("distributed")
+    out = tmp_path / "camp"
+    assert main(["campaign", "run", str(TINY), "--out", str(out), "--samples", "1", "--dask", "bogus"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--dask 'bogus': expected local:N" in err and len(err.splitlines()) == 1
+    assert not out.exists()
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    t0 = time.perf_counter()
+    assert main(["campaign", "run", str(TINY), "--out", str(out), "--samples", "1", "--dask", address,
+                 "--dask-timeout", "0.5"]) == 2
+    assert time.perf_counter() - t0 < 15                                # the timeout asked for, not 20 s
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"gflat campaign: error: cannot connect to the Dask scheduler at {address}: ")
+    assert len(err.splitlines()) == 1 and "cannot write" not in err
+    assert not out.exists()
+    with pytest.raises(InputError, match="dask-timeout"):
+        run_campaign(TINY, out, dask=address, dask_timeout=0)
 
 
 def test_runner_killed_with_sigkill_then_resumed(inline, tmp_path):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -10,6 +12,7 @@ from gna.errors import InputError
 from harness.campaign import campaign_from_dict, draw_sample, load_campaign, sample_seed
 from harness.campaign.sampling import dispersed_aircraft, term_std_errors
 from harness.campaign.spec import Dispersion
+from harness.cli import main
 
 BASE = {"seed": 3, "cases": [{"scenario": "twin-otter-single-engine", "loop": "closed"}]}
 
@@ -23,11 +26,65 @@ BASE = {"seed": 3, "cases": [{"scenario": "twin-otter-single-engine", "loop": "c
     ({**BASE, "seed": -1}, "seed must be a non-negative whole number"),
     ({"seed": 1}, "needs at least one [[cases]]"),
     ({**BASE, "cases": BASE["cases"] * 2}, "duplicate case labels"),
+    ({**BASE, "dispersions": {"a/b": {"mass": 0.1}}}, "c.toml [dispersions.a/b]: name = 'a/b' is not a safe"),
 ])
 def test_bad_campaign_files_give_one_line(data, message):
     with pytest.raises(InputError) as exc:
         campaign_from_dict(data, where="c.toml")
     assert message in str(exc.value) and "\n" not in str(exc.value)
+
+
+def _case(**kw) -> dict:
+    return {"seed": 3, "cases": [{"id": "to", "scenario": "twin-otter-single-engine", **kw}]}
+
+
+@pytest.mark.parametrize("data, message", [
+    (_case(scenario="twin-otter"), "c.toml [[cases]] #1 (case to): scenario = 'twin-otter' is not a bundled "
+                                   "scenario (did you mean 'twin-otter-single-engine'?)"),
+    (_case(scenario="gtm-aileron-rol"), "(did you mean 'gtm-aileron-roll'?)"),
+    (_case(scenario=["gtm-aileron-roll", "nope"]), "(case to-nope): scenario = 'nope' is not a bundled scenario"),
+    (_case(scenario="missing/roll.toml"), "(case to): scenario = 'missing/roll.toml': scenario file"),
+    (_case(J=[1, 99]), "c.toml [[cases]] #1 (case to-J99): J must be between 0 and 30, got 99"),
+    (_case(J=31), "(case to): J must be between 0 and 30, got 31"),
+    (_case(J=-1), "c.toml [[cases]] #1 (case to): J must be between 0 and 30, got -1"),
+    (_case(J=True), "(case to): J must be a whole number, got True"),
+    (_case(J="autoo"), "c.toml [[cases]] #1: J must be an integer >= 0, 'auto' or None, got 'autoo'"),
+    (_case(dt_out=0.7), "(case to): dt_out = 0.7 s does not divide the span"),
+    (_case(loop="clsed"), "c.toml [[cases]] #1: loop must be one of open, closed, got 'clsed'"),
+    (_case(engines=["inhouse", "jsbsm"]), "c.toml [[cases]] #1: engines: at least 2 distinct"),
+    (_case(tolerances={"postion": 1.0}), "c.toml [[cases]] #1: "),
+    (_case(id="../up"), "c.toml [[cases]] #1: id = '../up' is not a safe identifier"),
+])
+def test_bad_case_values_refused_when_the_file_is_read(data, message):
+    """Every expanded case is checked before anything runs: one line naming the file, the case, key and value."""
+    with pytest.raises(InputError) as exc:
+        campaign_from_dict(data, where="c.toml")
+    assert message in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_bad_case_refused_by_the_cli_before_anything_is_written(tmp_path, capsys):
+    """The new user's campaign: an unknown scenario and J = [1, 99]: exit 2, one line, no folder."""
+    for i, case in enumerate(('scenario = "twin-otter"', 'scenario = "twin-otter-single-engine"\nJ = [1, 99]')):
+        src = tmp_path / f"c{i}.toml"
+        src.write_text(f'name = "c"\nseed = 1\n[[cases]]\nid = "to"\n{case}\nloop = "closed"\n')
+        out = tmp_path / f"out{i}"
+        assert main(["campaign", "run", str(src), "--out", str(out), "--workers", "1"]) == 2
+        captured = capsys.readouterr()
+        err = captured.err.strip()
+        assert len(err.splitlines()) == 1 and f"c{i}.toml [[cases]] #1 (case to" in err and not captured.out
+        assert ("'twin-otter' is not a bundled scenario" if i == 0 else "J must be between 0 and 30, got 99") in err
+        assert not out.exists()
+
+
+def test_scenario_compare_table_checked_with_the_case(tmp_path):
+    """The scenario's [compare] merged with the case's settings at load time: a bad value there, or a
+    dt_out from it that does not divide the span, is refused before running."""
+    text = (Path(__file__).parent / "tiny-level.toml").read_text()
+    (tmp_path / "lv.toml").write_text(text + "\n[compare]\ndt_out = 0.3\n")
+    data = {"seed": 1, "cases": [{"id": "lv", "scenario": "lv.toml"}]}
+    with pytest.raises(InputError, match=r"\(case lv\): .*lv.toml \[compare\] dt_out = 0.3 s does not divide"):
+        campaign_from_dict(data, where="c.toml", base=tmp_path)
+    assert campaign_from_dict({**data, "cases": [{**data["cases"][0], "dt_out": 0.5}]}, base=tmp_path).cases
 
 
 def test_product_of_cases_and_dispersions():
