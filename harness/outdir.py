@@ -9,9 +9,9 @@ atomic on POSIX), so a run never leaves a half-written file under its final
 name.  :meth:`OutputDir.finish` writes the completion marker
 ``.gflat-complete.json`` (files written, their sha256, UTC time); a folder
 without it holds an interrupted set.  At the first file a run writes, the
-marker is replaced by the in-progress record ``.gflat-incomplete``: the files
-of earlier runs (complete marker and any earlier in-progress record), then one
-line per file this run writes.  :meth:`OutputDir.finish` removes every file
+marker is replaced by the in-progress record ``.gflat-incomplete``: the
+command writing, the files of earlier runs (complete marker and any earlier
+in-progress record), then one line per file this run writes.  :meth:`OutputDir.finish` removes every file
 those lists name that this run did not write (never anything else, so files
 the user put there stay), writes the marker and removes the record: no stale
 file of an earlier run, complete or interrupted, survives next to new ones; a
