@@ -9,12 +9,20 @@ atomic on POSIX), so a run never leaves a half-written file under its final
 name.  :meth:`OutputDir.finish` writes the completion marker
 ``.gflat-complete.json`` (files written, their sha256, UTC time); a folder
 without it holds an interrupted set.  At the first file a run writes, the
-marker is replaced by the in-progress record ``.gflat-incomplete``: the files
-of earlier runs (complete marker and any earlier in-progress record), then one
-line per file this run writes.  :meth:`OutputDir.finish` removes every file
+marker is replaced by the in-progress record ``.gflat-incomplete``: the
+command writing, the files of earlier runs (complete marker and any earlier
+in-progress record), then one line per file this run writes.  :meth:`OutputDir.finish` removes every file
 those lists name that this run did not write (never anything else, so files
 the user put there stay), writes the marker and removes the record: no stale
-file of an earlier run, complete or interrupted, survives next to new ones.
+file of an earlier run, complete or interrupted, survives next to new ones; a
+warning names how many it removed.
+
+The marker and the record name the command that wrote them; before any work,
+:mod:`harness.outguard` refuses a root or the home folder, a folder holding
+another command's run, and a folder another run is writing (the run locks the
+folder until :meth:`OutputDir.finish` or :meth:`OutputDir.release`, or its end).
+A missing folder is made at once, to be locked, and removed again when the run
+ends without writing anything.
 """
 
 from __future__ import annotations
@@ -23,8 +31,9 @@ import contextlib
 import datetime
 import hashlib
 import json
+import logging
 import os
-import tempfile
+import weakref
 from pathlib import Path
 from typing import Iterator
 
@@ -33,16 +42,12 @@ import numpy as np
 from gna.errors import InputError
 
 from .fileio import json_safe, replacing
+from .outguard import (INCOMPLETE, MARKER, FolderLock, _cause, check_destination, check_previous, make_folder,
+                       previous_run)
 
-#: Name of the completion marker written by :meth:`OutputDir.finish`.
-MARKER = ".gflat-complete.json"
+__all__ = ["INCOMPLETE", "MARKER", "OutputDir"]
 
-#: Name of the in-progress record (one JSON string per line: paths relative to the top folder).
-INCOMPLETE = ".gflat-incomplete"
-
-
-def _cause(exc: OSError) -> str:
-    return exc.strerror or str(exc) or type(exc).__name__
+_log = logging.getLogger(__name__)
 
 
 def _sha256(path: Path) -> str:
@@ -56,11 +61,14 @@ def _sha256(path: Path) -> str:
 class _Record:
     """What a set of OutputDir objects (a root and its sub-folders) share."""
 
-    def __init__(self, root: Path, previous: list[str]):
+    def __init__(self, root: Path, previous: list[str], command: str | None = None, marker: bool = True):
         self.root = root
         self.previous = previous
+        self.command = command
+        self.marker = marker
         self.written: list[Path] = []
         self.started = False
+        self.release = lambda: None
 
 
 
@@ -70,8 +78,8 @@ class OutputDir:
     Parameters
     ----------
     root : str or Path
-        The folder; created, if missing, when the first file is written (its
-        parent must exist unless ``parents``).
+        The folder (its parent must exist unless ``parents``); created, if
+        missing, at once, and removed again if the run ends without writing.
     clean : bool
         Remove, in :meth:`finish`, the files earlier runs wrote (listed by the
         completion marker or an interrupted run's in-progress record) that this
@@ -79,13 +87,23 @@ class OutputDir:
     parents : bool
         Create missing parent folders too (for default output folders);
         without it a missing parent is refused.
+    command : str, optional
+        The command writing (``"paper"``), recorded in the marker; a folder
+        holding another command's run is refused
+        (:func:`harness.outguard.check_previous`).  None through the Python API.
+    marker : bool
+        Keep the in-progress record and write the completion marker; without
+        it (a folder tracked in git, such as ``aircraft_xml/``) files are only
+        written atomically, nothing is removed and :meth:`finish` only releases
+        the folder.
 
     Raises
     ------
     InputError
         ``root`` exists and is not a folder, its parent is missing or
-        read-only, or the folder cannot be written (one line naming the path
-        and the cause).
+        read-only, the folder cannot be written, is a root or the home folder,
+        holds another command's run or is being written by another run (one
+        line naming the path and the cause).
 
     Attributes
     ----------
@@ -95,32 +113,28 @@ class OutputDir:
         Paths (relative to the top folder) written so far, in order.
     """
 
-    def __init__(self, root: str | Path, *, clean: bool = True, parents: bool = False, _record: _Record | None = None):
+    def __init__(self, root: str | Path, *, clean: bool = True, parents: bool = False, command: str | None = None,
+                 marker: bool = True, _record: _Record | None = None):
         path = Path(root).expanduser()
         try:
             path = path.resolve()
         except (OSError, RuntimeError) as exc:
             raise InputError(f"output folder {root}: cannot resolve the path ({exc})") from None
         self.root = path
-        self.clean = clean
+        self.clean = clean and marker
         if _record is not None:
             self._record = _record
             return
-        if path.exists() and not path.is_dir():
-            raise InputError(f"output folder {path}: a file of that name exists (not a folder)")
-        if path.exists():
-            self._probe(path)
-        else:
-            parent = path.parent
-            if not parent.is_dir() and not parents:
-                what = "is a file" if parent.exists() else "does not exist"
-                raise InputError(f"output folder {path}: its parent folder {parent} {what}")
-            while not parent.exists():                    # nearest existing ancestor (with ``parents``)
-                parent = parent.parent
-            if not parent.is_dir():
-                raise InputError(f"output folder {path}: {parent} is a file, not a folder")
-            self._probe(parent, path)                     # the folder itself is made at the first file
-        self._record = _Record(path, self._previous_files(path))
+        check_destination(path, parents)
+        lock = FolderLock(path, make_folder(path))        # refused while another run writes there
+        prev = previous_run(path)
+        self._record = _Record(path, prev.files, command, marker)
+        self._record.release = weakref.finalize(self._record, lock.release)   # also when collected, and at exit
+        try:
+            check_previous(path, prev, command, self.clean)
+        except InputError:
+            self.release()
+            raise
 
     # ---- checks ----------------------------------------------------------------------------------
     @staticmethod
@@ -131,41 +145,6 @@ class OutputDir:
             raise InputError(f"output folder {path}: a file is in the way of the folder") from None
         except OSError as exc:
             raise InputError(f"output folder {path}: cannot create it: {_cause(exc)}") from None
-
-    @staticmethod
-    def _probe(path: Path, target: Path | None = None) -> None:
-        """Write and remove a small file in ``path`` (``target``'s nearest existing folder, when it does not exist
-        yet): catches read-only folders and file systems (/proc, /sys), whoever runs."""
-        try:
-            fd, name = tempfile.mkstemp(prefix=".gflat-probe-", dir=path)
-            os.close(fd)
-            os.unlink(name)
-        except OSError as exc:
-            where = f"{path}: cannot write there" if target is None or target == path else \
-                f"{target}: cannot create it, its nearest existing folder {path} takes no files"
-            raise InputError(f"output folder {where}: {_cause(exc)}") from None
-
-    @staticmethod
-    def _previous_files(root: Path) -> list[str]:
-        """The files earlier runs wrote: the completion marker's list and any in-progress record's, in order."""
-        files: list[str] = []
-        try:
-            data = json.loads((root / MARKER).read_text(encoding="utf-8"))
-            files += [str(f["path"]) for f in data.get("files", []) if isinstance(f, dict) and "path" in f]
-        except (OSError, ValueError, TypeError, AttributeError):
-            pass
-        try:
-            lines = (root / INCOMPLETE).read_text(encoding="utf-8").splitlines()
-        except (OSError, ValueError):
-            lines = []
-        for line in lines:
-            try:
-                rel = json.loads(line)
-            except ValueError:                            # a line cut short by an interruption
-                continue
-            if isinstance(rel, str):
-                files.append(rel)
-        return list(dict.fromkeys(files))
 
     # ---- paths -----------------------------------------------------------------------------------
     @property
@@ -236,10 +215,13 @@ class OutputDir:
         """
         rec = self._record
         root = rec.root
+        if not rec.marker:
+            return
         try:
             if not rec.started:
+                head = json.dumps({"command": rec.command}) + "\n"
                 with replacing(root / INCOMPLETE) as tmp:
-                    tmp.write_text("".join(json.dumps(p) + "\n" for p in rec.previous), encoding="utf-8")
+                    tmp.write_text(head + "".join(json.dumps(p) + "\n" for p in rec.previous), encoding="utf-8")
                 with contextlib.suppress(FileNotFoundError):
                     (root / MARKER).unlink()          # no longer a complete set
                 rec.started = True
@@ -366,18 +348,26 @@ class OutputDir:
         return self.write_text(*parts, text=text + "\n")
 
     # ---- completion ------------------------------------------------------------------------------
-    def finish(self) -> Path:
+    def finish(self, *, release: bool = True) -> Path:
         """Remove earlier runs' stale files (with ``clean``), write the completion marker, drop the in-progress record.
 
         Stale files are those the completion marker or an interrupted run's
         in-progress record lists and this run did not write; files never
-        listed (the user's own) are kept.
+        listed (the user's own) are kept; a warning (``logging``) names how
+        many were removed and the first few.
+
+        Parameters
+        ----------
+        release : bool
+            Release the folder's lock too; without it the run keeps the folder
+            (files written after the run, such as its report) until :meth:`release`.
 
         Returns
         -------
         Path
             The marker ``<root>/.gflat-complete.json``: ``files`` (path relative
-            to the top folder, sha256, bytes), ``date_utc``.
+            to the top folder, sha256, bytes), ``command``, ``date_utc`` (without
+            ``marker``: the folder, nothing written).
 
         Raises
         ------
@@ -386,40 +376,50 @@ class OutputDir:
         """
         rec = self._record
         root = rec.root
+        if not rec.marker:
+            if release:
+                self.release()
+            return root
         now = {str(p) for p in rec.written}
-        if self.clean:
-            for rel in rec.previous:
-                if rel in now or rel in (MARKER, INCOMPLETE):
-                    continue
-                try:
-                    stale = (root / rel).resolve()
-                except (OSError, RuntimeError):
-                    continue
-                if stale.is_relative_to(root) and stale != root and stale.is_file() and not stale.is_symlink():
-                    with contextlib.suppress(OSError):
-                        stale.unlink()
-                        self._remove_empty(stale.parent, root)
-        files = []
-        for rel in rec.written:
-            p = root / rel
-            if p.is_file():
-                files.append({"path": str(rel), "sha256": _sha256(p), "bytes": p.stat().st_size})
-        marker = {"tool": "gflat", "complete": True,
+        removed = []
+        for rel in rec.previous if self.clean else ():
+            if rel in now or rel in (MARKER, INCOMPLETE):
+                continue
+            try:
+                stale = (root / rel).resolve()
+            except (OSError, RuntimeError):
+                continue
+            if stale.is_relative_to(root) and stale != root and stale.is_file() and not stale.is_symlink():
+                with contextlib.suppress(OSError):
+                    stale.unlink()
+                    removed.append(rel)
+                    self._remove_empty(stale.parent, root)
+        if removed:
+            _log.warning("%s: removed %d file(s) of the folder's earlier run that this run did not write again (%s)",
+                         root, len(removed), ", ".join(removed[:3]) + (", ..." if len(removed) > 3 else ""))
+        files = [{"path": str(rel), "sha256": _sha256(root / rel), "bytes": (root / rel).stat().st_size}
+                 for rel in rec.written if (root / rel).is_file()]
+        marker = {"tool": "gflat", "complete": True, "command": rec.command,
                   "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
                   "files": files}
-        text = json.dumps(marker, indent=2) + "\n"
         final = root / MARKER
         self._mkdir(root, parents=True)
         try:
             with replacing(final) as tmp:                 # mode from the umask, like every output
-                tmp.write_text(text, encoding="utf-8")
+                tmp.write_text(json.dumps(marker, indent=2) + "\n", encoding="utf-8")
             with contextlib.suppress(FileNotFoundError):
                 (root / INCOMPLETE).unlink()              # after the marker: an interruption between keeps both lists
         except OSError as exc:
             raise InputError(f"cannot write {final}: {_cause(exc)}") from None
         rec.previous = [f["path"] for f in files]
         rec.started = False
+        if release:
+            self.release()
         return final
+
+    def release(self) -> None:
+        """Release the folder to other runs (also done when the object is collected, and at exit); again: nothing."""
+        getattr(self._record, "release", lambda: None)()
 
     @staticmethod
     def _remove_empty(folder: Path, root: Path) -> None:

@@ -73,10 +73,10 @@ def compare_overrides(args) -> dict:
     return {k: v for k, v in kw.items() if v is not None}
 
 
-def default_out(*parts: str) -> OutputDir:
-    """``reports/out/<parts>`` as an output folder (parents created), refusing a name that leaves it."""
+def default_out(*parts: str, command: str | None = None) -> OutputDir:
+    """``reports/out/<parts>`` as an output folder (parents created) of ``command``, refusing a name that leaves it."""
     base = DEFAULT_ROOT.resolve()
     target = base.joinpath(*parts).resolve()
     if not target.is_relative_to(base) or target == base:
         raise InputError(f"output folder {'/'.join(parts)!r} leaves {base}: rename the scenario or give --out")
-    return OutputDir(target, parents=True)
+    return OutputDir(target, parents=True, command=command)

@@ -58,11 +58,13 @@ def run(args) -> int:
     case = ValidationCase(args.scenario, J=args.J, engines=engines, loop=args.loop, **compare_overrides(args))
     scenario = load_scenario(case.scenario, J=case.J)
     case_settings(case, scenario)                    # settings and destination checked before planning
-    out = OutputDir(args.out) if args.out else default_out(scenario.name, args.loop)
+    out = OutputDir(args.out, command="compare") if args.out else default_out(scenario.name, args.loop,
+                                                                              command="compare")
     result = run_case(case, scenario=scenario)
     write_case(result, out, csv=args.csv, command_line=getattr(args, "command_line", None))
-    out.finish()
+    out.finish(release=False)                         # the folder stays this run's until its report is written
     report = render_run(out.root, pdf=False)          # the case page and an index of one
+    out.release()
     verdict = result.verdict()
     if args.json:
         print(json.dumps(json_safe(verdict), indent=2))

@@ -8,7 +8,7 @@ from gna.aircraft import list_aircraft, load_aircraft
 from gna.errors import InputError
 from harness.engines.jsbsim import files as jf
 from harness.engines.jsbsim.export import aircraft_xml
-from harness.outdir import OutputDir
+from harness.outdir import INCOMPLETE, OutputDir
 
 from ._args import out_path
 
@@ -44,11 +44,13 @@ def run(args) -> int:
             return 1
         print(f"{len(crafts)} JSBSim file(s) current in {root}")
         return 0
-    # checked before any export; never cleaned: other aircraft's files in the folder stay
-    out = OutputDir(root, clean=False, parents=args.out is None)
+    # checked before any export; never cleaned: other aircraft's files in the folder stay. The repository's
+    # aircraft_xml/ is tracked in git: no marker there (nor the in-progress record earlier versions left)
+    out = OutputDir(root, clean=False, parents=args.out is None, command="export-jsbsim", marker=args.out is not None)
+    if args.out is None:
+        (out.root / INCOMPLETE).unlink(missing_ok=True)
     for a in crafts:
         path = out.write_text(a.id, f"{a.id}.xml", text=aircraft_xml(a))   # an id leaving the folder is refused
         print(f"{a.id}: {path}")
-    if args.out is not None:
-        out.finish()
+    out.finish()
     return 0

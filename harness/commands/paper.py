@@ -173,7 +173,7 @@ def run(args) -> int:
     cases = paper_cases(args.J, **compare_overrides(args))
     for case in cases:                         # every scenario's [compare] table checked before any planning
         case_settings(case, load_scenario(case.scenario, J=case.J))
-    out = OutputDir(args.out) if args.out else OutputDir("reports/out/paper", parents=True)
+    out = OutputDir(args.out or "reports/out/paper", parents=args.out is None, command="paper")
     loops = ("open", "closed") if args.loop == "both" else (args.loop,)
     with ForkPool(args.jobs or default_jobs()) as pool:
         scenarios = [_Scenario(case, loops, out.root, args.csv) for case in cases]
@@ -228,7 +228,7 @@ def run(args) -> int:
     write_manifest(out, results, command_line=getattr(args, "command_line", None),
                    execution={"jobs": jobs, "how": how,
                               "planning_s": {sc.name: sc.t_plan for sc in scenarios}, "tasks": log})
-    out.finish()
+    out.finish(release=False)                         # the folder stays this run's until its report is written
     print(f"\nmanifest, plans, trajectories, figures and tables written to {out.root}/")
     failed = [c.scenario for c, ok in zip(cases, passed) if not ok]
     if rows:
@@ -248,6 +248,7 @@ def run(args) -> int:
               "   [tracking] saturate is on; the forward slip's plan itself needs dl of about -28 deg, beyond the GTM's\n"
               "   20 deg, and is flown unclipped)")
     report = render_run(out.root, jobs=jobs)          # HTML and PDF from the saved report.json files
+    out.release()
     print(f"\nreport: {report['index']} (PDF: {report['pdf']})")
     if failed:
         print(f"gflat paper: engines disagree beyond the tolerances, or a run ended early, for {', '.join(failed)}: FAIL")

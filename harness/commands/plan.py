@@ -225,9 +225,9 @@ def run(args) -> int:
         if refused:
             raise InputError(f"{', '.join(refused)}: for aircraft scenarios only; a chained system's plan is always "
                              f"checked against its exact model (summary: checks, feasible) and takes a whole J")
-        out = OutputDir(Path(args.out)) if args.out else None        # a given folder is checked before planning
+        out = OutputDir(Path(args.out), command="plan") if args.out else None   # checked before planning
         demo = run_demo(args.scenario, J=args.J)
-        out = out if out is not None else default_out(demo.summary["scenario"])
+        out = out if out is not None else default_out(demo.summary["scenario"], command="plan")
         out.write_text("plan.csv", text=demo.csv)
         out.write_json("summary.json", obj=demo.summary)
         print(json.dumps(json_safe(demo.summary), indent=2) if args.json
@@ -238,7 +238,7 @@ def run(args) -> int:
             return 1
         return 0
     sc = load_scenario(args.scenario, J=args.J)
-    out = OutputDir(Path(args.out)) if args.out else default_out(sc.name)   # checked before planning
+    out = OutputDir(Path(args.out), command="plan") if args.out else default_out(sc.name, command="plan")
     t0 = time.perf_counter()
     plan = plan_scenario(sc, max_cost=args.max_cost)
     elapsed = time.perf_counter() - t0

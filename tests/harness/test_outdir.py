@@ -39,9 +39,13 @@ def test_missing_parent_is_refused_unless_parents(tmp_path):
     with pytest.raises(InputError, match="does not exist"):
         OutputDir(tmp_path / "no" / "such" / "dir")
     out = OutputDir(tmp_path / "no" / "such" / "dir", parents=True)
-    assert not out.root.exists()                           # made at the first file
+    assert out.root.is_dir()                               # made at once, to be locked
+    out.release()
+    assert list(tmp_path.iterdir()) == []                  # nothing written: the folders made are removed
+    out = OutputDir(tmp_path / "no" / "such" / "dir", parents=True)
     out.write_text("x.txt", text="1")
-    assert out.root.is_dir()
+    out.release()
+    assert (out.root / "x.txt").is_file()
 
 
 def test_parent_is_a_file(tmp_path):
@@ -77,7 +81,6 @@ def test_escapes_are_refused(tmp_path, parts):
 def test_symlink_out_of_the_folder_is_refused(tmp_path):
     out = OutputDir(tmp_path / "run")
     (tmp_path / "elsewhere").mkdir()
-    (tmp_path / "run").mkdir()
     (tmp_path / "run" / "link").symlink_to(tmp_path / "elsewhere")
     with pytest.raises(InputError, match="leaves the output folder"):
         out.write_text("link", "x.txt", text="no")
@@ -113,6 +116,7 @@ def test_interrupted_rerun_then_smaller_run_leaves_no_stale_file(tmp_path):
     second.write_text("open/a.csv", text="2")
     second.write_text("open/new-name.csv", text="2")
     assert not (run / MARKER).exists() and (run / INCOMPLETE).is_file()
+    second.release()                                       # the interrupted run has ended
     third = OutputDir(run)                                 # a smaller complete run
     third.write_text("open/a.csv", text="3")
     third.write_text("index.html", text="3")

@@ -1,0 +1,294 @@
+"""What an output folder must not be, before a run writes there: a root or the home folder, another command's
+run, a folder another run is writing.
+
+Three checks of :class:`harness.outdir.OutputDir`, made before anything is
+computed or written, each refused with one line (:class:`gna.errors.InputError`,
+exit status 2 at the command line):
+
+* a file-system root (``/``) or the user's home folder itself: a run removes
+  the files its earlier runs wrote there, and such a folder is nobody's run;
+* a folder holding the files of a run (complete: ``.gflat-complete.json``;
+  interrupted: ``.gflat-incomplete``) of another command: a run removes the
+  files of the folder's earlier run it does not write again, so ``gflat plan``
+  into a ``gflat paper`` folder would delete most of the paper's results.  The
+  marker and the in-progress record name the command that wrote them; a
+  record naming none (written by an earlier gflat, or through the Python API)
+  is refused to a command that would remove its files;
+* a folder another run is writing: the run holds an exclusive ``flock`` on
+  the folder itself (no lock file) from the moment the folder is checked to
+  the end of the run; the operating system drops it when the process ends,
+  however it ends (error, Ctrl-C, a kill).
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from gna.errors import InputError
+
+try:                                                      # POSIX; elsewhere folders are not locked
+    import fcntl
+except ImportError:  # pragma: no cover - Windows
+    fcntl = None
+
+#: Name of the completion marker written by :meth:`harness.outdir.OutputDir.finish`.
+MARKER = ".gflat-complete.json"
+
+#: Name of the in-progress record (one JSON string per line: paths relative to the top folder; a first
+#: line ``{"command": ...}`` names the command writing).
+INCOMPLETE = ".gflat-incomplete"
+
+_ADVICE = "give another folder with --out, or remove this one first"
+
+
+def _cause(exc: OSError) -> str:
+    return exc.strerror or str(exc) or type(exc).__name__
+
+
+def _probe(path: Path, target: Path | None = None) -> None:
+    """Write and remove a small file in ``path`` (``target``'s nearest existing folder, when it does not exist
+    yet): catches read-only folders and file systems (/proc, /sys), whoever runs."""
+    try:
+        fd, name = tempfile.mkstemp(prefix=".gflat-probe-", dir=path)
+        os.close(fd)
+        os.unlink(name)
+    except OSError as exc:
+        where = f"{path}: cannot write there" if target is None or target == path else \
+            f"{target}: cannot create it, its nearest existing folder {path} takes no files"
+        raise InputError(f"output folder {where}: {_cause(exc)}") from None
+
+
+def _few(names: list[str], n: int = 3) -> str:
+    return ", ".join(names[:n]) + (", ..." if len(names) > n else "")
+
+
+def check_destination(path: Path, parents: bool = False) -> None:
+    """Refuse a root, the home folder, a file, a missing parent (unless ``parents``), a folder that takes no files.
+
+    Parameters
+    ----------
+    path : Path
+        The resolved folder.
+    parents : bool
+        Missing parent folders will be made.
+
+    Raises
+    ------
+    InputError
+        ``path`` is a root (``/``, a drive) or the home folder, a file, has
+        no parent folder, or it (or its nearest existing folder) cannot be written.
+    """
+    _not_root_or_home(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"output folder {path}: a file of that name exists (not a folder)")
+    if path.exists():
+        _probe(path)
+        return
+    parent = path.parent
+    if not parent.is_dir() and not parents:
+        what = "is a file" if parent.exists() else "does not exist"
+        raise InputError(f"output folder {path}: its parent folder {parent} {what}")
+    while not parent.exists():                            # nearest existing ancestor (with ``parents``)
+        parent = parent.parent
+    if not parent.is_dir():
+        raise InputError(f"output folder {path}: {parent} is a file, not a folder")
+    _probe(parent, path)
+
+
+def make_folder(path: Path) -> list[Path]:
+    """Make ``path`` and its missing parents.
+
+    Parameters
+    ----------
+    path : Path
+        The folder.
+
+    Returns
+    -------
+    list of Path
+        The folders made, deepest first (another run may have made some meanwhile: not listed).
+
+    Raises
+    ------
+    InputError
+        A folder cannot be made.
+    """
+    made = []
+    for folder in reversed([p for p in (path, *path.parents) if not p.exists()]):
+        try:
+            folder.mkdir()
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise InputError(f"output folder {path}: cannot create it: {_cause(exc)}") from None
+        made.append(folder)
+    return made[::-1]
+
+
+def _not_root_or_home(path: Path) -> None:
+    if path == Path(path.anchor):
+        raise InputError(f"output folder {path}: a file-system root is not an output folder (a run removes its "
+                         f"earlier files there); give a folder of its own, e.g. --out ./out")
+    try:
+        home = Path.home().resolve()
+    except (OSError, RuntimeError, KeyError):             # no home folder known
+        return
+    if path == home:
+        raise InputError(f"output folder {path}: your home folder itself is not an output folder (a run removes "
+                         f"its earlier files there); give a folder of its own, e.g. --out ~/gflat-out")
+
+
+@dataclass
+class PreviousRun:
+    """The files of the runs written into a folder before (completion marker, then in-progress record).
+
+    Attributes
+    ----------
+    files : list of str
+        Paths relative to the folder, in order, each once.
+    command : str or None
+        The command that wrote them (``"paper"``), None when the marker and record name none.
+    complete : bool
+        A completion marker was read (else the files, if any, are an interrupted run's).
+    """
+
+    files: list[str] = field(default_factory=list)
+    command: str | None = None
+    complete: bool = False
+
+
+def previous_run(root: Path) -> PreviousRun:
+    """Read the completion marker and any in-progress record of ``root``.
+
+    Parameters
+    ----------
+    root : Path
+        The folder.
+
+    Returns
+    -------
+    PreviousRun
+        Empty when the folder holds neither (or they cannot be read).
+    """
+    prev = PreviousRun()
+    try:
+        data = json.loads((root / MARKER).read_text(encoding="utf-8"))
+        prev.files += [str(f["path"]) for f in data.get("files", []) if isinstance(f, dict) and "path" in f]
+        prev.command = data.get("command") if isinstance(data.get("command"), str) else None
+        prev.complete = True
+    except (OSError, ValueError, TypeError, AttributeError):
+        pass
+    try:
+        lines = (root / INCOMPLETE).read_text(encoding="utf-8").splitlines()
+    except (OSError, ValueError):
+        lines = []
+    for line in lines:
+        try:
+            item = json.loads(line)
+        except ValueError:                                # a line cut short by an interruption
+            continue
+        if isinstance(item, str):
+            prev.files.append(item)
+        elif isinstance(item, dict) and isinstance(item.get("command"), str) and not prev.complete:
+            prev.command = item["command"]
+    prev.files = list(dict.fromkeys(prev.files))
+    return prev
+
+
+def check_previous(root: Path, prev: PreviousRun, command: str | None, clean: bool) -> None:
+    """Refuse a folder holding the files of another command's run (or of a run naming no command, when they would
+    be removed).
+
+    Parameters
+    ----------
+    root : Path
+        The folder.
+    prev : PreviousRun
+        Its earlier run (:func:`previous_run`).
+    command : str or None
+        The command about to write (``"plan"``); None through the Python API.
+    clean : bool
+        Whether this run removes the earlier run's files it does not write again.
+
+    Raises
+    ------
+    InputError
+        One line naming the folder, the command that wrote it and what to do.
+    """
+    present = [f for f in prev.files if f not in (MARKER, INCOMPLETE) and (root / f).is_file()]
+    if not present:                                       # nothing of an earlier run left to lose
+        return
+    what = "a complete run" if prev.complete else "an interrupted run"
+    me = f"'gflat {command}'" if command else "this run"
+    if prev.command is not None and prev.command != command:
+        does = "would remove those it does not write again" if clean else "would mix its files with them"
+        raise InputError(f"output folder {root} holds {what} of 'gflat {prev.command}' ({len(present)} files); "
+                         f"{me} {does}: {_ADVICE}")
+    if prev.command is None and command is not None and clean:
+        raise InputError(f"output folder {root} holds {what} whose marker names no command (an earlier gflat, "
+                         f"or the Python API): {me} would remove those of its {len(present)} files it does not "
+                         f"write again ({_few(present)}): {_ADVICE}")
+
+
+class FolderLock:
+    """An exclusive lock on a folder for the duration of a run (``flock`` on the folder itself, no lock file).
+
+    Released by :meth:`release` in the process that took it (the forked workers of a run share the lock
+    and never release it), else by the operating system when that process ends.
+
+    Parameters
+    ----------
+    path : Path
+        An existing folder.
+    created : list of Path, optional
+        Folders the run made for it (deepest first), removed at :meth:`release` while still empty.
+
+    Raises
+    ------
+    InputError
+        Another process holds the folder's lock (one line naming the folder).
+    """
+
+    def __init__(self, path: Path, created: list[Path] | None = None):
+        self.path = path
+        self.created = list(created or ())
+        self.pid = os.getpid()
+        self.fd: int | None = None
+        if fcntl is None:  # pragma: no cover - Windows
+            return
+        try:
+            fd = os.open(path, os.O_RDONLY)               # not inherited by programs the run starts (O_CLOEXEC)
+        except OSError:                                   # a folder that cannot be opened is not locked
+            return
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            os.close(fd)
+            if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                raise InputError(f"output folder {path} is in use by another gflat run (it holds the folder "
+                                 f"until it ends): wait for it to end, or give another folder with --out") from None
+            return                                        # a file system without flock: not locked
+        self.fd = fd
+
+    def release(self) -> None:
+        """Release the lock and remove the folders made for the run while empty (only in the process that took
+        it; again: nothing)."""
+        if os.getpid() != self.pid:
+            return
+        fd, self.fd = self.fd, None
+        if fd is not None:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_UN)            # also for the copies forked workers still hold
+            finally:
+                os.close(fd)
+        for folder in self.created:                       # nothing written: nothing left
+            try:
+                folder.rmdir()
+            except OSError:
+                break
+        self.created = []
