@@ -19,8 +19,9 @@ force equations in the three free unknowns.  The monitor also watches
 times where any of them comes near zero or changes sign.  A determinant
 numerically zero at a node (:data:`SINGULAR`) is a failure, not a warning:
 the stage-2 Newton solution there is one of a continuum (beta as flat output
-at zero load factor: any mu gives zero lift), so the later iterates built on
-it are not solutions of the model.
+at zero load factor: any mu gives zero lift) or ill-determined (near-vacuum
+density: the aerodynamic forces barely depend on the angles), so the later
+iterates built on it are not solutions of the model.
 """
 
 from __future__ import annotations
@@ -113,8 +114,9 @@ def _singular_nodes(t, v, name, what, kind) -> list[str]:
         return []
     i = int(np.flatnonzero(bad)[0])
     return [f"stage 2 of the flat parametrization is singular at t = {_ranges(t[bad])} s: {name} ({what}) = "
-            f"{float(v[i]) or 0.0:.3g} at t = {t[i]:.4g} s (numerically zero, |{name}| <= {tiny:.3g}); the flat output "
-            f"zeta = {kind!r} does not determine the other unknowns there: choose another fourth flat output"]
+            f"{float(v[i]) or 0.0:.3g} at t = {t[i]:.4g} s (numerically zero, |{name}| <= {tiny:.3g}): the force "
+            f"equations do not determine the other unknowns there -- a singularity of the fourth flat output "
+            f"zeta = {kind!r} (choose another) or too little aerodynamic force (density, speed)"]
 
 
 def _ranges(ts) -> str:
