@@ -128,3 +128,11 @@ def test_cost_bound_message_gives_seconds_under_a_minute(capsys):
     assert main(["plan", "gtm-aileron-roll", "--max-cost", "10"]) == 2
     err = capsys.readouterr().err
     assert "(about 0.16 s of planning)" in err and "min of planning" not in err
+
+
+def test_compare_names_the_singular_stage_2_too(tmp_path, capsys):
+    path = tmp_path / "roll-beta.toml"
+    path.write_text(ROLL.format(zeta="beta", value="0"))
+    assert main(["compare", str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "the plan is not feasible, nothing to fly: stage 2 of the flat parametrization is singular" in err
