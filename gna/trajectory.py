@@ -214,7 +214,7 @@ def output_grid(t0: float, t1: float, dt_out: float = 0.02, t_eval=None) -> np.n
     n = int(round(ratio))
     if n < 1 or abs(ratio - n) > 1e-6 * max(1.0, ratio):
         raise InputError(f"dt_out = {dt_out:g} s does not divide the span [{t0:g}, {t1:g}] s "
-                         f"({ratio:.6g} intervals); choose a divisor of {t1 - t0:g} s or pass t_eval")
+                         f"({ratio:.6g} intervals); choose a divisor of {t1 - t0:g} s")
     return np.linspace(t0, t1, n + 1)
 
 

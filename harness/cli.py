@@ -7,8 +7,8 @@ callable ``func(args) -> int``.  Errors gflat raises on purpose
 exit status 2; anything else is a bug and keeps its traceback.
 
 Exit status (:data:`EXIT_CODES`): 0 success; 1 the work ran but its verdict is
-negative (a validation FAIL, an infeasible plan, stale files under
-``--check``); 2 a usage or input error (bad option, bad file, bad value), no
+negative (a validation FAIL, an infeasible plan, a trim that does not
+converge, stale files under ``--check``); 2 a usage or input error (bad option, bad file, bad value), no
 result; 130 interrupted.  ``-v``/``-q`` set the level of the ``logging``
 messages (and of Python warnings, routed through ``logging``), on stderr.
 """
@@ -27,7 +27,8 @@ from gna.errors import GflatError
 #: Exit statuses of ``gflat``, documented in ``gflat --help`` and the README.
 EXIT_CODES: dict[int, str] = {
     0: "success",
-    1: "the work ran but its verdict is negative: validation FAIL, infeasible plan, stale files (--check)",
+    1: "the work ran but its verdict is negative: validation FAIL, infeasible plan, trim not converged, "
+       "stale files (--check)",
     2: "usage or input error (bad option, file or value): one line names the cause, nothing is computed",
     130: "interrupted (Ctrl-C)",
 }

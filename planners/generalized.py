@@ -255,9 +255,14 @@ def _check_cost(name: str, nodes: int, J: int, e: int, limit: float) -> float:
     cost = plan_cost(nodes, J, e)
     if cost > limit:
         raise InputError(f"plan {name}: J = {J} on {nodes} nodes costs {cost:.3g} node-order^2 units, "
-                         f"above the bound {limit:.3g} (about {6e-6 * cost / 60:.0f} min of planning); use fewer "
+                         f"above the bound {limit:.3g} (about {_duration(6e-6 * cost)} of planning); use fewer "
                          f"nodes or a smaller J, or raise the bound (--max-cost, max_cost= in Python; inf for none)")
     return cost
+
+
+def _duration(seconds: float) -> str:
+    """``"12 s"`` under a minute, ``"3 min"`` above: an estimate's size in the unit a reader expects."""
+    return f"{seconds:.2g} s" if seconds < 60 else f"{seconds / 60:.0f} min"
 
 
 def _fixed_point(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str,
@@ -341,10 +346,11 @@ def _finish(plan: Plan) -> Plan:
     """Newton failures, domain, singularity monitor and envelope checks of a plan (both methods)."""
     problem, t_nodes = plan.problem, plan.t_nodes
     plan.warnings.extend(plan.newton_failures)
-    plan.domain_failures = domain_failures(plan) + ground_failures(plan)
-    plan.warnings.extend(plan.domain_failures)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         plan.singularities = monitor(plan)
+    # a numerically singular stage 2 first: it is the cause of the later iterates' divergence
+    plan.domain_failures = plan.singularities.failures + domain_failures(plan) + ground_failures(plan)
+    plan.warnings.extend(plan.domain_failures)
     plan.warnings.extend(plan.singularities.warnings)
     if plan.feasible:
         from gna.simulate import ENVELOPE_VARIABLES, envelope_warnings

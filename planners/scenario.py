@@ -65,6 +65,13 @@ The ``[tracking]`` table
     ``seed``.
 
 Unknown keys of ``[tracking]`` and of its sub-tables are refused by name.
+
+The ``[compare]`` table
+-----------------------
+Engine comparison settings (``gflat compare``, ``gflat paper``): keys
+:data:`COMPARE_KEYS`, checked here whatever the command (an unknown key is
+refused with the closest known one); their values are checked by
+:func:`harness.validation.parse_compare`.
 """
 
 from __future__ import annotations
@@ -100,6 +107,11 @@ MAX_TIME = 1e9
 
 #: Keys of the ``[tracking]`` table.
 TRACKING_KEYS: tuple[str, ...] = ("lambdas", "feedforward_iterate", "saturate", "controller_dt", "perturbation")
+
+#: Keys of the ``[compare]`` table (engine comparison settings): the one list, checked here for every command
+#: (the scenario schema is generated from it) and read by :func:`harness.validation.parse_compare`, which
+#: checks the values.
+COMPARE_KEYS: tuple[str, ...] = ("tolerances", "rtol", "windows", "dt_out", "jsbsim_dt", "self_convergence")
 
 #: Default sampling interval [s] of the feedback on sampled engines (JSBSim): None, every engine step.  A
 #: sampled feedback is another system than the in-house engine's continuous one: measured (dispersed Twin
@@ -331,7 +343,7 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
     if stray:
         raise InputError(f"{where} [generalized]: {' and '.join(stray)} {'apply' if len(stray) > 1 else 'applies'} only to J = \"auto\" (here J = "
                          f"{J_file}); remove {'them' if len(stray) > 1 else 'it'} or set J = \"auto\"")
-    J = J_file if J is None else _iterations(J, where)
+    J = J_file if J is None else _iterations(J, "J (given instead of the file's)")
     e = check_output_order(gen.get("e", 1), f"{where} [generalized]")
     interpolation = check_interpolation(gen.get("interpolation", DEFAULT_INTERPOLATION), f"{where} [generalized]")
     J_tol = _num(gen, "J_tol", f"{where} [generalized]", AUTO_J_TOL)
@@ -366,7 +378,17 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
                     raw=dict(data), path=path,
                     tracking=_tracking(data.get("tracking", {}), kind, J_max if J == AUTO_J else J,
                                        f"{where} [tracking]"),
-                    compare=data.get("compare", {}))
+                    compare=_compare(data.get("compare", {}), f"{where} [compare]"))
+
+
+def _compare(table: Any, where: str) -> Mapping:
+    """The ``[compare]`` table, its keys checked (:data:`COMPARE_KEYS`); the values are the harness's."""
+    if not isinstance(table, Mapping):
+        raise InputError(f"{where}: must be a table, got {table!r}")
+    for key in table:
+        if key not in COMPARE_KEYS:
+            raise InputError(unknown_key_message(key, COMPARE_KEYS, where))
+    return table
 
 
 def _iterations(J, where: str) -> int | str:

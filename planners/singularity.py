@@ -16,7 +16,12 @@ Eliminating a variable with one equation is a Schur complement, so each
 determinant equals ``det(J3) / dR_k/dv`` with ``J3`` the Jacobian of the three
 force equations in the three free unknowns.  The monitor also watches
 ``V cos(gamma)`` (stage 1) and ``cos(beta)`` (stage 3), and warns at the
-times where any of them comes near zero or changes sign.
+times where any of them comes near zero or changes sign.  A determinant
+numerically zero at a node (:data:`SINGULAR`) is a failure, not a warning:
+the stage-2 Newton solution there is one of a continuum (beta as flat output
+at zero load factor: any mu gives zero lift) or ill-determined (near-vacuum
+density: the aerodynamic forces barely depend on the angles), so the later
+iterates built on it are not solutions of the model.
 """
 
 from __future__ import annotations
@@ -36,6 +41,10 @@ NEAR_ZERO = 0.02
 #: residuals divided by g (dimensionless, per rad or per unit thrust/weight): in ordinary flight
 #: they are of order 0.1 to 100.
 ABS_TINY = 1e-3
+#: A determinant at most this, times ``max(1, its largest magnitude)``, is numerically zero: the stage-2
+#: system is singular at that node (as stage 1 is at ``V cos(gamma) <= 1e-6 max(1, V)``,
+#: :func:`planners.flat.stage1`).  Bundled scenarios stay above 1.7 (dimensionless, see :data:`ABS_TINY`).
+SINGULAR = 1e-6
 
 
 @dataclass
@@ -51,11 +60,16 @@ class SingularityReport:
     condition : str
         The determinant's column name.
     warnings : list of str
+    failures : list of str
+        Where the determinant is numerically zero (:data:`SINGULAR`): the flat
+        parametrization is singular there and the plan is not feasible (one
+        message naming the times and the condition).
     """
 
     _table: object  # DataFrame, or a callable building it on first access
     condition: str
     warnings: list = field(default_factory=list)
+    failures: list = field(default_factory=list)
 
     @property
     def table(self) -> pd.DataFrame:
@@ -89,6 +103,22 @@ def _near_zero_times(t, v, name, what) -> list[str]:
     return out
 
 
+def _singular_nodes(t, v, name, what, kind) -> list[str]:
+    """One message when the determinant ``v`` is numerically zero at some nodes (:data:`SINGULAR`)."""
+    finite = np.isfinite(v)
+    if not finite.any():
+        return []
+    tiny = SINGULAR * max(1.0, float(np.max(np.abs(v[finite]))))
+    bad = finite & (np.abs(v) <= tiny)
+    if not bad.any():
+        return []
+    i = int(np.flatnonzero(bad)[0])
+    return [f"stage 2 of the flat parametrization is singular at t = {_ranges(t[bad])} s: {name} ({what}) = "
+            f"{float(v[i]) or 0.0:.3g} at t = {t[i]:.4g} s (numerically zero, |{name}| <= {tiny:.3g}): the force "
+            f"equations do not determine the other unknowns there -- a singularity of the fourth flat output "
+            f"zeta = {kind!r} (choose another) or too little aerodynamic force (density, speed)"]
+
+
 def _ranges(ts) -> str:
     if len(ts) <= 4:
         return ", ".join(f"{x:.4g}" for x in ts)
@@ -109,7 +139,8 @@ def monitor(plan, j: int = 0) -> SingularityReport:
     -------
     SingularityReport
         The determinant of the flat output's stage-2 system (eq. cond_beta, stalling_cond,
-        cond_F, or the mixed 4x4), ``V cos(gamma)`` [m/s] and ``cos(beta)`` at the nodes, and warnings.
+        cond_F, or the mixed 4x4), ``V cos(gamma)`` [m/s] and ``cos(beta)`` at the nodes, warnings, and
+        failures where the determinant is numerically zero (:data:`SINGULAR`).
     """
     prob = plan.problem
     ac, env = prob.aircraft, prob.env
@@ -167,4 +198,5 @@ def monitor(plan, j: int = 0) -> SingularityReport:
                         f"vertical flight path)")
     if np.min(cb) < 0.2:
         warnings.append(f"cos(beta) below 0.2 at t = {_ranges(t[cb < 0.2])} s (stage 3 singular)")
-    return SingularityReport(table, name, warnings)
+    failures = _singular_nodes(t, np.real(cond), name, what, kind)
+    return SingularityReport(table, name, warnings, failures)

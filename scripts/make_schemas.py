@@ -27,7 +27,7 @@ from planners.expressions import CONSTANTS, FUNCTIONS  # noqa: E402
 from planners.flat import FLAT_KINDS  # noqa: E402
 from planners.generalized import AUTO_J, AUTO_J_MAX, AUTO_J_TOL, MAX_E, METHODS  # noqa: E402
 from planners.plan import DEFAULT_INTERPOLATION, INTERPOLATIONS, PLAN_VARIABLES  # noqa: E402
-from planners.scenario import MAX_NODES, TRACKING_KEYS  # noqa: E402
+from planners.scenario import COMPARE_KEYS, MAX_NODES, TRACKING_KEYS  # noqa: E402
 
 AIRCRAFT_SCHEMA = ROOT / "gna" / "data" / "schemas" / "aircraft.schema.json"
 SCENARIO_SCHEMA = ROOT / "planners" / "schemas" / "scenario.schema.json"
@@ -184,6 +184,23 @@ PERTURBATION = {
 }
 
 
+COMPARE = {
+    "tolerances": {"x-type": "number or table", "x-unit": "SI unit of each variable",
+                   "description": "Absolute tolerances: one number for every compared variable, or a table "
+                                  "quantity (position, velocity, angle, rate) or variable -> tolerance"},
+    "rtol": {"x-type": "number or table", "x-unit": "-",
+             "description": "Relative tolerances (fraction of max |reference| over the window), same forms"},
+    "windows": {"x-type": "table", "x-unit": "s", "description": "Comparison windows: name -> duration from t0, "
+                                                                   "or \"all\" for the whole span"},
+    "dt_out": {"x-type": "number", "x-unit": "s", "x-default": "0.05",
+               "description": "Output grid step of every engine and of the plan comparison"},
+    "jsbsim_dt": {"x-type": "number", "x-unit": "s", "x-default": "1/480",
+                  "description": "JSBSim's own step, independent of dt_out"},
+    "self_convergence": {"x-type": "boolean", "x-default": "false",
+                         "description": "Also fly JSBSim at half its step and report that difference"},
+}
+
+
 def scenario_schema() -> dict:
     """The JSON Schema of scenario files (``planners/scenarios/*.toml``)."""
     num = {"type": "number"}
@@ -205,6 +222,7 @@ def scenario_schema() -> dict:
                          "properties": PERTURBATION}})
     assert tuple(PERTURBATION) == PERTURBATION_KEYS
     assert set(tracking["properties"]) == set(TRACKING_KEYS)
+    assert tuple(COMPARE) == COMPARE_KEYS
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "$id": "https://gflat.invalid/schemas/scenario.schema.json",
@@ -296,7 +314,8 @@ def scenario_schema() -> dict:
                                                "lifting-line lift factor", **{"x-unit": "1/rad",
                                                                                "x-default": "2 pi"})})}),
             "tracking": tracking,
-            "compare": {"type": "object", "description": "Engine comparison settings (checked by the harness)"},
+            "compare": _table("Engine comparison settings (gflat compare, gflat paper); keys checked by every "
+                              "command, values by harness.validation.parse_compare", COMPARE),
         },
     }
 

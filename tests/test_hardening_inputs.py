@@ -158,10 +158,15 @@ def test_k3_unknown_tracking_and_top_level_keys():
         scenario_from_dict(data, where="t.toml")
 
 
-def test_k3_compare_table_passes_through():
+def test_k3_compare_table_keys_checked_values_passed_through():
+    """``[compare]``: its keys are the loader's (every command refuses a misspelt one); its values are the
+    harness's to check (harness.validation.parse_compare)."""
     data = json.loads(json.dumps(load_scenario("gtm-aileron-roll").raw))
+    data["compare"] = {"dt_out": "anything"}
+    assert scenario_from_dict(data, where="t.toml").compare == {"dt_out": "anything"}
     data["compare"] = {"anything": 1}
-    assert scenario_from_dict(data, where="t.toml").name == "gtm-aileron-roll"
+    with pytest.raises(InputError, match=r"t.toml \[compare\]: unknown key 'anything'"):
+        scenario_from_dict(data, where="t.toml")
 
 
 def test_k3_weight_beside_mass_refused(tmp_path):

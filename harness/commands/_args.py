@@ -6,6 +6,8 @@ import argparse
 import math
 from pathlib import Path
 
+from planners.flat import MAX_J
+
 
 def finite_float(text: str) -> float:
     try:
@@ -45,13 +47,17 @@ def positive_int(text: str) -> int:
 
 
 def iterations(text: str) -> int | str:
-    """``--J``: a number of generalized-flatness iterations (>= 0) or ``auto`` (chosen by the convergence test)."""
+    """``--J``: a number of generalized-flatness iterations (0 to :data:`planners.flat.MAX_J`) or ``auto`` (chosen
+    by the convergence test); a value out of range blames the option, not the scenario file."""
     if text.strip() == "auto":
         return "auto"
     try:
-        return nonnegative_int(text)
+        v = nonnegative_int(text)
     except argparse.ArgumentTypeError:
         raise argparse.ArgumentTypeError(f"not a whole number >= 0 or 'auto': {text!r}") from None
+    if v > MAX_J:
+        raise argparse.ArgumentTypeError(f"must be between 0 and {MAX_J} (or 'auto'), got {text}")
+    return v
 
 
 def out_path(text: str) -> Path:

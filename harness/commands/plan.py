@@ -3,7 +3,11 @@
 ``--json`` prints one JSON object (the plan's summary: ``planning_time_s``, ``feasible``, the full-model
 equation residual per iterate, ...) instead of the text report; ``--verify`` flies the planned controls
 open loop on the full model (:func:`planners.verify.open_loop_error`) and adds
-``open_loop_max_position_error_m``.
+``open_loop_max_position_error_m``.  An infeasible plan (exit status 1) is not flown: ``infeasible_reason``
+says why, and with ``--verify`` the ``open_loop_*`` keys are present as null, ``open_loop_message`` saying
+why the flight was not made.  A plan whose flat parametrization is singular (stage 2,
+:data:`planners.singularity.SINGULAR`) keeps only its flat plan (``plan_j0.csv``) and ``singularities.csv``:
+the later iterates, built on an undetermined stage 2, are not written.
 """
 
 from __future__ import annotations
@@ -64,10 +68,41 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+def infeasible_reason(plan) -> str | None:
+    """Why a plan is not feasible, in one line, or None when it is.
+
+    Parameters
+    ----------
+    plan : planners.plan.Plan
+        The plan.
+
+    Returns
+    -------
+    str or None
+        A singular flat parametrization first (the cause of the later iterates' divergence), then the
+        last iterate's departure from the physical domain, then the Newton failures.
+    """
+    sing = plan.singularities.failures if plan.singularities is not None else []
+    if sing:
+        return sing[0]
+    if plan.domain_failures:
+        return plan.domain_failures[-1]
+    if not plan.feasible:
+        return (f"Newton failed ({len(plan.newton_failures)} warning(s)); its values at those times are not a "
+                f"solution of the model")
+    return None
+
+
+def _singular(plan) -> bool:
+    return plan.singularities is not None and bool(plan.singularities.failures)
+
+
 def save_plan_files(plan, out: OutputDir, step: float | None = None) -> dict:
     """Write a plan's node series (npz), CSV tables of iterates 0 and J and singularity table, atomically.
 
-    The files of :func:`planners.plan.save_plan`, through the output folder.
+    The files of :func:`planners.plan.save_plan`, through the output folder.  A plan whose flat
+    parametrization is singular (stage 2) gets only ``plan_j0.csv`` and ``singularities.csv``: its later
+    iterates are not solutions of the model (values up to 1e+150 and beyond).
 
     Parameters
     ----------
@@ -84,16 +119,18 @@ def save_plan_files(plan, out: OutputDir, step: float | None = None) -> dict:
         What was written (``"series"``, ``"plan_j0"``, ...) -> its path (str).
     """
     written = {}
-    arrays = {"t_nodes": plan.t_nodes}
-    for j, it in enumerate(plan.iterates):
-        for name, s in it.series.items():
-            arrays[f"j{j}/{name}"] = np.real(np.asarray(s.coeffs))
-    with out.atomic("plan_series.npz") as tmp:
-        with open(tmp, "wb") as fh:                    # a file object: numpy adds no suffix
-            np.savez_compressed(fh, **arrays)
-    written["series"] = str(out.path("plan_series.npz"))
+    singular = _singular(plan)
+    if not singular:
+        arrays = {"t_nodes": plan.t_nodes}
+        for j, it in enumerate(plan.iterates):
+            for name, s in it.series.items():
+                arrays[f"j{j}/{name}"] = np.real(np.asarray(s.coeffs))
+        with out.atomic("plan_series.npz") as tmp:
+            with open(tmp, "wb") as fh:                    # a file object: numpy adds no suffix
+                np.savez_compressed(fh, **arrays)
+        written["series"] = str(out.path("plan_series.npz"))
     step = step if step is not None else float(np.min(np.diff(plan.t_nodes))) / 4
-    for j in sorted({0, plan.J}):
+    for j in sorted({0} if singular else {0, plan.J}):
         with out.atomic(f"plan_j{j}.csv") as tmp:
             plan.to_dataframe(step=step, j=j).to_csv(tmp, float_format="%.10g")
         written[f"plan_j{j}"] = str(out.path(f"plan_j{j}.csv"))
@@ -105,7 +142,7 @@ def save_plan_files(plan, out: OutputDir, step: float | None = None) -> dict:
     return written
 
 
-def plan_summary(sc, plan, elapsed: float, check=None) -> dict:
+def plan_summary(sc, plan, elapsed: float, check=None, not_flown: str | None = None) -> dict:
     """The numbers of a plan that ``summary.json`` and ``gflat plan --json`` carry.
 
     Parameters
@@ -118,17 +155,22 @@ def plan_summary(sc, plan, elapsed: float, check=None) -> dict:
         Planning wall time [s].
     check : planners.verify.OpenLoopCheck, optional
         The open-loop verification flight, when made.
+    not_flown : str, optional
+        Why the verification flight asked for was not made (an infeasible plan): the ``open_loop_*``
+        keys are then present as None, ``open_loop_status`` is ``"not flown"`` and ``open_loop_message``
+        this text.
 
     Returns
     -------
     dict
         ``scenario``, ``aircraft``, ``environment`` (atmosphere and ground effect), ``g`` [m/s^2], ``J``, ``J_rule``
         (``"given"`` or the convergence test's stopping reason), ``e``, ``interpolation``, ``nodes``, ``orders``, ``planning_time_s``, ``timings_s``
-        (per iterate), ``feasible``, ``worst_newton_residual``, ``equation_residual_per_iterate`` (max
+        (per iterate), ``feasible``, ``infeasible_reason`` (None when feasible, :func:`infeasible_reason`),
+        ``worst_newton_residual``, ``equation_residual_per_iterate`` (max
         over the 12 full-model equations at the nodes, SI units), ``warnings``; with ``check`` also
         ``open_loop_max_position_error_m`` [m] (None when the flight stopped early),
         ``open_loop_t_worst_s``, ``open_loop_max_angle_error_rad``, ``open_loop_status`` and
-        ``open_loop_settings``.
+        ``open_loop_settings``; with ``not_flown`` the same keys as None and ``open_loop_message``.
     """
     res = plan.iterate_residuals()
     out = {"scenario": sc.name, "aircraft": sc.aircraft.id, "environment": plan.env.describe(), "g": plan.env.g,
@@ -136,7 +178,7 @@ def plan_summary(sc, plan, elapsed: float, check=None) -> dict:
            "J_stop": plan.generalized.get("J_stop"), "e": plan.e,
            "interpolation": plan.interpolation, "nodes": len(plan.t_nodes),
            "orders": [it.order for it in plan.iterates], "planning_time_s": elapsed, "timings_s": plan.timings,
-           "feasible": bool(plan.feasible and not plan.domain_failures),
+           "feasible": bool(plan.feasible and not plan.domain_failures), "infeasible_reason": infeasible_reason(plan),
            "worst_newton_residual": plan.worst_newton_residual(), "equation_residual_per_iterate": res,
            "warnings": plan.warnings}
     if check is not None:
@@ -147,10 +189,14 @@ def plan_summary(sc, plan, elapsed: float, check=None) -> dict:
                     "open_loop_settings": check.settings})
         if not ok:
             out["open_loop_message"] = check.message
+    elif not_flown is not None:
+        out.update({"open_loop_max_position_error_m": None, "open_loop_t_worst_s": None,
+                    "open_loop_max_angle_error_rad": None, "open_loop_status": "not flown",
+                    "open_loop_settings": None, "open_loop_message": not_flown})
     return out
 
 
-def write_plan(sc, plan, elapsed: float, out, check=None) -> tuple[str, dict]:
+def write_plan(sc, plan, elapsed: float, out, check=None, not_flown: str | None = None) -> tuple[str, dict]:
     """Write a plan's files (series, CSV tables, convergence table, summary) to ``out``.
 
     Parameters
@@ -165,6 +211,8 @@ def write_plan(sc, plan, elapsed: float, out, check=None) -> tuple[str, dict]:
         Folder (a path is opened as an OutputDir, parents created, and finished here).
     check : planners.verify.OpenLoopCheck, optional
         The open-loop verification flight, when made (reported and saved in the summary).
+    not_flown : str, optional
+        Why the verification flight asked for was not made (:func:`plan_summary`).
 
     Returns
     -------
@@ -176,7 +224,7 @@ def write_plan(sc, plan, elapsed: float, out, check=None) -> tuple[str, dict]:
     own = not isinstance(out, OutputDir)
     od = OutputDir(out, parents=True) if own else out
     written = save_plan_files(plan, od)
-    summary = plan_summary(sc, plan, elapsed, check)
+    summary = plan_summary(sc, plan, elapsed, check, not_flown)
     tn = plan.t_nodes
     lines = [f"{sc.name}: {sc.aircraft.id}, t = {tn[0]:g} .. {tn[-1]:g} s, {len(tn)} nodes, flat output "
              f"{sc.zeta.kind}, J = {plan.J}"]
@@ -197,19 +245,26 @@ def write_plan(sc, plan, elapsed: float, out, check=None) -> tuple[str, dict]:
                          f"{check.settings['rtol']:g}): max distance to the flat outputs "
                          f"{check.max_position_error_m:.3g} m at t = {check.t_worst:g} s; angles within "
                          f"{check.max_angle_error_rad:.2g} rad of the plan")
+    elif not_flown is not None:
+        lines.append(f"  open-loop check: {not_flown}")
     if plan.warnings:
         lines.append(f"  warnings ({len(plan.warnings)}):")
         lines += [f"    - {w}" for w in plan.warnings]
     else:
         lines.append("  no Newton or singularity warnings")
-    times = sc.report_times or [float(tn[0])]
-    table = plan.convergence_table(sc.report_variables, times)
-    lines.append("  convergence table (value at t for each iterate j):")
-    with np.printoptions(linewidth=200):
-        lines.append("    " + table.to_string(float_format=lambda v: f"{v:.6g}").replace("\n", "\n    "))
-    buf = io.StringIO()
-    table.to_csv(buf, float_format="%.10g")
-    written["convergence"] = str(od.write_text("convergence.csv", text=buf.getvalue()))
+    if _singular(plan):
+        lines.append(f"  no convergence table, plan_series.npz or plan_j{plan.J}.csv: the iterates j >= 1 are built on a "
+                     "singular stage 2 and are not solutions of the model (plan_j0.csv: the flat plan; "
+                     "singularities.csv: the condition at the nodes)")
+    else:
+        times = sc.report_times or [float(tn[0])]
+        table = plan.convergence_table(sc.report_variables, times)
+        lines.append("  convergence table (value at t for each iterate j):")
+        with np.printoptions(linewidth=200):
+            lines.append("    " + table.to_string(float_format=lambda v: f"{v:.6g}").replace("\n", "\n    "))
+        buf = io.StringIO()
+        table.to_csv(buf, float_format="%.10g")
+        written["convergence"] = str(od.write_text("convergence.csv", text=buf.getvalue()))
     summary["files"] = written
     od.write_json("summary.json", obj=json_safe(summary))
     if own:
@@ -242,17 +297,18 @@ def run(args) -> int:
     t0 = time.perf_counter()
     plan = plan_scenario(sc, max_cost=args.max_cost)
     elapsed = time.perf_counter() - t0
-    feasible = plan.feasible and not plan.domain_failures
-    check = open_loop_error(plan) if args.verify and feasible else None
-    text, summary = write_plan(sc, plan, elapsed, out, check)
+    reason = infeasible_reason(plan)
+    check = open_loop_error(plan) if args.verify and reason is None else None
+    not_flown = f"not flown: the plan is not feasible: {reason}" if args.verify and reason is not None else None
+    text, summary = write_plan(sc, plan, elapsed, out, check, not_flown)
     out.finish()
     print(json.dumps(json_safe(summary), indent=2) if args.json else text)
-    if plan.domain_failures:
-        print(f"gflat plan: the plan is not feasible: {plan.domain_failures[-1]}", file=sys.stderr)
-        return 1
-    if not plan.feasible:
-        print(f"gflat plan: the plan is not feasible: Newton failed ({len(plan.newton_failures)} warning(s) "
-              f"above); its values at those times are not a solution of the model", file=sys.stderr)
+    if reason is not None:
+        if plan.domain_failures or _singular(plan):
+            print(f"gflat plan: the plan is not feasible: {reason}", file=sys.stderr)
+        else:
+            print(f"gflat plan: the plan is not feasible: Newton failed ({len(plan.newton_failures)} warning(s) "
+                  f"above); its values at those times are not a solution of the model", file=sys.stderr)
         return 1
     if check is not None and summary["open_loop_max_position_error_m"] is None:
         print(f"gflat plan: the open-loop check did not reach the end of the plan: {check.message}", file=sys.stderr)

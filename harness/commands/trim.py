@@ -1,10 +1,17 @@
-"""``gflat trim AIRCRAFT --speed V --altitude H [--gamma] [--beta] [--turn-rate] [--json]``."""
+"""``gflat trim AIRCRAFT --speed V --altitude H [--gamma] [--beta] [--turn-rate] [--json]``.
+
+A trim whose Newton iterations do not converge is a computed negative verdict, not an input error: one
+line with the cause on stderr (and ``{"converged": false, "message": ...}`` with ``--json``), exit status 1.
+"""
 
 from __future__ import annotations
 
+import json
 import math
+import sys
 
 from gna.aircraft import load_aircraft
+from gna.errors import ConvergenceError
 from gna.trim import trim
 
 from ._args import finite_float, positive_float
@@ -28,8 +35,14 @@ def register(sub) -> None:
 
 def run(args) -> int:
     a = load_aircraft(args.aircraft)
-    t = trim(a, {"V": args.speed, "gamma": args.gamma, "chi_dot": args.turn_rate, "beta": args.beta},
-             altitude=args.altitude, eta=args.eta, model=args.model)
+    try:
+        t = trim(a, {"V": args.speed, "gamma": args.gamma, "chi_dot": args.turn_rate, "beta": args.beta},
+                 altitude=args.altitude, eta=args.eta, model=args.model)
+    except ConvergenceError as exc:        # the equations were solved for, without a steady state found
+        if args.json:
+            print(json.dumps({"aircraft": a.id, "converged": False, "message": str(exc)}))
+        print(f"gflat trim: no steady flight found: {exc}", file=sys.stderr)
+        return 1
     if args.json:
         print(t.to_json())
         return 0

@@ -171,7 +171,8 @@ def case_flights(case: ValidationCase, *, plan=None, scenario=None, open_loop=No
     elif isinstance(case.J, int) and plan.J != case.J:
         raise InputError(f"the plan given has J = {plan.J}, the case asks for J = {case.J}")
     if not plan.feasible:
-        why = (plan.newton_failures or plan.domain_failures[-1:] or ["not feasible"])[0]   # Newton, or domain
+        singular = plan.singularities.failures if plan.singularities is not None else []   # the cause first
+        why = (singular or plan.newton_failures or plan.domain_failures[-1:] or ["not feasible"])[0]
         raise DomainError(f"{plan.name}: the plan is not feasible, nothing to fly: {why}")
     J = plan.J
     span = (plan.t0, plan.t1)

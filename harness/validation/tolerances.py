@@ -29,6 +29,7 @@ from typing import Any, Mapping
 from gna.errors import InputError
 from gna.schema import unknown_key_message
 from gna.trajectory import COLUMNS, POSITION
+from planners.scenario import COMPARE_KEYS   # the keys of a [compare] table: one definition, checked there
 
 from ..metrics import DEFAULT_TOLERANCES, DEFAULT_VARIABLES, DEFAULT_WINDOWS
 
@@ -40,8 +41,6 @@ QUANTITIES: dict[str, tuple[str, ...]] = {
     "rate": ("p", "q", "r"),
 }
 
-#: Keys of a ``[compare]`` table.
-COMPARE_KEYS: tuple[str, ...] = ("tolerances", "rtol", "windows", "dt_out", "jsbsim_dt", "self_convergence")
 
 #: Output grid step [s] when neither the command line nor the scenario sets one.
 DEFAULT_DT_OUT = 0.05

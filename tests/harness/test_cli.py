@@ -151,3 +151,20 @@ def test_a_bad_series_backend_is_one_line_not_a_traceback():
     assert out.stderr.strip().splitlines() == [
         "gflat: error: environment variable GFLAT_SERIES_BACKEND='bogus': the series backend must be one of "
         "numpy, compiled"]
+
+
+def test_trim_that_does_not_converge_is_a_negative_verdict(capsys):
+    """Newton ran (60 iterations) without finding a steady flight: exit 1 with the cause, not a usage error."""
+    assert main(["trim", "f16c", "--speed", "10", "--altitude", "1000"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no steady flight found" in err[0] and "did not converge" in err[0]
+    assert main(["trim", "f16c", "--speed", "10", "--altitude", "1000", "--json"]) == 1
+    d = json.loads(capsys.readouterr().out)
+    assert d["converged"] is False and "did not converge" in d["message"]
+
+
+def test_dt_out_not_dividing_the_span_names_no_python_argument(tmp_path, capsys):
+    assert main(["compare", "gtm-aileron-roll", "--J", "0", "--dt-out", "100", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "dt_out = 100 s does not divide the span" in err and "choose a divisor of 8 s" in err
+    assert "t_eval" not in err

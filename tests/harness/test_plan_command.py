@@ -44,3 +44,95 @@ def test_verify_matches_the_python_api_and_a_stopped_flight_is_reported():
     stopped = OpenLoopCheck(float("nan"), 1.0, float("nan"), "domain", "alpha = 1.6 rad at t = 1 s", {})
     s = plan_summary(sc, plan, 0.1, stopped)
     assert s["open_loop_max_position_error_m"] is None and s["open_loop_message"].startswith("alpha")
+
+
+ROLL = """name = "roll-beta"
+aircraft = "gtm"
+[time]
+t0 = -2.5
+t1 = 5.5
+step = 0.5
+[flat_outputs]
+x = "100*kmh*t"
+y = "0"
+z = "-1000 + 0.5*g0*t**2"
+zeta = "{zeta}"
+zeta_value = "{value}"
+[generalized]
+J = 2
+e = 2
+"""
+
+
+def test_singular_flat_output_is_one_line_exit_1_and_no_absurd_files(tmp_path, capsys):
+    """The aileron roll with zeta = 'beta' (unusable at zero g): the planner names the singular stage 2, the
+    verification flight is not made (its keys null, with the reason), and the diverged iterates are not
+    written (no plan_j2.csv, series or convergence table with values beyond 1e+100)."""
+    path = tmp_path / "roll-beta.toml"
+    path.write_text(ROLL.format(zeta="beta", value="0"))
+    out = tmp_path / "out"
+    rc = main(["plan", str(path), "--json", "--verify", "--out", str(out)])
+    cap = capsys.readouterr()
+    assert rc == 1
+    err = cap.err.strip().splitlines()
+    assert len(err) == 1 and "stage 2 of the flat parametrization is singular" in err[0] and "cond_beta" in err[0]
+    d = json.loads(cap.out)
+    assert d["feasible"] is False and "stage 2" in d["infeasible_reason"]
+    for key in ("open_loop_max_position_error_m", "open_loop_t_worst_s", "open_loop_max_angle_error_rad",
+                "open_loop_settings"):
+        assert key in d and d[key] is None
+    assert d["open_loop_status"] == "not flown"
+    assert d["open_loop_message"].startswith("not flown: the plan is not feasible: stage 2")
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == \
+        ["plan_j0.csv", "singularities.csv", "summary.json"]
+
+
+def test_infeasible_plan_json_verify_carries_the_reason_and_null_open_loop_keys(tmp_path, capsys):
+    """Any infeasible plan (here a Newton failure: the same parabola with mu turning 20 rad/s) keeps exit 1;
+    with --json --verify the reason is in the JSON and the open_loop_* keys are present as null."""
+    path = tmp_path / "roll-fast.toml"
+    path.write_text(ROLL.format(zeta="mu", value="20*t"))
+    rc = main(["plan", str(path), "--json", "--verify", "--out", str(tmp_path / "o")])
+    cap = capsys.readouterr()
+    d = json.loads(cap.out)
+    assert rc == 1 and d["feasible"] is False
+    assert d["infeasible_reason"] and d["open_loop_message"].endswith(d["infeasible_reason"])
+    assert d["open_loop_max_position_error_m"] is None and d["open_loop_status"] == "not flown"
+
+
+def test_feasible_plan_has_a_null_reason(tmp_path, capsys):
+    assert main(["plan", "gtm-aileron-roll", "--J", "1", "--json", "--out", str(tmp_path / "o")]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["feasible"] is True and d["infeasible_reason"] is None
+
+
+def test_compare_table_keys_are_refused_by_plan_too(tmp_path, capsys):
+    path = tmp_path / "roll.toml"
+    path.write_text(ROLL.format(zeta="mu", value="pi*t/2") + "[compare]\ntolerance = 1.0\n")
+    assert main(["plan", str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "[compare]: unknown key 'tolerance' (did you mean 'tolerances'?)" in err[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_J_out_of_range_blames_the_option(capsys):
+    import pytest
+    with pytest.raises(SystemExit) as exc:
+        main(["plan", "gtm-aileron-roll", "--J", "1000"])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2
+    assert "argument --J: must be between 0 and 30" in err and ".toml" not in err
+
+
+def test_cost_bound_message_gives_seconds_under_a_minute(capsys):
+    assert main(["plan", "gtm-aileron-roll", "--max-cost", "10"]) == 2
+    err = capsys.readouterr().err
+    assert "(about 0.16 s of planning)" in err and "min of planning" not in err
+
+
+def test_compare_names_the_singular_stage_2_too(tmp_path, capsys):
+    path = tmp_path / "roll-beta.toml"
+    path.write_text(ROLL.format(zeta="beta", value="0"))
+    assert main(["compare", str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "the plan is not feasible, nothing to fly: stage 2 of the flat parametrization is singular" in err

@@ -71,3 +71,30 @@ def test_auto_j_settings_beside_a_fixed_j_are_refused(tmp_path):
         _load(p)
     p.write_text(text.replace("\nJ = 7\n", '\nJ = "auto"\nJ_max = 9\n'))
     assert _load(p).J_max == 9
+
+
+def test_compare_keys_are_checked_by_the_loader_whatever_the_command():
+    """``[compare]`` is read by gflat compare / paper, but a misspelt key is refused when the file is loaded,
+    with the closest known key (one list, planners.scenario.COMPARE_KEYS, also the harness's)."""
+    import pytest
+
+    from gna.errors import InputError
+    from harness.validation.tolerances import COMPARE_KEYS as HARNESS_KEYS
+    from planners.scenario import COMPARE_KEYS
+
+    from .conftest import make_scenario
+
+    assert HARNESS_KEYS is COMPARE_KEYS
+    with pytest.raises(InputError, match=r"\[compare\]: unknown key 'tolerance' \(did you mean 'tolerances'\?\)"):
+        make_scenario(compare={"tolerance": 1.0})
+    assert make_scenario(compare={"tolerances": 1.0}).compare == {"tolerances": 1.0}
+
+
+def test_J_given_instead_of_the_files_is_blamed_as_such():
+    import pytest
+
+    from gna.errors import InputError
+    from planners.scenario import load_scenario
+
+    with pytest.raises(InputError, match=r"^J \(given instead of the file's\): J must be between 0 and 30"):
+        load_scenario("gtm-aileron-roll", J=1000)

@@ -59,3 +59,21 @@ def test_mixed_output_condition_is_dimensionless():
     assert plan.singularities.condition == "det4"
     assert np.min(np.abs(plan.singularities.table["det4"])) > 0.1
     assert plan.singularities.warnings == []
+
+
+def test_numerically_singular_stage_2_is_a_failure_naming_time_and_condition():
+    """Flat output beta at zero g (the aileron roll with zeta = 'beta'): eq. (cond_beta) is zero at every node,
+    so the stage-2 solution is one of a continuum and the later iterates diverge; the plan is not feasible,
+    and its first failure names stage 2, the condition and the times (not the diverged alpha)."""
+    fo = {"x": "150*t", "y": "0", "z": "-3000 + 0.5*g0*t**2", "zeta": "beta", "zeta_value": "0"}
+    plan = plan_scenario(make_scenario(flat_outputs=fo, time={"t0": -3.0, "t1": 3.0, "step": 0.25}), J=1)
+    fail = plan.singularities.failures
+    assert len(fail) == 1 and not plan.feasible
+    assert "stage 2 of the flat parametrization is singular at t = -3 .. 3 (25 nodes) s" in fail[0]
+    assert "cond_beta" in fail[0] and "zeta = 'beta'" in fail[0]
+    assert plan.domain_failures[0] == fail[0]
+
+
+def test_regular_plans_have_no_singularity_failure(weave_plan):
+    _, plan = weave_plan
+    assert plan.singularities.failures == [] and plan.feasible
