@@ -21,6 +21,7 @@ import logging
 import os
 import re
 import sys
+import threading
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
@@ -28,10 +29,12 @@ from pathlib import Path
 
 from gna.errors import InputError
 
+from ..fileio import replacing
+from ..outguard import MARKER, FolderLock, check_destination, check_previous, make_folder, previous_run
 from ..validation import provenance
 from .execute import run_sample
 from .spec import Campaign, load_campaign
-from .store import CampaignStore
+from .store import DB_NAME, CampaignStore
 
 __all__ = ["run_campaign", "rerun_case", "parse_dask", "DASK_SCHEMES", "DASK_TIMEOUT_S"]
 
@@ -93,6 +96,10 @@ def _distributed():
     return distributed
 
 
+#: Seconds waited beyond ``--dask-timeout`` for the connection to a scheduler to end either way.
+CONNECT_MARGIN_S = 5.0
+
+
 def _connect(where, timeout: float):
     """A Dask client for ``where`` (:func:`parse_dask`) and the LocalCluster started for it (or None)."""
     Client, LocalCluster = _distributed().Client, _distributed().LocalCluster
@@ -101,10 +108,30 @@ def _connect(where, timeout: float):
         cluster = LocalCluster(n_workers=arg, threads_per_worker=1, processes=True, dashboard_address=None,
                                silence_logs=logging.ERROR)
         return Client(cluster), cluster
-    try:
-        return Client(arg, timeout=f"{timeout}s"), None
-    except (OSError, ValueError) as exc:      # refused, unreachable, timed out (OSError); a malformed address
-        raise InputError(f"cannot connect to the Dask scheduler at {arg}: {exc}") from None
+    # In a thread of its own, waited for at most the timeout and a margin: a server that is not a Dask
+    # scheduler may accept the connection and never answer (Dask's timeout does not cover the handshake),
+    # or answer bytes Dask reads as a message of absurd size (a MemoryError).
+    box: dict = {}
+
+    def connect():
+        try:
+            box["client"] = Client(arg, timeout=f"{timeout}s")
+        except BaseException as exc:            # noqa: BLE001  (reported below, in one line)
+            box["error"] = exc
+
+    worker = threading.Thread(target=connect, name="gflat-dask-connect", daemon=True)
+    worker.start()
+    worker.join(timeout + CONNECT_MARGIN_S)
+    if worker.is_alive():
+        raise InputError(f"cannot connect to the Dask scheduler at {arg}: no answer within {timeout:g} s "
+                         f"(+{CONNECT_MARGIN_S:g} s): is a Dask scheduler listening there?")
+    exc = box.get("error")
+    if exc is not None:
+        why = "a malformed address" if isinstance(exc, ValueError) else \
+            "refused, unreachable or timed out" if isinstance(exc, OSError) else "not a Dask scheduler?"
+        raise InputError(f"cannot connect to the Dask scheduler at {arg}: {type(exc).__name__}: {exc} "
+                         f"({why})") from None
+    return box["client"], None
 
 
 def _progress(total: int, quiet: bool, label: str):
@@ -241,60 +268,96 @@ def run_campaign(campaign: Campaign | str | Path, out: str | Path, *, samples: i
                 client.close()
 
 
-def _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only) -> dict:
-    store = CampaignStore(out)
+@contextlib.contextmanager
+def _campaign_folder(out):
+    """The campaign folder checked and held for the run, as every gflat output folder is.
+
+    Refused (one line, nothing written): a file-system root or the home folder, a folder that takes no
+    files, a folder holding another command's run (its completion marker). Held: an exclusive lock for the
+    run (a second campaign run into it is refused). Marked: a completion marker naming the command and the
+    campaign index, so that another command refuses to write into (and remove) the campaign's files.
+    """
+    path = Path(out).expanduser().resolve()
+    check_destination(path, parents=True)
+    check_previous(path, previous_run(path), "campaign", clean=False)
+    lock = FolderLock(path, make_folder(path))
     try:
-        meta = store.meta()
-        ident = {"name": camp.name, "seed": camp.seed}
-        if meta.get("campaign") and meta["campaign"] != ident:
-            raise InputError(f"{out} holds campaign {meta['campaign']['name']!r} (seed {meta['campaign']['seed']}), "
-                             f"not {camp.name!r} (seed {camp.seed}): use another folder")
-        store.set_meta(campaign=ident, definition=camp.raw, source=camp.source)
-        store.add_cases(tasks)
-        store.clean_stale()
-        status = store.statuses()
-        wanted = {t.case_id for t in tasks}
-        if only is not None:
-            only = set(only)
-            tasks = [t for t in tasks if t.case_id in only]
-            wanted = only
-        todo = [t for t in tasks
-                if status[t.case_id] == "pending" or ((retry_failed or only) and status[t.case_id] == "failed")]
-        skipped = len(wanted) - len(todo)
-        if not quiet:
-            print(f"campaign {camp.name}: {len(wanted)} cases, {skipped} already recorded, {len(todo)} to run"
-                  + (" - nothing to compute" if not todo else ""), file=sys.stderr)
-        versions = provenance()
-        versions.pop("date_utc", None)
-        bar = _progress(len(todo), quiet, camp.name)
-        tally = {"done": 0, "failed": 0}
-        t0 = time.perf_counter()
-
-        def commit(outcome):
-            store.commit(outcome, versions)
-            tally[outcome["status"]] += 1
-            if bar is not None:
-                bar.set_postfix(done=tally["done"], failed=tally["failed"], refresh=False)
-                bar.update(1)
-
-        try:
-            if not todo:
-                pass
-            elif where is not None:
-                _dask(todo, where, commit, client)
-            elif (workers or os.cpu_count() or 1) == 1:
-                for t in todo:
-                    commit(run_sample(t))
-            else:
-                _local_pool(todo, workers or os.cpu_count() or 1, commit)
-        finally:
-            if bar is not None:
-                bar.close()
-        counts = store.counts()
-        return {**counts, "computed": tally["done"] + tally["failed"], "skipped": skipped,
-                "elapsed_s": time.perf_counter() - t0, "folder": str(out)}
+        yield path
     finally:
-        store.close()
+        lock.release()
+
+
+def _mark(path: Path) -> None:
+    """Write the folder's completion marker: the command and the campaign index (kept across runs)."""
+    text = json.dumps({"tool": "gflat", "command": "campaign", "complete": True,
+                       "files": [{"path": DB_NAME}]}, indent=2) + "\n"
+    try:
+        with replacing(path / MARKER) as tmp:
+            tmp.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"cannot write {path / MARKER}: {exc.strerror or exc}") from None
+
+
+def _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only) -> dict:
+    with _campaign_folder(out) as path:
+        store = CampaignStore(path)
+        try:
+            _mark(path)
+            return _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only, store)
+        finally:
+            store.close()
+
+
+def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only, store) -> dict:
+    meta = store.meta()
+    ident = {"name": camp.name, "seed": camp.seed}
+    if meta.get("campaign") and meta["campaign"] != ident:
+        raise InputError(f"{out} holds campaign {meta['campaign']['name']!r} (seed {meta['campaign']['seed']}), "
+                         f"not {camp.name!r} (seed {camp.seed}): use another folder")
+    store.set_meta(campaign=ident, definition=camp.raw, source=camp.source)
+    store.add_cases(tasks)
+    store.clean_stale()
+    status = store.statuses()
+    wanted = {t.case_id for t in tasks}
+    if only is not None:
+        only = set(only)
+        tasks = [t for t in tasks if t.case_id in only]
+        wanted = only
+    todo = [t for t in tasks
+            if status[t.case_id] == "pending" or ((retry_failed or only) and status[t.case_id] == "failed")]
+    skipped = len(wanted) - len(todo)
+    if not quiet:
+        print(f"campaign {camp.name}: {len(wanted)} cases, {skipped} already recorded, {len(todo)} to run"
+              + (" - nothing to compute" if not todo else ""), file=sys.stderr)
+    versions = provenance()
+    versions.pop("date_utc", None)
+    bar = _progress(len(todo), quiet, camp.name)
+    tally = {"done": 0, "failed": 0}
+    t0 = time.perf_counter()
+
+    def commit(outcome):
+        store.commit(outcome, versions)
+        tally[outcome["status"]] += 1
+        if bar is not None:
+            bar.set_postfix(done=tally["done"], failed=tally["failed"], refresh=False)
+            bar.update(1)
+
+    try:
+        if not todo:
+            pass
+        elif where is not None:
+            _dask(todo, where, commit, client)
+        elif (workers or os.cpu_count() or 1) == 1:
+            for t in todo:
+                commit(run_sample(t))
+        else:
+            _local_pool(todo, workers or os.cpu_count() or 1, commit)
+    finally:
+        if bar is not None:
+            bar.close()
+    counts = store.counts()
+    return {**counts, "computed": tally["done"] + tally["failed"], "skipped": skipped,
+            "elapsed_s": time.perf_counter() - t0, "folder": str(out)}
 
 
 def rerun_case(out: str | Path, case_id: str, campaign: Campaign | str | Path | None = None) -> dict:

@@ -218,3 +218,71 @@ def test_runner_killed_with_sigkill_then_resumed(inline, tmp_path):
     after = _metrics(out)
     assert all(after[k] == json.dumps(json.loads(v), sort_keys=True) for k, v in before.items())
     assert {k: v for k, v in after.items() if k in _metrics(inline)} == _metrics(inline)
+
+
+def test_the_campaign_folder_is_guarded_like_every_output_folder(inline, tmp_path, capsys):
+    # A campaign run marks its folder (command and index): another command refuses to write over it ...
+    marker = json.loads((inline / ".gflat-complete.json").read_text())
+    assert marker["command"] == "campaign" and marker["files"] == [{"path": "campaign.sqlite"}]
+    before = sorted(p.relative_to(inline) for p in inline.rglob("*"))
+    assert main(["plan", "gtm-aileron-roll", "--out", str(inline)]) == 2
+    assert "holds a complete run of 'gflat campaign'" in capsys.readouterr().err
+    assert sorted(p.relative_to(inline) for p in inline.rglob("*")) == before
+    # ... a campaign refuses another command's run, a file-system root, and a folder another run holds
+    paper = tmp_path / "paper"
+    paper.mkdir()
+    (paper / "summary.json").write_text("{}")
+    (paper / ".gflat-complete.json").write_text(json.dumps({"tool": "gflat", "command": "paper", "complete": True,
+                                                            "files": [{"path": "summary.json"}]}))
+    with pytest.raises(InputError, match="holds a complete run of 'gflat paper'"):
+        run_campaign(TINY, paper, workers=1, quiet=True)
+    assert sorted(p.name for p in paper.iterdir()) == [".gflat-complete.json", "summary.json"]
+    with pytest.raises(InputError, match="file-system root"):
+        run_campaign(TINY, "/", workers=1, quiet=True)
+    from harness.outguard import FolderLock
+    held = FolderLock(inline)
+    try:
+        with pytest.raises(InputError, match="in use by another gflat run"):
+            run_campaign(TINY, inline, workers=1, quiet=True)
+    finally:
+        held.release()
+
+
+@pytest.mark.parametrize("answer", ["bytes", "silence"])
+def test_an_address_where_no_dask_scheduler_answers_is_one_line(tmp_path, capsys, monkeypatch, answer):
+    # Something else listens there: it answers bytes Dask reads as an absurd message size, or never answers.
+    import socket
+
+    import harness.campaign.runner as runner
+    pytest.importorskip("distributed")
+    monkeypatch.setattr(runner, "CONNECT_MARGIN_S", 0.5)
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(4)
+    held = []
+
+    def serve():
+        while True:
+            try:
+                c, _ = srv.accept()
+            except OSError:
+                return
+            if answer == "bytes":
+                c.sendall(b"HTTP/1.0 200 OK\r\n\r\nnot dask" * 4)
+                c.close()
+            else:
+                held.append(c)
+
+    threading.Thread(target=serve, daemon=True).start()
+    try:
+        port = srv.getsockname()[1]
+        code = main(["campaign", "run", str(TINY), "--out", str(tmp_path / "c"), "--quiet",
+                     "--dask", f"tcp://127.0.0.1:{port}", "--dask-timeout", "1"])
+    finally:
+        srv.close()
+        for c in held:
+            c.close()
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1
+    assert f"cannot connect to the Dask scheduler at tcp://127.0.0.1:{port}" in err
+    assert not (tmp_path / "c").exists()
