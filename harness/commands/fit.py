@@ -23,6 +23,9 @@ import datetime
 import math
 from pathlib import Path
 
+from gna.errors import InputError
+
+from ..fileio import replacing
 from ._args import finite_float, nonnegative_int, out_path, positive_float
 
 
@@ -220,7 +223,13 @@ def run(args) -> int:
                           notes="", date=datetime.date.today().isoformat(), command=command)
     text = render(doc, name, command)
     out = args.out or Path(f"{ident}.toml")
-    out.write_text(text)
+    if out.is_dir():
+        raise InputError(f"--out {out}: a folder; give the aircraft file's name (e.g. {out / (ident + '.toml')})")
+    try:
+        with replacing(out) as tmp:                      # atomic: a reader never sees half a file
+            tmp.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"cannot write {out}: {exc.strerror or exc}") from None
     print(f"wrote {out}")
     print("held-out statistics (R2, RMS, max |error|):")
     for c, s in result.stats.items():

@@ -168,3 +168,12 @@ def test_dt_out_not_dividing_the_span_names_no_python_argument(tmp_path, capsys)
     err = capsys.readouterr().err
     assert "dt_out = 100 s does not divide the span" in err and "choose a divisor of 8 s" in err
     assert "t_eval" not in err
+
+
+def test_fit_writes_its_file_atomically_and_refuses_a_folder(tmp_path, capsys):
+    assert main(["fit", "gtm", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "a folder; give the aircraft file's name" in err
+    assert main(["fit", "gtm", "--out", str(tmp_path / "gtm-fit.toml"), "--no-trim-check"]) == 0
+    assert (tmp_path / "gtm-fit.toml").read_text().startswith("#") and \
+        [p.name for p in tmp_path.iterdir()] == ["gtm-fit.toml"]        # no temporary file left
