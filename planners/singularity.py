@@ -95,7 +95,7 @@ def _near_zero_times(t, v, name, what) -> list[str]:
     if np.any(small):
         ts = t[small]
         out.append(f"{name} ({what}) near zero (< {NEAR_ZERO:g} of its maximum {scale:.3g}) at "
-                   f"t = {_ranges(ts)} s; minimum {v[small][np.argmin(np.abs(v[small]))]:.3g} at "
+                   f"{_ranges(ts)}; minimum {v[small][np.argmin(np.abs(v[small]))]:.3g} at "
                    f"t = {ts[np.argmin(np.abs(v[small]))]:.4g} s")
     for i in flips:
         out.append(f"{name} ({what}) changes sign between t = {t[i]:.4g} s and t = {t[i + 1]:.4g} s "
@@ -113,16 +113,17 @@ def _singular_nodes(t, v, name, what, kind) -> list[str]:
     if not bad.any():
         return []
     i = int(np.flatnonzero(bad)[0])
-    return [f"stage 2 of the flat parametrization is singular at t = {_ranges(t[bad])} s: {name} ({what}) = "
+    return [f"stage 2 of the flat parametrization is singular at {_ranges(t[bad])}: {name} ({what}) = "
             f"{float(v[i]) or 0.0:.3g} at t = {t[i]:.4g} s (numerically zero, |{name}| <= {tiny:.3g}): the force "
             f"equations do not determine the other unknowns there -- a singularity of the fourth flat output "
             f"zeta = {kind!r} (choose another) or too little aerodynamic force (density, speed)"]
 
 
 def _ranges(ts) -> str:
+    """``t = a, b s`` for a few times, ``t = a .. b s (n nodes)`` for more."""
     if len(ts) <= 4:
-        return ", ".join(f"{x:.4g}" for x in ts)
-    return f"{ts[0]:.4g} .. {ts[-1]:.4g} ({len(ts)} nodes)"
+        return "t = " + ", ".join(f"{x:.4g}" for x in ts) + " s"
+    return f"t = {ts[0]:.4g} .. {ts[-1]:.4g} s ({len(ts)} nodes)"
 
 
 def monitor(plan, j: int = 0) -> SingularityReport:
@@ -194,9 +195,9 @@ def monitor(plan, j: int = 0) -> SingularityReport:
 
     warnings = _near_zero_times(t, cond, name, what)
     if np.min(np.abs(vcg)) < 1.0:
-        warnings.append(f"V cos(gamma) below 1 m/s at t = {_ranges(t[np.abs(vcg) < 1.0])} s (stage 1 singular: "
+        warnings.append(f"V cos(gamma) below 1 m/s at {_ranges(t[np.abs(vcg) < 1.0])} (stage 1 singular: "
                         f"vertical flight path)")
     if np.min(cb) < 0.2:
-        warnings.append(f"cos(beta) below 0.2 at t = {_ranges(t[cb < 0.2])} s (stage 3 singular)")
+        warnings.append(f"cos(beta) below 0.2 at {_ranges(t[cb < 0.2])} (stage 3 singular)")
     failures = _singular_nodes(t, np.real(cond), name, what, kind)
     return SingularityReport(table, name, warnings, failures)

@@ -69,7 +69,7 @@ def test_numerically_singular_stage_2_is_a_failure_naming_time_and_condition():
     plan = plan_scenario(make_scenario(flat_outputs=fo, time={"t0": -3.0, "t1": 3.0, "step": 0.25}), J=1)
     fail = plan.singularities.failures
     assert len(fail) == 1 and not plan.feasible
-    assert "stage 2 of the flat parametrization is singular at t = -3 .. 3 (25 nodes) s" in fail[0]
+    assert "stage 2 of the flat parametrization is singular at t = -3 .. 3 s (25 nodes)" in fail[0]
     assert "cond_beta" in fail[0] and "zeta = 'beta'" in fail[0]
     assert plan.domain_failures[0] == fail[0]
 
