@@ -148,14 +148,23 @@ def _local_pool(tasks, workers: int, commit):
     for attempt in range(MAX_POOL_RESTARTS + 1):
         if not remaining:
             return []
+        pool = ProcessPoolExecutor(max_workers=workers)
         try:
-            with ProcessPoolExecutor(max_workers=workers) as pool:
-                futures = [pool.submit(run_sample, t) for t in remaining.values()]
-                for fut in as_completed(futures):
-                    outcome = fut.result()
-                    commit(outcome)
-                    remaining.pop(outcome["case_id"], None)
-        except BrokenProcessPool:
+            futures = [pool.submit(run_sample, t) for t in remaining.values()]
+            for fut in as_completed(futures):
+                outcome = fut.result()
+                commit(outcome)
+                remaining.pop(outcome["case_id"], None)
+            pool.shutdown(wait=True)
+        except BaseException as exc:
+            # Ctrl-C or an error: the cases committed so far stay recorded (a rerun resumes); the queued ones are
+            # dropped and the running workers ended at once, not waited for (a case can take many seconds).
+            for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                with contextlib.suppress(Exception):
+                    proc.terminate()
+            pool.shutdown(wait=False, cancel_futures=True)
+            if not isinstance(exc, BrokenProcessPool):
+                raise
             print(f"gflat campaign: a worker process died; restarting the pool for the {len(remaining)} cases left "
                   f"(attempt {attempt + 1} of {MAX_POOL_RESTARTS})", file=sys.stderr)
     return list(remaining)
@@ -302,7 +311,6 @@ def _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only) ->
     with _campaign_folder(out) as path:
         store = CampaignStore(path)
         try:
-            _mark(path)
             return _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only, store)
         finally:
             store.close()
@@ -314,6 +322,7 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
     if meta.get("campaign") and meta["campaign"] != ident:
         raise InputError(f"{out} holds campaign {meta['campaign']['name']!r} (seed {meta['campaign']['seed']}), "
                          f"not {camp.name!r} (seed {camp.seed}): use another folder")
+    _mark(store.root)
     store.set_meta(campaign=ident, definition=camp.raw, source=camp.source)
     store.add_cases(tasks)
     store.clean_stale()

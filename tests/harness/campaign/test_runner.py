@@ -286,3 +286,36 @@ def test_an_address_where_no_dask_scheduler_answers_is_one_line(tmp_path, capsys
     assert code == 2 and len(err.splitlines()) == 1
     assert f"cannot connect to the Dask scheduler at tcp://127.0.0.1:{port}" in err
     assert not (tmp_path / "c").exists()
+
+
+def test_ctrl_c_in_a_process_pool_ends_at_once_and_the_run_resumes(tmp_path):
+    # Ctrl-C while the pool's workers run cases: exit 130 within seconds (the running workers are ended, the
+    # queued cases dropped, not waited for), cases committed before stay; a rerun computes the rest.
+    out = tmp_path / "ctrlc"
+    cmd = [sys.executable, "-m", "harness.cli", "campaign", "run", "paper-dispersions", "--out", str(out),
+           "--samples", "3", "--workers", "2", "--quiet"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, start_new_session=True, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.time() + 60
+        while time.time() < deadline and not (out / "campaign.sqlite").exists():
+            time.sleep(0.05)
+        time.sleep(1.5)                                   # the workers are inside their first cases
+        sent = time.time()
+        proc.send_signal(signal.SIGINT)                   # to gflat alone (`timeout -s INT`, `kill -INT`): the
+        #                                                   workers go on unless gflat ends them
+        code = proc.wait(30)
+        took = time.time() - sent
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(30)
+    err = proc.stderr.read()
+    assert code == 130 and "interrupted" in err and "Traceback" not in err
+    assert took < 5.0
+    con = sqlite3.connect(out / "campaign.sqlite")
+    try:
+        statuses = [r[0] for r in con.execute("SELECT status FROM cases")]
+    finally:
+        con.close()
+    assert len(statuses) == 9 and "pending" in statuses            # what a rerun computes
