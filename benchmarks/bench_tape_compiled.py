@@ -17,7 +17,7 @@ Ops handled: those the stage-2 residual uses (``_series_mul``, ``_series_div``, 
 
 Usage::
 
-    python benchmarks/bench_tape_compiled.py [--orders 2 10 16] [--repeats 7] [--fresh]
+    python benchmarks/bench_tape_compiled.py [--orders 2 10 16] [--repeats 7] [--fresh] [--plan]
     python benchmarks/bench_tape_compiled.py --load-only FILE   # (internal) cached load in a fresh process
 """
 
@@ -376,12 +376,88 @@ def load_only(path: str, shapes_file: str) -> None:
     print(json.dumps(res))
 
 
+def plan_breakdown(repeats: int) -> None:
+    """Stage-2 evaluations of one roll plan by kind (what a generated program could replace: the replays)."""
+    import collections
+    import importlib as il
+
+    import planners.series_tape as T
+    from planners.generalized import plan_scenario
+    from planners.scenario import load_scenario
+
+    newton, flat = il.import_module("planners.newton"), il.import_module("planners.flat")
+    made: list = []
+
+    class Counting(T.TapedResidual):
+        def __init__(self, *a, **kw):
+            super().__init__(*a, **kw)
+            self.tk: collections.Counter = collections.Counter()
+            self.orders: collections.Counter = collections.Counter()
+            made.append(self)
+
+        def __call__(self, u, k):
+            before = dict(self.counts)
+            t0 = time.perf_counter()
+            r = super().__call__(u, k)
+            dt = time.perf_counter() - t0
+            kind = next(key for key in self.counts if self.counts[key] != before[key])
+            if kind == "eager" and not hasattr(u[0], "_c"):
+                kind = "eager k=0"
+            elif kind != "eager k=0":
+                self.orders[(kind, "complex" if np.iscomplexobj(u[0]._c) else "real", k)] += 1
+            self.tk[kind] += dt
+            return r
+
+    orig_t, orig_n = newton.TapedResidual, flat.newton_series
+    labels: list = []
+
+    def capture(residual, u0, order, **kw):
+        labels.append("stage 2" if len(labels) % 2 == 0 else "stage 4")
+        return orig_n(residual, u0, order, **kw)
+
+    newton.TapedResidual, flat.newton_series = Counting, capture
+    try:
+        sc = load_scenario("gtm-aileron-roll")
+        plan_scenario(sc)
+        rows = []
+        for _ in range(repeats):
+            made.clear()
+            labels.clear()
+            t0 = time.perf_counter()
+            plan_scenario(sc)
+            total = time.perf_counter() - t0
+            tk: collections.Counter = collections.Counter()
+            orders: collections.Counter = collections.Counter()
+            for lab, m in zip(labels, made):
+                if lab == "stage 2":
+                    tk.update(m.tk)
+                    orders.update(m.orders)
+            rows.append((total, tk, orders))
+    finally:
+        newton.TapedResidual, flat.newton_series = orig_t, orig_n
+    med = float(np.median([r[0] for r in rows])) * 1e3
+    kinds = rows[0][1].keys()
+    print(f"one roll plan ({S_name()} kernels): {med:.0f} ms; stage-2 evaluations, ms per plan (median of {repeats}): "
+          + ", ".join(f"{k} {np.median([r[1][k] for r in rows]) * 1e3:.1f}" for k in kinds))
+    by: dict = collections.defaultdict(list)
+    for (kind, dt, k), n in sorted(rows[0][2].items()):
+        by[(kind, dt)].append(f"k={k}: {n}")
+    for key, v in by.items():
+        print(f"  {key[0]} {key[1]}: " + ", ".join(v))
+
+
+def S_name() -> str:
+    import planners.series as S
+    return "compiled" if S._K is S._CompiledKernels else "numpy"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--orders", type=int, nargs="+", default=[2, 10, 16])
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--load-only", nargs=2, metavar=("FILE", "SHAPES"))
     parser.add_argument("--fresh", action="store_true", help="empty the cache first (measure first compiles)")
+    parser.add_argument("--plan", action="store_true", help="also: stage-2 evaluations of one plan by kind")
     args = parser.parse_args()
     if args.fresh and CACHE.exists():
         import shutil
@@ -475,6 +551,12 @@ def main() -> None:
         out = subprocess.run([sys.executable, __file__, "--load-only", str(path), str(shapes_file)],
                              capture_output=True, text=True, check=True)
         print(f"  fresh process (cached): {out.stdout.strip()}   (module import here: {t_import:.2f} s)")
+    if args.plan:
+        print()
+        for kern in (S._NumpyKernels, S._CompiledKernels):
+            S._K = kern
+            plan_breakdown(args.repeats)
+        S._K = saved
 
 
 if __name__ == "__main__":
