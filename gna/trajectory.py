@@ -333,13 +333,13 @@ def domain_margins(state, bounds: DomainBounds = DOMAIN) -> list[float]:
     V, gamma, alpha, beta = state[3], state[4], state[6], state[7]
     if not (math.isfinite(gamma) and math.isfinite(beta)):
         return [math.nan] * len(DOMAIN_TESTS)
-    return _margins(state[2], V, gamma, alpha, beta, bounds, math.cos, abs, math.inf)
+    return _margins(state[2], V, gamma, alpha, beta, bounds, math.cos, abs)
 
 
-def _margins(z, V, gamma, alpha, beta, bounds: DomainBounds, cos, absolute, no_ground) -> list:
+def _margins(z, V, gamma, alpha, beta, bounds: DomainBounds, cos, absolute) -> list:
     """The margins of :data:`DOMAIN_TESTS` (one formula for floats and for arrays of samples)."""
     return [V - bounds.V_min, bounds.V_max - V, cos(beta) - bounds.cos_min, cos(gamma) - bounds.cos_min,
-            bounds.alpha_max - absolute(alpha), no_ground if bounds.ground is None else -z - bounds.ground]
+            bounds.alpha_max - absolute(alpha), math.inf if bounds.ground is None else -z - bounds.ground]
 
 
 def inside_domain(states, bounds: DomainBounds = DOMAIN) -> np.ndarray:
@@ -360,7 +360,7 @@ def inside_domain(states, bounds: DomainBounds = DOMAIN) -> np.ndarray:
     """
     X = np.asarray(states, dtype=float)[:12]
     with np.errstate(invalid="ignore"):
-        margins = _margins(X[2], X[3], X[4], X[6], X[7], bounds, np.cos, np.abs, np.inf)
+        margins = _margins(X[2], X[3], X[4], X[6], X[7], bounds, np.cos, np.abs)
         inside = np.isfinite(X).all(axis=0)
         for m in margins:
             inside &= m > 0

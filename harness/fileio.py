@@ -105,3 +105,24 @@ def replacing(final: str | Path) -> Iterator[Path]:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
+
+
+def remove_empty_folders(folder: str | Path, root: str | Path) -> None:
+    """Remove ``folder`` and then its parents, up to (not including) ``root``, while they are empty.
+
+    Only empty folders go (``rmdir``): a folder holding anything -- the user's files included -- ends the walk.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The deepest folder (a file's folder after the file was removed).
+    root : str or Path
+        The top folder, never removed; nothing outside it is touched.
+    """
+    folder, root = Path(folder), Path(root)
+    while folder != root and folder.is_relative_to(root):
+        try:
+            folder.rmdir()
+        except OSError:
+            return
+        folder = folder.parent

@@ -41,7 +41,7 @@ import numpy as np
 
 from gna.errors import InputError
 
-from .fileio import json_safe, replacing
+from .fileio import json_safe, remove_empty_folders, replacing
 from .outguard import (INCOMPLETE, MARKER, FolderLock, _cause, check_destination, check_previous, make_folder,
                        previous_run)
 
@@ -393,7 +393,7 @@ class OutputDir:
                 with contextlib.suppress(OSError):
                     stale.unlink()
                     removed.append(rel)
-                    self._remove_empty(stale.parent, root)
+                    remove_empty_folders(stale.parent, root)
         if removed:
             _log.warning("%s: removed %d file(s) of the folder's earlier run that this run did not write again (%s)",
                          root, len(removed), ", ".join(removed[:3]) + (", ..." if len(removed) > 3 else ""))
@@ -420,15 +420,6 @@ class OutputDir:
     def release(self) -> None:
         """Release the folder to other runs (also done when the object is collected, and at exit); again: nothing."""
         getattr(self._record, "release", lambda: None)()
-
-    @staticmethod
-    def _remove_empty(folder: Path, root: Path) -> None:
-        while folder != root and folder.is_relative_to(root):
-            try:
-                folder.rmdir()
-            except OSError:
-                return
-            folder = folder.parent
 
     def __repr__(self) -> str:
         return f"OutputDir({str(self.root)!r}, {len(self._record.written)} file(s) written)"

@@ -19,6 +19,7 @@ import os
 from pathlib import Path
 
 from gna.errors import InputError
+from harness.fileio import remove_empty_folders
 from harness.outdir import MARKER
 
 from .model import REPORT_JSON, load_case_models, write_text_atomic
@@ -330,17 +331,7 @@ def _remove_orphan_pages(root: Path) -> None:
         if not (page.parent / REPORT_JSON).exists() and GENERATOR in page.read_text(encoding="utf-8",
                                                                                      errors="replace")[:2000]:
             page.unlink()
-            _remove_empty_folders(page.parent, root)
-
-
-def _remove_empty_folders(folder: Path, root: Path) -> None:
-    """Remove ``folder`` and its parents below ``root`` while they are empty (a case folder left without files)."""
-    while folder != root and folder.is_relative_to(root):
-        try:
-            folder.rmdir()                                # only an empty folder: the user's files stay
-        except OSError:
-            return
-        folder = folder.parent
+            remove_empty_folders(page.parent, root)       # the case folder it leaves empty goes too
 
 
 def _older_than_models(pdf: Path, root: Path) -> bool:
