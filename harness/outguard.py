@@ -31,6 +31,8 @@ from pathlib import Path
 
 from gna.errors import InputError
 
+from .fileio import remove_empty_folders
+
 try:                                                      # POSIX; elsewhere folders are not locked
     import fcntl
 except ImportError:  # pragma: no cover - Windows
@@ -286,9 +288,6 @@ class FolderLock:
                 fcntl.flock(fd, fcntl.LOCK_UN)            # also for the copies forked workers still hold
             finally:
                 os.close(fd)
-        for folder in self.created:                       # nothing written: nothing left
-            try:
-                folder.rmdir()
-            except OSError:
-                break
+        if self.created:                                  # nothing written: nothing left (deepest first, a chain)
+            remove_empty_folders(self.created[0], self.created[-1].parent)
         self.created = []
