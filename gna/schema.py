@@ -231,7 +231,8 @@ def _plural(schema: Mapping[str, Any]) -> str:
 
 
 def did_you_mean(key, known) -> str:
-    """`` (did you mean 'k'?)`` with the closest of ``known`` to ``key`` (difflib), or an empty string.
+    """`` (did you mean 'k'?)`` with the closest of ``known`` to ``key`` (difflib), else the one known name that
+    starts with ``key`` (a shortened name: ``twin-otter`` for ``twin-otter-single-engine``), or an empty string.
 
     Parameters
     ----------
@@ -244,8 +245,11 @@ def did_you_mean(key, known) -> str:
     -------
     str
     """
-    close = difflib.get_close_matches(str(key), list(known), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+    known = list(known)
+    close = difflib.get_close_matches(str(key), known, n=1)
+    if not close and str(key):
+        close = [k for k in known if k.startswith(str(key))]
+    return f" (did you mean {close[0]!r}?)" if len(close) == 1 else ""
 
 
 def unknown_key_message(key: str, known, where: str) -> str:

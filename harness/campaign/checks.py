@@ -26,7 +26,7 @@ __all__ = ["check_case", "closest_name"]
 
 
 def closest_name(value: str, names) -> str:
-    """`` (did you mean 'n'?)`` with the closest of ``names``, or the one name that starts with ``value``.
+    """`` (did you mean 'n'?)``: :func:`gna.schema.did_you_mean`, else the closest of ``names`` at a looser cutoff.
 
     Parameters
     ----------
@@ -41,11 +41,11 @@ def closest_name(value: str, names) -> str:
         The suggestion, or an empty string.
     """
     names = list(names)
-    hint = did_you_mean(value, names)       # difflib, as for misspelt keys
+    hint = did_you_mean(value, names)       # difflib or a unique prefix, as for misspelt keys
     if hint:
         return hint
-    longer = [n for n in names if n.startswith(value)] or difflib.get_close_matches(value, names, n=1, cutoff=0.4)
-    return f" (did you mean {longer[0]!r}?)" if len(longer) == 1 else ""
+    looser = difflib.get_close_matches(value, names, n=1, cutoff=0.4)
+    return f" (did you mean {looser[0]!r}?)" if looser else ""
 
 
 def _is_bare_name(value: str) -> bool:

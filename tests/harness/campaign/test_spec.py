@@ -137,3 +137,10 @@ def test_campaign_file_paths_are_checked_like_scenario_files(tmp_path):
         load_campaign(bad)
     with pytest.raises(InputError, match="unknown campaign"):
         load_campaign("no-such-campaign")
+
+
+def test_a_shortened_name_is_suggested_by_the_shared_did_you_mean():
+    from gna.schema import did_you_mean
+    assert did_you_mean("twin-otter", ["twin-otter-single-engine", "gtm-aileron-roll"]) == \
+        " (did you mean 'twin-otter-single-engine'?)"
+    assert did_you_mean("gtm", ["gtm-aileron-roll", "gtm-forward-slip"]) == ""     # two names start so: no guess
