@@ -636,7 +636,7 @@ GRAPHS = ("MX", "SX")
 
 
 def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FINER_FACTORS,
-                   graphs=GRAPHS, guesses=tuple(GUESSES), log=print, J=None) -> dict:
+                   graphs=GRAPHS, guesses=tuple(GUESSES), log=print, J=None, step=None, e=None) -> dict:
     """Time and accuracy of the planner and of collocation on grids of a scenario, per initial guess.
 
     Parameters
@@ -659,6 +659,12 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
     J : int, "auto" or None
         The planner's J (None: the scenario's bundled setting); ``"auto"`` plans with the convergence
         test (:func:`planners.generalized.choose_J`), the planner's most accurate setting.
+    step : float, optional
+        The planner's node step [s] instead of the scenario's; the collocation grids' intervals are
+        ``factors`` times this step (so both methods are compared on the problem as planned).
+    e : int, optional
+        The planner's output order e (paper section "From calibration to time varying controls")
+        instead of the scenario's.
 
     Returns
     -------
@@ -676,6 +682,10 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
 
     _require_casadi()
     sc = load_scenario(name)
+    if step is not None or e is not None:
+        changed = {k: v for k, v in (("step", step), ("e", e)) if v is not None}
+        label = ", ".join(f"{k} {v:g}" for k, v in changed.items())
+        sc = dataclasses.replace(sc, name=f"{sc.name} ({label})", **changed)
     plan = plan_scenario(sc, J=J)  # warm-up, and the accuracy (deterministic)
     check = open_loop_error(plan)
     planner_acc = check.max_position_error_m
@@ -916,6 +926,10 @@ def main(argv=None) -> None:
                          "their kinematics and a trim at the start); default: both")
     ap.add_argument("--J", dest="J", default=None,
                     help="the planner's J: a whole number or auto (the convergence test); default: the scenario's")
+    ap.add_argument("--step", type=float, default=None,
+                    help="the planner's node step [s] (default: the scenario's); the grids' factors are relative to it")
+    ap.add_argument("--e", dest="e", type=int, default=None,
+                    help="the planner's output order e (default: the scenario's)")
     ap.add_argument("--json", help="write the results to this JSON file")
     ap.add_argument("--markdown", help="write the results as a Markdown table to this file")
     args = ap.parse_args(argv)
@@ -924,6 +938,10 @@ def main(argv=None) -> None:
         if not J.isdigit():
             ap.error(f"--J: a whole number >= 0 or auto, got {J!r}")
         J = int(J)
+    if args.step is not None and not (np.isfinite(args.step) and args.step > 0):
+        ap.error(f"--step: a positive number of seconds, got {args.step!r}")
+    if args.e is not None and args.e < 0:
+        ap.error(f"--e: a whole number >= 0, got {args.e!r}")
     _require_casadi()
     factors = [float(v) for v in args.factors.split(",")]
     guesses = tuple(v.strip() for v in args.guess.split(",") if v.strip())
@@ -936,7 +954,8 @@ def main(argv=None) -> None:
         factors, finer, repeat = [8.0], (), 1
     results = []
     for name in args.scenarios:
-        res = bench_scenario(name, factors, repeat, finer, tuple(args.graphs.split(",")), guesses, J=J)
+        res = bench_scenario(name, factors, repeat, finer, tuple(args.graphs.split(",")), guesses, J=J,
+                              step=args.step, e=args.e)
         print(format_table(res), flush=True)
         results.append(res)
     if args.markdown:

@@ -156,3 +156,21 @@ def test_set_guess_resolves_to_the_same_solution(bc):
     prob.set_guess(bc.trim_guess(sc))
     again = prob.solve()
     assert again.success and np.allclose(again.controls, first.controls, atol=1e-6)
+
+
+def test_planner_settings_change_the_compared_problem(bc):
+    """--step and --e plan with other settings, and the grids' intervals follow the planner's step."""
+    res = bc.bench_scenario("twin-otter-single-engine", factors=(8.0,), repeat=1, finer=(), graphs=("SX",),
+                            guesses=("plan-j0",), log=lambda *a: None, step=4.0, e=2)
+    assert res["step_s"] == 4.0 and res["planner"]["settings"] == {"e": 2}
+    assert res["planner"]["nodes"] == 16  # 60 s in 4 s steps
+    assert res["scenario"] == "twin-otter-single-engine (step 4, e 2)"
+    (g,) = res["guesses"]["plan-j0"]["grids"]
+    assert g["factor"] == 8.0 and g["intervals"] == 2  # 60 s in intervals of 32 s
+
+
+def test_planner_settings_are_checked(bc):
+    with pytest.raises(SystemExit):
+        bc.main(["--step", "0", "--quick"])
+    with pytest.raises(SystemExit):
+        bc.main(["--e", "-1", "--quick"])
