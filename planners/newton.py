@@ -141,7 +141,7 @@ class SeriesNewtonReport:
         The paper's rule broken (residual above 1e-3 after 20 iterations): empty, or one
         record naming the failed nodes, their times and the worst residual.
     jacobian : ndarray or None
-        (property) Jacobian series (neq, n, *batch, order + 1) of the last step, for the chord steps of
+        Jacobian series (neq, n, *batch, order + 1) of the last step, for the chord steps of
         the next generalized-flatness iterate (``newton_series(..., jacobian=)``); not pickled.
     """
 
@@ -153,14 +153,7 @@ class SeriesNewtonReport:
     doubling_orders: list
     warnings: list = field(default_factory=list)
     failures: list = field(default_factory=list)
-    # The Jacobian series (neq, n, *batch, order + 1) of the last Newton step, for chord steps of a nearby
-    # problem (the next generalized-flatness iterate: newton_series(..., jacobian=)); not pickled.
-    _jacobian: object = field(default=None, repr=False, compare=False)
-
-    @property
-    def jacobian(self):
-        """Jacobian series (neq, n, *batch, order + 1) of the last Newton step, or None (an unpickled report)."""
-        return self._jacobian
+    jacobian: object = field(default=None, repr=False, compare=False)  # not pickled (None once unpickled)
 
     @property
     def series_residual(self) -> np.ndarray:
@@ -177,7 +170,7 @@ class SeriesNewtonReport:
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         state["_series_residual"] = self.series_residual
-        state["_jacobian"] = None
+        state["jacobian"] = None
         return state
 
 
@@ -339,7 +332,7 @@ def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray
     def series_residual() -> np.ndarray:
         return _series_residual_of(residual, u, order, batch)
 
-    rep = SeriesNewtonReport(tuple(names), np.asarray(t_nodes), cres, 0, series_residual, orders, _jacobian=Jc)
+    rep = SeriesNewtonReport(tuple(names), np.asarray(t_nodes), cres, 0, series_residual, orders, jacobian=Jc)
     return u, rep
 
 
@@ -508,5 +501,5 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
         return _series_residual_of(residual, u, order, batch)
 
     rep = SeriesNewtonReport(tuple(names), t_nodes, cres, its, series_residual, orders,
-                             [f.message for f in failures], failures, _jacobian=Jc)
+                             [f.message for f in failures], failures, jacobian=Jc)
     return u, rep
