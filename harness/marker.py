@@ -1,54 +1,246 @@
-"""Files added to a finished run's folder after the run (a report rendered again), recorded in its marker."""
+"""The completion marker of a run's folder: written when the run ends, amended by files added after the run.
+
+Every command writes its marker through :func:`write_marker` (via
+:meth:`harness.outdir.OutputDir.finish`, and the campaign runner).  A run
+that removes nothing of the folder's earlier run keeps that run's files
+(still there) listed in its marker, whatever command -- or none, an earlier
+gflat -- wrote them (:func:`earlier_files`): nothing a marker listed becomes
+an unlisted file by a later run.  ``gflat report DIR`` adds files to a
+finished (or interrupted) run's folder on behalf of that run: it holds the
+run's folder as every run does (:func:`amending`), and its files join the
+run's list (:func:`record_in_marker`), so that the run's command, run again
+there, replaces or removes them as its own.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import datetime
+import hashlib
 import json
 from pathlib import Path
+from typing import Iterable, Iterator
 
 from gna.errors import InputError
 
 from .fileio import replacing
-from .outdir import MARKER, _cause, _sha256
+from .outguard import INCOMPLETE, MARKER, FolderLock, _cause, _probe
 
 
-def record_in_marker(root: str | Path, paths) -> bool:
-    """Add files written into a complete run's folder after the run (a report rendered again) to its marker.
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
-    The next run into the folder then removes them as stale when it does not write them again, as it does
-    the run's own files.
+
+def file_entry(root: Path, rel: str | Path) -> dict:
+    """A marker's entry of a file: path relative to the run's top folder, sha256, size.
 
     Parameters
     ----------
-    root : str or Path
-        The run's top folder (holding ``.gflat-complete.json``).
-    paths : iterable of Path
-        Files inside ``root``.
+    root : Path
+        The run's top folder.
+    rel : str or Path
+        The file, relative to ``root``.
 
     Returns
     -------
-    bool
-        False when the folder has no readable completion marker (nothing recorded).
+    dict
+        ``{"path", "sha256", "bytes"}``.
+    """
+    p = root / rel
+    return {"path": str(rel), "sha256": _sha256(p), "bytes": p.stat().st_size}
+
+
+def earlier_files(root: Path, previous: Iterable[str], written: Iterable[str | Path] = ()) -> list[str]:
+    """The files of the folder's earlier run a run that removes nothing keeps listed in its marker.
+
+    Parameters
+    ----------
+    root : Path
+        The run's top folder.
+    previous : iterable of str
+        The earlier run's files (:attr:`harness.outguard.PreviousRun.files`).
+    written : iterable of str or Path
+        The files this run wrote (listed by it anyway).
+
+    Returns
+    -------
+    list of str
+        Those of ``previous`` still present as files inside ``root``, not written again, in order.
+    """
+    now = {str(p) for p in written}
+    kept = []
+    for rel in previous:
+        if rel in now or rel in (MARKER, INCOMPLETE):
+            continue
+        try:
+            p = (root / rel).resolve()
+        except (OSError, RuntimeError):
+            continue
+        if p != root and p.is_relative_to(root) and p.is_file():
+            kept.append(rel)
+    return kept
+
+
+def write_marker(root: Path, command: str | None, files: list[dict]) -> Path:
+    """Write the completion marker of a run (atomically), then remove its in-progress record.
+
+    Parameters
+    ----------
+    root : Path
+        The run's top folder.
+    command : str or None
+        The command that wrote the run (``"paper"``); None through the Python API.
+    files : list of dict
+        The run's files (:func:`file_entry`; an entry may carry the path alone, a file that keeps changing).
+
+    Returns
+    -------
+    Path
+        ``<root>/.gflat-complete.json``: ``tool``, ``complete``, ``command``, ``date_utc``, ``files``.
 
     Raises
     ------
     InputError
-        The marker cannot be rewritten.
+        The marker cannot be written.
+    """
+    marker = {"tool": "gflat", "complete": True, "command": command,
+              "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+              "files": files}
+    final = root / MARKER
+    try:
+        with replacing(final) as tmp:                     # mode from the umask, like every output
+            tmp.write_text(json.dumps(marker, indent=2) + "\n", encoding="utf-8")
+        with contextlib.suppress(FileNotFoundError):
+            (root / INCOMPLETE).unlink()                  # after the marker: an interruption between keeps both lists
+    except OSError as exc:
+        raise InputError(f"cannot write {final}: {_cause(exc)}") from None
+    return final
+
+
+def run_folder(folder: Path) -> Path:
+    """The top folder of the run ``folder`` belongs to: the nearest of ``folder`` and its parents holding a
+    completion marker or an in-progress record (``folder`` itself when none does).
+
+    Parameters
+    ----------
+    folder : Path
+        A resolved folder (a run's folder, or a case folder inside one).
+
+    Returns
+    -------
+    Path
+    """
+    for d in (folder, *folder.parents):
+        if (d / MARKER).is_file() or (d / INCOMPLETE).is_file():
+            return d
+    return folder
+
+
+@contextlib.contextmanager
+def amending(folder: str | Path) -> Iterator[Path]:
+    """Hold a run's folder while files are added to it after the run (``gflat report DIR``).
+
+    The folder must be writable; the run's top folder (:func:`run_folder`)
+    and ``folder`` are locked as a run locks its folder, so that a run writing
+    there meanwhile refuses to start, and this refuses while one writes.  No
+    run is refused as another command's: the files added are the run's own
+    (:func:`record_in_marker`).
+
+    Parameters
+    ----------
+    folder : str or Path
+        An existing folder: a run's, or a case folder inside one.
+
+    Yields
+    ------
+    Path
+        The run's top folder (resolved).
+
+    Raises
+    ------
+    InputError
+        ``folder`` is not a folder or takes no files, or another gflat run holds it (one line).
+    """
+    path = Path(folder).expanduser()
+    if not path.is_dir():
+        raise InputError(f"{folder} is not a folder")
+    path = path.resolve()
+    _probe(path)
+    top = run_folder(path)
+    locks = []
+    try:
+        for p in dict.fromkeys((top, path)):
+            locks.append(FolderLock(p))
+        yield top
+    finally:
+        for lock in reversed(locks):
+            lock.release()
+
+
+def record_in_marker(root: str | Path, paths, removed=()) -> bool:
+    """List files written into a run's folder after the run (a report rendered again) among the run's files.
+
+    A complete run: its marker lists them (and no longer lists ``removed``);
+    an interrupted run: its in-progress record does.  The next run into the
+    folder then removes them as stale when it does not write them again, as it
+    does the run's own files.
+
+    Parameters
+    ----------
+    root : str or Path
+        The run's top folder (holding ``.gflat-complete.json`` or ``.gflat-incomplete``).
+    paths : iterable of Path
+        Files inside ``root``.
+    removed : iterable of Path
+        Files inside ``root`` removed after the run (no longer listed in the marker).
+
+    Returns
+    -------
+    bool
+        False when the folder has neither a readable completion marker nor an in-progress record (nothing
+        recorded).
+
+    Raises
+    ------
+    InputError
+        The marker or the record cannot be rewritten.
     """
     root = Path(root)
+    top = root.resolve()
+    rels = [str(Path(p).resolve().relative_to(top)) for p in paths]
+    gone = {str(Path(p).resolve().relative_to(top)) for p in removed}
     try:
         marker = json.loads((root / MARKER).read_text(encoding="utf-8"))
         files = [f for f in marker["files"] if isinstance(f, dict) and "path" in f]
     except (OSError, ValueError, TypeError, KeyError):
-        return False
-    for p in paths:
-        p = Path(p)
-        rel = str(p.resolve().relative_to(root.resolve()))
-        files = [f for f in files if str(f["path"]) != rel]
-        files.append({"path": rel, "sha256": _sha256(p), "bytes": p.stat().st_size})
+        return _record_in_progress(root, rels)
+    files = [f for f in files if str(f["path"]) not in gone and str(f["path"]) not in rels]
+    files += [file_entry(top, rel) for rel in rels]
     marker["files"] = files
     try:
         with replacing(root / MARKER) as tmp:
             tmp.write_text(json.dumps(marker, indent=2) + "\n", encoding="utf-8")
     except OSError as exc:
         raise InputError(f"cannot write {root / MARKER}: {_cause(exc)}") from None
+    return True
+
+
+def _record_in_progress(root: Path, rels: list[str]) -> bool:
+    """Append files to an interrupted run's in-progress record (False: no record)."""
+    if not (root / INCOMPLETE).is_file():
+        return False
+    text = "".join(json.dumps(rel) + "\n" for rel in rels)
+    try:
+        with open(root / INCOMPLETE, "a+b") as fh:
+            fh.seek(0)
+            before = fh.read()
+            if before and not before.endswith(b"\n"):   # a line cut short by the interruption stays apart
+                text = "\n" + text
+            fh.write(text.encode("utf-8"))
+    except OSError as exc:
+        raise InputError(f"cannot write {root / INCOMPLETE}: {_cause(exc)}") from None
     return True

@@ -28,8 +28,6 @@ ends without writing anything.
 from __future__ import annotations
 
 import contextlib
-import datetime
-import hashlib
 import json
 import logging
 import os
@@ -42,20 +40,13 @@ import numpy as np
 from gna.errors import InputError
 
 from .fileio import json_safe, remove_empty_folders, replacing
+from .marker import earlier_files, file_entry, write_marker
 from .outguard import (INCOMPLETE, MARKER, FolderLock, _cause, check_destination, check_previous, make_folder,
                        previous_run)
 
 __all__ = ["INCOMPLETE", "MARKER", "OutputDir"]
 
 _log = logging.getLogger(__name__)
-
-
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 class _Record:
@@ -83,7 +74,8 @@ class OutputDir:
     clean : bool
         Remove, in :meth:`finish`, the files earlier runs wrote (listed by the
         completion marker or an interrupted run's in-progress record) that this
-        run did not write.
+        run did not write.  Without it they stay, and stay listed in the marker
+        (:func:`harness.marker.earlier_files`).
     parents : bool
         Create missing parent folders too (for default output folders);
         without it a missing parent is refused.
@@ -397,20 +389,11 @@ class OutputDir:
         if removed:
             _log.warning("%s: removed %d file(s) of the folder's earlier run that this run did not write again (%s)",
                          root, len(removed), ", ".join(removed[:3]) + (", ..." if len(removed) > 3 else ""))
-        files = [{"path": str(rel), "sha256": _sha256(root / rel), "bytes": (root / rel).stat().st_size}
-                 for rel in rec.written if (root / rel).is_file()]
-        marker = {"tool": "gflat", "complete": True, "command": rec.command,
-                  "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-                  "files": files}
-        final = root / MARKER
+        # a run that removes nothing keeps the earlier run's files listed (harness.marker.earlier_files)
+        kept = [] if self.clean else earlier_files(root, rec.previous, rec.written)
+        files = [file_entry(root, rel) for rel in (*kept, *rec.written) if (root / rel).is_file()]
         self._mkdir(root, parents=True)
-        try:
-            with replacing(final) as tmp:                 # mode from the umask, like every output
-                tmp.write_text(json.dumps(marker, indent=2) + "\n", encoding="utf-8")
-            with contextlib.suppress(FileNotFoundError):
-                (root / INCOMPLETE).unlink()              # after the marker: an interruption between keeps both lists
-        except OSError as exc:
-            raise InputError(f"cannot write {final}: {_cause(exc)}") from None
+        final = write_marker(root, rec.command, files)
         rec.previous = [f["path"] for f in files]
         rec.started = False
         if release:

@@ -102,6 +102,30 @@ def check_destination(path: Path, parents: bool = False) -> None:
     _probe(parent, path)
 
 
+def check_output_file(path: Path) -> None:
+    """Refuse, before any work, a file that could not be written: its folder is missing, a file, or takes no files.
+
+    The file is written later through :func:`harness.fileio.replacing` (a temporary file beside it, renamed
+    over it): a probe file made and removed in its folder now catches what would refuse it then.
+
+    Parameters
+    ----------
+    path : Path
+        The file to write (as given: the message names it so).
+
+    Raises
+    ------
+    InputError
+        ``cannot write <path>: <cause>`` (the message the write itself would give).
+    """
+    try:
+        fd, name = tempfile.mkstemp(prefix=".gflat-probe-", dir=path.parent)
+        os.close(fd)
+        os.unlink(name)
+    except OSError as exc:
+        raise InputError(f"cannot write {path}: {_cause(exc)}") from None
+
+
 def make_folder(path: Path) -> list[Path]:
     """Make ``path`` and its missing parents.
 

@@ -29,8 +29,8 @@ from pathlib import Path
 
 from gna.errors import InputError
 
-from ..fileio import replacing
-from ..outguard import MARKER, FolderLock, check_destination, check_previous, make_folder, previous_run
+from ..marker import earlier_files, file_entry, write_marker
+from ..outguard import FolderLock, check_destination, check_previous, make_folder, previous_run
 from ..validation import provenance
 from .execute import run_sample
 from .spec import Campaign, load_campaign
@@ -288,23 +288,19 @@ def _campaign_folder(out):
     """
     path = Path(out).expanduser().resolve()
     check_destination(path, parents=True)
-    check_previous(path, previous_run(path), "campaign", clean=False)
     lock = FolderLock(path, make_folder(path))
     try:
+        check_previous(path, previous_run(path), "campaign", clean=False)   # read while the folder is held
         yield path
     finally:
         lock.release()
 
 
 def _mark(path: Path) -> None:
-    """Write the folder's completion marker: the command and the campaign index (kept across runs)."""
-    text = json.dumps({"tool": "gflat", "command": "campaign", "complete": True,
-                       "files": [{"path": DB_NAME}]}, indent=2) + "\n"
-    try:
-        with replacing(path / MARKER) as tmp:
-            tmp.write_text(text, encoding="utf-8")
-    except OSError as exc:
-        raise InputError(f"cannot write {path / MARKER}: {exc.strerror or exc}") from None
+    """Write the folder's completion marker: the command and the campaign index (kept across runs), and the
+    files of the folder's earlier run, which a campaign never removes (:func:`harness.marker.earlier_files`)."""
+    kept = earlier_files(path, previous_run(path).files, [DB_NAME])
+    write_marker(path, "campaign", [*(file_entry(path, rel) for rel in kept), {"path": DB_NAME}])
 
 
 def _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only) -> dict:

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-
 from gna.errors import InputError
 from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
 
 from ..engines.jsbsim.script import export_script
+from ..outdir import OutputDir
 from ._args import iterations, out_path, positive_float
 
 
@@ -38,13 +38,16 @@ def run(args) -> int:
     if args.out.exists() and not args.out.is_dir():
         raise InputError(f"--out {args.out} exists and is not a folder")
     sc = load_scenario(args.scenario, J=args.J)
+    # checked and held before planning; files of earlier exports (other scenarios) stay, listed in the marker
+    out = OutputDir(args.out, clean=False, command="export-jsbsim-script")
     plan = plan_scenario(sc)
     if not plan.feasible:
         why = f"Newton failed: {'; '.join(plan.newton_failures[:3])}" if plan.newton_failures else \
             plan.domain_failures[-1]
         raise InputError(f"the plan of {sc.name} is not feasible ({why}); nothing written")
-    b = export_script(args.out, sc.name, sc.aircraft, plan, (plan.t0, plan.t1), plan.initial_state(), env=sc.env,
+    b = export_script(out, sc.name, sc.aircraft, plan, (plan.t0, plan.t1), plan.initial_state(), env=sc.env,
                       dt_out=args.dt_out, table_dt=args.table_dt)
+    out.finish()
     print(f"{sc.name}: t = {b.t_span[0]:g} .. {b.t_span[1]:g} s, JSBSim step {b.dt:.6g} s, "
           f"{b.rows} control-table rows")
     for what in ("aircraft", "initialization", "script"):

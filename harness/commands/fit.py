@@ -26,6 +26,7 @@ from pathlib import Path
 from gna.errors import InputError
 
 from ..fileio import replacing
+from ..outguard import check_output_file
 from ._args import finite_float, nonnegative_int, out_path, positive_float
 
 
@@ -177,6 +178,8 @@ def run(args) -> int:
         return _regenerate(args)
     if args.source == "compare":
         return _compare(args)
+    ident = args.ident or _default_ident(args)
+    out = _output_file(args.out or Path(f"{ident}.toml"), ident)     # checked before the source is read
     from gna.fit.document import envelope_section, fitted_aircraft, fitted_document, render
     from gna.fit.pipeline import fit_source, gna45_structure, structure_from_file
     from gna.fit.quality import ReferenceCondition, trim_comparison
@@ -188,7 +191,6 @@ def run(args) -> int:
         sections = vehicle_sections(src)
         ranges = _ranges(args, src.envelope)
         reference = ReferenceCondition(src.V_ref, args.altitude, f"Mach {args.mach:g} at {args.altitude:g} m")
-        ident = args.ident or src.model.lower()
         limits = {k: math.degrees(max(abs(ranges[k][0]), abs(ranges[k][1]))) for k in ("dl", "dm", "dn")}
         limits_source = "the sampled surface ranges (largest magnitude)"
     elif args.source == "gtm":
@@ -197,7 +199,6 @@ def run(args) -> int:
         sections = vehicle_sections()
         ranges = _ranges(args)
         reference = ReferenceCondition(args.speed, args.altitude, f"{args.speed:g} m/s at {args.altitude:g} m")
-        ident = args.ident or "gtm-fit"
         limits = {"dl": 20.0, "dm": 30.0, "dn": 30.0}
         limits_source = "GTM_DesignSim actuator limits"
     else:
@@ -206,7 +207,6 @@ def run(args) -> int:
         src = LinearDerivativeModel.from_csv(args.csv, {k: ranges[k] for k in ("alpha", "beta", "dl", "dm", "dn")})
         sections = _linear_sections(args)
         reference = ReferenceCondition(args.speed, args.altitude, f"{args.speed:g} m/s at {args.altitude:g} m")
-        ident = args.ident or Path(args.csv).stem
         limits = {k: math.degrees(max(abs(ranges[k][0]), abs(ranges[k][1]))) for k in ("dl", "dm", "dn")}
         limits_source = "the sampled surface ranges (largest magnitude)"
 
@@ -222,9 +222,6 @@ def run(args) -> int:
                           envelope=envelope, design=design, result=result, reference=reference, trim=trim,
                           notes="", date=datetime.date.today().isoformat(), command=command)
     text = render(doc, name, command)
-    out = args.out or Path(f"{ident}.toml")
-    if out.is_dir():
-        raise InputError(f"--out {out}: a folder; give the aircraft file's name (e.g. {out / (ident + '.toml')})")
     try:
         with replacing(out) as tmp:                      # atomic: a reader never sees half a file
             tmp.write_text(text, encoding="utf-8")
@@ -241,6 +238,23 @@ def run(args) -> int:
               f"dm {g['dm_deg']:.3f} deg (source {s['dm_deg']:.3f}), thrust {g['thrust_N']:.1f} N "
               f"(source {s['thrust_N']:.1f})")
     return 0
+
+
+def _default_ident(args) -> str:
+    """The fitted aircraft's identifier without ``--id``: the JSBSim model's name (as
+    :func:`gna.fit.sources.jsbsim_aero.resolve` reads it), ``gtm-fit``, the CSV file's stem."""
+    if args.source == "jsbsim":
+        return (Path(args.model).stem if Path(args.model).suffix == ".xml" else args.model).lower()
+    return "gtm-fit" if args.source == "gtm" else Path(args.csv).stem
+
+
+def _output_file(out: Path, ident: str) -> Path:
+    """``--out`` (or the default ``<id>.toml``) checked before any work: a folder, or a file that could not
+    be written there, is refused with the message writing it would give."""
+    if out.is_dir():
+        raise InputError(f"--out {out}: a folder; give the aircraft file's name (e.g. {out / (ident + '.toml')})")
+    check_output_file(out)
+    return out
 
 
 def _command_line(args, ranges) -> str:

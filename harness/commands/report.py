@@ -5,6 +5,14 @@ and ``gflat compare``) and writes ``DIR/index.html``, a ``case.html`` per case
 folder, with ``--self-contained`` a single ``DIR/report.html`` with the images
 embedded (one file to mail), and ``DIR/report.pdf``.  Nothing is planned or
 flown again: the pages are the run's, byte for byte apart from the render date.
+
+DIR is held as a run holds its output folder (the run's top folder too, when
+DIR is a case folder inside a run): a run writing there meanwhile is refused,
+and this refuses while one writes (one line, exit status 2, nothing changed).
+The pages are rendered on behalf of the run that wrote DIR, whatever its
+command: the single page and the PDF join that run's files in its marker
+(:mod:`harness.marker`), so that the run's command, run again into DIR,
+replaces or removes them as its own.
 """
 
 from __future__ import annotations
@@ -14,10 +22,9 @@ import sys
 import time
 from pathlib import Path
 
-from gna.errors import InputError
 from reports.html import incomplete_notice, render_run
 
-from ..marker import record_in_marker
+from ..marker import amending, record_in_marker
 from ..parallel import default_jobs
 
 
@@ -34,12 +41,12 @@ def register(sub) -> None:
 
 def run(args) -> int:
     root = Path(args.dir)
-    if not root.is_dir():
-        raise InputError(f"{root} is not a folder")
     t0 = time.perf_counter()
-    out = render_run(root, self_contained=args.self_contained, pdf=args.pdf, jobs=default_jobs())
-    # the single page and the PDF join the run's files: a later run into the folder replaces or removes them
-    record_in_marker(root, [out[k] for k in ("single", "pdf") if k in out])
+    with amending(root) as top:                       # refused while a run writes there, and held meanwhile
+        out = render_run(root, self_contained=args.self_contained, pdf=args.pdf, jobs=default_jobs())
+        # the single page and the PDF join the run's files: a later run into the folder replaces or removes them
+        record_in_marker(top, [out[k] for k in ("single", "pdf") if k in out],
+                         removed=[out["removed_pdf"]] if "removed_pdf" in out else ())
     notice = incomplete_notice(root)
     if notice:
         print(f"gflat report: warning: incomplete run: {notice}", file=sys.stderr)

@@ -1,5 +1,6 @@
 """``gflat export-jsbsim-script``: the plan replayed by stock JSBSim's script loader agrees with the JSBSim engine."""
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -67,3 +68,39 @@ def test_names_cannot_escape(roll, tmp_path):
     with pytest.raises(InputError, match="not a safe identifier"):
         replace(sc.aircraft, id="../../evil")                      # refused where an aircraft is made
     assert not any(tmp_path.iterdir())
+
+
+def test_the_marker_names_the_command_and_its_rerun_keeps_the_earlier_scenario(tmp_path, capsys):
+    from harness.outdir import MARKER
+
+    from .test_validation import SHORT
+
+    out = tmp_path / "x"
+    assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", str(out)]) == 0
+    marker = json.loads((out / MARKER).read_text())
+    assert marker["command"] == "export-jsbsim-script"
+    first = [f["path"] for f in marker["files"]]
+    assert main(["plan", "gtm-aileron-roll", "--out", str(out)]) == 2      # another command's run: refused
+    assert f"output folder {out} holds a complete run of 'gflat export-jsbsim-script' (3 files)" in \
+        capsys.readouterr().err
+    (tmp_path / "short.toml").write_text(SHORT)
+    assert main(["export-jsbsim-script", str(tmp_path / "short.toml"), "--out", str(out)]) == 0   # its own rerun
+    listed = [f["path"] for f in json.loads((out / MARKER).read_text())["files"]]
+    assert listed == [*first, "aircraft/a7/a7.xml", "aircraft/a7/short-init.xml", "scripts/short.xml"]
+    assert all((out / f).is_file() for f in listed)       # one JSBSim root, both scripts, all listed
+
+
+def test_the_folder_is_checked_before_planning(tmp_path, monkeypatch, capsys):
+    from harness.commands import export_script as command
+    from harness.outdir import OutputDir
+
+    monkeypatch.setattr(command, "plan_scenario", lambda sc: pytest.fail("planned before checking --out"))
+    paper = OutputDir(tmp_path / "paper", command="paper")
+    paper.write_text("index.html", text="<p>")
+    paper.finish()
+    assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", str(tmp_path / "paper")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "holds a complete run of 'gflat paper'" in err
+    assert sorted(p.name for p in (tmp_path / "paper").iterdir()) == [".gflat-complete.json", "index.html"]
+    assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", "/"]) == 2
+    assert "file-system root" in capsys.readouterr().err

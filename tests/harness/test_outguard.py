@@ -264,3 +264,21 @@ def test_paper_rerun_with_one_loop_says_what_it_removed_and_leaves_no_orphan_pag
     assert all((run / f).is_file() for f in listed) and json.loads((run / MARKER).read_text())["command"] == "paper"
     assert main(["plan", str(short_scenario), "--out", str(run)]) == 2
     assert "holds a complete run of 'gflat paper'" in capsys.readouterr().err
+
+
+def test_a_run_that_removes_nothing_keeps_the_earlier_runs_files_listed(tmp_path, capsys):
+    """A marker naming no command (an earlier gflat): a run that removes nothing writes there and lists the earlier
+    files next to its own -- one rule for every such command (export-jsbsim --out, export-jsbsim-script, campaign)."""
+    _run(tmp_path / "run", None)
+    marker = json.loads((tmp_path / "run" / MARKER).read_text())
+    del marker["command"]
+    (tmp_path / "run" / MARKER).write_text(json.dumps(marker))
+    for craft, listed in (("f16c", ["a.txt", "sub/b.txt", "f16c/f16c.xml"]),
+                          ("a7", ["a.txt", "sub/b.txt", "f16c/f16c.xml", "a7/a7.xml"])):
+        assert main(["export-jsbsim", craft, "--out", str(tmp_path / "run")]) == 0
+        marker = json.loads((tmp_path / "run" / MARKER).read_text())
+        assert marker["command"] == "export-jsbsim" and [f["path"] for f in marker["files"]] == listed
+    assert (tmp_path / "run" / "a.txt").read_text() == "a.txt"
+    capsys.readouterr()
+    assert main(["plan", "gtm-aileron-roll", "--out", str(tmp_path / "run")]) == 2
+    assert "holds a complete run of 'gflat export-jsbsim' (4 files)" in capsys.readouterr().err

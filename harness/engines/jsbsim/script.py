@@ -232,15 +232,17 @@ def script_xml(name: str, aircraft_id: str, init_name: str, t_span: tuple[float,
     return w.text()
 
 
-def export_script(out: str | Path, name: str, aircraft: Aircraft, controls, t_span=None, x0=None, *,
+def export_script(out: str | Path | OutputDir, name: str, aircraft: Aircraft, controls, t_span=None, x0=None, *,
                   env: Environment | None = None, engine: JSBSimEngine | None = None, dt_out: float = 0.02,
                   table_dt: float | None = None) -> ScriptBundle:
     """Write the files stock JSBSim needs to replay ``controls`` open loop from ``x0``.
 
     Parameters
     ----------
-    out : str or pathlib.Path
-        Export folder (created; an existing file there is refused).
+    out : str or pathlib.Path or harness.outdir.OutputDir
+        Export folder (created; an existing file there is refused), finished here; an
+        :class:`~harness.outdir.OutputDir` (``gflat export-jsbsim-script``: checked before planning) is left for
+        its owner to finish.
     name : str
         Script name (file names ``scripts/<name>.xml``, ``<name>-init.xml``, ``<name>.csv``).
     aircraft : Aircraft
@@ -277,7 +279,8 @@ def export_script(out: str | Path, name: str, aircraft: Aircraft, controls, t_sp
         raise InputError("export-jsbsim-script writes the flat-earth engine only")
     check_name(name, "script name", "export-jsbsim-script")
     check_name(aircraft.id, "aircraft id", "export-jsbsim-script")
-    folder = OutputDir(out, clean=False)          # checked before any work; every file written atomically
+    own = not isinstance(out, OutputDir)
+    folder = OutputDir(out, clean=False) if own else out   # checked before any work; every file written atomically
     root = folder.root
     if t_span is None:
         t_span = (getattr(controls, "t0", None), getattr(controls, "t1", None))
@@ -309,7 +312,8 @@ def export_script(out: str | Path, name: str, aircraft: Aircraft, controls, t_sp
                                   f"{name}.csv", 1.0 / dt)}
     for key, r in rel.items():
         folder.write_text(*r.split("/"), text=texts[key])
-    folder.finish()
+    if own:
+        folder.finish()
     return ScriptBundle(root=root, aircraft=rel["aircraft"], initialization=rel["initialization"],
                         script=rel["script"], output=f"{name}.csv", dt=dt, t_span=(t0, t1), rows=int(t_table.size),
                         x0=tuple(float(v) for v in y0), dt_out=float(dt_out))

@@ -319,3 +319,24 @@ def test_ctrl_c_in_a_process_pool_ends_at_once_and_the_run_resumes(tmp_path):
     finally:
         con.close()
     assert len(statuses) == 9 and "pending" in statuses            # what a rerun computes
+
+
+def test_a_campaign_into_a_run_of_an_earlier_gflat_keeps_that_runs_files_listed(tmp_path, capsys):
+    """A marker naming no command: a campaign removes nothing, so it may write there (as every command that removes
+    nothing, harness.marker.earlier_files), and its marker lists the earlier files still there next to its own."""
+    old = tmp_path / "old"
+    (old / "sub").mkdir(parents=True)
+    (old / "summary.json").write_text("{}")
+    (old / "sub" / "a.txt").write_text("a")
+    (old / ".gflat-complete.json").write_text(json.dumps({"tool": "gflat", "complete": True, "files": [
+        {"path": "summary.json"}, {"path": "sub/a.txt"}, {"path": "gone.txt"}]}))
+    cmd = ["campaign", "run", str(TINY), "--out", str(old), "--samples", "1", "--workers", "1", "--quiet"]
+    for _ in range(2):                                                  # a run, then its rerun
+        assert main(cmd) == 0
+        marker = json.loads((old / ".gflat-complete.json").read_text())
+        assert marker["command"] == "campaign"
+        assert [f["path"] for f in marker["files"]] == ["summary.json", "sub/a.txt", "campaign.sqlite"]
+    assert (old / "summary.json").read_text() == "{}" and (old / "sub" / "a.txt").read_text() == "a"
+    capsys.readouterr()
+    assert main(["plan", "gtm-aileron-roll", "--out", str(old)]) == 2  # never removed by another command either
+    assert f"output folder {old} holds a complete run of 'gflat campaign' (3 files)" in capsys.readouterr().err
