@@ -174,7 +174,7 @@ def amending(folder: str | Path) -> Iterator[Path]:
     locks = []
     try:
         for p in dict.fromkeys((top, path)):
-            locks.append(FolderLock(p))
+            locks.append(FolderLock(p, advice="wait for it to end"))
         yield top
     finally:
         for lock in reversed(locks):

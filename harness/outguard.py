@@ -273,6 +273,8 @@ class FolderLock:
         An existing folder.
     created : list of Path, optional
         Folders the run made for it (deepest first), removed at :meth:`release` while still empty.
+    advice : str, optional
+        What the refusal tells the user to do (commands without ``--out`` say only to wait).
 
     Raises
     ------
@@ -280,7 +282,8 @@ class FolderLock:
         Another process holds the folder's lock (one line naming the folder).
     """
 
-    def __init__(self, path: Path, created: list[Path] | None = None):
+    def __init__(self, path: Path, created: list[Path] | None = None,
+                 advice: str = "wait for it to end, or give another folder with --out"):
         self.path = path
         self.created = list(created or ())
         self.pid = os.getpid()
@@ -297,7 +300,7 @@ class FolderLock:
             os.close(fd)
             if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
                 raise InputError(f"output folder {path} is in use by another gflat run (it holds the folder "
-                                 f"until it ends): wait for it to end, or give another folder with --out") from None
+                                 f"until it ends): {advice}") from None
             return                                        # a file system without flock: not locked
         self.fd = fd
 

@@ -67,7 +67,7 @@ def test_report_is_refused_while_a_run_writes_the_folder(compared, tmp_path):
         holder.communicate("\n", timeout=60)
     assert second.returncode == 2, second.stderr
     assert second.stderr == (f"gflat report: error: output folder {run} is in use by another gflat run (it holds "
-                             f"the folder until it ends): wait for it to end, or give another folder with --out\n")
+                             f"the folder until it ends): wait for it to end\n")
     assert _files(run) == before                          # nothing changed
     assert main(["report", str(run), "--no-pdf"]) == 0    # free again
 
