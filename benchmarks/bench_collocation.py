@@ -69,10 +69,10 @@ derivatives at the nodes) fly to the same figure either way (2.81e-7 m and 3.06e
 cases, at 1e-10 and 1e-12, in one piece and by pieces; 24.71 against 24.80 um on the bundled Twin Otter), which the results keep alongside as
 ``accuracy_one_piece_m`` (for collocation the one-piece figure is kept too, for the record).
 With the restarts the collocation's open-loop error falls steadily with the interval (Twin Otter at
-step 1 s: 0.64 um, 47 nm, 3.5 nm, 3.0 nm from 1x to 0.125x; forward slip: 1.2 mm, 0.44 mm, 45 um, 16 um,
+step 1 s: 0.64 um, 47 nm, 3.5 nm, 3.0 nm, 6.1 nm from 1x to 0.0625x; forward slip: 1.2 mm, 0.44 mm, 45 um, 16 um,
 0.61 um from 1x to 0.0625x).  What is left on the forward slip is the ends: the control-rate objective
 leaves a boundary layer in the controls over the last intervals (third derivative 1e-2 rad/s^3 in the
-last interval at 0.125x, 3e-5 mid-span), resolved by refinement, and the t0 term's weight (below).
+last interval at 0.125x, 3e-5 mid-span), resolved by refinement, and the t0 term's weight (above).
 The open loop is sensitive to the initial state, physically: the planner's own flight moved by 1e-8 rad
 in mu at t0 ends 0.13 mm (forward slip, 120 s) and 0.12 mm (Twin Otter, 60 s) away.
 
