@@ -137,11 +137,16 @@ def test_trim_guess_smoke(bc):
         (g,) = gres["grids"]
         assert g["success"], (gname, g["status"])
         assert g["domain"] is None and 0 < g["iterations"] < 20
+        # constr_viol_tol: the equations met to round-off, not to IPOPT's default 1e-4 (2e-8 from the trim).
+        assert g["constraint_violation"] < 1e-10
         assert 1e-3 < g["accuracy_m"] < 0.1  # 4 intervals of 16 s: about 3 cm
+        assert g["accuracy_one_piece_m"] == pytest.approx(g["accuracy_m"], rel=1e-3)  # 3 kinks only
         tt = g["times"]["SX"]
         # The guess is counted: re-solved = guess + solve, built from scratch >= guess + build + solve.
         assert tt["resolve_wall_s"] >= tt["guess_wall_s"] > 0
         assert gres["counted_in_times"] and gres["matched"] is None
+    # The planner's controls fly to the same figure in one piece (planners.verify) and by pieces.
+    assert res["planner"]["accuracy_one_piece_m"] == pytest.approx(res["planner"]["accuracy_m"], rel=1e-2)
     both = res["guesses"]
     assert both["plan-j0"]["grids"][0]["accuracy_m"] == pytest.approx(both["trim"]["grids"][0]["accuracy_m"],
                                                                       rel=1e-3)
@@ -174,3 +179,31 @@ def test_planner_settings_are_checked(bc):
         bc.main(["--step", "0", "--quick"])
     with pytest.raises(SystemExit):
         bc.main(["--e", "-1", "--quick"])
+
+
+def test_open_loop_flight_restarts_at_every_break(bc, monkeypatch):
+    """The collocation controls are flown piece by piece (one integration per interval), to the same
+    states as one flight in one piece at a much tighter tolerance."""
+    from gna.simulate import simulate
+
+    sc = load_scenario("gtm-aileron-roll")
+    prob = bc.CollocationProblem(sc, 1.6, bc.planner_guess(sc), graph="SX")
+    sol = prob.solve()
+    spans = []
+
+    def recording(*args, **kwargs):
+        spans.append(args[2])
+        return simulate(*args, **kwargs)
+
+    monkeypatch.setattr(bc, "simulate", recording)
+    grid = bc.verification_grid(sc)
+    states = bc.fly_by_pieces(sc.problem(), sol.control_function, sol.initial_state, grid)
+    assert [s[0] for s in spans] == pytest.approx(prob.breaks[:-1]) and spans[-1][1] == pytest.approx(sc.t1)
+    tight = simulate(sc.problem().aircraft, sol.control_function, (grid[0], grid[-1]), sol.initial_state,
+                     env=sc.problem().env, t_eval=grid, rtol=1e-13, atol=1e-13)
+    one = tight.df[list(eom.STATE_NAMES)].to_numpy().T
+    assert np.max(np.abs(states[:3] - one[:3])) < 1e-7
+    err = bc.open_loop_error_of(sc, sol.control_function, sol.initial_state)
+    pb = sc.problem()
+    flat = np.stack([np.broadcast_to(f(grid), grid.shape) for f in (pb.x, pb.y, pb.z)])
+    assert err == pytest.approx(float(np.max(np.linalg.norm(one[:3] - flat, axis=0))), rel=1e-4)
