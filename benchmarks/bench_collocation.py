@@ -137,7 +137,7 @@ except ImportError:  # pragma: no cover - reported by main()
 
 SCENARIOS = ("gtm-aileron-roll", "twin-otter-single-engine", "gtm-forward-slip")
 DEFAULT_FACTORS = (1.0, 2.0, 4.0, 8.0)
-FINER_FACTORS = (0.5, 0.25, 0.125, 0.0625)
+FINER_FACTORS = (0.5, 0.25, 0.125, 0.0625, 0.03125)
 DEGREE = 3
 IPOPT_TOL = 1e-8
 # IPOPT's default constr_viol_tol (1e-4) lets it declare success with the collocation equations met
