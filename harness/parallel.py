@@ -278,8 +278,8 @@ class ForkPool:
             conn = min(ready, key=lambda c: list(self._running).index(c))
             del ready
             proc, key, what = self._running.pop(conn)
-            try:
-                msg = conn.recv()
+            try:      # unpickled in this frame: a traceback rebuilt with the error (tblib) holds no pipe
+                msg = pickle.loads(conn.recv_bytes())
             except (EOFError, OSError):
                 msg = None
             conn.close()
