@@ -6,9 +6,13 @@ inherits everything the callable refers to (plans, compiled expressions,
 results), so nothing but the callable's return value is pickled (back).  A
 child ignores Ctrl-C; the parent, interrupted, terminates its children when
 the pool's ``with`` block ends, so the command stops with its usual one-line
-message.  An error raised in a child is raised again in the parent, with the
-same type and message where it can be rebuilt there (the child's traceback
-attached as its cause).  ``jobs = 1``, or a platform without ``fork``, runs
+message.  The parent's pipes and process handles end (their finalizers run)
+only while Ctrl-C waits (:class:`_CtrlCWaits`): Python runs a signal's handler
+inside whatever function it enters next, and a ``KeyboardInterrupt`` raised
+inside a finalizer is printed and lost instead of stopping the command.  An
+error raised in a child is raised again in the parent, with the same type and
+message where it can be rebuilt there (the child's traceback attached as its
+cause).  ``jobs = 1``, or a platform without ``fork``, runs
 every callable in the parent, in the same order of priorities.
 
 :class:`MemoryOutputDir` is the :class:`harness.outdir.OutputDir` a child
@@ -79,6 +83,28 @@ def _portable(exc: BaseException) -> BaseException:
         except Exception:
             continue
     return RuntimeError(f"{type(exc).__name__}: {exc}")
+
+
+class _CtrlCWaits:
+    """A ``with`` block during which Ctrl-C (SIGINT) waits, raised as ``KeyboardInterrupt`` where the block ends.
+
+    ``signal.pthread_sigmask`` raises a Ctrl-C that arrived before it was called
+    after changing the mask: the mask in force is read first (changing nothing)
+    and restored whatever the moment the interruption is raised, so that a
+    Ctrl-C raised by the blocking call itself does not leave SIGINT blocked for
+    the rest of the process.
+    """
+
+    def __enter__(self) -> None:
+        self._old = signal.pthread_sigmask(signal.SIG_BLOCK, ())
+        try:
+            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        except BaseException:
+            signal.pthread_sigmask(signal.SIG_SETMASK, self._old)
+            raise
+
+    def __exit__(self, *exc) -> None:
+        signal.pthread_sigmask(signal.SIG_SETMASK, self._old)
 
 
 class _Terminated(BaseException):
@@ -204,18 +230,23 @@ class ForkPool:
         if self._tmp is None and self._queue:
             self._tmp = tempfile.mkdtemp(prefix="gflat-pool-")
         while self._queue and len(self._running) < self.jobs:
-            _, _, key, fn, what = heapq.heappop(self._queue)
-            parent_end, child_end = self._ctx.Pipe(duplex=False)
             sys.stdout.flush()
             sys.stderr.flush()
-            old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})   # no Ctrl-C before the child ignores it
-            try:
-                proc = self._ctx.Process(target=_child, args=(child_end, fn, self._tmp), daemon=True)
-                proc.start()
-            finally:
-                signal.pthread_sigmask(signal.SIG_SETMASK, old)
-            child_end.close()
-            self._running[parent_end] = (proc, key, what)
+            with _CtrlCWaits():           # no Ctrl-C before the child ignores it, nor in the pipe's finalizers
+                _, _, key, fn, what = heapq.heappop(self._queue)
+                parent_end, child_end = self._ctx.Pipe(duplex=False)
+                try:
+                    proc = self._ctx.Process(target=_child, args=(child_end, fn, self._tmp), daemon=True)
+                    proc.start()
+                except BaseException:
+                    parent_end.close()
+                    del parent_end
+                    raise
+                finally:
+                    child_end.close()
+                    del child_end
+                self._running[parent_end] = (proc, key, what)
+                del parent_end, proc
 
     def next_result(self) -> tuple[Any, Any]:
         """The next finished callable's key and return value (the earliest started among those done).
@@ -240,23 +271,22 @@ class ForkPool:
             self.log.append({"what": what, "wall_s": time.perf_counter() - w0, "cpu_s": time.process_time() - c0})
             return key, value
         ready = wait_connections(list(self._running))
-        # Ctrl-C waits while a finished child is collected and the next started: the Process objects dropped
-        # here run weak-reference callbacks, where a KeyboardInterrupt would be printed and lost
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        try:
+        # Ctrl-C waits while a finished child is collected and the next started, and the pipe and the Process
+        # dropped here end inside the block (a Connection's __del__ and a Process's finalizer are Python
+        # functions, where a KeyboardInterrupt would be printed and lost)
+        with _CtrlCWaits():
             conn = min(ready, key=lambda c: list(self._running).index(c))
+            del ready
             proc, key, what = self._running.pop(conn)
-            try:
-                msg = conn.recv()
+            try:      # unpickled in this frame: a traceback rebuilt with the error (tblib) holds no pipe
+                msg = pickle.loads(conn.recv_bytes())
             except (EOFError, OSError):
                 msg = None
             conn.close()
             proc.join()
             exitcode = proc.exitcode
-            del proc
+            del conn, proc
             self._start()
-        finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old)
         if msg is None:
             raise GflatError(f"a worker process ended without a result (exit code {exitcode})"
                              + (f" while {what}" if what else ""))
@@ -265,26 +295,27 @@ class ForkPool:
             exc = msg[1]
             if not isinstance(exc, GflatError):
                 exc.__cause__ = RemoteTraceback(msg[2])
-            raise exc
+            try:
+                raise exc
+            finally:              # no cycle error -> traceback -> this frame -> error, left to the garbage collector
+                del exc, msg
         return key, msg[1]
 
     def close(self) -> None:
         """End every running child (after an error or an interruption), drop the queue, remove the workers'
         temporary folder."""
-        self._queue.clear()
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})   # a second Ctrl-C waits: no child left
-        try:
+        with _CtrlCWaits():               # a second Ctrl-C waits: no child left, no finalizer interrupted
+            self._queue.clear()
             for conn, (proc, _, _) in list(self._running.items()):
                 if proc.is_alive():
                     proc.terminate()
                 proc.join()
                 conn.close()
+            conn = proc = None
             self._running.clear()
             if self._tmp is not None:
                 shutil.rmtree(self._tmp, ignore_errors=True)
                 self._tmp = None
-        finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 class _MemoryRecord:

@@ -73,7 +73,8 @@ def cell(value, column: str, spec: str | None = None) -> str:
     """Format a cell of a difference or convergence table.
 
     The ``passed`` column is a verdict (pass/FAIL); ``delta_pct`` is undefined
-    where the reference is zero over the window (a dash); other cells as :func:`fmt`.
+    where the reference is zero at the comparison's resolution (a dash,
+    :func:`harness.metrics.percent_floor`); other cells as :func:`fmt`.
 
     Parameters
     ----------

@@ -8,6 +8,7 @@ Rooms
 -----
 tables
     :func:`difference_table` (per-variable max, RMS, time of the maximum,
+    relative difference ``delta_pct`` with its floors :func:`percent_floor`,
     pass/fail), :class:`DifferenceTable`, tolerance specs
     (:data:`DEFAULT_TOLERANCES`, :func:`resolve_tolerances`), :func:`differences`.
 runs
@@ -18,9 +19,9 @@ runs
 """
 
 from .runs import engine_tables, max_position_error, position_error, window_span
-from .tables import (DEFAULT_TOLERANCES, DEFAULT_VARIABLES, DEFAULT_WINDOWS, DifferenceRow, DifferenceTable,
-                     difference_table, differences, resolve_tolerances)
+from .tables import (DEFAULT_TOLERANCES, DEFAULT_VARIABLES, DEFAULT_WINDOWS, PERCENT_FLOORS, DifferenceRow,
+                     DifferenceTable, difference_table, differences, percent_floor, resolve_tolerances)
 
-__all__ = ["DEFAULT_TOLERANCES", "DEFAULT_VARIABLES", "DEFAULT_WINDOWS", "DifferenceRow", "DifferenceTable",
-           "difference_table", "differences", "resolve_tolerances", "engine_tables", "window_span",
-           "position_error", "max_position_error"]
+__all__ = ["DEFAULT_TOLERANCES", "DEFAULT_VARIABLES", "DEFAULT_WINDOWS", "PERCENT_FLOORS", "DifferenceRow",
+           "DifferenceTable", "difference_table", "differences", "percent_floor", "resolve_tolerances",
+           "engine_tables", "window_span", "position_error", "max_position_error"]

@@ -36,11 +36,23 @@ DEFAULT_TOLERANCES: dict[str, float] = {
 DEFAULT_WINDOWS: dict[str, float | None] = {"first 10 s": 10.0, "whole span": None}
 
 
-#: Largest ``max|u_ref|`` (SI units: m, m/s, rad, N, N m, ...) taken as zero for the relative metric
-#: ``delta_pct``: a variable that is zero to rounding (beta of a symmetric flight, 1e-26 rad; gamma of a
-#: "level" trim, 1e-11 rad) would give percentages like 1e+10 % from differences of a few mrad.  1e-9 is
-#: below any physical value of the model's variables (1 nm, 1 nrad, 1 nN).
+#: ``max|u_ref|`` (SI units) taken as zero to rounding by ``delta_pct`` for the kinds of quantity without a
+#: floor in :data:`PERCENT_FLOORS` (pressure, density, load factors, coefficients).
 REFERENCE_ZERO = 1e-9
+
+#: Floors of ``delta_pct`` per kind of quantity (unit -> SI value): where the variable's largest magnitude over
+#: the window is at most its floor, it is no scale for a percentage and ``delta_pct`` is undefined.  Engines are
+#: judged on absolute differences per variable (NESC 6-DoF check-cases, NASA/TM-2015-218675: difference plots;
+#: JSBSim's ``tests/JSBSim_utils.py::FindDifferences``: ``|delta| > tol``): a reference within the absolute
+#: agreement of its kind of zero (y of a straight flight along x, 3e-4 m) is zero at the comparison's
+#: resolution.  Positions, speeds, angles, rates: their tolerances (:data:`DEFAULT_TOLERANCES`).  Forces and
+#: moments (no tolerance): what changes the speed of the lightest aircraft of the catalogue (GTM T2, 26.2 kg)
+#: by the speed tolerance over the 10 s window, 2.6e-3 N, or its roll rate (Ixx = 1.66 kg m^2) by the rate
+#: tolerance, 1.7e-4 N m, each rounded down to its decade.
+PERCENT_FLOORS: dict[str, float] = {
+    "m": DEFAULT_TOLERANCES["x"], "m/s": DEFAULT_TOLERANCES["V"], "rad": DEFAULT_TOLERANCES["alpha"],
+    "rad/s": DEFAULT_TOLERANCES["p"], "N": 1e-3, "N m": 1e-4,
+}
 
 
 @dataclass(frozen=True)
@@ -65,9 +77,10 @@ class DifferenceRow:
         Largest absolute value of the reference over the window (the distance
         from the origin for ``"position"``).
     delta_pct : float
-        NESC check-case metric ``100 max|u - u_ref| / max|u_ref|`` [%] (NaN
-        when the reference is zero to rounding: ``max|u_ref|`` at most
-        :data:`REFERENCE_ZERO`).
+        Relative difference ``100 max|u - u_ref| / max|u_ref|`` [%] over the
+        window; NaN where ``max|u_ref|`` is at most the floor of the variable's
+        kind of quantity (:func:`percent_floor`): a reference within the
+        absolute agreement of its kind of zero is no scale for a percentage.
     atol, rtol : float or None
         Absolute and relative parts of the tolerance, as given.
     """
@@ -184,8 +197,9 @@ class DifferenceTable:
             lines.append("  overall: PASS")
         else:
             lines.append("  overall: FAIL" + (f" ({', '.join(fails)})" if fails else " (coverage)"))
-        foot = (f"delta = 100 max|diff| / max|reference|, undefined (-) where max|reference| = 0 "
-                f"(at most {REFERENCE_ZERO:g}: zero to rounding)")
+        floors = dict.fromkeys(f"{percent_floor(r.variable):g} {r.unit}".strip(" -") for r in self.rows)
+        foot = (f"delta = 100 max|diff| / max|reference|, undefined (-) where max|reference| is at most the floor "
+                f"of its kind ({', '.join(floors)})")
         if any(r.rtol for r in self.rows):
             foot = "tolerance = atol + rtol * max |reference| over the window; " + foot
         lines.append(f"  ({foot})")
@@ -357,13 +371,31 @@ def difference_table(a, b, tolerances=None, *, variables: Sequence[str] | None =
             rms = float(np.sqrt(np.mean(d * d)))
         ref = np.abs(_reference(v, Av))
         ref_max = float(np.max(ref)) if ref.size and not np.any(np.isnan(ref)) else float("nan")
-        pct = 100.0 * mx / ref_max if ref_max > REFERENCE_ZERO else float("nan")
+        pct = 100.0 * mx / ref_max if ref_max > percent_floor(v) else float("nan")
         a_, r_ = tol.get(v), rel.get(v)
         t_ = None if a_ is None and r_ is None else (a_ or 0.0) + (r_ or 0.0) * (ref_max if ref_max > 0 else 0.0)
         passed = None if t_ is None else bool(np.isfinite(mx) and mx <= t_)
         rows.append(DifferenceRow(v, UNITS.get(v, ""), mx, rms, tm, t_, passed, ref_max, pct, a_, r_))
     return DifferenceTable(rows=rows, labels=tuple(labels), window=(float(tt[0]), float(tt[-1])),
                            samples=int(tt.size), notes=notes)
+
+
+def percent_floor(variable: str) -> float:
+    """The floor of ``max|u_ref|`` above which ``delta_pct`` of a variable is defined.
+
+    Parameters
+    ----------
+    variable : str
+        Column name (:data:`gna.trajectory.UNITS`) or ``"position"``.
+
+    Returns
+    -------
+    float
+        The floor of the variable's kind of quantity (:data:`PERCENT_FLOORS`,
+        in its SI unit), or the rounding floor :data:`REFERENCE_ZERO` for a
+        kind without one (pressure, density, dimensionless).
+    """
+    return PERCENT_FLOORS.get(UNITS.get(variable, ""), REFERENCE_ZERO)
 
 
 def _reference(variable: str, A: Mapping):

@@ -146,8 +146,9 @@ class CaseResult:
             ``max_position_error_m`` (max over the span of ``|(x, y, z) - flat
             outputs|``), ``max_position_error_after_5s_m``, ``saturated_s``),
             ``differences`` (each engine but the reference -> ``max_position_m``,
-            ``max_angle_rad`` over the whole span, ``delta_pct``: the NESC
-            metric per variable), ``pass`` (every run completed and every
+            ``max_angle_rad`` over the whole span, ``delta_pct``: the relative
+            difference [%] per variable, NaN where undefined, see
+            :func:`harness.metrics.percent_floor`), ``pass`` (every run completed and every
             engine agrees with the reference within the tolerances),
             ``settings`` (the tolerances and settings that made the verdict),
             ``self_convergence`` (JSBSim engine -> ``max_position_m``,
@@ -192,7 +193,7 @@ class CaseResult:
         dict
             ``scenario``, ``J``, ``engines``, ``passed``, ``status`` (engine -> run
             status), ``tables`` (engine -> window -> list of row records, with
-            the NESC metric ``delta_pct``), ``figures`` (paths as str),
+            the relative difference ``delta_pct`` [%]), ``figures`` (paths as str),
             ``settings`` (tolerances and settings of the verdict),
             ``self_convergence_tables`` (JSBSim engine -> window -> row records).
         """

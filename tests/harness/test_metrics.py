@@ -10,8 +10,8 @@ import pytest
 
 from gna.eom import STATE_NAMES
 from gna.errors import InputError
-from harness.metrics import (DEFAULT_TOLERANCES, difference_table, differences, engine_tables,
-                             max_position_error, position_error, window_span)
+from harness.metrics import (DEFAULT_TOLERANCES, PERCENT_FLOORS, difference_table, differences, engine_tables,
+                             max_position_error, percent_floor, position_error, window_span)
 from harness.testing import assert_trajectories_close
 
 
@@ -154,7 +154,8 @@ def test_informative_table_has_one_overall_line_and_undefined_delta_is_a_dash():
     assert text.count("overall:") == 1 and "overall: - (no tolerances given: informative)" in text
     assert "overall: PASS" not in text
     y_line = next(line for line in text.splitlines() if line.split()[:1] == ["y"])   # max|y_ref| = 0
-    assert "nan" not in y_line and "undefined (-) where max|reference| = 0 (at most 1e-09: zero to rounding)" in text
+    assert "nan" not in y_line and "undefined (-) where max|reference| is at most the floor of its kind " \
+        "(0.01 m, 0.001 m/s, 0.0001 rad, 0.001 rad/s)" in text
 
 
 def test_delta_is_undefined_where_the_reference_is_zero_to_rounding():
@@ -165,5 +166,28 @@ def test_delta_is_undefined_where_the_reference_is_zero_to_rounding():
     row = difference_table(a, b, tolerances={}).row("beta")
     assert row.ref_max == pytest.approx(1e-26, rel=1e-2) and row.max_abs == pytest.approx(1e-14, rel=1e-2)
     assert math.isnan(row.delta_pct)
-    c = _traj(t, beta=1e-6 * np.sin(t), V=100.0 + 0 * t)     # a small but physical sideslip keeps its metric
-    assert difference_table(c, b, tolerances={}).row("beta").delta_pct == pytest.approx(100.0, rel=1e-2)
+    c = _traj(t, beta=1e-3 * np.sin(t), V=100.0 + 0 * t)     # a small but resolved sideslip keeps its metric
+    d = _traj(t, beta=1e-3 * np.sin(t) + 1e-9 * np.cos(t), V=100.0 + 0 * t)
+    assert difference_table(c, d, tolerances={}).row("beta").delta_pct == pytest.approx(1e-4, rel=1e-3)
+
+
+def test_delta_is_undefined_where_the_reference_is_within_the_agreement_of_its_kind_of_zero():
+    # z of a flight at sea level and y of a straight flight along x are above rounding but below the absolute
+    # agreement of a position (1e-2 m): as scales of a percentage they made 1e+5 % and 1.5 % of differences of
+    # 1e-5 m; V of the same flight keeps its metric, and so does z at altitude.
+    t = np.linspace(0.0, 10.0, 101)
+    a = _traj(t, x=100.0 * t, y=3.4e-4 * t / 10, z=1e-8 * np.sin(t), V=100.0 + t)
+    b = _traj(t, x=100.0 * t, y=3.4e-4 * t / 10 + 5.1e-6, z=1e-8 * np.sin(t) + 1e-5, V=100.0 + t + 0.0105 * (t == 5))
+    tab = difference_table(a, b, tolerances={})
+    for name in ("y", "z"):
+        row = tab.row(name)
+        assert 0.0 < row.ref_max <= percent_floor(name) == PERCENT_FLOORS["m"] == DEFAULT_TOLERANCES["z"]
+        assert math.isnan(row.delta_pct) and row.max_abs == pytest.approx({"y": 5.1e-6, "z": 1e-5}[name])
+    assert tab.row("V").delta_pct == pytest.approx(100 * 0.0105 / 110.0, rel=1e-9)
+    assert tab.row("x").delta_pct == 0.0
+    high = difference_table(_traj(t, z=-1000.0 + 0 * t), _traj(t, z=-1000.0 + 1e-5 + 0 * t), tolerances={})
+    assert high.row("z").delta_pct == pytest.approx(1e-6, rel=1e-6)
+    edge = [difference_table(_traj(t, z=z0 + 0 * t), _traj(t, z=z0 + 1e-5 + 0 * t), tolerances={}).row("z").delta_pct
+            for z0 in (1e-2, 1.01e-2)]
+    assert math.isnan(edge[0]) and edge[1] == pytest.approx(100 * 1e-5 / 1.01e-2)
+    assert [percent_floor(n) for n in ("V", "alpha", "p", "X", "L", "qbar")] == [1e-3, 1e-4, 1e-3, 1e-3, 1e-4, 1e-9]
