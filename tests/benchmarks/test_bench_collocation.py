@@ -145,6 +145,10 @@ def test_trim_guess_smoke(bc):
         # The guess is counted: re-solved = guess + solve, built from scratch >= guess + build + solve.
         assert tt["resolve_wall_s"] >= tt["guess_wall_s"] > 0
         assert gres["counted_in_times"] and gres["matched"] is None
+        # No grid reaches the planner: the most accurate one is reported with its cost over the planner's.
+        best = gres["most_accurate"]
+        assert best["factor"] == 8.0 and best["accuracy_m"] == g["accuracy_m"]
+        assert best["resolve_over_planner_wall"] == pytest.approx(tt["resolve_wall_s"] / res["planner"]["time_wall_s"])
     # The planner's controls fly to the same figure in one piece (planners.verify) and by pieces.
     assert res["planner"]["accuracy_one_piece_m"] == pytest.approx(res["planner"]["accuracy_m"], rel=1e-2)
     both = res["guesses"]
@@ -152,6 +156,7 @@ def test_trim_guess_smoke(bc):
                                                                       rel=1e-3)
     text = bc.markdown_table([res])
     assert "guess trim" in text and "guess plan-j0" in text and "trim (" in text
+    assert "none; most accurate: 8x" in text
 
 
 def test_set_guess_resolves_to_the_same_solution(bc):
