@@ -55,7 +55,8 @@ def file_entry(root: Path, rel: str | Path) -> dict:
 
 
 def earlier_files(root: Path, previous: Iterable[str], written: Iterable[str | Path] = ()) -> list[str]:
-    """The files of the folder's earlier run a run that removes nothing keeps listed in its marker.
+    """The files of the folder's earlier run still there and not written again: those a run that removes nothing
+    keeps listed in its marker, and those a run that cleans removes as stale (:meth:`harness.outdir.OutputDir.finish`).
 
     Parameters
     ----------

@@ -372,16 +372,12 @@ class OutputDir:
             if release:
                 self.release()
             return root
-        now = {str(p) for p in rec.written}
+        # the earlier run's files still there, not written again: stale with ``clean``, else kept listed
+        earlier = earlier_files(root, rec.previous, rec.written)
         removed = []
-        for rel in rec.previous if self.clean else ():
-            if rel in now or rel in (MARKER, INCOMPLETE):
-                continue
-            try:
-                stale = (root / rel).resolve()
-            except (OSError, RuntimeError):
-                continue
-            if stale.is_relative_to(root) and stale != root and stale.is_file() and not stale.is_symlink():
+        for rel in earlier if self.clean else ():
+            stale = (root / rel).resolve()
+            if not stale.is_symlink():
                 with contextlib.suppress(OSError):
                     stale.unlink()
                     removed.append(rel)
@@ -389,8 +385,7 @@ class OutputDir:
         if removed:
             _log.warning("%s: removed %d file(s) of the folder's earlier run that this run did not write again (%s)",
                          root, len(removed), ", ".join(removed[:3]) + (", ..." if len(removed) > 3 else ""))
-        # a run that removes nothing keeps the earlier run's files listed (harness.marker.earlier_files)
-        kept = [] if self.clean else earlier_files(root, rec.previous, rec.written)
+        kept = [] if self.clean else earlier
         files = [file_entry(root, rel) for rel in (*kept, *rec.written) if (root / rel).is_file()]
         self._mkdir(root, parents=True)
         final = write_marker(root, rec.command, files)

@@ -52,13 +52,18 @@ def _cause(exc: OSError) -> str:
     return exc.strerror or str(exc) or type(exc).__name__
 
 
+def _write_probe(folder: Path) -> None:
+    """Make and remove a small file in ``folder`` (OSError where it takes no files)."""
+    fd, name = tempfile.mkstemp(prefix=".gflat-probe-", dir=folder)
+    os.close(fd)
+    os.unlink(name)
+
+
 def _probe(path: Path, target: Path | None = None) -> None:
     """Write and remove a small file in ``path`` (``target``'s nearest existing folder, when it does not exist
     yet): catches read-only folders and file systems (/proc, /sys), whoever runs."""
     try:
-        fd, name = tempfile.mkstemp(prefix=".gflat-probe-", dir=path)
-        os.close(fd)
-        os.unlink(name)
+        _write_probe(path)
     except OSError as exc:
         where = f"{path}: cannot write there" if target is None or target == path else \
             f"{target}: cannot create it, its nearest existing folder {path} takes no files"
@@ -119,9 +124,7 @@ def check_output_file(path: Path) -> None:
         ``cannot write <path>: <cause>`` (the message the write itself would give).
     """
     try:
-        fd, name = tempfile.mkstemp(prefix=".gflat-probe-", dir=path.parent)
-        os.close(fd)
-        os.unlink(name)
+        _write_probe(path.parent)
     except OSError as exc:
         raise InputError(f"cannot write {path}: {_cause(exc)}") from None
 

@@ -17,6 +17,7 @@ from harness.marker import amending
 from harness.outdir import INCOMPLETE, MARKER, OutputDir
 from harness.outguard import previous_run
 
+from .test_outguard import _files
 from .test_validation import SHORT
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -35,10 +36,6 @@ def compared(tmp_path_factory):
 def _copy(run: Path, to: Path) -> Path:
     shutil.copytree(run, to)
     return to
-
-
-def _files(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
 def _listed(folder: Path) -> list[str]:
