@@ -1,0 +1,55 @@
+"""benchmarks/bench_planner_settings.py: a row per setting, the plan's own figures, bad settings refused."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+from planners.generalized import plan_scenario
+from planners.scenario import load_scenario
+from planners.verify import open_loop_error
+
+_PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_planner_settings.py"
+
+
+@pytest.fixture(scope="module")
+def bps():
+    spec = importlib.util.spec_from_file_location("bench_planner_settings", _PATH)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
+    yield mod
+    sys.modules.pop(spec.name, None)
+
+
+def test_a_setting_gives_the_plan_of_that_setting(bps):
+    sc = load_scenario("twin-otter-single-engine")
+    row = bps.measure(sc, 4.0, 2, 2, repeat=1)
+    assert row["nodes"] == 16 and row["wall_s"] > 0 and row["cpu_s"] > 0
+    plan = plan_scenario(dataclasses.replace(sc, step=4.0, e=2), J=2)
+    assert row["accuracy_m"] == open_loop_error(plan).max_position_error_m
+
+
+def test_a_setting_that_cannot_be_planned_is_a_row_with_its_reason(bps, capsys):
+    bps.main(["gtm-aileron-roll", "--J", "99", "--repeat", "1"])
+    out = capsys.readouterr().out
+    assert "cannot be planned" in out and "J must be between 0 and 30, got 99" in out
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["nope"], "unknown scenario 'nope'"),
+    (["gtm-aileron-roll", "--step", "0"], "--step: positive numbers"),
+    (["gtm-aileron-roll", "--e", "x"], "--e: comma-separated numbers"),
+    (["gtm-aileron-roll", "--J", "-1"], "--J: whole numbers >= 0"),
+    (["gtm-aileron-roll", "--repeat", "0"], "--repeat: at least 1"),
+])
+def test_bad_settings_are_one_line_and_exit_2(bps, capsys, argv, message):
+    with pytest.raises(SystemExit) as exc:
+        bps.main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert message in err[-1]
