@@ -25,6 +25,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import stat
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,6 +50,13 @@ _ADVICE = "give another folder with --out, or remove this one first"
 
 
 def _cause(exc: OSError) -> str:
+    """The OS error's meaning: "No such file or directory" creating a name in a folder that exists (procfs)
+    means the file system creates nothing there."""
+    name = exc.filename if isinstance(exc.filename, (str, Path)) else None
+    if exc.errno == errno.ENOENT and name is not None and not os.path.islink(name):
+        folder = Path(os.path.abspath(name)).parent
+        if folder.is_dir():
+            return f"{folder} exists, but its file system creates no new files or folders there"
     return exc.strerror or str(exc) or type(exc).__name__
 
 
@@ -107,11 +115,19 @@ def check_destination(path: Path, parents: bool = False) -> None:
     _probe(parent, path)
 
 
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISFIFO, "a named pipe (fifo)"), (stat.S_ISSOCK, "a socket"))
+
+
 def check_output_file(path: Path) -> None:
-    """Refuse, before any work, a file that could not be written: its folder is missing, a file, or takes no files.
+    """Refuse, before any work, a file that could not (or must not) be written: anything there but a regular file
+    (a device, a pipe, a socket, a folder, a link to one), a folder of a gflat run, a folder missing, a file, or
+    taking no files.
 
     The file is written later through :func:`harness.fileio.replacing` (a temporary file beside it, renamed
-    over it): a probe file made and removed in its folder now catches what would refuse it then.
+    over it, which would replace ``/dev/null`` by a file): a probe file made and removed in its folder now
+    catches what would refuse it then.  A run's folder (or one inside it) holds that run's files only: the
+    run's command, run again, would remove a file it did not write, or ``gflat report`` read it as the run's.
 
     Parameters
     ----------
@@ -121,12 +137,39 @@ def check_output_file(path: Path) -> None:
     Raises
     ------
     InputError
-        ``cannot write <path>: <cause>`` (the message the write itself would give).
+        ``cannot write <path>: <cause>`` (one line).
     """
+    try:
+        mode = os.stat(path).st_mode                      # through a link: what the name stands for
+    except FileNotFoundError:                             # missing (or a dangling link, replaced)
+        mode = None
+    except OSError as exc:
+        raise InputError(f"cannot write {path}: {_cause(exc)}") from None
+    if mode is not None and not stat.S_ISREG(mode):
+        kind = next((k for test, k in _KINDS if test(mode)), "a special file")
+        link = "a symbolic link to " if path.is_symlink() else ""
+        raise InputError(f"cannot write {path}: it is {link}{kind}, not a regular file (it would be replaced "
+                         f"by one): give the path of a new or regular file")
+    run = _run_holding(path.parent)
+    if run is not None:
+        command = previous_run(run).command
+        who = f"'gflat {command}'" if command else "gflat (its marker names no command)"
+        raise InputError(f"cannot write {path}: {run} is the folder of a run of {who}, which holds that run's "
+                         f"files only: give a path outside it")
     try:
         _write_probe(path.parent)
     except OSError as exc:
         raise InputError(f"cannot write {path}: {_cause(exc)}") from None
+
+
+def _run_holding(folder: Path) -> Path | None:
+    """The run folder (completion marker or in-progress record) ``folder`` is or lies in, None if none."""
+    try:
+        folder = folder.resolve()
+    except (OSError, RuntimeError):                       # a loop of links: the probe write names it
+        return None
+    return next((d for d in (folder, *folder.parents) if (d / MARKER).is_file() or (d / INCOMPLETE).is_file()),
+                None)
 
 
 def make_folder(path: Path) -> list[Path]:

@@ -29,8 +29,9 @@ from pathlib import Path
 
 from gna.errors import InputError
 
+from ..fileio import replacing
 from ..marker import earlier_files, file_entry, write_marker
-from ..outguard import FolderLock, check_destination, check_previous, make_folder, previous_run
+from ..outguard import INCOMPLETE, MARKER, FolderLock, check_destination, check_previous, make_folder, previous_run
 from ..validation import provenance
 from .execute import run_sample
 from .spec import Campaign, load_campaign
@@ -283,8 +284,8 @@ def _campaign_folder(out):
 
     Refused (one line, nothing written): a file-system root or the home folder, a folder that takes no
     files, a folder holding another command's run (its completion marker). Held: an exclusive lock for the
-    run (a second campaign run into it is refused). Marked: a completion marker naming the command and the
-    campaign index, so that another command refuses to write into (and remove) the campaign's files.
+    run (a second campaign run into it is refused). Marked: an in-progress record, then (no case pending) a
+    completion marker, naming the command and the campaign index: another command refuses to write over them.
     """
     path = Path(out).expanduser().resolve()
     check_destination(path, parents=True)
@@ -296,10 +297,24 @@ def _campaign_folder(out):
         lock.release()
 
 
-def _mark(path: Path) -> None:
-    """Write the folder's completion marker: the command and the campaign index (kept across runs), and the
-    files of the folder's earlier run, which a campaign never removes (:func:`harness.marker.earlier_files`)."""
+def _mark_started(path: Path) -> list[str]:
+    """Mark the folder as a run being written, as every command does: the in-progress record (the command, the
+    earlier run's files, which a campaign never removes (:func:`harness.marker.earlier_files`), the campaign
+    index) in place of the completion marker, which :func:`_mark` writes back once no case is pending."""
     kept = earlier_files(path, previous_run(path).files, [DB_NAME])
+    lines = [json.dumps({"command": "campaign"}), *(json.dumps(rel) for rel in [*kept, DB_NAME])]
+    try:
+        with replacing(path / INCOMPLETE) as tmp:
+            tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        with contextlib.suppress(FileNotFoundError):
+            (path / MARKER).unlink()                      # cases pending from here until the run ends
+    except OSError as exc:
+        raise InputError(f"cannot write {path / INCOMPLETE}: {exc.strerror or exc}") from None
+    return kept
+
+
+def _mark(path: Path, kept: list[str]) -> None:
+    """Write the completion marker (no case pending): the command, the files ``kept`` and the campaign index."""
     write_marker(path, "campaign", [*(file_entry(path, rel) for rel in kept), {"path": DB_NAME}])
 
 
@@ -318,7 +333,7 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
     if meta.get("campaign") and meta["campaign"] != ident:
         raise InputError(f"{out} holds campaign {meta['campaign']['name']!r} (seed {meta['campaign']['seed']}), "
                          f"not {camp.name!r} (seed {camp.seed}): use another folder")
-    _mark(store.root)
+    kept = _mark_started(store.root)
     store.set_meta(campaign=ident, definition=camp.raw, source=camp.source)
     store.add_cases(tasks)
     store.clean_stale()
@@ -361,6 +376,8 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
         if bar is not None:
             bar.close()
     counts = store.counts()
+    if counts["pending"] == 0:                            # else (cases left, Ctrl-C) the record says interrupted
+        _mark(store.root, kept)
     return {**counts, "computed": tally["done"] + tally["failed"], "skipped": skipped,
             "elapsed_s": time.perf_counter() - t0, "folder": str(out)}
 

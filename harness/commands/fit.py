@@ -26,8 +26,16 @@ from pathlib import Path
 from gna.errors import InputError
 
 from ..fileio import replacing
-from ..outguard import check_output_file
+from ..outguard import _cause, check_output_file
 from ._args import finite_float, nonnegative_int, out_path, positive_float
+
+
+def _out_file(text: str) -> Path:
+    """``--out FILE``: refused when empty (an empty name would silently mean the default)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; give the aircraft file's name, or leave --out out for "
+                                         "the default <id>.toml")
+    return Path(text)
 
 
 def _surface_property(text: str) -> tuple[str, tuple[str, float | None]]:
@@ -147,7 +155,7 @@ def _common(p) -> None:
     p.add_argument("--id", dest="ident", help="aircraft identifier (default: from the source)")
     p.add_argument("--name", help="aircraft name")
     p.add_argument("--structure", help="aircraft TOML file whose [aero] terms give the structure (default gna45)")
-    p.add_argument("--out", type=out_path, help="output TOML file (default: <id>.toml)")
+    p.add_argument("--out", type=_out_file, help="output TOML file (default: <id>.toml)")
     p.add_argument("--no-trim-check", action="store_true", help="skip the level-trim comparison")
 
 
@@ -226,7 +234,7 @@ def run(args) -> int:
         with replacing(out) as tmp:                      # atomic: a reader never sees half a file
             tmp.write_text(text, encoding="utf-8")
     except OSError as exc:
-        raise InputError(f"cannot write {out}: {exc.strerror or exc}") from None
+        raise InputError(f"cannot write {out}: {_cause(exc)}") from None
     print(f"wrote {out}")
     print("held-out statistics (R2, RMS, max |error|):")
     for c, s in result.stats.items():

@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+import json
+import os
+import stat
 from pathlib import Path
 
 import pytest
 
 from harness.cli import main
+
+#: Why /proc takes no file (the OS answers "No such file or directory" for a folder that exists).
+_PROC = "/proc exists, but its file system creates no new files or folders there"
 
 
 @pytest.fixture
@@ -35,7 +41,7 @@ def test_an_output_file_that_cannot_be_written_is_refused_before_fitting(tmp_pat
     (tmp_path / "a-file").write_text("")
     cases = {tmp_path / "missing" / "x.toml": "No such file or directory",
              tmp_path / "a-file" / "x.toml": "Not a directory",
-             Path("/proc/gflat-fit.toml"): "No such file or directory"}      # a folder that takes no files
+             Path("/proc/gflat-fit.toml"): _PROC}                           # a folder that takes no files
     for out, cause in cases.items():
         err = _one_line(capsys, main(["fit", "gtm", "--out", str(out)]))
         assert err == f"gflat fit: error: cannot write {out}: {cause}\n"
@@ -61,7 +67,7 @@ def test_a_folder_given_as_the_file_is_refused_before_fitting(tmp_path, monkeypa
 def test_the_default_file_in_a_folder_that_takes_no_files(monkeypatch, no_fit, capsys):
     monkeypatch.chdir("/proc")
     err = _one_line(capsys, main(["fit", "gtm"]))
-    assert err == "gflat fit: error: cannot write gtm-fit.toml: No such file or directory\n"
+    assert err == f"gflat fit: error: cannot write gtm-fit.toml: {_PROC}\n"
 
 
 def test_the_default_id_is_the_one_the_source_gives():
@@ -75,3 +81,55 @@ def test_the_default_id_is_the_one_the_source_gives():
         assert _default_ident(args) == resolve(model)[0].lower()
     assert _default_ident(SimpleNamespace(source="linear", csv="data/twin_otter.csv")) == "twin_otter"
     assert _default_ident(SimpleNamespace(source="gtm")) == "gtm-fit"
+
+
+def test_anything_but_a_regular_file_is_refused_and_left_as_it_is(tmp_path, no_fit, capsys):
+    # A device (/dev/null), a pipe, a socket, a link to one: the file, written beside and renamed over it, would
+    # replace it by a regular file.
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    (tmp_path / "link").symlink_to(fifo)
+    for out, what in ((fifo, "a named pipe (fifo)"), (tmp_path / "link", "a symbolic link to a named pipe (fifo)")):
+        err = _one_line(capsys, main(["fit", "gtm", "--out", str(out)]))
+        assert err == (f"gflat fit: error: cannot write {out}: it is {what}, not a regular file (it would be "
+                       f"replaced by one): give the path of a new or regular file\n")
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode) and (tmp_path / "link").is_symlink()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link", "pipe"]
+
+
+@pytest.mark.parametrize("record", ["complete", "interrupted", "no command"])
+def test_a_file_into_a_runs_folder_is_refused(tmp_path, no_fit, capsys, record):
+    # fit's file must not go into another command's run (nor a folder inside it): that run's command, run again,
+    # would remove it, and `gflat report` read it as the run's (a manifest.json replaced).
+    run = tmp_path / "run"
+    (run / "case").mkdir(parents=True)
+    (run / "manifest.json").write_text('{"cases": []}')
+    if record == "interrupted":
+        (run / ".gflat-incomplete").write_text('{"command": "paper"}\n"manifest.json"\n')
+    else:
+        marker = {"tool": "gflat", "complete": True, "files": [{"path": "manifest.json"}]}
+        marker.update({"command": "paper"} if record == "complete" else {})
+        (run / ".gflat-complete.json").write_text(json.dumps(marker))
+    before = {p: p.read_bytes() for p in run.rglob("*") if p.is_file()}
+    who = "gflat (its marker names no command)" if record == "no command" else "'gflat paper'"
+    for out in (run / "manifest.json", run / "case" / "x.toml"):
+        err = _one_line(capsys, main(["fit", "gtm", "--out", str(out)]))
+        assert err == (f"gflat fit: error: cannot write {out}: {run} is the folder of a run of {who}, which holds "
+                       f"that run's files only: give a path outside it\n")
+    assert {p: p.read_bytes() for p in run.rglob("*") if p.is_file()} == before
+
+
+def test_an_empty_out_asks_for_a_file(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["fit", "gtm", "--out", ""])
+    assert exc.value.code == 2
+    assert "argument --out: an empty path; give the aircraft file's name, or leave --out out for the default " \
+           "<id>.toml" in capsys.readouterr().err
+
+
+def test_a_folder_that_exists_but_takes_no_files_is_named_so_by_every_command(capsys):
+    # /proc exists: "No such file or directory" (the OS's answer to a create there) would be untrue.
+    assert main(["paper", "--out", "/proc/gflat-x"]) == 2
+    assert capsys.readouterr().err.strip().endswith(f"its nearest existing folder /proc takes no files: {_PROC}")
+    assert main(["report", "/proc"]) == 2
+    assert capsys.readouterr().err.strip() == f"gflat report: error: output folder /proc: cannot write there: {_PROC}"

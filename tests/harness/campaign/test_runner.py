@@ -104,6 +104,26 @@ def test_failed_cases_retried_only_when_asked(tmp_path, capsys):
     assert row["error"].startswith("DomainError") and "ISA" in row["error"]
 
 
+def test_a_campaign_with_cases_pending_is_marked_interrupted_not_complete(tmp_path, capsys):
+    # As every command marks a run cut short: the in-progress record naming the command, no completion marker
+    # (which says "complete": true), until a run leaves no case pending.
+    out = tmp_path / "c"
+    assert main(["campaign", "run", str(TINY), "--out", str(out), "--samples", "2", "--workers", "1", "--quiet",
+                 "--only", "level.fit.0000"]) == 1
+    assert not (out / ".gflat-complete.json").exists()
+    record = (out / ".gflat-incomplete").read_text().splitlines()
+    assert [json.loads(line) for line in record] == [{"command": "campaign"}, "campaign.sqlite"]
+    capsys.readouterr()
+    assert main(["campaign", "status", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["pending"] == 1
+    assert main(["plan", "gtm-aileron-roll", "--out", str(out)]) == 2
+    assert "holds an interrupted run of 'gflat campaign'" in capsys.readouterr().err
+    assert main(["campaign", "run", str(TINY), "--out", str(out), "--samples", "2", "--workers", "1",
+                 "--quiet"]) == 0
+    marker = json.loads((out / ".gflat-complete.json").read_text())
+    assert marker["complete"] is True and marker["command"] == "campaign" and not (out / ".gflat-incomplete").exists()
+
+
 @pytest.fixture(scope="module")
 def cluster():
     distributed = pytest.importorskip("distributed")
@@ -319,6 +339,8 @@ def test_ctrl_c_in_a_process_pool_ends_at_once_and_the_run_resumes(tmp_path):
     finally:
         con.close()
     assert len(statuses) == 9 and "pending" in statuses            # what a rerun computes
+    assert not (out / ".gflat-complete.json").exists()             # interrupted: not marked complete
+    assert json.loads((out / ".gflat-incomplete").read_text().splitlines()[0]) == {"command": "campaign"}
 
 
 def test_a_campaign_into_a_run_of_an_earlier_gflat_keeps_that_runs_files_listed(tmp_path, capsys):
