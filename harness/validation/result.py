@@ -21,10 +21,11 @@ from .tolerances import CompareSettings
 #: Angles summarised in the verdict.
 ANGLE_STATES: tuple[str, ...] = ("gamma", "chi", "alpha", "beta", "mu")
 
-#: What the verdict's ``delta_pct`` is (:mod:`harness.metrics.scales`), carried in the verdict itself.
+#: What the verdict's ``delta_pct`` is (:mod:`harness.metrics.scales`), carried in the verdict itself
+#: (``{window}``: the window of the verdict's tables, the whole span unless the windows have none).
 DELTA_PCT_DEFINITION = (
     "differences.<engine>.delta_pct: informative, not a verdict; per variable, 100 max|b - a| / scale [%] over "
-    "the whole span, a = the reference engine; scale = max|a|, or for x, y, z, chi (no physical zero) the "
+    "{window}, a = the reference engine; scale = max|a|, or for x, y, z, chi (no physical zero) the "
     "excursion max(a) - min(a) (for position, the largest distance between two points of a's path); null where "
     "the scale is at most the floor of its kind (" + ", ".join(f"{v:g} {k}" for k, v in PERCENT_FLOORS.items())
     + ", 1e-09 otherwise)")
@@ -157,7 +158,7 @@ class CaseResult:
             ``max_angle_rad`` over the whole span, ``delta_pct``: the relative
             difference [%] per variable over the whole span, NaN where undefined,
             see :func:`harness.metrics.percent_scale`), ``delta_pct_definition``
-            (:data:`DELTA_PCT_DEFINITION`), ``pass`` (every run completed and every
+            (:data:`DELTA_PCT_DEFINITION`, naming the window), ``pass`` (every run completed and every
             engine agrees with the reference within the tolerances),
             ``settings`` (the tolerances and settings that made the verdict),
             ``self_convergence`` (JSBSim engine -> ``max_position_m``,
@@ -174,8 +175,13 @@ class CaseResult:
         diffs = {label: dict(_maxima(per), delta_pct={r.variable: r.delta_pct for r in _whole(per).rows})
                  for label, per in self.tables.items()}
         ok = self.passed and all(r.status == "completed" for r in self.runs.values())
+        where = "the whole span"
+        for per in self.tables.values():
+            name = "whole span" if "whole span" in per else next(iter(per))
+            where = f"the window {name!r}, t in [{per[name].window[0]:g}, {per[name].window[1]:g}] s"
+            break
         return {"scenario": self.plan.name, "loop": self.case.loop, "runs": runs, "differences": diffs,
-                "delta_pct_definition": DELTA_PCT_DEFINITION, "pass": ok,
+                "delta_pct_definition": DELTA_PCT_DEFINITION.format(window=where), "pass": ok,
                 "settings": self.settings.to_dict() if self.settings is not None else None,
                 "self_convergence": {label: _maxima(per) for label, per in self.self_convergence.items()}}
 
