@@ -35,7 +35,7 @@ GENERATOR = '<meta name="generator" content="gflat report">'
 
 #: Column headings of the difference tables (others print as named).
 HEADERS = {"max_abs": "max |diff|", "t_max": "at t [s]", "rms": "RMS", "delta_pct": "\u03b4 %*",
-           "ref_max": "max |ref|", "passed": "result"}
+           "scale": "\u03b4 scale*", "ref_max": "max |ref|", "passed": "result"}
 
 #: Sub-folder of a scenario holding its plan's files (linked from the case pages when present).
 PLAN_FOLDER = "plan"
@@ -73,8 +73,9 @@ def cell(value, column: str, spec: str | None = None) -> str:
     """Format a cell of a difference or convergence table.
 
     The ``passed`` column is a verdict (pass/FAIL); ``delta_pct`` is undefined
-    where the reference is zero at the comparison's resolution (a dash,
-    :func:`harness.metrics.percent_floor`); other cells as :func:`fmt`.
+    (``null`` in ``report.json``; ``"nan"`` in reports saved before) where its
+    scale is zero at the comparison's resolution (a dash,
+    :func:`harness.metrics.percent_scale`); other cells as :func:`fmt`.
 
     Parameters
     ----------

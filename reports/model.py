@@ -48,7 +48,7 @@ FIGURES: dict[str, str] = {
 
 
 def json_safe(obj):
-    """A copy of ``obj`` for a report model: :func:`harness.fileio.json_safe` with NaN and infinities as text.
+    """A copy of ``obj`` for a report model: :func:`harness.fileio.json_safe` (NaN and infinities as null).
 
     Parameters
     ----------
@@ -58,9 +58,11 @@ def json_safe(obj):
     Returns
     -------
     object
-        Plain JSON types; a non-finite float becomes ``"nan"``, ``"inf"`` or ``"-inf"``.
+        Plain JSON types; a non-finite float (an undefined ``delta_pct``, a
+        diverged run's difference) becomes ``None`` (``null``), as in
+        ``summary.json`` and ``--json`` outputs.
     """
-    return _json_safe(obj, nonfinite="text")
+    return _json_safe(obj)
 
 
 def _records(frame) -> dict:

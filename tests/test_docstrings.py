@@ -60,6 +60,7 @@ MODULES = [
     "harness.testing",
     "harness.pytest_plugin",
     "harness.metrics.tables",
+    "harness.metrics.scales",
     "harness.metrics.runs",
     "harness.validation.case",
     "harness.validation.run",

@@ -2,9 +2,19 @@
 
 :func:`difference_table` compares two trajectories variable by variable: max
 and RMS of the difference, time of the maximum, pass/fail against a
-per-variable tolerance.  ``"position"`` is the distance ``|(dx, dy, dz)|``;
-angle differences are wrapped into (-pi, pi].  :func:`differences` gives the
-difference itself as a time series (for figures).
+per-variable tolerance, and the relative difference ``delta_pct``.
+``"position"`` is the distance ``|(dx, dy, dz)|``; angle differences are
+wrapped into (-pi, pi].  :func:`differences` gives the difference itself as a
+time series (for figures).
+
+``delta_pct = 100 max|u - u_ref| / scale`` over the window (informative, never
+a verdict).  The scale is ``max|u_ref|`` for variables with a physical zero
+(V, gamma, alpha, beta, mu, rates, controls, forces, moments); for the
+datum-dependent ones (x, y, z and ``"position"``: NED origin; chi: north) it is
+the reference's excursion over the window, ``max u_ref - min u_ref``, so that
+the same manoeuvre gives the same percentage wherever and whichever way it is
+flown.  ``delta_pct`` is undefined (NaN) where the scale is at most the floor
+of the variable's kind of quantity (:mod:`harness.metrics.scales`).
 """
 
 from __future__ import annotations
@@ -20,39 +30,14 @@ from gna.errors import InputError
 from gna.eom import STATE_NAMES
 from gna.trajectory import ANGLES, POSITION, UNITS
 
+from .scales import (DATUM_DEPENDENT, DEFAULT_TOLERANCES, PERCENT_FLOORS, REFERENCE_ZERO,  # noqa: F401
+                     percent_floor, percent_scale)
+
 #: Default variables of a table: position, then the 12 states.
 DEFAULT_VARIABLES: tuple[str, ...] = (POSITION,) + STATE_NAMES
 
-#: Cross-engine tolerances for matched physics and smooth controls over 10 s:
-#: 1e-2 m in position, 1e-4 rad in angles; speed and rates get the same relative
-#: scale, 1e-3 m/s and 1e-3 rad/s.
-DEFAULT_TOLERANCES: dict[str, float] = {
-    POSITION: 1e-2, "x": 1e-2, "y": 1e-2, "z": 1e-2, "V": 1e-3,
-    "gamma": 1e-4, "chi": 1e-4, "alpha": 1e-4, "beta": 1e-4, "mu": 1e-4,
-    "p": 1e-3, "q": 1e-3, "r": 1e-3,
-}
-
 #: Comparison windows: name -> duration from t0 [s] (None: the whole span).
 DEFAULT_WINDOWS: dict[str, float | None] = {"first 10 s": 10.0, "whole span": None}
-
-
-#: ``max|u_ref|`` (SI units) taken as zero to rounding by ``delta_pct`` for the kinds of quantity without a
-#: floor in :data:`PERCENT_FLOORS` (pressure, density, load factors, coefficients).
-REFERENCE_ZERO = 1e-9
-
-#: Floors of ``delta_pct`` per kind of quantity (unit -> SI value): where the variable's largest magnitude over
-#: the window is at most its floor, it is no scale for a percentage and ``delta_pct`` is undefined.  Engines are
-#: judged on absolute differences per variable (NESC 6-DoF check-cases, NASA/TM-2015-218675: difference plots;
-#: JSBSim's ``tests/JSBSim_utils.py::FindDifferences``: ``|delta| > tol``): a reference within the absolute
-#: agreement of its kind of zero (y of a straight flight along x, 3e-4 m) is zero at the comparison's
-#: resolution.  Positions, speeds, angles, rates: their tolerances (:data:`DEFAULT_TOLERANCES`).  Forces and
-#: moments (no tolerance): what changes the speed of the lightest aircraft of the catalogue (GTM T2, 26.2 kg)
-#: by the speed tolerance over the 10 s window, 2.6e-3 N, or its roll rate (Ixx = 1.66 kg m^2) by the rate
-#: tolerance, 1.7e-4 N m, each rounded down to its decade.
-PERCENT_FLOORS: dict[str, float] = {
-    "m": DEFAULT_TOLERANCES["x"], "m/s": DEFAULT_TOLERANCES["V"], "rad": DEFAULT_TOLERANCES["alpha"],
-    "rad/s": DEFAULT_TOLERANCES["p"], "N": 1e-3, "N m": 1e-4,
-}
 
 
 @dataclass(frozen=True)
@@ -75,14 +60,18 @@ class DifferenceRow:
     passed : bool or None
     ref_max : float
         Largest absolute value of the reference over the window (the distance
-        from the origin for ``"position"``).
+        from the origin for ``"position"``): the scale of ``rtol``.
     delta_pct : float
-        Relative difference ``100 max|u - u_ref| / max|u_ref|`` [%] over the
-        window; NaN where ``max|u_ref|`` is at most the floor of the variable's
-        kind of quantity (:func:`percent_floor`): a reference within the
-        absolute agreement of its kind of zero is no scale for a percentage.
+        Relative difference ``100 max|u - u_ref| / scale`` [%] over the window;
+        NaN where the scale is at most the floor of the variable's kind of
+        quantity (:func:`percent_floor`): a reference within the absolute
+        agreement of its kind of zero is no scale for a percentage.
     atol, rtol : float or None
         Absolute and relative parts of the tolerance, as given.
+    scale : float
+        Denominator of ``delta_pct`` (:func:`percent_scale`): ``max|u_ref|``,
+        or for x, y, z, ``"position"`` and chi (:data:`DATUM_DEPENDENT`) the
+        reference's excursion over the window, ``max u_ref - min u_ref``.
     """
 
     variable: str
@@ -96,6 +85,7 @@ class DifferenceRow:
     delta_pct: float = float("nan")
     atol: float | None = None
     rtol: float | None = None
+    scale: float = float("nan")
 
 
 @dataclass
@@ -162,12 +152,12 @@ class DifferenceTable:
         Returns
         -------
         pandas.DataFrame
-            Indexed by variable; columns ``unit, max_abs, t_max, rms, delta_pct, ref_max, atol, rtol,
+            Indexed by variable; columns ``unit, max_abs, t_max, rms, delta_pct, scale, ref_max, atol, rtol,
             tolerance, passed``.
         """
         return pd.DataFrame([{"variable": r.variable, "unit": r.unit, "max_abs": r.max_abs, "t_max": r.t_max,
-                              "rms": r.rms, "delta_pct": r.delta_pct, "ref_max": r.ref_max, "atol": r.atol,
-                              "rtol": r.rtol, "tolerance": r.tolerance, "passed": r.passed} for r in self.rows]
+                              "rms": r.rms, "delta_pct": r.delta_pct, "scale": r.scale, "ref_max": r.ref_max,
+                              "atol": r.atol, "rtol": r.rtol, "tolerance": r.tolerance, "passed": r.passed} for r in self.rows]
                             ).set_index("variable")
 
     def format(self) -> str:
@@ -198,8 +188,9 @@ class DifferenceTable:
         else:
             lines.append("  overall: FAIL" + (f" ({', '.join(fails)})" if fails else " (coverage)"))
         floors = dict.fromkeys(f"{percent_floor(r.variable):g} {r.unit}".strip(" -") for r in self.rows)
-        foot = (f"delta = 100 max|diff| / max|reference|, undefined (-) where max|reference| is at most the floor "
-                f"of its kind ({', '.join(floors)})")
+        foot = (f"delta = 100 max|diff| / scale over the window, scale = max|reference| (its excursion max - min "
+                f"for x, y, z, chi; the path's diameter for position), undefined (-) where the scale is at most the "
+                f"floor of its kind ({', '.join(floors)})")
         if any(r.rtol for r in self.rows):
             foot = "tolerance = atol + rtol * max |reference| over the window; " + foot
         lines.append(f"  ({foot})")
@@ -371,31 +362,14 @@ def difference_table(a, b, tolerances=None, *, variables: Sequence[str] | None =
             rms = float(np.sqrt(np.mean(d * d)))
         ref = np.abs(_reference(v, Av))
         ref_max = float(np.max(ref)) if ref.size and not np.any(np.isnan(ref)) else float("nan")
-        pct = 100.0 * mx / ref_max if ref_max > percent_floor(v) else float("nan")
+        scale = percent_scale(v, Av)
+        pct = 100.0 * mx / scale if scale > percent_floor(v) else float("nan")
         a_, r_ = tol.get(v), rel.get(v)
         t_ = None if a_ is None and r_ is None else (a_ or 0.0) + (r_ or 0.0) * (ref_max if ref_max > 0 else 0.0)
         passed = None if t_ is None else bool(np.isfinite(mx) and mx <= t_)
-        rows.append(DifferenceRow(v, UNITS.get(v, ""), mx, rms, tm, t_, passed, ref_max, pct, a_, r_))
+        rows.append(DifferenceRow(v, UNITS.get(v, ""), mx, rms, tm, t_, passed, ref_max, pct, a_, r_, scale))
     return DifferenceTable(rows=rows, labels=tuple(labels), window=(float(tt[0]), float(tt[-1])),
                            samples=int(tt.size), notes=notes)
-
-
-def percent_floor(variable: str) -> float:
-    """The floor of ``max|u_ref|`` above which ``delta_pct`` of a variable is defined.
-
-    Parameters
-    ----------
-    variable : str
-        Column name (:data:`gna.trajectory.UNITS`) or ``"position"``.
-
-    Returns
-    -------
-    float
-        The floor of the variable's kind of quantity (:data:`PERCENT_FLOORS`,
-        in its SI unit), or the rounding floor :data:`REFERENCE_ZERO` for a
-        kind without one (pressure, density, dimensionless).
-    """
-    return PERCENT_FLOORS.get(UNITS.get(variable, ""), REFERENCE_ZERO)
 
 
 def _reference(variable: str, A: Mapping):

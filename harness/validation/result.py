@@ -13,13 +13,22 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..metrics import max_position_error
+from ..metrics import PERCENT_FLOORS, max_position_error
 from .case import ValidationCase
 from .closed import ClosedLoopSetup, saturated_seconds
 from .tolerances import CompareSettings
 
 #: Angles summarised in the verdict.
 ANGLE_STATES: tuple[str, ...] = ("gamma", "chi", "alpha", "beta", "mu")
+
+#: What the verdict's ``delta_pct`` is (:mod:`harness.metrics.scales`), carried in the verdict itself
+#: (``{window}``: the window of the verdict's tables, the whole span unless the windows have none).
+DELTA_PCT_DEFINITION = (
+    "differences.<engine>.delta_pct: informative, not a verdict; per variable, 100 max|b - a| / scale [%] over "
+    "{window}, a = the reference engine; scale = max|a|, or for x, y, z, chi (no physical zero) the "
+    "excursion max(a) - min(a) (for position, the largest distance between two points of a's path); null where "
+    "the scale is at most the floor of its kind (" + ", ".join(f"{v:g} {k}" for k, v in PERCENT_FLOORS.items())
+    + ", 1e-09 otherwise)")
 
 def _runs_report(runs: Mapping, tables: Mapping) -> str:
     """Status and settings of every run, then every difference table."""
@@ -147,8 +156,9 @@ class CaseResult:
             outputs|``), ``max_position_error_after_5s_m``, ``saturated_s``),
             ``differences`` (each engine but the reference -> ``max_position_m``,
             ``max_angle_rad`` over the whole span, ``delta_pct``: the relative
-            difference [%] per variable, NaN where undefined, see
-            :func:`harness.metrics.percent_floor`), ``pass`` (every run completed and every
+            difference [%] per variable over the whole span, NaN where undefined,
+            see :func:`harness.metrics.percent_scale`), ``delta_pct_definition``
+            (:data:`DELTA_PCT_DEFINITION`, naming the window), ``pass`` (every run completed and every
             engine agrees with the reference within the tolerances),
             ``settings`` (the tolerances and settings that made the verdict),
             ``self_convergence`` (JSBSim engine -> ``max_position_m``,
@@ -165,7 +175,13 @@ class CaseResult:
         diffs = {label: dict(_maxima(per), delta_pct={r.variable: r.delta_pct for r in _whole(per).rows})
                  for label, per in self.tables.items()}
         ok = self.passed and all(r.status == "completed" for r in self.runs.values())
-        return {"scenario": self.plan.name, "loop": self.case.loop, "runs": runs, "differences": diffs, "pass": ok,
+        where = "the whole span"
+        for per in self.tables.values():
+            name = "whole span" if "whole span" in per else next(iter(per))
+            where = f"the window {name!r}, t in [{per[name].window[0]:g}, {per[name].window[1]:g}] s"
+            break
+        return {"scenario": self.plan.name, "loop": self.case.loop, "runs": runs, "differences": diffs,
+                "delta_pct_definition": DELTA_PCT_DEFINITION.format(window=where), "pass": ok,
                 "settings": self.settings.to_dict() if self.settings is not None else None,
                 "self_convergence": {label: _maxima(per) for label, per in self.self_convergence.items()}}
 

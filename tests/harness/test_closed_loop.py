@@ -44,7 +44,8 @@ def test_compare_json_contract(tmp_path, capsys):
     code = main(["compare", "twin-otter-single-engine", "--loop", "closed", "--json", "--out", str(tmp_path)])
     d = json.loads(capsys.readouterr().out)
     assert code == 0 and d["pass"] is True
-    assert set(d) == {"scenario", "loop", "runs", "differences", "pass", "settings", "self_convergence"}
+    assert set(d) == {"scenario", "loop", "runs", "differences", "delta_pct_definition", "pass", "settings",
+                      "self_convergence"}
     assert set(d["runs"]) == {"inhouse", "jsbsim"} and set(d["differences"]) == {"jsbsim"}
     assert set(d["runs"]["jsbsim"]) == {"status", "max_position_error_m", "max_position_error_after_5s_m",
                                         "saturated_s"}

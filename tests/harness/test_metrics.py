@@ -37,8 +37,8 @@ def test_table_values_time_of_maximum_and_pass_fail():
     text = tab.format()
     assert "difference other - ref, t in [0, 10] s, 101 samples" in text
     assert "mu" in text and "FAIL" in text and "overall: FAIL (mu)" in text
-    assert set(tab.to_frame().columns) == {"unit", "max_abs", "t_max", "rms", "delta_pct", "ref_max", "atol", "rtol",
-                                           "tolerance", "passed"}
+    assert set(tab.to_frame().columns) == {"unit", "max_abs", "t_max", "rms", "delta_pct", "scale", "ref_max", "atol",
+                                           "rtol", "tolerance", "passed"}
     # Window: the first 5 s only.
     early = difference_table(a, b, window=(0.0, 5.0))
     assert early.passed and early.window == (0.0, 5.0) and early.samples == 51
@@ -154,8 +154,8 @@ def test_informative_table_has_one_overall_line_and_undefined_delta_is_a_dash():
     assert text.count("overall:") == 1 and "overall: - (no tolerances given: informative)" in text
     assert "overall: PASS" not in text
     y_line = next(line for line in text.splitlines() if line.split()[:1] == ["y"])   # max|y_ref| = 0
-    assert "nan" not in y_line and "undefined (-) where max|reference| is at most the floor of its kind " \
-        "(0.01 m, 0.001 m/s, 0.0001 rad, 0.001 rad/s)" in text
+    assert "nan" not in y_line and "undefined (-) where the scale is at most the floor of its kind " \
+        "(0.01 m, 0.001 m/s, 0.0001 rad, 0.001 rad/s)" in text and "max - min for x, y, z, chi" in text
 
 
 def test_delta_is_undefined_where_the_reference_is_zero_to_rounding():
@@ -185,9 +185,49 @@ def test_delta_is_undefined_where_the_reference_is_within_the_agreement_of_its_k
         assert math.isnan(row.delta_pct) and row.max_abs == pytest.approx({"y": 5.1e-6, "z": 1e-5}[name])
     assert tab.row("V").delta_pct == pytest.approx(100 * 0.0105 / 110.0, rel=1e-9)
     assert tab.row("x").delta_pct == 0.0
+    # z is relative to its excursion (max - min): a level flight at altitude has none, a 1.01 cm descent has one
     high = difference_table(_traj(t, z=-1000.0 + 0 * t), _traj(t, z=-1000.0 + 1e-5 + 0 * t), tolerances={})
-    assert high.row("z").delta_pct == pytest.approx(1e-6, rel=1e-6)
-    edge = [difference_table(_traj(t, z=z0 + 0 * t), _traj(t, z=z0 + 1e-5 + 0 * t), tolerances={}).row("z").delta_pct
-            for z0 in (1e-2, 1.01e-2)]
+    assert math.isnan(high.row("z").delta_pct) and high.row("z").ref_max == 1000.0 and high.row("z").scale == 0.0
+    edge = [difference_table(_traj(t, z=-1000.0 + dz * t / 10), _traj(t, z=-1000.0 + dz * t / 10 + 1e-5),
+                             tolerances={}).row("z").delta_pct for dz in (1e-2, 1.01e-2)]
     assert math.isnan(edge[0]) and edge[1] == pytest.approx(100 * 1e-5 / 1.01e-2)
     assert [percent_floor(n) for n in ("V", "alpha", "p", "X", "L", "qbar")] == [1e-3, 1e-4, 1e-3, 1e-3, 1e-4, 1e-9]
+
+
+def _turn(t, *, shift=(0.0, 0.0, 0.0), heading=0.0, error=0.0):
+    """A climbing 90-degree turn from ``shift``, rotated by ``heading`` about the vertical; ``error`` scales a
+    perturbation of the position and heading (the candidate's difference rotates with the manoeuvre)."""
+    R, V = 200.0, 50.0
+    th = V * t / R
+    bump = error * np.sin(t)
+    xl, yl = R * np.sin(th) + 0.3 * bump, R * (1.0 - np.cos(th)) - 0.2 * bump
+    c, s = math.cos(heading), math.sin(heading)
+    return _traj(t, x=shift[0] + c * xl - s * yl, y=shift[1] + s * xl + c * yl, z=shift[2] - 2.0 * t + 0.1 * bump,
+                 chi=np.remainder(heading + th + 1e-3 * bump + math.pi, 2 * math.pi) - math.pi, V=V + 0 * t,
+                 mu=0.3 + 1e-3 * bump)
+
+
+def test_delta_of_datum_dependent_variables_is_the_same_wherever_and_whichever_way_the_manoeuvre_is_flown():
+    # positions and heading have no physical zero: the same turn flown from 1000 m or 10 km, north, east or
+    # across chi = +-pi gives the same percentage (relative to the reference's excursion over the window)
+    t = np.linspace(0.0, 10.0, 201)
+    names = ("position", "x", "y", "z", "chi", "mu")
+
+    def deltas(**where):
+        tab = difference_table(_turn(t, **where), _turn(t, error=1e-2, **where), tolerances={}, variables=names)
+        return {n: tab.row(n).delta_pct for n in names}
+
+    base = deltas()
+    assert all(math.isfinite(v) and v > 0 for v in base.values())
+    for where in ({"shift": (0.0, 0.0, -1000.0)}, {"shift": (5e3, -7e4, -1e4)}, {"heading": math.pi}):
+        assert deltas(**where) == pytest.approx(base, rel=1e-6)
+    east = deltas(heading=math.pi / 2, shift=(0.0, 0.0, -1e4))     # rotated by 90 deg: x and y swap roles
+    assert east["x"] == pytest.approx(base["y"], rel=1e-6) and east["y"] == pytest.approx(base["x"], rel=1e-6)
+    free = ("position", "z", "chi", "mu")                           # any heading: x and y mix, these do not
+    for where in ({"heading": math.pi / 2, "shift": (0.0, 0.0, -1e4)}, {"heading": 2.9, "shift": (1e5, 1e5, -1e4)}):
+        assert {n: deltas(**where)[n] for n in free} == pytest.approx({n: base[n] for n in free}, rel=1e-6)
+    tab = difference_table(_turn(t), _turn(t, error=1e-2), tolerances={}, variables=names)
+    z, mu, pos = tab.row("z"), tab.row("mu"), tab.row("position")
+    assert z.scale == pytest.approx(20.0) and z.delta_pct == pytest.approx(100 * z.max_abs / 20.0)
+    assert mu.scale == mu.ref_max == pytest.approx(0.3)                  # a physical zero keeps max|ref|
+    assert pos.scale == pytest.approx(math.hypot(200.0 * math.sqrt(2 - 2 * math.cos(2.5)), 20.0), rel=1e-9)

@@ -150,4 +150,5 @@ def test_settings_are_on_off_and_an_undefined_delta_is_a_dash(report_run):
     page = (report_run.root / SCENARIO / CASE_FOLDERS["open"] / "case.html").read_text(encoding="utf-8")
     settings = page.split("Comparison settings")[1].split("Provenance")[0]
     assert "FAIL" not in settings and "pass" not in settings
-    assert "undefined (&ndash;) where max |ref| is at most the floor of its kind" in page
+    assert "Undefined (&ndash;) where the scale is at most the floor of its kind" in page
+    assert "excursion max &minus; min over the window for x, y, z and &chi;" in page
