@@ -22,7 +22,7 @@ def _one_line(capsys, code, *args) -> str:
     return err
 
 
-def test_a_kept_page_beside_the_run_is_not_removed(compared, tmp_path, capsys):
+def test_a_kept_page_beside_the_run_is_not_removed(compared, tmp_path, capsys):  # noqa: F811
     """demo/ holds a run and a folder with a kept case.html and no report.json: the page stays."""
     demo = tmp_path / "demo"
     shutil.copytree(compared, demo)
@@ -41,7 +41,7 @@ def test_a_kept_page_beside_the_run_is_not_removed(compared, tmp_path, capsys):
     assert not (demo / "case2").exists() and (kept / "case.html").is_file()
 
 
-def test_a_folder_of_separate_runs_is_refused_naming_them(compared, tmp_path, capsys):
+def test_a_folder_of_separate_runs_is_refused_naming_them(compared, tmp_path, capsys):  # noqa: F811
     w = tmp_path / "w"
     for name in ("a", "b"):
         shutil.copytree(compared, w / name)
@@ -54,7 +54,7 @@ def test_a_folder_of_separate_runs_is_refused_naming_them(compared, tmp_path, ca
     assert "(1 case page(s))" in capsys.readouterr().out
 
 
-def test_a_run_holding_another_run_renders_its_own_cases_only(compared, tmp_path, capsys):
+def test_a_run_holding_another_run_renders_its_own_cases_only(compared, tmp_path, capsys):  # noqa: F811
     run = tmp_path / "run"
     shutil.copytree(compared, run)
     shutil.copytree(compared, run / "inner")               # a run inside (made before the output-folder rules)
@@ -80,7 +80,7 @@ def test_a_root_or_the_home_folder_is_refused(where, tmp_path, monkeypatch, caps
                                          ("NaN", "NaN is not a JSON number"),
                                          ('{"x": NaN}', "NaN is not a JSON number"),
                                          ('{"x":', "invalid JSON: Expecting value")])
-def test_a_bad_saved_file_is_one_line(compared, tmp_path, capsys, name, text, cause):
+def test_a_bad_saved_file_is_one_line(compared, tmp_path, capsys, name, text, cause):  # noqa: F811
     run = tmp_path / "m"
     shutil.copytree(compared, run)
     (run / name).write_text(text)
