@@ -209,7 +209,7 @@ def amending(folder: str | Path) -> Iterator[Path]:
     if not path.is_dir():
         raise InputError(f"{folder} is not a folder")
     path = path.resolve()
-    check_not_root_or_home(path)
+    check_not_root_or_home(path, run=False)
     _probe(path)
     top = run_folder(path)
     locks = []

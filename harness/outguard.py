@@ -168,13 +168,16 @@ def make_folder(path: Path) -> list[Path]:
     return made[::-1]
 
 
-def check_not_root_or_home(path: Path) -> None:
+def check_not_root_or_home(path: Path, run: bool = True) -> None:
     """Refuse a file-system root or the user's home folder itself (its sub-folders are fine).
 
     Parameters
     ----------
     path : Path
         The resolved folder.
+    run : bool
+        The folder is a new run's output folder (the message suggests another ``--out``); else a run's folder
+        to read (``gflat report DIR``).
 
     Raises
     ------
@@ -182,15 +185,21 @@ def check_not_root_or_home(path: Path) -> None:
         One line naming the folder and what to give instead.
     """
     if path == Path(path.anchor):
-        raise InputError(f"output folder {path}: a file-system root is not an output folder (a run removes its "
-                         f"earlier files there); give a folder of its own, e.g. --out ./out")
-    try:
-        home = Path.home().resolve()
-    except (OSError, RuntimeError, KeyError):             # no home folder known
-        return
-    if path == home:
-        raise InputError(f"output folder {path}: your home folder itself is not an output folder (a run removes "
-                         f"its earlier files there); give a folder of its own, e.g. --out ~/gflat-out")
+        what = "a file-system root"
+    else:
+        try:
+            home = Path.home().resolve()
+        except (OSError, RuntimeError, KeyError):         # no home folder known
+            return
+        if path != home:
+            return
+        what = "your home folder itself"
+    if run:
+        eg = "--out ./out" if what.startswith("a file") else "--out ~/gflat-out"
+        raise InputError(f"output folder {path}: {what} is not an output folder (a run removes its earlier files "
+                         f"there); give a folder of its own, e.g. {eg}")
+    raise InputError(f"{path}: {what} is no run's output folder (a run is never written there); give the run's "
+                     f"folder, the --out of gflat paper or gflat compare")
 
 
 def _held(folder: Path) -> bool:

@@ -70,7 +70,7 @@ def test_a_root_or_the_home_folder_is_refused(where, tmp_path, monkeypatch, caps
     monkeypatch.setenv("HOME", str(home))
     target = Path(where).expanduser()
     err = _one_line(capsys, 2, target)
-    assert "is not an output folder" in err
+    assert "is no run's output folder" in err
     assert list(home.iterdir()) == []
 
 
