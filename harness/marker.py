@@ -18,13 +18,14 @@ import contextlib
 import datetime
 import hashlib
 import json
+import os
 from pathlib import Path
 from typing import Iterable, Iterator
 
 from gna.errors import InputError
 
 from .fileio import replacing
-from .outguard import INCOMPLETE, MARKER, FolderLock, _cause, _probe
+from .outguard import INCOMPLETE, MARKER, FolderLock, _cause, _probe, check_not_root_or_home
 
 
 def _sha256(path: Path) -> str:
@@ -141,6 +142,43 @@ def run_folder(folder: Path) -> Path:
     return folder
 
 
+def is_run(folder: Path) -> bool:
+    """Whether ``folder`` holds a run's completion marker or in-progress record.
+
+    Parameters
+    ----------
+    folder : Path
+        A folder.
+
+    Returns
+    -------
+    bool
+    """
+    return (folder / MARKER).is_file() or (folder / INCOMPLETE).is_file()
+
+
+def runs_inside(folder: Path) -> list[Path]:
+    """The run folders below ``folder`` (not ``folder`` itself), the topmost of each branch, sorted.
+
+    Parameters
+    ----------
+    folder : Path
+        A folder.
+
+    Returns
+    -------
+    list of Path
+        Folders holding a completion marker or an in-progress record; symbolic links are not followed.
+    """
+    found = []
+    for here, dirs, files in os.walk(folder):
+        if Path(here) != Path(folder) and (MARKER in files or INCOMPLETE in files):
+            found.append(Path(here))
+            dirs[:] = []
+        dirs.sort()
+    return sorted(found)
+
+
 @contextlib.contextmanager
 def amending(folder: str | Path) -> Iterator[Path]:
     """Hold a run's folder while files are added to it after the run (``gflat report DIR``).
@@ -164,12 +202,14 @@ def amending(folder: str | Path) -> Iterator[Path]:
     Raises
     ------
     InputError
-        ``folder`` is not a folder or takes no files, or another gflat run holds it (one line).
+        ``folder`` is not a folder, is a file-system root or the home folder, takes no files, or another gflat
+        run holds it (one line).
     """
     path = Path(folder).expanduser()
     if not path.is_dir():
         raise InputError(f"{folder} is not a folder")
     path = path.resolve()
+    check_not_root_or_home(path, run=False)
     _probe(path)
     top = run_folder(path)
     locks = []

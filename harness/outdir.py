@@ -48,6 +48,10 @@ __all__ = ["INCOMPLETE", "MARKER", "OutputDir"]
 
 _log = logging.getLogger(__name__)
 
+#: The pages a run's report renders after :meth:`OutputDir.finish` (:mod:`reports.html`: index and case pages,
+#: listed in the marker): removed as stale without mention, the report writes them again (or none, with its case).
+REPORT_PAGES = frozenset(("index.html", "case.html"))
+
 
 class _Record:
     """What a set of OutputDir objects (a root and its sub-folders) share."""
@@ -382,6 +386,7 @@ class OutputDir:
                     stale.unlink()
                     removed.append(rel)
                     remove_empty_folders(stale.parent, root)
+        removed = [rel for rel in removed if Path(rel).name not in REPORT_PAGES]
         if removed:
             _log.warning("%s: removed %d file(s) of the folder's earlier run that this run did not write again (%s)",
                          root, len(removed), ", ".join(removed[:3]) + (", ..." if len(removed) > 3 else ""))

@@ -1,7 +1,7 @@
 """What an output folder must not be, before a run writes there: a root or the home folder, another command's
-run, a folder another run is writing.
+run, a folder inside another run's folder, a folder another run is writing.
 
-Three checks of :class:`harness.outdir.OutputDir`, made before anything is
+Four checks of :class:`harness.outdir.OutputDir`, made before anything is
 computed or written, each refused with one line (:class:`gna.errors.InputError`,
 exit status 2 at the command line):
 
@@ -14,6 +14,12 @@ exit status 2 at the command line):
   marker and the in-progress record name the command that wrote them; a
   record naming none (written by an earlier gflat, or through the Python API)
   is refused to a command that would remove its files;
+* a folder inside another run's folder (a parent folder holds a completion
+  marker or an in-progress record, or is being written by a run): the new
+  files would land among that run's, whose index and marker would show or
+  vouch for them (:func:`check_not_inside_run`).  A run's own sub-folders
+  (the case folders ``gflat paper`` writes) are written through its own
+  :class:`harness.outdir.OutputDir` and are not checked again;
 * a folder another run is writing: the run holds an exclusive ``flock`` on
   the folder itself (no lock file) from the moment the folder is checked to
   the end of the run; the operating system drops it when the process ends,
@@ -27,6 +33,7 @@ import json
 import os
 import stat
 import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -95,10 +102,12 @@ def check_destination(path: Path, parents: bool = False) -> None:
     Raises
     ------
     InputError
-        ``path`` is a root (``/``, a drive) or the home folder, a file, has
+        ``path`` is a root (``/``, a drive) or the home folder, lies inside another run's folder
+        (:func:`check_not_inside_run`), is a file, has
         no parent folder, or it (or its nearest existing folder) cannot be written.
     """
-    _not_root_or_home(path)
+    check_not_root_or_home(path)
+    check_not_inside_run(path)
     if path.exists() and not path.is_dir():
         raise InputError(f"output folder {path}: a file of that name exists (not a folder)")
     if path.exists():
@@ -202,17 +211,110 @@ def make_folder(path: Path) -> list[Path]:
     return made[::-1]
 
 
-def _not_root_or_home(path: Path) -> None:
+def check_not_root_or_home(path: Path, run: bool = True) -> None:
+    """Refuse a file-system root or the user's home folder itself (its sub-folders are fine).
+
+    Parameters
+    ----------
+    path : Path
+        The resolved folder.
+    run : bool
+        The folder is a new run's output folder (the message suggests another ``--out``); else a run's folder
+        to read (``gflat report DIR``).
+
+    Raises
+    ------
+    InputError
+        One line naming the folder and what to give instead.
+    """
     if path == Path(path.anchor):
-        raise InputError(f"output folder {path}: a file-system root is not an output folder (a run removes its "
-                         f"earlier files there); give a folder of its own, e.g. --out ./out")
+        what = "a file-system root"
+    else:
+        try:
+            home = Path.home().resolve()
+        except (OSError, RuntimeError, KeyError):         # no home folder known
+            return
+        if path != home:
+            return
+        what = "your home folder itself"
+    if run:
+        eg = "--out ./out" if what.startswith("a file") else "--out ~/gflat-out"
+        raise InputError(f"output folder {path}: {what} is not an output folder (a run removes its earlier files "
+                         f"there); give a folder of its own, e.g. {eg}")
+    raise InputError(f"{path}: {what} is no run's output folder (a run is never written there); give the run's "
+                     f"folder, the --out of gflat paper or gflat compare")
+
+
+def _held(folder: Path) -> bool:
+    """Whether a gflat run holds ``folder``'s lock now (probed with a shared lock, released at once)."""
+    if fcntl is None:  # pragma: no cover - Windows
+        return False
     try:
-        home = Path.home().resolve()
-    except (OSError, RuntimeError, KeyError):             # no home folder known
-        return
-    if path == home:
-        raise InputError(f"output folder {path}: your home folder itself is not an output folder (a run removes "
-                         f"its earlier files there); give a folder of its own, e.g. --out ~/gflat-out")
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except OSError as exc:
+        return exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES)
+    else:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return False
+    finally:
+        os.close(fd)
+
+
+def enclosing_run(path: Path) -> tuple[Path, str] | None:
+    """The nearest parent folder of ``path`` that is another run's: it holds a completion marker or an
+    in-progress record, or a gflat run is writing it.
+
+    Parameters
+    ----------
+    path : Path
+        A resolved folder (existing or not); only its parents are looked at.
+
+    Returns
+    -------
+    (Path, str) or None
+        The parent folder and what makes it a run's (``"a complete run of 'gflat paper'"``,
+        ``"an interrupted run"``, ``"a running gflat"``), or None.
+    """
+    for folder in path.parents:
+        if not folder.is_dir():
+            continue
+        complete, interrupted = (folder / MARKER).is_file(), (folder / INCOMPLETE).is_file()
+        if complete or interrupted:
+            prev = previous_run(folder)
+            what = "a complete run" if complete and not interrupted else "an interrupted (or running) run"
+            return folder, what + (f" of 'gflat {prev.command}'" if prev.command else "")
+        if _held(folder):
+            return folder, "a gflat run writing it now"
+    return None
+
+
+def check_not_inside_run(path: Path) -> None:
+    """Refuse an output folder inside another run's folder (:func:`enclosing_run`).
+
+    A run writing into another run's case folders would have its files shown
+    by that run's index and vouched for by its marker (or removed by its next
+    run); a run's own sub-folders are written through its own
+    :class:`harness.outdir.OutputDir` and never come here.
+
+    Parameters
+    ----------
+    path : Path
+        The resolved output folder.
+
+    Raises
+    ------
+    InputError
+        One line naming the folder, the run's folder and what to do.
+    """
+    found = enclosing_run(path)
+    if found is not None:
+        folder, what = found
+        raise InputError(f"output folder {path} lies inside {folder}, the folder of {what}: a new run there "
+                         f"would mix its files with that run's; give a folder outside it with --out")
 
 
 @dataclass
@@ -307,6 +409,22 @@ def check_previous(root: Path, prev: PreviousRun, command: str | None, clean: bo
                          f"write again ({_few(present)}): {_ADVICE}")
 
 
+#: Tries of :class:`FolderLock` (10 ms apart) before a held folder is refused: another run's
+#: :func:`check_not_inside_run` holds a parent folder's lock (shared) for an instant.
+LOCK_TRIES = 20
+
+
+def _lock_now(fd: int) -> None:
+    for attempt in range(LOCK_TRIES):
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return
+        except OSError as exc:
+            if exc.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES) or attempt == LOCK_TRIES - 1:
+                raise
+            time.sleep(0.01)
+
+
 class FolderLock:
     """An exclusive lock on a folder for the duration of a run (``flock`` on the folder itself, no lock file).
 
@@ -341,7 +459,7 @@ class FolderLock:
         except OSError:                                   # a folder that cannot be opened is not locked
             return
         try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            _lock_now(fd)
         except OSError as exc:
             os.close(fd)
             if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):

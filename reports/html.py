@@ -20,9 +20,11 @@ from pathlib import Path
 
 from gna.errors import InputError
 from harness.fileio import remove_empty_folders
+from harness.marker import record_in_marker, run_folder
 from harness.outdir import MARKER
+from harness.outguard import previous_run
 
-from .model import REPORT_JSON, load_case_models, write_text_atomic
+from .model import REPORT_JSON, load_case_models, read_json_object, run_files, write_text_atomic
 
 #: Page of each case, in its case folder; the run's index and single-file report at the top.
 CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE = "case.html", "index.html", "report.html", "report.pdf"
@@ -160,7 +162,7 @@ def _case_view(root: Path, folder: Path, model: dict, page_dir: Path, embed: boo
 
 def _manifest(root: Path):
     p = root / "manifest.json"
-    return json.loads(p.read_text(encoding="utf-8")) if p.is_file() else None
+    return read_json_object(p, "a gflat run manifest") if p.is_file() else None
 
 
 def _run_order(cases: list, manifest) -> list:
@@ -327,19 +329,26 @@ def document_parts(run_dir: str | Path, parts: int, *, date: str | None = None) 
             for i, (a, b) in enumerate(zip(starts, starts[1:]))]
 
 
-def _remove_orphan_pages(root: Path) -> None:
-    """Remove the case pages of an earlier rendering whose case is gone (a rerun flew fewer cases)."""
-    for page in list(root.rglob(CASE_PAGE)):     # listed first: emptied folders are removed on the way
+def _orphan_pages(root: Path) -> list[Path]:
+    """The case pages of an earlier rendering whose case is gone (a rerun flew fewer cases): only pages the run's
+    marker or in-progress record lists (this rendering's or the run's own), never a page the user keeps."""
+    top = run_folder(root.resolve())
+    pages = []
+    for rel in previous_run(top).files:
+        page = top / rel
+        if page.name != CASE_PAGE or not page.resolve().is_relative_to(root.resolve()) or not page.is_file():
+            continue
         if not (page.parent / REPORT_JSON).exists() and GENERATOR in page.read_text(encoding="utf-8",
                                                                                      errors="replace")[:2000]:
-            page.unlink()
-            remove_empty_folders(page.parent, root)       # the case folder it leaves empty goes too
+            pages.append(page)
+    return pages
 
 
 def _older_than_models(pdf: Path, root: Path) -> bool:
     """Whether ``pdf`` was printed before some case's saved model (``report.json``) was last written."""
     stamp = pdf.stat().st_mtime
-    return any(m.stat().st_mtime > stamp for m in root.rglob(REPORT_JSON))
+    return any(m.stat().st_mtime > stamp for m in run_files(root, REPORT_JSON))
+
 
 def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool = True,
                date: str | None = None, jobs: int = 1) -> dict[str, Path]:
@@ -374,7 +383,10 @@ def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool =
     root = Path(run_dir)
     date = date or render_date()
     docs = render_documents(root, date=date, embed=self_contained)
-    _remove_orphan_pages(root)
+    orphans = _orphan_pages(root)
+    for page in orphans:
+        page.unlink()
+        remove_empty_folders(page.parent, root)           # the case folder it leaves empty goes too
     for path, text in docs.items():
         write_text_atomic(path, text)
     out = {"index": root / INDEX_PAGE, "pages": [p for p in docs if p.name == CASE_PAGE]}
@@ -388,4 +400,9 @@ def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool =
     elif (root / PDF_FILE).is_file() and _older_than_models(root / PDF_FILE, root):
         (root / PDF_FILE).unlink()                        # printed from results that have been replaced since
         out["removed_pdf"] = root / PDF_FILE
+    # the pages join the run's files (its marker or in-progress record): the run's command, run again there,
+    # replaces or removes them as its own, and a later rendering removes only pages listed there
+    written = [*docs, *([out["pdf"]] if "pdf" in out else [])]
+    record_in_marker(run_folder(root.resolve()), written, removed=[*orphans, *([out["removed_pdf"]]
+                                                                             if "removed_pdf" in out else [])])
     return out

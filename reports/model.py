@@ -13,11 +13,12 @@ case folder, from which :mod:`reports.html` renders, now or later.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
-
 
 from gna.errors import InputError
 from harness.fileio import json_safe as _json_safe, replacing
+from harness.outguard import INCOMPLETE, MARKER
 from planners.scenario import load_scenario
 
 from .report_figures import (CONTROLS_LIMITS_PNG, SIGNED_DIFFERENCES_PNG, control_limits,
@@ -216,6 +217,77 @@ def write_case_report(result, out, *, figures=(), scenario=None) -> Path:
     return write_text_atomic(Path(out) / REPORT_JSON, text)
 
 
+def _no_constant(name: str):
+    raise ValueError(f"{name} is not a JSON number")
+
+
+def read_json_object(path: str | Path, what: str) -> dict:
+    """Read a JSON object a run saved (``report.json``, ``manifest.json``), refusing anything else in one line.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str
+        What it should be, for the message (``"a gflat report model"``).
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    InputError
+        ``<path>: not <what> (<cause>)``: unreadable, invalid or truncated JSON, a ``NaN`` or ``Infinity``
+        (not JSON), or a JSON value that is not an object.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read it: {getattr(exc, 'strerror', None) or exc}") from None
+    try:
+        obj = json.loads(text, parse_constant=_no_constant)
+    except ValueError as exc:
+        cause = f"invalid JSON: {exc}" if not str(exc).endswith("not a JSON number") else str(exc)
+        raise InputError(f"{path}: not {what} ({cause})") from None
+    except RecursionError:
+        raise InputError(f"{path}: not {what} (invalid JSON: nested too deeply)") from None
+    if not isinstance(obj, dict):
+        kind = {list: "array", str: "string", bool: "boolean", type(None): "null"}.get(type(obj), "number")
+        raise InputError(f"{path}: not {what} (a JSON {kind}, not an object)")
+    return obj
+
+
+def run_files(root: str | Path, name: str) -> list[Path]:
+    """The files called ``name`` under a run folder, not those of another run in a sub-folder (one holding
+    its own completion marker or in-progress record).
+
+    Parameters
+    ----------
+    root : str or Path
+        A run folder.
+    name : str
+        File name (``"report.json"``).
+
+    Returns
+    -------
+    list of Path
+        In a stable order (sorted); symbolic links to folders are not followed.
+    """
+    root = Path(root)
+    found = []
+    for folder, dirs, files in os.walk(root):
+        here = Path(folder)
+        if here != root and (MARKER in files or INCOMPLETE in files):
+            dirs[:] = []                                  # a run of its own: not this run's
+            continue
+        dirs.sort()
+        if name in files:
+            found.append(here / name)
+    return found
+
+
 def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:
     """The saved case models under a run folder, in a stable order (scenario folder, then open before closed).
 
@@ -232,20 +304,14 @@ def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:
     Raises
     ------
     InputError
-        A ``report.json`` that cannot be read, is not JSON or lacks a key the
-        pages need (naming the file and the cause).
+        A ``report.json`` that cannot be read, is not a JSON object (:func:`read_json_object`) or lacks a key
+        the pages need (naming the file and the cause).  Those of another run in a sub-folder are not read
+        (:func:`run_files`).
     """
     root = Path(run_dir)
     found = []
-    for p in root.rglob(REPORT_JSON):
-        try:
-            model = json.loads(p.read_text(encoding="utf-8"))
-        except OSError as exc:
-            raise InputError(f"{p}: cannot read it: {exc.strerror or exc}") from None
-        except ValueError as exc:
-            raise InputError(f"{p}: not a gflat report model (invalid JSON: {exc})") from None
-        if not isinstance(model, dict):
-            raise InputError(f"{p}: not a gflat report model (a JSON {type(model).__name__}, not an object)")
+    for p in run_files(root, REPORT_JSON):
+        model = read_json_object(p, "a gflat report model")
         bad = [k for k, t in MODEL_KEYS.items() if not isinstance(model.get(k), t)]
         if bad:
             raise InputError(f"{p}: not a gflat report model (missing or wrong type: {', '.join(bad)}); "

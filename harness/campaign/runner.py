@@ -20,6 +20,7 @@ import json
 import logging
 import os
 import re
+import shutil
 import sys
 import threading
 import time
@@ -101,13 +102,23 @@ def _distributed():
 CONNECT_MARGIN_S = 5.0
 
 
-def _connect(where, timeout: float):
-    """A Dask client for ``where`` (:func:`parse_dask`) and the LocalCluster started for it (or None)."""
+#: Scratch folder of a ``--dask local:N`` cluster (its workers' and scheduler's work folders and lock files), in
+#: the campaign folder rather than Dask's default ``<tmp>/dask-scratch-space``; removed when the cluster ends.
+DASK_SCRATCH = ".dask-scratch"
+
+
+def _connect(where, timeout: float, scratch: Path | None = None):
+    """A Dask client for ``where`` (:func:`parse_dask`) and the LocalCluster started for it (or None); a local
+    cluster keeps its scratch files in ``scratch`` (Dask's ``temporary-directory``: by default, ``/tmp``)."""
     Client, LocalCluster = _distributed().Client, _distributed().LocalCluster
     kind, arg = where
     if kind == "local":
-        cluster = LocalCluster(n_workers=arg, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR)
+        import dask
+
+        local = {} if scratch is None else {"local_directory": str(scratch)}
+        with dask.config.set({"temporary-directory": str(scratch)} if scratch is not None else {}):
+            cluster = LocalCluster(n_workers=arg, threads_per_worker=1, processes=True, dashboard_address=None,
+                                   silence_logs=logging.ERROR, **local)
         return Client(cluster), cluster
     # In a thread of its own, waited for at most the timeout and a margin: a server that is not a Dask
     # scheduler may accept the connection and never answer (Dask's timeout does not cover the handshake),
@@ -183,14 +194,15 @@ def _dask_logs():
         dlog.setLevel(saved)
 
 
-def _dask(tasks, where, commit, client=None, timeout: float = DASK_TIMEOUT_S):
-    """Run tasks on a Dask cluster: ``client`` (connected and closed by the caller), else one started here."""
+def _dask(tasks, where, commit, client=None, timeout: float = DASK_TIMEOUT_S, scratch: Path | None = None):
+    """Run tasks on a Dask cluster: ``client`` (connected and closed by the caller), else one started here (a
+    local cluster's scratch files in ``scratch``, removed at the end)."""
     dask_completed = _distributed().as_completed
     own, cluster = client is None, None
     with _dask_logs():
         try:
             if own:
-                client, cluster = _connect(where, timeout)
+                client, cluster = _connect(where, timeout, scratch)
             futures = {client.submit(run_sample, t, key=f"gflat-{t.case_id}", pure=False): t for t in tasks}
             for fut in dask_completed(list(futures)):
                 try:
@@ -205,6 +217,8 @@ def _dask(tasks, where, commit, client=None, timeout: float = DASK_TIMEOUT_S):
                 client.close()
             if cluster is not None:
                 cluster.close()
+            if own and scratch is not None:
+                shutil.rmtree(scratch, ignore_errors=True)
 
 
 def run_campaign(campaign: Campaign | str | Path, out: str | Path, *, samples: int | None = None,
@@ -366,7 +380,7 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
         if not todo:
             pass
         elif where is not None:
-            _dask(todo, where, commit, client)
+            _dask(todo, where, commit, client, scratch=store.root / DASK_SCRATCH)
         elif (workers or os.cpu_count() or 1) == 1:
             for t in todo:
                 commit(run_sample(t))

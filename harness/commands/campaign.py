@@ -107,10 +107,12 @@ def status(args) -> int:
 
 def report(args) -> int:
     from harness.campaign.report import write_report
+    from harness.marker import amending
     from reports.campaign import render_campaign
     _store(args.dir).close()
-    summary, rows, paths = write_report(args.dir)
-    pages = render_campaign(args.dir, summary, rows, pdf=not args.no_pdf)
+    with amending(args.dir):                  # refused while a campaign run writes the folder, and held meanwhile
+        summary, rows, paths = write_report(args.dir)
+        pages = render_campaign(args.dir, summary, rows, pdf=not args.no_pdf)
     paths += [pages["index"], *pages["pages"]] + ([pages["pdf"]] if "pdf" in pages else [])
     print(f"campaign report: {pages['index']} ({len(paths)} files)")
     return 0

@@ -362,3 +362,46 @@ def test_a_campaign_into_a_run_of_an_earlier_gflat_keeps_that_runs_files_listed(
     capsys.readouterr()
     assert main(["plan", "gtm-aileron-roll", "--out", str(old)]) == 2  # never removed by another command either
     assert f"output folder {old} holds a complete run of 'gflat campaign' (3 files)" in capsys.readouterr().err
+
+
+_CAMPAIGN_HOLDER = r'''
+import sys
+from harness.outguard import FolderLock
+from pathlib import Path
+lock = FolderLock(Path(sys.argv[1]))
+print("holding", flush=True)
+sys.stdin.readline()
+'''
+
+
+def test_the_report_of_a_campaign_being_written_is_refused(inline, tmp_path):
+    """``gflat campaign report K`` while ``gflat campaign run --out K`` runs: one line, exit 2, nothing written."""
+    import shutil
+    folder = tmp_path / "K"
+    shutil.copytree(inline, folder)
+    before = sorted(p for p in folder.rglob("*"))
+    holder = subprocess.Popen([sys.executable, "-c", _CAMPAIGN_HOLDER, str(folder)], cwd=ROOT, stdin=subprocess.PIPE,
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline() == "holding\n"
+        out = subprocess.run([sys.executable, "-m", "harness.cli", "campaign", "report", str(folder), "--no-pdf"],
+                             cwd=ROOT, capture_output=True, text=True, timeout=120)
+    finally:
+        holder.communicate("\n", timeout=60)
+    assert out.returncode == 2, out.stderr
+    assert out.stderr == (f"gflat campaign: error: output folder {folder} is in use by another gflat run (it holds "
+                          f"the folder until it ends): wait for it to end\n")
+    assert sorted(p for p in folder.rglob("*")) == before
+
+
+def test_a_local_dask_cluster_keeps_its_scratch_files_in_the_campaign_folder(tmp_path):
+    pytest.importorskip("distributed")
+    tmp = tmp_path / "tmp"                                 # Dask's default scratch folder: $TMPDIR/dask-scratch-space
+    tmp.mkdir()
+    out = tmp_path / "camp"
+    res = subprocess.run([sys.executable, "-m", "harness.cli", "campaign", "run", str(TINY), "--out", str(out),
+                          "--samples", "1", "--dask", "local:1", "--quiet"], cwd=ROOT, capture_output=True, text=True,
+                         timeout=300, env={**os.environ, "TMPDIR": str(tmp)})
+    assert res.returncode == 0, res.stderr
+    assert list(tmp.iterdir()) == []                       # nothing outside the campaign folder
+    assert not (out / ".dask-scratch").exists()            # removed when the cluster ended
