@@ -25,7 +25,8 @@ from typing import Iterable, Iterator
 from gna.errors import InputError
 
 from .fileio import replacing
-from .outguard import INCOMPLETE, MARKER, FolderLock, _cause, _probe, check_not_root_or_home
+from .folderlock import FolderLock
+from .outguard import INCOMPLETE, MARKER, _cause, _probe, check_not_root_or_home
 
 
 def _sha256(path: Path) -> str:

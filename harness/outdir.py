@@ -40,8 +40,9 @@ import numpy as np
 from gna.errors import InputError
 
 from .fileio import json_safe, remove_empty_folders, replacing
+from .folderlock import FolderLock
 from .marker import earlier_files, file_entry, write_marker
-from .outguard import (INCOMPLETE, MARKER, FolderLock, _cause, check_destination, check_previous, make_folder,
+from .outguard import (INCOMPLETE, MARKER, _cause, check_destination, check_previous, make_folder,
                        previous_run)
 
 __all__ = ["INCOMPLETE", "MARKER", "OutputDir"]

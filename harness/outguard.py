@@ -33,18 +33,12 @@ import json
 import os
 import stat
 import tempfile
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from gna.errors import InputError
 
-from .fileio import remove_empty_folders
-
-try:                                                      # POSIX; elsewhere folders are not locked
-    import fcntl
-except ImportError:  # pragma: no cover - Windows
-    fcntl = None
+from .folderlock import is_held
 
 #: Name of the completion marker written by :meth:`harness.outdir.OutputDir.finish`.
 MARKER = ".gflat-complete.json"
@@ -159,26 +153,17 @@ def check_output_file(path: Path) -> None:
         link = "a symbolic link to " if path.is_symlink() else ""
         raise InputError(f"cannot write {path}: it is {link}{kind}, not a regular file (it would be replaced "
                          f"by one): give the path of a new or regular file")
-    run = _run_holding(path.parent)
-    if run is not None:
-        command = previous_run(run).command
-        who = f"'gflat {command}'" if command else "gflat (its marker names no command)"
-        raise InputError(f"cannot write {path}: {run} is the folder of a run of {who}, which holds that run's "
+    try:
+        found = enclosing_run(path.resolve())
+    except (OSError, RuntimeError):                       # a loop of links: the probe write names it
+        found = None
+    if found is not None:
+        raise InputError(f"cannot write {path}: {found[0]} is the folder of {found[1]}, which holds that run's "
                          f"files only: give a path outside it")
     try:
         _write_probe(path.parent)
     except OSError as exc:
         raise InputError(f"cannot write {path}: {_cause(exc)}") from None
-
-
-def _run_holding(folder: Path) -> Path | None:
-    """The run folder (completion marker or in-progress record) ``folder`` is or lies in, None if none."""
-    try:
-        folder = folder.resolve()
-    except (OSError, RuntimeError):                       # a loop of links: the probe write names it
-        return None
-    return next((d for d in (folder, *folder.parents) if (d / MARKER).is_file() or (d / INCOMPLETE).is_file()),
-                None)
 
 
 def make_folder(path: Path) -> list[Path]:
@@ -245,25 +230,6 @@ def check_not_root_or_home(path: Path, run: bool = True) -> None:
                      f"folder, the --out of gflat paper or gflat compare")
 
 
-def _held(folder: Path) -> bool:
-    """Whether a gflat run holds ``folder``'s lock now (probed with a shared lock, released at once)."""
-    if fcntl is None:  # pragma: no cover - Windows
-        return False
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return False
-    try:
-        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-    except OSError as exc:
-        return exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES)
-    else:
-        fcntl.flock(fd, fcntl.LOCK_UN)
-        return False
-    finally:
-        os.close(fd)
-
-
 def enclosing_run(path: Path) -> tuple[Path, str] | None:
     """The nearest parent folder of ``path`` that is another run's: it holds a completion marker or an
     in-progress record, or a gflat run is writing it.
@@ -287,7 +253,7 @@ def enclosing_run(path: Path) -> tuple[Path, str] | None:
             prev = previous_run(folder)
             what = "a complete run" if complete and not interrupted else "an interrupted (or running) run"
             return folder, what + (f" of 'gflat {prev.command}'" if prev.command else "")
-        if _held(folder):
+        if is_held(folder):
             return folder, "a gflat run writing it now"
     return None
 
@@ -407,78 +373,3 @@ def check_previous(root: Path, prev: PreviousRun, command: str | None, clean: bo
         raise InputError(f"output folder {root} holds {what} whose marker names no command (an earlier gflat, "
                          f"or the Python API): {me} would remove those of its {len(present)} files it does not "
                          f"write again ({_few(present)}): {_ADVICE}")
-
-
-#: Tries of :class:`FolderLock` (10 ms apart) before a held folder is refused: another run's
-#: :func:`check_not_inside_run` holds a parent folder's lock (shared) for an instant.
-LOCK_TRIES = 20
-
-
-def _lock_now(fd: int) -> None:
-    for attempt in range(LOCK_TRIES):
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            return
-        except OSError as exc:
-            if exc.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES) or attempt == LOCK_TRIES - 1:
-                raise
-            time.sleep(0.01)
-
-
-class FolderLock:
-    """An exclusive lock on a folder for the duration of a run (``flock`` on the folder itself, no lock file).
-
-    Released by :meth:`release` in the process that took it (the forked workers of a run share the lock
-    and never release it), else by the operating system when that process ends.
-
-    Parameters
-    ----------
-    path : Path
-        An existing folder.
-    created : list of Path, optional
-        Folders the run made for it (deepest first), removed at :meth:`release` while still empty.
-    advice : str, optional
-        What the refusal tells the user to do (commands without ``--out`` say only to wait).
-
-    Raises
-    ------
-    InputError
-        Another process holds the folder's lock (one line naming the folder).
-    """
-
-    def __init__(self, path: Path, created: list[Path] | None = None,
-                 advice: str = "wait for it to end, or give another folder with --out"):
-        self.path = path
-        self.created = list(created or ())
-        self.pid = os.getpid()
-        self.fd: int | None = None
-        if fcntl is None:  # pragma: no cover - Windows
-            return
-        try:
-            fd = os.open(path, os.O_RDONLY)               # not inherited by programs the run starts (O_CLOEXEC)
-        except OSError:                                   # a folder that cannot be opened is not locked
-            return
-        try:
-            _lock_now(fd)
-        except OSError as exc:
-            os.close(fd)
-            if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
-                raise InputError(f"output folder {path} is in use by another gflat run (it holds the folder "
-                                 f"until it ends): {advice}") from None
-            return                                        # a file system without flock: not locked
-        self.fd = fd
-
-    def release(self) -> None:
-        """Release the lock and remove the folders made for the run while empty (only in the process that took
-        it; again: nothing)."""
-        if os.getpid() != self.pid:
-            return
-        fd, self.fd = self.fd, None
-        if fd is not None:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_UN)            # also for the copies forked workers still hold
-            finally:
-                os.close(fd)
-        if self.created:                                  # nothing written: nothing left (deepest first, a chain)
-            remove_empty_folders(self.created[0], self.created[-1].parent)
-        self.created = []

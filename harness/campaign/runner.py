@@ -31,8 +31,9 @@ from pathlib import Path
 from gna.errors import InputError
 
 from ..fileio import replacing
+from ..folderlock import FolderLock
 from ..marker import earlier_files, file_entry, write_marker
-from ..outguard import INCOMPLETE, MARKER, FolderLock, check_destination, check_previous, make_folder, previous_run
+from ..outguard import INCOMPLETE, MARKER, check_destination, check_previous, make_folder, previous_run
 from ..validation import provenance
 from .execute import run_sample
 from .spec import Campaign, load_campaign

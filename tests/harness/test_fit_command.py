@@ -111,10 +111,11 @@ def test_a_file_into_a_runs_folder_is_refused(tmp_path, no_fit, capsys, record):
         marker.update({"command": "paper"} if record == "complete" else {})
         (run / ".gflat-complete.json").write_text(json.dumps(marker))
     before = {p: p.read_bytes() for p in run.rglob("*") if p.is_file()}
-    who = "gflat (its marker names no command)" if record == "no command" else "'gflat paper'"
+    what = {"complete": "a complete run of 'gflat paper'", "no command": "a complete run",
+            "interrupted": "an interrupted (or running) run of 'gflat paper'"}[record]
     for out in (run / "manifest.json", run / "case" / "x.toml"):
         err = _one_line(capsys, main(["fit", "gtm", "--out", str(out)]))
-        assert err == (f"gflat fit: error: cannot write {out}: {run} is the folder of a run of {who}, which holds "
+        assert err == (f"gflat fit: error: cannot write {out}: {run} is the folder of {what}, which holds "
                        f"that run's files only: give a path outside it\n")
     assert {p: p.read_bytes() for p in run.rglob("*") if p.is_file()} == before
 

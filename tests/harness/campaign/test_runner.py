@@ -259,7 +259,7 @@ def test_the_campaign_folder_is_guarded_like_every_output_folder(inline, tmp_pat
     assert sorted(p.name for p in paper.iterdir()) == [".gflat-complete.json", "summary.json"]
     with pytest.raises(InputError, match="file-system root"):
         run_campaign(TINY, "/", workers=1, quiet=True)
-    from harness.outguard import FolderLock
+    from harness.folderlock import FolderLock
     held = FolderLock(inline)
     try:
         with pytest.raises(InputError, match="in use by another gflat run"):
@@ -366,7 +366,7 @@ def test_a_campaign_into_a_run_of_an_earlier_gflat_keeps_that_runs_files_listed(
 
 _CAMPAIGN_HOLDER = r'''
 import sys
-from harness.outguard import FolderLock
+from harness.folderlock import FolderLock
 from pathlib import Path
 lock = FolderLock(Path(sys.argv[1]))
 print("holding", flush=True)
