@@ -118,6 +118,7 @@ import json  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
 from dataclasses import dataclass  # noqa: E402
+from pathlib import Path  # noqa: E402
 from typing import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -827,7 +828,10 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
                     "graphs_max_control_difference": spread,
                     "times": {g: {k: [] for k in ("guess", "build", "solve", "scratch", "resolve")} for g in graphs}})
         grids[f] = row
-        log(f"  {gname}: grid {f:g} x step: {prob.n_intervals} intervals, accuracy {acc:.3g} m, {sol.status}, "
+        # A NaN accuracy: the solution's points or its open-loop flight leave the domain (_grid_note's words).
+        acc_text = (f"{acc:.3g} m" if np.isfinite(acc) else
+                    "n/a (solution outside the domain)" if sol.domain else "n/a (open loop leaves the domain)")
+        log(f"  {gname}: grid {f:g} x step: {prob.n_intervals} intervals, accuracy {acc_text}, {sol.status}, "
             f"{sol.iterations} iterations" + (f"; solution outside the domain: {sol.domain}" if sol.domain else ""))
 
     by_guess: dict[str, dict] = {}
@@ -1034,13 +1038,105 @@ def markdown_table(results: list) -> str:
     return "\n".join(lines)
 
 
+#: Largest number of planner nodes or collocation intervals a grid may have (``--step``, ``--factors``).
+MAX_NODES = 10000
+
+
+def _positive_factors(text: str) -> list[float]:
+    """``--factors``: a nonempty comma-separated list of positive finite numbers."""
+    parts = [v.strip() for v in text.split(",")]
+    try:
+        values = [float(v) for v in parts]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"positive numbers separated by commas, got {text!r}") from None
+    if not values or not all(np.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"positive finite numbers separated by commas, got {text!r}")
+    return values
+
+
+def _check_writable(ap, flag: str, path: str | None) -> None:
+    """An output file that can be written: its folder exists, it is not a folder, a probe opens it."""
+    if path is None:
+        return
+    p = Path(path)
+    if not path.strip() or p.is_dir():
+        ap.error(f"{flag}: {path!r} is a folder or empty; give a file")
+    if not p.parent.is_dir():
+        ap.error(f"{flag}: the folder {str(p.parent)!r} of {path!r} does not exist")
+    existed = p.exists()
+    try:
+        with open(p, "a", encoding="utf-8"):
+            pass
+    except OSError as exc:
+        where = "" if existed else f" (no new file can be made in {str(p.parent)!r})"
+        ap.error(f"{flag}: cannot write {path!r}{where}: {exc.strerror or exc}")
+    if not existed:
+        p.unlink(missing_ok=True)
+
+
+def _check_arguments(ap, args):
+    """Every argument checked before any work (one usage line, exit 2); returns J and the graphs."""
+    from planners.flat import MAX_J
+    from planners.generalized import MAX_E
+    from planners.scenario import load_scenario
+
+    J = args.J
+    if J is not None and J != "auto":
+        if not J.isdigit() or int(J) > MAX_J:
+            ap.error(f"--J: a whole number from 0 to {MAX_J} or auto, got {J!r}")
+        J = int(J)
+    if args.e is not None and not 0 <= args.e <= MAX_E:
+        ap.error(f"--e: a whole number from 0 to {MAX_E} (the planner's largest output order), got {args.e!r}")
+    if args.repeat < 1:
+        ap.error(f"--repeat: at least 1, got {args.repeat}")
+    graphs = tuple(v.strip() for v in args.graphs.split(","))
+    if not graphs or any(g not in ("MX", "SX") for g in graphs):
+        ap.error(f"--graphs: MX, SX or MX,SX, got {args.graphs!r}")
+    if args.step is not None and not (np.isfinite(args.step) and args.step > 0):
+        ap.error(f"--step: a positive number of seconds, got {args.step!r}")
+    for name in args.scenarios:
+        try:
+            sc = load_scenario(name)
+        except Exception as exc:        # noqa: BLE001 -- the scenario loader's one-line error, as a usage error
+            ap.error(f"--scenarios: {name}: {exc}")
+        span = sc.t1 - sc.t0
+        step = sc.step if args.step is None else args.step
+        if args.step is not None:
+            nodes = span / step
+            if step > span:
+                ap.error(f"--step: {step:g} s is longer than the {span:g} s span of {sc.name}")
+            if abs(nodes - round(nodes)) > 1e-9 * nodes:
+                ap.error(f"--step: {step:g} s does not divide the {span:g} s span of {sc.name} "
+                         f"({nodes:.6g} steps); give a divisor")
+            if nodes > MAX_NODES:
+                ap.error(f"--step: {step:g} s makes {nodes:.3g} nodes over the {span:g} s span of {sc.name}, "
+                         f"above {MAX_NODES}")
+        factors = [8.0] if args.quick else args.factors
+        worst = max(span / (step * f) for f in factors)
+        if worst > MAX_NODES:
+            ap.error(f"--factors: {min(factors):g} x the {step:g} s step makes {worst:.3g} collocation intervals "
+                     f"over the {span:g} s span of {sc.name}, above {MAX_NODES}")
+    _check_writable(ap, "--json", args.json)
+    _check_writable(ap, "--markdown", args.markdown)
+    return J, graphs
+
+
 def main(argv=None) -> None:
+    """Run the benchmark from the command line; Ctrl-C stops it with one line, exit status 130."""
+    try:
+        _main(argv)
+    except KeyboardInterrupt:
+        print("bench_collocation: interrupted", file=sys.stderr)
+        sys.exit(130)
+
+
+def _main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
     ap.add_argument("--repeat", type=int, default=5, help="interleaved repetitions (medians)")
-    ap.add_argument("--factors", default=",".join(f"{f:g}" for f in DEFAULT_FACTORS),
+    ap.add_argument("--factors", type=_positive_factors, default=list(DEFAULT_FACTORS),
                     help="collocation interval / scenario node step, comma-separated")
-    ap.add_argument("--quick", action="store_true", help="smoke run: one repetition, grids 4x and 8x, no finer")
+    ap.add_argument("--quick", action="store_true", help="smoke run: one repetition, the 8x grid only, no finer")
     ap.add_argument("--graphs", default="MX,SX", help="CasADi graphs timed, comma-separated (MX, SX)")
     ap.add_argument("--guess", default=",".join(GUESSES),
                     help="initial guesses, comma-separated: plan-j0 (the planner's J = 0 plan), trim (flat outputs, "
@@ -1054,17 +1150,9 @@ def main(argv=None) -> None:
     ap.add_argument("--json", help="write the results to this JSON file")
     ap.add_argument("--markdown", help="write the results as a Markdown table to this file")
     args = ap.parse_args(argv)
-    J = args.J
-    if J is not None and J != "auto":
-        if not J.isdigit():
-            ap.error(f"--J: a whole number >= 0 or auto, got {J!r}")
-        J = int(J)
-    if args.step is not None and not (np.isfinite(args.step) and args.step > 0):
-        ap.error(f"--step: a positive number of seconds, got {args.step!r}")
-    if args.e is not None and args.e < 0:
-        ap.error(f"--e: a whole number >= 0, got {args.e!r}")
+    J, graphs = _check_arguments(ap, args)
     _require_casadi()
-    factors = [float(v) for v in args.factors.split(",")]
+    factors = args.factors
     guesses = tuple(v.strip() for v in args.guess.split(",") if v.strip())
     unknown = [v for v in guesses if v not in GUESSES]
     if unknown or not guesses:
@@ -1075,7 +1163,7 @@ def main(argv=None) -> None:
         factors, finer, repeat = [8.0], (), 1
     results = []
     for name in args.scenarios:
-        res = bench_scenario(name, factors, repeat, finer, tuple(args.graphs.split(",")), guesses, J=J,
+        res = bench_scenario(name, factors, repeat, finer, graphs, guesses, J=J,
                               step=args.step, e=args.e)
         print(format_table(res), flush=True)
         results.append(res)

@@ -22,7 +22,11 @@ from planners.scenario import list_scenarios, load_scenario
 
 from ..validation import ValidationCase, case_settings
 
-__all__ = ["check_case", "closest_name"]
+__all__ = ["MAX_CASES", "check_case", "check_samples", "closest_name"]
+
+#: Default bound on a campaign run's cases, samples x cases x dispersion sets (``gflat campaign run --max-cases``):
+#: a case takes seconds, so 1e5 cases are days of computing; the bundled campaign has 48.
+MAX_CASES = 1.0e5
 
 
 def closest_name(value: str, names) -> str:
@@ -103,3 +107,34 @@ def check_case(case: ValidationCase, where: str, loaded: dict | None = None) -> 
             settings.sources["dt_out"], "")
         raise InputError(f"{where}: {origin}{exc}") from None
 
+
+
+def check_samples(campaign, samples: int | None, bound: float = MAX_CASES) -> int:
+    """Refuse a campaign run of more than ``bound`` cases before anything is expanded or written.
+
+    Parameters
+    ----------
+    campaign : harness.campaign.spec.Campaign
+        The loaded campaign (its cases and dispersion sets).
+    samples : int or None
+        Samples per case and dispersion set (``--samples``); None: the campaign's.
+    bound : float
+        Largest number of cases (``inf`` for none).
+
+    Returns
+    -------
+    int
+        The number of cases, ``samples x cases x dispersion sets``.
+
+    Raises
+    ------
+    InputError
+        One line naming the samples, the resulting count and the bound.
+    """
+    n = campaign.samples if samples is None else samples
+    pairs = len(campaign.cases) * len(campaign.dispersions)
+    total = n * pairs
+    if total > bound:
+        raise InputError(f"campaign {campaign.name!r}: --samples {n} x {pairs} case-dispersion pairs = {total:.3g} "
+                         f"cases, above the bound {bound:.3g} (--max-cases N to raise it, inf for none)")
+    return total

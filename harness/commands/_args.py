@@ -26,6 +26,17 @@ def positive_float(text: str) -> float:
     return v
 
 
+def cost_bound(text: str) -> float:
+    """A ``--max-...`` bound: a positive number, or ``inf`` for none (``gflat plan --max-cost``'s rule)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"must be positive (or inf), got {text}")
+    return v
+
+
 def _int_at_least(text: str, lowest: int) -> int:
     try:
         v = int(text)

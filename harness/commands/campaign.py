@@ -16,7 +16,8 @@ from pathlib import Path
 
 from gna.errors import InputError
 
-from ._args import positive_float, positive_int
+from ..campaign.checks import MAX_CASES
+from ._args import cost_bound, positive_float, positive_int
 
 
 def register(sub) -> None:
@@ -29,6 +30,9 @@ def register(sub) -> None:
     r.add_argument("campaign", metavar="NAME_OR_FILE", help="bundled campaign (paper-dispersions) or a TOML file")
     r.add_argument("--out", required=True, metavar="DIR", help="campaign folder (resumed when it exists)")
     r.add_argument("--samples", type=positive_int, default=None, help="samples per case and dispersion set")
+    r.add_argument("--max-cases", type=cost_bound, default=MAX_CASES, metavar="N",
+                   help=f"bound on the cases run, samples x cases x dispersion sets, checked before any work "
+                        f"(default {MAX_CASES:.0e}; 'inf' for none)")
     r.add_argument("--workers", type=positive_int, default=None,
                    help="local worker processes (default: the number of CPUs; 1: in this process)")
     r.add_argument("--dask", default=None, metavar="ADDRESS|local:N",
@@ -59,8 +63,12 @@ def _store(folder: str):
 
 def run(args) -> int:
     from harness.campaign import rerun_case, run_campaign
+    from harness.campaign.checks import check_samples
     from harness.campaign.runner import parse_dask
+    from harness.campaign.spec import load_campaign
     parse_dask(args.dask)                     # a bad --dask refused first, whatever runs
+    camp = load_campaign(args.campaign)
+    check_samples(camp, args.samples, args.max_cases)     # the work bounded before any case is expanded
     if args.only:
         from harness.campaign.store import DB_NAME
         if (Path(args.out) / DB_NAME).is_file():
@@ -70,7 +78,7 @@ def run(args) -> int:
             finally:
                 st.close()
             for cid in done:
-                out = rerun_case(args.out, cid, args.campaign)
+                out = rerun_case(args.out, cid, camp)
                 print(json.dumps({"case_id": cid, "status": out["status"], "metrics": out["metrics"],
                                   "same_as_stored": out["same_as_stored"]}, indent=2))
             args.only = [c for c in args.only if c not in done]
@@ -78,7 +86,7 @@ def run(args) -> int:
                 return 0
     quiet = bool(getattr(args, "quiet", 0))        # gflat's -q/--quiet: no progress bar
     timeout = {} if args.dask_timeout is None else {"dask_timeout": args.dask_timeout}
-    res = run_campaign(args.campaign, args.out, samples=args.samples, workers=args.workers, dask=args.dask,
+    res = run_campaign(camp, args.out, samples=args.samples, workers=args.workers, dask=args.dask,
                        retry_failed=args.retry_failed, quiet=quiet, only=args.only, **timeout)
     note = (f"{res['computed']} computed in {res['elapsed_s']:.1f} s, {res['skipped']} skipped; "
             f"{res['done']} done, {res['failed']} failed, {res['pending']} pending of {res['cases']} -> {res['folder']}")

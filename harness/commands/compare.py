@@ -26,7 +26,7 @@ from ..fileio import json_safe
 from ..outdir import OutputDir
 from ..validation import ValidationCase, case_settings, run_case
 from ._args import iterations, out_path
-from ._compare_args import add_compare_arguments, compare_overrides, default_out
+from ._compare_args import add_compare_arguments, check_steps, compare_overrides, default_out
 
 
 def register(sub) -> None:
@@ -57,7 +57,8 @@ def run(args) -> int:
     engines = tuple(engines_from_names(args.engines, minimum=2))
     case = ValidationCase(args.scenario, J=args.J, engines=engines, loop=args.loop, **compare_overrides(args))
     scenario = load_scenario(case.scenario, J=case.J)
-    case_settings(case, scenario)                    # settings and destination checked before planning
+    settings = case_settings(case, scenario)         # settings, work and destination checked before planning
+    check_steps([(case, scenario, settings)], args.max_steps, "compare")
     out = OutputDir(args.out, command="compare") if args.out else default_out(scenario.name, args.loop,
                                                                               command="compare")
     result = run_case(case, scenario=scenario)

@@ -6,7 +6,9 @@ from gna.errors import InputError
 from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
 
-from ..engines.jsbsim.script import export_script
+from ..engines.jsbsim.engine import JSBSimEngine
+from ..engines.jsbsim.grid import output_grid
+from ..engines.jsbsim.script import export_script, steps_of
 from ..outdir import OutputDir
 from ._args import iterations, out_path, positive_float
 
@@ -25,12 +27,13 @@ def register(sub) -> None:
     p.add_argument("--out", type=out_path, required=True, metavar="DIR", help="output folder (created)")
     p.add_argument("--J", type=iterations, default=None,
                    help="generalized-flatness iterations, or auto (default: the scenario's)")
-    p.add_argument("--dt-out", type=positive_float, default=0.02, metavar="S",
-                   help="output interval of the CSV [s] (the JSBSim step divides it; default 0.02)")
+    p.add_argument("--dt-out", type=positive_float, default=0.025, metavar="S",
+                   help="output interval of the CSV [s], a whole number of JSBSim steps (1/480 s) dividing the "
+                        "span (default 0.025, 12 steps)")
     p.add_argument("--table-dt", type=positive_float, default=None, metavar="S",
-                   help="interval of the control tables [s], a whole number of JSBSim steps, linear "
-                        "interpolation in between (smaller files; default: every step, the JSBSim engine's "
-                        "control samples exactly)")
+                   help="interval of the control tables [s], a whole number of JSBSim steps and at most the "
+                        "plan's node step, linear interpolation in between (smaller files; default: every step, "
+                        "the JSBSim engine's control samples exactly)")
     p.set_defaults(func=run)
 
 
@@ -38,6 +41,13 @@ def run(args) -> int:
     if args.out.exists() and not args.out.is_dir():
         raise InputError(f"--out {args.out} exists and is not a folder")
     sc = load_scenario(args.scenario, J=args.J)
+    n, dt, _, _ = output_grid(sc.t0, sc.t1, JSBSimEngine().dt, args.dt_out, None)   # intervals checked first
+    steps_of(args.dt_out, dt, "--dt-out")
+    if args.table_dt is not None:
+        steps_of(args.table_dt, dt, "--table-dt")
+        if args.table_dt > sc.step * (1 + 1e-9):
+            raise InputError(f"--table-dt {args.table_dt:g} s is longer than the plan's node step {sc.step:g} s: "
+                             f"the tables' straight lines would replace the plan's controls between its nodes")
     # checked and held before planning; files of earlier exports (other scenarios) stay, listed in the marker
     out = OutputDir(args.out, clean=False, command="export-jsbsim-script")
     plan = plan_scenario(sc)

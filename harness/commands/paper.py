@@ -35,7 +35,7 @@ from ..parallel import ForkPool, MemoryOutputDir, default_jobs, replay
 from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
 from ._args import iterations, out_path, positive_int
-from ._compare_args import add_compare_arguments, compare_overrides
+from ._compare_args import add_compare_arguments, check_steps, compare_overrides
 from .plan import write_plan
 
 PAPER_SCENARIOS = ("twin-otter-single-engine", "gtm-forward-slip", "gtm-aileron-roll")
@@ -171,10 +171,13 @@ class _Scenario:
 def run(args) -> int:
     rows, passed, closed_rows, results = [], [], [], []
     cases = paper_cases(args.J, **compare_overrides(args))
-    for case in cases:                         # every scenario's [compare] table checked before any planning
-        case_settings(case, load_scenario(case.scenario, J=case.J))
-    out = OutputDir(args.out or "reports/out/paper", parents=args.out is None, command="paper")
     loops = ("open", "closed") if args.loop == "both" else (args.loop,)
+    planned = []
+    for case in cases:                         # every scenario's [compare] table checked before any planning
+        scenario = load_scenario(case.scenario, J=case.J)
+        planned += [(replace(case, loop=loop), scenario, case_settings(case, scenario)) for loop in loops]
+    check_steps(planned, args.max_steps, "paper")     # and the work of every flight
+    out = OutputDir(args.out or "reports/out/paper", parents=args.out is None, command="paper")
     with ForkPool(args.jobs or default_jobs()) as pool:
         scenarios = [_Scenario(case, loops, out.root, args.csv) for case in cases]
         by_name = {}

@@ -32,16 +32,16 @@ def _max_differences(replayed, engine, t_max=None):
     return t.size, pos, ang
 
 
-@pytest.mark.parametrize("table_dt", [None, 0.01])
+@pytest.mark.parametrize("table_dt", [None, 5 / 480])
 def test_replay_agrees_with_the_engine(roll, tmp_path, table_dt):
     sc, plan = roll
     b = export_script(tmp_path / "out", sc.name, sc.aircraft, plan, env=sc.env, table_dt=table_dt)
     replayed = replay(b)
-    engine = fly(["jsbsim"], sc.aircraft, None, plan, (plan.t0, plan.t1), env=sc.env)["jsbsim"].df
+    engine = fly(["jsbsim"], sc.aircraft, None, plan, (plan.t0, plan.t1), env=sc.env, dt_out=b.dt_out)["jsbsim"].df
     n, pos, ang = _max_differences(replayed, engine)
     assert n == engine.index.size                               # every output time replayed
     # The engine's samples exactly: round-off (altitude quantised by the 1e11 ft planet, 4.6e-6 m);
-    # 0.01 s tables: linear interpolation of the controls between the nodes.
+    # 5-step tables: linear interpolation of the controls between the nodes.
     assert pos < (1e-5 if table_dt is None else 2e-3)
     assert ang < (1e-9 if table_dt is None else 1e-4)
 
@@ -104,3 +104,42 @@ def test_the_folder_is_checked_before_planning(tmp_path, monkeypatch, capsys):
     assert sorted(p.name for p in (tmp_path / "paper").iterdir()) == [".gflat-complete.json", "index.html"]
     assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", "/"]) == 2
     assert "file-system root" in capsys.readouterr().err
+
+
+def test_the_csv_holds_the_output_grid_and_ends_at_t1(roll, tmp_path):
+    import pandas as pd
+    sc, plan = roll
+    for dt_out in (b_dt := 1 / 480, 0.025):
+        b = export_script(tmp_path / f"o{dt_out}", sc.name, sc.aircraft, plan, env=sc.env, dt_out=dt_out)
+        assert b.dt == pytest.approx(b_dt)
+        replay(b)
+        t = pd.read_csv(b.root / b.output).iloc[:, 0].to_numpy()
+        assert t[0] == pytest.approx(plan.t0) and t[-1] == pytest.approx(plan.t1, abs=1e-9)   # not t1 + dt
+        assert t.size == round((plan.t1 - plan.t0) / dt_out) + 1
+
+
+@pytest.mark.parametrize("flag, value, words", [
+    ("--dt-out", "0.001", ["--dt-out = 0.001 s", "0.002083333333 s", "0.48 steps"]),
+    ("--dt-out", "0.02", ["--dt-out = 0.02 s", "9.6 steps", "0.02083333333 (10 steps)"]),
+    ("--table-dt", "0.001", ["--table-dt = 0.001 s", "0.48 steps"]),
+    ("--table-dt", "0.003", ["--table-dt = 0.003 s", "1.44 steps"]),
+    ("--table-dt", "100", ["--table-dt 100 s", "node step 0.5 s"]),
+])
+def test_intervals_that_are_not_whole_steps_are_refused_before_planning(flag, value, words, tmp_path, monkeypatch,
+                                                                         capsys):
+    from harness.commands import export_script as command
+
+    monkeypatch.setattr(command, "plan_scenario", lambda sc: pytest.fail("planned before checking the intervals"))
+    out = tmp_path / "x"
+    assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", str(out), flag, value]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and all(w in err for w in words), err
+    assert not out.exists()
+
+
+def test_the_library_refuses_the_same_intervals(roll, tmp_path):
+    sc, plan = roll
+    with pytest.raises(InputError, match="not a whole number of JSBSim steps"):
+        export_script(tmp_path / "a", sc.name, sc.aircraft, plan, env=sc.env, dt_out=0.02)
+    with pytest.raises(InputError, match="longer than the plan's node step 0.5 s"):
+        export_script(tmp_path / "b", sc.name, sc.aircraft, plan, env=sc.env, table_dt=480 / 480)

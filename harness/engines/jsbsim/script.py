@@ -210,7 +210,12 @@ def script_xml(name: str, aircraft_id: str, init_name: str, t_span: tuple[float,
     for prop in OUTPUT_PROPERTIES:
         w.leaf("property", prop)
     w.close("output")
-    w.open("run", f'start="{number_text(t_span[0])}" end="{number_text(t_span[1])}" dt="{number_text(dt)}"')
+    # JSBSim's script compares the time at the start of a frame with ``end`` and, when past it, still runs
+    # that frame (the output among its models) before the run stops: the last row is one step after the
+    # first frame starting past ``end``.  ``end`` 1.5 steps before t1 makes it t1 whatever the round-off of
+    # the summed steps (``end = t1`` wrote a row at t1 + dt; measured with JSBSim 1.3.3).
+    end = t_span[1] - 1.5 * dt
+    w.open("run", f'start="{number_text(t_span[0])}" end="{number_text(end)}" dt="{number_text(dt)}"')
     for prop, value in settings.items():
         w.leaf("property", prop, f'value="{number_text(value)}"')
     w.open("event", 'name="plan controls" continuous="true"')
@@ -232,8 +237,40 @@ def script_xml(name: str, aircraft_id: str, init_name: str, t_span: tuple[float,
     return w.text()
 
 
+def steps_of(value: float, dt: float, what: str) -> int:
+    """The whole number of JSBSim steps in an interval, or one line naming both when it is not one.
+
+    Parameters
+    ----------
+    value : float
+        The interval [s] (``dt_out``, ``table_dt``).
+    dt : float
+        JSBSim step [s].
+    what : str
+        The interval's name, for the message.
+
+    Returns
+    -------
+    int
+        ``value / dt`` (at least 1).
+
+    Raises
+    ------
+    InputError
+        ``value`` not positive, or not a whole number of steps within 1e-6 relative.
+    """
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"{what} must be positive, got {value}")
+    k = round(value / dt)
+    if k < 1 or abs(value / dt - k) > 1e-6 * max(k, 1):
+        near = f"{k * dt:.10g} ({k} steps) or " if k >= 1 else ""
+        raise InputError(f"{what} = {value:g} s is not a whole number of JSBSim steps of {dt:.10g} s "
+                         f"({value / dt:.4g} steps): give e.g. {near}{(k + 1) * dt:.10g} ({k + 1} steps)")
+    return int(k)
+
+
 def export_script(out: str | Path | OutputDir, name: str, aircraft: Aircraft, controls, t_span=None, x0=None, *,
-                  env: Environment | None = None, engine: JSBSimEngine | None = None, dt_out: float = 0.02,
+                  env: Environment | None = None, engine: JSBSimEngine | None = None, dt_out: float = 0.025,
                   table_dt: float | None = None) -> ScriptBundle:
     """Write the files stock JSBSim needs to replay ``controls`` open loop from ``x0``.
 
@@ -258,12 +295,13 @@ def export_script(out: str | Path | OutputDir, name: str, aircraft: Aircraft, co
     engine : JSBSimEngine, optional
         Step and integrators copied (default ``JSBSimEngine()``); flat earth only.
     dt_out : float
-        Output interval [s] of :func:`replay` (JSBSim writes every step; the replay samples them on the
-        engine's output grid, :func:`.grid.output_grid`).
+        Output interval [s] of the CSV JSBSim writes and of :func:`replay`: a whole number of JSBSim steps
+        (:func:`steps_of`) dividing the span (default 0.025 s, 12 steps of 1/480 s).
     table_dt : float, optional
-        Interval of the control tables [s], rounded to a whole number of steps, with JSBSim's linear
-        interpolation in between (0.01 s: 4e-7 m over the Twin Otter's 60 s, 8e-4 m over the GTM's 8 s
-        roll); default every step, the engine's control samples exactly.
+        Interval of the control tables [s], a whole number of JSBSim steps (:func:`steps_of`) at most the
+        plan's largest node step (a longer one would draw straight lines over the plan's series), with
+        JSBSim's linear interpolation in between (1/96 s: about 4e-7 m over the Twin Otter's 60 s, 8e-4 m
+        over the GTM's 8 s roll); default every step, the engine's control samples exactly.
 
     Returns
     -------
@@ -272,7 +310,8 @@ def export_script(out: str | Path | OutputDir, name: str, aircraft: Aircraft, co
     Raises
     ------
     InputError
-        Bad name, span, state, controls, atmosphere or intervals; ``out`` is a file; a path escapes ``out``.
+        Bad name, span, state, controls, atmosphere or intervals (not whole numbers of steps, ``table_dt``
+        longer than the plan's node step); ``out`` is a file; a path escapes ``out``.
     """
     engine = JSBSimEngine() if engine is None else engine
     if engine.earth != "flat":
@@ -290,11 +329,15 @@ def export_script(out: str | Path | OutputDir, name: str, aircraft: Aircraft, co
     env = environment_of(controls, env)
     y0 = initial_state(controls, x0)
     n, dt, _, _ = output_grid(t0, t1, engine.dt, dt_out, None)     # the engine's own step grid
+    steps_of(dt_out, dt, "dt_out")
     every = 1
     if table_dt is not None:
-        if not (math.isfinite(table_dt) and table_dt > 0):
-            raise InputError(f"table_dt must be positive, got {table_dt}")
-        every = max(int(round(table_dt / dt)), 1)
+        every = steps_of(table_dt, dt, "table_dt")
+        nodes = np.asarray(getattr(controls, "t_nodes", ()), dtype=float)
+        node_step = float(np.max(np.diff(nodes))) if nodes.size > 1 else math.inf
+        if every * dt > node_step * (1 + 1e-9):
+            raise InputError(f"table_dt = {table_dt:g} s is longer than the plan's node step {node_step:g} s: "
+                             f"the tables' straight lines would replace the plan's controls between its nodes")
     k = np.arange(0, n + 1, every)
     if k[-1] != n:
         k = np.append(k, n)
@@ -309,7 +352,7 @@ def export_script(out: str | Path | OutputDir, name: str, aircraft: Aircraft, co
            "initialization": f"aircraft/{aircraft.id}/{init_name}.xml", "script": f"scripts/{name}.xml"}
     texts = {"aircraft": engine.xml(aircraft, env, y0), "initialization": initialization_xml(y0, init_name),
              "script": script_xml(name, aircraft.id, init_name, (t0, t1), dt, settings, tables, t_table,
-                                  f"{name}.csv", 1.0 / dt)}
+                                  f"{name}.csv", 1.0 / dt_out)}
     for key, r in rel.items():
         folder.write_text(*r.split("/"), text=texts[key])
     if own:
