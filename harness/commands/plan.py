@@ -12,7 +12,6 @@ the later iterates, built on an undetermined stage 2, are not written.
 
 from __future__ import annotations
 
-import argparse
 import io
 import json
 import math
@@ -31,18 +30,8 @@ from planners.verify import open_loop_error
 
 from ..fileio import json_safe
 from ..outdir import OutputDir
-from ._args import iterations, out_path
+from ._args import cost_bound, iterations, out_path
 from ._compare_args import default_out
-
-
-def _cost_bound(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"must be positive (or inf), got {text}")
-    return v
 
 
 def register(sub) -> None:
@@ -55,7 +44,7 @@ def register(sub) -> None:
                                                                    "scenario's)")
     p.add_argument("--out", type=out_path, default=None, metavar="DIR",
                    help="output folder (default reports/out/<scenario>)")
-    p.add_argument("--max-cost", type=_cost_bound, default=None, metavar="UNITS",
+    p.add_argument("--max-cost", type=cost_bound, default=None, metavar="UNITS",
                    help="bound on the plan's cost, nodes x sum of squared orders (default 5e6, about 30 s; "
                         "'inf' for none)")
     p.add_argument("--json", action="store_true",
