@@ -137,10 +137,7 @@ def run_folder(folder: Path) -> Path:
     -------
     Path
     """
-    for d in (folder, *folder.parents):
-        if (d / MARKER).is_file() or (d / INCOMPLETE).is_file():
-            return d
-    return folder
+    return next((d for d in (folder, *folder.parents) if is_run(d)), folder)
 
 
 def is_run(folder: Path) -> bool:
