@@ -1,3 +1,14 @@
-"""Test-suite plugins: pytest's own ``pytester`` (the gflat pytest plugin is tested with it)."""
+"""Test-suite plugins: pytest's own ``pytester`` (the gflat pytest plugin is tested with it).
+
+The Ctrl-C tests send SIGINT to child processes.  A shell running a command in the background without
+job control starts it with SIGINT ignored, and an ignored signal stays ignored across ``exec``: the
+children would never see the Ctrl-C.  The suite restores the default disposition (Python's
+KeyboardInterrupt), which its children then inherit as a user's terminal gives them.
+"""
+
+import signal
 
 pytest_plugins = ["pytester"]
+
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
