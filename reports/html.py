@@ -162,12 +162,18 @@ def _case_view(root: Path, folder: Path, model: dict, page_dir: Path, embed: boo
 
 def _manifest(root: Path):
     p = root / "manifest.json"
-    return read_json_object(p, "a gflat run manifest") if p.is_file() else None
+    if not p.is_file():
+        return None
+    manifest = read_json_object(p, "a gflat run manifest")
+    if not isinstance(manifest.get("cases", []), list):
+        raise InputError(f"{p}: not a gflat run manifest ('cases' is not a list)")
+    return manifest
 
 
 def _run_order(cases: list, manifest) -> list:
     """The cases in the order the run flew them (the manifest's ``cases``), the others after, as found."""
-    flown = [(c.get("scenario"), c.get("loop")) for c in (manifest or {}).get("cases", []) if isinstance(c, dict)]
+    flown = [(c.get("scenario"), c.get("loop")) for c in (manifest or {}).get("cases", [])
+             if isinstance(c, dict) and isinstance(c.get("scenario"), str) and isinstance(c.get("loop"), str)]
     rank = {key: i for i, key in reversed(list(enumerate(flown)))}
     return sorted(cases, key=lambda c: rank.get((c[1]["scenario"]["name"], c[1]["loop"]), len(rank)))
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from gna.errors import InputError
 from harness.fileio import json_safe as _json_safe, replacing
-from harness.outguard import INCOMPLETE, MARKER
+from harness.outguard import INCOMPLETE, MARKER, previous_run
 from planners.scenario import load_scenario
 
 from .report_figures import (CONTROLS_LIMITS_PNG, SIGNED_DIFFERENCES_PNG, control_limits,
@@ -306,11 +306,16 @@ def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:
     InputError
         A ``report.json`` that cannot be read, is not a JSON object (:func:`read_json_object`) or lacks a key
         the pages need (naming the file and the cause).  Those of another run in a sub-folder are not read
-        (:func:`run_files`).
+        (:func:`run_files`), nor, when the run's completion marker or in-progress record lists its files,
+        those it does not list.
     """
     root = Path(run_dir)
+    # A run whose marker (or in-progress record) lists its files: only its own cases, not a copy put beside them.
+    listed = set(previous_run(root).files)
     found = []
     for p in run_files(root, REPORT_JSON):
+        if listed and p.relative_to(root).as_posix() not in listed:
+            continue
         model = read_json_object(p, "a gflat report model")
         bad = [k for k, t in MODEL_KEYS.items() if not isinstance(model.get(k), t)]
         if bad:

@@ -34,11 +34,26 @@ def test_a_kept_page_beside_the_run_is_not_removed(compared, tmp_path, capsys): 
     # a page the run's marker lists whose case is gone is the run's own orphan: removed
     (demo / "case2").mkdir()
     shutil.copy(demo / "report.json", demo / "case2" / "report.json")
+    marker = json.loads((demo / MARKER).read_text())
+    marker["files"].append({"path": "case2/report.json"})     # a case of the run's own
+    (demo / MARKER).write_text(json.dumps(marker))
     assert main(["report", str(demo), "--no-pdf"]) == 0
     assert "case2/case.html" in [f["path"] for f in json.loads((demo / MARKER).read_text())["files"]]
     (demo / "case2" / "report.json").unlink()
     assert main(["report", str(demo), "--no-pdf"]) == 0
     assert not (demo / "case2").exists() and (kept / "case.html").is_file()
+
+
+def test_a_case_the_runs_marker_does_not_list_is_not_shown(compared, tmp_path, capsys):  # noqa: F811
+    """A copy of a case's report.json put into a run's folder is not the run's: not rendered, not linked."""
+    run = tmp_path / "run"
+    shutil.copytree(compared, run)
+    (run / "extra").mkdir()
+    shutil.copy(run / "report.json", run / "extra" / "report.json")
+    assert main(["report", str(run), "--no-pdf"]) == 0
+    assert "(1 case page(s))" in capsys.readouterr().out
+    assert not (run / "extra" / "case.html").exists()
+    assert "extra/" not in (run / "index.html").read_text()
 
 
 def test_a_folder_of_separate_runs_is_refused_naming_them(compared, tmp_path, capsys):  # noqa: F811
@@ -87,4 +102,20 @@ def test_a_bad_saved_file_is_one_line(compared, tmp_path, capsys, name, text, ca
     before = _files(run)
     err = _one_line(capsys, 2, run)
     assert f"{run / name}: not a gflat " in err and cause in err
+    assert _files(run) == before
+
+
+@pytest.mark.parametrize("text, cause", [('{"cases": 5}', "'cases' is not a list"),
+                                         ('{"cases": [{"scenario": 5, "loop": []}]}', None)])
+def test_a_manifest_with_bad_cases_is_one_line_or_ignored(compared, tmp_path, capsys, text, cause):  # noqa: F811
+    """'cases' not a list: one line naming the file; entries of the wrong kind only lose their place in the order."""
+    run = tmp_path / "m"
+    shutil.copytree(compared, run)
+    (run / "manifest.json").write_text(text)
+    if cause is None:
+        assert main(["report", str(run), "--no-pdf"]) == 0
+        return
+    before = _files(run)
+    err = _one_line(capsys, 2, run)
+    assert f"{run / 'manifest.json'}: not a gflat run manifest ({cause})" in err
     assert _files(run) == before
