@@ -90,6 +90,11 @@ def flight_steps(case, scenario, settings) -> tuple[int, int]:
     return steps * len(jsbsim), samples * len(engines)
 
 
+#: Engine steps + SAMPLE_COST x output samples beyond which a run is refused whatever ``--max-steps`` says
+#: (about 2**53: the arrays alone would take petabytes).
+COMPUTABLE_STEPS = 9e15
+
+
 def check_steps(planned, bound: float, command: str) -> None:
     """Refuse a command whose flights would take more than ``bound`` engine steps plus SAMPLE_COST x output samples.
 
@@ -101,12 +106,16 @@ def check_steps(planned, bound: float, command: str) -> None:
         st, sa = flight_steps(case, scenario, settings)
         steps, samples = steps + st, samples + sa
     cost = steps + SAMPLE_COST * samples
-    if cost > bound:
+    if cost > min(bound, COMPUTABLE_STEPS):
+        if cost > COMPUTABLE_STEPS:   # whatever the bound: no machine holds the arrays (2**53 samples)
+            bound, how = COMPUTABLE_STEPS, "no machine holds the arrays of such a run, whatever --max-steps says"
+        else:
+            how = "--max-steps N to raise it, inf for none"
         names = ", ".join(dict.fromkeys(f"{sc.name} ({sc.t1 - sc.t0:g} s)" for _, sc, _ in planned))
         s = max(planned, key=lambda p: sum(flight_steps(*p)))[2]
         raise InputError(f"{command}: --jsbsim-dt {s.jsbsim_dt:g} s and --dt-out {s.dt_out:g} s over {names} "
                          f"make {steps:.3g} engine steps + {SAMPLE_COST} x {samples:.3g} output samples = "
-                         f"{cost:.3g}, above the bound {bound:.3g} (--max-steps N to raise it, inf for none)")
+                         f"{cost:.3g}, above the bound {bound:.3g} ({how})")
 
 
 def compare_overrides(args) -> dict:

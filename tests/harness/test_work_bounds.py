@@ -17,6 +17,8 @@ from planners.scenario import list_scenarios, load_scenario
     (["compare", "gtm-aileron-roll", "--dt-out", "1e-5"], "--dt-out 1e-05 s"),
     (["paper", "--jsbsim-dt", "1e-6"], "--jsbsim-dt 1e-06 s"),
     (["compare", "gtm-aileron-roll", "--jsbsim-dt", "1e-4", "--max-steps", "1e4"], "--jsbsim-dt 0.0001 s"),
+    # beyond what any machine holds, whatever the bound (was a ValueError traceback from numpy)
+    (["compare", "gtm-aileron-roll", "--jsbsim-dt", "1e-300", "--max-steps", "inf"], "--jsbsim-dt 1e-300 s"),
 ])
 def test_a_run_beyond_the_step_bound_is_refused_before_any_work(argv, value, tmp_path, capsys):
     out = tmp_path / "out"
