@@ -1122,12 +1122,17 @@ def _check_arguments(ap, args):
 
 
 def main(argv=None) -> None:
-    """Run the benchmark from the command line; Ctrl-C stops it with one line, exit status 130."""
+    """Run the benchmark from the command line; Ctrl-C stops it with one line, exit status 130; a plan that
+    cannot be made (the planner's one-line error) exits 1."""
+    from gna.errors import GflatError
     try:
         _main(argv)
     except KeyboardInterrupt:
         print("bench_collocation: interrupted", file=sys.stderr)
         sys.exit(130)
+    except GflatError as exc:           # the planner cannot plan these settings (a diverging J, a singular output)
+        print(f"bench_collocation: error: {exc}", file=sys.stderr)
+        sys.exit(1)
 
 
 def _main(argv=None) -> None:

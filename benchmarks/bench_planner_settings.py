@@ -30,18 +30,40 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import dataclasses  # noqa: E402
 import itertools  # noqa: E402
+import math  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
 
 
-def _numbers(text: str, kind, what: str, ap) -> list:
+#: Largest number of nodes a ``--step`` may give.
+MAX_NODES = 10000
+
+
+def _numbers(text: str, kind, what: str, ap, top=None) -> list:
+    """A comma-separated list of positive numbers (float) or whole numbers in 0..top (int), each once."""
     try:
-        values = [kind(v) for v in text.split(",") if v.strip()]
+        values = [kind(v) for v in text.split(",")]
     except ValueError:
         ap.error(f"--{what}: comma-separated numbers, got {text!r}")
-    if not values or any(not v > 0 if kind is float else v < 0 for v in values):
-        ap.error(f"--{what}: {'positive numbers' if kind is float else 'whole numbers >= 0'}, got {text!r}")
-    return values
+    if kind is float:
+        if not all(math.isfinite(v) and v > 0 for v in values):
+            ap.error(f"--{what}: positive numbers, got {text!r}")
+    elif not all(0 <= v <= top for v in values):
+        ap.error(f"--{what}: whole numbers from 0 to {top}, got {text!r}")
+    return list(dict.fromkeys(values))
+
+
+def _check_steps(steps: list, sc, ap) -> None:
+    span = sc.t1 - sc.t0
+    for step in steps:
+        nodes = span / step
+        if step > span:
+            ap.error(f"--step: {step:g} s is longer than the {span:g} s span of {sc.name}")
+        if abs(nodes - round(nodes)) > 1e-9 * nodes:
+            ap.error(f"--step: {step:g} s does not divide the {span:g} s span of {sc.name} ({nodes:.6g} steps)")
+        if nodes > MAX_NODES:
+            ap.error(f"--step: {step:g} s makes {nodes:.3g} nodes over the {span:g} s span of {sc.name}, "
+                     f"above {MAX_NODES}")
 
 
 def measure(scenario, step: float, e: int, J: int, repeat: int) -> dict:
@@ -74,20 +96,29 @@ def measure(scenario, step: float, e: int, J: int, repeat: int) -> dict:
     row = {"step": step, "e": e, "J": J}
     try:
         plan = plan_scenario(sc, J=J)
-    except GflatError as exc:
+        wall, cpu = [], []
+        for _ in range(repeat):
+            w, c = time.perf_counter(), time.process_time()
+            plan_scenario(sc, J=J)
+            wall.append(time.perf_counter() - w)
+            cpu.append(time.process_time() - c)
+        check = open_loop_error(plan)
+    except GflatError as exc:         # planning, or the open-loop flight of its controls
         return {**row, "error": str(exc)}
-    wall, cpu = [], []
-    for _ in range(repeat):
-        w, c = time.perf_counter(), time.process_time()
-        plan_scenario(sc, J=J)
-        wall.append(time.perf_counter() - w)
-        cpu.append(time.process_time() - c)
-    check = open_loop_error(plan)
     return {**row, "nodes": len(plan.t_nodes), "feasible": bool(plan.feasible), "wall_s": statistics.median(wall),
             "cpu_s": statistics.median(cpu), "accuracy_m": check.max_position_error_m}
 
 
 def main(argv=None) -> None:
+    """Run from the command line: bad settings one usage line (exit 2), Ctrl-C one line (exit 130)."""
+    try:
+        _main(argv)
+    except KeyboardInterrupt:
+        print("bench_planner_settings: interrupted", file=sys.stderr)
+        sys.exit(130)
+
+
+def _main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenario", help="a bundled scenario name or a scenario file")
     ap.add_argument("--step", default=None, help="node steps [s], comma-separated (default: the scenario's)")
@@ -106,9 +137,12 @@ def main(argv=None) -> None:
         ap.exit(2, f"{ap.prog}: error: {exc}\n")
     if isinstance(sc.J, str) and args.J is None:
         ap.error("the scenario's J is 'auto': give --J")
-    steps = _numbers(args.step, float, "step", ap) if args.step else [sc.step]
-    orders = _numbers(args.e, int, "e", ap) if args.e else [sc.e]
-    iterations = _numbers(args.J, int, "J", ap) if args.J else [sc.J]
+    from planners.flat import MAX_J
+    from planners.generalized import MAX_E
+    steps = _numbers(args.step, float, "step", ap) if args.step is not None else [sc.step]
+    _check_steps(steps, sc, ap)
+    orders = _numbers(args.e, int, "e", ap, MAX_E) if args.e is not None else [sc.e]
+    iterations = _numbers(args.J, int, "J", ap, MAX_J) if args.J is not None else [sc.J]
     print(f"{sc.name}: span {sc.t1 - sc.t0:g} s, series kernels {BACKEND}; median of {args.repeat} plans")
     print(f"{'step [s]':>8} {'e':>2} {'J':>3} {'nodes':>5} {'wall [s]':>9} {'CPU [s]':>9} {'accuracy [m]':>12}")
     for step, e, J in itertools.product(steps, orders, iterations):

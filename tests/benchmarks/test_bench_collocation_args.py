@@ -74,3 +74,12 @@ def test_quick_help_says_what_it_runs(bc, capsys):
         bc.main(["--help"])
     out = " ".join(capsys.readouterr().out.split())
     assert "the 8x grid only" in out and "4x" not in out
+
+
+def test_a_plan_that_cannot_be_made_is_one_line_and_exit_1(bc, capsys):
+    """J = 30 on the roll diverges past the iteration's floor: the planner's one-line error, no traceback."""
+    with pytest.raises(SystemExit) as exc:
+        bc.main(["--quick", "--J", "30", "--scenarios", "gtm-aileron-roll", "--guess", "plan-j0"])
+    assert exc.value.code == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("bench_collocation: error: ") and "outside the physical domain" in err[0]
