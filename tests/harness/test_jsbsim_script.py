@@ -119,9 +119,9 @@ def test_the_csv_holds_the_output_grid_and_ends_at_t1(roll, tmp_path):
 
 
 @pytest.mark.parametrize("flag, value, words", [
-    ("--dt-out", "0.001", ["--dt-out = 0.001 s", "0.002083333333 s", "0.48 steps"]),
+    ("--dt-out", "0.001", ["--dt-out = 0.001 s", "0.002083333333 s", "0.48 of a step", "(1 step)"]),
     ("--dt-out", "0.02", ["--dt-out = 0.02 s", "9.6 steps", "0.02083333333 (10 steps)"]),
-    ("--table-dt", "0.001", ["--table-dt = 0.001 s", "0.48 steps"]),
+    ("--table-dt", "0.001", ["--table-dt = 0.001 s", "0.48 of a step"]),
     ("--table-dt", "0.003", ["--table-dt = 0.003 s", "1.44 steps"]),
     ("--table-dt", "100", ["--table-dt 100 s", "node step 0.5 s"]),
 ])

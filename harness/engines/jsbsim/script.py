@@ -263,9 +263,12 @@ def steps_of(value: float, dt: float, what: str) -> int:
         raise InputError(f"{what} must be positive, got {value}")
     k = round(value / dt)
     if k < 1 or abs(value / dt - k) > 1e-6 * max(k, 1):
-        near = f"{k * dt:.10g} ({k} steps) or " if k >= 1 else ""
+        def n(k):
+            return f"{k} step" + ("s" if k != 1 else "")
+        near = f"{k * dt:.10g} ({n(k)}) or " if k >= 1 else ""
+        ratio = f"{value / dt:.4g} of a step" if value < dt else f"{value / dt:.4g} steps"
         raise InputError(f"{what} = {value:g} s is not a whole number of JSBSim steps of {dt:.10g} s "
-                         f"({value / dt:.4g} steps): give e.g. {near}{(k + 1) * dt:.10g} ({k + 1} steps)")
+                         f"({ratio}): give e.g. {near}{(k + 1) * dt:.10g} ({n(k + 1)})")
     return int(k)
 
 
