@@ -43,7 +43,7 @@ def register(sub) -> None:
     p.add_argument("--J", type=iterations, default=None, help="generalized-flatness iterations, or auto (a convergence test; default: the "
                                                                    "scenario's)")
     p.add_argument("--out", type=out_path, default=None, metavar="DIR",
-                   help="output folder (default reports/out/<scenario>)")
+                   help="output folder (default reports/out/<scenario>/plan)")
     p.add_argument("--max-cost", type=cost_bound, default=None, metavar="UNITS",
                    help="bound on the plan's cost, nodes x sum of squared orders (default 5e6, about 30 s; "
                         "'inf' for none)")
@@ -271,7 +271,7 @@ def run(args) -> int:
                              f"checked against its exact model (summary: checks, feasible) and takes a whole J")
         out = OutputDir(Path(args.out), command="plan") if args.out else None   # checked before planning
         demo = run_demo(args.scenario, J=args.J)
-        out = out if out is not None else default_out(demo.summary["scenario"], command="plan")
+        out = out if out is not None else default_out(demo.summary["scenario"], "plan", command="plan")
         out.write_text("plan.csv", text=demo.csv)
         out.write_json("summary.json", obj=demo.summary)
         print(json.dumps(json_safe(demo.summary), indent=2) if args.json
@@ -282,7 +282,7 @@ def run(args) -> int:
             return 1
         return 0
     sc = load_scenario(args.scenario, J=args.J)
-    out = OutputDir(Path(args.out), command="plan") if args.out else default_out(sc.name, command="plan")
+    out = OutputDir(Path(args.out), command="plan") if args.out else default_out(sc.name, "plan", command="plan")
     t0 = time.perf_counter()
     plan = plan_scenario(sc, max_cost=args.max_cost)
     elapsed = time.perf_counter() - t0

@@ -64,3 +64,14 @@ def test_a_run_writes_its_own_sub_folders_and_beside_other_runs(tmp_path):
     out.finish()
     OutputDir(tmp_path / "other", command="compare").finish()   # a sibling of a run is fine
     OutputDir(tmp_path / "run", command="paper").finish()       # the run's own folder again
+
+
+def test_the_default_folders_of_plan_and_compare_sit_side_by_side(tmp_path, monkeypatch):
+    """`gflat plan X` and `gflat compare X` with their default folders: neither lies inside the other's run."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["plan", "gtm-aileron-roll", "--J", "1"]) == 0
+    assert main(["compare", "gtm-aileron-roll", "--loop", "open", "--J", "1"]) == 0
+    assert main(["plan", "gtm-aileron-roll", "--J", "1"]) == 0           # and again, after the comparison
+    root = tmp_path / "reports" / "out" / "gtm-aileron-roll"
+    assert sorted(p.name for p in root.iterdir()) == ["open", "plan"]
+    assert (root / "plan" / ".gflat-complete.json").is_file() and (root / "open" / ".gflat-complete.json").is_file()
