@@ -3,12 +3,10 @@ outputs and prescribed inputs are met, the controls fly."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
+
+from .conftest import benchmark_module
 
 ca = pytest.importorskip("casadi")
 
@@ -16,17 +14,11 @@ from gna import eom  # noqa: E402
 from gna.atmosphere import ISA  # noqa: E402
 from planners.scenario import load_scenario  # noqa: E402
 
-_PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_collocation.py"
-
 
 @pytest.fixture(scope="module")
 def bc():
-    spec = importlib.util.spec_from_file_location("bench_collocation", _PATH)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # dataclasses look their module up
-    spec.loader.exec_module(mod)
-    yield mod
-    sys.modules.pop(spec.name, None)
+    with benchmark_module("bench_collocation", "bench_collocation") as mod:
+        yield mod
 
 
 def test_symbolic_isa_matches_isa(bc):

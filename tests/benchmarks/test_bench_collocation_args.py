@@ -2,25 +2,17 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import pytest
 
-pytest.importorskip("casadi")
+from .conftest import benchmark_module
 
-_PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_collocation.py"
+pytest.importorskip("casadi")
 
 
 @pytest.fixture(scope="module")
 def bc():
-    spec = importlib.util.spec_from_file_location("bench_collocation_args", _PATH)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # dataclasses look their module up
-    spec.loader.exec_module(mod)
-    yield mod
-    sys.modules.pop(spec.name, None)
+    with benchmark_module("bench_collocation", "bench_collocation_args") as mod:
+        yield mod
 
 
 @pytest.fixture

@@ -3,9 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
-import sys
-from pathlib import Path
 
 import pytest
 
@@ -13,17 +10,13 @@ from planners.generalized import plan_scenario
 from planners.scenario import load_scenario
 from planners.verify import open_loop_error
 
-_PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_planner_settings.py"
+from .conftest import benchmark_module
 
 
 @pytest.fixture(scope="module")
 def bps():
-    spec = importlib.util.spec_from_file_location("bench_planner_settings", _PATH)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod
-    spec.loader.exec_module(mod)
-    yield mod
-    sys.modules.pop(spec.name, None)
+    with benchmark_module("bench_planner_settings", "bench_planner_settings") as mod:
+        yield mod
 
 
 def test_a_setting_gives_the_plan_of_that_setting(bps):
