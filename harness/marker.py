@@ -155,6 +155,28 @@ def is_run(folder: Path) -> bool:
     return (folder / MARKER).is_file() or (folder / INCOMPLETE).is_file()
 
 
+def walk_run(root: Path) -> Iterator[tuple[Path, list[str], bool]]:
+    """The folders under ``root``, sorted, each with its file names and whether it is another run's top folder
+    (a completion marker or an in-progress record below ``root``), not entered.
+
+    Parameters
+    ----------
+    root : Path
+        A folder (a run's, or one holding runs).
+
+    Yields
+    ------
+    (Path, list of str, bool)
+        Folder, the names of its files, whether it is another run's; symbolic links to folders are not followed.
+    """
+    root = Path(root)
+    for here, dirs, files in os.walk(root):
+        here = Path(here)
+        other = here != root and (MARKER in files or INCOMPLETE in files)
+        dirs[:] = [] if other else sorted(dirs)
+        yield here, files, other
+
+
 def runs_inside(folder: Path) -> list[Path]:
     """The run folders below ``folder`` (not ``folder`` itself), the topmost of each branch, sorted.
 
@@ -168,13 +190,7 @@ def runs_inside(folder: Path) -> list[Path]:
     list of Path
         Folders holding a completion marker or an in-progress record; symbolic links are not followed.
     """
-    found = []
-    for here, dirs, files in os.walk(folder):
-        if Path(here) != Path(folder) and (MARKER in files or INCOMPLETE in files):
-            found.append(Path(here))
-            dirs[:] = []
-        dirs.sort()
-    return sorted(found)
+    return sorted(here for here, _, other in walk_run(folder) if other)
 
 
 @contextlib.contextmanager

@@ -13,12 +13,12 @@ case folder, from which :mod:`reports.html` renders, now or later.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 from gna.errors import InputError
 from harness.fileio import json_safe as _json_safe, replacing
-from harness.outguard import INCOMPLETE, MARKER, previous_run
+from harness.marker import walk_run
+from harness.outguard import previous_run
 from planners.scenario import load_scenario
 
 from .report_figures import (CONTROLS_LIMITS_PNG, SIGNED_DIFFERENCES_PNG, control_limits,
@@ -275,17 +275,7 @@ def run_files(root: str | Path, name: str) -> list[Path]:
     list of Path
         In a stable order (sorted); symbolic links to folders are not followed.
     """
-    root = Path(root)
-    found = []
-    for folder, dirs, files in os.walk(root):
-        here = Path(folder)
-        if here != root and (MARKER in files or INCOMPLETE in files):
-            dirs[:] = []                                  # a run of its own: not this run's
-            continue
-        dirs.sort()
-        if name in files:
-            found.append(here / name)
-    return found
+    return [here / name for here, files, other in walk_run(Path(root)) if not other and name in files]
 
 
 def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:

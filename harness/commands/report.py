@@ -32,6 +32,7 @@ from gna.errors import InputError
 from reports.html import incomplete_notice, render_run
 
 from ..marker import amending, is_run, runs_inside
+from ..outguard import _few
 from ..parallel import default_jobs
 
 
@@ -41,7 +42,7 @@ def _one_run(path: Path, top: Path) -> None:
         return
     runs = runs_inside(path)
     if runs:
-        names = ", ".join(str(r.relative_to(path)) for r in runs[:4]) + (", ..." if len(runs) > 4 else "")
+        names = _few([str(r.relative_to(path)) for r in runs], 4)
         raise InputError(f"{path} is not a run's folder; it holds {len(runs)} separate run(s) ({names}): render "
                          f"each with gflat report {runs[0]} (and so on)")
 
