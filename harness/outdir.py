@@ -42,7 +42,7 @@ from gna.errors import InputError
 from .fileio import json_safe, remove_empty_folders, replacing
 from .folderlock import FolderLock
 from .marker import earlier_files, file_entry, write_marker
-from .outguard import (INCOMPLETE, MARKER, _cause, check_destination, check_previous, make_folder,
+from .outguard import (INCOMPLETE, MARKER, _cause, _few, check_destination, check_previous, make_folder,
                        previous_run)
 
 __all__ = ["INCOMPLETE", "MARKER", "OutputDir"]
@@ -381,16 +381,16 @@ class OutputDir:
         earlier = earlier_files(root, rec.previous, rec.written)
         removed = []
         for rel in earlier if self.clean else ():
-            stale = (root / rel).resolve()
-            if not stale.is_symlink():
+            stale = root / rel
+            if not stale.is_symlink():                    # a link is not followed to remove what it points to
                 with contextlib.suppress(OSError):
                     stale.unlink()
                     removed.append(rel)
-                    remove_empty_folders(stale.parent, root)
+                    remove_empty_folders(stale.resolve().parent, root)
         removed = [rel for rel in removed if Path(rel).name not in REPORT_PAGES]
         if removed:
             _log.warning("%s: removed %d file(s) of the folder's earlier run that this run did not write again (%s)",
-                         root, len(removed), ", ".join(removed[:3]) + (", ..." if len(removed) > 3 else ""))
+                         root, len(removed), _few(removed))
         kept = [] if self.clean else earlier
         files = [file_entry(root, rel) for rel in (*kept, *rec.written) if (root / rel).is_file()]
         self._mkdir(root, parents=True)

@@ -105,6 +105,21 @@ def test_rerun_removes_stale_files_only(tmp_path):
     assert not (tmp_path / "run" / "sub").exists()
 
 
+def test_a_stale_name_turned_link_is_not_followed(tmp_path):
+    """An earlier run's file replaced by a link to a file of the user's: the rerun does not remove the target."""
+    first = OutputDir(tmp_path / "run")
+    first.write_text("old.csv", text="0")
+    first.finish()
+    mine = tmp_path / "run" / "mine.txt"
+    mine.write_text("user's own file")
+    (tmp_path / "run" / "old.csv").unlink()
+    (tmp_path / "run" / "old.csv").symlink_to(mine)
+    second = OutputDir(tmp_path / "run")
+    second.write_text("new.csv", text="1")
+    second.finish()
+    assert mine.read_text() == "user's own file" and (tmp_path / "run" / "old.csv").is_symlink()
+
+
 def test_interrupted_rerun_then_smaller_run_leaves_no_stale_file(tmp_path):
     run = tmp_path / "run"
     first = OutputDir(run)                                 # a complete run: open and closed loop
