@@ -36,9 +36,13 @@ def main(argv=None) -> None:
     ap.add_argument("--singles", type=int, default=2, help="samples flown one at a time (rate and accuracy)")
     ap.add_argument("--seconds", type=float, default=60.0, help="span flown from t0 [s]")
     ap.add_argument("--method", default="DOP853", help="batched integrator")
-    ap.add_argument("--max-steps", type=int, default=5000,
-                    help="per-sample step budget (a sliding mode of the anti-windup stalls a few samples, on the "
-                         "single-run engine too)")
+    ap.add_argument(
+        "--max-steps",
+        type=int,
+        default=5000,
+        help="per-sample step budget (a sliding mode of the anti-windup stalls a few samples, on the "
+        "single-run engine too)",
+    )
     args = ap.parse_args(argv)
     disp = load_campaign("paper-dispersions").dispersions[0]
     planned = plan_case(ValidationCase("twin-otter-single-engine", loop="closed"))
@@ -49,37 +53,60 @@ def main(argv=None) -> None:
     engine = InHouseEngine()
     singles = []
     t, c = time.perf_counter(), time.process_time()
-    for d in draws[:args.singles]:
-        singles.append(engine.simulate(dispersed_aircraft(plan.aircraft, d), setup.controller.controls, span,
-                                       setup.x0 + d.offsets, env=plan.env, controller=setup.controller, dt_out=0.05))
+    for d in draws[: args.singles]:
+        singles.append(
+            engine.simulate(
+                dispersed_aircraft(plan.aircraft, d),
+                setup.controller.controls,
+                span,
+                setup.x0 + d.offsets,
+                env=plan.env,
+                controller=setup.controller,
+                dt_out=0.05,
+            )
+        )
     t_single = (time.perf_counter() - t) / max(args.singles, 1)
     c_single = (time.process_time() - c) / max(args.singles, 1)
     t, c = time.perf_counter(), time.process_time()
-    res, ctl, j = fly_batch(plan, planned.scenario, draws, t_span=span, method=args.method,
-                            max_steps=args.max_steps)
+    res, ctl, j = fly_batch(plan, planned.scenario, draws, t_span=span, method=args.method, max_steps=args.max_steps)
     t_batch, c_batch = time.perf_counter() - t, time.process_time() - c
     metrics = batch_metrics(res, plan, j, ctl)
-    diff = max((float(np.linalg.norm(r.df[["x", "y", "z"]].to_numpy() - res.X[:, :3, i], axis=1).max())
-                for i, r in enumerate(singles)), default=float("nan"))
+    diff = max(
+        (
+            float(np.linalg.norm(r.df[["x", "y", "z"]].to_numpy() - res.X[:, :3, i], axis=1).max())
+            for i, r in enumerate(singles)
+        ),
+        default=float("nan"),
+    )
     done = sum(m["status"] == "completed" for m in metrics)
     stalled = [i for i, m in enumerate(metrics) if m["status"] == "stalled"]
     errs = np.array([m["max_position_error_m"] or np.nan for m in metrics])
     print(f"twin-otter-single-engine closed loop, {span[1] - span[0]:g} s, dispersion '{disp.name}'")
-    print(f"single-run engine: {t_single:.2f} s per sample (CPU {c_single:.2f} s) -> {60.0 / t_single:.1f} samples "
-          f"per 60 s")
-    print(f"batched ({args.method}): {args.samples} samples in {t_batch:.1f} s (CPU {c_batch:.1f} s; {res.nfev} "
-          f"batched evaluations) -> {60.0 * args.samples / t_batch:.0f} samples per 60 s "
-          f"({t_single * args.samples / t_batch:.1f}x the single-run engine)")
+    print(
+        f"single-run engine: {t_single:.2f} s per sample (CPU {c_single:.2f} s) -> {60.0 / t_single:.1f} samples "
+        f"per 60 s"
+    )
+    print(
+        f"batched ({args.method}): {args.samples} samples in {t_batch:.1f} s (CPU {c_batch:.1f} s; {res.nfev} "
+        f"batched evaluations) -> {60.0 * args.samples / t_batch:.0f} samples per 60 s "
+        f"({t_single * args.samples / t_batch:.1f}x the single-run engine)"
+    )
     print(f"batched vs single runs ({len(singles)} samples): max position difference {diff:.2e} m")
     if res.steps is not None:
         order = np.argsort(res.steps)[::-1][:3]
-        print(f"steps per sample: median {int(np.median(res.steps))}, largest "
-              + ", ".join(f"{res.steps[i]} (sample {i}, seed {draws[i].seed})" for i in order))
+        print(
+            f"steps per sample: median {int(np.median(res.steps))}, largest "
+            + ", ".join(f"{res.steps[i]} (sample {i}, seed {draws[i].seed})" for i in order)
+        )
     if stalled:
-        print(f"stalled after {args.max_steps} steps (sliding mode of the conditional integration): "
-              + ", ".join(f"sample {i} (seed {draws[i].seed}, t = {metrics[i]['t_end']:.4g} s)" for i in stalled))
-    print(f"completed {done}/{args.samples}; max distance to the flat outputs: median {np.nanmedian(errs):.3f} m, "
-          f"worst {np.nanmax(errs):.3f} m")
+        print(
+            f"stalled after {args.max_steps} steps (sliding mode of the conditional integration): "
+            + ", ".join(f"sample {i} (seed {draws[i].seed}, t = {metrics[i]['t_end']:.4g} s)" for i in stalled)
+        )
+    print(
+        f"completed {done}/{args.samples}; max distance to the flat outputs: median {np.nanmedian(errs):.3f} m, "
+        f"worst {np.nanmax(errs):.3f} m"
+    )
 
 
 if __name__ == "__main__":

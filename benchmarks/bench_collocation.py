@@ -117,9 +117,9 @@ import gc  # noqa: E402
 import json  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
+from collections.abc import Callable  # noqa: E402
 from dataclasses import dataclass  # noqa: E402
 from pathlib import Path  # noqa: E402
-from typing import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -288,8 +288,9 @@ class CollocationSolution:
     @property
     def domain(self) -> str | None:
         """The first point outside the physical domain (message), None when every point is inside."""
-        return next((msg for k in range(len(self.t))
-                     if (msg := domain_violation(float(self.t[k]), self.states[:, k]))), None)
+        return next(
+            (msg for k in range(len(self.t)) if (msg := domain_violation(float(self.t[k]), self.states[:, k]))), None
+        )
 
     @property
     def initial_state(self) -> np.ndarray:
@@ -336,8 +337,17 @@ class CollocationProblem:
         Times of the points [s].
     """
 
-    def __init__(self, scenario, factor: float, guess: Callable, tol: float = IPOPT_TOL, ipopt: dict | None = None,
-                 weight: float = 1.0, start_weight: float = 1.0, graph: str = "MX"):
+    def __init__(
+        self,
+        scenario,
+        factor: float,
+        guess: Callable,
+        tol: float = IPOPT_TOL,
+        ipopt: dict | None = None,
+        weight: float = 1.0,
+        start_weight: float = 1.0,
+        graph: str = "MX",
+    ):
         _require_casadi()
         pb = scenario.problem()
         ac, env = pb.aircraft, pb.env
@@ -393,8 +403,9 @@ class CollocationProblem:
 
         # The full model on symbols: the project's equations, once, mapped over the Radau points.
         xs, us = ca.SX.sym("xs", 12), ca.SX.sym("us", 5)
-        rhs = eom.derivatives(ac, symbolic_environment(env), eom.State(*ca.vertsplit(xs)),
-                              eom.Controls(*ca.vertsplit(us)))
+        rhs = eom.derivatives(
+            ac, symbolic_environment(env), eom.State(*ca.vertsplit(xs)), eom.Controls(*ca.vertsplit(us))
+        )
         f = ca.Function("f", [xs, us], [ca.vertcat(*rhs)])
         # The equations at every Radau point: X @ Dg = f(X, U) there.
         radau = np.array([k * d + i for k in range(n) for i in range(1, d + 1)])
@@ -421,13 +432,18 @@ class CollocationProblem:
         if start_weight:
             # The model's equations at t0 too, in the least-squares sense (scaled like the constraints).
             d0 = ca.DM(D[:, 0] / h[0])
-            defect0 = (ca.mtimes(X[:, :d + 1], d0) - f(X[:, 0], U[:, 0])) / ca.DM(sx)
+            defect0 = (ca.mtimes(X[:, : d + 1], d0) - f(X[:, 0], U[:, 0])) / ca.DM(sx)
             obj = obj + start_weight * ca.sumsqr(defect0)
         self.n_variables = int(w.numel())
         self.n_constraints = int(dyn.numel())
-        opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": tol,
-                "ipopt.constr_viol_tol": CONSTR_VIOL_TOL,
-                "ipopt.linear_solver": "mumps"}
+        opts = {
+            "ipopt.print_level": 0,
+            "print_time": False,
+            "ipopt.sb": "yes",
+            "ipopt.tol": tol,
+            "ipopt.constr_viol_tol": CONSTR_VIOL_TOL,
+            "ipopt.linear_solver": "mumps",
+        }
         opts.update({f"ipopt.{k}": v for k, v in (ipopt or {}).items()})
         self.solver = ca.nlpsol("collocation", "ipopt", {"x": w, "f": obj, "g": dyn}, opts)
         self._sx, self._su = sx, su
@@ -461,8 +477,7 @@ class CollocationProblem:
         """
         sol = self.solver(x0=self.w0, lbg=0.0, ubg=0.0)
         stats = self.solver.stats()
-        return self.unpack(np.asarray(sol["x"], dtype=float).ravel(), np.asarray(sol["g"], dtype=float).ravel(),
-                           stats)
+        return self.unpack(np.asarray(sol["x"], dtype=float).ravel(), np.asarray(sol["g"], dtype=float).ravel(), stats)
 
     def unpack(self, w: np.ndarray, g: np.ndarray, stats: dict) -> CollocationSolution:
         """States, controls and piecewise-cubic controls from the NLP's solution vector.
@@ -489,12 +504,20 @@ class CollocationProblem:
         for i in range(5):
             U[i] = self.fixed_u[i] if i in self.fixed_u else self._su[i] * W[len(self.free_x) + self.free_u.index(i)]
         ctl = cubic_pieces(self.breaks, self.t, U)
-        gd = g[:self.n_dynamics]
+        gd = g[: self.n_dynamics]
         viol = float(np.max(np.abs(gd.reshape(12, -1, order="F") * self._sx[:, None]))) if gd.size else 0.0
         if g.size > gd.size:
-            viol = max(viol, float(np.max(np.abs(g[gd.size:]))))
-        return CollocationSolution(self.t, X, U, ctl, bool(stats.get("success", False)),
-                                   str(stats.get("return_status", "")), int(stats.get("iter_count", -1)), viol)
+            viol = max(viol, float(np.max(np.abs(g[gd.size :]))))
+        return CollocationSolution(
+            self.t,
+            X,
+            U,
+            ctl,
+            bool(stats.get("success", False)),
+            str(stats.get("return_status", "")),
+            int(stats.get("iter_count", -1)),
+            viol,
+        )
 
 
 def cubic_pieces(breaks: np.ndarray, t: np.ndarray, values: np.ndarray) -> PiecewisePolynomial:
@@ -601,8 +624,17 @@ def fly_by_pieces(problem, controls, x0, grid: np.ndarray) -> np.ndarray | None:
     for a, b in zip(cuts[:-1], cuts[1:]):
         inside = (grid > a) & (grid <= b)
         te = np.unique(np.concatenate([[a], grid[inside], [b]]))
-        run = simulate(problem.aircraft, controls, (a, b), x, env=problem.env, t_eval=te,
-                       method=verify.VERIFY_METHOD, rtol=verify.VERIFY_RTOL, atol=verify.VERIFY_ATOL)
+        run = simulate(
+            problem.aircraft,
+            controls,
+            (a, b),
+            x,
+            env=problem.env,
+            t_eval=te,
+            method=verify.VERIFY_METHOD,
+            rtol=verify.VERIFY_RTOL,
+            atol=verify.VERIFY_ATOL,
+        )
         if run.status != "completed":
             return None
         Y = run.df[list(eom.STATE_NAMES)].to_numpy().T
@@ -662,14 +694,16 @@ def flat_output_kinematics(problem, t: np.ndarray) -> np.ndarray:
         else:  # an expression without t is a number
             rows.append((np.full(t.shape, float(s)), np.zeros(t.shape)))
     (x, xd), (y, yd), (z, zd) = rows
-    V = np.sqrt(xd ** 2 + yd ** 2 + zd ** 2)
+    V = np.sqrt(xd**2 + yd**2 + zd**2)
     gamma = np.arctan2(-zd, np.hypot(xd, yd))
     chi = np.unwrap(np.arctan2(yd, xd))
     return np.stack([x, y, z, V, gamma, chi])
 
 
-TRIM_RULE = ("steady straight flight along the initial velocity: gna.trim.trim(aircraft, {V, gamma: from the flat "
-             "outputs' derivatives at t0, chi_dot: 0, beta: 0}, altitude -z(t0), eta(t0)), full model")
+TRIM_RULE = (
+    "steady straight flight along the initial velocity: gna.trim.trim(aircraft, {V, gamma: from the flat "
+    "outputs' derivatives at t0, chi_dot: 0, beta: 0}, altitude -z(t0), eta(t0)), full model"
+)
 
 
 def trim_guess(scenario) -> Callable:
@@ -703,8 +737,13 @@ def trim_guess(scenario) -> Callable:
     pb = scenario.problem()
     k0 = flat_output_kinematics(pb, np.array([scenario.t0]))[:, 0]
     eta0 = float(np.asarray(pb.eta(scenario.t0))) if pb.eta is not None else 0.0
-    tr = trim(pb.aircraft, {"V": float(k0[3]), "gamma": float(k0[4]), "chi_dot": 0.0, "beta": 0.0},
-              altitude=float(-k0[2]), env=pb.env, eta=eta0)
+    tr = trim(
+        pb.aircraft,
+        {"V": float(k0[3]), "gamma": float(k0[4]), "chi_dot": 0.0, "beta": 0.0},
+        altitude=float(-k0[2]),
+        env=pb.env,
+        eta=eta0,
+    )
     held = np.array([tr.values[k] for k in ("alpha", "beta", "mu", "p", "q", "r")])
     u = np.array([tr.values["F"], eta0, tr.values["dl"], tr.values["dm"], tr.values["dn"]])
 
@@ -718,8 +757,10 @@ def trim_guess(scenario) -> Callable:
 
 
 GUESSES = {"plan-j0": planner_guess, "trim": trim_guess}
-GUESS_TEXT = {"plan-j0": "the planner's J = 0 plan (flat parametrization, simple model) at the points",
-              "trim": "flat outputs and their kinematics at the points, the rest held at a trim: " + TRIM_RULE}
+GUESS_TEXT = {
+    "plan-j0": "the planner's J = 0 plan (flat parametrization, simple model) at the points",
+    "trim": "flat outputs and their kinematics at the points, the rest held at a trim: " + TRIM_RULE,
+}
 
 
 def _clock():
@@ -739,8 +780,18 @@ def _median(pairs):
 GRAPHS = ("MX", "SX")
 
 
-def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FINER_FACTORS,
-                   graphs=GRAPHS, guesses=tuple(GUESSES), log=print, J=None, step=None, e=None) -> dict:
+def bench_scenario(
+    name: str,
+    factors=DEFAULT_FACTORS,
+    repeat: int = 3,
+    finer=FINER_FACTORS,
+    graphs=GRAPHS,
+    guesses=tuple(GUESSES),
+    log=print,
+    J=None,
+    step=None,
+    e=None,
+) -> dict:
     """Time and accuracy of the planner and of collocation on grids of a scenario, per initial guess.
 
     Parameters
@@ -797,12 +848,22 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
     # flight of planners.verify in one piece is kept alongside (it agrees for the planner's controls).
     planner_acc = open_loop_error_of(sc, plan.control_function(), plan.initial_state())
     check = open_loop_error(plan)
-    out = {"scenario": sc.name, "step_s": sc.step, "span_s": sc.t1 - sc.t0,
-           "planner": {"J": plan.J, "J_setting": "bundled" if J is None else J, "nodes": len(plan.t_nodes), "accuracy_m": planner_acc,
-                       "accuracy_one_piece_m": check.max_position_error_m, "series_backend": BACKEND,
-                       "feasible": bool(plan.feasible), "settings": {k: getattr(plan, k) for k in ("e",)
-                                                                     if hasattr(plan, k)}},
-           "guesses": {}}
+    out = {
+        "scenario": sc.name,
+        "step_s": sc.step,
+        "span_s": sc.t1 - sc.t0,
+        "planner": {
+            "J": plan.J,
+            "J_setting": "bundled" if J is None else J,
+            "nodes": len(plan.t_nodes),
+            "accuracy_m": planner_acc,
+            "accuracy_one_piece_m": check.max_position_error_m,
+            "series_backend": BACKEND,
+            "feasible": bool(plan.feasible),
+            "settings": {k: getattr(plan, k) for k in ("e",) if hasattr(plan, k)},
+        },
+        "guesses": {},
+    }
     log(f"{sc.name}: planner J = {plan.J}, accuracy {planner_acc:.3g} m")
     prebuilt: dict[tuple[str, float, str], CollocationProblem] = {}
 
@@ -816,23 +877,45 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
         sol = sols[graphs[0]]
         acc = open_loop_error_of(sc, sol.control_function, sol.initial_state) if sol.domain is None else float("nan")
         # The one-piece flight of planners.verify (for the record: on fine grids it measures its own error).
-        one = (verify.open_loop_check(sc.problem(), sol.control_function, sol.initial_state,
-                                      verification_grid(sc)).max_position_error_m
-               if sol.domain is None and np.isfinite(acc) else float("nan"))
+        one = (
+            verify.open_loop_check(
+                sc.problem(), sol.control_function, sol.initial_state, verification_grid(sc)
+            ).max_position_error_m
+            if sol.domain is None and np.isfinite(acc)
+            else float("nan")
+        )
         spread = max(float(np.max(np.abs(s.controls - sol.controls))) for s in sols.values())
-        row.update({"intervals": prob.n_intervals, "points": prob.P, "variables": prob.n_variables,
-                    "constraints": prob.n_constraints, "accuracy_m": acc, "accuracy_one_piece_m": one,
-                    "success": all(s.success for s in sols.values()), "status": sol.status,
-                    "iterations": sol.iterations, "iterations_by_graph": {g: s.iterations for g, s in sols.items()},
-                    "constraint_violation": sol.constraint_violation, "domain": sol.domain,
-                    "graphs_max_control_difference": spread,
-                    "times": {g: {k: [] for k in ("guess", "build", "solve", "scratch", "resolve")} for g in graphs}})
+        row.update(
+            {
+                "intervals": prob.n_intervals,
+                "points": prob.P,
+                "variables": prob.n_variables,
+                "constraints": prob.n_constraints,
+                "accuracy_m": acc,
+                "accuracy_one_piece_m": one,
+                "success": all(s.success for s in sols.values()),
+                "status": sol.status,
+                "iterations": sol.iterations,
+                "iterations_by_graph": {g: s.iterations for g, s in sols.items()},
+                "constraint_violation": sol.constraint_violation,
+                "domain": sol.domain,
+                "graphs_max_control_difference": spread,
+                "times": {g: {k: [] for k in ("guess", "build", "solve", "scratch", "resolve")} for g in graphs},
+            }
+        )
         grids[f] = row
         # A NaN accuracy: the solution's points or its open-loop flight leave the domain (_grid_note's words).
-        acc_text = (f"{acc:.3g} m" if np.isfinite(acc) else
-                    "n/a (solution outside the domain)" if sol.domain else "n/a (open loop leaves the domain)")
-        log(f"  {gname}: grid {f:g} x step: {prob.n_intervals} intervals, accuracy {acc_text}, {sol.status}, "
-            f"{sol.iterations} iterations" + (f"; solution outside the domain: {sol.domain}" if sol.domain else ""))
+        acc_text = (
+            f"{acc:.3g} m"
+            if np.isfinite(acc)
+            else "n/a (solution outside the domain)"
+            if sol.domain
+            else "n/a (open loop leaves the domain)"
+        )
+        log(
+            f"  {gname}: grid {f:g} x step: {prob.n_intervals} intervals, accuracy {acc_text}, {sol.status}, "
+            f"{sol.iterations} iterations" + (f"; solution outside the domain: {sol.domain}" if sol.domain else "")
+        )
 
     by_guess: dict[str, dict] = {}
     for gname in guesses:
@@ -844,8 +927,9 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
         for f in finer:
             # Finer grids buy accuracy, not convergence: none after a grid that failed or does not fly.
             last = grids[min(grids)]
-            if (any(g["success"] and g["accuracy_m"] <= planner_acc for g in grids.values())
-                    or not (last["success"] and np.isfinite(last["accuracy_m"]))):
+            if any(g["success"] and g["accuracy_m"] <= planner_acc for g in grids.values()) or not (
+                last["success"] and np.isfinite(last["accuracy_m"])
+            ):
                 break
             add_grid(gname, grids, float(f))
         by_guess[gname] = {"grids": grids, "guess_times": []}
@@ -902,13 +986,22 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
                     g[f"{key}_{clock}_graph"] = best
             rows.append(g)
         gtimes = [g["times"][graph][f"guess_{c}_s"] for g in rows for graph in graphs for c in ("cpu", "wall")]
-        res = {"what": GUESS_TEXT[gname], "counted_in_times": True,
-               "time_cpu_s": statistics.median(gtimes[0::2]) if gtimes else float("nan"),
-               "time_wall_s": statistics.median(gtimes[1::2]) if gtimes else float("nan"), "grids": rows}
+        res = {
+            "what": GUESS_TEXT[gname],
+            "counted_in_times": True,
+            "time_cpu_s": statistics.median(gtimes[0::2]) if gtimes else float("nan"),
+            "time_wall_s": statistics.median(gtimes[1::2]) if gtimes else float("nan"),
+            "grids": rows,
+        }
         if gname == "trim":
             tr = GUESSES[gname](sc).trim
-            res["trim"] = {"fixed": tr.fixed, "values": tr.values, "altitude_m": tr.altitude, "eta": tr.eta,
-                           "warnings": list(tr.warnings)}
+            res["trim"] = {
+                "fixed": tr.fixed,
+                "values": tr.values,
+                "altitude_m": tr.altitude,
+                "eta": tr.eta,
+                "warnings": list(tr.warnings),
+            }
         flown = [g for g in rows if g["success"] and np.isfinite(g["accuracy_m"])]
         ok = [g for g in flown if g["accuracy_m"] <= planner_acc]
         res["matched"] = _against_planner(min(ok, key=lambda g: g["resolve_wall_s"]), p) if ok else None
@@ -923,17 +1016,23 @@ def bench_scenario(name: str, factors=DEFAULT_FACTORS, repeat: int = 3, finer=FI
 
 def _against_planner(g: dict, p: dict) -> dict:
     """A grid's accuracy and its times over the planner's (re-solved, built from scratch; wall and CPU)."""
-    return {"factor": g["factor"], "accuracy_m": g["accuracy_m"], "iterations": g["iterations"],
-            "resolve_over_planner_wall": g["resolve_wall_s"] / p["time_wall_s"],
-            "resolve_over_planner_cpu": g["resolve_cpu_s"] / p["time_cpu_s"],
-            "scratch_over_planner_wall": g["scratch_wall_s"] / p["time_wall_s"],
-            "scratch_over_planner_cpu": g["scratch_cpu_s"] / p["time_cpu_s"]}
+    return {
+        "factor": g["factor"],
+        "accuracy_m": g["accuracy_m"],
+        "iterations": g["iterations"],
+        "resolve_over_planner_wall": g["resolve_wall_s"] / p["time_wall_s"],
+        "resolve_over_planner_cpu": g["resolve_cpu_s"] / p["time_cpu_s"],
+        "scratch_over_planner_wall": g["scratch_wall_s"] / p["time_wall_s"],
+        "scratch_over_planner_cpu": g["scratch_cpu_s"] / p["time_cpu_s"],
+    }
 
 
 def _ratio_text(m: dict) -> str:
-    return (f"grid {m['factor']:g}x ({m['accuracy_m']:.3g} m): re-solved / planner = "
-            f"{m['resolve_over_planner_wall']:.2f} wall ({m['resolve_over_planner_cpu']:.2f} CPU), built from scratch / "
-            f"planner = {m['scratch_over_planner_wall']:.2f} wall ({m['scratch_over_planner_cpu']:.2f} CPU)")
+    return (
+        f"grid {m['factor']:g}x ({m['accuracy_m']:.3g} m): re-solved / planner = "
+        f"{m['resolve_over_planner_wall']:.2f} wall ({m['resolve_over_planner_cpu']:.2f} CPU), built from scratch / "
+        f"planner = {m['scratch_over_planner_wall']:.2f} wall ({m['scratch_over_planner_cpu']:.2f} CPU)"
+    )
 
 
 def _grid_note(g: dict) -> str:
@@ -959,32 +1058,41 @@ def format_table(res: dict) -> str:
     str
     """
     p = res["planner"]
-    lines = [f"{res['scenario']} (node step {res['step_s']:g} s, span {res['span_s']:g} s); times: median wall "
-             f"(CPU) [s]; every collocation time includes its initial guess",
-             f"  planner J={p['J']} ({p.get('J_setting', 'bundled')}), {p['nodes']} nodes, series backend {p.get('series_backend', '?')}: "
-             f"{p['time_wall_s']:.3f} ({p['time_cpu_s']:.3f}), "
-             f"open-loop accuracy {p['accuracy_m']:.3g} m"]
+    lines = [
+        f"{res['scenario']} (node step {res['step_s']:g} s, span {res['span_s']:g} s); times: median wall "
+        f"(CPU) [s]; every collocation time includes its initial guess",
+        f"  planner J={p['J']} ({p.get('J_setting', 'bundled')}), {p['nodes']} nodes, series backend {p.get('series_backend', '?')}: "
+        f"{p['time_wall_s']:.3f} ({p['time_cpu_s']:.3f}), "
+        f"open-loop accuracy {p['accuracy_m']:.3g} m",
+    ]
     for gname, gres in res["guesses"].items():
         graphs = list(gres["grids"][0]["times"]) if gres["grids"] else []
-        lines += [f"  initial guess {gname}: {gres['what']}; {gres['time_wall_s']:.3f} ({gres['time_cpu_s']:.3f})",
-                  f"  {'grid':>6} {'interv.':>7} {'vars':>6} "
-                  + " ".join(f"{k + ' ' + gn:>16}" for k in ("build", "solve", "re-solve") for gn in graphs)
-                  + f" {'accuracy [m]':>12} {'it':>4}"]
+        lines += [
+            f"  initial guess {gname}: {gres['what']}; {gres['time_wall_s']:.3f} ({gres['time_cpu_s']:.3f})",
+            f"  {'grid':>6} {'interv.':>7} {'vars':>6} "
+            + " ".join(f"{k + ' ' + gn:>16}" for k in ("build", "solve", "re-solve") for gn in graphs)
+            + f" {'accuracy [m]':>12} {'it':>4}",
+        ]
         for g in gres["grids"]:
             cells = []
             for key in ("build", "solve", "resolve"):
                 for gn in graphs:
                     tt = g["times"][gn]
                     cells.append(f"{tt[key + '_wall_s']:.3f} ({tt[key + '_cpu_s']:.3f})")
-            lines.append(f"  {g['factor']:>5g}x {g['intervals']:>7} {g['variables']:>6} "
-                         + " ".join(f"{c:>16}" for c in cells)
-                         + f" {g['accuracy_m']:>12.3g} {g['iterations']:>4}" + _grid_note(g))
+            lines.append(
+                f"  {g['factor']:>5g}x {g['intervals']:>7} {g['variables']:>6} "
+                + " ".join(f"{c:>16}" for c in cells)
+                + f" {g['accuracy_m']:>12.3g} {g['iterations']:>4}"
+                + _grid_note(g)
+            )
         m, best = gres["matched"], gres.get("most_accurate")
         if m:
             lines.append(f"  matched accuracy ({gname}): {_ratio_text(m)}")
         else:
-            lines.append(f"  matched accuracy ({gname}): no successful collocation grid reached the planner's accuracy"
-                         + (f"; the most accurate, {_ratio_text(best)}" if best else ""))
+            lines.append(
+                f"  matched accuracy ({gname}): no successful collocation grid reached the planner's accuracy"
+                + (f"; the most accurate, {_ratio_text(best)}" if best else "")
+            )
     return "\n".join(lines)
 
 
@@ -1004,35 +1112,51 @@ def markdown_table(results: list) -> str:
         (CPU) [s], the initial guess included, the quicker graph), open-loop accuracy; then the ratios at
         matched accuracy per guess.
     """
+
     def t(x, key):
         return f"{x[key + '_wall_s']:.3f} ({x[key + '_cpu_s']:.3f})"
 
-    lines = ["| scenario | solver | intervals | NLP variables | IPOPT iterations | built from scratch [s] | "
-             "re-solve [s] | open-loop accuracy [m] |", "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| scenario | solver | intervals | NLP variables | IPOPT iterations | built from scratch [s] | "
+        "re-solve [s] | open-loop accuracy [m] |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in results:
         p = r["planner"]
-        lines.append(f"| {r['scenario']} | planner J = {p['J']} | {p['nodes'] - 1} | | | "
-                     f"{t(p, 'time')} | | {p['accuracy_m']:.2g} |")
+        lines.append(
+            f"| {r['scenario']} | planner J = {p['J']} | {p['nodes'] - 1} | | | "
+            f"{t(p, 'time')} | | {p['accuracy_m']:.2g} |"
+        )
         for gname, gres in r["guesses"].items():
             for g in gres["grids"]:
-                lines.append(f"| | collocation {g['factor']:g}x, guess {gname} | {g['intervals']} | "
-                             f"{g['variables']} | {g['iterations']}{_grid_note(g)} | "
-                             f"{t(g, 'scratch')} {g['scratch_wall_graph']} | "
-                             f"{t(g, 'resolve')} {g['resolve_wall_graph']} | {g['accuracy_m']:.2g} |")
-    lines += ["", "| scenario | planner | initial guess (its time, included) | matched grid | re-solved / planner | "
-              "built from scratch / planner |", "|---|---|---|---|---|---|"]
+                lines.append(
+                    f"| | collocation {g['factor']:g}x, guess {gname} | {g['intervals']} | "
+                    f"{g['variables']} | {g['iterations']}{_grid_note(g)} | "
+                    f"{t(g, 'scratch')} {g['scratch_wall_graph']} | "
+                    f"{t(g, 'resolve')} {g['resolve_wall_graph']} | {g['accuracy_m']:.2g} |"
+                )
+    lines += [
+        "",
+        "| scenario | planner | initial guess (its time, included) | matched grid | re-solved / planner | "
+        "built from scratch / planner |",
+        "|---|---|---|---|---|---|",
+    ]
     for r in results:
         p = r["planner"]
         for gname, gres in r["guesses"].items():
             m = gres["matched"]
-            head = (f"| {r['scenario']} | {p['time_wall_s']:.3f} s, {p['accuracy_m']:.2g} m | {gname} "
-                    f"({gres['time_wall_s']:.3f} s) |")
+            head = (
+                f"| {r['scenario']} | {p['time_wall_s']:.3f} s, {p['accuracy_m']:.2g} m | {gname} "
+                f"({gres['time_wall_s']:.3f} s) |"
+            )
             best = gres.get("most_accurate")
             shown, label = (m, "") if m else (best, "none; most accurate: ")
             if shown:
-                lines.append(f"{head} {label}{shown['factor']:g}x, {shown['accuracy_m']:.2g} m, {shown['iterations']} it. | "
-                             f"{shown['resolve_over_planner_wall']:.2f} wall ({shown['resolve_over_planner_cpu']:.2f} CPU) | "
-                             f"{shown['scratch_over_planner_wall']:.2f} wall ({shown['scratch_over_planner_cpu']:.2f} CPU) |")
+                lines.append(
+                    f"{head} {label}{shown['factor']:g}x, {shown['accuracy_m']:.2g} m, {shown['iterations']} it. | "
+                    f"{shown['resolve_over_planner_wall']:.2f} wall ({shown['resolve_over_planner_cpu']:.2f} CPU) | "
+                    f"{shown['scratch_over_planner_wall']:.2f} wall ({shown['scratch_over_planner_cpu']:.2f} CPU) |"
+                )
             else:
                 lines.append(f"{head} none | | |")
     return "\n".join(lines)
@@ -1097,7 +1221,7 @@ def _check_arguments(ap, args):
     for name in args.scenarios:
         try:
             sc = load_scenario(name)
-        except Exception as exc:        # noqa: BLE001 -- the scenario loader's one-line error, as a usage error
+        except Exception as exc:  # noqa: BLE001 -- the scenario loader's one-line error, as a usage error
             ap.error(f"--scenarios: {name}: {exc}")
         span = sc.t1 - sc.t0
         step = sc.step if args.step is None else args.step
@@ -1106,16 +1230,22 @@ def _check_arguments(ap, args):
             if step > span:
                 ap.error(f"--step: {step:g} s is longer than the {span:g} s span of {sc.name}")
             if abs(nodes - round(nodes)) > 1e-9 * nodes:
-                ap.error(f"--step: {step:g} s does not divide the {span:g} s span of {sc.name} "
-                         f"({nodes:.6g} steps); give a divisor")
+                ap.error(
+                    f"--step: {step:g} s does not divide the {span:g} s span of {sc.name} "
+                    f"({nodes:.6g} steps); give a divisor"
+                )
             if nodes > MAX_NODES:
-                ap.error(f"--step: {step:g} s makes {nodes:.3g} nodes over the {span:g} s span of {sc.name}, "
-                         f"above {MAX_NODES}")
+                ap.error(
+                    f"--step: {step:g} s makes {nodes:.3g} nodes over the {span:g} s span of {sc.name}, "
+                    f"above {MAX_NODES}"
+                )
         factors = [8.0] if args.quick else args.factors
         worst = max(span / (step * f) for f in factors)
         if worst > MAX_NODES:
-            ap.error(f"--factors: {min(factors):g} x the {step:g} s step makes {worst:.3g} collocation intervals "
-                     f"over the {span:g} s span of {sc.name}, above {MAX_NODES}")
+            ap.error(
+                f"--factors: {min(factors):g} x the {step:g} s step makes {worst:.3g} collocation intervals "
+                f"over the {span:g} s span of {sc.name}, above {MAX_NODES}"
+            )
     _check_writable(ap, "--json", args.json)
     _check_writable(ap, "--markdown", args.markdown)
     return J, graphs
@@ -1125,12 +1255,13 @@ def main(argv=None) -> None:
     """Run the benchmark from the command line; Ctrl-C stops it with one line, exit status 130; a plan that
     cannot be made (the planner's one-line error) exits 1."""
     from gna.errors import GflatError
+
     try:
         _main(argv)
     except KeyboardInterrupt:
         print("bench_collocation: interrupted", file=sys.stderr)
         sys.exit(130)
-    except GflatError as exc:           # the planner cannot plan these settings (a diverging J, a singular output)
+    except GflatError as exc:  # the planner cannot plan these settings (a diverging J, a singular output)
         print(f"bench_collocation: error: {exc}", file=sys.stderr)
         sys.exit(1)
 
@@ -1139,19 +1270,35 @@ def _main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
     ap.add_argument("--repeat", type=int, default=5, help="interleaved repetitions (medians)")
-    ap.add_argument("--factors", type=_positive_factors, default=list(DEFAULT_FACTORS),
-                    help="collocation interval / scenario node step, comma-separated")
+    ap.add_argument(
+        "--factors",
+        type=_positive_factors,
+        default=list(DEFAULT_FACTORS),
+        help="collocation interval / scenario node step, comma-separated",
+    )
     ap.add_argument("--quick", action="store_true", help="smoke run: one repetition, the 8x grid only, no finer")
     ap.add_argument("--graphs", default="MX,SX", help="CasADi graphs timed, comma-separated (MX, SX)")
-    ap.add_argument("--guess", default=",".join(GUESSES),
-                    help="initial guesses, comma-separated: plan-j0 (the planner's J = 0 plan), trim (flat outputs, "
-                         "their kinematics and a trim at the start); default: both")
-    ap.add_argument("--J", dest="J", default=None,
-                    help="the planner's J: a whole number or auto (the convergence test); default: the scenario's")
-    ap.add_argument("--step", type=float, default=None,
-                    help="the planner's node step [s] (default: the scenario's); the grids' factors are relative to it")
-    ap.add_argument("--e", dest="e", type=int, default=None,
-                    help="the planner's output order e (default: the scenario's)")
+    ap.add_argument(
+        "--guess",
+        default=",".join(GUESSES),
+        help="initial guesses, comma-separated: plan-j0 (the planner's J = 0 plan), trim (flat outputs, "
+        "their kinematics and a trim at the start); default: both",
+    )
+    ap.add_argument(
+        "--J",
+        dest="J",
+        default=None,
+        help="the planner's J: a whole number or auto (the convergence test); default: the scenario's",
+    )
+    ap.add_argument(
+        "--step",
+        type=float,
+        default=None,
+        help="the planner's node step [s] (default: the scenario's); the grids' factors are relative to it",
+    )
+    ap.add_argument(
+        "--e", dest="e", type=int, default=None, help="the planner's output order e (default: the scenario's)"
+    )
     ap.add_argument("--json", help="write the results to this JSON file")
     ap.add_argument("--markdown", help="write the results as a Markdown table to this file")
     args = ap.parse_args(argv)
@@ -1168,19 +1315,26 @@ def _main(argv=None) -> None:
         factors, finer, repeat = [8.0], (), 1
     results = []
     for name in args.scenarios:
-        res = bench_scenario(name, factors, repeat, finer, graphs, guesses, J=J,
-                              step=args.step, e=args.e)
+        res = bench_scenario(name, factors, repeat, finer, graphs, guesses, J=J, step=args.step, e=args.e)
         print(format_table(res), flush=True)
         results.append(res)
     if args.markdown:
         with open(args.markdown, "w", encoding="utf-8") as fh:
             fh.write(markdown_table(results) + "\n")
     if args.json:
-        meta = {"repeat": repeat, "scheme": f"Legendre-Gauss-Radau degree {DEGREE}", "ipopt_tol": IPOPT_TOL,
-                "constr_viol_tol": CONSTR_VIOL_TOL, "linear_solver": "mumps",
-                "ipopt_options": f"tol {IPOPT_TOL:g}, constr_viol_tol {CONSTR_VIOL_TOL:g}, MUMPS, the rest defaults",
-                "guesses": {g: GUESS_TEXT[g] for g in guesses}, "casadi": ca.CasadiMeta.version(), "cpu_count": os.cpu_count(),
-                "loadavg": os.getloadavg(), "date_utc": time.strftime("%Y-%m-%d %H:%M", time.gmtime())}
+        meta = {
+            "repeat": repeat,
+            "scheme": f"Legendre-Gauss-Radau degree {DEGREE}",
+            "ipopt_tol": IPOPT_TOL,
+            "constr_viol_tol": CONSTR_VIOL_TOL,
+            "linear_solver": "mumps",
+            "ipopt_options": f"tol {IPOPT_TOL:g}, constr_viol_tol {CONSTR_VIOL_TOL:g}, MUMPS, the rest defaults",
+            "guesses": {g: GUESS_TEXT[g] for g in guesses},
+            "casadi": ca.CasadiMeta.version(),
+            "cpu_count": os.cpu_count(),
+            "loadavg": os.getloadavg(),
+            "date_utc": time.strftime("%Y-%m-%d %H:%M", time.gmtime()),
+        }
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump({"meta": meta, "results": results}, fh, indent=2)
 

@@ -38,21 +38,28 @@ def main(argv=None) -> None:
     args = p.parse_args(argv)
     rng = np.random.default_rng(0)
     n = args.points
-    st = AeroState(rng.uniform(-0.05, 0.25, n), rng.uniform(-0.2, 0.2, n), rng.uniform(-0.1, 0.1, n),
-                   rng.uniform(-0.005, 0.005, n), rng.uniform(-0.05, 0.05, n), rng.uniform(-0.3, 0.3, n),
-                   rng.uniform(-0.3, 0.3, n), rng.uniform(-0.2, 0.2, n))
+    st = AeroState(
+        rng.uniform(-0.05, 0.25, n),
+        rng.uniform(-0.2, 0.2, n),
+        rng.uniform(-0.1, 0.1, n),
+        rng.uniform(-0.005, 0.005, n),
+        rng.uniform(-0.05, 0.05, n),
+        rng.uniform(-0.3, 0.3, n),
+        rng.uniform(-0.3, 0.3, n),
+        rng.uniform(-0.2, 0.2, n),
+    )
     print(f"source evaluation, {n} points (median of {args.repeats}):")
     for ident in SPECS:
         src = SPECS[ident].make_source()
-        t = _median_time(lambda: src.coefficients(st), args.repeats)
+        t = _median_time(lambda: src.coefficients(st), args.repeats)  # noqa: B023
         print(f"  {ident:<11} {src.name:<70} {1e6 * t / n:8.2f} us/point")
     print("fit of the 45 terms (sampling included), regeneration of each file (fit + trim check):")
     for ident, spec in SPECS.items():
         src = spec.make_source()
         design = spec.design(src)
-        t_fit = _median_time(lambda: fit_source(src, gna45_structure(), design), args.repeats)
+        t_fit = _median_time(lambda: fit_source(src, gna45_structure(), design), args.repeats)  # noqa: B023
         with tempfile.TemporaryDirectory() as tmp:
-            t_reg = _median_time(lambda: regenerate(Path(tmp), [ident]), args.repeats)
+            t_reg = _median_time(lambda: regenerate(Path(tmp), [ident]), args.repeats)  # noqa: B023
         print(f"  {ident:<11} fit {t_fit:6.2f} s   regenerate {t_reg:6.2f} s")
 
 

@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # measure the checkout this script is in
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # measure the checkout this script is in
 
 from gna.eom import CONTROL_NAMES, Controls, State, derivatives
 from gna.piecewise import PiecewisePolynomial
@@ -70,9 +70,11 @@ def plan_controls(plan) -> tuple[PiecewisePolynomial, str]:
     h = np.diff(tn)
     y0, y1, d0, d1 = v[:, :-1], v[:, 1:], d[:, :-1], d[:, 1:]
     c2 = (3.0 * (y1 - y0) / h - 2.0 * d0 - d1) / h
-    c3 = (2.0 * (y0 - y1) / h + d0 + d1) / h ** 2
-    return (PiecewisePolynomial(tn, np.stack([y0, d0, c2, c3], axis=-1).transpose(1, 0, 2)),
-            "cubic Hermite of the planned controls at the nodes")
+    c3 = (2.0 * (y0 - y1) / h + d0 + d1) / h**2
+    return (
+        PiecewisePolynomial(tn, np.stack([y0, d0, c2, c3], axis=-1).transpose(1, 0, 2)),
+        "cubic Hermite of the planned controls at the nodes",
+    )
 
 
 def _generic_only(aircraft, env, model="full", h=None, x0=None, u0=None):
@@ -86,16 +88,24 @@ def run_inhouse(plan, controls, generic: bool, controller=None):
     if generic:
         _simulate_module.compile_derivatives = _generic_only
     try:
-        return InHouseEngine().simulate(plan.aircraft, controls, (plan.t0, plan.t1), plan.initial_state(),
-                                        env=plan.env, controller=controller)
+        return InHouseEngine().simulate(
+            plan.aircraft, controls, (plan.t0, plan.t1), plan.initial_state(), env=plan.env, controller=controller
+        )
     finally:
         _simulate_module.compile_derivatives = compile_derivatives
 
 
 def run_jsbsim(plan, controls, controller=None):
     """One JSBSim run through :func:`harness.engines.fly`."""
-    return fly(["jsbsim"], plan.aircraft, plan.initial_state(), controls, (plan.t0, plan.t1), env=plan.env,
-               controller=controller)["jsbsim"]
+    return fly(
+        ["jsbsim"],
+        plan.aircraft,
+        plan.initial_state(),
+        controls,
+        (plan.t0, plan.t1),
+        env=plan.env,
+        controller=controller,
+    )["jsbsim"]
 
 
 def rhs_calls(plan, controls) -> int:
@@ -103,7 +113,7 @@ def rhs_calls(plan, controls) -> int:
     counted = _Counted(controls.breaks, controls.coeffs)
     object.__setattr__(counted, "calls", [0])
     run_inhouse(plan, counted, generic=False)
-    return counted.calls[0] - 1                     # the check of the controls at t0
+    return counted.calls[0] - 1  # the check of the controls at t0
 
 
 def per_call_us(plan, controls, number: int = 2000) -> tuple[float, float]:
@@ -113,8 +123,9 @@ def per_call_us(plan, controls, number: int = 2000) -> tuple[float, float]:
     s, u = State(*x0), Controls(*u0)
     fast = compile_derivatives(plan.aircraft, plan.env, x0=x0, u0=u0)
     sl, ul = x0.tolist(), u0.tolist()
-    generic = min(timeit.repeat(lambda: derivatives(plan.aircraft, plan.env, s, u), number=number // 4,
-                                repeat=3)) / (number // 4)
+    generic = min(timeit.repeat(lambda: derivatives(plan.aircraft, plan.env, s, u), number=number // 4, repeat=3)) / (
+        number // 4
+    )
     traced = min(timeit.repeat(lambda: fast.values(sl, ul), number=number, repeat=3)) / number
     return 1e6 * generic, 1e6 * traced
 
@@ -131,8 +142,10 @@ def bench_scenario(name: str, repeats: int, jsbsim: bool) -> dict:
     plan = plan_scenario(load_scenario(name))
     controls, how = plan_controls(plan)
     span = plan.t1 - plan.t0
-    runs = {"in-house": lambda: run_inhouse(plan, controls, generic=False),
-            "in-house generic": lambda: run_inhouse(plan, controls, generic=True)}
+    runs = {
+        "in-house": lambda: run_inhouse(plan, controls, generic=False),
+        "in-house generic": lambda: run_inhouse(plan, controls, generic=True),
+    }
     if jsbsim:
         runs["JSBSim"] = lambda: run_jsbsim(plan, controls)
     walls: dict[str, list[float]] = {k: [] for k in runs}
@@ -155,13 +168,19 @@ def bench_scenario(name: str, repeats: int, jsbsim: bool) -> dict:
         calls = f"{n:10d} {1e6 * w / n:8.1f}" if label.startswith("in-house") else f"{'':10} {'':8}"
         print(f"  {label:<18} {w:9.3f} {statistics.median(cpus[label]):8.3f} {span / w:12.1f} {calls}")
     if jsbsim:
-        print(f"  in-house / JSBSim real-time factor: {med['JSBSim'] / med['in-house']:.2f} "
-              f"(generic evaluation: {med['JSBSim'] / med['in-house generic']:.2f})")
+        print(
+            f"  in-house / JSBSim real-time factor: {med['JSBSim'] / med['in-house']:.2f} "
+            f"(generic evaluation: {med['JSBSim'] / med['in-house generic']:.2f})"
+        )
     print(f"  speed-up of the traced right-hand side on the whole run: {med['in-house generic'] / med['in-house']:.2f}")
-    print(f"  one derivative evaluation: generic {generic_us:.1f} us, traced {traced_us:.1f} us "
-          f"({generic_us / traced_us:.0f}x)")
-    print(f"  max |traced - generic| over the run, relative to each state's peak: "
-          f"{max_relative_difference(last['in-house'], last['in-house generic']):.1e}")
+    print(
+        f"  one derivative evaluation: generic {generic_us:.1f} us, traced {traced_us:.1f} us "
+        f"({generic_us / traced_us:.0f}x)"
+    )
+    print(
+        f"  max |traced - generic| over the run, relative to each state's peak: "
+        f"{max_relative_difference(last['in-house'], last['in-house generic']):.1e}"
+    )
     return med
 
 
@@ -169,11 +188,14 @@ def bench_closed_loop(repeats: int, jsbsim: bool, name: str = "gtm-forward-slip"
     """The scenario flown with the paper's tracking feedback (controller states integrated with the aircraft)."""
     sc = load_scenario(name)
     plan = plan_scenario(sc)
-    c = tracking_controller(plan, sc.tracking.lambdas, feedforward_iterate=sc.tracking.feedforward_iterate,
-                            saturate=sc.tracking.saturate)
+    c = tracking_controller(
+        plan, sc.tracking.lambdas, feedforward_iterate=sc.tracking.feedforward_iterate, saturate=sc.tracking.saturate
+    )
     span = plan.t1 - plan.t0
-    runs = {"in-house": lambda: run_inhouse(plan, c.controls, False, c),
-            "in-house generic": lambda: run_inhouse(plan, c.controls, True, c)}
+    runs = {
+        "in-house": lambda: run_inhouse(plan, c.controls, False, c),
+        "in-house generic": lambda: run_inhouse(plan, c.controls, True, c),
+    }
     if jsbsim:
         runs["JSBSim"] = lambda: run_jsbsim(plan, c.controls, c)
     walls: dict[str, list[float]] = {k: [] for k in runs}

@@ -35,9 +35,9 @@ import numpy as np
 from gna.aircraft import list_aircraft, load_aircraft
 from gna.atmosphere import ISA, Environment
 from gna.trim import stall_speed, trim_level
-from harness.metrics import difference_table
 from harness.engines import JSBSIM_DEFAULT_INTEGRATORS, InHouseEngine, Integrators, JSBSimEngine, fly, load_fdm
 from harness.engines.jsbsim.fdm import prepare
+from harness.metrics import difference_table
 from harness.testing import smooth_inputs
 from planners.generalized import plan_scenario
 from planners.scenario import load_scenario
@@ -87,12 +87,16 @@ def closed_loop(a, env, x0, u0, seconds: float, repeats: int, controller_dt: flo
     c = AltitudeHold(float(x0[2]), float(x0[3]))
     x1 = x0.copy()
     x1[2] += 5.0
-    runs = {"JSBSim open loop": (JSBSimEngine(), None),
-            "JSBSim, 1-state controller every step": (JSBSimEngine(), c),
-            f"JSBSim, 1-state controller, controller_dt = {controller_dt:.4g} s":
-                (JSBSimEngine(controller_dt=controller_dt), c),
-            "in-house open loop": (InHouseEngine(), None),
-            "in-house, 1-state controller": (InHouseEngine(), c)}
+    runs = {
+        "JSBSim open loop": (JSBSimEngine(), None),
+        "JSBSim, 1-state controller every step": (JSBSimEngine(), c),
+        f"JSBSim, 1-state controller, controller_dt = {controller_dt:.4g} s": (
+            JSBSimEngine(controller_dt=controller_dt),
+            c,
+        ),
+        "in-house open loop": (InHouseEngine(), None),
+        "in-house, 1-state controller": (InHouseEngine(), c),
+    }
     rtf = {k: [] for k in runs}
     for _ in range(repeats):
         for name, (eng, ctrl) in runs.items():
@@ -101,8 +105,10 @@ def closed_loop(a, env, x0, u0, seconds: float, repeats: int, controller_dt: flo
             wall = time.perf_counter() - t
             assert res.status == "completed", res.message
             rtf[name].append(seconds / wall)
-    base = {"JSBSim": statistics.median(rtf["JSBSim open loop"]),
-            "in-house": statistics.median(rtf["in-house open loop"])}
+    base = {
+        "JSBSim": statistics.median(rtf["JSBSim open loop"]),
+        "in-house": statistics.median(rtf["in-house open loop"]),
+    }
     print(f"Closed loop, {a.id}, {seconds:g} s simulated, end to end, median of {repeats}")
     print(f"  {'run':<56} {'x real time':>12} {'vs open loop':>13}")
     for name in runs:
@@ -118,15 +124,20 @@ def tracking(name: str, repeats: int, controller_dt: float = 1.0 / 60.0) -> None
     """
     sc = load_scenario(name)
     plan = plan_scenario(sc)
-    c = tracking_controller(plan, sc.tracking.lambdas, feedforward_iterate=sc.tracking.feedforward_iterate,
-                            saturate=sc.tracking.saturate)
+    c = tracking_controller(
+        plan, sc.tracking.lambdas, feedforward_iterate=sc.tracking.feedforward_iterate, saturate=sc.tracking.saturate
+    )
     span, x0 = (plan.t0, plan.t1), plan.initial_state()
-    runs = {"JSBSim open loop (plan controls)": (JSBSimEngine(), None),
-            "JSBSim, tracking feedback every step": (JSBSimEngine(), c),
-            f"JSBSim, tracking feedback, controller_dt = {controller_dt:.4g} s":
-                (JSBSimEngine(controller_dt=controller_dt), c),
-            "in-house open loop (plan controls)": (InHouseEngine(), None),
-            "in-house, tracking feedback": (InHouseEngine(), c)}
+    runs = {
+        "JSBSim open loop (plan controls)": (JSBSimEngine(), None),
+        "JSBSim, tracking feedback every step": (JSBSimEngine(), c),
+        f"JSBSim, tracking feedback, controller_dt = {controller_dt:.4g} s": (
+            JSBSimEngine(controller_dt=controller_dt),
+            c,
+        ),
+        "in-house open loop (plan controls)": (InHouseEngine(), None),
+        "in-house, tracking feedback": (InHouseEngine(), c),
+    }
     rtf = {k: [] for k in runs}
     for _ in range(repeats):
         for label, (eng, ctrl) in runs.items():
@@ -136,8 +147,10 @@ def tracking(name: str, repeats: int, controller_dt: float = 1.0 / 60.0) -> None
             wall = time.perf_counter() - t
             assert res.status == "completed", res.message
             rtf[label].append((span[1] - span[0]) / wall)
-    base = {"JSBSim": statistics.median(rtf["JSBSim open loop (plan controls)"]),
-            "in-house": statistics.median(rtf["in-house open loop (plan controls)"])}
+    base = {
+        "JSBSim": statistics.median(rtf["JSBSim open loop (plan controls)"]),
+        "in-house": statistics.median(rtf["in-house open loop (plan controls)"]),
+    }
     print(f"Tracking feedback, {name}, {span[1] - span[0]:g} s, end to end, median of {repeats}")
     print(f"  {'run':<56} {'x real time':>12} {'vs open loop':>13}")
     for label in runs:
@@ -149,7 +162,7 @@ def tracking(name: str, repeats: int, controller_dt: float = 1.0 / 60.0) -> None
 def _summary(table) -> str:
     ang = max(table.row(v).max_abs for v in ANGLES)
     rates = max(table.row(v).max_abs for v in ("p", "q", "r"))
-    return (f"{table.row('position').max_abs:9.1e} {table.row('V').max_abs:9.1e} {ang:9.1e} {rates:9.1e}")
+    return f"{table.row('position').max_abs:9.1e} {table.row('V').max_abs:9.1e} {ang:9.1e} {rates:9.1e}"
 
 
 def accuracy() -> None:
@@ -161,10 +174,12 @@ def accuracy() -> None:
     ref = InHouseEngine().simulate(a, u, (0.0, 10.0), x0)
     head = f"{'pos [m]':>9} {'V [m/s]':>9} {'ang [rad]':>9} {'pqr[r/s]':>9}"
     print("Convergence: f16c, smooth manoeuvre from trim (150 m/s, 3000 m), 10 s; max |JSBSim - in-house|")
-    sets = {"JSBSim default (Euler, AB2, Euler, AB3)": JSBSIM_DEFAULT_INTEGRATORS,
-            "AB2 everywhere": Integrators("AB2", "AB2", "AB2", "AB2"),
-            "AB4 + Buss1 quaternion": Integrators("AB4", "AB4", "Buss1", "AB4"),
-            "AB4 + Buss2 quaternion (gflat default)": Integrators()}
+    sets = {
+        "JSBSim default (Euler, AB2, Euler, AB3)": JSBSIM_DEFAULT_INTEGRATORS,
+        "AB2 everywhere": Integrators("AB2", "AB2", "AB2", "AB2"),
+        "AB4 + Buss1 quaternion": Integrators("AB4", "AB4", "Buss1", "AB4"),
+        "AB4 + Buss2 quaternion (gflat default)": Integrators(),
+    }
     for name, ig in sets.items():
         print(f"  {name}")
         print(f"    {'dt [s]':<8} {head}")
@@ -196,8 +211,13 @@ def accuracy() -> None:
     print("Cost of the flat earth: f16c trim, 10 s, |JSBSim rotating WGS84 Earth - JSBSim flat|")
     print(f"  {'initial latitude':<36} {head}")
     for lat in (0.0, 45.0):
-        r = fly({"flat": JSBSimEngine(), "wgs84": JSBSimEngine(earth="wgs84", latitude=np.radians(lat))},
-                a, x0, u0, (0.0, 10.0))
+        r = fly(
+            {"flat": JSBSimEngine(), "wgs84": JSBSimEngine(earth="wgs84", latitude=np.radians(lat))},
+            a,
+            x0,
+            u0,
+            (0.0, 10.0),
+        )
         print(f"  {lat:<36.0f} {_summary(difference_table(r['flat'], r['wgs84']))}")
 
 
@@ -208,8 +228,11 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=20.0, help="simulated time per run [s]")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--accuracy", action="store_true", help="print the accuracy study instead of the speed")
-    parser.add_argument("--scenario", default="twin-otter-single-engine",
-                        help="paper scenario flown with the tracking feedback in the last table")
+    parser.add_argument(
+        "--scenario",
+        default="twin-otter-single-engine",
+        help="paper scenario flown with the tracking feedback in the last table",
+    )
     args = parser.parse_args()
     if args.accuracy:
         accuracy()
@@ -250,15 +273,18 @@ def main() -> None:
         bare.append(bare_steps_per_second(engine, a, env, x0, u0, steps))
         for name, kw in cases.items():
             t = time.perf_counter()
-            res = engine.simulate(a, kw["controls"], (0.0, args.seconds), x0, env=env,
-                                  controller=kw.get("controller"), dt_out=0.02)
+            res = engine.simulate(
+                a, kw["controls"], (0.0, args.seconds), x0, env=env, controller=kw.get("controller"), dt_out=0.02
+            )
             wall = time.perf_counter() - t
             assert res.status == "completed", res.message
             coupled[name].append(res.settings["steps"] / wall)
             loop[name].append(res.settings["steps"] / res.settings["wall_time_s"]["stepping"])
     b = statistics.median(bare)
-    print(f"JSBSim speed, {a.id}, {args.seconds:g} s simulated at dt = {engine.dt:.6g} s ({steps} steps), "
-          f"integrators {engine.integrators.as_dict()}, median of {args.repeats}")
+    print(
+        f"JSBSim speed, {a.id}, {args.seconds:g} s simulated at dt = {engine.dt:.6g} s ({steps} steps), "
+        f"integrators {engine.integrators.as_dict()}, median of {args.repeats}"
+    )
     print(f"  {'run':<56} {'steps/s':>10} {'vs bare':>8} {'x real time':>12}")
     print(f"  {'bare fdm.run()':<56} {b:10.0f} {100.0:7.0f}% {b * engine.dt:12.0f}")
     for name in cases:

@@ -34,7 +34,6 @@ import math  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
 
-
 #: Largest number of nodes a ``--step`` may give.
 MAX_NODES = 10000
 
@@ -62,8 +61,9 @@ def _check_steps(steps: list, sc, ap) -> None:
         if abs(nodes - round(nodes)) > 1e-9 * nodes:
             ap.error(f"--step: {step:g} s does not divide the {span:g} s span of {sc.name} ({nodes:.6g} steps)")
         if nodes > MAX_NODES:
-            ap.error(f"--step: {step:g} s makes {nodes:.3g} nodes over the {span:g} s span of {sc.name}, "
-                     f"above {MAX_NODES}")
+            ap.error(
+                f"--step: {step:g} s makes {nodes:.3g} nodes over the {span:g} s span of {sc.name}, above {MAX_NODES}"
+            )
 
 
 def measure(scenario, step: float, e: int, J: int, repeat: int) -> dict:
@@ -103,10 +103,16 @@ def measure(scenario, step: float, e: int, J: int, repeat: int) -> dict:
             wall.append(time.perf_counter() - w)
             cpu.append(time.process_time() - c)
         check = open_loop_error(plan)
-    except GflatError as exc:         # planning, or the open-loop flight of its controls
+    except GflatError as exc:  # planning, or the open-loop flight of its controls
         return {**row, "error": str(exc)}
-    return {**row, "nodes": len(plan.t_nodes), "feasible": bool(plan.feasible), "wall_s": statistics.median(wall),
-            "cpu_s": statistics.median(cpu), "accuracy_m": check.max_position_error_m}
+    return {
+        **row,
+        "nodes": len(plan.t_nodes),
+        "feasible": bool(plan.feasible),
+        "wall_s": statistics.median(wall),
+        "cpu_s": statistics.median(cpu),
+        "accuracy_m": check.max_position_error_m,
+    }
 
 
 def main(argv=None) -> None:
@@ -131,6 +137,7 @@ def _main(argv=None) -> None:
     from gna.errors import GflatError
     from planners.scenario import load_scenario
     from planners.series import BACKEND
+
     try:
         sc = load_scenario(args.scenario)
     except GflatError as exc:
@@ -139,6 +146,7 @@ def _main(argv=None) -> None:
         ap.error("the scenario's J is 'auto': give --J")
     from planners.flat import MAX_J
     from planners.generalized import MAX_E
+
     steps = _numbers(args.step, float, "step", ap) if args.step is not None else [sc.step]
     _check_steps(steps, sc, ap)
     orders = _numbers(args.e, int, "e", ap, MAX_E) if args.e is not None else [sc.e]
@@ -152,8 +160,10 @@ def _main(argv=None) -> None:
             print(f"{head}  cannot be planned: {r['error']}", flush=True)
         else:
             flag = "" if r["feasible"] else "  (not feasible)"
-            print(f"{head} {r['nodes']:>5} {r['wall_s']:>9.3f} {r['cpu_s']:>9.3f} {r['accuracy_m']:>12.3g}{flag}",
-                  flush=True)
+            print(
+                f"{head} {r['nodes']:>5} {r['wall_s']:>9.3f} {r['cpu_s']:>9.3f} {r['accuracy_m']:>12.3g}{flag}",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

@@ -89,8 +89,14 @@ def _env(tree: Path, backend: str | None) -> dict:
 
 def run_variant(tree: Path, backend: str | None, cases, inner: int) -> dict:
     """Median plan time of each case, from a fresh process of ``tree`` with ``backend``."""
-    out = subprocess.run([sys.executable, "-c", _CHILD, json.dumps(cases), str(inner)], cwd=tree,
-                         env=_env(tree, backend), capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", _CHILD, json.dumps(cases), str(inner)],
+        cwd=tree,
+        env=_env(tree, backend),
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     res = json.loads(out.stdout.strip().splitlines()[-1])
     for key, text in res["settings"].items():
         SETTINGS.setdefault(key, {})[str(tree)] = text
@@ -99,8 +105,14 @@ def run_variant(tree: Path, backend: str | None, cases, inner: int) -> dict:
 
 def first_use(tree: Path, backend: str) -> str:
     """Import time of planners.series and time of the first series operations (kernel loading)."""
-    out = subprocess.run([sys.executable, "-c", _FIRST_USE], cwd=tree, env=_env(tree, backend),
-                         capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", _FIRST_USE],
+        cwd=tree,
+        env=_env(tree, backend),
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     name, imp, first = out.stdout.split()
     return f"{name}: import {imp} s, first operations {first} s"
 
@@ -114,11 +126,15 @@ def main() -> None:
     ap.add_argument("--ref-compiled", action="store_true", help="the reference tree with compiled kernels too")
     ap.add_argument("--scenarios", nargs="+", default=list(PAPER))
     ap.add_argument("--no-high-order", action="store_true", help="skip the J = 8, e = 3 cases")
-    ap.add_argument("--blas-threads", choices=("1", "default"), default="1",
-                    help="pin BLAS to one thread in the children (default), or leave it to the library")
+    ap.add_argument(
+        "--blas-threads",
+        choices=("1", "default"),
+        default="1",
+        help="pin BLAS to one thread in the children (default), or leave it to the library",
+    )
     args = ap.parse_args()
     BLAS_THREADS["value"] = args.blas_threads
-    cases = [(n, None, None) for n in args.scenarios]     # each tree's bundled J, e and grid
+    cases = [(n, None, None) for n in args.scenarios]  # each tree's bundled J, e and grid
     if not args.no_high_order:
         cases += [(n, 8, 3) for n in args.scenarios]
     variants = {"numpy": (HERE, "numpy"), "compiled": (HERE, "compiled")}

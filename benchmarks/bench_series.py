@@ -24,13 +24,13 @@ import os
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # this tree's planners, not an installed one
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this tree's planners, not an installed one
 for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
 
 import argparse  # noqa: E402
 import time  # noqa: E402
-from typing import Callable  # noqa: E402
+from collections.abc import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -144,10 +144,14 @@ def tape_table(orders: list, repeats: int) -> None:
 
     saved = S._K
     residuals = _roll_residuals()
-    print(f"stage residuals of gtm-aileron-roll (17 nodes, first iterate): microseconds per evaluation, median "
-          f"of {repeats} interleaved runs; trace = the traced evaluation (the first one of a Newton call)")
-    print(f"{'residual':<10}{'k':>4}{'unknowns':>12}{'kernels':>10}{'eager':>9}{'trace':>9}{'replay':>9}"
-          f"{'eager/replay':>14}{'trace/eager':>13}")
+    print(
+        f"stage residuals of gtm-aileron-roll (17 nodes, first iterate): microseconds per evaluation, median "
+        f"of {repeats} interleaved runs; trace = the traced evaluation (the first one of a Newton call)"
+    )
+    print(
+        f"{'residual':<10}{'k':>4}{'unknowns':>12}{'kernels':>10}{'eager':>9}{'trace':>9}{'replay':>9}"
+        f"{'eager/replay':>14}{'trace/eager':>13}"
+    )
     for label, (residual, u, top) in residuals.items():
         for k in orders:
             k = min(k, top)
@@ -160,9 +164,11 @@ def tape_table(orders: list, repeats: int) -> None:
                     tape = tr.tapes[k]
                     ins = [v._c for v in x]
                     # fresh series objects per evaluation, as Newton makes them (a series memoises its sin/cos)
-                    modes = {"eager": lambda: residual([Series._wrap(c) for c in ins], k),
-                             "trace": lambda: trace(residual, [Series._wrap(c) for c in ins], k),
-                             "replay": lambda: tape.run(ins)}
+                    modes = {
+                        "eager": lambda: residual([Series._wrap(c) for c in ins], k),  # noqa: B023
+                        "trace": lambda: trace(residual, [Series._wrap(c) for c in ins], k),  # noqa: B023
+                        "replay": lambda: tape.run(ins),  # noqa: B023
+                    }
                     loops = {m: max(1, int(3e3 / max(1.0, time_us(f, 3)))) for m, f in modes.items()}
                     t = {m: [] for m in modes}
                     for _ in range(repeats):
@@ -170,9 +176,11 @@ def tape_table(orders: list, repeats: int) -> None:
                             t[m].append(time_us(f, loops[m]))
                     med = {m: float(np.median(v)) for m, v in t.items()}
                     shape = "(n, nodes)" if kind == "complex" else "(nodes,)"
-                    print(f"{label:<10}{k:>4}{shape:>12}{kname:>10}{med['eager']:>9.0f}{med['trace']:>9.0f}"
-                          f"{med['replay']:>9.0f}{med['eager'] / med['replay']:>14.2f}"
-                          f"{med['trace'] / med['eager']:>13.2f}")
+                    print(
+                        f"{label:<10}{k:>4}{shape:>12}{kname:>10}{med['eager']:>9.0f}{med['trace']:>9.0f}"
+                        f"{med['replay']:>9.0f}{med['eager'] / med['replay']:>14.2f}"
+                        f"{med['trace'] / med['eager']:>13.2f}"
+                    )
     S._K = saved
 
 
@@ -199,8 +207,8 @@ def main() -> None:
         "exp": lambda a, b: lambda: np.exp(a),
         "log": lambda a, b: lambda: np.log(b),
         "sqrt": lambda a, b: lambda: np.sqrt(b),
-        "a ** 2.5": lambda a, b: lambda: b ** 2.5,
-        "a ** 3": lambda a, b: lambda: a ** 3,
+        "a ** 2.5": lambda a, b: lambda: b**2.5,
+        "a ** 3": lambda a, b: lambda: a**3,
         "tan": lambda a, b: lambda: np.tan(a),
         "tanh": lambda a, b: lambda: np.tanh(a),
         "arctan": lambda a, b: lambda: np.arctan(a),
@@ -210,13 +218,18 @@ def main() -> None:
         "a + b": lambda a, b: lambda: a + b,
         "2.0 * a": lambda a, b: lambda: 2.0 * a,
     }
-    print(f"planners.series: numpy / compiled kernels, median of {args.repeats} interleaved runs, "
-          f"microseconds per operation")
+    print(
+        f"planners.series: numpy / compiled kernels, median of {args.repeats} interleaved runs, "
+        f"microseconds per operation"
+    )
     for batch, dtype in (((args.nodes,), float), ((5, args.nodes), complex)):
-        print(f"\nbatch {batch} {dtype.__name__}" + ("  (data (nodes,) real times complex-step batch)"
-                                                       if dtype is complex else ""))
-        print(f"{'operation':<16}" + "".join(f"{'n=' + str(n) + ' np':>12}{'comp':>9}{'ratio':>7}"
-                                                for n in args.orders))
+        print(
+            f"\nbatch {batch} {dtype.__name__}"
+            + ("  (data (nodes,) real times complex-step batch)" if dtype is complex else "")
+        )
+        print(
+            f"{'operation':<16}" + "".join(f"{'n=' + str(n) + ' np':>12}{'comp':>9}{'ratio':>7}" for n in args.orders)
+        )
         rows: dict[str, list] = {name: [] for name in ops}
         for n in args.orders:
             shape = batch + (n + 1,)
@@ -229,11 +242,13 @@ def main() -> None:
             else:
                 a, b = Series(ca), Series(cb)
             for name, make in ops.items():
-                r = interleaved(lambda: make(a, b), args.repeats)
+                r = interleaved(lambda: make(a, b), args.repeats)  # noqa: B023
                 rows[name].append(r)
         for name, vals in rows.items():
-            print(f"{name:<16}" + "".join(f"{r['numpy']:>12.1f}{r['compiled']:>9.1f}{r['numpy'] / r['compiled']:>7.2f}"
-                                          for r in vals))
+            print(
+                f"{name:<16}"
+                + "".join(f"{r['numpy']:>12.1f}{r['compiled']:>9.1f}{r['numpy'] / r['compiled']:>7.2f}" for r in vals)
+            )
     S._K = saved
 
 

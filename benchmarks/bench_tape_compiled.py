@@ -41,7 +41,7 @@ import numpy as np  # noqa: E402
 
 CACHE = HERE / "_tape_cache"
 
-KERNELS_SRC = '''
+KERNELS_SRC = """
 import numpy as np
 from numba import njit
 
@@ -155,19 +155,20 @@ def sincos(u, sign):
                 s[k, r, i] = ss * ik
                 c[k, r, i] = cc * (sign * ik)
     return s, c
-'''
+"""
 
 
 # the generated program imports the kernels (compiled and cached once per machine, shared by every tape)
-PROGRAM_HEAD = '''import numpy as np
+PROGRAM_HEAD = """import numpy as np
 from numba import njit
 from tape_kernels import _J, mul, div, addsub, scale, divscale, plusconst, neg, sincos
-'''
+"""
 
 
 # ---------------------------------------------------------------------------
 # Code generation
 # ---------------------------------------------------------------------------
+
 
 class Generated:
     """The source of one tape's compiled function and its constant arguments."""
@@ -179,8 +180,8 @@ class Generated:
         values, instrs = tape._template, tape._instrs
         self.n_inputs = tape.n_inputs
         self.S = n_nodes
-        self.const_args: list = []      # arrays (m, 1, S), in argument order
-        self.const_names: dict = {}     # slot -> argument name
+        self.const_args: list = []  # arrays (m, 1, S), in argument order
+        self.const_names: dict = {}  # slot -> argument name
         traced = set(range(tape.n_inputs))
         lines: list = []
         skipped: set = set()
@@ -190,7 +191,7 @@ class Generated:
             if name is None:
                 v = values[slot]
                 v = np.asarray(v._c if hasattr(v, "_c") else v)
-                if v.ndim == 1:       # a batch-less series: broadcast over the nodes
+                if v.ndim == 1:  # a batch-less series: broadcast over the nodes
                     v = np.broadcast_to(v[:, None], (v.shape[0], n_nodes))
                 if v.ndim != 2 or v.shape[1] != n_nodes:
                     raise NotImplementedError(f"constant array of shape {v.shape}")
@@ -256,6 +257,7 @@ class Generated:
             if key not in rename:
                 rename[key] = f"{mo.group(1)}{sum(1 for r in rename if r[0] == mo.group(1))}"
             return rename[key]
+
         program = re.sub(r"\b([tc])(\d+)\b", canon, program)
         self.source = PROGRAM_HEAD + "\n\n@njit(**_J)\n" + program
 
@@ -292,8 +294,10 @@ class Generated:
             terms = [f"{float(w[i, j])!r} * {names[j]}[_k, _r * _s{j}, _i]" for j, _ in series if w[i, j] != 0.0]
             if terms:
                 lines.append(f"                t{o}[_k, _r, _i] = " + " + ".join(terms))
-        const_terms = {o: " + ".join(f"{float(w[i, j] * v)!r}" for j, v in scalars if w[i, j] != 0.0 and v != 0.0)
-                       for i, o in enumerate(outs)}
+        const_terms = {
+            o: " + ".join(f"{float(w[i, j] * v)!r}" for j, v in scalars if w[i, j] != 0.0 and v != 0.0)
+            for i, o in enumerate(outs)
+        }
         for o, t in const_terms.items():
             if t:
                 lines.append(f"    t{o}[0] += {t}")
@@ -308,7 +312,7 @@ def load_module(path: Path):
 
 def write_source(gen: Generated) -> Path:
     CACHE.mkdir(exist_ok=True)
-    (CACHE / ".gitignore").write_text("*\n")     # generated files and numba's cache: never committed
+    (CACHE / ".gitignore").write_text("*\n")  # generated files and numba's cache: never committed
     kernels = CACHE / "tape_kernels.py"
     if not kernels.exists() or kernels.read_text() != KERNELS_SRC:
         kernels.write_text(KERNELS_SRC)
@@ -327,6 +331,7 @@ def as3(c: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------------------
 # Measurement
 # ---------------------------------------------------------------------------
+
 
 def time_us(fn, loops: int) -> float:
     t0 = time.perf_counter()
@@ -358,6 +363,7 @@ def load_only(path: str, shapes_file: str) -> None:
     spec = json.loads(Path(shapes_file).read_text())
     t0 = time.perf_counter()
     import numba  # noqa: F401
+
     t_numba = time.perf_counter() - t0
     t0 = time.perf_counter()
     mod = load_module(Path(path))
@@ -365,7 +371,7 @@ def load_only(path: str, shapes_file: str) -> None:
     res = {"import numba (s)": t_numba, "import module (s)": t_import}
     for kind, arg_specs in spec.items():
         xs = []
-        for shape, dt, writeable in arg_specs:   # the same numba types as in the measuring process
+        for shape, dt, writeable in arg_specs:  # the same numba types as in the measuring process
             x = np.full(shape, 0.1, np.dtype(dt))
             x[0] += 1.0
             x.flags.writeable = writeable
@@ -437,8 +443,10 @@ def plan_breakdown(repeats: int) -> None:
         newton.TapedResidual, flat.newton_series = orig_t, orig_n
     med = float(np.median([r[0] for r in rows])) * 1e3
     kinds = rows[0][1].keys()
-    print(f"one roll plan ({S_name()} kernels): {med:.0f} ms; stage-2 evaluations, ms per plan (median of {repeats}): "
-          + ", ".join(f"{k} {np.median([r[1][k] for r in rows]) * 1e3:.1f}" for k in kinds))
+    print(
+        f"one roll plan ({S_name()} kernels): {med:.0f} ms; stage-2 evaluations, ms per plan (median of {repeats}): "
+        + ", ".join(f"{k} {np.median([r[1][k] for r in rows]) * 1e3:.1f}" for k in kinds)
+    )
     by: dict = collections.defaultdict(list)
     for (kind, dt, k), n in sorted(rows[0][2].items()):
         by[(kind, dt)].append(f"k={k}: {n}")
@@ -448,6 +456,7 @@ def plan_breakdown(repeats: int) -> None:
 
 def S_name() -> str:
     import planners.series as S
+
     return "compiled" if S._K is S._CompiledKernels else "numpy"
 
 
@@ -461,15 +470,17 @@ def main() -> None:
     args = parser.parse_args()
     if args.fresh and CACHE.exists():
         import shutil
+
         shutil.rmtree(CACHE)
     if args.load_only:
         load_only(*args.load_only)
         return
 
+    from bench_series import _roll_residuals, _unknowns
+
     import planners.series as S
     from planners.series import Series
     from planners.series_tape import TapedResidual
-    from bench_series import _roll_residuals, _unknowns
 
     S._CompiledKernels.mul(np.ones((2, 1)), np.ones((2, 1)))  # load the compiled kernels before timing
     kernels = {"numpy": S._NumpyKernels, "compiled": S._CompiledKernels}
@@ -479,8 +490,10 @@ def main() -> None:
     # away from the solution (the first iterate's residual there is ~1e-14: cancellation, no relative scale)
     rng = np.random.default_rng(1)
     u = [Series(x.coeffs * (1 + 1e-2 * rng.uniform(-1, 1, x.coeffs.shape))) for x in u]
-    print(f"stage-2 residual of gtm-aileron-roll ({n_nodes} nodes, first iterate); microseconds per evaluation, "
-          f"median of {args.repeats} interleaved runs")
+    print(
+        f"stage-2 residual of gtm-aileron-roll ({n_nodes} nodes, first iterate); microseconds per evaluation, "
+        f"median of {args.repeats} interleaved runs"
+    )
     summary = []
     for k in args.orders:
         k = min(k, top)
@@ -498,9 +511,11 @@ def main() -> None:
         t_import = time.perf_counter() - t0
         prog = mod.program
         consts = gen.const_args
-        print(f"\norder {k}: {tape.n_instructions} instructions -> {gen.n_lines} generated lines, "
-              f"{len(consts)} constant arrays; source {path.relative_to(HERE.parent)} "
-              f"({'new' if fresh else 'already in the numba cache'})")
+        print(
+            f"\norder {k}: {tape.n_instructions} instructions -> {gen.n_lines} generated lines, "
+            f"{len(consts)} constant arrays; source {path.relative_to(HERE.parent)} "
+            f"({'new' if fresh else 'already in the numba cache'})"
+        )
         shapes = {}
         for kind in ("real", "complex"):
             x = xc if kind == "complex" else _unknowns(u, k, "real")
@@ -512,7 +527,7 @@ def main() -> None:
             shapes[kind] = [(list(a.shape), a.dtype.str, bool(a.flags.writeable)) for a in in3 + consts]
 
             def run_gen(ins=ins):
-                outs = prog(*[as3(c) for c in ins], *consts)
+                outs = prog(*[as3(c) for c in ins], *consts)  # noqa: B023
                 return [o.reshape((o.shape[0],) + ins[0].shape[1:]) for o in outs]
 
             S._K = S._NumpyKernels
@@ -525,8 +540,8 @@ def main() -> None:
             p_re, p_im = rel_diff(eager_c, eager)
             modes = {}
             for kname, kern in kernels.items():
-                modes[f"eager {kname}"] = (kern, lambda ins=ins: residual([Series._wrap(c) for c in ins], k))
-                modes[f"replay {kname}"] = (kern, lambda ins=ins: tape.run(ins))
+                modes[f"eager {kname}"] = (kern, lambda ins=ins: residual([Series._wrap(c) for c in ins], k))  # noqa: B023
+                modes[f"replay {kname}"] = (kern, lambda ins=ins: tape.run(ins))  # noqa: B023
             modes["generated"] = (S._NumpyKernels, run_gen)
             loops = {}
             for m, (kern, f) in modes.items():
@@ -539,17 +554,26 @@ def main() -> None:
                     t[m].append(time_us(f, loops[m]))
             med = {m: float(np.median(v)) for m, v in t.items()}
             S._K = saved
-            print(f"  {kind:<8} first call (compile{' or cached load' if not fresh else ''}) {t_first:7.2f} s; "
-                  f"max rel diff vs eager numpy: re {d_re:.1e} im {d_im:.1e}; vs eager compiled: re {dc_re:.1e} "
-                  f"im {dc_im:.1e}; (peer: eager compiled vs eager numpy re {p_re:.1e} im {p_im:.1e})")
-            print("           " + "  ".join(f"{m} {v:7.1f}" for m, v in med.items())
-                  + f"   eager numpy / generated {med['eager numpy'] / med['generated']:.1f}x")
+            print(
+                f"  {kind:<8} first call (compile{' or cached load' if not fresh else ''}) {t_first:7.2f} s; "
+                f"max rel diff vs eager numpy: re {d_re:.1e} im {d_im:.1e}; vs eager compiled: re {dc_re:.1e} "
+                f"im {dc_im:.1e}; (peer: eager compiled vs eager numpy re {p_re:.1e} im {p_im:.1e})"
+            )
+            print(
+                "           "
+                + "  ".join(f"{m} {v:7.1f}" for m, v in med.items())
+                + f"   eager numpy / generated {med['eager numpy'] / med['generated']:.1f}x"
+            )
             summary.append((k, kind, med))
         # cached load in a fresh process
         shapes_file = CACHE / f"{path.stem}.shapes.json"
         shapes_file.write_text(json.dumps(shapes))
-        out = subprocess.run([sys.executable, __file__, "--load-only", str(path), str(shapes_file)],
-                             capture_output=True, text=True, check=True)
+        out = subprocess.run(
+            [sys.executable, __file__, "--load-only", str(path), str(shapes_file)],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
         print(f"  fresh process (cached): {out.stdout.strip()}   (module import here: {t_import:.2f} s)")
     if args.plan:
         print()

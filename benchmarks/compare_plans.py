@@ -84,8 +84,10 @@ def main() -> int:
                 if d > worst:
                     worst, where = d, k
             worst_all = max(worst_all, worst)
-            print(f"{name:<28} {len(keys):>4} series  max scaled difference {worst:.2e}  ({where})"
-                  + (f"  missing: {missing[:4]}" if missing else ""))
+            print(
+                f"{name:<28} {len(keys):>4} series  max scaled difference {worst:.2e}  ({where})"
+                + (f"  missing: {missing[:4]}" if missing else "")
+            )
     return 0 if worst_all <= args.tol else 1
 
 

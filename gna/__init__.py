@@ -12,8 +12,31 @@ from .errors import ConvergenceError, DomainError, GflatError, InputError, Unkno
 from .simulate import SimulationResult, simulate
 from .trim import TrimResult, coordinated_turn, sideslip_glide, stall_speed, trim, trim_level
 
-__all__ = ["Aircraft", "list_aircraft", "load_aircraft", "ISA", "ConstantDensity", "Environment",
-           "CONTROL_NAMES", "STATE_NAMES", "Controls", "HValues", "State", "derivatives", "loads",
-           "ConvergenceError", "DomainError", "GflatError", "InputError", "UnknownAircraftError",
-           "SimulationResult", "simulate", "TrimResult", "coordinated_turn", "sideslip_glide", "stall_speed",
-           "trim", "trim_level"]
+__all__ = [
+    "Aircraft",
+    "list_aircraft",
+    "load_aircraft",
+    "ISA",
+    "ConstantDensity",
+    "Environment",
+    "CONTROL_NAMES",
+    "STATE_NAMES",
+    "Controls",
+    "HValues",
+    "State",
+    "derivatives",
+    "loads",
+    "ConvergenceError",
+    "DomainError",
+    "GflatError",
+    "InputError",
+    "UnknownAircraftError",
+    "SimulationResult",
+    "simulate",
+    "TrimResult",
+    "coordinated_turn",
+    "sideslip_glide",
+    "stall_speed",
+    "trim",
+    "trim_level",
+]

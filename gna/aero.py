@@ -28,8 +28,9 @@ numpy arrays (many states at once) and truncated power series alike.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -54,8 +55,16 @@ MAX_EXPONENT = 12
 STRUCTURES: dict[str, int] = {"gna45": 45}
 
 #: Other spellings accepted in term tables (Grauer--Morelli use de, da, dr).
-_ALIASES = {"a": "alpha", "b": "beta", "de": "dm", "da": "dl", "dr": "dn",
-            "ptilde": "phat", "qtilde": "qhat", "rtilde": "rhat"}
+_ALIASES = {
+    "a": "alpha",
+    "b": "beta",
+    "de": "dm",
+    "da": "dl",
+    "dr": "dn",
+    "ptilde": "phat",
+    "qtilde": "qhat",
+    "rtilde": "rhat",
+}
 
 
 class Coefficients(NamedTuple):
@@ -105,7 +114,7 @@ def parse_monomial(text: str) -> tuple[int, ...]:
         :data:`MAX_EXPONENT`.
     """
     if not isinstance(text, str):
-        raise InputError(f"monomial must be a string such as \"alpha^2*qhat\", got {text!r}")
+        raise InputError(f'monomial must be a string such as "alpha^2*qhat", got {text!r}')
     exps = [0] * len(AERO_VARIABLES)
     text = text.strip().replace(" ", "").replace("**", "^")
     if text in ("", "1"):
@@ -116,13 +125,15 @@ def parse_monomial(text: str) -> tuple[int, ...]:
             raise InputError(f"malformed monomial {text!r} (factor {factor!r}; write e.g. alpha^2*qhat)")
         name = _ALIASES.get(m.group(1), m.group(1))
         if name not in AERO_VARIABLES:
-            raise InputError(f"unknown aerodynamic variable {m.group(1)!r} in monomial {text!r}; "
-                             f"known: {', '.join(AERO_VARIABLES)}")
+            raise InputError(
+                f"unknown aerodynamic variable {m.group(1)!r} in monomial {text!r}; known: {', '.join(AERO_VARIABLES)}"
+            )
         exps[AERO_VARIABLES.index(name)] += int(m.group(2) or 1)
     worst = max(exps)
     if worst > MAX_EXPONENT:
-        raise InputError(f"monomial {text!r}: exponent {worst} of {AERO_VARIABLES[exps.index(worst)]} exceeds "
-                         f"{MAX_EXPONENT}")
+        raise InputError(
+            f"monomial {text!r}: exponent {worst} of {AERO_VARIABLES[exps.index(worst)]} exceeds {MAX_EXPONENT}"
+        )
     return tuple(exps)
 
 
@@ -188,12 +199,16 @@ class TermTable:
     def __post_init__(self):
         for t in self.terms:
             if t.coefficient not in COEFFICIENTS:
-                raise InputError(f"term {t.index}: unknown coefficient {t.coefficient!r}; "
-                                 f"known: {', '.join(COEFFICIENTS)}")
+                raise InputError(
+                    f"term {t.index}: unknown coefficient {t.coefficient!r}; known: {', '.join(COEFFICIENTS)}"
+                )
             if not np.isfinite(t.value):
                 raise InputError(f"term {t.index} ({t.coefficient}, {t.monomial}): value is {t.value}")
-        object.__setattr__(self, "_powers", tuple(
-            max((t.exponents[i] for t in self.terms), default=0) for i in range(len(AERO_VARIABLES))))
+        object.__setattr__(
+            self,
+            "_powers",
+            tuple(max((t.exponents[i] for t in self.terms), default=0) for i in range(len(AERO_VARIABLES))),
+        )
         unique = tuple(sorted({t.exponents for t in self.terms}))
         theta = np.zeros((len(COEFFICIENTS), len(unique)))
         for t in self.terms:
@@ -202,8 +217,9 @@ class TermTable:
         object.__setattr__(self, "_theta", theta)
 
     @classmethod
-    def from_records(cls, records: Iterable[Mapping], structure: str = "custom",
-                     where: str = "aerodynamic terms") -> "TermTable":
+    def from_records(
+        cls, records: Iterable[Mapping], structure: str = "custom", where: str = "aerodynamic terms"
+    ) -> TermTable:
         """Build from mappings with keys ``theta``/``index``, ``coef``, ``monomial``, ``value``, ``source``.
 
         Parameters
@@ -244,8 +260,15 @@ class TermTable:
                 exponents = parse_monomial(r["monomial"])
             except InputError as exc:
                 raise InputError(f"{at}: {exc}") from None
-            terms.append(Term(index=index, coefficient=str(coef), exponents=exponents, value=float(value),
-                              source=str(r.get("source", ""))))
+            terms.append(
+                Term(
+                    index=index,
+                    coefficient=str(coef),
+                    exponents=exponents,
+                    value=float(value),
+                    source=str(r.get("source", "")),
+                )
+            )
         try:
             return cls(tuple(terms), structure)
         except InputError as exc:
@@ -274,8 +297,10 @@ class TermTable:
                 raise InputError(f"{where}: theta = {t.index} is used by an earlier term")
             indices.add(t.index)
             if (t.coefficient, t.exponents) in pairs:
-                raise InputError(f"{where}: term {t.index} repeats term {pairs[t.coefficient, t.exponents]} "
-                                 f"({t.coefficient}, monomial {t.monomial}): give each term once")
+                raise InputError(
+                    f"{where}: term {t.index} repeats term {pairs[t.coefficient, t.exponents]} "
+                    f"({t.coefficient}, monomial {t.monomial}): give each term once"
+                )
             pairs[t.coefficient, t.exponents] = t.index
 
     def check_structure(self, where: str = "aerodynamic terms") -> None:
@@ -299,11 +324,16 @@ class TermTable:
         missing = sorted(set(range(1, n + 1)) - have)
         extra = sorted(have - set(range(1, n + 1)))
         if missing or extra or len(self.terms) != n:
-            parts = [f"missing theta {', '.join(map(str, missing))}" if missing else "",
-                     f"unexpected theta {', '.join(map(str, extra))}" if extra else ""]
-            raise InputError(f"{where}: structure = {self.structure!r} has {n} terms (theta = 1 .. {n}), "
-                             f"the file gives {len(self.terms)}: " + "; ".join(p for p in parts if p)
-                             + "; give every term (value 0 for an absent one) or declare structure = 'custom'")
+            parts = [
+                f"missing theta {', '.join(map(str, missing))}" if missing else "",
+                f"unexpected theta {', '.join(map(str, extra))}" if extra else "",
+            ]
+            raise InputError(
+                f"{where}: structure = {self.structure!r} has {n} terms (theta = 1 .. {n}), "
+                f"the file gives {len(self.terms)}: "
+                + "; ".join(p for p in parts if p)
+                + "; give every term (value 0 for an absent one) or declare structure = 'custom'"
+            )
 
     def to_records(self) -> list[dict]:
         """Records suitable for a TOML aircraft file.
@@ -321,7 +351,7 @@ class TermTable:
             out.append(rec)
         return out
 
-    def with_values(self, values: Mapping[int, float] | Iterable[float], source: str = "") -> "TermTable":
+    def with_values(self, values: Mapping[int, float] | Iterable[float], source: str = "") -> TermTable:
         """A copy with new parameter values (by term index, or in table order).
 
         Parameters
@@ -341,14 +371,24 @@ class TermTable:
             If a sequence of values does not have one value per term.
         """
         if isinstance(values, Mapping):
-            new = [Term(t.index, t.coefficient, t.exponents, float(values.get(t.index, t.value)),
-                        source if t.index in values else t.source) for t in self.terms]
+            new = [
+                Term(
+                    t.index,
+                    t.coefficient,
+                    t.exponents,
+                    float(values.get(t.index, t.value)),
+                    source if t.index in values else t.source,
+                )
+                for t in self.terms
+            ]
         else:
             vals = list(values)
             if len(vals) != len(self.terms):
                 raise InputError(f"{len(vals)} values for {len(self.terms)} terms")
-            new = [Term(t.index, t.coefficient, t.exponents, float(v), source or t.source)
-                   for t, v in zip(self.terms, vals)]
+            new = [
+                Term(t.index, t.coefficient, t.exponents, float(v), source or t.source)
+                for t, v in zip(self.terms, vals)
+            ]
         return TermTable(tuple(new), self.structure)
 
     def terms_of(self, coefficient: str) -> tuple[Term, ...]:
@@ -421,14 +461,16 @@ class TermTable:
             if hasattr(cls, "linear_combinations"):  # the series class contracts in its own storage layout
                 return Coefficients(*cls.linear_combinations(self._theta, mons))
             order = min(m.order for m in series)
-            batch = np.broadcast_shapes(*(m.batch_shape for m in series),
-                                        *(np.shape(m) for m in mons if not hasattr(m, "coeffs")))
-            dtype = np.result_type(*(m.dtype for m in series), *(np.asarray(m).dtype for m in mons
-                                                                  if not hasattr(m, "coeffs")))
+            batch = np.broadcast_shapes(
+                *(m.batch_shape for m in series), *(np.shape(m) for m in mons if not hasattr(m, "coeffs"))
+            )
+            dtype = np.result_type(
+                *(m.dtype for m in series), *(np.asarray(m).dtype for m in mons if not hasattr(m, "coeffs"))
+            )
             stack = np.zeros((len(mons),) + batch + (order + 1,), dtype)
             for i, m in enumerate(mons):
                 if hasattr(m, "coeffs"):
-                    stack[i] = np.asarray(m.coeffs)[..., :order + 1]
+                    stack[i] = np.asarray(m.coeffs)[..., : order + 1]
                 else:
                     stack[i, ..., 0] = m
             out = np.tensordot(self._theta, stack, axes=(1, 0))

@@ -11,10 +11,11 @@ in, the unit being part of the key (``mass_kg`` or ``weight_lb``, ``S_m2`` or
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -103,7 +104,7 @@ class MassProperties:
         for k in ("Ixx", "Iyy", "Izz"):
             if not getattr(self, k) > 0:
                 raise InputError(f"{k} must be positive, got {getattr(self, k)} kg m^2")
-        det = self.Ixx * self.Izz - self.Ixz ** 2
+        det = self.Ixx * self.Izz - self.Ixz**2
         if not det > 0:
             raise InputError(f"inertia matrix not positive definite (Ixx Izz - Ixz^2 = {det})")
         # Triangle inequalities of a physical body.
@@ -213,8 +214,10 @@ class Envelope:
 
     def __post_init__(self):
         if not self.alpha_min < self.alpha_max:
-            raise InputError(f"alpha_min = {math.degrees(self.alpha_min):.6g} deg must be below "
-                             f"alpha_max = {math.degrees(self.alpha_max):.6g} deg")
+            raise InputError(
+                f"alpha_min = {math.degrees(self.alpha_min):.6g} deg must be below "
+                f"alpha_max = {math.degrees(self.alpha_max):.6g} deg"
+            )
         if not 0 < self.beta_max <= math.pi / 2:
             raise InputError(f"beta_max = {math.degrees(self.beta_max):.6g} deg must be in (0, 90] deg")
         for name, lim in self.control_limits.items():
@@ -237,11 +240,15 @@ class Envelope:
         out = []
         a, b = np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float)
         if np.any(a < self.alpha_min) or np.any(a > self.alpha_max):
-            out.append(f"alpha outside [{math.degrees(self.alpha_min):.1f}, {math.degrees(self.alpha_max):.1f}] deg "
-                       f"(reached {math.degrees(float(np.min(a))):.2f} .. {math.degrees(float(np.max(a))):.2f} deg)")
+            out.append(
+                f"alpha outside [{math.degrees(self.alpha_min):.1f}, {math.degrees(self.alpha_max):.1f}] deg "
+                f"(reached {math.degrees(float(np.min(a))):.2f} .. {math.degrees(float(np.max(a))):.2f} deg)"
+            )
         if np.any(np.abs(b) > self.beta_max):
-            out.append(f"|beta| above {math.degrees(self.beta_max):.1f} deg "
-                       f"(reached {math.degrees(float(np.max(np.abs(b)))):.2f} deg)")
+            out.append(
+                f"|beta| above {math.degrees(self.beta_max):.1f} deg "
+                f"(reached {math.degrees(float(np.max(np.abs(b)))):.2f} deg)"
+            )
         return out
 
 
@@ -286,9 +293,11 @@ class Aircraft:
         -------
         str
         """
-        return (f"{self.id}: {self.name}; m = {self.mass.mass:.1f} kg, S = {self.geometry.S:.3f} m^2, "
-                f"b = {self.geometry.b:.3f} m, cbar = {self.geometry.cbar:.3f} m, "
-                f"{self.propulsion.count} engine(s), {len(self.aero)} aero terms ({self.aero.structure})")
+        return (
+            f"{self.id}: {self.name}; m = {self.mass.mass:.1f} kg, S = {self.geometry.S:.3f} m^2, "
+            f"b = {self.geometry.b:.3f} m, cbar = {self.geometry.cbar:.3f} m, "
+            f"{self.propulsion.count} engine(s), {len(self.aero)} aero terms ({self.aero.structure})"
+        )
 
 
 def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", path: str | None = None) -> Aircraft:
@@ -326,7 +335,8 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
             Iyy=_get(m, "Iyy", "inertia", where + " [mass]"),
             Izz=_get(m, "Izz", "inertia", where + " [mass]"),
             Ixz=_get(m, "Ixz", "inertia", where + " [mass]", 0.0),
-            source=str(m.get("source", "")))
+            source=str(m.get("source", "")),
+        )
     g = data["geometry"]
     cbar = _get(g, "cbar", "length", where + " [geometry]")
     if "x_cg_cbar" in g or "x_ref_cbar" in g:
@@ -336,23 +346,32 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
         x_cg = _get(g, "x_cg", "length", where + " [geometry]", 0.0)
         x_ref = _get(g, "x_ref", "length", where + " [geometry]", x_cg)
     with _naming(where + " [geometry]"):
-        geometry = Geometry(S=_get(g, "S", "area", where + " [geometry]"),
-                            b=_get(g, "b", "length", where + " [geometry]"),
-                            cbar=cbar, x_cg=x_cg, x_ref=x_ref, source=str(g.get("source", "")))
+        geometry = Geometry(
+            S=_get(g, "S", "area", where + " [geometry]"),
+            b=_get(g, "b", "length", where + " [geometry]"),
+            cbar=cbar,
+            x_cg=x_cg,
+            x_ref=x_ref,
+            source=str(g.get("source", "")),
+        )
     e = data.get("engines", {})
     with _naming(where + " [engines]"):
         w = where + " [engines]"
-        propulsion = Propulsion(count=int(e.get("count", 1)),
-                                y_p=_get(e, "y_p", "length", w, 0.0),
-                                epsilon=_get(e, "epsilon", "angle", w, 0.0),
-                                max_thrust=_get(e, "max_thrust", "force", w, None),
-                                source=str(e.get("source", "")),
-                                engine_power=_get(e, "engine_power", "power", w, None),
-                                propeller_efficiency=(None if "propeller_efficiency" not in e else
-                                                      _check(_number(e["propeller_efficiency"], "propeller_efficiency",
-                                                                     w), "propeller_efficiency", w)),
-                                engine_static_thrust=_get(e, "engine_static_thrust", "force", w, None),
-                                engine_source=str(e.get("engine_source", "")))
+        propulsion = Propulsion(
+            count=int(e.get("count", 1)),
+            y_p=_get(e, "y_p", "length", w, 0.0),
+            epsilon=_get(e, "epsilon", "angle", w, 0.0),
+            max_thrust=_get(e, "max_thrust", "force", w, None),
+            source=str(e.get("source", "")),
+            engine_power=_get(e, "engine_power", "power", w, None),
+            propeller_efficiency=(
+                None
+                if "propeller_efficiency" not in e
+                else _check(_number(e["propeller_efficiency"], "propeller_efficiency", w), "propeller_efficiency", w)
+            ),
+            engine_static_thrust=_get(e, "engine_static_thrust", "force", w, None),
+            engine_source=str(e.get("engine_source", "")),
+        )
     v = data.get("envelope", {})
     limits = {}
     for name in ("dl", "dm", "dn"):
@@ -360,18 +379,31 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
         if lim is not None:
             limits[name] = lim
     with _naming(where + " [envelope]"):
-        envelope = Envelope(alpha_min=_get(v, "alpha_min", "angle", where + " [envelope]", math.radians(-10.0)),
-                            alpha_max=_get(v, "alpha_max", "angle", where + " [envelope]", math.radians(30.0)),
-                            beta_max=_get(v, "beta_max", "angle", where + " [envelope]", math.radians(20.0)),
-                            control_limits=limits, source=str(v.get("source", "")))
+        envelope = Envelope(
+            alpha_min=_get(v, "alpha_min", "angle", where + " [envelope]", math.radians(-10.0)),
+            alpha_max=_get(v, "alpha_max", "angle", where + " [envelope]", math.radians(30.0)),
+            beta_max=_get(v, "beta_max", "angle", where + " [envelope]", math.radians(20.0)),
+            control_limits=limits,
+            source=str(v.get("source", "")),
+        )
     a = data["aero"]
-    aero = TermTable.from_records(a["terms"], structure=str(a.get("structure", "custom")),
-                                  where=f"{where} [aero.terms]")
+    aero = TermTable.from_records(
+        a["terms"], structure=str(a.get("structure", "custom")), where=f"{where} [aero.terms]"
+    )
     aero.check_unique(f"{where} [aero.terms]")
     aero.check_structure(f"{where} [aero.terms]")
     prov = {k: str(val) for k, val in data.get("provenance", {}).items()}
-    return Aircraft(id=ident, name=str(data.get("name", ident)), mass=mass, geometry=geometry, propulsion=propulsion,
-                    envelope=envelope, aero=aero, provenance=prov, path=path)
+    return Aircraft(
+        id=ident,
+        name=str(data.get("name", ident)),
+        mass=mass,
+        geometry=geometry,
+        propulsion=propulsion,
+        envelope=envelope,
+        aero=aero,
+        provenance=prov,
+        path=path,
+    )
 
 
 def _catalogue() -> dict[str, Path]:

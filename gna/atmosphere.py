@@ -28,11 +28,11 @@ from .ground_effect import GroundEffect
 from .units import G0
 
 # ISA constants (ISO 2533).
-T0 = 288.15          #: sea-level temperature, K
-P0 = 101325.0        #: sea-level pressure, Pa
-R_AIR = 287.05287    #: specific gas constant of dry air, J/(kg K)
-LAPSE = 0.0065       #: tropospheric lapse rate, K/m
-H_TROPO = 11000.0    #: tropopause altitude, m
+T0 = 288.15  #: sea-level temperature, K
+P0 = 101325.0  #: sea-level pressure, Pa
+R_AIR = 287.05287  #: specific gas constant of dry air, J/(kg K)
+LAPSE = 0.0065  #: tropospheric lapse rate, K/m
+H_TROPO = 11000.0  #: tropopause altitude, m
 RHO0 = P0 / (R_AIR * T0)  #: sea-level density, 1.225 kg/m^3
 _EXP_TROPO = G0 / (R_AIR * LAPSE) - 1.0
 T_TROPO = T0 - LAPSE * H_TROPO
@@ -116,9 +116,11 @@ class ISA:
             below = np.asarray(h0 <= H_TROPO)[..., None]
             return type(h)(np.where(below, np.asarray(tropo.coeffs), np.asarray(strato.coeffs)))
         h = np.asarray(h, dtype=float)
-        return np.where(h <= H_TROPO,
-                        RHO0 * (1.0 - LAPSE * np.minimum(h, H_TROPO) / T0) ** _EXP_TROPO,
-                        RHO_TROPO * np.exp(-G0 * (np.maximum(h, H_TROPO) - H_TROPO) / (R_AIR * T_TROPO)))
+        return np.where(
+            h <= H_TROPO,
+            RHO0 * (1.0 - LAPSE * np.minimum(h, H_TROPO) / T0) ** _EXP_TROPO,
+            RHO_TROPO * np.exp(-G0 * (np.maximum(h, H_TROPO) - H_TROPO) / (R_AIR * T_TROPO)),
+        )
 
     #: Altitudes [m] of the model (:data:`ISA_RANGE`).
     altitude_range: ClassVar[tuple[float, float]] = ISA_RANGE
@@ -138,8 +140,7 @@ class ISA:
         DomainError
             An altitude outside the range or not finite (``variable = "altitude"``).
         """
-        _check_range(h, self.altitude_range, where, "the ISA model (ISO 2533, troposphere and isothermal "
-                                                     "layer)")
+        _check_range(h, self.altitude_range, where, "the ISA model (ISO 2533, troposphere and isothermal layer)")
 
     def describe(self) -> str:
         return "ISA (ISO 2533) density, geometric altitude as geopotential"
@@ -154,9 +155,12 @@ def _check_range(h, bounds: tuple[float, float], where: str, model: str, times=N
         if times is not None:
             at = f" at t = {float(np.atleast_1d(times)[i]):g} s" + at
         rng = "finite" if not np.isfinite(bounds[1]) else f"{bounds[0]:g} to {bounds[1]:g} m"
-        raise DomainError(f"altitude {hv[i]:g} m{at} is outside {model}: valid {rng}",
-                          variable="altitude", value=float(hv[i]),
-                          time=None if times is None else float(np.atleast_1d(times)[i]))
+        raise DomainError(
+            f"altitude {hv[i]:g} m{at} is outside {model}: valid {rng}",
+            variable="altitude",
+            value=float(hv[i]),
+            time=None if times is None else float(np.atleast_1d(times)[i]),
+        )
 
 
 @dataclass(frozen=True)
@@ -181,8 +185,10 @@ class Environment:
         if not (np.isfinite(self.g) and self.g > 0):
             raise InputError(f"gravity must be positive and finite, got {self.g}")
         if self.ground_effect is not None and not isinstance(self.ground_effect, GroundEffect):
-            raise InputError(f"ground_effect must be a gna.ground_effect.GroundEffect or None, "
-                             f"got {type(self.ground_effect).__name__}")
+            raise InputError(
+                f"ground_effect must be a gna.ground_effect.GroundEffect or None, "
+                f"got {type(self.ground_effect).__name__}"
+            )
 
     def describe(self) -> str:
         """The atmosphere's description, and the ground effect's when there is one (run settings)."""
@@ -213,15 +219,16 @@ class Environment:
         """
         atm = self.atmosphere
         if isinstance(atm, ISA):
-            _check_range(h, atm.altitude_range, where, "the ISA model (ISO 2533, troposphere and isothermal "
-                                                       "layer)", times)
+            _check_range(
+                h, atm.altitude_range, where, "the ISA model (ISO 2533, troposphere and isothermal layer)", times
+            )
         else:
             _check_range(h, (-np.inf, np.inf), where, atm.describe(), times)
         if self.ground_effect is not None:
             self.ground_effect.check_height(h, where, times)
 
     @classmethod
-    def constant(cls, altitude: float = 0.0, g: float = G0) -> "Environment":
+    def constant(cls, altitude: float = 0.0, g: float = G0) -> Environment:
         """Constant density equal to the ISA density at ``altitude`` [m] (within :data:`ISA_RANGE`)."""
         cls().check_altitude(altitude, "constant-density environment")
         return cls(ConstantDensity(float(ISA().density(float(altitude)))), g)

@@ -48,8 +48,9 @@ def derivative(aircraft: Aircraft, env: Environment, X: np.ndarray, controls) ->
     geo, m = aircraft.geometry, aircraft.mass.mass
     rho = env.density(pos[2])
     qS = 0.5 * rho * V * V * geo.S
-    c = aircraft.aero.coefficients(AeroState(alpha, beta, p * geo.b / (2 * V), q * geo.cbar / (2 * V),
-                                             r * geo.b / (2 * V), dl, dm, dn))
+    c = aircraft.aero.coefficients(
+        AeroState(alpha, beta, p * geo.b / (2 * V), q * geo.cbar / (2 * V), r * geo.b / (2 * V), dl, dm, dn)
+    )
     # Aerodynamic force: stability axes (-CD, CY, -CL) -> body.
     Fs = qS * np.array([-c.CD, c.CY, -c.CL])
     ca, sa = np.cos(alpha), np.sin(alpha)

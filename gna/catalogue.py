@@ -9,8 +9,7 @@ from pathlib import Path
 def bundled(package: str, *folder: str) -> dict[str, Path]:
     """``{name: path}`` of the ``.toml`` files in a package folder, sorted by name."""
     root = resources.files(package).joinpath(*folder)
-    return {e.name[:-5]: Path(str(e)) for e in sorted(root.iterdir(), key=lambda e: e.name)
-            if e.name.endswith(".toml")}
+    return {e.name[:-5]: Path(str(e)) for e in sorted(root.iterdir(), key=lambda e: e.name) if e.name.endswith(".toml")}
 
 
 def resolve(name_or_path, catalogue: dict[str, Path]) -> Path | None:

@@ -20,8 +20,9 @@ A stateless feedback ``f(t, x) -> delta_u`` is the zero-state case
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -188,16 +189,19 @@ def as_controller(obj) -> Controller | None:
     """
     if obj is None:
         return None
-    if all(callable(getattr(obj, m, None)) for m in ("initial_state", "derivative", "output")) \
-            and hasattr(obj, "n_states"):
+    if all(callable(getattr(obj, m, None)) for m in ("initial_state", "derivative", "output")) and hasattr(
+        obj, "n_states"
+    ):
         n = obj.n_states
         if not (isinstance(n, (int, np.integer)) and n >= 0):
             raise InputError(f"a controller's n_states must be a non-negative integer, got {n!r}")
         return obj
     if callable(obj):
         return StatelessController(obj)
-    raise InputError(f"controller must be a Controller (n_states, initial_state, derivative, output) or a "
-                     f"callable (t, x) -> 5 corrections; got {type(obj).__name__}")
+    raise InputError(
+        f"controller must be a Controller (n_states, initial_state, derivative, output) or a "
+        f"callable (t, x) -> 5 corrections; got {type(obj).__name__}"
+    )
 
 
 def evaluate(controller: Controller, t: float, x: np.ndarray, xc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -232,8 +236,7 @@ def evaluate(controller: Controller, t: float, x: np.ndarray, xc: np.ndarray) ->
         out, der = both(t, x, xc)
     else:
         out, der = controller.output(t, x, xc), controller.derivative(t, x, xc)
-    return (np.asarray(out, dtype=float).reshape(5),
-            np.asarray(der, dtype=float).reshape(int(controller.n_states)))
+    return (np.asarray(out, dtype=float).reshape(5), np.asarray(der, dtype=float).reshape(int(controller.n_states)))
 
 
 def at_sample_times(controller: Controller | None, times: np.ndarray) -> Controller | None:

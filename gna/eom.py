@@ -106,17 +106,17 @@ class HValues(NamedTuple):
 class Loads(NamedTuple):
     """Everything the equations need, and the derived quantities users plot."""
 
-    qbar: object        #: dynamic pressure [Pa]
-    rho: object         #: air density [kg/m^3]
+    qbar: object  #: dynamic pressure [Pa]
+    rho: object  #: air density [kg/m^3]
     force_coeffs: Coefficients  #: coefficients used for the forces
     moment_coeffs: Coefficients  #: coefficients used for the moments (always full)
-    X: object           #: total force along x_w (aero + thrust + gravity) [N]
-    Y: object           #: total force along y_w [N]
-    Z: object           #: total force along z_w [N]
-    L: object           #: total rolling moment about the CG, body axes [N m]
-    M: object           #: total pitching moment [N m]
-    N: object           #: total yawing moment [N m]
-    Xa: object          #: aerodynamic + thrust force in wind axes (no gravity) [N]
+    X: object  #: total force along x_w (aero + thrust + gravity) [N]
+    Y: object  #: total force along y_w [N]
+    Z: object  #: total force along z_w [N]
+    L: object  #: total rolling moment about the CG, body axes [N m]
+    M: object  #: total pitching moment [N m]
+    N: object  #: total yawing moment [N m]
+    Xa: object  #: aerodynamic + thrust force in wind axes (no gravity) [N]
     Ya: object
     Za: object
 
@@ -145,8 +145,9 @@ def aero_state(aircraft: Aircraft, V, alpha, beta, p, q, r, dl, dm, dn) -> AeroS
     """
     g = aircraft.geometry
     half_over_V = 0.5 / V
-    return AeroState(alpha, beta, p * (g.b * half_over_V), q * (g.cbar * half_over_V),
-                     r * (g.b * half_over_V), dl, dm, dn)
+    return AeroState(
+        alpha, beta, p * (g.b * half_over_V), q * (g.cbar * half_over_V), r * (g.b * half_over_V), dl, dm, dn
+    )
 
 
 def aero_coefficients(aircraft: Aircraft, s: State, u: Controls, h: HValues | None = None) -> Coefficients:
@@ -174,8 +175,7 @@ def aero_coefficients(aircraft: Aircraft, s: State, u: Controls, h: HValues | No
         dimensionless, of the broadcast shape of the inputs.
     """
     if h is None:
-        return aircraft.aero.coefficients(aero_state(aircraft, s.V, s.alpha, s.beta, s.p, s.q, s.r,
-                                                     u.dl, u.dm, u.dn))
+        return aircraft.aero.coefficients(aero_state(aircraft, s.V, s.alpha, s.beta, s.p, s.q, s.r, u.dl, u.dm, u.dn))
     return aircraft.aero.coefficients(aero_state(aircraft, s.V, s.alpha, s.beta, h.p, h.q, h.r, h.dl, h.dm, h.dn))
 
 
@@ -270,8 +270,9 @@ def body_moments(aircraft: Aircraft, s: State, u: Controls, full: Coefficients, 
     return L, M, N
 
 
-def loads(aircraft: Aircraft, env: Environment, s: State, u: Controls,
-          model: str = "full", h: HValues | None = None) -> Loads:
+def loads(
+    aircraft: Aircraft, env: Environment, s: State, u: Controls, model: str = "full", h: HValues | None = None
+) -> Loads:
     """Forces (wind axes) and moments (body axes, about the CG).
 
     Parameters
@@ -309,8 +310,13 @@ def loads(aircraft: Aircraft, env: Environment, s: State, u: Controls,
     qbar = 0.5 * rho * s.V * s.V
     # Free-air coefficients, corrected for the ground when env.ground_effect is set (gna.ground_effect).
     full = ground_effect_coefficients(aircraft, env, s.z, aero_coefficients(aircraft, s, u, None))
-    fc = full if model == "full" else ground_effect_coefficients(
-        aircraft, env, s.z, aero_coefficients(aircraft, s, u, h if h is not None else HValues()))
+    fc = (
+        full
+        if model == "full"
+        else ground_effect_coefficients(
+            aircraft, env, s.z, aero_coefficients(aircraft, s, u, h if h is not None else HValues())
+        )
+    )
     X, Y, Z, Xa, Ya, Za = wind_forces(aircraft, env, s, u, fc, qbar)
     L, M, N = body_moments(aircraft, s, u, full, qbar)
     return Loads(qbar, rho, fc, full, X, Y, Z, L, M, N, Xa, Ya, Za)
@@ -421,7 +427,7 @@ def rotational_dynamics(aircraft: Aircraft, p, q, r, L, M, N):
     Lp = (I.Iyy - I.Izz) * q * r + I.Ixz * p * q + L
     Mp = (I.Izz - I.Ixx) * p * r + I.Ixz * (r * r - p * p) + M
     Np = (I.Ixx - I.Iyy) * p * q - I.Ixz * q * r + N
-    gam = I.Ixx * I.Izz - I.Ixz ** 2
+    gam = I.Ixx * I.Izz - I.Ixz**2
     return (I.Izz * Lp + I.Ixz * Np) / gam, Mp / I.Iyy, (I.Ixz * Lp + I.Ixx * Np) / gam
 
 
@@ -429,8 +435,15 @@ def rotational_dynamics(aircraft: Aircraft, p, q, r, L, M, N):
 angular_acceleration = rotational_dynamics
 
 
-def derivatives(aircraft: Aircraft, env: Environment, s: State, u: Controls,
-                model: str = "full", h: HValues | None = None, ld: Loads | None = None) -> State:
+def derivatives(
+    aircraft: Aircraft,
+    env: Environment,
+    s: State,
+    u: Controls,
+    model: str = "full",
+    h: HValues | None = None,
+    ld: Loads | None = None,
+) -> State:
     """Time derivatives of the 12 states: the four equation groups, concatenated.
 
     :func:`kinematics` (x', y', z'), :func:`force_equations` (V', gamma', chi'),
@@ -494,8 +507,9 @@ def derivatives(aircraft: Aircraft, env: Environment, s: State, u: Controls,
     return State(xd, yd, zd, Vd, gd, chid, ad, bd, mud, pd, qd, rd)
 
 
-def state_vector_derivative(aircraft: Aircraft, env: Environment, x: np.ndarray, u: Controls,
-                            model: str = "full", h: HValues | None = None) -> np.ndarray:
+def state_vector_derivative(
+    aircraft: Aircraft, env: Environment, x: np.ndarray, u: Controls, model: str = "full", h: HValues | None = None
+) -> np.ndarray:
     """Array form of :func:`derivatives`: ``x`` of shape ``(12, ...)`` -> derivative of the same shape.
 
     Parameters

@@ -31,8 +31,9 @@ class UnknownAircraftError(GflatError, KeyError):
 class DomainError(GflatError):
     """The state left the physical domain of the model (V <= 0, |beta| >= pi/2, ...)."""
 
-    def __init__(self, message: str, *, time: float | None = None,
-                 variable: str | None = None, value: float | None = None):
+    def __init__(
+        self, message: str, *, time: float | None = None, variable: str | None = None, value: float | None = None
+    ):
         self.time = time
         self.variable = variable
         self.value = value
@@ -42,8 +43,9 @@ class DomainError(GflatError):
 class ConvergenceError(GflatError):
     """A Newton iteration (trim, planning) did not converge."""
 
-    def __init__(self, message: str, *, residual: float | None = None,
-                 iterations: int | None = None, time: float | None = None):
+    def __init__(
+        self, message: str, *, residual: float | None = None, iterations: int | None = None, time: float | None = None
+    ):
         self.residual = residual
         self.iterations = iterations
         self.time = time

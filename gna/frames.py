@@ -75,10 +75,13 @@ def quaternion_from_dcm(C: np.ndarray) -> np.ndarray:
 def dcm_from_quaternion(q) -> np.ndarray:
     """``C_bn`` from a (not necessarily unit) quaternion, scalar first; arrays of shape (4, ...) allowed."""
     q0, q1, q2, q3 = q / np.sqrt(np.sum(np.asarray(q) ** 2, axis=0))
-    return np.array([
-        [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 + q0 * q3), 2 * (q1 * q3 - q0 * q2)],
-        [2 * (q1 * q2 - q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 + q0 * q1)],
-        [2 * (q1 * q3 + q0 * q2), 2 * (q2 * q3 - q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3]])
+    return np.array(
+        [
+            [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 + q0 * q3), 2 * (q1 * q3 - q0 * q2)],
+            [2 * (q1 * q2 - q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 + q0 * q1)],
+            [2 * (q1 * q3 + q0 * q2), 2 * (q2 * q3 - q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3],
+        ]
+    )
 
 
 def wind_angles_from_body(uvw, C_bn):

@@ -149,8 +149,9 @@ class GroundEffect:
         if not (math.isfinite(self.oswald) and 0.0 < self.oswald <= 1.0):
             raise InputError(f"ground effect: the Oswald factor must be in (0, 1], got {self.oswald!r}")
         if not (math.isfinite(self.section_lift_slope) and self.section_lift_slope > 0.0):
-            raise InputError(f"ground effect: the section lift slope must be positive [1/rad], "
-                             f"got {self.section_lift_slope!r}")
+            raise InputError(
+                f"ground effect: the section lift slope must be positive [1/rad], got {self.section_lift_slope!r}"
+            )
 
     def height_over_span(self, span: float, z):
         """Height of the CG above the ground over the span, ``h/b = (-z - elevation)/b``.
@@ -219,15 +220,21 @@ class GroundEffect:
             i = int(np.argmax(bad))
             t = None if times is None else float(np.atleast_1d(times)[i])
             at = (f" at t = {t:g} s" if t is not None else "") + (f" ({where})" if where else "")
-            raise DomainError(f"altitude {hv[i]:g} m{at} is at or below the ground at {self.elevation:g} m: "
-                              f"the ground-effect model needs a positive height",
-                              variable="altitude", value=float(hv[i]), time=t)
+            raise DomainError(
+                f"altitude {hv[i]:g} m{at} is at or below the ground at {self.elevation:g} m: "
+                f"the ground-effect model needs a positive height",
+                variable="altitude",
+                value=float(hv[i]),
+                time=t,
+            )
 
     def describe(self) -> str:
         """One line for run settings: the model, its source and its parameters."""
-        return (f"ground effect over a flat ground at {self.elevation:g} m (McCormick 1995 phi(h/b) on induced "
-                f"drag, lifting-line lift factor; e = {self.oswald:g}, a0 = {self.section_lift_slope:.6g} /rad; "
-                f"h at the CG, no attitude correction)")
+        return (
+            f"ground effect over a flat ground at {self.elevation:g} m (McCormick 1995 phi(h/b) on induced "
+            f"drag, lifting-line lift factor; e = {self.oswald:g}, a0 = {self.section_lift_slope:.6g} /rad; "
+            f"h at the CG, no attitude correction)"
+        )
 
 
 def ground_effect_coefficients(aircraft, env, z, c: Coefficients) -> Coefficients:

@@ -28,8 +28,9 @@ Conventions
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -42,8 +43,17 @@ from .schema import did_you_mean, unknown_key_message
 __all__ = ["Perturbation", "perturbed_aircraft", "offset_state", "perturbation_from_dict", "PERTURBATION_KEYS"]
 
 #: Keys of a perturbation table (scenario files, campaigns).
-PERTURBATION_KEYS: tuple[str, ...] = ("aero_spread", "aero_scale", "mass_scale", "inertia_scale", "position_m",
-                                      "speed_mps", "angle_rad", "state_offsets", "seed")
+PERTURBATION_KEYS: tuple[str, ...] = (
+    "aero_spread",
+    "aero_scale",
+    "mass_scale",
+    "inertia_scale",
+    "position_m",
+    "speed_mps",
+    "angle_rad",
+    "state_offsets",
+    "seed",
+)
 
 _ANGLES = ("gamma", "chi", "alpha", "beta", "mu")
 
@@ -111,8 +121,10 @@ class Perturbation:
             if isinstance(k, str) and k.strip().lstrip("+-").isdigit():
                 k = int(k)
             if isinstance(k, str) and k not in COEFFICIENTS:
-                raise InputError(f"{where}: aero_scale key {k!r} is neither a term index nor a coefficient"
-                                 f"{did_you_mean(k, COEFFICIENTS)}; coefficients: {', '.join(COEFFICIENTS)}")
+                raise InputError(
+                    f"{where}: aero_scale key {k!r} is neither a term index nor a coefficient"
+                    f"{did_you_mean(k, COEFFICIENTS)}; coefficients: {', '.join(COEFFICIENTS)}"
+                )
             if isinstance(k, bool) or not isinstance(k, (int, str)):
                 raise InputError(f"{where}: aero_scale keys are term indices or coefficient names, got {k!r}")
             f = _finite(v, f"aero_scale[{k!r}]", where)
@@ -127,16 +139,19 @@ class Perturbation:
                 raise InputError(unknown_key_message(k, STATE_NAMES, f"{where} state_offsets"))
             norm.append((str(k), _finite(v, f"state_offsets[{k!r}]", where)))
         object.__setattr__(self, "state_offsets", tuple(norm))
-        if self.seed is not None and (isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer))
-                                      or self.seed < 0):
+        if self.seed is not None and (
+            isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0
+        ):
             raise InputError(f"{where}: seed must be a non-negative whole number, got {self.seed!r}")
         if self.seed is not None:
             object.__setattr__(self, "seed", int(self.seed))
         if self.aero_spread > 0.0 and self.seed is None:
-            raise InputError(f"{where}: aero_spread = {self.aero_spread} needs a seed (the random factors are "
-                             f"drawn from it, so a run can be reproduced)")
+            raise InputError(
+                f"{where}: aero_spread = {self.aero_spread} needs a seed (the random factors are "
+                f"drawn from it, so a run can be reproduced)"
+            )
 
-    def with_seed(self, seed: int) -> "Perturbation":
+    def with_seed(self, seed: int) -> Perturbation:
         """The same perturbation with another seed (a campaign sample).
 
         Parameters
@@ -153,8 +168,7 @@ class Perturbation:
     @property
     def changes_model(self) -> bool:
         """True when :func:`perturbed_aircraft` changes the aircraft."""
-        return (self.aero_spread > 0.0 or bool(self.aero_scale) or self.mass_scale != 1.0
-                or self.inertia_scale != 1.0)
+        return self.aero_spread > 0.0 or bool(self.aero_scale) or self.mass_scale != 1.0 or self.inertia_scale != 1.0
 
     def describe(self) -> str:
         """One line naming every non-neutral field (for provenance and reports).
@@ -212,8 +226,10 @@ class Perturbation:
             else:
                 hit = [i for i, idx in enumerate(indices) if idx == key]
                 if not hit:
-                    raise InputError(f"perturbation: aero_scale term {key} is not in the aerodynamic table "
-                                     f"(indices {min(indices)}..{max(indices)})")
+                    raise InputError(
+                        f"perturbation: aero_scale term {key} is not in the aerodynamic table "
+                        f"(indices {min(indices)}..{max(indices)})"
+                    )
             factors[hit] *= f
         return factors
 
@@ -245,14 +261,12 @@ def perturbed_aircraft(aircraft: Aircraft, perturbation: Perturbation) -> Aircra
     aero = aircraft.aero
     if perturbation.aero_spread > 0.0 or perturbation.aero_scale:
         if not isinstance(aero, TermTable):
-            raise InputError(f"{aircraft.id}: aerodynamic perturbation needs a term table, "
-                             f"got {type(aero).__name__}")
+            raise InputError(f"{aircraft.id}: aerodynamic perturbation needs a term table, got {type(aero).__name__}")
         factors = perturbation.aero_factors(aero)
         aero = aero.with_values([t.value * f for t, f in zip(aero.terms, factors)])
     m = aircraft.mass
     s = perturbation.inertia_scale
-    mass = replace(m, mass=m.mass * perturbation.mass_scale, Ixx=m.Ixx * s, Iyy=m.Iyy * s, Izz=m.Izz * s,
-                   Ixz=m.Ixz * s)
+    mass = replace(m, mass=m.mass * perturbation.mass_scale, Ixx=m.Ixx * s, Iyy=m.Iyy * s, Izz=m.Izz * s, Ixz=m.Ixz * s)
     provenance = dict(aircraft.provenance)
     provenance["perturbation"] = perturbation.describe()
     return replace(aircraft, aero=aero, mass=mass, provenance=provenance)
@@ -315,8 +329,11 @@ def perturbation_from_dict(table: Mapping[str, Any], where: str = "perturbation"
         if key not in PERTURBATION_KEYS:
             raise InputError(unknown_key_message(key, PERTURBATION_KEYS, where))
     # Scalars are checked by Perturbation itself; tables and the seed's type here.
-    kw: dict[str, Any] = {key: table[key] for key in ("aero_spread", "mass_scale", "inertia_scale", "position_m",
-                                                     "speed_mps", "angle_rad") if key in table}
+    kw: dict[str, Any] = {
+        key: table[key]
+        for key in ("aero_spread", "mass_scale", "inertia_scale", "position_m", "speed_mps", "angle_rad")
+        if key in table
+    }
     for key in ("aero_scale", "state_offsets"):
         if key in table:
             if not isinstance(table[key], Mapping):
@@ -332,4 +349,4 @@ def perturbation_from_dict(table: Mapping[str, Any], where: str = "perturbation"
     except InputError as exc:
         # Perturbation names itself "perturbation" (also in "perturbation state_offsets: ..."): name the table instead.
         msg, own = str(exc), "perturbation"
-        raise InputError(where + msg[len(own):] if msg.startswith(own) else msg) from None
+        raise InputError(where + msg[len(own) :] if msg.startswith(own) else msg) from None

@@ -53,8 +53,9 @@ class PiecewisePolynomial:
         if b.ndim != 1 or b.size < 2:
             raise InputError(f"a piecewise polynomial needs at least two breaks, got shape {b.shape}")
         if c.ndim != 3 or c.shape[0] != b.size - 1 or c.shape[2] < 1:
-            raise InputError(f"coefficients must have shape (n, m, d + 1) with n = {b.size - 1} intervals, "
-                             f"got {c.shape}")
+            raise InputError(
+                f"coefficients must have shape (n, m, d + 1) with n = {b.size - 1} intervals, got {c.shape}"
+            )
         if not np.all(np.diff(b) > 0):
             i = int(np.argmin(np.diff(b)))
             raise InputError(f"breaks must increase strictly: breaks[{i}] = {b[i]:g}, breaks[{i + 1}] = {b[i + 1]:g}")
@@ -143,7 +144,7 @@ class PiecewisePolynomial:
             raise InputError(f"time outside the span [{b[0]:g}, {b[-1]:g}] s: {tt.min():g} .. {tt.max():g}")
         i = np.clip(np.searchsorted(b, tt, side="right") - 1, 0, b.size - 2)
         s = tt - b[i]
-        c = self.coeffs[i]                                   # (N, m, d + 1)
+        c = self.coeffs[i]  # (N, m, d + 1)
         d = c.shape[2] - 1
         if derivative > d:
             return np.zeros((self.n_functions, tt.size))

@@ -20,9 +20,10 @@ import difflib
 import json
 import re
 import tomllib
+from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from .errors import InputError
 
@@ -30,8 +31,14 @@ from .errors import InputError
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
 
 #: Words of the JSON Schema types, for messages.
-_TYPE_WORDS = {"object": "a table", "array": "a list", "number": "a number", "integer": "a whole number",
-               "string": "a string", "boolean": "true or false"}
+_TYPE_WORDS = {
+    "object": "a table",
+    "array": "a list",
+    "number": "a number",
+    "integer": "a whole number",
+    "string": "a string",
+    "boolean": "true or false",
+}
 
 
 def check_name(value: Any, key: str, where: str) -> str:
@@ -57,14 +64,17 @@ def check_name(value: Any, key: str, where: str) -> str:
         If ``value`` is not a string matching :data:`SAFE_NAME` or contains ``..``.
     """
     if not isinstance(value, str) or not SAFE_NAME.match(value) or ".." in value:
-        raise InputError(f"{where}: {key} = {value!r} is not a safe identifier: use 1 to 64 letters, digits, "
-                         f"'.', '_' or '-', starting with a letter or a digit, without '..' "
-                         f"(it names output files)")
+        raise InputError(
+            f"{where}: {key} = {value!r} is not a safe identifier: use 1 to 64 letters, digits, "
+            f"'.', '_' or '-', starting with a letter or a digit, without '..' "
+            f"(it names output files)"
+        )
     return value
 
 
-def find_file(name_or_path: str | Path, catalogue: Mapping[str, Path], what: str,
-              base: str | Path | None = None) -> Path | None:
+def find_file(
+    name_or_path: str | Path, catalogue: Mapping[str, Path], what: str, base: str | Path | None = None
+) -> Path | None:
     """The bundled file called ``name_or_path``, or the ``.toml`` file at that path.
 
     Parameters
@@ -104,8 +114,11 @@ def find_file(name_or_path: str | Path, catalogue: Mapping[str, Path], what: str
             raise InputError(f"{what} file {key!r}: the file name must end in .toml")
         return path
     if looks_like_path or path.exists():
-        hint = f"; did you mean {key}.toml?" if path.suffix != ".toml" and path.with_name(
-            path.name + ".toml").is_file() else ""
+        hint = (
+            f"; did you mean {key}.toml?"
+            if path.suffix != ".toml" and path.with_name(path.name + ".toml").is_file()
+            else ""
+        )
         raise InputError(f"{what} file {key!r}: no such file ({path}){hint}")
     return None
 
@@ -136,8 +149,9 @@ def read_toml(path: str | Path) -> dict:
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not UTF-8 text (byte {raw[exc.start]:#04x} at offset {exc.start}); "
-                         f"save the file as UTF-8") from None
+        raise InputError(
+            f"{path}: not UTF-8 text (byte {raw[exc.start]:#04x} at offset {exc.start}); save the file as UTF-8"
+        ) from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -224,8 +238,14 @@ def _expected(schema: Mapping[str, Any]) -> str:
 def _plural(schema: Mapping[str, Any]) -> str:
     if "enum" in schema:
         return "values among " + ", ".join(repr(v) for v in schema["enum"])
-    words = {"object": "tables", "array": "lists", "number": "numbers", "integer": "whole numbers",
-             "string": "strings", "boolean": "booleans"}
+    words = {
+        "object": "tables",
+        "array": "lists",
+        "number": "numbers",
+        "integer": "whole numbers",
+        "string": "strings",
+        "boolean": "booleans",
+    }
     t = schema.get("type")
     return " or ".join(words.get(x, x) for x in (t if isinstance(t, list) else [t])) if t else "valid items"
 
@@ -307,6 +327,7 @@ def _message(error, where: str) -> str:
     if kind in ("oneOf", "anyOf") and error.context:
         # the alternative that got furthest names the problem best
         import jsonschema
+
         best = jsonschema.exceptions.best_match(error.context)
         if best is not None and len(best.absolute_path) > len(error.absolute_path):
             return _message(best, where)
@@ -318,8 +339,16 @@ def _message(error, where: str) -> str:
         return f"{loc}: {name} = {_short(value)}: {custom}"
     if kind in ("type", "enum", "oneOf", "anyOf", "const"):
         return f"{loc}: {name} must be {_expected(schema)}, got {_short(value)}"
-    bounds = {"minimum": ">=", "maximum": "<=", "exclusiveMinimum": ">", "exclusiveMaximum": "<",
-              "minItems": "at least", "maxItems": "at most", "minLength": "at least", "maxLength": "at most"}
+    bounds = {
+        "minimum": ">=",
+        "maximum": "<=",
+        "exclusiveMinimum": ">",
+        "exclusiveMaximum": "<",
+        "minItems": "at least",
+        "maxItems": "at most",
+        "minLength": "at least",
+        "maxLength": "at most",
+    }
     if kind in bounds:
         unit = " items" if "Items" in kind else (" characters" if "Length" in kind else "")
         return f"{loc}: {name} must be {bounds[kind]} {error.validator_value}{unit}, got {_short(value)}"

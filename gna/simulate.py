@@ -33,12 +33,31 @@ from .eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, loads
 from .errors import InputError
 from .piecewise import PiecewisePolynomial
 from .tape import compile_derivatives
-from .trajectory import (DOMAIN_TESTS, ControlFunction, RunSettings, SimulationResult, check_span,
-                         control_function, controller_frames, controls_on_grid, domain_bounds, domain_margins,
-                         domain_text, domain_violation, initial_state, output_grid)
+from .trajectory import (
+    DOMAIN_TESTS,
+    ControlFunction,
+    RunSettings,
+    SimulationResult,
+    check_span,
+    control_function,
+    controller_frames,
+    controls_on_grid,
+    domain_bounds,
+    domain_margins,
+    domain_text,
+    domain_violation,
+    initial_state,
+    output_grid,
+)
 
-__all__ = ["ControlFunction", "SimulationResult", "RunSettings", "simulate", "envelope_warnings",
-           "engine_thrust_warnings"]
+__all__ = [
+    "ControlFunction",
+    "SimulationResult",
+    "RunSettings",
+    "simulate",
+    "envelope_warnings",
+    "engine_thrust_warnings",
+]
 
 _SOLVERS = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau}
 
@@ -59,11 +78,23 @@ STALL_STEPS = 5000
 STALL_FRACTION = 1e-4
 
 
-def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
-             env: Environment | None = None, model: str = "full", h: HValues | None = None,
-             controller=None, dt_out: float = 0.02, t_eval: np.ndarray | None = None,
-             rtol: float = 1e-10, atol: float = 1e-10, method: str = "DOP853",
-             max_step: float = np.inf) -> SimulationResult:
+def simulate(
+    aircraft: Aircraft,
+    controls,
+    t_span: tuple[float, float],
+    x0,
+    *,
+    env: Environment | None = None,
+    model: str = "full",
+    h: HValues | None = None,
+    controller=None,
+    dt_out: float = 0.02,
+    t_eval: np.ndarray | None = None,
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    method: str = "DOP853",
+    max_step: float = np.inf,
+) -> SimulationResult:
     """Integrate the full or simple model, with an optional feedback carrying its own states.
 
     Parameters
@@ -121,8 +152,10 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     value, and the rows up to the located crossing.
     """
     if not isinstance(aircraft, Aircraft):
-        raise InputError(f"aircraft must be a gna.aircraft.Aircraft, got {type(aircraft).__name__} {aircraft!r:.60}; "
-                         f"gna.aircraft.load_aircraft(name) makes one")
+        raise InputError(
+            f"aircraft must be a gna.aircraft.Aircraft, got {type(aircraft).__name__} {aircraft!r:.60}; "
+            f"gna.aircraft.load_aircraft(name) makes one"
+        )
     env = env if env is not None else Environment()
     t0, t1 = check_span(t_span)
     y0 = initial_state(None, x0)
@@ -136,7 +169,7 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     if not np.all(np.isfinite(u0)):
         bad = [f"{n} = {v}" for n, v in zip(CONTROL_NAMES, u0) if not math.isfinite(v)]
         raise InputError(f"controls at t0 = {t0:g} s are not finite ({', '.join(bad)})")
-    bounds = domain_bounds(env)      # with ground effect: a CG at or below the ground too (no ground contact)
+    bounds = domain_bounds(env)  # with ground effect: a CG at or below the ground too (no ground contact)
     start = domain_violation(t0, y0, bounds)
     if start is not None:
         raise InputError(f"the initial state is outside the physical domain: {start}")
@@ -159,7 +192,7 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
         if type(u) is not np.ndarray or u.dtype != np.float64:
             u = np.asarray(u, dtype=float)
         if ctrl is not None:
-            du, dc = evaluate(ctrl, t, y[:12], y[12:])      # output and integrands from one evaluation
+            du, dc = evaluate(ctrl, t, y[:12], y[12:])  # output and integrands from one evaluation
             u = u + du
             d = values(y[:12].tolist(), u.tolist()) + tuple(np.asarray(dc, dtype=float).tolist())
         else:
@@ -170,11 +203,14 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
                 names_bad += [f"control {n} = {v}" for n, v in zip(CONTROL_NAMES, u) if not isfinite(v)]
             raise _NonFinite(t, names_bad)
         return d
+
     try:
         solver = _SOLVERS[method](rhs, t0, y0, t1, rtol=rtol, atol=atol, max_step=max_step)
-    except _NonFinite as exc:                              # the first evaluation, at t0
-        raise InputError(f"non-finite derivative at t0 = {t0:g} s ({', '.join(exc.names)}): the initial state, "
-                         f"controls and feedback give no motion") from None
+    except _NonFinite as exc:  # the first evaluation, at t0
+        raise InputError(
+            f"non-finite derivative at t0 = {t0:g} s ({', '.join(exc.names)}): the initial state, "
+            f"controls and feedback give no motion"
+        ) from None
     events = _domain_functions(bounds)
     segments = []  # (t_lo, t_hi, dense)
     status, message, t_end = "completed", "", t1
@@ -192,15 +228,25 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
             if exc.t - t_prev > bracket:
                 span = 0.5 * (exc.t - t_prev)
                 try:
-                    solver = _SOLVERS[method](rhs, t_prev, y_prev, t1, rtol=rtol, atol=atol,
-                                              max_step=min(max_step, span), first_step=0.5 * span)
+                    solver = _SOLVERS[method](
+                        rhs,
+                        t_prev,
+                        y_prev,
+                        t1,
+                        rtol=rtol,
+                        atol=atol,
+                        max_step=min(max_step, span),
+                        first_step=0.5 * span,
+                    )
                     continue
-                except _NonFinite as again:                # non-finite at the last good point itself
+                except _NonFinite as again:  # non-finite at the last good point itself
                     exc = again
             status = "domain"
             t_end = t_prev
-            message = (f"non-finite derivative ({', '.join(exc.names)}) at t = {exc.t:.6g} s; "
-                       f"integration stopped, partial result kept up to t = {t_prev:.6g} s")
+            message = (
+                f"non-finite derivative ({', '.join(exc.names)}) at t = {exc.t:.6g} s; "
+                f"integration stopped, partial result kept up to t = {t_prev:.6g} s"
+            )
             break
         if solver.status == "failed":
             status, t_end = "failed", t_prev
@@ -217,7 +263,7 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
         for i, g in events:
             g0, g1 = m0[i], m1[i]
             if g0 > 0 and not g1 > 0:
-                te = brentq(lambda tt: g(dense(tt)), t_prev, solver.t, xtol=1e-12) if np.isfinite(g1) else t_prev
+                te = brentq(lambda tt: g(dense(tt)), t_prev, solver.t, xtol=1e-12) if np.isfinite(g1) else t_prev  # noqa: B023
                 if hit is None or te < hit[0]:
                     hit = (te, i)
         if hit is not None:
@@ -238,9 +284,11 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
                 # A right-hand side that switches faster than any step (a feedback chattering at a control
                 # limit, Filippov sliding) makes an adaptive integrator creep forever: stop and say so.
                 status, t_end = "failed", solver.t
-                message = (f"integrator stalled at t = {solver.t:.6g} s: {STALL_STEPS} steps advanced only "
-                           f"{solver.t - t_mark:.3g} s (a right-hand side switching faster than the step, e.g. a "
-                           f"feedback chattering at a control limit); partial result kept up to t = {solver.t:.6g} s")
+                message = (
+                    f"integrator stalled at t = {solver.t:.6g} s: {STALL_STEPS} steps advanced only "
+                    f"{solver.t - t_mark:.3g} s (a right-hand side switching faster than the step, e.g. a "
+                    f"feedback chattering at a control limit); partial result kept up to t = {solver.t:.6g} s"
+                )
                 break
             t_mark = solver.t
     if status == "completed":
@@ -253,14 +301,20 @@ def simulate(aircraft: Aircraft, controls, t_span: tuple[float, float], x0, *,
     df, dU = _frame(aircraft, env, grid, Y, ufun, feedback if ctrl is not None else None, model, h)
     warnings = envelope_warnings(aircraft, df)
     settings = RunSettings(
-        engine="gna.simulate", method=method, rtol=rtol, atol=atol, max_step=max_step, model=model,
-        environment=env.describe(), g=env.g,
+        engine="gna.simulate",
+        method=method,
+        rtol=rtol,
+        atol=atol,
+        max_step=max_step,
+        model=model,
+        environment=env.describe(),
+        g=env.g,
         controller=None if ctrl is None else "evaluated continuously on the integrated state",
         controller_states=nc,
         controller_scheme=None if ctrl is None else f"{method} (integrated with the aircraft states)",
-        extra={} if h is None else {"h": dict(h._asdict())})
-    result = SimulationResult(df=df, status=status, message=message, warnings=warnings, settings=settings,
-                              t_end=t_end)
+        extra={} if h is None else {"h": dict(h._asdict())},
+    )
+    result = SimulationResult(df=df, status=status, message=message, warnings=warnings, settings=settings, t_end=t_end)
     if ctrl is not None:
         result.controller_states, result.feedback = controller_frames(grid, names, Y[12:], dU)
     return result
@@ -284,14 +338,15 @@ def _evaluate_segments(segments, grid, y0, t0) -> np.ndarray:
 def _frame(aircraft, env, grid, Y, ufun, feedback, model, h) -> tuple[pd.DataFrame, np.ndarray]:
     """The result's DataFrame and the feedback part of the controls (5, n) on the grid."""
     if isinstance(ufun, PiecewisePolynomial) and ufun.n_functions == 5:
-        U = ufun.evaluate(grid)                                 # vectorised, the same Horner sums
+        U = ufun.evaluate(grid)  # vectorised, the same Horner sums
     else:
         U = np.array([np.asarray(ufun(t), dtype=float) for t in grid]).T.reshape(5, grid.size)
     if feedback is None:
         dU = np.zeros_like(U)
     else:
         dU = np.array([np.asarray(feedback(t, Y[:, i]), dtype=float) for i, t in enumerate(grid)]).T.reshape(
-            5, grid.size)
+            5, grid.size
+        )
         U = U + dU
     Y = Y[:12]
     s, u = State(*Y), Controls(*U)
@@ -305,9 +360,19 @@ def _frame(aircraft, env, grid, Y, ufun, feedback, model, h) -> tuple[pd.DataFra
     fbx = ca * cb * fx_w - ca * sb * fy_w - sa * fz_w
     fby = sb * fx_w + cb * fy_w
     fbz = sa * cb * fx_w - sa * sb * fy_w + ca * fz_w
-    data.update(qbar=np.broadcast_to(ld.qbar, grid.shape), rho=np.broadcast_to(ld.rho, grid.shape),
-                nx=fbx / (m * g), ny=fby / (m * g), nz=-fbz / (m * g),
-                X=ld.X, Y=ld.Y, Z=ld.Z, L=ld.L, M=ld.M, N=ld.N)
+    data.update(
+        qbar=np.broadcast_to(ld.qbar, grid.shape),
+        rho=np.broadcast_to(ld.rho, grid.shape),
+        nx=fbx / (m * g),
+        ny=fby / (m * g),
+        nz=-fbz / (m * g),
+        X=ld.X,
+        Y=ld.Y,
+        Z=ld.Z,
+        L=ld.L,
+        M=ld.M,
+        N=ld.N,
+    )
     for name, v in zip(("CD", "CY", "CL", "Cl", "Cm", "Cn"), ld.moment_coeffs):
         data[name] = np.broadcast_to(v, grid.shape)
     df = pd.DataFrame({k: np.asarray(v, dtype=float) for k, v in data.items()}, index=pd.Index(grid, name="t"))
@@ -321,7 +386,9 @@ def _excursion(df, mask, name: str, values, worst_index: int, text: str) -> str:
     dt = np.diff(t, append=t[-1])
     duration = float(np.sum(dt[m]))
     frac = 100.0 * duration / max(float(t[-1] - t[0]), 1e-300)
-    span = f"at t = {first:.4g} s" if first == last else f"from t = {first:.4g} to {last:.4g} s ({frac:.0f} % of the run)"
+    span = (
+        f"at t = {first:.4g} s" if first == last else f"from t = {first:.4g} to {last:.4g} s ({frac:.0f} % of the run)"
+    )
     return f"{text} {span}; worst {values[worst_index]} at t = {t[worst_index]:.4g} s"
 
 
@@ -350,12 +417,22 @@ def envelope_warnings(aircraft, df) -> list[str]:
     deg = lambda v: f"{math.degrees(v):.2f} deg"  # noqa: E731
     a, b = df["alpha"].to_numpy(), df["beta"].to_numpy()
     for mask, worst, text in (
-            (a < env.alpha_min, int(np.argmin(a)),
-             f"alpha below the aerodynamic model's envelope ({math.degrees(env.alpha_min):.1f} deg)"),
-            (a > env.alpha_max, int(np.argmax(a)),
-             f"alpha above the aerodynamic model's envelope ({math.degrees(env.alpha_max):.1f} deg)"),
-            (np.abs(b) > env.beta_max, int(np.argmax(np.abs(b))),
-             f"|beta| above the aerodynamic model's envelope ({math.degrees(env.beta_max):.1f} deg)")):
+        (
+            a < env.alpha_min,
+            int(np.argmin(a)),
+            f"alpha below the aerodynamic model's envelope ({math.degrees(env.alpha_min):.1f} deg)",
+        ),
+        (
+            a > env.alpha_max,
+            int(np.argmax(a)),
+            f"alpha above the aerodynamic model's envelope ({math.degrees(env.alpha_max):.1f} deg)",
+        ),
+        (
+            np.abs(b) > env.beta_max,
+            int(np.argmax(np.abs(b))),
+            f"|beta| above the aerodynamic model's envelope ({math.degrees(env.beta_max):.1f} deg)",
+        ),
+    ):
         if np.any(mask):
             vals = a if "alpha" in text else b
             out.append(_excursion(df, mask, "", [deg(v) for v in vals], worst, text))
@@ -363,24 +440,54 @@ def envelope_warnings(aircraft, df) -> list[str]:
         v = df[name].to_numpy()
         mask = np.abs(v) > lim
         if np.any(mask):
-            out.append(_excursion(df, mask, name, [deg(x) for x in v], int(np.argmax(np.abs(v))),
-                                  f"control {name} beyond its limit {math.degrees(lim):.1f} deg"))
+            out.append(
+                _excursion(
+                    df,
+                    mask,
+                    name,
+                    [deg(x) for x in v],
+                    int(np.argmax(np.abs(v))),
+                    f"control {name} beyond its limit {math.degrees(lim):.1f} deg",
+                )
+            )
     F = df["F"].to_numpy()
     if np.any(F < 0):
-        out.append(_excursion(df, F < 0, "F", [f"{x:.4g} N" for x in F], int(np.argmin(F)),
-                              "negative thrust F (drag beyond the airframe's needed)"))
+        out.append(
+            _excursion(
+                df,
+                F < 0,
+                "F",
+                [f"{x:.4g} N" for x in F],
+                int(np.argmin(F)),
+                "negative thrust F (drag beyond the airframe's needed)",
+            )
+        )
     fmax = aircraft.propulsion.max_thrust
     if fmax is not None and np.any(F > fmax):
-        out.append(_excursion(df, F > fmax, "F", [f"{x:.4g} N" for x in F], int(np.argmax(F)),
-                              f"thrust F above the maximum {fmax:.4g} N"))
-    out += engine_thrust_warnings(aircraft, F, df["eta"].to_numpy(), df["V"].to_numpy(),
-                                  df.index.to_numpy(dtype=float))
+        out.append(
+            _excursion(
+                df,
+                F > fmax,
+                "F",
+                [f"{x:.4g} N" for x in F],
+                int(np.argmax(F)),
+                f"thrust F above the maximum {fmax:.4g} N",
+            )
+        )
+    out += engine_thrust_warnings(aircraft, F, df["eta"].to_numpy(), df["V"].to_numpy(), df.index.to_numpy(dtype=float))
     if aircraft.propulsion.count == 2:
         eta = df["eta"].to_numpy()
         if np.any(np.abs(eta) > 1):
-            out.append(_excursion(df, np.abs(eta) > 1, "eta", [f"{x:.4g}" for x in eta],
-                                  int(np.argmax(np.abs(eta))),
-                                  "|eta| above 1 (one engine would need negative thrust)"))
+            out.append(
+                _excursion(
+                    df,
+                    np.abs(eta) > 1,
+                    "eta",
+                    [f"{x:.4g}" for x in eta],
+                    int(np.argmax(np.abs(eta))),
+                    "|eta| above 1 (one engine would need negative thrust)",
+                )
+            )
     return out
 
 
@@ -424,6 +531,8 @@ def engine_thrust_warnings(aircraft: Aircraft, F, eta, V, t=None) -> list[str]:
             i = int(np.argmax(np.where(over, Fi - limit, -np.inf)))
             at = "" if t is None else f" at t = {float(np.atleast_1d(t)[i]):.4g} s"
             share_of = "" if t is None else f" ({100.0 * np.mean(over):.0f} % of the run)"
-            out.append(f"{name} thrust {Fi[i]:.1f} N{at} above its rating {limit[i]:.1f} N at V = {V[i]:.2f} m/s"
-                       f"{share_of} (per-engine limit: {prop.engine_source or 'aircraft file'})")
+            out.append(
+                f"{name} thrust {Fi[i]:.1f} N{at} above its rating {limit[i]:.1f} N at V = {V[i]:.2f} m/s"
+                f"{share_of} (per-engine limit: {prop.engine_source or 'aircraft file'})"
+            )
     return out

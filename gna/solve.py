@@ -13,8 +13,8 @@ method on truncated power series, built on it, lives in :mod:`planners.newton`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
@@ -54,8 +54,9 @@ class NewtonResult:
         return bool(np.all(self.converged))
 
 
-def jacobian(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray, method: str = "complex",
-             f0: np.ndarray | None = None) -> np.ndarray:
+def jacobian(
+    fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray, method: str = "complex", f0: np.ndarray | None = None
+) -> np.ndarray:
     """Jacobian ``J[i, j, *batch] = d f_i / d x_j`` of a batched function.
 
     Parameters
@@ -86,10 +87,10 @@ def jacobian(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray, method: str
     n = x.shape[0]
     cols = []
     if method == "complex-batched":
-        xs = np.broadcast_to(x.astype(complex), (n,) + x.shape).copy()      # (n_col, n, *batch)
+        xs = np.broadcast_to(x.astype(complex), (n,) + x.shape).copy()  # (n_col, n, *batch)
         for j in range(n):
             xs[j, j] += 1j * COMPLEX_STEP
-        return np.imag(fun(np.moveaxis(xs, 0, 1))) / COMPLEX_STEP           # (m, n_col, *batch)
+        return np.imag(fun(np.moveaxis(xs, 0, 1))) / COMPLEX_STEP  # (m, n_col, *batch)
     if method == "complex":
         h = COMPLEX_STEP
         xc = x.astype(complex)
@@ -128,7 +129,7 @@ def batched_solve(J: np.ndarray, f: np.ndarray) -> np.ndarray:
     """
     n = J.shape[0]
     batch = f.shape[1:]
-    Jm = np.moveaxis(J.reshape(n, n, -1), -1, 0)          # (B, n, n)
+    Jm = np.moveaxis(J.reshape(n, n, -1), -1, 0)  # (B, n, n)
     fm = np.moveaxis(f.reshape(n, -1), -1, 0)[..., None]  # (B, n, 1)
     try:
         dx = np.linalg.solve(Jm, fm)[..., 0]
@@ -137,8 +138,16 @@ def batched_solve(J: np.ndarray, f: np.ndarray) -> np.ndarray:
     return np.moveaxis(dx, 0, -1).reshape((n,) + batch)
 
 
-def newton(fun: Callable[[np.ndarray], np.ndarray], x0, *, tol: float = 1e-12, maxiter: int = 50,
-           jac: str = "complex", damped: bool = True, scale: np.ndarray | None = None) -> NewtonResult:
+def newton(
+    fun: Callable[[np.ndarray], np.ndarray],
+    x0,
+    *,
+    tol: float = 1e-12,
+    maxiter: int = 50,
+    jac: str = "complex",
+    damped: bool = True,
+    scale: np.ndarray | None = None,
+) -> NewtonResult:
     """Solve ``fun(x) = 0`` by (damped) Newton, for a batch of independent problems.
 
     Parameters

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 import operator
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -85,16 +85,47 @@ _BINARY = {
     "hypot": ("hypot({0}, {1})", math.hypot),
 }
 _COMPARE = {"lt": "<", "le": "<=", "gt": ">", "ge": ">=", "eq": "==", "ne": "!="}
-_COMPARE_FUNCTIONS = {"lt": operator.lt, "le": operator.le, "gt": operator.gt, "ge": operator.ge,
-                      "eq": operator.eq, "ne": operator.ne}
+_COMPARE_FUNCTIONS = {
+    "lt": operator.lt,
+    "le": operator.le,
+    "gt": operator.gt,
+    "ge": operator.ge,
+    "eq": operator.eq,
+    "ne": operator.ne,
+}
 
-_UFUNCS = {np.negative: "neg", np.positive: "pos", np.absolute: "abs", np.cos: "cos", np.sin: "sin",
-           np.tan: "tan", np.exp: "exp", np.log: "log", np.sqrt: "sqrt", np.arcsin: "arcsin",
-           np.arccos: "arccos", np.arctan: "arctan", np.tanh: "tanh", np.sinh: "sinh", np.cosh: "cosh",
-           np.square: "square", np.add: "add", np.subtract: "sub", np.multiply: "mul",
-           np.true_divide: "div", np.power: "pow", np.float_power: "pow", np.arctan2: "arctan2",
-           np.hypot: "hypot", np.less: "lt", np.less_equal: "le", np.greater: "gt",
-           np.greater_equal: "ge", np.equal: "eq", np.not_equal: "ne"}
+_UFUNCS = {
+    np.negative: "neg",
+    np.positive: "pos",
+    np.absolute: "abs",
+    np.cos: "cos",
+    np.sin: "sin",
+    np.tan: "tan",
+    np.exp: "exp",
+    np.log: "log",
+    np.sqrt: "sqrt",
+    np.arcsin: "arcsin",
+    np.arccos: "arccos",
+    np.arctan: "arctan",
+    np.tanh: "tanh",
+    np.sinh: "sinh",
+    np.cosh: "cosh",
+    np.square: "square",
+    np.add: "add",
+    np.subtract: "sub",
+    np.multiply: "mul",
+    np.true_divide: "div",
+    np.power: "pow",
+    np.float_power: "pow",
+    np.arctan2: "arctan2",
+    np.hypot: "hypot",
+    np.less: "lt",
+    np.less_equal: "le",
+    np.greater: "gt",
+    np.greater_equal: "ge",
+    np.equal: "eq",
+    np.not_equal: "ne",
+}
 
 _NUMBER = (int, float, np.integer, np.floating)
 
@@ -106,14 +137,14 @@ class _Tape:
         self.ops: list[tuple[str, tuple]] = []
         self.values: list[float] = []
         self.memo: dict[tuple, int] = {}
-        self.guards: list[tuple[int, str, object, bool]] = []   # (after op index, comparison, other ref, outcome)
+        self.guards: list[tuple[int, str, object, bool]] = []  # (after op index, comparison, other ref, outcome)
 
-    def input(self, value: float) -> "_Traced":
+    def input(self, value: float) -> _Traced:
         self.ops.append(("input", ()))
         self.values.append(float(value))
         return _Traced(self, len(self.ops) - 1)
 
-    def apply(self, name: str, args: tuple) -> "_Traced | float":
+    def apply(self, name: str, args: tuple) -> _Traced | float:
         refs = []
         for a in args:
             if isinstance(a, _Traced):
@@ -265,7 +296,7 @@ def _select(tape: _Tape, smaller: bool, a, b):
     """``np.minimum(a, b)`` (``smaller``) or ``np.maximum(a, b)`` on one float: a guard on ``a <= b``."""
     values = [tape.values[v.slot] if isinstance(v, _Traced) else v for v in (a, b)]
     if any(isinstance(v, float) and math.isnan(v) for v in values):
-        raise _TraceArithmeticError("minimum or maximum of a NaN")   # numpy propagates it; a guard would not
+        raise _TraceArithmeticError("minimum or maximum of a NaN")  # numpy propagates it; a guard would not
     if not isinstance(a, _Traced) and not isinstance(b, _Traced):
         return min(a, b) if smaller else max(a, b)
     a_first = tape.compare("le", a, b) if isinstance(a, _Traced) else not tape.compare("lt", b, a)
@@ -317,9 +348,11 @@ def _emit(tape: _Tape, outputs: list) -> str:
             return repr(r)
         return f"v{r}" if named[r] else f"({text.pop(r)})"
 
-    lines = ["def program(s, u):",
-             "    " + ", ".join(f"v{k}" for k in range(len(STATE_NAMES))) + ", = s",
-             "    " + ", ".join(f"v{k}" for k in range(len(STATE_NAMES), n_in)) + ", = u"]
+    lines = [
+        "def program(s, u):",
+        "    " + ", ".join(f"v{k}" for k in range(len(STATE_NAMES))) + ", = s",
+        "    " + ", ".join(f"v{k}" for k in range(len(STATE_NAMES), n_in)) + ", = u",
+    ]
     for k, (name, refs) in enumerate(tape.ops):
         if k >= n_in and need[k]:
             template = _UNARY[name][0] if len(refs) == 1 else _BINARY[name][0]
@@ -342,14 +375,31 @@ def _emit(tape: _Tape, outputs: list) -> str:
 #: Deepest nesting of inlined operations in one expression of a generated program.
 _MAX_DEPTH = 40
 
-_NAMESPACE = {"cos": math.cos, "sin": math.sin, "tan": math.tan, "exp": math.exp, "log": math.log,
-              "sqrt": math.sqrt, "asin": math.asin, "acos": math.acos, "atan": math.atan,
-              "tanh": math.tanh, "sinh": math.sinh, "cosh": math.cosh, "pow": math.pow,
-              "atan2": math.atan2, "hypot": math.hypot, "abs": abs, "inf": math.inf, "nan": math.nan}
+_NAMESPACE = {
+    "cos": math.cos,
+    "sin": math.sin,
+    "tan": math.tan,
+    "exp": math.exp,
+    "log": math.log,
+    "sqrt": math.sqrt,
+    "asin": math.asin,
+    "acos": math.acos,
+    "atan": math.atan,
+    "tanh": math.tanh,
+    "sinh": math.sinh,
+    "cosh": math.cosh,
+    "pow": math.pow,
+    "atan2": math.atan2,
+    "hypot": math.hypot,
+    "abs": abs,
+    "inf": math.inf,
+    "nan": math.nan,
+}
 
 
-def trace_program(aircraft: Aircraft, env: Environment, x, u, model: str = "full",
-                  h: HValues | None = None) -> tuple[Callable, str]:
+def trace_program(
+    aircraft: Aircraft, env: Environment, x, u, model: str = "full", h: HValues | None = None
+) -> tuple[Callable, str]:
     """Trace :func:`gna.eom.derivatives` at one state and write it out as a Python function of floats.
 
     Parameters
@@ -434,8 +484,9 @@ class CompiledDerivatives:
         exception, or no program).
     """
 
-    def __init__(self, aircraft: Aircraft, env: Environment, model: str = "full", h: HValues | None = None,
-                 x0=None, u0=None):
+    def __init__(
+        self, aircraft: Aircraft, env: Environment, model: str = "full", h: HValues | None = None, x0=None, u0=None
+    ):
         if model not in ("full", "simple"):
             raise InputError(f"model must be 'full' or 'simple', got {model!r}")
         self.aircraft, self.env, self.model, self.h = aircraft, env, model, h
@@ -453,7 +504,7 @@ class CompiledDerivatives:
         try:
             program, source = trace_program(self.aircraft, self.env, s, u, self.model, self.h)
         except _TraceArithmeticError:
-            self._failed_traces += 1          # this state only (e.g. V = 0): the generic evaluation answers
+            self._failed_traces += 1  # this state only (e.g. V = 0): the generic evaluation answers
             return None
         except TraceError as exc:
             if not self.programs:
@@ -480,8 +531,16 @@ class CompiledDerivatives:
         """
         self.generic_calls += 1
         with np.errstate(all="ignore"):
-            return tuple(derivatives(self.aircraft, self.env, State(*np.asarray(s, dtype=float)),
-                                     Controls(*np.asarray(u, dtype=float)), self.model, self.h))
+            return tuple(
+                derivatives(
+                    self.aircraft,
+                    self.env,
+                    State(*np.asarray(s, dtype=float)),
+                    Controls(*np.asarray(u, dtype=float)),
+                    self.model,
+                    self.h,
+                )
+            )
 
     def values(self, s: list, u: list) -> tuple:
         """Derivatives at one state, as a tuple of 12 floats.
@@ -509,7 +568,7 @@ class CompiledDerivatives:
                 if d is not None:
                     return d
         except (ArithmeticError, ValueError, TypeError):
-            pass                              # a float exception: numpy's inf/NaN semantics below
+            pass  # a float exception: numpy's inf/NaN semantics below
         return self.generic(s, u)
 
     def __call__(self, x, u) -> np.ndarray:
@@ -527,13 +586,18 @@ class CompiledDerivatives:
         ndarray, shape (12,)
             ``(x', ..., r')`` (SI, rad/s, rad/s^2).
         """
-        return np.array(self.values(x.tolist() if isinstance(x, np.ndarray) else list(map(float, x)),
-                                    u.tolist() if isinstance(u, np.ndarray) else list(map(float, u))),
-                        dtype=float)
+        return np.array(
+            self.values(
+                x.tolist() if isinstance(x, np.ndarray) else list(map(float, x)),
+                u.tolist() if isinstance(u, np.ndarray) else list(map(float, u)),
+            ),
+            dtype=float,
+        )
 
 
-def compile_derivatives(aircraft: Aircraft, env: Environment | None = None, model: str = "full",
-                        h: HValues | None = None, x0=None, u0=None) -> CompiledDerivatives:
+def compile_derivatives(
+    aircraft: Aircraft, env: Environment | None = None, model: str = "full", h: HValues | None = None, x0=None, u0=None
+) -> CompiledDerivatives:
     """The fast float path of :func:`gna.eom.derivatives` for one aircraft, environment and model.
 
     Parameters

@@ -19,9 +19,9 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -31,8 +31,25 @@ from .eom import CONTROL_NAMES, STATE_NAMES
 from .errors import InputError
 
 #: Derived columns of every engine's trajectory, after the states and controls.
-DERIVED_NAMES: tuple[str, ...] = ("qbar", "rho", "nx", "ny", "nz", "X", "Y", "Z", "L", "M", "N",
-                                  "CD", "CY", "CL", "Cl", "Cm", "Cn")
+DERIVED_NAMES: tuple[str, ...] = (
+    "qbar",
+    "rho",
+    "nx",
+    "ny",
+    "nz",
+    "X",
+    "Y",
+    "Z",
+    "L",
+    "M",
+    "N",
+    "CD",
+    "CY",
+    "CL",
+    "Cl",
+    "Cm",
+    "Cn",
+)
 
 #: Columns of every engine's DataFrame, in order.
 COLUMNS: tuple[str, ...] = STATE_NAMES + CONTROL_NAMES + DERIVED_NAMES
@@ -42,12 +59,42 @@ POSITION = "position"
 
 #: Unit of every named quantity (states, controls, derived columns, trim variables).
 UNITS: dict[str, str] = {
-    POSITION: "m", "x": "m", "y": "m", "z": "m", "V": "m/s",
-    "gamma": "rad", "chi": "rad", "alpha": "rad", "beta": "rad", "mu": "rad",
-    "p": "rad/s", "q": "rad/s", "r": "rad/s", "chi_dot": "rad/s",
-    "F": "N", "eta": "-", "dl": "rad", "dm": "rad", "dn": "rad",
-    "qbar": "Pa", "rho": "kg/m^3", "nx": "-", "ny": "-", "nz": "-", "X": "N", "Y": "N", "Z": "N",
-    "L": "N m", "M": "N m", "N": "N m", "CD": "-", "CY": "-", "CL": "-", "Cl": "-", "Cm": "-", "Cn": "-",
+    POSITION: "m",
+    "x": "m",
+    "y": "m",
+    "z": "m",
+    "V": "m/s",
+    "gamma": "rad",
+    "chi": "rad",
+    "alpha": "rad",
+    "beta": "rad",
+    "mu": "rad",
+    "p": "rad/s",
+    "q": "rad/s",
+    "r": "rad/s",
+    "chi_dot": "rad/s",
+    "F": "N",
+    "eta": "-",
+    "dl": "rad",
+    "dm": "rad",
+    "dn": "rad",
+    "qbar": "Pa",
+    "rho": "kg/m^3",
+    "nx": "-",
+    "ny": "-",
+    "nz": "-",
+    "X": "N",
+    "Y": "N",
+    "Z": "N",
+    "L": "N m",
+    "M": "N m",
+    "N": "N m",
+    "CD": "-",
+    "CY": "-",
+    "CL": "-",
+    "Cl": "-",
+    "Cm": "-",
+    "Cn": "-",
 }
 
 #: Variables that are angles (their differences are wrapped into (-pi, pi]).
@@ -58,6 +105,7 @@ ControlFunction = Callable[[float], Sequence[float]]
 
 
 # --------------------------------------------------------------------------- control sources and input checks
+
 
 def control_function(source) -> ControlFunction:
     """A callable ``t -> 5 controls`` from any control source.
@@ -89,8 +137,9 @@ def control_function(source) -> ControlFunction:
     try:
         arr = np.asarray(source, dtype=float)
     except (TypeError, ValueError):
-        raise InputError(f"controls must be a function of t, a plan with controls(t), or 5 numbers; "
-                         f"got {type(source).__name__}") from None
+        raise InputError(
+            f"controls must be a function of t, a plan with controls(t), or 5 numbers; got {type(source).__name__}"
+        ) from None
     if arr.shape != (5,):
         raise InputError(f"constant controls need 5 values (F, eta, dl, dm, dn), got shape {arr.shape}")
     return lambda t: arr
@@ -128,8 +177,10 @@ def initial_state(source=None, x0=None) -> np.ndarray:
         arr = None
     if arr is None or arr.shape not in ((12,), (12, 1)):
         shape = "not numbers" if arr is None else f"shape {arr.shape}"
-        raise InputError(f"the initial state must be the 12 wind-frame values {', '.join(STATE_NAMES)} "
-                         f"(shape (12,) or (12, 1)), got {shape}")
+        raise InputError(
+            f"the initial state must be the 12 wind-frame values {', '.join(STATE_NAMES)} "
+            f"(shape (12,) or (12, 1)), got {shape}"
+        )
     y0 = arr.reshape(12)
     bad = [n for n, v in zip(STATE_NAMES, y0) if not math.isfinite(v)]
     if bad:
@@ -201,8 +252,7 @@ def output_grid(t0: float, t1: float, dt_out: float = 0.02, t_eval=None) -> np.n
             raise InputError("t_eval must be a non-empty increasing sequence of finite times")
         tol = 1e-12 * max(1.0, abs(t0), abs(t1))
         if te[0] < t0 - tol or te[-1] > t1 + tol:
-            raise InputError(f"t_eval must lie in t_span [{t0:g}, {t1:g}] s, got times from {te[0]:g} to "
-                             f"{te[-1]:g} s")
+            raise InputError(f"t_eval must lie in t_span [{t0:g}, {t1:g}] s, got times from {te[0]:g} to {te[-1]:g} s")
         return te
     try:
         dt_out = float(dt_out)
@@ -213,12 +263,15 @@ def output_grid(t0: float, t1: float, dt_out: float = 0.02, t_eval=None) -> np.n
     ratio = (t1 - t0) / dt_out
     n = int(round(ratio))
     if n < 1 or abs(ratio - n) > 1e-6 * max(1.0, ratio):
-        raise InputError(f"dt_out = {dt_out:g} s does not divide the span [{t0:g}, {t1:g}] s "
-                         f"({ratio:.6g} intervals); choose a divisor of {t1 - t0:g} s")
+        raise InputError(
+            f"dt_out = {dt_out:g} s does not divide the span [{t0:g}, {t1:g}] s "
+            f"({ratio:.6g} intervals); choose a divisor of {t1 - t0:g} s"
+        )
     return np.linspace(t0, t1, n + 1)
 
 
 # --------------------------------------------------------------------------- the physical domain of a run
+
 
 @dataclass(frozen=True)
 class DomainBounds:
@@ -338,8 +391,14 @@ def domain_margins(state, bounds: DomainBounds = DOMAIN) -> list[float]:
 
 def _margins(z, V, gamma, alpha, beta, bounds: DomainBounds, cos, absolute) -> list:
     """The margins of :data:`DOMAIN_TESTS` (one formula for floats and for arrays of samples)."""
-    return [V - bounds.V_min, bounds.V_max - V, cos(beta) - bounds.cos_min, cos(gamma) - bounds.cos_min,
-            bounds.alpha_max - absolute(alpha), math.inf if bounds.ground is None else -z - bounds.ground]
+    return [
+        V - bounds.V_min,
+        bounds.V_max - V,
+        cos(beta) - bounds.cos_min,
+        cos(gamma) - bounds.cos_min,
+        bounds.alpha_max - absolute(alpha),
+        math.inf if bounds.ground is None else -z - bounds.ground,
+    ]
 
 
 def inside_domain(states, bounds: DomainBounds = DOMAIN) -> np.ndarray:
@@ -387,12 +446,18 @@ def domain_text(t: float, test: int, value: float, bounds: DomainBounds = DOMAIN
         ``"left the physical domain at t = ... s: <test> (<name> = <value> <unit>)"``.
     """
     name, text = DOMAIN_TESTS[test]
-    text = text.format(V_min=bounds.V_min, V_max=bounds.V_max, cos_min=bounds.cos_min,
-                       alpha_max_deg=math.degrees(bounds.alpha_max), ground=math.nan if bounds.ground is None
-                       else bounds.ground)
-    if name == "z":          # the height test: the height above the ground, then z itself
-        return (f"left the physical domain at t = {t:.6g} s: {text} "
-                f"(h = {-value - (bounds.ground or 0.0):.6g} m, z = {value:.6g} m)")
+    text = text.format(
+        V_min=bounds.V_min,
+        V_max=bounds.V_max,
+        cos_min=bounds.cos_min,
+        alpha_max_deg=math.degrees(bounds.alpha_max),
+        ground=math.nan if bounds.ground is None else bounds.ground,
+    )
+    if name == "z":  # the height test: the height above the ground, then z itself
+        return (
+            f"left the physical domain at t = {t:.6g} s: {text} "
+            f"(h = {-value - (bounds.ground or 0.0):.6g} m, z = {value:.6g} m)"
+        )
     shown = f"{value:.6g} {UNITS[name]}" if name == "V" else f"{value:.6g} rad = {math.degrees(value):.4g} deg"
     return f"left the physical domain at t = {t:.6g} s: {text} ({name} = {shown})"
 
@@ -527,13 +592,15 @@ def controls_on_grid(f: ControlFunction, t) -> np.ndarray:
         for ti, ui in zip(t.tolist(), rows):
             shape = np.shape(ui)
             if shape != (5,):
-                raise InputError(f"controls(t) must return 5 values (F, eta, dl, dm, dn); got shape {shape} "
-                                 f"at t = {ti:g} s")
+                raise InputError(
+                    f"controls(t) must return 5 values (F, eta, dl, dm, dn); got shape {shape} at t = {ti:g} s"
+                )
         raise InputError("controls(t) must return 5 numbers (F, eta, dl, dm, dn)")
     return U.T.copy()
 
 
 # --------------------------------------------------------------------------- the result of a run
+
 
 @dataclass(frozen=True)
 class RunSettings(Mapping):
@@ -691,16 +758,26 @@ class SimulationResult:
         try:
             import control
         except ImportError as exc:
-            raise ImportError("SimulationResult.to_timeresponse needs python-control: install the optional "
-                              "extra with pip install \"gflat[control]\" (or pip install \"control>=0.10\")") from exc
+            raise ImportError(
+                "SimulationResult.to_timeresponse needs python-control: install the optional "
+                'extra with pip install "gflat[control]" (or pip install "control>=0.10")'
+            ) from exc
         df = self.df
         outputs = STATE_NAMES + DERIVED_NAMES
         return control.TimeResponseData(
-            df.index.to_numpy(dtype=float), df[list(outputs)].to_numpy(dtype=float).T,
-            states=df[list(STATE_NAMES)].to_numpy(dtype=float).T, inputs=df[list(CONTROL_NAMES)].to_numpy(dtype=float).T,
-            output_labels=list(outputs), state_labels=list(STATE_NAMES), input_labels=list(CONTROL_NAMES),
-            title=f"gflat run on {self.settings.engine or 'an engine'}", sysname=self.settings.engine or None,
-            success=self.completed, message=self.message or None, issiso=False)
+            df.index.to_numpy(dtype=float),
+            df[list(outputs)].to_numpy(dtype=float).T,
+            states=df[list(STATE_NAMES)].to_numpy(dtype=float).T,
+            inputs=df[list(CONTROL_NAMES)].to_numpy(dtype=float).T,
+            output_labels=list(outputs),
+            state_labels=list(STATE_NAMES),
+            input_labels=list(CONTROL_NAMES),
+            title=f"gflat run on {self.settings.engine or 'an engine'}",
+            sysname=self.settings.engine or None,
+            success=self.completed,
+            message=self.message or None,
+            issiso=False,
+        )
 
 
 def controller_frames(index, names: Sequence[str], Xc: np.ndarray, dU: np.ndarray) -> tuple[pd.DataFrame, pd.DataFrame]:

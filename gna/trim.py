@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
@@ -28,8 +28,7 @@ from .solve import newton
 from .trajectory import DOMAIN, UNITS, domain_violation
 from .units import G0
 
-TRIM_VARIABLES: tuple[str, ...] = ("V", "gamma", "chi_dot", "F", "alpha", "beta", "mu",
-                                   "p", "q", "r", "dl", "dm", "dn")
+TRIM_VARIABLES: tuple[str, ...] = ("V", "gamma", "chi_dot", "F", "alpha", "beta", "mu", "p", "q", "r", "dl", "dm", "dn")
 RESIDUAL_NAMES: tuple[str, ...] = ("V'", "gamma'", "chi'-chi_dot", "alpha'", "beta'", "mu'", "p'", "q'", "r'")
 
 
@@ -78,13 +77,18 @@ class TrimResult:
             JSON-serialisable record of the trim.
         """
         return {
-            "aircraft": self.aircraft, "model": self.model, "altitude_m": self.altitude,
-            "density_kg_m3": self.density, "eta": self.eta,
-            "fixed": self.fixed, "iterations": self.iterations, "converged": True,
+            "aircraft": self.aircraft,
+            "model": self.model,
+            "altitude_m": self.altitude,
+            "density_kg_m3": self.density,
+            "eta": self.eta,
+            "fixed": self.fixed,
+            "iterations": self.iterations,
+            "converged": True,
             "values": {k: {"value": v, "unit": UNITS[k]} for k, v in self.values.items()},
-            "values_deg": {k: math.degrees(self.values[k]) for k in
-                           ("gamma", "alpha", "beta", "mu", "dl", "dm", "dn")},
-            "residuals": self.residuals, "max_residual": self.max_residual,
+            "values_deg": {k: math.degrees(self.values[k]) for k in ("gamma", "alpha", "beta", "mu", "dl", "dm", "dn")},
+            "residuals": self.residuals,
+            "max_residual": self.max_residual,
             "warnings": list(self.warnings),
         }
 
@@ -131,11 +135,14 @@ def check_eta(aircraft: Aircraft, eta: float) -> float:
         engines, ``eta != 0`` with one engine on the symmetry plane.
     """
     if aircraft.propulsion.count == 1 and eta != 0.0:
-        raise InputError(f"eta = {eta:g}: {aircraft.id} has one engine on the symmetry plane, so the thrust "
-                         f"asymmetry eta must be 0")
+        raise InputError(
+            f"eta = {eta:g}: {aircraft.id} has one engine on the symmetry plane, so the thrust asymmetry eta must be 0"
+        )
     if not -1.0 <= eta <= 1.0:
-        raise InputError(f"eta = {eta:g} is outside [-1, 1]: eta = (F1 - F2)/(F1 + F2), so one engine would give "
-                         f"negative thrust (eta = 1: engine 2 off, eta = -1: engine 1 off)")
+        raise InputError(
+            f"eta = {eta:g} is outside [-1, 1]: eta = (F1 - F2)/(F1 + F2), so one engine would give "
+            f"negative thrust (eta = 1: engine 2 off, eta = -1: engine 1 off)"
+        )
     return eta
 
 
@@ -146,6 +153,7 @@ def _default_guess(aircraft: Aircraft, rho: float, fixed: Mapping[str, float]) -
     alpha = fixed.get("alpha")
     # Lift slope and zero-lift from the model itself (alpha sweep at zero controls).
     from .aero import AeroState
+
     a = np.array([0.0, 0.05])
     c = aircraft.aero.coefficients(AeroState(a, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
     CL = np.broadcast_to(c.CL, a.shape)
@@ -159,18 +167,41 @@ def _default_guess(aircraft: Aircraft, rho: float, fixed: Mapping[str, float]) -
         alpha = float(np.clip(alpha, aircraft.envelope.alpha_min, aircraft.envelope.alpha_max))
     cD = aircraft.aero.coefficients(AeroState(alpha, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)).CD
     F = 0.5 * rho * V * V * S * float(cD) + m * g * math.sin(fixed.get("gamma", 0.0))
-    guess = dict(V=V, gamma=0.0, chi_dot=0.0, F=max(F, 0.0), alpha=alpha, beta=0.0, mu=0.0,
-                 p=0.0, q=0.0, r=0.0, dl=0.0, dm=0.0, dn=0.0)
+    guess = dict(
+        V=V,
+        gamma=0.0,
+        chi_dot=0.0,
+        F=max(F, 0.0),
+        alpha=alpha,
+        beta=0.0,
+        mu=0.0,
+        p=0.0,
+        q=0.0,
+        r=0.0,
+        dl=0.0,
+        dm=0.0,
+        dn=0.0,
+    )
     # A coordinated turn needs the bank angle that tilts the lift.
     if "chi_dot" in fixed and fixed["chi_dot"] != 0.0:
         guess["mu"] = math.atan(V * fixed["chi_dot"] / g)
     return guess
 
 
-def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.0,
-         env: Environment | None = None, eta: float = 0.0, model: str = "full",
-         h: HValues | None = None, guess: Mapping[str, float] | None = None,
-         tol: float = 1e-11, maxiter: int = 60, check_envelope: bool = True) -> TrimResult:
+def trim(
+    aircraft: Aircraft,
+    fixed: Mapping[str, float],
+    *,
+    altitude: float = 0.0,
+    env: Environment | None = None,
+    eta: float = 0.0,
+    model: str = "full",
+    h: HValues | None = None,
+    guess: Mapping[str, float] | None = None,
+    tol: float = 1e-11,
+    maxiter: int = 60,
+    check_envelope: bool = True,
+) -> TrimResult:
     """Solve the nine steady-flight equations for the nine free trim variables.
 
     Parameters
@@ -233,9 +264,12 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
     if "V" in fixed and fixed["V"] <= 0:
         raise InputError(f"speed must be positive, got V = {fixed['V']} m/s")
     if "V" in fixed and not DOMAIN.V_min <= fixed["V"] <= DOMAIN.V_max:
-        raise DomainError(f"trim of {aircraft.id}: V = {fixed['V']:g} m/s is outside the physical domain "
-                          f"[{DOMAIN.V_min:g}, {DOMAIN.V_max:g}] m/s (gna.trajectory.DOMAIN)",
-                          variable="V", value=fixed["V"])
+        raise DomainError(
+            f"trim of {aircraft.id}: V = {fixed['V']:g} m/s is outside the physical domain "
+            f"[{DOMAIN.V_min:g}, {DOMAIN.V_max:g}] m/s (gna.trajectory.DOMAIN)",
+            variable="V",
+            value=fixed["V"],
+        )
     if "beta" in fixed and abs(fixed["beta"]) >= math.pi / 2:
         raise InputError(f"|beta| must be below pi/2, got {fixed['beta']} rad")
     if "gamma" in fixed and abs(fixed["gamma"]) >= math.pi / 2:
@@ -255,8 +289,7 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
 
     def residual(x):
         v = unpack(x)
-        s = State(0.0, 0.0, -altitude, v["V"], v["gamma"], 0.0, v["alpha"], v["beta"], v["mu"],
-                  v["p"], v["q"], v["r"])
+        s = State(0.0, 0.0, -altitude, v["V"], v["gamma"], 0.0, v["alpha"], v["beta"], v["mu"], v["p"], v["q"], v["r"])
         u = Controls(v["F"], eta, v["dl"], v["dm"], v["dn"])
         d = derivatives(aircraft, cenv, s, u, model, h)
         return np.array([d.V, d.gamma, d.chi - v["chi_dot"], d.alpha, d.beta, d.mu, d.p, d.q, d.r])
@@ -270,44 +303,79 @@ def trim(aircraft: Aircraft, fixed: Mapping[str, float], *, altitude: float = 0.
             f"trim of {aircraft.id} ({model} model) did not converge: residual {float(res.residual):.3g} after "
             f"{res.iterations} Newton iterations with {fx} at altitude {altitude:g} m "
             f"(the condition may be outside the aircraft's steady-flight domain)",
-            residual=float(res.residual), iterations=res.iterations)
+            residual=float(res.residual),
+            iterations=res.iterations,
+        )
     vals = unpack(res.x)
     r = residual(res.x)
-    s = State(0.0, 0.0, -altitude, vals["V"], vals["gamma"], 0.0, vals["alpha"], vals["beta"], vals["mu"],
-              vals["p"], vals["q"], vals["r"])
+    s = State(
+        0.0,
+        0.0,
+        -altitude,
+        vals["V"],
+        vals["gamma"],
+        0.0,
+        vals["alpha"],
+        vals["beta"],
+        vals["mu"],
+        vals["p"],
+        vals["q"],
+        vals["r"],
+    )
     u = Controls(vals["F"], eta, vals["dl"], vals["dm"], vals["dn"])
     if vals["V"] <= 0:
-        raise ConvergenceError(f"trim of {aircraft.id} converged to a non-physical speed V = {vals['V']:.4g} m/s",
-                               residual=float(res.residual), iterations=res.iterations)
+        raise ConvergenceError(
+            f"trim of {aircraft.id} converged to a non-physical speed V = {vals['V']:.4g} m/s",
+            residual=float(res.residual),
+            iterations=res.iterations,
+        )
     outside = domain_violation(0.0, s)
-    if outside is not None:                               # a free speed or angle solved outside the domain
+    if outside is not None:  # a free speed or angle solved outside the domain
         fx = ", ".join(f"{k} = {v:.6g}" for k, v in fixed.items())
-        raise DomainError(f"trim of {aircraft.id} with {fx}: the steady state is outside the physical domain: "
-                          + outside.split(": ", 1)[1])
+        raise DomainError(
+            f"trim of {aircraft.id} with {fx}: the steady state is outside the physical domain: "
+            + outside.split(": ", 1)[1]
+        )
     warnings = _envelope_check(aircraft, vals, fixed, check_envelope, eta)
-    return TrimResult(values={k: float(vals[k]) for k in TRIM_VARIABLES}, fixed=dict(fixed),
-                      residuals={n: float(v) for n, v in zip(RESIDUAL_NAMES, r)}, iterations=res.iterations,
-                      model=model, altitude=altitude, eta=eta, aircraft=aircraft.id, state=s, controls=u,
-                      density=rho, warnings=warnings)
+    return TrimResult(
+        values={k: float(vals[k]) for k in TRIM_VARIABLES},
+        fixed=dict(fixed),
+        residuals={n: float(v) for n, v in zip(RESIDUAL_NAMES, r)},
+        iterations=res.iterations,
+        model=model,
+        altitude=altitude,
+        eta=eta,
+        aircraft=aircraft.id,
+        state=s,
+        controls=u,
+        density=rho,
+        warnings=warnings,
+    )
 
 
-def _envelope_check(aircraft: Aircraft, vals: Mapping[str, float], fixed: Mapping[str, float],
-                    strict: bool, eta: float = 0.0) -> list[str]:
+def _envelope_check(
+    aircraft: Aircraft, vals: Mapping[str, float], fixed: Mapping[str, float], strict: bool, eta: float = 0.0
+) -> list[str]:
     env = aircraft.envelope
     errors, warnings = [], []
     a, b = vals["alpha"], vals["beta"]
     if not env.alpha_min <= a <= env.alpha_max:
-        errors.append(f"alpha = {math.degrees(a):.2f} deg outside the aerodynamic model's envelope "
-                      f"[{math.degrees(env.alpha_min):.1f}, {math.degrees(env.alpha_max):.1f}] deg")
+        errors.append(
+            f"alpha = {math.degrees(a):.2f} deg outside the aerodynamic model's envelope "
+            f"[{math.degrees(env.alpha_min):.1f}, {math.degrees(env.alpha_max):.1f}] deg"
+        )
     if abs(b) > env.beta_max:
-        errors.append(f"|beta| = {math.degrees(abs(b)):.2f} deg above the envelope's {math.degrees(env.beta_max):.1f} deg")
+        errors.append(
+            f"|beta| = {math.degrees(abs(b)):.2f} deg above the envelope's {math.degrees(env.beta_max):.1f} deg"
+        )
     for name in ("dl", "dm", "dn"):
         d = vals[name]
         if abs(d) >= math.pi / 2:
             errors.append(f"{name} = {math.degrees(d):.1f} deg (a surface cannot deflect 90 deg)")
         elif name in env.control_limits and abs(d) > env.control_limits[name]:
-            warnings.append(f"{name} = {math.degrees(d):.2f} deg beyond its limit "
-                            f"{math.degrees(env.control_limits[name]):.1f} deg")
+            warnings.append(
+                f"{name} = {math.degrees(d):.2f} deg beyond its limit {math.degrees(env.control_limits[name]):.1f} deg"
+            )
     if vals["F"] < 0:
         warnings.append(f"negative thrust F = {vals['F']:.1f} N (the condition needs drag beyond the airframe's)")
     elif aircraft.propulsion.max_thrust is not None and vals["F"] > aircraft.propulsion.max_thrust:
@@ -315,8 +383,10 @@ def _envelope_check(aircraft: Aircraft, vals: Mapping[str, float], fixed: Mappin
     warnings += engine_thrust_warnings(aircraft, vals["F"], eta, vals["V"])
     if errors and strict:
         fx = ", ".join(f"{k} = {v:.6g}" for k, v in fixed.items())
-        raise DomainError(f"trim of {aircraft.id} with {fx} is outside the model's validity: " + "; ".join(errors),
-                          variable="alpha" if "alpha" in errors[0] else None)
+        raise DomainError(
+            f"trim of {aircraft.id} with {fx} is outside the model's validity: " + "; ".join(errors),
+            variable="alpha" if "alpha" in errors[0] else None,
+        )
     return warnings + errors
 
 
@@ -364,8 +434,9 @@ def level_alpha(aircraft: Aircraft, V: float, altitude: float = 0.0, **kw) -> fl
     return trim_level(aircraft, V, altitude, **kw).values["alpha"]
 
 
-def coordinated_turn(aircraft: Aircraft, V: float, turn_rate: float, altitude: float = 0.0,
-                     gamma: float = 0.0, **kw) -> TrimResult:
+def coordinated_turn(
+    aircraft: Aircraft, V: float, turn_rate: float, altitude: float = 0.0, gamma: float = 0.0, **kw
+) -> TrimResult:
     """Steady coordinated (beta = 0) turn at ``turn_rate`` = chi'.
 
     Parameters
@@ -452,8 +523,13 @@ def stall_speed(aircraft: Aircraft, altitude: float = 0.0, **kw) -> StallResult:
 
     def V_of(alpha):
         try:
-            t = trim(aircraft, {"alpha": float(alpha), "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0},
-                     altitude=altitude, check_envelope=False, **kw)
+            t = trim(
+                aircraft,
+                {"alpha": float(alpha), "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0},
+                altitude=altitude,
+                check_envelope=False,
+                **kw,
+            )
         except ConvergenceError:
             return 1e6
         cache[float(alpha)] = t
@@ -467,8 +543,7 @@ def stall_speed(aircraft: Aircraft, altitude: float = 0.0, **kw) -> StallResult:
     if i in (0, len(grid) - 1):
         best_alpha = float(grid[i])
     else:
-        best_alpha = float(minimize_scalar(V_of, bounds=(a_lo, a_hi), method="bounded",
-                                           options={"xatol": 1e-7}).x)
+        best_alpha = float(minimize_scalar(V_of, bounds=(a_lo, a_hi), method="bounded", options={"xatol": 1e-7}).x)
         # V is flat at its minimum, so alpha is known there only to ~sqrt(tolerance): refine it as the
         # root of dV/dalpha (central difference), where it is sharp (a rank test at the stall needs it).
         h = 1e-5

@@ -31,8 +31,14 @@ __all__ = ["fly", "run_case", "ValidationCase", "CaseResult", "difference_table"
 
 #: Public name -> the module defining it.  Imported on first use (PEP 562), so that ``harness.cli``
 #: starts without the planners and can report a bad setting read at their import as one line.
-_PUBLIC = {"fly": ".engines", "difference_table": ".metrics", "assert_trajectories_close": ".testing",
-           "run_case": ".validation", "ValidationCase": ".validation", "CaseResult": ".validation"}
+_PUBLIC = {
+    "fly": ".engines",
+    "difference_table": ".metrics",
+    "assert_trajectories_close": ".testing",
+    "run_case": ".validation",
+    "ValidationCase": ".validation",
+    "CaseResult": ".validation",
+}
 
 
 def __getattr__(name: str):

@@ -43,8 +43,17 @@ from .fileio import json_safe
 from .outdir import OutputDir
 
 #: Units of the columns added to every trajectory written.
-EXTRA_UNITS: dict[str, str] = {"t": "s", "h": "m", "phi": "rad", "theta": "rad", "psi": "rad",
-                               "u": "m/s", "v": "m/s", "w": "m/s", "Mach": "-"}
+EXTRA_UNITS: dict[str, str] = {
+    "t": "s",
+    "h": "m",
+    "phi": "rad",
+    "theta": "rad",
+    "psi": "rad",
+    "u": "m/s",
+    "v": "m/s",
+    "w": "m/s",
+    "Mach": "-",
+}
 
 #: Ratio of specific heats of air (speed of sound of the ISA).
 GAMMA_AIR = 1.4
@@ -140,8 +149,10 @@ def trajectory_table(df: pd.DataFrame, metadata: dict | None = None):
     flat = df.reset_index()
     flat = flat.rename(columns={flat.columns[0]: "t"})
     units = units_of(flat.columns)
-    fields = [pa.field(str(c), pa.float64() if flat[c].dtype.kind in "fiu" else pa.string(),
-                       metadata={"unit": units[c]}) for c in flat.columns]
+    fields = [
+        pa.field(str(c), pa.float64() if flat[c].dtype.kind in "fiu" else pa.string(), metadata={"unit": units[c]})
+        for c in flat.columns
+    ]
     meta = {"gflat.units": json.dumps(units)}
     if metadata:
         meta["gflat"] = json.dumps(json_safe(metadata))
@@ -149,8 +160,9 @@ def trajectory_table(df: pd.DataFrame, metadata: dict | None = None):
     return pa.Table.from_pandas(flat, schema=schema, preserve_index=False)
 
 
-def write_trajectory(out: OutputDir, name: str, df: pd.DataFrame, *, csv: bool = False,
-                     metadata: dict | None = None) -> list[Path]:
+def write_trajectory(
+    out: OutputDir, name: str, df: pd.DataFrame, *, csv: bool = False, metadata: dict | None = None
+) -> list[Path]:
     """Write ``<name>.parquet`` (and ``<name>.csv``) of a trajectory, with the added columns.
 
     Parameters
@@ -181,7 +193,8 @@ def write_trajectory(out: OutputDir, name: str, df: pd.DataFrame, *, csv: bool =
     if csv:
         with out.atomic(f"{name}.csv") as tmp:
             full.reset_index().rename(columns=lambda c: "t" if c in ("index", full.index.name) else c).to_csv(
-                tmp, index=False, float_format="%.12g")
+                tmp, index=False, float_format="%.12g"
+            )
         paths.append(out.path(f"{name}.csv"))
     return paths
 
@@ -257,17 +270,24 @@ def manifest(*, inputs: dict | None = None, cases: list | None = None, command_l
         ``git_commit`` (absent outside a git checkout), ``date_utc``,
         ``command_line``, ``inputs``, ``cases``.
     """
-    out = {"gflat": _version("gflat"), "jsbsim": _version("jsbsim"), "numpy": np.__version__,
-           "scipy": _version("scipy"), "pandas": pd.__version__, "pyarrow": _version("pyarrow"),
-           "python": platform.python_version()}
+    out = {
+        "gflat": _version("gflat"),
+        "jsbsim": _version("jsbsim"),
+        "numpy": np.__version__,
+        "scipy": _version("scipy"),
+        "pandas": pd.__version__,
+        "pyarrow": _version("pyarrow"),
+        "python": platform.python_version(),
+    }
     try:
-        r = subprocess.run(["git", "rev-parse", "HEAD"], cwd=Path(__file__).resolve().parent, capture_output=True,
-                           text=True, timeout=5)
+        r = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=Path(__file__).resolve().parent, capture_output=True, text=True, timeout=5
+        )
         if r.returncode == 0 and r.stdout.strip():
             out["git_commit"] = r.stdout.strip()
     except (OSError, subprocess.SubprocessError):
         pass
-    out["date_utc"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    out["date_utc"] = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
     out["command_line"] = list(sys.argv if command_line is None else command_line)
     out["inputs"] = {k: v for k, v in (inputs or {}).items() if v is not None}
     out["cases"] = list(cases or [])
@@ -289,8 +309,10 @@ def case_inputs(result) -> dict:
     """
     sc = getattr(result, "scenario", None)
     plan = result.plan
-    return {f"{plan.name} scenario": file_record(getattr(sc, "path", None)),
-            f"{plan.aircraft.id} aircraft": file_record(getattr(plan.aircraft, "path", None))}
+    return {
+        f"{plan.name} scenario": file_record(getattr(sc, "path", None)),
+        f"{plan.aircraft.id} aircraft": file_record(getattr(plan.aircraft, "path", None)),
+    }
 
 
 def case_record(result) -> dict:
@@ -306,13 +328,18 @@ def case_record(result) -> dict:
     dict
         ``scenario``, ``loop``, ``J``, ``engines`` (name -> run settings), ``compare`` (the settings).
     """
-    return {"scenario": result.plan.name, "loop": result.case.loop, "J": result.plan.J,
-            "engines": {k: r.settings.as_dict() for k, r in result.runs.items()},
-            "compare": result.settings.to_dict() if result.settings is not None else None}
+    return {
+        "scenario": result.plan.name,
+        "loop": result.case.loop,
+        "J": result.plan.J,
+        "engines": {k: r.settings.as_dict() for k, r in result.runs.items()},
+        "compare": result.settings.to_dict() if result.settings is not None else None,
+    }
 
 
-def write_manifest(out: OutputDir, results=(), *, command_line: list | None = None,
-                   execution: dict | None = None) -> Path:
+def write_manifest(
+    out: OutputDir, results=(), *, command_line: list | None = None, execution: dict | None = None
+) -> Path:
     """Write ``manifest.json`` for the case results of a run.
 
     Parameters
@@ -362,8 +389,13 @@ def write_plan_iterates(out: OutputDir, plan, times, *, csv: bool = False) -> li
     t = np.asarray(times, dtype=float)
     paths = []
     for j in range(plan.J + 1):
-        paths += write_trajectory(out, f"plan-j{j}", plan.to_dataframe(t, j=j), csv=csv,
-                                  metadata={"plan": plan.name, "iterate": j, "J": plan.J})
+        paths += write_trajectory(
+            out,
+            f"plan-j{j}",
+            plan.to_dataframe(t, j=j),
+            csv=csv,
+            metadata={"plan": plan.name, "iterate": j, "J": plan.J},
+        )
     return paths
 
 
@@ -371,9 +403,17 @@ def _run_meta(res) -> dict:
     return {"status": res.status, "message": res.message, "t_end": res.t_end, "settings": res.settings.as_dict()}
 
 
-def write_artefacts(result, out: OutputDir | str | Path, *, csv: bool = False, plan: bool = True,
-                    manifest: bool = True, figures=(), extra: dict | None = None,
-                    command_line: list | None = None) -> dict[str, list[Path]]:
+def write_artefacts(
+    result,
+    out: OutputDir | str | Path,
+    *,
+    csv: bool = False,
+    plan: bool = True,
+    manifest: bool = True,
+    figures=(),
+    extra: dict | None = None,
+    command_line: list | None = None,
+) -> dict[str, list[Path]]:
     """Write a case result's data: trajectories, ``differences.txt``, ``summary.json``, plan, manifest.
 
     Parameters
@@ -408,18 +448,29 @@ def write_artefacts(result, out: OutputDir | str | Path, *, csv: bool = False, p
     for label, res in result.runs.items():
         files["trajectories"] += write_trajectory(od, f"trajectory-{label}", res.df, csv=csv, metadata=_run_meta(res))
     for label, res in getattr(result, "half_step", {}).items():
-        files["trajectories"] += write_trajectory(od, f"trajectory-{label}-half-step", res.df, csv=csv,
-                                                  metadata=_run_meta(res))
+        files["trajectories"] += write_trajectory(
+            od, f"trajectory-{label}-half-step", res.df, csv=csv, metadata=_run_meta(res)
+        )
     if result.open_loop is not None:
-        files["trajectories"] += write_trajectory(od, f"trajectory-{result.reference_engine}-open-loop",
-                                                  result.open_loop.df, csv=csv, metadata=_run_meta(result.open_loop))
+        files["trajectories"] += write_trajectory(
+            od,
+            f"trajectory-{result.reference_engine}-open-loop",
+            result.open_loop.df,
+            csv=csv,
+            metadata=_run_meta(result.open_loop),
+        )
     if plan:
         times = np.asarray(result.runs[result.reference_engine].df.index, dtype=float)
         files["plan"] = write_plan_iterates(od.sub("plan"), result.plan, times, csv=csv)
     files["differences"] = [od.write_text("differences.txt", text=result.report_text() + "\n")]
-    summary = dict(result.summary(figures), provenance=result.provenance, verdict=result.verdict(),
-                   loop=result.case.loop, units=units_of(list(EXTRA_UNITS) + list(UNITS)),
-                   trajectories=[p.name for p in files["trajectories"]])
+    summary = dict(
+        result.summary(figures),
+        provenance=result.provenance,
+        verdict=result.verdict(),
+        loop=result.case.loop,
+        units=units_of(list(EXTRA_UNITS) + list(UNITS)),
+        trajectories=[p.name for p in files["trajectories"]],
+    )
     if result.closed_loop is not None:
         summary.update(saturated_s=result.saturated_s(), feedforward_iterate=result.closed_loop.feedforward_iterate)
     summary.update(extra or {})

@@ -28,7 +28,7 @@ from gna.errors import GflatError
 EXIT_CODES: dict[int, str] = {
     0: "success",
     1: "the work ran but its verdict is negative: validation FAIL, infeasible plan, trim not converged, "
-       "stale files (--check)",
+    "stale files (--check)",
     2: "usage or input error (bad option, file or value): one line names the cause, nothing is computed",
     130: "interrupted (Ctrl-C)",
 }
@@ -51,6 +51,7 @@ class GflatParser(argparse.ArgumentParser):
 
 def _version() -> str:
     from importlib import metadata
+
     try:
         return metadata.version("gflat")
     except metadata.PackageNotFoundError:  # pragma: no cover - run from a source tree without install
@@ -59,10 +60,16 @@ def _version() -> str:
 
 def _add_verbosity(parser: argparse.ArgumentParser, default) -> None:
     group = parser.add_argument_group("messages")
-    group.add_argument("-v", "--verbose", action="count", default=default,
-                       help="more messages on stderr (-v: progress, -vv: debug)")
-    group.add_argument("-q", "--quiet", action="count", default=default,
-                       help="fewer messages on stderr (-q: errors only, warnings hidden)")
+    group.add_argument(
+        "-v", "--verbose", action="count", default=default, help="more messages on stderr (-v: progress, -vv: debug)"
+    )
+    group.add_argument(
+        "-q",
+        "--quiet",
+        action="count",
+        default=default,
+        help="fewer messages on stderr (-q: errors only, warnings hidden)",
+    )
 
 
 def _subparsers(parser: argparse.ArgumentParser):
@@ -71,6 +78,7 @@ def _subparsers(parser: argparse.ArgumentParser):
             for p in dict.fromkeys(action.choices.values()):
                 yield p
                 yield from _subparsers(p)
+
 
 #: Modules of harness.commands, in the order their commands are listed.
 COMMAND_MODULES: tuple[str, ...] = (
@@ -97,16 +105,17 @@ def build_parser() -> argparse.ArgumentParser:
     parser = GflatParser(
         prog="gflat",
         description="Flatness-based motion planning of aircraft (GNA aerodynamics) and its validation "
-                    "across dynamics engines.",
+        "across dynamics engines.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="exit status:\n" + "\n".join(f"  {k:<4} {v}" for k, v in EXIT_CODES.items()))
+        epilog="exit status:\n" + "\n".join(f"  {k:<4} {v}" for k, v in EXIT_CODES.items()),
+    )
     parser.add_argument("--version", action="version", version=f"gflat {_version()}")
     _add_verbosity(parser, 0)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in COMMAND_MODULES:
         importlib.import_module(f"harness.commands.{name}").register(sub)
-    for p in _subparsers(parser):   # -v/-q also after the sub-command (counted there)
+    for p in _subparsers(parser):  # -v/-q also after the sub-command (counted there)
         _add_verbosity(p, argparse.SUPPRESS)
     return parser
 
@@ -160,11 +169,11 @@ def main(argv: list[str] | None = None) -> int:
     """
     try:
         parser = build_parser()
-    except GflatError as exc:   # a setting read at import (e.g. GFLAT_SERIES_BACKEND)
+    except GflatError as exc:  # a setting read at import (e.g. GFLAT_SERIES_BACKEND)
         print(f"gflat: error: {exc}", file=sys.stderr)
         return 2
     args = parser.parse_args(argv)
-    args.command_line = ["gflat", *(sys.argv[1:] if argv is None else argv)]   # recorded in manifests
+    args.command_line = ["gflat", *(sys.argv[1:] if argv is None else argv)]  # recorded in manifests
     setup_logging(args.verbose, args.quiet)
     log = logging.getLogger("gflat")
     start = time.perf_counter()
@@ -175,9 +184,11 @@ def main(argv: list[str] | None = None) -> int:
     except GflatError as exc:
         print(f"gflat {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except OSError as exc:   # an output that cannot be written (missing or read-only folder, a file in the way)
-        print(f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {exc.strerror or exc}",
-              file=sys.stderr)
+    except OSError as exc:  # an output that cannot be written (missing or read-only folder, a file in the way)
+        print(
+            f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {exc.strerror or exc}",
+            file=sys.stderr,
+        )
         return 2
     except KeyboardInterrupt:
         print("gflat: interrupted", file=sys.stderr)

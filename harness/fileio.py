@@ -13,8 +13,8 @@ import dataclasses
 import math
 import os
 import secrets
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
@@ -61,7 +61,6 @@ def json_safe(obj, nonfinite: str = "null"):
     if obj is None or isinstance(obj, str):
         return obj
     return str(obj)
-
 
 
 @contextlib.contextmanager

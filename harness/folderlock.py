@@ -17,7 +17,7 @@ from gna.errors import InputError
 
 from .fileio import remove_empty_folders
 
-try:                                                      # POSIX; elsewhere folders are not locked
+try:  # POSIX; elsewhere folders are not locked
     import fcntl
 except ImportError:  # pragma: no cover - Windows
     fcntl = None
@@ -89,8 +89,12 @@ class FolderLock:
         Another process holds the folder's lock (one line naming the folder).
     """
 
-    def __init__(self, path: Path, created: list[Path] | None = None,
-                 advice: str = "wait for it to end, or give another folder with --out"):
+    def __init__(
+        self,
+        path: Path,
+        created: list[Path] | None = None,
+        advice: str = "wait for it to end, or give another folder with --out",
+    ):
         self.path = path
         self.created = list(created or ())
         self.pid = os.getpid()
@@ -98,17 +102,18 @@ class FolderLock:
         if fcntl is None:  # pragma: no cover - Windows
             return
         try:
-            fd = os.open(path, os.O_RDONLY)               # not inherited by programs the run starts (O_CLOEXEC)
-        except OSError:                                   # a folder that cannot be opened is not locked
+            fd = os.open(path, os.O_RDONLY)  # not inherited by programs the run starts (O_CLOEXEC)
+        except OSError:  # a folder that cannot be opened is not locked
             return
         try:
             _lock_now(fd)
         except OSError as exc:
             os.close(fd)
             if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
-                raise InputError(f"output folder {path} is in use by another gflat run (it holds the folder "
-                                 f"until it ends): {advice}") from None
-            return                                        # a file system without flock: not locked
+                raise InputError(
+                    f"output folder {path} is in use by another gflat run (it holds the folder until it ends): {advice}"
+                ) from None
+            return  # a file system without flock: not locked
         self.fd = fd
 
     def release(self) -> None:
@@ -119,9 +124,9 @@ class FolderLock:
         fd, self.fd = self.fd, None
         if fd is not None:
             try:
-                fcntl.flock(fd, fcntl.LOCK_UN)            # also for the copies forked workers still hold
+                fcntl.flock(fd, fcntl.LOCK_UN)  # also for the copies forked workers still hold
             finally:
                 os.close(fd)
-        if self.created:                                  # nothing written: nothing left (deepest first, a chain)
+        if self.created:  # nothing written: nothing left (deepest first, a chain)
             remove_empty_folders(self.created[0], self.created[-1].parent)
         self.created = []

@@ -19,8 +19,8 @@ import datetime
 import hashlib
 import json
 import os
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Iterable, Iterator
 
 from gna.errors import InputError
 
@@ -110,15 +110,19 @@ def write_marker(root: Path, command: str | None, files: list[dict]) -> Path:
     InputError
         The marker cannot be written.
     """
-    marker = {"tool": "gflat", "complete": True, "command": command,
-              "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-              "files": files}
+    marker = {
+        "tool": "gflat",
+        "complete": True,
+        "command": command,
+        "date_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "files": files,
+    }
     final = root / MARKER
     try:
-        with replacing(final) as tmp:                     # mode from the umask, like every output
+        with replacing(final) as tmp:  # mode from the umask, like every output
             tmp.write_text(json.dumps(marker, indent=2) + "\n", encoding="utf-8")
         with contextlib.suppress(FileNotFoundError):
-            (root / INCOMPLETE).unlink()                  # after the marker: an interruption between keeps both lists
+            (root / INCOMPLETE).unlink()  # after the marker: an interruption between keeps both lists
     except OSError as exc:
         raise InputError(f"cannot write {final}: {_cause(exc)}") from None
     return final
@@ -293,7 +297,7 @@ def _record_in_progress(root: Path, rels: list[str]) -> bool:
         with open(root / INCOMPLETE, "a+b") as fh:
             fh.seek(0)
             before = fh.read()
-            if before and not before.endswith(b"\n"):   # a line cut short by the interruption stays apart
+            if before and not before.endswith(b"\n"):  # a line cut short by the interruption stays apart
                 text = "\n" + text
             fh.write(text.encode("utf-8"))
     except OSError as exc:

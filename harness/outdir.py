@@ -32,8 +32,8 @@ import json
 import logging
 import os
 import weakref
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
@@ -42,8 +42,7 @@ from gna.errors import InputError
 from .fileio import json_safe, remove_empty_folders, replacing
 from .folderlock import FolderLock
 from .marker import earlier_files, file_entry, write_marker
-from .outguard import (INCOMPLETE, MARKER, _cause, _few, check_destination, check_previous, make_folder,
-                       previous_run)
+from .outguard import INCOMPLETE, MARKER, _cause, _few, check_destination, check_previous, make_folder, previous_run
 
 __all__ = ["INCOMPLETE", "MARKER", "OutputDir"]
 
@@ -65,7 +64,6 @@ class _Record:
         self.written: list[Path] = []
         self.started = False
         self.release = lambda: None
-
 
 
 class OutputDir:
@@ -110,8 +108,16 @@ class OutputDir:
         Paths (relative to the top folder) written so far, in order.
     """
 
-    def __init__(self, root: str | Path, *, clean: bool = True, parents: bool = False, command: str | None = None,
-                 marker: bool = True, _record: _Record | None = None):
+    def __init__(
+        self,
+        root: str | Path,
+        *,
+        clean: bool = True,
+        parents: bool = False,
+        command: str | None = None,
+        marker: bool = True,
+        _record: _Record | None = None,
+    ):
         path = Path(root).expanduser()
         try:
             path = path.resolve()
@@ -123,10 +129,10 @@ class OutputDir:
             self._record = _record
             return
         check_destination(path, parents)
-        lock = FolderLock(path, make_folder(path))        # refused while another run writes there
+        lock = FolderLock(path, make_folder(path))  # refused while another run writes there
         prev = previous_run(path)
         self._record = _Record(path, prev.files, command, marker)
-        self._record.release = weakref.finalize(self._record, lock.release)   # also when collected, and at exit
+        self._record.release = weakref.finalize(self._record, lock.release)  # also when collected, and at exit
         try:
             check_previous(path, prev, command, self.clean)
         except InputError:
@@ -220,7 +226,7 @@ class OutputDir:
                 with replacing(root / INCOMPLETE) as tmp:
                     tmp.write_text(head + "".join(json.dumps(p) + "\n" for p in rec.previous), encoding="utf-8")
                 with contextlib.suppress(FileNotFoundError):
-                    (root / MARKER).unlink()          # no longer a complete set
+                    (root / MARKER).unlink()  # no longer a complete set
                 rec.started = True
             with open(root / INCOMPLETE, "a", encoding="utf-8") as fh:
                 fh.write(json.dumps(str(rel)) + "\n")
@@ -257,7 +263,7 @@ class OutputDir:
         try:
             with replacing(final) as tmp:
                 yield tmp
-                self._note(rel)                           # listed before it lands under its final name
+                self._note(rel)  # listed before it lands under its final name
         except OSError as exc:
             raise InputError(f"cannot write {final}: {_cause(exc)}") from None
         if rel not in self._record.written:
@@ -334,10 +340,12 @@ class OutputDir:
             A NaN, an infinity or an object JSON cannot represent (naming the
             file), or as :meth:`atomic`.
         """
+
         def default(o):
             if isinstance(o, (np.generic, np.ndarray, os.PathLike, set, tuple)):
                 return json_safe(o) if not isinstance(o, np.floating) else float(o)
             raise TypeError(f"{type(o).__name__} is not JSON serialisable")
+
         try:
             text = json.dumps(obj, indent=2, sort_keys=False, allow_nan=False, default=default)
         except (ValueError, TypeError) as exc:
@@ -382,15 +390,19 @@ class OutputDir:
         removed = []
         for rel in earlier if self.clean else ():
             stale = root / rel
-            if not stale.is_symlink():                    # a link is not followed to remove what it points to
+            if not stale.is_symlink():  # a link is not followed to remove what it points to
                 with contextlib.suppress(OSError):
                     stale.unlink()
                     removed.append(rel)
                     remove_empty_folders(stale.resolve().parent, root)
         removed = [rel for rel in removed if Path(rel).name not in REPORT_PAGES]
         if removed:
-            _log.warning("%s: removed %d file(s) of the folder's earlier run that this run did not write again (%s)",
-                         root, len(removed), _few(removed))
+            _log.warning(
+                "%s: removed %d file(s) of the folder's earlier run that this run did not write again (%s)",
+                root,
+                len(removed),
+                _few(removed),
+            )
         kept = [] if self.clean else earlier
         files = [file_entry(root, rel) for rel in (*kept, *rec.written) if (root / rel).is_file()]
         self._mkdir(root, parents=True)

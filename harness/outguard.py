@@ -74,8 +74,11 @@ def _probe(path: Path, target: Path | None = None) -> None:
     try:
         _write_probe(path)
     except OSError as exc:
-        where = f"{path}: cannot write there" if target is None or target == path else \
-            f"{target}: cannot create it, its nearest existing folder {path} takes no files"
+        where = (
+            f"{path}: cannot write there"
+            if target is None or target == path
+            else f"{target}: cannot create it, its nearest existing folder {path} takes no files"
+        )
         raise InputError(f"output folder {where}: {_cause(exc)}") from None
 
 
@@ -111,15 +114,20 @@ def check_destination(path: Path, parents: bool = False) -> None:
     if not parent.is_dir() and not parents:
         what = "is a file" if parent.exists() else "does not exist"
         raise InputError(f"output folder {path}: its parent folder {parent} {what}")
-    while not parent.exists():                            # nearest existing ancestor (with ``parents``)
+    while not parent.exists():  # nearest existing ancestor (with ``parents``)
         parent = parent.parent
     if not parent.is_dir():
         raise InputError(f"output folder {path}: {parent} is a file, not a folder")
     _probe(parent, path)
 
 
-_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-          (stat.S_ISFIFO, "a named pipe (fifo)"), (stat.S_ISSOCK, "a socket"))
+_KINDS = (
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a named pipe (fifo)"),
+    (stat.S_ISSOCK, "a socket"),
+)
 
 
 def check_output_file(path: Path) -> None:
@@ -143,23 +151,27 @@ def check_output_file(path: Path) -> None:
         ``cannot write <path>: <cause>`` (one line).
     """
     try:
-        mode = os.stat(path).st_mode                      # through a link: what the name stands for
-    except FileNotFoundError:                             # missing (or a dangling link, replaced)
+        mode = os.stat(path).st_mode  # through a link: what the name stands for
+    except FileNotFoundError:  # missing (or a dangling link, replaced)
         mode = None
     except OSError as exc:
         raise InputError(f"cannot write {path}: {_cause(exc)}") from None
     if mode is not None and not stat.S_ISREG(mode):
         kind = next((k for test, k in _KINDS if test(mode)), "a special file")
         link = "a symbolic link to " if path.is_symlink() else ""
-        raise InputError(f"cannot write {path}: it is {link}{kind}, not a regular file (it would be replaced "
-                         f"by one): give the path of a new or regular file")
+        raise InputError(
+            f"cannot write {path}: it is {link}{kind}, not a regular file (it would be replaced "
+            f"by one): give the path of a new or regular file"
+        )
     try:
         found = enclosing_run(path.resolve())
-    except (OSError, RuntimeError):                       # a loop of links: the probe write names it
+    except (OSError, RuntimeError):  # a loop of links: the probe write names it
         found = None
     if found is not None:
-        raise InputError(f"cannot write {path}: {found[0]} is the folder of {found[1]}, which holds that run's "
-                         f"files only: give a path outside it")
+        raise InputError(
+            f"cannot write {path}: {found[0]} is the folder of {found[1]}, which holds that run's "
+            f"files only: give a path outside it"
+        )
     try:
         _write_probe(path.parent)
     except OSError as exc:
@@ -217,17 +229,21 @@ def check_not_root_or_home(path: Path, run: bool = True) -> None:
     else:
         try:
             home = Path.home().resolve()
-        except (OSError, RuntimeError, KeyError):         # no home folder known
+        except (OSError, RuntimeError, KeyError):  # no home folder known
             return
         if path != home:
             return
         what = "your home folder itself"
     if run:
         eg = "--out ./out" if what.startswith("a file") else "--out ~/gflat-out"
-        raise InputError(f"output folder {path}: {what} is not an output folder (a run removes its earlier files "
-                         f"there); give a folder of its own, e.g. {eg}")
-    raise InputError(f"{path}: {what} is no run's output folder (a run is never written there); give the run's "
-                     f"folder, the --out of gflat paper or gflat compare")
+        raise InputError(
+            f"output folder {path}: {what} is not an output folder (a run removes its earlier files "
+            f"there); give a folder of its own, e.g. {eg}"
+        )
+    raise InputError(
+        f"{path}: {what} is no run's output folder (a run is never written there); give the run's "
+        f"folder, the --out of gflat paper or gflat compare"
+    )
 
 
 def enclosing_run(path: Path) -> tuple[Path, str] | None:
@@ -279,8 +295,10 @@ def check_not_inside_run(path: Path) -> None:
     found = enclosing_run(path)
     if found is not None:
         folder, what = found
-        raise InputError(f"output folder {path} lies inside {folder}, the folder of {what}: a new run there "
-                         f"would mix its files with that run's; give a folder outside it with --out")
+        raise InputError(
+            f"output folder {path} lies inside {folder}, the folder of {what}: a new run there "
+            f"would mix its files with that run's; give a folder outside it with --out"
+        )
 
 
 @dataclass
@@ -330,7 +348,7 @@ def previous_run(root: Path) -> PreviousRun:
     for line in lines:
         try:
             item = json.loads(line)
-        except ValueError:                                # a line cut short by an interruption
+        except ValueError:  # a line cut short by an interruption
             continue
         if isinstance(item, str):
             prev.files.append(item)
@@ -361,15 +379,19 @@ def check_previous(root: Path, prev: PreviousRun, command: str | None, clean: bo
         One line naming the folder, the command that wrote it and what to do.
     """
     present = [f for f in prev.files if f not in (MARKER, INCOMPLETE) and (root / f).is_file()]
-    if not present:                                       # nothing of an earlier run left to lose
+    if not present:  # nothing of an earlier run left to lose
         return
     what = "a complete run" if prev.complete else "an interrupted run"
     me = f"'gflat {command}'" if command else "this run"
     if prev.command is not None and prev.command != command:
         does = "would remove those it does not write again" if clean else "would mix its files with them"
-        raise InputError(f"output folder {root} holds {what} of 'gflat {prev.command}' ({len(present)} files); "
-                         f"{me} {does}: {_ADVICE}")
+        raise InputError(
+            f"output folder {root} holds {what} of 'gflat {prev.command}' ({len(present)} files); "
+            f"{me} {does}: {_ADVICE}"
+        )
     if prev.command is None and command is not None and clean:
-        raise InputError(f"output folder {root} holds {what} whose marker names no command (an earlier gflat, "
-                         f"or the Python API): {me} would remove those of its {len(present)} files it does not "
-                         f"write again ({_few(present)}): {_ADVICE}")
+        raise InputError(
+            f"output folder {root} holds {what} whose marker names no command (an earlier gflat, "
+            f"or the Python API): {me} would remove those of its {len(present)} files it does not "
+            f"write again ({_few(present)}): {_ADVICE}"
+        )

@@ -36,9 +36,10 @@ import sys
 import tempfile
 import time
 import traceback
+from collections.abc import Callable, Iterator
 from multiprocessing.connection import wait as wait_connections
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import Any
 
 from gna.errors import GflatError, InputError
 
@@ -128,38 +129,45 @@ def _child(conn, fn: Callable[[], Any], tmp: str | None = None) -> None:
         if not ending:
             ending.append(signum)
             devnull = os.open(os.devnull, os.O_WRONLY)
-            os.dup2(devnull, 2)                            # the user's terminal belongs to the parent's message
+            os.dup2(devnull, 2)  # the user's terminal belongs to the parent's message
             os.close(devnull)
         raise _Terminated()
 
     code = 143
     try:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)     # the parent handles Ctrl-C and ends its children
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and ends its children
         signal.signal(signal.SIGTERM, terminate)
         if tmp is not None:
             tempfile.tempdir = tmp
-        gc.freeze()        # the inherited objects are not scanned by this process's collections (nor copied by them)
+        gc.freeze()  # the inherited objects are not scanned by this process's collections (nor copied by them)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
         w0, c0 = time.perf_counter(), time.process_time()
         try:
             out = ("ok", fn())
         except _Terminated:
             raise
-        except BaseException as exc:                      # noqa: BLE001  (sent to the parent, raised there)
+        except BaseException as exc:  # noqa: BLE001  (sent to the parent, raised there)
             out = ("err", _portable(exc), traceback.format_exc())
-        if ending:                                        # a _Terminated swallowed by fn (e.g. in a __del__)
+        if ending:  # a _Terminated swallowed by fn (e.g. in a __del__)
             raise _Terminated()
         out += (time.perf_counter() - w0, time.process_time() - c0)
         try:
             conn.send(out)
-        except Exception as exc:                          # an unpicklable result
-            conn.send(("err", RuntimeError(f"a worker's result could not be sent back: {exc}"),
-                       traceback.format_exc(), 0.0, 0.0))
+        except Exception as exc:  # an unpicklable result
+            conn.send(
+                (
+                    "err",
+                    RuntimeError(f"a worker's result could not be sent back: {exc}"),
+                    traceback.format_exc(),
+                    0.0,
+                    0.0,
+                )
+            )
         conn.close()
         sys.stdout.flush()
         sys.stderr.flush()
         code = 0
-    except BaseException:                                 # noqa: BLE001  (_Terminated at any moment: end quietly)
+    except BaseException:  # noqa: BLE001  (_Terminated at any moment: end quietly)
         code = 143 if ending else 1
     finally:
         os._exit(code)
@@ -189,10 +197,10 @@ class ForkPool:
         forkable = "fork" in multiprocessing.get_all_start_methods() and hasattr(signal, "pthread_sigmask")
         self.jobs = jobs if forkable else 1
         self._ctx = multiprocessing.get_context("fork") if self.jobs > 1 else None
-        self._queue: list = []                           # heap of (-priority, sequence, key, fn, what)
-        self._running: dict = {}                         # parent end of the pipe -> (process, key, what)
+        self._queue: list = []  # heap of (-priority, sequence, key, fn, what)
+        self._running: dict = {}  # parent end of the pipe -> (process, key, what)
         self._seq = 0
-        self._tmp: str | None = None                     # the workers' temporary folder, removed by close()
+        self._tmp: str | None = None  # the workers' temporary folder, removed by close()
         self.log: list[dict] = []
 
     def __enter__(self) -> ForkPool:
@@ -232,7 +240,7 @@ class ForkPool:
         while self._queue and len(self._running) < self.jobs:
             sys.stdout.flush()
             sys.stderr.flush()
-            with _CtrlCWaits():           # no Ctrl-C before the child ignores it, nor in the pipe's finalizers
+            with _CtrlCWaits():  # no Ctrl-C before the child ignores it, nor in the pipe's finalizers
                 _, _, key, fn, what = heapq.heappop(self._queue)
                 parent_end, child_end = self._ctx.Pipe(duplex=False)
                 try:
@@ -278,7 +286,7 @@ class ForkPool:
             conn = min(ready, key=lambda c: list(self._running).index(c))
             del ready
             proc, key, what = self._running.pop(conn)
-            try:      # unpickled in this frame: a traceback rebuilt with the error (tblib) holds no pipe
+            try:  # unpickled in this frame: a traceback rebuilt with the error (tblib) holds no pipe
                 msg = pickle.loads(conn.recv_bytes())
             except (EOFError, OSError):
                 msg = None
@@ -288,8 +296,9 @@ class ForkPool:
             del conn, proc
             self._start()
         if msg is None:
-            raise GflatError(f"a worker process ended without a result (exit code {exitcode})"
-                             + (f" while {what}" if what else ""))
+            raise GflatError(
+                f"a worker process ended without a result (exit code {exitcode})" + (f" while {what}" if what else "")
+            )
         self.log.append({"what": what, "wall_s": msg[-2], "cpu_s": msg[-1]})
         if msg[0] == "err":
             exc = msg[1]
@@ -297,14 +306,14 @@ class ForkPool:
                 exc.__cause__ = RemoteTraceback(msg[2])
             try:
                 raise exc
-            finally:              # no cycle error -> traceback -> this frame -> error, left to the garbage collector
+            finally:  # no cycle error -> traceback -> this frame -> error, left to the garbage collector
                 del exc, msg
         return key, msg[1]
 
     def close(self) -> None:
         """End every running child (after an error or an interruption), drop the queue, remove the workers'
         temporary folder."""
-        with _CtrlCWaits():               # a second Ctrl-C waits: no child left, no finalizer interrupted
+        with _CtrlCWaits():  # a second Ctrl-C waits: no child left, no finalizer interrupted
             self._queue.clear()
             for conn, (proc, _, _) in list(self._running.items()):
                 if proc.is_alive():
@@ -387,8 +396,9 @@ class MemoryOutputDir(OutputDir):
         -------
         MemoryOutputDir
         """
-        return MemoryOutputDir(self._record.root, self.path(*parts).relative_to(self._record.root),
-                               _record=self._record)
+        return MemoryOutputDir(
+            self._record.root, self.path(*parts).relative_to(self._record.root), _record=self._record
+        )
 
     @contextlib.contextmanager
     def atomic(self, *parts: str) -> Iterator[Path]:

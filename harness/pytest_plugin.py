@@ -21,8 +21,9 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import pytest
 
@@ -48,9 +49,13 @@ def pytest_addoption(parser) -> None:
         pytest's option parser.
     """
     group = parser.getgroup("gflat", "gflat golden trajectories")
-    group.addoption(REGEN_OPTION, action="store_true", default=False,
-                    help="write the golden trajectories of gflat_flight tests from the first engine's run "
-                         "instead of comparing with them")
+    group.addoption(
+        REGEN_OPTION,
+        action="store_true",
+        default=False,
+        help="write the golden trajectories of gflat_flight tests from the first engine's run "
+        "instead of comparing with them",
+    )
 
 
 def golden_path(test_file: str | Path, test_name: str) -> Path:
@@ -148,9 +153,18 @@ class GflatFlight:
         """
         return self.golden.is_file() or self.golden.with_suffix(".parquet").is_file()
 
-    def __call__(self, scenario, engines: Sequence[str] = ("jsbsim",), *, duration: float | None = None,
-                 atol=None, rtol=None, columns: Sequence[str] | None = None, dt_out: float = 0.02,
-                 J: int | None = None) -> dict:
+    def __call__(
+        self,
+        scenario,
+        engines: Sequence[str] = ("jsbsim",),
+        *,
+        duration: float | None = None,
+        atol=None,
+        rtol=None,
+        columns: Sequence[str] | None = None,
+        dt_out: float = 0.02,
+        J: int | None = None,
+    ) -> dict:
         """Plan ``scenario``, fly its plan open loop on ``engines`` and compare each run with the golden file.
 
         Parameters
@@ -186,11 +200,10 @@ class GflatFlight:
             When an engine's run differs from the golden trajectory (difference tables in the message).
         """
         __tracebackhide__ = True  # failures point at the user's test line, not at this method
-        from planners.generalized import plan_scenario
-        from planners.scenario import load_scenario, scenario_from_dict
-
         from gna.errors import InputError
         from gna.trajectory import COLUMNS, STATE_NAMES
+        from planners.generalized import plan_scenario
+        from planners.scenario import load_scenario, scenario_from_dict
 
         from .engines import fly
         from .testing import assert_trajectories_close, check_tolerances
@@ -205,15 +218,20 @@ class GflatFlight:
         try:
             if unknown:
                 raise InputError(f"columns {', '.join(map(str, unknown))} are not trajectory columns")
-            check_tolerances(atol, rtol, cols)            # before flying, and before --gflat-regen writes
+            check_tolerances(atol, rtol, cols)  # before flying, and before --gflat-regen writes
             span = float(sc.t_nodes[-1] - sc.t_nodes[0])
             if duration is not None:
-                if isinstance(duration, bool) or not isinstance(duration, (int, float)) \
-                        or not (math.isfinite(duration) and duration > 0):
+                if (
+                    isinstance(duration, bool)
+                    or not isinstance(duration, (int, float))
+                    or not (math.isfinite(duration) and duration > 0)
+                ):
                     raise InputError(f"duration must be a positive number of seconds, got {duration!r}")
                 if duration > span * (1 + 1e-12):
-                    raise InputError(f"duration = {duration:g} s is longer than the scenario's span of {span:g} s "
-                                     f"(t = {sc.t_nodes[0]:g} .. {sc.t_nodes[-1]:g} s)")
+                    raise InputError(
+                        f"duration = {duration:g} s is longer than the scenario's span of {span:g} s "
+                        f"(t = {sc.t_nodes[0]:g} .. {sc.t_nodes[-1]:g} s)"
+                    )
         except InputError as exc:
             pytest.fail(f"gflat_flight({sc.name!r}): {exc}", pytrace=False)
         plan = plan_scenario(sc)
@@ -227,13 +245,17 @@ class GflatFlight:
             return runs
         golden = read_golden(self.golden) if self.has_golden() else None
         if golden is None:
-            pytest.fail(f"golden trajectory {self.golden} is missing; create it from the {engines[0]!r} run with "
-                        f"'pytest {REGEN_OPTION}' on this test, review it and commit it", pytrace=False)
+            pytest.fail(
+                f"golden trajectory {self.golden} is missing; create it from the {engines[0]!r} run with "
+                f"'pytest {REGEN_OPTION}' on this test, review it and commit it",
+                pytrace=False,
+            )
         failures = []
         for name, r in runs.items():
             try:
-                assert_trajectories_close(golden, r, atol=atol, rtol=rtol, columns=columns,
-                                          labels=(f"golden {self.golden.name}", name))
+                assert_trajectories_close(
+                    golden, r, atol=atol, rtol=rtol, columns=columns, labels=(f"golden {self.golden.name}", name)
+                )
             except AssertionError as exc:
                 failures.append(str(exc))
         if failures:
@@ -255,5 +277,6 @@ def gflat_flight(request) -> GflatFlight:
     GflatFlight
         Call it as ``gflat_flight(scenario, engines=[...], duration=..., atol=..., rtol=...)``.
     """
-    return GflatFlight(request.path, golden_path(request.path, request.node.name),
-                       bool(request.config.getoption(REGEN_OPTION)))
+    return GflatFlight(
+        request.path, golden_path(request.path, request.node.name), bool(request.config.getoption(REGEN_OPTION))
+    )

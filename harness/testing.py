@@ -15,7 +15,7 @@ quantity group (:data:`GROUPS`) or per column, and raises an
 from __future__ import annotations
 
 import math
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -26,7 +26,9 @@ from gna.trajectory import ANGLES, UNITS
 
 #: Quantity groups a tolerance may name, and their columns.
 GROUPS: dict[str, tuple[str, ...]] = {
-    "position": ("x", "y", "z"), "velocity": ("V",), "angle": ("gamma", "chi", "alpha", "beta", "mu"),
+    "position": ("x", "y", "z"),
+    "velocity": ("V",),
+    "angle": ("gamma", "chi", "alpha", "beta", "mu"),
     "rate": ("p", "q", "r"),
 }
 
@@ -56,21 +58,26 @@ def smooth_inputs(u0, twin: bool = False):
     callable
         ``u(t) -> [F, eta, dl, dm, dn]``, ``t`` [s] a float or an array.
     """
+
     def u(t):
         t = np.asarray(t, dtype=float)
-        return [u0[0] * (1 + 0.1 * np.sin(0.5 * t)), u0[1] + (0.3 * np.sin(0.7 * t) if twin else 0 * t),
-                u0[2] + 0.02 * np.sin(1.3 * t) * (1 - np.cos(0.8 * t)),
-                u0[3] + 0.02 * np.sin(0.9 * t) * (1 - np.cos(0.7 * t)),
-                u0[4] + 0.01 * np.sin(1.1 * t) * (1 - np.cos(0.6 * t))]
-    return u
+        return [
+            u0[0] * (1 + 0.1 * np.sin(0.5 * t)),
+            u0[1] + (0.3 * np.sin(0.7 * t) if twin else 0 * t),
+            u0[2] + 0.02 * np.sin(1.3 * t) * (1 - np.cos(0.8 * t)),
+            u0[3] + 0.02 * np.sin(0.9 * t) * (1 - np.cos(0.7 * t)),
+            u0[4] + 0.01 * np.sin(1.1 * t) * (1 - np.cos(0.6 * t)),
+        ]
 
+    return u
 
 
 def _frame(obj, name: str) -> pd.DataFrame:
     df = getattr(obj, "df", obj)
     if not isinstance(df, pd.DataFrame):
-        raise InputError(f"{name} must be a DataFrame indexed by time t [s] or a SimulationResult, "
-                         f"got {type(obj).__name__}")
+        raise InputError(
+            f"{name} must be a DataFrame indexed by time t [s] or a SimulationResult, got {type(obj).__name__}"
+        )
     t = np.asarray(df.index, dtype=float)
     if t.size == 0:
         raise InputError(f"{name} is empty")
@@ -106,6 +113,7 @@ def resolve_tolerance(spec, defaults: Mapping[str, float], columns: Sequence[str
     InputError
         A negative, NaN or infinite tolerance, or a key that is neither a group nor a compared column.
     """
+
     def check(key, v):
         try:
             v = float(v)
@@ -121,8 +129,10 @@ def resolve_tolerance(spec, defaults: Mapping[str, float], columns: Sequence[str
     spec = dict(spec or {})
     unknown = sorted(k for k in spec if k not in GROUPS and k not in columns)
     if unknown:
-        raise InputError(f"{what} given for {', '.join(map(str, unknown))}: neither a group "
-                         f"({', '.join(GROUPS)}) nor a compared column")
+        raise InputError(
+            f"{what} given for {', '.join(map(str, unknown))}: neither a group "
+            f"({', '.join(GROUPS)}) nor a compared column"
+        )
     out = {}
     for group, cols in GROUPS.items():
         value = spec.get(group, defaults.get(group))
@@ -156,8 +166,9 @@ def check_tolerances(atol, rtol, columns: Sequence[str]) -> tuple[dict[str, floa
     rt = resolve_tolerance(rtol, DEFAULT_RTOL, columns, "rtol")
     untoleranced = [c for c in columns if c not in at and c not in rt]
     if untoleranced:
-        raise InputError(f"no tolerance for {', '.join(untoleranced)}: give atol={{'{untoleranced[0]}': ...}} "
-                         "or a single number")
+        raise InputError(
+            f"no tolerance for {', '.join(untoleranced)}: give atol={{'{untoleranced[0]}': ...}} or a single number"
+        )
     return at, rt
 
 
@@ -169,8 +180,16 @@ def _values(df: pd.DataFrame, column: str, t: np.ndarray) -> np.ndarray:
     return np.interp(t, np.asarray(df.index, dtype=float), v)
 
 
-def trajectory_differences(expected, actual, *, atol=None, rtol=None, columns: Sequence[str] | None = None,
-                           times=None, labels: tuple[str, str] = ("expected", "actual")) -> tuple[pd.DataFrame, list[str]]:
+def trajectory_differences(
+    expected,
+    actual,
+    *,
+    atol=None,
+    rtol=None,
+    columns: Sequence[str] | None = None,
+    times=None,
+    labels: tuple[str, str] = ("expected", "actual"),
+) -> tuple[pd.DataFrame, list[str]]:
     """The difference table of :func:`assert_trajectories_close` without asserting.
 
     Parameters
@@ -226,10 +245,17 @@ def trajectory_differences(expected, actual, *, atol=None, rtol=None, columns: S
             ratio = np.where(d == 0.0, 0.0, np.abs(d) / allowed)
         ratio = np.where(np.isnan(d), np.inf, ratio)
         k = int(np.argmax(ratio))
-        rows[c] = {"unit": UNITS.get(c, ""), "max_abs": float(np.max(np.abs(d))) if not np.isnan(d).any()
-                   else float("nan"), "t_worst": float(t[k]), "expected": float(e[k]), "actual": float(a[k]),
-                   "atol": at.get(c, 0.0), "rtol": rt.get(c, 0.0), "ratio": float(ratio[k]),
-                   "passed": bool(ratio[k] <= 1.0)}
+        rows[c] = {
+            "unit": UNITS.get(c, ""),
+            "max_abs": float(np.max(np.abs(d))) if not np.isnan(d).any() else float("nan"),
+            "t_worst": float(t[k]),
+            "expected": float(e[k]),
+            "actual": float(a[k]),
+            "atol": at.get(c, 0.0),
+            "rtol": rt.get(c, 0.0),
+            "ratio": float(ratio[k]),
+            "passed": bool(ratio[k] <= 1.0),
+        }
     table = pd.DataFrame.from_dict(rows, orient="index")
     table.index.name = "column"
     return table, problems
@@ -247,18 +273,30 @@ def format_table(table: pd.DataFrame) -> str:
     -------
     str
     """
-    head = (f"{'column':<8} {'unit':<6} {'max|diff|':>10} {'at t [s]':>10} {'expected':>13} {'actual':>13} "
-            f"{'atol':>9} {'rtol':>9} {'ratio':>9}  verdict")
+    head = (
+        f"{'column':<8} {'unit':<6} {'max|diff|':>10} {'at t [s]':>10} {'expected':>13} {'actual':>13} "
+        f"{'atol':>9} {'rtol':>9} {'ratio':>9}  verdict"
+    )
     lines = [head, "-" * len(head)]
     for c, r in table.iterrows():
-        lines.append(f"{c:<8} {r['unit']:<6} {r['max_abs']:>10.3e} {r['t_worst']:>10.4g} {r['expected']:>13.6g} "
-                     f"{r['actual']:>13.6g} {r['atol']:>9.2e} {r['rtol']:>9.2e} {r['ratio']:>9.3g}  "
-                     f"{'ok' if r['passed'] else 'FAIL'}")
+        lines.append(
+            f"{c:<8} {r['unit']:<6} {r['max_abs']:>10.3e} {r['t_worst']:>10.4g} {r['expected']:>13.6g} "
+            f"{r['actual']:>13.6g} {r['atol']:>9.2e} {r['rtol']:>9.2e} {r['ratio']:>9.3g}  "
+            f"{'ok' if r['passed'] else 'FAIL'}"
+        )
     return "\n".join(lines)
 
 
-def assert_trajectories_close(expected, actual, *, atol=None, rtol=None, columns: Sequence[str] | None = None,
-                              times=None, labels: tuple[str, str] = ("expected", "actual")) -> pd.DataFrame:
+def assert_trajectories_close(
+    expected,
+    actual,
+    *,
+    atol=None,
+    rtol=None,
+    columns: Sequence[str] | None = None,
+    times=None,
+    labels: tuple[str, str] = ("expected", "actual"),
+) -> pd.DataFrame:
     """Assert that ``actual`` follows ``expected``: ``|actual - expected| <= atol + rtol |expected|`` everywhere.
 
     Parameters
@@ -297,14 +335,18 @@ def assert_trajectories_close(expected, actual, *, atol=None, rtol=None, columns
     InputError
         Not a trajectory, unknown columns, bad tolerances or times.
     """
-    table, problems = trajectory_differences(expected, actual, atol=atol, rtol=rtol, columns=columns, times=times,
-                                             labels=labels)
+    table, problems = trajectory_differences(
+        expected, actual, atol=atol, rtol=rtol, columns=columns, times=times, labels=labels
+    )
     failing = [c for c, ok in table["passed"].items() if not ok]
     if not failing and not problems:
         return table
     rule = "|actual - expected| <= atol + rtol |expected|"
-    head = (f"{len(failing)} of {len(table)} columns exceed {rule} ({', '.join(failing)})" if failing
-            else f"every column within {rule}, but the compared times are not covered")
+    head = (
+        f"{len(failing)} of {len(table)} columns exceed {rule} ({', '.join(failing)})"
+        if failing
+        else f"every column within {rule}, but the compared times are not covered"
+    )
     lines = [f"trajectories differ: {labels[1]} (actual) vs {labels[0]} (expected): {head}"]
     lines += [f"  {p}" for p in problems]
     lines.append(format_table(table))

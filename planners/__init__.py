@@ -7,5 +7,18 @@ from .plan import Plan, save_plan
 from .scenario import Scenario, list_scenarios, load_scenario
 from .series import Series
 
-__all__ = ["FlatOutput", "FlatProblem", "parametrize", "plan_motion", "plan_scenario", "newton", "newton_series",
-           "Plan", "save_plan", "Scenario", "list_scenarios", "load_scenario", "Series"]
+__all__ = [
+    "FlatOutput",
+    "FlatProblem",
+    "parametrize",
+    "plan_motion",
+    "plan_scenario",
+    "newton",
+    "newton_series",
+    "Plan",
+    "save_plan",
+    "Scenario",
+    "list_scenarios",
+    "load_scenario",
+    "Series",
+]

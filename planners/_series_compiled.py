@@ -116,8 +116,7 @@ def sincos2(u, s, c, sign):
             c[k, i] *= sign * ik
 
 
-@njit([types.void(_arr(_F, 2, True), _F, _arr(_F, 2)), types.void(_arr(_C, 2, True), _C, _arr(_C, 2))],
-      **_JIT)
+@njit([types.void(_arr(_F, 2, True), _F, _arr(_F, 2)), types.void(_arr(_C, 2, True), _C, _arr(_C, 2))], **_JIT)
 def pow2(u, p, out):
     """``u ** p`` for a scalar ``p`` given ``out[0]``: ``c_k = sum_{j=1}^{k} ((p + 1) j / k - 1) (u_j / u_0) c_{k-j}``."""
     m, n = u.shape

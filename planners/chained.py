@@ -25,8 +25,8 @@ H = H_2(p, q, r, dl, dm, dn); :mod:`planners.systems` bundles others.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Callable, Mapping
 
 import numpy as np
 
@@ -165,8 +165,11 @@ class ChainedSystem:
     @property
     def variables(self) -> tuple:
         """Flat outputs, then the unknowns of every stage, then the prescribed inputs."""
-        return tuple(self.flat_outputs) + tuple(u for s in self.stages for u in s.unknowns) + tuple(
-            n for n in self.inputs if n not in self.flat_outputs)
+        return (
+            tuple(self.flat_outputs)
+            + tuple(u for s in self.stages for u in s.unknowns)
+            + tuple(n for n in self.inputs if n not in self.flat_outputs)
+        )
 
     @property
     def neglected(self) -> tuple:
@@ -242,15 +245,23 @@ def _flat_outputs(system: ChainedSystem, zeta: Mapping | None) -> Mapping:
     """The flat-output functions to use: ``zeta``, else the system's defaults."""
     if zeta is None:
         if system.outputs is None:
-            raise InputError(f"{system.name}: no functions given for the flat outputs "
-                             f"{', '.join(system.flat_outputs)} and the system has no default ones")
+            raise InputError(
+                f"{system.name}: no functions given for the flat outputs "
+                f"{', '.join(system.flat_outputs)} and the system has no default ones"
+            )
         return system.outputs
     return zeta
 
 
-def flat_parametrization(system: ChainedSystem, t_nodes, order: int, zeta: Mapping[str, Callable] | None = None,
-                         hat: Mapping | None = None, guess: Mapping | None = None,
-                         newton_tol: float | None = None) -> tuple[dict, dict]:
+def flat_parametrization(
+    system: ChainedSystem,
+    t_nodes,
+    order: int,
+    zeta: Mapping[str, Callable] | None = None,
+    hat: Mapping | None = None,
+    guess: Mapping | None = None,
+    newton_tol: float | None = None,
+) -> tuple[dict, dict]:
     """``FlatParametrization(t0, kappa, zeta, X^)`` of the paper at every node.
 
     Parameters
@@ -326,8 +337,10 @@ def flat_parametrization(system: ChainedSystem, t_nodes, order: int, zeta: Mappi
             if guess is not None and all(n in guess for n in stage.unknowns):
                 u0 = [guess[n] for n in stage.unknowns]
             elif stage.start is not None:
-                u0 = [Series.constant(np.broadcast_to(np.asarray(c, dtype=float), (nodes,)), 0)
-                      for c in stage.start(_at_order(data, 0), t_nodes)]
+                u0 = [
+                    Series.constant(np.broadcast_to(np.asarray(c, dtype=float), (nodes,)), 0)
+                    for c in stage.start(_at_order(data, 0), t_nodes)
+                ]
             else:
                 u0 = [Series.constant(np.full(nodes, float(system.guess.get(n, 0.0))), 0) for n in stage.unknowns]
             u, reports[h] = newton_series(residual, u0, k, tol=tol, names=stage.unknowns, t_nodes=t_nodes)
@@ -398,7 +411,7 @@ class ChainedPlan:
         s = self.iterates[j].get(name)
         if s is None:
             raise InputError(f"unknown variable {name!r}; known: {', '.join(self.iterates[j])}")
-        c = np.real(np.asarray(s.coeffs))[None]                    # (1, nodes, K)
+        c = np.real(np.asarray(s.coeffs))[None]  # (1, nodes, K)
         t_arr = np.atleast_1d(np.asarray(t, dtype=float))
         tn = self.t_nodes
         if np.any(t_arr < tn[0] - 1e-12) or np.any(t_arr > tn[-1] + 1e-12):
@@ -407,17 +420,31 @@ class ChainedPlan:
         ti, tj = tn[i], tn[i + 1]
         dt = tj - ti
         w = (t_arr - ti) / dt
-        out = (1 - w) * _taylor_derivative(c[:, i], t_arr - ti, derivative) \
-            + w * _taylor_derivative(c[:, i + 1], t_arr - tj, derivative)
+        out = (1 - w) * _taylor_derivative(c[:, i], t_arr - ti, derivative) + w * _taylor_derivative(
+            c[:, i + 1], t_arr - tj, derivative
+        )
         if derivative > 0:
-            out = out + derivative * (_taylor_derivative(c[:, i + 1], t_arr - tj, derivative - 1)
-                                      - _taylor_derivative(c[:, i], t_arr - ti, derivative - 1)) / dt
+            out = (
+                out
+                + derivative
+                * (
+                    _taylor_derivative(c[:, i + 1], t_arr - tj, derivative - 1)
+                    - _taylor_derivative(c[:, i], t_arr - ti, derivative - 1)
+                )
+                / dt
+            )
         return out[0] if np.ndim(t) else float(out[0][0])
 
 
-def generalized_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[str, Callable] | None = None,
-                                J: int = 0, e: int = 1, v: Mapping | None = None,
-                                newton_tol: float | None = None) -> ChainedPlan:
+def generalized_parametrization(
+    system: ChainedSystem,
+    t_nodes,
+    zeta: Mapping[str, Callable] | None = None,
+    J: int = 0,
+    e: int = 1,
+    v: Mapping | None = None,
+    newton_tol: float | None = None,
+) -> ChainedPlan:
     """``GeneralizedFlatParametrization(v, zeta, J, e)`` of the paper for a chained system.
 
     Parameters
@@ -468,6 +495,7 @@ def generalized_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[st
 
 # ----------------------------------------------------------------------------- Newton on the fixed point
 
+
 def _hat_orders(system: ChainedSystem, order: int) -> dict:
     """Order of each neglected variable where it is first used: ``kappa - h`` for stage h."""
     out = {}
@@ -480,8 +508,14 @@ def _hat_orders(system: ChainedSystem, order: int) -> dict:
 def _chained_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapping) -> np.ndarray:
     """Exact ``dG~/d hat`` on the coefficients (nodes, size, size), stages composed as in
     :func:`planners.generalized_newton.h_jacobian` (complex-step partials, constant directions)."""
-    from .generalized_newton import _block_toeplitz, _cs_jacobian, _derivative_matrix, _mm, _resize_matrix, \
-        _series_inverse
+    from .generalized_newton import (
+        _block_toeplitz,
+        _cs_jacobian,
+        _derivative_matrix,
+        _mm,
+        _resize_matrix,
+        _series_inverse,
+    )
 
     horders = _hat_orders(system, order)
     names = list(horders)
@@ -490,25 +524,27 @@ def _chained_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapp
         offsets[n] = size
         size += horders[n] + 1
     nodes = next(iter(sol.values())).batch_shape[0]
-    sens = {}            # variable -> (nodes, K + 1, size): d variable / d hat
+    sens = {}  # variable -> (nodes, K + 1, size): d variable / d hat
     orders = {}
     for z in system.flat_outputs:
         orders[z] = sol[z].order
     for h, stage in enumerate(system.stages, start=1):
         k = order - h
-        earlier = [n for n in sens]                    # unknowns of earlier stages
+        earlier = [n for n in sens]  # unknowns of earlier stages
         inputs = {}
         for n in earlier:
             inputs[n] = (sol[n], _mm(_resize_matrix(1, orders[n], k), sens[n]))
             if orders[n] >= 1:
-                inputs[n + "'"] = (sol[n].derivative(),
-                                   _mm(_resize_matrix(1, orders[n] - 1, k), _mm(_derivative_matrix(1, orders[n]), sens[n])))
+                inputs[n + "'"] = (
+                    sol[n].derivative(),
+                    _mm(_resize_matrix(1, orders[n] - 1, k), _mm(_derivative_matrix(1, orders[n]), sens[n])),
+                )
         for n in stage.neglected:
             sel = np.zeros((horders[n] + 1, size))
-            sel[:, offsets[n]:offsets[n] + horders[n] + 1] = np.eye(horders[n] + 1)
+            sel[:, offsets[n] : offsets[n] + horders[n] + 1] = np.eye(horders[n] + 1)
             v = hat[n]
             inputs[n] = (v, _resize_matrix(1, horders[n], k) @ sel)
-        given = list(system.flat_outputs) + list(system.inputs)      # independent of the neglected terms
+        given = list(system.flat_outputs) + list(system.inputs)  # independent of the neglected terms
         fixed = {z: sol[z] for z in given}
         fixed.update({z + "'": sol[z].derivative() for z in given if sol[z].order >= 1})
         pnames = list(stage.unknowns) + list(inputs)
@@ -521,22 +557,22 @@ def _chained_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapp
             v.update(zip(pnames, vals))
             return stage.residual(v)
 
-        jac = _cs_jacobian(fun, base, k)                # (n_eq, n_in, nodes, k+1)
+        jac = _cs_jacobian(fun, base, k)  # (n_eq, n_in, nodes, k+1)
         nu = len(stage.unknowns)
         rhs = 0.0
         for i, p in enumerate(inputs):
-            rhs = rhs + _mm(_block_toeplitz(jac[:, nu + i:nu + i + 1], k, k), inputs[p][1])
+            rhs = rhs + _mm(_block_toeplitz(jac[:, nu + i : nu + i + 1], k, k), inputs[p][1])
         if np.ndim(rhs):
             S = -_mm(_block_toeplitz(_series_inverse(jac[:, :nu]), k, k), rhs)
-        else:                                           # nothing upstream depends on the neglected terms
+        else:  # nothing upstream depends on the neglected terms
             S = np.zeros((nodes, nu * (k + 1), size))
         for i, u in enumerate(stage.unknowns):
-            sens[u] = S[:, i * (k + 1):(i + 1) * (k + 1)]
+            sens[u] = S[:, i * (k + 1) : (i + 1) * (k + 1)]
             orders[u] = k
     dG = np.zeros((nodes, size, size))
     for n in names:
-        if n in sens:                                   # a prescribed input does not depend on them
-            dG[:, offsets[n]:offsets[n] + horders[n] + 1] = _mm(_resize_matrix(1, orders[n], horders[n]), sens[n])
+        if n in sens:  # a prescribed input does not depend on them
+            dG[:, offsets[n] : offsets[n] + horders[n] + 1] = _mm(_resize_matrix(1, orders[n], horders[n]), sens[n])
     return dG
 
 
@@ -552,13 +588,21 @@ def _hat_vector(system, order, values: Mapping, nodes: int) -> np.ndarray:
 def _hat_dict(system, order, vec: np.ndarray) -> dict:
     out, i = {}, 0
     for n, K in _hat_orders(system, order).items():
-        out[n] = Series(vec[:, i:i + K + 1])
+        out[n] = Series(vec[:, i : i + K + 1])
         i += K + 1
     return out
 
 
-def newton_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[str, Callable] | None = None, J: int = 0,
-                           e: int = 1, v: Mapping | None = None, tol: float = 1e-13, maxiter: int = 8) -> ChainedPlan:
+def newton_parametrization(
+    system: ChainedSystem,
+    t_nodes,
+    zeta: Mapping[str, Callable] | None = None,
+    J: int = 0,
+    e: int = 1,
+    v: Mapping | None = None,
+    tol: float = 1e-13,
+    maxiter: int = 8,
+) -> ChainedPlan:
     """Newton's method on the fixed point of :func:`generalized_parametrization` (same starting order).
 
     The neglected variables ``X^`` are the unknowns of ``F(X^) = X^ - G~(X^)``, ``G~`` the flat
@@ -629,8 +673,10 @@ def newton_parametrization(system: ChainedSystem, t_nodes, zeta: Mapping[str, Ca
         if not res[-1] < res[-2]:
             break
     k_last = e + system.r
-    out = [iterates[0]] + [{name: s.truncate(min(s.order, k_last - system.stage_of(name) + 1))
-                            for name, s in it.items()} for it in iterates[1:]]
+    out = [iterates[0]] + [
+        {name: s.truncate(min(s.order, k_last - system.stage_of(name) + 1)) for name, s in it.items()}
+        for it in iterates[1:]
+    ]
     plan = ChainedPlan(system, t_nodes, out, reports, timings)
     plan.residuals = res
     return plan

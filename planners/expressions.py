@@ -13,8 +13,8 @@ from __future__ import annotations
 import ast
 import math
 import operator
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Callable, Mapping
 
 import numpy as np
 
@@ -22,18 +22,43 @@ from gna.errors import InputError
 from gna.units import DEG, G0, KT
 
 FUNCTIONS: dict[str, Callable] = {
-    "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log, "sqrt": np.sqrt,
-    "arctan": np.arctan, "atan": np.arctan, "arcsin": np.arcsin, "asin": np.arcsin,
-    "arccos": np.arccos, "acos": np.arccos, "arctan2": np.arctan2, "atan2": np.arctan2,
-    "sinh": np.sinh, "cosh": np.cosh, "tanh": np.tanh,
+    "sin": np.sin,
+    "cos": np.cos,
+    "tan": np.tan,
+    "exp": np.exp,
+    "log": np.log,
+    "sqrt": np.sqrt,
+    "arctan": np.arctan,
+    "atan": np.arctan,
+    "arcsin": np.arcsin,
+    "asin": np.arcsin,
+    "arccos": np.arccos,
+    "acos": np.arccos,
+    "arctan2": np.arctan2,
+    "atan2": np.arctan2,
+    "sinh": np.sinh,
+    "cosh": np.cosh,
+    "tanh": np.tanh,
 }
 
 #: Constants every expression may use (SI): kt converts knots to m/s, deg degrees to rad.
-CONSTANTS: dict[str, float] = {"pi": math.pi, "e": math.e, "g0": G0, "kt": KT, "deg": DEG,
-                               "kmh": 1000.0 / 3600.0, "ft": 0.3048}
+CONSTANTS: dict[str, float] = {
+    "pi": math.pi,
+    "e": math.e,
+    "g0": G0,
+    "kt": KT,
+    "deg": DEG,
+    "kmh": 1000.0 / 3600.0,
+    "ft": 0.3048,
+}
 
-_BINOPS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
-           ast.Div: operator.truediv, ast.Pow: operator.pow}
+_BINOPS = {
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+    ast.Pow: operator.pow,
+}
 _UNOPS = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 
 #: Bounds on an expression's size: its text, the nodes of its syntax tree and their nesting.  The paper's
@@ -72,8 +97,9 @@ class Expression:
         return self.text
 
 
-def compile_expression(text: str | float | int, constants: Mapping[str, float] | None = None,
-                       where: str = "expression") -> Expression:
+def compile_expression(
+    text: str | float | int, constants: Mapping[str, float] | None = None, where: str = "expression"
+) -> Expression:
     """Parse ``text`` into an :class:`Expression`.
 
     Raises
@@ -93,8 +119,9 @@ def compile_expression(text: str | float | int, constants: Mapping[str, float] |
     if constants:
         names.update({k: float(v) for k, v in constants.items()})
     if len(text) > MAX_TEXT:
-        raise InputError(f"{where}: expression of {len(text)} characters; at most {MAX_TEXT} (define "
-                         f"[constants] for repeated parts)")
+        raise InputError(
+            f"{where}: expression of {len(text)} characters; at most {MAX_TEXT} (define [constants] for repeated parts)"
+        )
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
@@ -103,16 +130,19 @@ def compile_expression(text: str | float | int, constants: Mapping[str, float] |
         raise InputError(f"{where}: expression nested too deeply to parse ({text[:60]!r}...)") from None
     n_nodes = sum(1 for _ in ast.walk(tree))
     if n_nodes > MAX_NODES or _depth(tree) > MAX_DEPTH:
-        raise InputError(f"{where}: expression too large ({n_nodes} syntax nodes, nesting {_depth(tree)}; at most "
-                         f"{MAX_NODES} and {MAX_DEPTH}) in {text[:60]!r}...")
+        raise InputError(
+            f"{where}: expression too large ({n_nodes} syntax nodes, nesting {_depth(tree)}; at most "
+            f"{MAX_NODES} and {MAX_DEPTH}) in {text[:60]!r}..."
+        )
     uses_t = False
 
     def real_pow(a, b, t):
         r = operator.pow(a, b)
         if isinstance(r, complex) or (isinstance(r, np.ndarray) and np.iscomplexobj(r)):
             at = f" at t = {t:g} s" if isinstance(t, (int, float)) else ""
-            raise InputError(f"{where}: {text!r} is not real{at} (a negative number to a fractional power: "
-                             f"{a!r} ** {b!r})")
+            raise InputError(
+                f"{where}: {text!r} is not real{at} (a negative number to a fractional power: {a!r} ** {b!r})"
+            )
         return r
 
     def build(node) -> Callable:
@@ -129,8 +159,7 @@ def compile_expression(text: str | float | int, constants: Mapping[str, float] |
             if node.id in names:
                 v = names[node.id]
                 return lambda t: v
-            raise InputError(f"{where}: unknown name {node.id!r} in {text!r}; "
-                             f"use t, {', '.join(sorted(names))}")
+            raise InputError(f"{where}: unknown name {node.id!r} in {text!r}; use t, {', '.join(sorted(names))}")
         if isinstance(node, ast.BinOp) and type(node.op) is ast.Pow:
             a, b = build(node.left), build(node.right)
             return lambda t: real_pow(a(t), b(t), t)
@@ -142,8 +171,9 @@ def compile_expression(text: str | float | int, constants: Mapping[str, float] |
             return lambda t: op(a(t))
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and not node.keywords:
             if node.func.id not in FUNCTIONS:
-                raise InputError(f"{where}: unknown function {node.func.id!r} in {text!r}; "
-                                 f"allowed: {', '.join(sorted(FUNCTIONS))}")
+                raise InputError(
+                    f"{where}: unknown function {node.func.id!r} in {text!r}; allowed: {', '.join(sorted(FUNCTIONS))}"
+                )
             f = FUNCTIONS[node.func.id]
             args = [build(a) for a in node.args]
             nargs = 2 if f is np.arctan2 else 1
@@ -154,8 +184,10 @@ def compile_expression(text: str | float | int, constants: Mapping[str, float] |
                 return lambda t: f(a0(t))
             a0, a1 = args
             return lambda t: f(a0(t), a1(t))
-        raise InputError(f"{where}: construct {type(node).__name__} not allowed in {text!r} "
-                         f"(numbers, t, constants, + - * / **, and functions only)")
+        raise InputError(
+            f"{where}: construct {type(node).__name__} not allowed in {text!r} "
+            f"(numbers, t, constants, + - * / **, and functions only)"
+        )
 
     fn = build(tree)
     if not uses_t:

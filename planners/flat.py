@@ -23,21 +23,30 @@ previous iterate of generalized flatness), i.e. ``gna.eom`` with
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
-from gna.eom import (Controls, HValues, State, aero_coefficients, aero_state, body_moments, force_equations,
-                     rotational_dynamics, wind_forces)
+from gna.eom import (
+    Controls,
+    HValues,
+    State,
+    aero_coefficients,
+    aero_state,
+    body_moments,
+    force_equations,
+    rotational_dynamics,
+    wind_forces,
+)
 from gna.errors import DomainError, InputError
 from gna.ground_effect import ground_effect_coefficients
 
+from . import series as _series
 from .expressions import Expression
 from .newton import newton_series
-from . import series as _series
 from .series import Series
 
 FLAT_KINDS = ("beta", "mu", "F", "mix")
@@ -94,8 +103,12 @@ def check_whole(value, what: str, upper: int, where: str) -> int:
     InputError
         Not a number (a string, a bool, None), not whole, or outside 0..upper.
     """
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(value) or float(value) != int(value):
+    if (
+        isinstance(value, (bool, np.bool_))
+        or not isinstance(value, (int, float, np.integer, np.floating))
+        or not np.isfinite(value)
+        or float(value) != int(value)
+    ):
         raise InputError(f"{where}: {what} must be a whole number, got {value!r} (0 to {upper})")
     if not 0 <= int(value) <= upper:
         raise InputError(f"{where}: {what} must be between 0 and {upper}, got {int(value)}")
@@ -128,8 +141,25 @@ def check_grid(t_nodes) -> np.ndarray:
 STAGE2_UNKNOWNS = ("alpha", "beta", "mu", "F")
 
 #: Order lost at each stage relative to the flat outputs x, y, z.
-STAGE_OF = {"x": 0, "y": 0, "z": 0, "V": 1, "gamma": 1, "chi": 1, "alpha": 2, "beta": 2, "mu": 2, "F": 2,
-            "p": 3, "q": 3, "r": 3, "dl": 4, "dm": 4, "dn": 4, "eta": 4}
+STAGE_OF = {
+    "x": 0,
+    "y": 0,
+    "z": 0,
+    "V": 1,
+    "gamma": 1,
+    "chi": 1,
+    "alpha": 2,
+    "beta": 2,
+    "mu": 2,
+    "F": 2,
+    "p": 3,
+    "q": 3,
+    "r": 3,
+    "dl": 4,
+    "dm": 4,
+    "dn": 4,
+    "eta": 4,
+}
 
 
 @dataclass(frozen=True)
@@ -188,8 +218,10 @@ class FlatProblem:
 
     def __post_init__(self):
         if (self.eta is None) == (self.dn is None):
-            raise InputError("give either eta(t) (rudder is a control) or a fixed rudder dn(t) (eta becomes "
-                             "the fourth control), not both or neither")
+            raise InputError(
+                "give either eta(t) (rudder is a control) or a fixed rudder dn(t) (eta becomes "
+                "the fourth control), not both or neither"
+            )
 
 
 @dataclass
@@ -280,20 +312,27 @@ def _check_inputs(t_nodes, series: Mapping[str, Series | None]) -> None:
         bad = ~np.all(np.isfinite(c), axis=-1)
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
-            raise DomainError(f"{name}(t) or its derivative is not finite at t = {t_nodes[i]:.6g} s "
-                              f"({name} = {c[i, 0]:.6g})", time=float(t_nodes[i]), variable=name,
-                              value=float(c[i, 0]))
+            raise DomainError(
+                f"{name}(t) or its derivative is not finite at t = {t_nodes[i]:.6g} s ({name} = {c[i, 0]:.6g})",
+                time=float(t_nodes[i]),
+                variable=name,
+                value=float(c[i, 0]),
+            )
     xd, yd, zd = (np.real(series[k].coeffs[..., 1]) for k in ("x", "y", "z"))
     vh = np.hypot(xd, yd)
     tiny = 1e-6 * max(1.0, float(np.max(np.hypot(vh, zd))))
     bad = vh <= tiny
     if np.any(bad):
         idx = np.flatnonzero(bad)
-        raise DomainError(f"the flat outputs give a vertical or zero velocity (V cos(gamma) = {vh[idx[0]]:.3g} m/s) "
-                          f"at t = {', '.join(f'{v:.6g}' for v in t_nodes[idx[:5]])}{' ...' if len(idx) > 5 else ''} s: "
-                          f"stage 1 of the flat parametrization is singular there (chi undefined); "
-                          f"loops and vertical flight need another chart", time=float(t_nodes[idx[0]]),
-                          variable="V cos(gamma)", value=float(vh[idx[0]]))
+        raise DomainError(
+            f"the flat outputs give a vertical or zero velocity (V cos(gamma) = {vh[idx[0]]:.3g} m/s) "
+            f"at t = {', '.join(f'{v:.6g}' for v in t_nodes[idx[:5]])}{' ...' if len(idx) > 5 else ''} s: "
+            f"stage 1 of the flat parametrization is singular there (chi undefined); "
+            f"loops and vertical flight need another chart",
+            time=float(t_nodes[idx[0]]),
+            variable="V cos(gamma)",
+            value=float(vh[idx[0]]),
+        )
 
 
 def stage1(x: Series, y: Series, z: Series):
@@ -372,8 +411,12 @@ def _stage3(alpha, beta, mu, path: dict):
     gd, chid_cg, chid_sg = (path[n].truncate(min(path[n].order, k - 1)) for n in _PATH_TERMS)
     shape = alpha.batch_shape
     ops = (alpha, beta, mu, gd, chid_cg, chid_sg)
-    if k < 1 or any(u.dtype != np.float64 or u.batch_shape != shape for u in ops) \
-            or any(u.order != k for u in (beta, mu)) or any(u.order != k - 1 for u in ops[3:]):
+    if (
+        k < 1
+        or any(u.dtype != np.float64 or u.batch_shape != shape for u in ops)
+        or any(u.order != k for u in (beta, mu))
+        or any(u.order != k - 1 for u in ops[3:])
+    ):
         return _stage3_series(alpha, beta, mu, gd, chid_cg, chid_sg)
     K = _series._K
     n = math.prod(shape)
@@ -384,16 +427,18 @@ def _stage3(alpha, beta, mu, path: dict):
 
     abm = np.concatenate([flat(alpha), flat(beta), flat(mu)], axis=1)
     s, c = K.sincos(abm, False)
-    sa, sb, sm = s[:, :n], s[:, n:2 * n], s[:, 2 * n:]
-    ca, cb, cm = c[:, :n], c[:, n:2 * n], c[:, 2 * n:]
-    d = _series._diff_kernel(abm)                                        # the derivatives
-    ad, bd, mud = d[:, :n], d[:, n:2 * n], d[:, 2 * n:]
+    sa, sb, sm = s[:, :n], s[:, n : 2 * n], s[:, 2 * n :]
+    ca, cb, cm = c[:, :n], c[:, n : 2 * n], c[:, 2 * n :]
+    d = _series._diff_kernel(abm)  # the derivatives
+    ad, bd, mud = d[:, :n], d[:, n : 2 * n], d[:, 2 * n :]
     gd_, chid_cg_, chid_sg_ = flat(gd, m - 1), flat(chid_cg, m - 1), flat(chid_sg, m - 1)
     # wy = gd cm + chid cg sm, wz = -gd sm + chid cg cm
-    w = K.mul(np.concatenate([gd_, chid_cg_, -gd_, chid_cg_], axis=1),
-              np.concatenate([cm[:-1], sm[:-1], sm[:-1], cm[:-1]], axis=1))
-    wy = w[:, :n] + w[:, n:2 * n]
-    wz = w[:, 2 * n:3 * n] + w[:, 3 * n:]
+    w = K.mul(
+        np.concatenate([gd_, chid_cg_, -gd_, chid_cg_], axis=1),
+        np.concatenate([cm[:-1], sm[:-1], sm[:-1], cm[:-1]], axis=1),
+    )
+    wy = w[:, :n] + w[:, n : 2 * n]
+    wz = w[:, 2 * n : 3 * n] + w[:, 3 * n :]
     # tan b = sb / cb and wy / cb
     qt = K.div(np.concatenate([sb[:-1], wy], axis=1), np.concatenate([cb[:-1], cb[:-1]], axis=1))
     tb, wy_cb = qt[:, :n], qt[:, n:]
@@ -402,8 +447,8 @@ def _stage3(alpha, beta, mu, path: dict):
     q = ad + K.mul(tb, P) + wy_cb
     # p = P ca - R sa, r = P sa + R ca
     pr = K.mul(np.concatenate([P, R, P, R], axis=1), np.concatenate([ca[:-1], sa[:-1], sa[:-1], ca[:-1]], axis=1))
-    p = pr[:, :n] - pr[:, n:2 * n]
-    r = pr[:, 2 * n:3 * n] + pr[:, 3 * n:]
+    p = pr[:, :n] - pr[:, n : 2 * n]
+    r = pr[:, 2 * n : 3 * n] + pr[:, 3 * n :]
     return tuple(Series._wrap(np.ascontiguousarray(v).reshape((m - 1,) + shape)) for v in (p, q, r))
 
 
@@ -424,8 +469,9 @@ def _stage3_series(alpha, beta, mu, gd, chid_cg, chid_sg):
     return p, q, r
 
 
-def force_residuals(ac: Aircraft, env: Environment, z, V, gamma, chi, Vd, gd, chid, eta, h: HValues,
-                    alpha, beta, mu, F):
+def force_residuals(
+    ac: Aircraft, env: Environment, z, V, gamma, chi, Vd, gd, chid, eta, h: HValues, alpha, beta, mu, F
+):
     """The three stage-2 force equations (paper eqs. aircraft1:V, gamma, chi), as specific forces over g.
 
     Residuals ``(V' - X/m)/g``, ``V (gamma' - gamma'_m)/g`` and ``V cos(gamma) (chi' - chi'_m)/g``,
@@ -474,8 +520,14 @@ def force_residuals(ac: Aircraft, env: Environment, z, V, gamma, chi, Vd, gd, ch
     return r1, r2, r3
 
 
-def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValues | None = None,
-                guess: Mapping[str, Series] | NodeSolution | None = None, newton_tol: float = 1e-12) -> NodeSolution:
+def parametrize(
+    problem: FlatProblem,
+    t_nodes: np.ndarray,
+    order: int,
+    h: HValues | None = None,
+    guess: Mapping[str, Series] | NodeSolution | None = None,
+    newton_tol: float = 1e-12,
+) -> NodeSolution:
     """Flat parametrization at all nodes, flat outputs at ``order`` (kappa).
 
     Parameters
@@ -515,19 +567,54 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
     inputs = _flat_inputs(problem, t_nodes, order, guess)
     x, y, z, zv, f1, f2, eta_pres, dn_fixed, V, gamma, chi, Vd, gd, chid = (
         None if inputs[k] is None else inputs[k].truncate(min(inputs[k].order, order - _INPUT_NAMES[k]))
-        for k in _INPUT_NAMES)
+        for k in _INPUT_NAMES
+    )
     z2, V2, gamma2, chi2 = z.truncate(k2), V.truncate(k2), gamma.truncate(k2), chi.truncate(k2)
     eta2 = eta_pres.truncate(k2) if eta_pres is not None else 0.0
 
-    d2 = _OrderCache(dict(z=z2, V=V2, gamma=gamma2, chi=chi2, Vd=Vd, gd=gd, chid=chid, eta=eta2, zv=zv,
-                          f1=f1, f2=f2, hp=hv.p, hq=hv.q, hr=hv.r, hdl=hv.dl, hdm=hv.dm, hdn=hv.dn))
+    d2 = _OrderCache(
+        dict(
+            z=z2,
+            V=V2,
+            gamma=gamma2,
+            chi=chi2,
+            Vd=Vd,
+            gd=gd,
+            chid=chid,
+            eta=eta2,
+            zv=zv,
+            f1=f1,
+            f2=f2,
+            hp=hv.p,
+            hq=hv.q,
+            hr=hv.r,
+            hdl=hv.dl,
+            hdm=hv.dm,
+            hdn=hv.dn,
+        )
+    )
 
     def stage2_residual(u, k):
         alpha, beta, mu, F = u
         d = d2[k]
         h_k = HValues(d["hp"], d["hq"], d["hr"], d["hdl"], d["hdm"], d["hdn"])
-        r1, r2, r3 = force_residuals(ac, env, d["z"], d["V"], d["gamma"], d["chi"], d["Vd"], d["gd"], d["chid"],
-                                     d["eta"], h_k, alpha, beta, mu, F)
+        r1, r2, r3 = force_residuals(
+            ac,
+            env,
+            d["z"],
+            d["V"],
+            d["gamma"],
+            d["chi"],
+            d["Vd"],
+            d["gd"],
+            d["chid"],
+            d["eta"],
+            h_k,
+            alpha,
+            beta,
+            mu,
+            F,
+        )
         if zeta.kind == "beta":
             r4 = beta - d["zv"]
         elif zeta.kind == "mu":
@@ -542,8 +629,16 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         u0 = [guess[k] for k in STAGE2_UNKNOWNS]
     else:
         u0 = _stage2_guess(problem, t_nodes, d2[0], hv)
-    u2, rep2 = newton_series(stage2_residual, u0, k2, tol=newton_tol, names=STAGE2_UNKNOWNS, t_nodes=t_nodes,
-                             warm=guess is not None, jacobian=_previous_jacobian(guess, "stage2"))
+    u2, rep2 = newton_series(
+        stage2_residual,
+        u0,
+        k2,
+        tol=newton_tol,
+        names=STAGE2_UNKNOWNS,
+        t_nodes=t_nodes,
+        warm=guess is not None,
+        jacobian=_previous_jacobian(guess, "stage2"),
+    )
     alpha, beta, mu, F = u2
     mu = _unwrap_constant(mu)  # bank angles of neighbouring nodes on the same branch (no 2 pi jumps)
 
@@ -551,16 +646,44 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
     p, q, r = _stage3(alpha, beta, mu, inputs["path"])
     k4 = order - 4
     pd, qd, rd = p.derivative(), q.derivative(), r.derivative()
-    s4 = State(0.0, 0.0, z.truncate(k4), V.truncate(k4), gamma.truncate(k4), chi.truncate(k4),
-               alpha.truncate(k4), beta.truncate(k4), mu.truncate(k4), p.truncate(k4), q.truncate(k4),
-               r.truncate(k4))
+    s4 = State(
+        0.0,
+        0.0,
+        z.truncate(k4),
+        V.truncate(k4),
+        gamma.truncate(k4),
+        chi.truncate(k4),
+        alpha.truncate(k4),
+        beta.truncate(k4),
+        mu.truncate(k4),
+        p.truncate(k4),
+        q.truncate(k4),
+        r.truncate(k4),
+    )
     F4 = F.truncate(k4)
     qbar4 = inputs["qbar4"].truncate(k4)
 
-    d4 = _OrderCache(dict(z=s4.z, V=s4.V, gamma=s4.gamma, chi=s4.chi, alpha=s4.alpha, beta=s4.beta, mu=s4.mu,
-                          p=s4.p, q=s4.q, r=s4.r, pd=pd, qd=qd, rd=rd, F=F4, qbar=qbar4,
-                          eta=eta_pres.truncate(k4) if problem.eta is not None else None,
-                          dn=dn_fixed.truncate(k4) if problem.dn is not None else None))
+    d4 = _OrderCache(
+        dict(
+            z=s4.z,
+            V=s4.V,
+            gamma=s4.gamma,
+            chi=s4.chi,
+            alpha=s4.alpha,
+            beta=s4.beta,
+            mu=s4.mu,
+            p=s4.p,
+            q=s4.q,
+            r=s4.r,
+            pd=pd,
+            qd=qd,
+            rd=rd,
+            F=F4,
+            qbar=qbar4,
+            eta=eta_pres.truncate(k4) if problem.eta is not None else None,
+            dn=dn_fixed.truncate(k4) if problem.dn is not None else None,
+        )
+    )
     names4 = ("dl", "dm", "dn") if problem.eta is not None else ("dl", "dm", "eta")
 
     def controls_of(u, d):
@@ -570,8 +693,9 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
 
     def stage4_residual(u, k):
         d = d4[k]
-        st = State(0.0, 0.0, d["z"], d["V"], d["gamma"], d["chi"], d["alpha"], d["beta"], d["mu"],
-                   d["p"], d["q"], d["r"])
+        st = State(
+            0.0, 0.0, d["z"], d["V"], d["gamma"], d["chi"], d["alpha"], d["beta"], d["mu"], d["p"], d["q"], d["r"]
+        )
         ctl = controls_of(u, d)
         full = ground_effect_coefficients(ac, env, st.z, aero_coefficients(ac, st, ctl))
         L, M, N = body_moments(ac, st, ctl, full, d["qbar"])
@@ -584,12 +708,36 @@ def parametrize(problem: FlatProblem, t_nodes: np.ndarray, order: int, h: HValue
         v0 = [Series.constant(np.zeros(len(t_nodes)), 0) for _ in names4]
     # Newton at the working order from the start, even from zero deflections: the moments are affine in
     # the controls in the bundled models (one step solves them; the full scheme takes over otherwise).
-    u4, rep4 = newton_series(stage4_residual, v0, k4, tol=newton_tol, names=names4, t_nodes=t_nodes,
-                             warm=True, jacobian=_previous_jacobian(guess, "stage4"))
+    u4, rep4 = newton_series(
+        stage4_residual,
+        v0,
+        k4,
+        tol=newton_tol,
+        names=names4,
+        t_nodes=t_nodes,
+        warm=True,
+        jacobian=_previous_jacobian(guess, "stage4"),
+    )
     ctl = controls_of(u4, d4[k4])
-    out = {"x": x, "y": y, "z": z, "V": V, "gamma": gamma, "chi": chi,
-           "alpha": alpha, "beta": beta, "mu": mu, "F": F, "p": p, "q": q, "r": r,
-           "dl": ctl.dl, "dm": ctl.dm, "dn": ctl.dn, "eta": ctl.eta}
+    out = {
+        "x": x,
+        "y": y,
+        "z": z,
+        "V": V,
+        "gamma": gamma,
+        "chi": chi,
+        "alpha": alpha,
+        "beta": beta,
+        "mu": mu,
+        "F": F,
+        "p": p,
+        "q": q,
+        "r": r,
+        "dl": ctl.dl,
+        "dm": ctl.dm,
+        "dn": ctl.dn,
+        "eta": ctl.eta,
+    }
     for k, v in out.items():
         if not isinstance(v, Series):
             out[k] = Series.constant(np.broadcast_to(np.asarray(v, dtype=float), (len(t_nodes),)), k4)
@@ -604,8 +752,22 @@ def _previous_jacobian(guess, stage: str):
 
 
 #: The series :func:`_flat_inputs` gives, with the orders they lose relative to the flat outputs.
-_INPUT_NAMES = {"x": 0, "y": 0, "z": 0, "zv": 2, "f1": 2, "f2": 2, "eta": 0, "dn": 0, "V": 1, "gamma": 1, "chi": 1,
-                "Vd": 2, "gd": 2, "chid": 2}
+_INPUT_NAMES = {
+    "x": 0,
+    "y": 0,
+    "z": 0,
+    "zv": 2,
+    "f1": 2,
+    "f2": 2,
+    "eta": 0,
+    "dn": 0,
+    "V": 1,
+    "gamma": 1,
+    "chi": 1,
+    "Vd": 2,
+    "gd": 2,
+    "chid": 2,
+}
 
 
 def _flat_inputs(problem: FlatProblem, t_nodes: np.ndarray, order: int, guess) -> dict:
@@ -614,8 +776,12 @@ def _flat_inputs(problem: FlatProblem, t_nodes: np.ndarray, order: int, guess) -
     problem and grid at an order at least ``order``) when it has them: truncating a series of a
     higher order gives the same coefficients as computing at the lower one."""
     cached = getattr(guess, "_inputs", None) if isinstance(guess, NodeSolution) else None
-    if cached is not None and cached["problem"] is problem and cached["order"] >= order \
-            and np.array_equal(cached["t_nodes"], t_nodes):
+    if (
+        cached is not None
+        and cached["problem"] is problem
+        and cached["order"] >= order
+        and np.array_equal(cached["t_nodes"], t_nodes)
+    ):
         return cached
     t = Series.variable(np.asarray(t_nodes, dtype=float), order)
     x, y, z = problem.x(t), problem.y(t), problem.z(t)
@@ -626,14 +792,18 @@ def _flat_inputs(problem: FlatProblem, t_nodes: np.ndarray, order: int, guess) -
     f2 = zeta.f2(Series.variable(t_nodes, k2)) if zeta.kind == "mix" else None
     eta_pres = problem.eta(Series.variable(t_nodes, order)) if problem.eta is not None else None
     dn_fixed = problem.dn(Series.variable(t_nodes, order)) if problem.dn is not None else None
-    _check_inputs(t_nodes, {"x": x, "y": y, "z": z, "zeta": zv, "f1": f1, "f2": f2, "eta": eta_pres,
-                            "dn": dn_fixed})
+    _check_inputs(t_nodes, {"x": x, "y": y, "z": z, "zeta": zv, "f1": f1, "f2": f2, "eta": eta_pres, "dn": dn_fixed})
     V, gamma, chi = stage1(x, y, z)
     Vd, gd, chid = V.derivative(), gamma.derivative(), chi.derivative()
     values = (x, y, z, zv, f1, f2, eta_pres, dn_fixed, V, gamma, chi, Vd, gd, chid)
-    return {**dict(zip(_INPUT_NAMES, values)), "problem": problem, "t_nodes": np.array(t_nodes, dtype=float),
-            "order": order, "path": _path_terms(gamma.truncate(order - 2), chi.truncate(order - 2)),
-            "qbar4": _dynamic_pressure(problem.env, z.truncate(order - 4), V.truncate(order - 4))}
+    return {
+        **dict(zip(_INPUT_NAMES, values)),
+        "problem": problem,
+        "t_nodes": np.array(t_nodes, dtype=float),
+        "order": order,
+        "path": _path_terms(gamma.truncate(order - 2), chi.truncate(order - 2)),
+        "qbar4": _dynamic_pressure(problem.env, z.truncate(order - 4), V.truncate(order - 4)),
+    }
 
 
 def _dynamic_pressure(env: Environment, z, V):

@@ -102,20 +102,26 @@ class FlatnessTest:
         DataFrame
             Columns ``rank``, ``sigma_min``, ``passed``, indexed by ``t`` [s].
         """
-        return pd.DataFrame({"rank": self.rank, "sigma_min": self.sigma_min, "passed": self.rank == self.n_states},
-                            index=pd.Index(self.t_nodes, name="t"))
+        return pd.DataFrame(
+            {"rank": self.rank, "sigma_min": self.sigma_min, "passed": self.rank == self.n_states},
+            index=pd.Index(self.t_nodes, name="t"),
+        )
 
     @property
     def message(self) -> str:
         """One line: passed, or the failed times and their ranks."""
         if self.passed:
-            return (f"Theorem 1 condition holds at all {len(self.t_nodes)} nodes (rank {self.n_states}, smallest "
-                    f"relative singular value {float(np.min(self.sigma_min)):.2g} > {self.tol:g})")
+            return (
+                f"Theorem 1 condition holds at all {len(self.t_nodes)} nodes (rank {self.n_states}, smallest "
+                f"relative singular value {float(np.min(self.sigma_min)):.2g} > {self.tol:g})"
+            )
         idx = self.failed_nodes
         times = ", ".join(f"{t:.6g}" for t in self.t_nodes[idx[:6]]) + (" ..." if len(idx) > 6 else "")
-        return (f"Theorem 1 condition fails at {len(idx)} of {len(self.t_nodes)} nodes, t = {times} s (rank "
-                f"{int(np.min(self.rank[idx]))} < {self.n_states}): the linearized system is not controllable "
-                f"there, so the model is not flat at these points")
+        return (
+            f"Theorem 1 condition fails at {len(idx)} of {len(self.t_nodes)} nodes, t = {times} s (rank "
+            f"{int(np.min(self.rank[idx]))} < {self.n_states}): the linearized system is not controllable "
+            f"there, so the model is not flat at these points"
+        )
 
 
 def silverman_meadows(A: np.ndarray, B: np.ndarray, blocks: int) -> np.ndarray:
@@ -146,7 +152,7 @@ def silverman_meadows(A: np.ndarray, B: np.ndarray, blocks: int) -> np.ndarray:
         # series product A M (truncated) minus the derivative of M
         AM = np.zeros_like(M)
         for k in range(size):
-            AM[..., k] = np.einsum("nijl,njml->nim", Ac[..., :k + 1], M[..., k::-1])
+            AM[..., k] = np.einsum("nijl,njml->nim", Ac[..., : k + 1], M[..., k::-1])
         dM = np.zeros_like(M)
         dM[..., :-1] = M[..., 1:] * np.arange(1, size)
         M = AM - dM
@@ -154,8 +160,16 @@ def silverman_meadows(A: np.ndarray, B: np.ndarray, blocks: int) -> np.ndarray:
     return np.concatenate(out, axis=-1)
 
 
-def flatness_test(plan, j: int = -1, *, model: str = "full", controls=DEFAULT_CONTROLS, tol: float = RANK_TOL,
-                  blocks: int | None = None, order: int | None = None) -> FlatnessTest:
+def flatness_test(
+    plan,
+    j: int = -1,
+    *,
+    model: str = "full",
+    controls=DEFAULT_CONTROLS,
+    tol: float = RANK_TOL,
+    blocks: int | None = None,
+    order: int | None = None,
+) -> FlatnessTest:
     """Test the paper's necessary condition for flatness (Theorem 1) at every node of a plan.
 
     Parameters
@@ -214,8 +228,18 @@ def flatness_test(plan, j: int = -1, *, model: str = "full", controls=DEFAULT_CO
     sv = np.linalg.svd(M, compute_uv=False)
     sv = sv / np.where(sv[:, :1] > 0, sv[:, :1], 1.0)
     rank = np.sum(sv > tol, axis=1)
-    return FlatnessTest(np.asarray(plan.t_nodes, dtype=float), rank, sv, n, tuple(controls), blocks, lin.order,
-                        float(tol), model, lin.iterate)
+    return FlatnessTest(
+        np.asarray(plan.t_nodes, dtype=float),
+        rank,
+        sv,
+        n,
+        tuple(controls),
+        blocks,
+        lin.order,
+        float(tol),
+        model,
+        lin.iterate,
+    )
 
 
 def lift_maximum(aircraft) -> float:
@@ -276,6 +300,9 @@ def stall_line(aircraft, altitude: float = 0.0, env=None) -> tuple[float, float]
     r = stall_speed(aircraft, altitude, **kw)
     env_a = aircraft.envelope
     if not max(env_a.alpha_min, 0.0) < r.alpha_stall < env_a.alpha_max:
-        raise DomainError(f"no interior minimum of the level-flight speed (alpha = {r.alpha_stall:.4g} rad at the "
-                          f"envelope's edge)", variable="alpha", value=r.alpha_stall)
+        raise DomainError(
+            f"no interior minimum of the level-flight speed (alpha = {r.alpha_stall:.4g} rad at the envelope's edge)",
+            variable="alpha",
+            value=r.alpha_stall,
+        )
     return float(r.alpha_stall), float(r.V_stall)

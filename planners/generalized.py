@@ -114,7 +114,7 @@ def choose_J(residuals, tol: float = AUTO_J_TOL, ratio: float = AUTO_J_RATIO) ->
         if r <= tol:
             return j, "tolerance"
         if j > 0 and not r <= ratio * res[j - 1]:
-            return int(np.argmin(res[:j + 1])), "stagnation"
+            return int(np.argmin(res[: j + 1])), "stagnation"
     return None, ""
 
 
@@ -143,10 +143,20 @@ def plan_cost(nodes: int, J: int, e: int = 1) -> float:
     return float(nodes) * sum((kappa0 - ORDER_LOSS * j) ** 2 for j in range(J + 1))
 
 
-def plan_motion(problem: FlatProblem, t_nodes, J: int | str = 0, e: int = 1, name: str = "plan",
-                max_cost: float | None = None, method: str = "fixed-point", newton_tol: float = 1e-12,
-                newton_maxiter: int = 8, interpolation: str | None = None, J_tol: float = AUTO_J_TOL,
-                J_max: int = AUTO_J_MAX) -> Plan:
+def plan_motion(
+    problem: FlatProblem,
+    t_nodes,
+    J: int | str = 0,
+    e: int = 1,
+    name: str = "plan",
+    max_cost: float | None = None,
+    method: str = "fixed-point",
+    newton_tol: float = 1e-12,
+    newton_maxiter: int = 8,
+    interpolation: str | None = None,
+    J_tol: float = AUTO_J_TOL,
+    J_max: int = AUTO_J_MAX,
+) -> Plan:
     """Plan with J generalized-flatness iterations, or Newton's method on their fixed point.
 
     Parameters
@@ -209,13 +219,14 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int | str = 0, e: int = 1, nam
         if not (isinstance(J_tol, (int, float)) and not isinstance(J_tol, bool) and J_tol >= 0):
             raise InputError(f"plan {name}: J_tol must be a number >= 0 [m/s^2, rad/s], got {J_tol!r}")
         if method != "fixed-point":
-            raise InputError(f"plan {name}: J = \"auto\" needs the fixed-point method, got method {method!r}")
+            raise InputError(f'plan {name}: J = "auto" needs the fixed-point method, got method {method!r}')
         J = min(AUTO_J_START, J_max)
     else:
         J = check_iterations(J, f"plan {name}")
     e = check_output_order(e, f"plan {name}")
-    interpolation = check_interpolation(DEFAULT_INTERPOLATION if interpolation is None else interpolation,
-                                        f"plan {name}")
+    interpolation = check_interpolation(
+        DEFAULT_INTERPOLATION if interpolation is None else interpolation, f"plan {name}"
+    )
     t_nodes = check_grid(t_nodes)
     if method not in METHODS:
         raise InputError(f"generalized-flatness method must be one of {', '.join(METHODS)}, got {method!r}")
@@ -227,14 +238,17 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int | str = 0, e: int = 1, nam
     _check_cost(name, len(t_nodes), J, e, limit)
     if method == "newton":
         from .generalized_newton import plan_newton
+
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             iterates, info = plan_newton(problem, t_nodes, J, e, tol=newton_tol, maxiter=newton_maxiter)
         plan = Plan(problem, t_nodes, iterates, [], name, info["timings"], interpolation=interpolation, e=e)
         plan.generalized = {"method": method, "depth": J, "J_rule": "given", **info}
         if info["status"] != "converged":
-            plan.warnings.append(f"Newton on the generalized-flatness fixed point {info['status']} after "
-                                 f"{len(info['residual']) - 1} step(s): max |H - G(H)| = {info['residual'][-1]:.3g} "
-                                 f"(tolerance {newton_tol:g})")
+            plan.warnings.append(
+                f"Newton on the generalized-flatness fixed point {info['status']} after "
+                f"{len(info['residual']) - 1} step(s): max |H - G(H)| = {info['residual'][-1]:.3g} "
+                f"(tolerance {newton_tol:g})"
+            )
         return _finish(plan)
     if not auto:
         iterates, timings = _fixed_point(problem, t_nodes, J, e, name)
@@ -245,18 +259,22 @@ def plan_motion(problem: FlatProblem, t_nodes, J: int | str = 0, e: int = 1, nam
     plan = Plan(problem, t_nodes, iterates, [], name, timings, interpolation=interpolation, e=e)
     plan.generalized = {"method": method, **info}
     if info["J_stop"] in ("J_max", "cost"):
-        plan.warnings.append(f"J = \"auto\": the residual {info['J_residuals'][plan.J]:.3g} of iterate J = {plan.J} "
-                             f"is above the tolerance {J_tol:g} and still decreasing; stopped by "
-                             f"{'J_max' if info['J_stop'] == 'J_max' else 'the cost bound'}")
+        plan.warnings.append(
+            f'J = "auto": the residual {info["J_residuals"][plan.J]:.3g} of iterate J = {plan.J} '
+            f"is above the tolerance {J_tol:g} and still decreasing; stopped by "
+            f"{'J_max' if info['J_stop'] == 'J_max' else 'the cost bound'}"
+        )
     return _finish(plan)
 
 
 def _check_cost(name: str, nodes: int, J: int, e: int, limit: float) -> float:
     cost = plan_cost(nodes, J, e)
     if cost > limit:
-        raise InputError(f"plan {name}: J = {J} on {nodes} nodes costs {cost:.3g} node-order^2 units, "
-                         f"above the bound {limit:.3g} (about {_duration(6e-6 * cost)} of planning); use fewer "
-                         f"nodes or a smaller J, or raise the bound (--max-cost, max_cost= in Python; inf for none)")
+        raise InputError(
+            f"plan {name}: J = {J} on {nodes} nodes costs {cost:.3g} node-order^2 units, "
+            f"above the bound {limit:.3g} (about {_duration(6e-6 * cost)} of planning); use fewer "
+            f"nodes or a smaller J, or raise the bound (--max-cost, max_cost= in Python; inf for none)"
+        )
     return cost
 
 
@@ -265,8 +283,9 @@ def _duration(seconds: float) -> str:
     return f"{seconds:.2g} s" if seconds < 60 else f"{seconds / 60:.0f} min"
 
 
-def _fixed_point(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str,
-                 guesses: list | None = None) -> tuple[list, dict]:
+def _fixed_point(
+    problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str, guesses: list | None = None
+) -> tuple[list, dict]:
     """The paper's J iterations: iterates 0..J (orders ``e + 4 + 2 (J - j)``) and their wall times.
 
     Iterate j starts its Newton iterations from ``guesses[j]`` when given (a lower-order solution of
@@ -275,8 +294,9 @@ def _fixed_point(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name
     cost = plan_cost(len(t_nodes), J, e)
     verbose = cost > PROGRESS_COST
     if verbose:
-        _log.info("plan %s: J = %d on %d nodes, cost %.3g units (about %.0f s)", name, J, len(t_nodes), cost,
-                  6e-6 * cost)
+        _log.info(
+            "plan %s: J = %d on %d nodes, cost %.3g units (about %.0f s)", name, J, len(t_nodes), cost, 6e-6 * cost
+        )
     kappa = e + STAGES + J * ORDER_LOSS
     iterates, timings = [], {}
     prev = None
@@ -291,8 +311,16 @@ def _fixed_point(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name
         if verbose:
             done = sum(timings.values())
             share = plan_cost(len(t_nodes), j, e + ORDER_LOSS * (J - j)) / cost
-            _log.info("plan %s: iterate j = %d of %d (order %d) in %.1f s; %.1f s so far, about %.0f s left",
-                      name, j, J, kappa, timings[j], done, done * (1.0 / max(share, 1e-12) - 1.0))
+            _log.info(
+                "plan %s: iterate j = %d of %d (order %d) in %.1f s; %.1f s so far, about %.0f s left",
+                name,
+                j,
+                J,
+                kappa,
+                timings[j],
+                done,
+                done * (1.0 / max(share, 1e-12) - 1.0),
+            )
         iterates.append(sol)
         prev = sol
         kappa -= ORDER_LOSS
@@ -310,8 +338,9 @@ def _more_iterations(res: list, tol: float) -> int:
     return max(1, int(np.ceil(np.log(res[-1] / tol) / np.log(q))))
 
 
-def _auto_J(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str, tol: float, J_max: int,
-            limit: float) -> tuple[list, dict, dict]:
+def _auto_J(
+    problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str, tol: float, J_max: int, limit: float
+) -> tuple[list, dict, dict]:
     """``J = "auto"``: plans with J, then with the J :func:`_more_iterations` predicts, until :func:`choose_J`
     stops (or J_max, or the cost bound); the chosen iterates, truncated to the orders of a plan with that J."""
     from .generalized_newton import truncate_solution
@@ -334,11 +363,22 @@ def _auto_J(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str
                 continue
             chosen = int(np.argmin([r if np.isfinite(r) else np.inf for r in res]))
         break
-    kept = [truncate_solution(it, e + STAGES + ORDER_LOSS * (chosen - j)) for j, it in enumerate(iterates[:chosen + 1])]
-    rule = (f"auto: the first iterate with full-model residual <= {tol:g}, or at a ratio to the previous "
-            f"> {AUTO_J_RATIO:g} the least so far, J <= {J_max}")
-    info = {"J_rule": rule, "J_stop": stop, "J_residuals": res, "J_attempts": attempts, "J_tol": tol,
-            "J_max": J_max, "J_planning_s": total}
+    kept = [
+        truncate_solution(it, e + STAGES + ORDER_LOSS * (chosen - j)) for j, it in enumerate(iterates[: chosen + 1])
+    ]
+    rule = (
+        f"auto: the first iterate with full-model residual <= {tol:g}, or at a ratio to the previous "
+        f"> {AUTO_J_RATIO:g} the least so far, J <= {J_max}"
+    )
+    info = {
+        "J_rule": rule,
+        "J_stop": stop,
+        "J_residuals": res,
+        "J_attempts": attempts,
+        "J_tol": tol,
+        "J_max": J_max,
+        "J_planning_s": total,
+    }
     return kept, {j: timings[j] for j in range(chosen + 1)}, info
 
 
@@ -354,6 +394,7 @@ def _finish(plan: Plan) -> Plan:
     plan.warnings.extend(plan.singularities.warnings)
     if plan.feasible:
         from gna.simulate import ENVELOPE_VARIABLES, envelope_warnings
+
         # between the nodes too; the columns gna.simulate.envelope_warnings reads
         fine = plan.to_dataframe(step=float(np.min(np.diff(t_nodes))) / 8, variables=ENVELOPE_VARIABLES)
         plan.warnings.extend(f"plan (j = {plan.J}): {w}" for w in envelope_warnings(problem.aircraft, fine))
@@ -417,19 +458,27 @@ def ground_failures(plan: Plan) -> list[str]:
     for j in range(plan.J + 1):
         try:
             z = plan.piecewise(("z",), j).evaluate(t)[0]
-        except InputError:          # non-finite series: a Newton failure, reported as such
+        except InputError:  # non-finite series: a Newton failure, reported as such
             continue
         h = -z - bounds.ground
         bad = ~(h > 0)
         if bad.any():
             i, k = int(np.argmax(bad)), int(np.argmin(np.where(np.isfinite(h), h, -np.inf)))
-            out.append(f"iterate j = {j}: {ground_violation(float(t[i]), float(z[i]), bounds)}; "
-                       f"lowest h = {h[k]:.6g} m at t = {t[k]:.6g} s")
+            out.append(
+                f"iterate j = {j}: {ground_violation(float(t[i]), float(z[i]), bounds)}; "
+                f"lowest h = {h[k]:.6g} m at t = {t[k]:.6g} s"
+            )
     return out
 
 
-def plan_scenario(scenario, J: int | str | None = None, max_cost: float | None = None, method: str | None = None,
-                  e: int | None = None, interpolation: str | None = None) -> Plan:
+def plan_scenario(
+    scenario,
+    J: int | str | None = None,
+    max_cost: float | None = None,
+    method: str | None = None,
+    e: int | None = None,
+    interpolation: str | None = None,
+) -> Plan:
     """Plan a :class:`~planners.scenario.Scenario`.
 
     Parameters
@@ -462,18 +511,31 @@ def plan_scenario(scenario, J: int | str | None = None, max_cost: float | None =
         scenario.
     """
     if not (callable(getattr(scenario, "problem", None)) and hasattr(scenario, "t_nodes")):
-        raise InputError(f"a Scenario is needed, got {type(scenario).__name__} {scenario!r:.60}; "
-                         f"planners.scenario.load_scenario(name) makes one")
+        raise InputError(
+            f"a Scenario is needed, got {type(scenario).__name__} {scenario!r:.60}; "
+            f"planners.scenario.load_scenario(name) makes one"
+        )
     if J is not None and not (isinstance(J, str) and J == AUTO_J):
         J = check_iterations(J, f"plan_scenario({scenario.name})")
     if method is None:
         gen = (getattr(scenario, "raw", None) or {}).get("generalized", {})
         method = gen.get("method", "fixed-point") if isinstance(gen, dict) else "fixed-point"
         if method not in METHODS:
-            raise InputError(f"scenario {scenario.name} [generalized]: method must be one of "
-                             f"{', '.join(repr(m) for m in METHODS)}, got {method!r}")
+            raise InputError(
+                f"scenario {scenario.name} [generalized]: method must be one of "
+                f"{', '.join(repr(m) for m in METHODS)}, got {method!r}"
+            )
     e = getattr(scenario, "e", 1) if e is None else check_output_order(e, f"plan_scenario({scenario.name})")
     interpolation = getattr(scenario, "interpolation", None) if interpolation is None else interpolation
-    return plan_motion(scenario.problem(), scenario.t_nodes, scenario.J if J is None else J, e=e,
-                       name=scenario.name, max_cost=max_cost, method=method, interpolation=interpolation,
-                       J_tol=getattr(scenario, "J_tol", AUTO_J_TOL), J_max=getattr(scenario, "J_max", AUTO_J_MAX))
+    return plan_motion(
+        scenario.problem(),
+        scenario.t_nodes,
+        scenario.J if J is None else J,
+        e=e,
+        name=scenario.name,
+        max_cost=max_cost,
+        method=method,
+        interpolation=interpolation,
+        J_tol=getattr(scenario, "J_tol", AUTO_J_TOL),
+        J_max=getattr(scenario, "J_max", AUTO_J_MAX),
+    )

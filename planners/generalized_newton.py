@@ -50,6 +50,7 @@ HALVINGS = 5
 
 # ----------------------------------------------------------------------------- coefficient-space operators
 
+
 def _block_toeplitz(jac: np.ndarray, k_out: int, k_in: int) -> np.ndarray:
     """Multiplication by a matrix of series as a matrix on coefficients.
 
@@ -107,11 +108,11 @@ def _series_inverse(A: np.ndarray) -> np.ndarray:
     ``W_0 = A_0^-1``, ``W_m = -W_0 sum_{l=1..m} A_l W_{m-l}`` (no fill-in above the diagonal, unlike a
     dense solve of the Toeplitz matrix).
     """
-    Ab = np.moveaxis(A, (0, 1), (-2, -1))                          # (nodes, K+1, n, n)
+    Ab = np.moveaxis(A, (0, 1), (-2, -1))  # (nodes, K+1, n, n)
     W = np.zeros_like(Ab)
     W[:, 0] = np.linalg.inv(Ab[:, 0])
     for m in range(1, Ab.shape[1]):
-        acc = np.einsum("blij,bljk->bik", Ab[:, 1:m + 1], W[:, m - 1::-1][:, :m])
+        acc = np.einsum("blij,bljk->bik", Ab[:, 1 : m + 1], W[:, m - 1 :: -1][:, :m])
         W[:, m] = -W[:, 0] @ acc
     return np.moveaxis(W, (-2, -1), (0, 1))
 
@@ -121,7 +122,7 @@ def _series_matmul(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     K = min(A.shape[-1], B.shape[-1])
     out = np.zeros(A.shape[:1] + B.shape[1:2] + A.shape[2:3] + (K,))
     for m in range(K):
-        out[..., m] = np.einsum("ipbl,pqbl->iqb", A[..., :m + 1], B[..., m::-1])
+        out[..., m] = np.einsum("ipbl,pqbl->iqb", A[..., : m + 1], B[..., m::-1])
     return out
 
 
@@ -142,12 +143,12 @@ def _gauss_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
             A[rows, k], A[rows, piv] = A[rows, piv], A[rows, k].copy()
             x[rows, k], x[rows, piv] = x[rows, piv], x[rows, k].copy()
         with np.errstate(divide="ignore", invalid="ignore"):
-            f = A[:, k + 1:, k] / A[:, k:k + 1, k]
-        A[:, k + 1:, k:] -= f[:, :, None] * A[:, None, k, k:]
-        x[:, k + 1:] -= f * x[:, k:k + 1]
+            f = A[:, k + 1 :, k] / A[:, k : k + 1, k]
+        A[:, k + 1 :, k:] -= f[:, :, None] * A[:, None, k, k:]
+        x[:, k + 1 :] -= f * x[:, k : k + 1]
     for k in range(n - 1, -1, -1):
         with np.errstate(divide="ignore", invalid="ignore"):
-            x[:, k] = (x[:, k] - np.einsum("bj,bj->b", A[:, k, k + 1:], x[:, k + 1:])) / A[:, k, k]
+            x[:, k] = (x[:, k] - np.einsum("bj,bj->b", A[:, k, k + 1 :], x[:, k + 1 :])) / A[:, k, k]
     return x
 
 
@@ -177,9 +178,10 @@ def _cs_jacobian(fun, inputs: list, order: int, coefficient: int = 0) -> np.ndar
     """
     n = len(inputs)
     nodes = inputs[0].batch_shape[0]
-    base = np.stack([np.broadcast_to(np.asarray(u.truncate(order).coeffs, dtype=complex), (nodes, order + 1))
-                     for u in inputs])                                       # (n, nodes, K)
-    pert = np.broadcast_to(base, (n,) + base.shape).copy()                   # (n dirs, n, nodes, K)
+    base = np.stack(
+        [np.broadcast_to(np.asarray(u.truncate(order).coeffs, dtype=complex), (nodes, order + 1)) for u in inputs]
+    )  # (n, nodes, K)
+    pert = np.broadcast_to(base, (n,) + base.shape).copy()  # (n dirs, n, nodes, K)
     for j in range(n):
         pert[j, j, :, coefficient] += 1j * _STEP
     outs = fun([Series(pert[:, j]) for j in range(n)])
@@ -195,6 +197,7 @@ def _cs_jacobian(fun, inputs: list, order: int, coefficient: int = 0) -> np.ndar
 
 
 # ----------------------------------------------------------------------------- the map G and its Jacobian
+
 
 def pad_h(h: HValues, nodes: int, order: int) -> np.ndarray:
     """Coefficients (6, nodes, order + 1) of H values (floats or series), zero-padded: ``G~``'s padding.
@@ -220,8 +223,7 @@ def _as_h(c: np.ndarray) -> HValues:
     return HValues(*(Series(ci) for ci in c))
 
 
-def h_jacobian(problem: FlatProblem, t_nodes: np.ndarray, order: int, sol: NodeSolution,
-               H: np.ndarray) -> np.ndarray:
+def h_jacobian(problem: FlatProblem, t_nodes: np.ndarray, order: int, sol: NodeSolution, H: np.ndarray) -> np.ndarray:
     """Exact Jacobian of ``G~`` at the H that produced ``sol``, on the truncated coefficients.
 
     Parameters
@@ -278,18 +280,18 @@ def h_jacobian(problem: FlatProblem, t_nodes: np.ndarray, order: int, sol: NodeS
         return out
 
     u2 = [s[k].truncate(N) for k in ("alpha", "beta", "mu", "F")]
-    jac2 = _cs_jacobian(r2, u2 + [Series(c) for c in H], N)               # (4, 10, nodes, N+1)
+    jac2 = _cs_jacobian(r2, u2 + [Series(c) for c in H], N)  # (4, 10, nodes, N+1)
     S2 = -_block_toeplitz(_series_matmul(_series_inverse(jac2[:, :4]), jac2[:, 4:]), N, N)  # d(a, b, mu, F)/dH
 
     def r3(v):
         return list(stage3(v[0], v[1], v[2], gamma2, chi2))
 
-    P0 = _cs_jacobian(r3, u2[:3], N)[..., :N]                              # (3, 3, nodes, N): order N-1
+    P0 = _cs_jacobian(r3, u2[:3], N)[..., :N]  # (3, 3, nodes, N): order N-1
     Pt = _cs_jacobian(r3, u2[:3], N, coefficient=1)[..., :N]
     P1 = Pt.copy()
-    P1[..., 1:] -= P0[..., :-1]                                            # direction t: P0 t + P1
+    P1[..., 1:] -= P0[..., :-1]  # direction t: P0 t + P1
     M3 = _block_toeplitz(P0, N - 1, N) + _mm(_block_toeplitz(P1, N - 1, N - 1), _derivative_matrix(3, N))
-    Spqr = _mm(M3, S2[:, :3 * (N + 1)])                                        # (nodes, 3N, 6(N+1))
+    Spqr = _mm(M3, S2[:, : 3 * (N + 1)])  # (nodes, 3N, 6(N+1))
 
     # Stage 4: moment equations at order K4 (full model), as in planners.flat.parametrize.
     p, q, r = s["p"], s["q"], s["r"]
@@ -309,18 +311,23 @@ def h_jacobian(problem: FlatProblem, t_nodes: np.ndarray, order: int, sol: NodeS
         return [a_p - pdd, a_q - qdd, a_r - rdd]
 
     names4 = ("dl", "dm", "dn") if problem.eta is not None else ("dl", "dm", "eta")
-    in4 = ([s[k].truncate(K4) for k in ("alpha", "beta", "mu", "F", "p", "q", "r")]
-           + [pd.truncate(K4), qd.truncate(K4), rd.truncate(K4)] + [s[k].truncate(K4) for k in names4])
-    jac4 = _cs_jacobian(r4, in4, K4)                                       # (3, 13, nodes, K4+1)
-    rhs = (_mm(_block_toeplitz(jac4[:, :4], K4, K4), _mm(_resize_matrix(4, N, K4), S2))
-           + _mm(_block_toeplitz(jac4[:, 4:7], K4, K4), _mm(_resize_matrix(3, N - 1, K4), Spqr))
-           + _mm(_block_toeplitz(jac4[:, 7:10], K4, K4), _mm(_derivative_matrix(3, N - 1), Spqr)))
-    Sv = -_mm(_block_toeplitz(_series_inverse(jac4[:, 10:]), K4, K4), rhs)    # (nodes, 3(K4+1), 6(N+1))
+    in4 = (
+        [s[k].truncate(K4) for k in ("alpha", "beta", "mu", "F", "p", "q", "r")]
+        + [pd.truncate(K4), qd.truncate(K4), rd.truncate(K4)]
+        + [s[k].truncate(K4) for k in names4]
+    )
+    jac4 = _cs_jacobian(r4, in4, K4)  # (3, 13, nodes, K4+1)
+    rhs = (
+        _mm(_block_toeplitz(jac4[:, :4], K4, K4), _mm(_resize_matrix(4, N, K4), S2))
+        + _mm(_block_toeplitz(jac4[:, 4:7], K4, K4), _mm(_resize_matrix(3, N - 1, K4), Spqr))
+        + _mm(_block_toeplitz(jac4[:, 7:10], K4, K4), _mm(_derivative_matrix(3, N - 1), Spqr))
+    )
+    Sv = -_mm(_block_toeplitz(_series_inverse(jac4[:, 10:]), K4, K4), rhs)  # (nodes, 3(K4+1), 6(N+1))
 
-    n_surf = 3 if problem.eta is not None else 2                           # a fixed rudder is not an unknown
+    n_surf = 3 if problem.eta is not None else 2  # a fixed rudder is not an unknown
     dG = np.zeros((nodes, 6, N + 1, 6 * (N + 1)))
     dG[:, :3, :N] = Spqr.reshape(nodes, 3, N, -1)
-    dG[:, 3:3 + n_surf, :K4 + 1] = Sv.reshape(nodes, 3, K4 + 1, -1)[:, :n_surf]
+    dG[:, 3 : 3 + n_surf, : K4 + 1] = Sv.reshape(nodes, 3, K4 + 1, -1)[:, :n_surf]
     return dG.reshape(nodes, 6 * (N + 1), 6 * (N + 1))
 
 
@@ -362,8 +369,7 @@ def g_residual(sol: NodeSolution, H: np.ndarray) -> np.ndarray:
     return H - pad_h(sol.h_values(), nodes, N)
 
 
-def plan_newton(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int = 1, tol: float = 1e-12,
-                maxiter: int = 8):
+def plan_newton(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int = 1, tol: float = 1e-12, maxiter: int = 8):
     """Iterates of Newton's method on ``H = G~(H)`` at the fixed-point method's starting order.
 
     Parameters

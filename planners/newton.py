@@ -8,8 +8,8 @@ operator on series (:func:`newton_series`) and its report.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
@@ -18,8 +18,18 @@ from gna.solve import COMPLEX_STEP, NewtonResult, batched_solve, jacobian, newto
 from . import series as _series_kernels
 from .series_tape import TapedResidual
 
-__all__ = ["PAPER_TOL", "PAPER_MAXITER", "NewtonResult", "NewtonFailure", "SeriesNewtonReport", "batched_solve",
-           "doubling_orders", "jacobian", "newton", "newton_series"]
+__all__ = [
+    "PAPER_TOL",
+    "PAPER_MAXITER",
+    "NewtonResult",
+    "NewtonFailure",
+    "SeriesNewtonReport",
+    "batched_solve",
+    "doubling_orders",
+    "jacobian",
+    "newton",
+    "newton_series",
+]
 
 #: The paper's failure rule (section "Newton operator with series"):
 #: a residual above this after ``PAPER_MAXITER`` iterations is reported.
@@ -107,10 +117,12 @@ class NewtonFailure:
     @property
     def message(self) -> str:
         """The warning text: unknowns, failed times, worst residual and its time."""
-        return (f"Newton ({', '.join(self.names)}) did not reach {_exponent_form(self.tol)} after {self.maxiter} "
-                f"iterations at {self.n_nodes} node(s), t = {_time_ranges(self.times, self.nodes)} s; worst "
-                f"residual {self.worst_residual:.3g} at t = {self.worst_time:.6g} s (trajectory too close to a "
-                f"singularity of the flat output, or outside what the aircraft can fly?)")
+        return (
+            f"Newton ({', '.join(self.names)}) did not reach {_exponent_form(self.tol)} after {self.maxiter} "
+            f"iterations at {self.n_nodes} node(s), t = {_time_ranges(self.times, self.nodes)} s; worst "
+            f"residual {self.worst_residual:.3g} at t = {self.worst_time:.6g} s (trajectory too close to a "
+            f"singularity of the flat output, or outside what the aircraft can fly?)"
+        )
 
 
 @dataclass
@@ -184,14 +196,14 @@ def _series_solve(Jc: np.ndarray, Gc: np.ndarray) -> np.ndarray:
     K = Gc.shape[-1]
     batch = Gc.shape[1:-1]
     B = Gc[0, ..., 0].size
-    J0 = Jc[..., 0].reshape(n, n, B).transpose(2, 0, 1)              # (B, n, n), a view
+    J0 = Jc[..., 0].reshape(n, n, B).transpose(2, 0, 1)  # (B, n, n), a view
     try:
         J0inv = np.linalg.inv(J0)
     except np.linalg.LinAlgError:
         # A singular node (reported by the caller's warnings): least-squares step there.
         J0inv = np.linalg.pinv(J0)
-    Jr = Jc.reshape(n, n, B, K).transpose(2, 0, 1, 3)                # (B, n, n, K), a view
-    Gr = Gc.reshape(n, B, K).transpose(1, 0, 2)                      # (B, n, K), a view
+    Jr = Jc.reshape(n, n, B, K).transpose(2, 0, 1, 3)  # (B, n, n, K), a view
+    Gr = Gc.reshape(n, B, K).transpose(1, 0, 2)  # (B, n, K), a view
     D = _series_kernels._K.series_solve(Jr, J0inv, Gr)
     return D.transpose(1, 0, 2).reshape((n,) + batch + (K,))
 
@@ -209,13 +221,17 @@ def _residual_and_jacobian(residual: Callable, stacked: np.ndarray, k: int) -> t
     n = stacked.shape[0]
     batch = stacked.shape[1:-1]
     h = COMPLEX_STEP
-    pert = np.broadcast_to(stacked, (n,) + stacked.shape).astype(complex)             # (n, n, *batch, K)
+    pert = np.broadcast_to(stacked, (n,) + stacked.shape).astype(complex)  # (n, n, *batch, K)
     for j in range(n):
         pert[j, j, ..., 0] += 1j * h
     us = [Series(pert[:, j]) for j in range(n)]
     rs = residual(us, k)
-    R = np.stack([np.broadcast_to(r.coeffs if isinstance(r, Series) else np.asarray(r)[..., None],
-                                  (n,) + batch + (k + 1,)) for r in rs])  # (neq, n, *batch, K)
+    R = np.stack(
+        [
+            np.broadcast_to(r.coeffs if isinstance(r, Series) else np.asarray(r)[..., None], (n,) + batch + (k + 1,))
+            for r in rs
+        ]
+    )  # (neq, n, *batch, K)
     return np.real(R[:, 0]), np.imag(R) / h
 
 
@@ -224,14 +240,28 @@ def _usable_jacobian(jacobian, neq: int, n: int, batch: tuple, K: int):
     if jacobian is None:
         return None
     Jc = np.asarray(jacobian)
-    if Jc.ndim != 3 + len(batch) or Jc.shape[:2] != (neq, n) or tuple(Jc.shape[2:-1]) != tuple(batch) \
-            or Jc.shape[-1] < K or not np.all(np.isfinite(Jc[..., :K])):
+    if (
+        Jc.ndim != 3 + len(batch)
+        or Jc.shape[:2] != (neq, n)
+        or tuple(Jc.shape[2:-1]) != tuple(batch)
+        or Jc.shape[-1] < K
+        or not np.all(np.isfinite(Jc[..., :K]))
+    ):
         return None
     return Jc[..., :K]
 
 
-def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray, tol: float, names: tuple,
-                 maxsteps: int = WARM_MAXSTEPS, carried=None, const_fun=None):
+def _warm_newton(
+    residual: Callable,
+    base: list,
+    order: int,
+    t_nodes: np.ndarray,
+    tol: float,
+    names: tuple,
+    maxsteps: int = WARM_MAXSTEPS,
+    carried=None,
+    const_fun=None,
+):
     """Newton's iteration on series at the full working order from a close start, or None.
 
     From a start close in every coefficient (the previous generalized-flatness iterate, whose H
@@ -270,8 +300,14 @@ def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray
     n = len(base)
     batch = base[0].batch_shape
     K = order + 1
-    stacked = np.stack([np.broadcast_to(np.real(u.truncate(order).coeffs if u.order >= order else
-                                                u.pad(order).coeffs), batch + (K,)) for u in base]).astype(float)
+    stacked = np.stack(
+        [
+            np.broadcast_to(
+                np.real(u.truncate(order).coeffs if u.order >= order else u.pad(order).coeffs), batch + (K,)
+            )
+            for u in base
+        ]
+    ).astype(float)
     t = np.ravel(np.asarray(t_nodes, dtype=float))
     step = float(np.min(np.diff(t))) if t.size > 1 and np.all(np.diff(t) > 0) else 1.0
     weights = step ** np.arange(K)
@@ -302,7 +338,7 @@ def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray
         size = float(np.max(np.abs(G) * weights))
         if last is not None and not size < last:
             if newton_step:
-                return None   # a Newton step that does not decrease the residual
+                return None  # a Newton step that does not decrease the residual
             # A chord step that made it worse: back to where the residual was smaller, a Newton step there.
             stacked, Jc, last, theta = before, None, None, 0.0
             continue
@@ -316,14 +352,14 @@ def _warm_newton(residual: Callable, base: list, order: int, t_nodes: np.ndarray
             bound = 1.0
             break
         if proof and last is not None and theta * size <= CHORD_PROOF * tol:
-            bound = theta   # the contraction bounds the residual of the new point
+            bound = theta  # the contraction bounds the residual of the new point
             break
         if last is not None and np.log(tol / size) / np.log(theta) > CHORD_STEPS:
-            Jc, last = None, size   # the chord contracts too slowly: a Newton step next
+            Jc, last = None, size  # the chord contracts too slowly: a Newton step next
         else:
             last = size
     else:
-        return None   # still above the tolerance after maxsteps evaluations
+        return None  # still above the tolerance after maxsteps evaluations
     if not np.all(np.isfinite(stacked)):
         return None
     u = [Series(stacked[j]) for j in range(n)]
@@ -342,8 +378,14 @@ def _residual_only(residual: Callable, stacked: np.ndarray, k: int) -> np.ndarra
 
     batch = stacked.shape[1:-1]
     rs = residual([Series(stacked[j]) for j in range(stacked.shape[0])], k)
-    return np.stack([np.broadcast_to(np.real(r.coeffs) if isinstance(r, Series) else np.real(np.asarray(r))[..., None],
-                                     batch + (k + 1,)) for r in rs])
+    return np.stack(
+        [
+            np.broadcast_to(
+                np.real(r.coeffs) if isinstance(r, Series) else np.real(np.asarray(r))[..., None], batch + (k + 1,)
+            )
+            for r in rs
+        ]
+    )
 
 
 def _series_residual_of(residual: Callable, u: list, order: int, batch: tuple) -> np.ndarray:
@@ -351,9 +393,22 @@ def _series_residual_of(residual: Callable, u: list, order: int, batch: tuple) -
     from .series import Series
 
     final = residual(u, order)
-    return np.max(np.stack([np.max(np.abs(np.broadcast_to(r.coeffs if isinstance(r, Series) else
-                                                          np.asarray(r)[..., None], batch + (order + 1,))),
-                                   axis=-1) for r in final]), axis=0)
+    return np.max(
+        np.stack(
+            [
+                np.max(
+                    np.abs(
+                        np.broadcast_to(
+                            r.coeffs if isinstance(r, Series) else np.asarray(r)[..., None], batch + (order + 1,)
+                        )
+                    ),
+                    axis=-1,
+                )
+                for r in final
+            ]
+        ),
+        axis=0,
+    )
 
 
 def doubling_orders(order: int) -> list:
@@ -383,9 +438,18 @@ def doubling_orders(order: int) -> list:
     return out[::-1]
 
 
-def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-12,
-                  maxiter: int = PAPER_MAXITER, names: tuple = (), t_nodes=None, warm: bool = False,
-                  jacobian=None):
+def newton_series(
+    residual: Callable,
+    u0: list,
+    order: int,
+    *,
+    tol: float = 1e-12,
+    maxiter: int = PAPER_MAXITER,
+    names: tuple = (),
+    t_nodes=None,
+    warm: bool = False,
+    jacobian=None,
+):
     """Solve ``residual(u) = 0`` for power series ``u`` (batched over nodes) up to ``order``.
 
     First the constant terms are found by a damped Newton iteration on the
@@ -435,14 +499,18 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
     from .series import Series
 
     n = len(u0)
-    residual = TapedResidual(residual)   # traced once per working order, replayed on the following evaluations
+    residual = TapedResidual(residual)  # traced once per working order, replayed on the following evaluations
     base = [u if isinstance(u, Series) else Series.constant(np.asarray(u, dtype=float), 0) for u in u0]
     batch = base[0].batch_shape
     t_nodes = np.arange(int(np.prod(batch))) if t_nodes is None else np.asarray(t_nodes)
 
     def const_fun(x):
-        return np.stack([np.broadcast_to(r.coeffs[..., 0] if isinstance(r, Series) else r, x.shape[1:])
-                         for r in residual(list(x), 0)])
+        return np.stack(
+            [
+                np.broadcast_to(r.coeffs[..., 0] if isinstance(r, Series) else r, x.shape[1:])
+                for r in residual(list(x), 0)
+            ]
+        )
 
     if warm and order > 0:
         done = _warm_newton(residual, base, order, t_nodes, tol, names, carried=jacobian, const_fun=const_fun)
@@ -474,8 +542,18 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
     failed = np.flatnonzero(~(flat_r <= PAPER_TOL))  # NaN fails too
     if failed.size:
         worst = int(failed[np.argmax(flat_r[failed])])
-        failures.append(NewtonFailure(tuple(names), failed, flat_t[failed], flat_r[failed], float(flat_r[worst]),
-                                      float(flat_t[worst]), maxiter, PAPER_TOL))
+        failures.append(
+            NewtonFailure(
+                tuple(names),
+                failed,
+                flat_t[failed],
+                flat_r[failed],
+                float(flat_r[worst]),
+                float(flat_t[worst]),
+                maxiter,
+                PAPER_TOL,
+            )
+        )
 
     # Lift to series by precision doubling.
     def padded(u: Series, k: int) -> Series:
@@ -490,16 +568,21 @@ def newton_series(residual: Callable, u0: list, order: int, *, tol: float = 1e-1
     Jc = None
     for k in orders:
         cur = [ui.truncate(k) for ui in u]
-        stacked = np.stack([np.broadcast_to(ci.coeffs, batch + (k + 1,)) for ci in cur])   # (n, *batch, K)
+        stacked = np.stack([np.broadcast_to(ci.coeffs, batch + (k + 1,)) for ci in cur])  # (n, *batch, K)
         G, Jc = _residual_and_jacobian(residual, stacked, k)
         D = _series_solve(Jc, G)
         u = [Series(stacked[j] - D[j]) for j in range(n)]
-        u = [Series(np.concatenate([ui.coeffs, padded(base[j], order).coeffs[..., k + 1:]], axis=-1))
-             if k < order else ui for j, ui in enumerate(u)]
+        u = [
+            Series(np.concatenate([ui.coeffs, padded(base[j], order).coeffs[..., k + 1 :]], axis=-1))
+            if k < order
+            else ui
+            for j, ui in enumerate(u)
+        ]
 
     def series_residual() -> np.ndarray:
         return _series_residual_of(residual, u, order, batch)
 
-    rep = SeriesNewtonReport(tuple(names), t_nodes, cres, its, series_residual, orders,
-                             [f.message for f in failures], failures, jacobian=Jc)
+    rep = SeriesNewtonReport(
+        tuple(names), t_nodes, cres, its, series_residual, orders, [f.message for f in failures], failures, jacobian=Jc
+    )
     return u, rep

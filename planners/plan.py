@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pandas as pd
@@ -70,7 +70,7 @@ DEFAULT_INTERPOLATION = "hermite"
 HERMITE_MAX_ORDER = 8
 
 
-@lru_cache(maxsize=None)
+@cache
 def hermite_matrix(m: int) -> np.ndarray:
     """Monomial coefficients of the two-point Hermite interpolant on ``[0, 1]`` from Taylor data at both ends.
 
@@ -102,7 +102,7 @@ def hermite_matrix(m: int) -> np.ndarray:
     rows += [[Fraction(math.comb(j, k)) for j in range(n)] for k in range(m + 1)]
     inv = _rational_inverse(rows)
     out = np.array([[float(v) for v in r] for r in inv])
-    out.setflags(write=False)               # cached: shared by every caller
+    out.setflags(write=False)  # cached: shared by every caller
     return out
 
 
@@ -122,7 +122,7 @@ def _rational_inverse(a: list) -> list:
     return [r[n:] for r in aug]
 
 
-@lru_cache(maxsize=None)
+@cache
 def _shift_matrix(K: int) -> np.ndarray:
     """``T`` with ``sum_k B_k (w - 1)^k = sum_j (T @ B)_j w^j`` for ``k, j = 0..K``."""
     T = np.zeros((K + 1, K + 1))
@@ -163,22 +163,23 @@ def interval_coefficients(a: np.ndarray, b: np.ndarray, h: np.ndarray, interpola
         An unknown ``interpolation``.
     """
     K = a.shape[-1] - 1
-    scale = h[:, None] ** np.arange(K + 1)                 # Taylor coefficients in w = s / h
+    scale = h[:, None] ** np.arange(K + 1)  # Taylor coefficients in w = s / h
     A = a * scale[:, None, :]
     B = b * scale[:, None, :]
     if interpolation == "hermite":
         m = min(K, HERMITE_MAX_ORDER)
         M = hermite_matrix(m)
-        c = np.einsum("jk,nvk->nvj", M, np.concatenate([A[..., :m + 1], B[..., :m + 1]], axis=-1))
+        c = np.einsum("jk,nvk->nvj", M, np.concatenate([A[..., : m + 1], B[..., : m + 1]], axis=-1))
     elif interpolation == "paper":
         Bw = np.einsum("jk,nvk->nvj", _shift_matrix(K), B)
         c = np.zeros(A.shape[:-1] + (K + 2,))
-        c[..., :K + 1] = A                                  # (1 - w) A(w) + w B(w - 1), w = s / h
+        c[..., : K + 1] = A  # (1 - w) A(w) + w B(w - 1), w = s / h
         c[..., 1:] -= A
         c[..., 1:] += Bw
     else:
-        raise InputError(f"interpolation must be one of {', '.join(repr(v) for v in INTERPOLATIONS)}, "
-                         f"got {interpolation!r}")
+        raise InputError(
+            f"interpolation must be one of {', '.join(repr(v) for v in INTERPOLATIONS)}, got {interpolation!r}"
+        )
     d = c.shape[-1]
     return c / h[:, None, None] ** np.arange(d)
 
@@ -203,8 +204,9 @@ def check_interpolation(value, where: str = "plan") -> str:
         Any other value.
     """
     if not isinstance(value, str) or value not in INTERPOLATIONS:
-        raise InputError(f"{where}: interpolation must be one of {', '.join(repr(v) for v in INTERPOLATIONS)}, "
-                         f"got {value!r}")
+        raise InputError(
+            f"{where}: interpolation must be one of {', '.join(repr(v) for v in INTERPOLATIONS)}, got {value!r}"
+        )
     return value
 
 
@@ -396,12 +398,12 @@ class Plan:
                 c = np.real(np.asarray(sol.series[n].coeffs))
                 c = np.broadcast_to(c, (len(tn), c.shape[-1]))
                 if self.interpolation == "hermite" and n in CONTROL_NAMES:
-                    c = c[:, :k_controls + 1]
+                    c = c[:, : k_controls + 1]
                 polys.append(interval_coefficients(c[:-1, None, :], c[1:, None, :], h, self.interpolation)[:, 0])
             d = max(p.shape[-1] for p in polys)
             out = np.zeros((len(tn) - 1, len(names), d))
             for i, p in enumerate(polys):
-                out[:, i, :p.shape[-1]] = p
+                out[:, i, : p.shape[-1]] = p
             cache[key] = out
         return cache[key]
 
@@ -409,8 +411,9 @@ class Plan:
         t_arr = np.atleast_1d(np.asarray(t, dtype=float))
         lo, hi = self.t0, self.t1
         if np.any(t_arr < lo - 1e-9 * max(1.0, abs(lo))) or np.any(t_arr > hi + 1e-9 * max(1.0, abs(hi))):
-            raise InputError(f"time outside the plan [{lo:g}, {hi:g}] s: "
-                             f"{float(t_arr.min()):g} .. {float(t_arr.max()):g}")
+            raise InputError(
+                f"time outside the plan [{lo:g}, {hi:g}] s: {float(t_arr.min()):g} .. {float(t_arr.max()):g}"
+            )
         return t_arr
 
     def _evaluate_many(self, names: tuple, t, j: int = -1, derivative: int = 0) -> np.ndarray:
@@ -451,8 +454,10 @@ class Plan:
             c = self._coefficients(names, j)
             if not np.all(np.isfinite(c)):
                 bad = int(np.argmax(~np.all(np.isfinite(c), axis=(1, 2))))
-                raise InputError(f"plan {self.name}, iterate j = {j}: non-finite series at t = "
-                                 f"{self.t_nodes[bad]:g} s (a node where Newton failed)")
+                raise InputError(
+                    f"plan {self.name}, iterate j = {j}: non-finite series at t = "
+                    f"{self.t_nodes[bad]:g} s (a node where Newton failed)"
+                )
             cache[key] = PlanFunctions(np.asarray(self.t_nodes, dtype=float), c)
         return cache[key]
 
@@ -493,13 +498,13 @@ class Plan:
             self._iterate(j)
             try:
                 f = self.piecewise(CONTROL_NAMES, j)
-            except InputError:      # non-finite series (an infeasible plan): the general path below
+            except InputError:  # non-finite series (an infeasible plan): the general path below
                 pass
             else:
                 t = float(t)
                 lo, hi = self.t0, self.t1
                 if not lo - 1e-9 * max(1.0, abs(lo)) <= t <= hi + 1e-9 * max(1.0, abs(hi)):
-                    self._check_times(t)        # raises, naming the plan's span
+                    self._check_times(t)  # raises, naming the plan's span
                 return f(t)
         out = self._evaluate_many(CONTROL_NAMES, t, j)
         return out if np.ndim(t) else out[:, 0]
@@ -584,7 +589,7 @@ class Plan:
             t = self.t_nodes
         t = np.asarray(t, dtype=float)
         names = PLAN_VARIABLES if variables is None else tuple(variables)
-        vals = self._evaluate_many(names, t, j)       # (len(names), N): one float block
+        vals = self._evaluate_many(names, t, j)  # (len(names), N): one float block
         return pd.DataFrame(vals.T, columns=list(names), index=pd.Index(t, name="t"))
 
     def node_values(self, j: int = -1) -> tuple[State, Controls]:
@@ -671,8 +676,10 @@ class Plan:
                 h = HValues(*(np.real(prev[n].constant_term) for n in ("p", "q", "r", "dl", "dm", "dn")))
         f = derivatives(self.aircraft, self.env, st, ct, model, h)
         d = self.node_derivatives(j)
-        return pd.DataFrame({n: np.asarray(a) - np.asarray(b) for n, a, b in zip(STATE_NAMES, d, f)},
-                            index=pd.Index(self.t_nodes, name="t"))
+        return pd.DataFrame(
+            {n: np.asarray(a) - np.asarray(b) for n, a, b in zip(STATE_NAMES, d, f)},
+            index=pd.Index(self.t_nodes, name="t"),
+        )
 
     def convergence_table(self, variables=("F", "dl", "dm", "dn"), times=None) -> pd.DataFrame:
         """Values of ``variables`` at ``times`` for every iterate j = 0..J (the paper's aileron-roll table).
@@ -705,10 +712,12 @@ class Plan:
         One :class:`~planners.newton.NewtonFailure` per iterate and stage that failed, in the
         order j = 0..J, stage 2 before stage 4, with its ``iterate`` and ``stage`` filled in.
         """
-        return [replace(f, stage=stage, iterate=j)
-                for j, it in enumerate(self.iterates)
-                for stage, rep in it.reports.items()
-                for f in getattr(rep, "failures", ())]
+        return [
+            replace(f, stage=stage, iterate=j)
+            for j, it in enumerate(self.iterates)
+            for stage, rep in it.reports.items()
+            for f in getattr(rep, "failures", ())
+        ]
 
     @property
     def newton_failures(self) -> list[str]:

@@ -77,18 +77,19 @@ refused with the closest known one); their values are checked by
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
 from gna.aircraft import Aircraft, load_aircraft
-from gna.atmosphere import ConstantDensity, Environment, ISA
-from gna.ground_effect import GroundEffect
+from gna.atmosphere import ISA, ConstantDensity, Environment
 from gna.catalogue import bundled
 from gna.eom import HValues
 from gna.errors import GflatError, InputError
+from gna.ground_effect import GroundEffect
 from gna.perturbation import Perturbation, perturbation_from_dict
 from gna.schema import check_name, find_file, load_schema, read_toml, unknown_key_message, validate
 
@@ -96,7 +97,6 @@ from .expressions import CONSTANTS, FUNCTIONS, Expression, compile_expression
 from .flat import FLAT_KINDS, FlatOutput, FlatProblem, check_iterations
 from .generalized import AUTO_J, AUTO_J_MAX, AUTO_J_TOL, check_output_order
 from .plan import DEFAULT_INTERPOLATION, check_interpolation
-
 
 #: Largest grid accepted (memory: every node carries ~20 series of order up to 5 + 2J).
 MAX_NODES = 20000
@@ -195,8 +195,9 @@ class Scenario:
             Aircraft, environment, flat outputs, eta or fixed rudder, first-iterate H values and
             stage-2 starting values.
         """
-        return FlatProblem(self.aircraft, self.env, self.x, self.y, self.z, self.zeta, self.eta, self.dn, self.h,
-                           self.start)
+        return FlatProblem(
+            self.aircraft, self.env, self.x, self.y, self.z, self.zeta, self.eta, self.dn, self.h, self.start
+        )
 
 
 def _catalogue() -> dict[str, Path]:
@@ -249,13 +250,16 @@ def load_scenario(name_or_path: str | Path, J: int | None = None) -> Scenario:
     cat = _catalogue()
     path = find_file(name_or_path, cat, "scenario")
     if path is None:
-        raise InputError(f"unknown scenario {str(name_or_path)!r}; bundled scenarios: {', '.join(cat)} "
-                         f"(or give the path of a .toml file)")
+        raise InputError(
+            f"unknown scenario {str(name_or_path)!r}; bundled scenarios: {', '.join(cat)} "
+            f"(or give the path of a .toml file)"
+        )
     return scenario_from_dict(read_toml(path), where=path.name, J=J, path=str(path))
 
 
-def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int | None = None,
-                       path: str | None = None) -> Scenario:
+def scenario_from_dict(
+    data: Mapping[str, Any], where: str = "scenario", J: int | None = None, path: str | None = None
+) -> Scenario:
     """Build a :class:`Scenario` from the parsed TOML structure.
 
     Parameters
@@ -310,11 +314,13 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
         raise InputError(f"{where} [time]: step must be in (0, t1 - t0], got {step}")
     n_steps = (t1 - t0) / step
     if n_steps > MAX_NODES:
-        raise InputError(f"{where} [time]: {n_steps:.0f} steps exceed the limit of {MAX_NODES} nodes; "
-                         f"use a larger step")
+        raise InputError(
+            f"{where} [time]: {n_steps:.0f} steps exceed the limit of {MAX_NODES} nodes; use a larger step"
+        )
     if abs(n_steps - round(n_steps)) > 1e-9 * n_steps:
-        raise InputError(f"{where} [time]: step {step:g} s does not divide the span {t1 - t0:g} s "
-                         f"({n_steps:.6g} steps)")
+        raise InputError(
+            f"{where} [time]: step {step:g} s does not divide the span {t1 - t0:g} s ({n_steps:.6g} steps)"
+        )
     fo = data["flat_outputs"]
 
     def expr(key, default=...):
@@ -329,10 +335,15 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
         raise InputError(f"{where} [flat_outputs]: zeta must be one of {', '.join(FLAT_KINDS)}, got {kind!r}")
     for key in ("f1", "f2"):
         if key in fo and kind != "mix":
-            raise InputError(f"{where} [flat_outputs]: {key} = {fo[key]!r} is used only with zeta = 'mix' "
-                             f"(here zeta = {kind!r})")
-    zeta = FlatOutput(kind, expr("zeta_value", compile_expression(0.0)),
-                      expr("f1", None) if kind == "mix" else None, expr("f2", None) if kind == "mix" else None)
+            raise InputError(
+                f"{where} [flat_outputs]: {key} = {fo[key]!r} is used only with zeta = 'mix' (here zeta = {kind!r})"
+            )
+    zeta = FlatOutput(
+        kind,
+        expr("zeta_value", compile_expression(0.0)),
+        expr("f1", None) if kind == "mix" else None,
+        expr("f2", None) if kind == "mix" else None,
+    )
     eta = expr("eta", None)
     dn = expr("dn", None)
     if eta is None and dn is None:
@@ -341,8 +352,10 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
     J_file = _iterations(gen.get("J", 0), f"{where} [generalized]")
     stray = [k for k in ("J_tol", "J_max") if k in gen and J_file != AUTO_J]
     if stray:
-        raise InputError(f"{where} [generalized]: {' and '.join(stray)} {'apply' if len(stray) > 1 else 'applies'} only to J = \"auto\" (here J = "
-                         f"{J_file}); remove {'them' if len(stray) > 1 else 'it'} or set J = \"auto\"")
+        raise InputError(
+            f'{where} [generalized]: {" and ".join(stray)} {"apply" if len(stray) > 1 else "applies"} only to J = "auto" (here J = '
+            f'{J_file}); remove {"them" if len(stray) > 1 else "it"} or set J = "auto"'
+        )
     J = J_file if J is None else _iterations(J, "J (given instead of the file's)")
     e = check_output_order(gen.get("e", 1), f"{where} [generalized]")
     interpolation = check_interpolation(gen.get("interpolation", DEFAULT_INTERPOLATION), f"{where} [generalized]")
@@ -358,27 +371,53 @@ def scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int 
         hv = data["h"]
         h = HValues(*(_num(hv, k, f"{where} [h]", 0.0) for k in ("p", "q", "r", "dl", "dm", "dn")))
     if cal is not None:
-        h, start = _calibrate(aircraft, env, cal, f"{where} [calibration]", -float(np.mean(
-            np.broadcast_to(expr("z")(np.linspace(t0, t1, 5)), (5,)))))
+        h, start = _calibrate(
+            aircraft,
+            env,
+            cal,
+            f"{where} [calibration]",
+            -float(np.mean(np.broadcast_to(expr("z")(np.linspace(t0, t1, 5)), (5,)))),
+        )
     rep = data.get("report", {})
     times = rep.get("times", [])
-    if not isinstance(times, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                                              and t0 <= v <= t1 for v in times):
+    if not isinstance(times, list) or not all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and t0 <= v <= t1 for v in times
+    ):
         raise InputError(f"{where} [report]: times must be a list of numbers within [{t0:g}, {t1:g}], got {times!r}")
     from .plan import PLAN_VARIABLES
+
     rvars = rep.get("variables", ["F", "dl", "dm", "dn"])
     if not isinstance(rvars, list) or any(v not in PLAN_VARIABLES for v in rvars):
         raise InputError(f"{where} [report]: variables must be among {', '.join(PLAN_VARIABLES)}, got {rvars!r}")
-    return Scenario(name=name,
-                    description=str(data.get("description", "")), aircraft=aircraft, env=env, t0=t0, t1=t1,
-                    step=step, x=expr("x"), y=expr("y"), z=expr("z"), zeta=zeta, eta=eta, dn=dn, J=J, h=h,
-                    e=e, interpolation=interpolation, J_tol=J_tol, J_max=J_max,
-                    calibration=dict(cal) if cal is not None else None, start=start,
-                    report_times=[float(v) for v in times], report_variables=[str(v) for v in rvars],
-                    raw=dict(data), path=path,
-                    tracking=_tracking(data.get("tracking", {}), kind, J_max if J == AUTO_J else J,
-                                       f"{where} [tracking]"),
-                    compare=_compare(data.get("compare", {}), f"{where} [compare]"))
+    return Scenario(
+        name=name,
+        description=str(data.get("description", "")),
+        aircraft=aircraft,
+        env=env,
+        t0=t0,
+        t1=t1,
+        step=step,
+        x=expr("x"),
+        y=expr("y"),
+        z=expr("z"),
+        zeta=zeta,
+        eta=eta,
+        dn=dn,
+        J=J,
+        h=h,
+        e=e,
+        interpolation=interpolation,
+        J_tol=J_tol,
+        J_max=J_max,
+        calibration=dict(cal) if cal is not None else None,
+        start=start,
+        report_times=[float(v) for v in times],
+        report_variables=[str(v) for v in rvars],
+        raw=dict(data),
+        path=path,
+        tracking=_tracking(data.get("tracking", {}), kind, J_max if J == AUTO_J else J, f"{where} [tracking]"),
+        compare=_compare(data.get("compare", {}), f"{where} [compare]"),
+    )
 
 
 def _compare(table: Any, where: str) -> Mapping:
@@ -396,7 +435,7 @@ def _iterations(J, where: str) -> int | str:
     if isinstance(J, str) and J == AUTO_J:
         return J
     if isinstance(J, str):
-        raise InputError(f"{where}: J must be a whole number, got {J!r} (0 to 30, or \"auto\")")
+        raise InputError(f'{where}: J must be a whole number, got {J!r} (0 to 30, or "auto")')
     return check_iterations(J, where)
 
 
@@ -411,8 +450,10 @@ def _tracking(table: Mapping[str, Any], kind: str, J: int, where: str) -> Tracki
     if isinstance(lam, Mapping):
         for key in lam:
             if key not in names:
-                raise InputError(unknown_key_message(key, names, f"{where} lambdas") +
-                                 (" (no I4 with the thrust flat output F)" if key == "I4" else ""))
+                raise InputError(
+                    unknown_key_message(key, names, f"{where} lambdas")
+                    + (" (no I4 with the thrust flat output F)" if key == "I4" else "")
+                )
         lists = []
         for name, n in zip(names, lengths):
             if name not in lam:
@@ -428,8 +469,9 @@ def _tracking(table: Mapping[str, Any], kind: str, J: int, where: str) -> Tracki
     if isinstance(it, bool) or not isinstance(it, int):
         raise InputError(f"{where}: feedforward_iterate must be a whole number, got {it!r}")
     if not -(J + 1) <= it <= J:
-        raise InputError(f"{where}: feedforward_iterate = {it} is not an iterate of the plan "
-                         f"(0..{J}, or -1 for the last)")
+        raise InputError(
+            f"{where}: feedforward_iterate = {it} is not an iterate of the plan (0..{J}, or -1 for the last)"
+        )
     sat = table.get("saturate", True)
     if not isinstance(sat, bool):
         raise InputError(f"{where}: saturate must be true or false, got {sat!r}")
@@ -437,13 +479,19 @@ def _tracking(table: Mapping[str, Any], kind: str, J: int, where: str) -> Tracki
     if isinstance(cdt, str) and cdt == "step":
         cdt = None
     elif isinstance(cdt, bool) or not isinstance(cdt, (int, float)) or not (math.isfinite(cdt) and cdt > 0):
-        raise InputError(f"{where}: controller_dt must be a positive number of seconds or \"step\" (every engine "
-                         f"step), got {cdt!r}")
+        raise InputError(
+            f'{where}: controller_dt must be a positive number of seconds or "step" (every engine step), got {cdt!r}'
+        )
     pert = table.get("perturbation")
     if pert is not None:
         pert = perturbation_from_dict(pert, f"{where[:-1]}.perturbation]")
-    return Tracking(lambdas=lam, feedforward_iterate=int(it), saturate=sat,
-                    controller_dt=None if cdt is None else float(cdt), perturbation=pert)
+    return Tracking(
+        lambdas=lam,
+        feedforward_iterate=int(it),
+        saturate=sat,
+        controller_dt=None if cdt is None else float(cdt),
+        perturbation=pert,
+    )
 
 
 def _lambda(v: Any, where: str) -> float:
@@ -458,20 +506,23 @@ def _environment(table: Mapping[str, Any], where: str) -> Environment:
     ge = None
     if "ground_effect" in table:  # [environment.ground_effect]: present = on (gna.ground_effect)
         t, w = table["ground_effect"], f"{where[:-1]}.ground_effect]"
-        ge = GroundEffect(_num(t, "elevation", w, 0.0), _num(t, "oswald", w, 0.8),
-                          _num(t, "section_lift_slope", w, 2.0 * math.pi))
+        ge = GroundEffect(
+            _num(t, "elevation", w, 0.0), _num(t, "oswald", w, 0.8), _num(t, "section_lift_slope", w, 2.0 * math.pi)
+        )
     if kind == "isa":
         if "rho" in table:
-            raise InputError(f"{where}: rho = {table['rho']!r} is used only with density = 'constant' "
-                             f"(here density = 'isa')")
+            raise InputError(
+                f"{where}: rho = {table['rho']!r} is used only with density = 'constant' (here density = 'isa')"
+            )
         return Environment(ISA(), g, ge)
     if kind == "constant":
         return Environment(ConstantDensity(_num(table, "rho", where)), g, ge)
     raise InputError(f"{where}: density must be 'isa' or 'constant', got {kind!r}")
 
 
-def _calibrate(aircraft: Aircraft, env: Environment, cal: Mapping[str, Any], where: str,
-               altitude: float) -> tuple[HValues, dict]:
+def _calibrate(
+    aircraft: Aircraft, env: Environment, cal: Mapping[str, Any], where: str, altitude: float
+) -> tuple[HValues, dict]:
     """H values from a full-model steady-flight calibration (paper: "calibration functions"),
     and the calibration's alpha, beta, mu as stage-2 starting values."""
     from gna.trim import trim
@@ -483,5 +534,4 @@ def _calibrate(aircraft: Aircraft, env: Environment, cal: Mapping[str, Any], whe
     except GflatError as exc:
         raise InputError(f"{where}: calibration failed: {exc}") from None
     v = t.values
-    return (HValues(v["p"], v["q"], v["r"], v["dl"], v["dm"], v["dn"]),
-            {k: v[k] for k in ("alpha", "beta", "mu")})
+    return (HValues(v["p"], v["q"], v["r"], v["dl"], v["dm"], v["dn"]), {k: v[k] for k in ("alpha", "beta", "mu")})

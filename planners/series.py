@@ -65,7 +65,8 @@ import importlib.util
 import math
 import numbers
 import os
-from typing import Any, Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -84,6 +85,7 @@ _NO_TRUTH_MSG = (
 # N = flattened batch size.  They never modify their inputs.
 # ---------------------------------------------------------------------------
 
+
 def _mul_kernel(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Truncated Cauchy product of two (m, N) coefficient arrays.
 
@@ -99,10 +101,10 @@ def _mul_kernel(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         # complex einsum is slow: m row updates c_(j..) += a_j b_(..m-j) are about 2x faster here
         out = np.multiply(a[0], b, dtype=dt)
         for j in range(1, m):
-            out[j:] += a[j] * b[:m - j]
+            out[j:] += a[j] * b[: m - j]
         return out
     bp = np.zeros((2 * m - 1, n_b), dt)
-    bp[m - 1:] = b
+    bp[m - 1 :] = b
     s0, s1 = bp.strides
     window = np.ndarray((m, m, n_b), dt, buffer=bp, strides=(s0, s0, s1))
     return np.einsum("kwb,wb->kb", window, a[::-1])
@@ -118,7 +120,7 @@ def _div_kernel(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         nb = np.multiply(b[1:], -ib0, dtype=dt)
         tmp = np.empty(n_b, dt)
         for k in range(1, m):
-            np.einsum("jb,jb->b", nb[:k], q[k - 1::-1], out=tmp)
+            np.einsum("jb,jb->b", nb[:k], q[k - 1 :: -1], out=tmp)
             q[k] += tmp
     return q
 
@@ -142,7 +144,7 @@ def _pow_kernel(u: np.ndarray, p: complex | float, c0: np.ndarray | None = None)
         ut = u[1:] / u[0]
         w = _ratio_weights(m, p + 1, 1.0).astype(dt, copy=False)
         for k in range(1, m):
-            np.einsum("j,jb,jb->b", w[k - 1, :k], ut[:k], c[k - 1::-1], out=c[k])
+            np.einsum("j,jb,jb->b", w[k - 1, :k], ut[:k], c[k - 1 :: -1], out=c[k])
     return c
 
 
@@ -159,7 +161,7 @@ def _pow_array_kernel(u: np.ndarray, p: np.ndarray) -> np.ndarray:
         p1 = p + 1
         d = np.empty((2, n_b), dt)
         for k in range(1, m):
-            np.einsum("jib,jb->ib", v[:k], c[k - 1::-1], out=d)
+            np.einsum("jib,jb->ib", v[:k], c[k - 1 :: -1], out=d)
             c[k] = (p1 / k) * d[0] - d[1]
     return c
 
@@ -172,7 +174,7 @@ def _exp_kernel(u: np.ndarray, c0: np.ndarray | None = None) -> np.ndarray:
     if m > 1:
         w = _ratio_weights(m).astype(u.dtype, copy=False)
         for k in range(1, m):
-            np.einsum("j,jb,jb->b", w[k - 1, :k], u[1:k + 1], e[k - 1::-1], out=e[k])
+            np.einsum("j,jb,jb->b", w[k - 1, :k], u[1 : k + 1], e[k - 1 :: -1], out=e[k])
     if c0 is not None:
         e[0] = c0
     return e
@@ -197,7 +199,7 @@ def _sincos_kernel(u: np.ndarray, hyperbolic: bool) -> tuple[np.ndarray, np.ndar
         fac[:, 1, 0] = inv_k if hyperbolic else -inv_k
         d = np.empty((2, n_b), u.dtype)
         for k in range(1, m):
-            np.einsum("jb,ijb->ib", v[:k], pair[:, k - 1::-1], out=d)
+            np.einsum("jb,ijb->ib", v[:k], pair[:, k - 1 :: -1], out=d)
             np.multiply(d[::-1], fac[k - 1], out=pair[:, k])
     return pair[0], pair[1]
 
@@ -214,9 +216,9 @@ def _tan_kernel(u: np.ndarray, hyperbolic: bool) -> np.ndarray:
         ratio = _ratio_weights(m).astype(u.dtype, copy=False)
         signs = np.full(m, sign, u.dtype)
         for k in range(1, m):
-            np.einsum("j,jb,jb->b", ratio[k - 1, :k], u[1:k + 1], w[k - 1::-1], out=t[k])
+            np.einsum("j,jb,jb->b", ratio[k - 1, :k], u[1 : k + 1], w[k - 1 :: -1], out=t[k])
             if k < m - 1:
-                np.einsum("j,jb,jb->b", signs[:k + 1], t[:k + 1], t[k::-1], out=w[k])
+                np.einsum("j,jb,jb->b", signs[: k + 1], t[: k + 1], t[k::-1], out=w[k])
     return t
 
 
@@ -266,13 +268,14 @@ def _small_gemm(w: np.ndarray, x: np.ndarray) -> np.ndarray:
         return w @ x
     out = np.empty((p, n), np.result_type(w, x))
     for j in range(0, n, block):
-        np.matmul(w, x[:, j:j + block], out=out[:, j:j + block])
+        np.matmul(w, x[:, j : j + block], out=out[:, j : j + block])
     return out
 
 
 # ---------------------------------------------------------------------------
 # Shape helpers for internal (coefficient-first) arrays
 # ---------------------------------------------------------------------------
+
 
 def _flat(c: np.ndarray) -> np.ndarray:
     """(m,)+batch -> (m, N)."""
@@ -327,6 +330,7 @@ def _factorials(m: int) -> np.ndarray:
 # Backends: the numpy reference kernels above, or their compiled (numba) versions
 # ---------------------------------------------------------------------------
 
+
 def _series_solve_kernel(J: np.ndarray, J0inv: np.ndarray, G: np.ndarray) -> np.ndarray:
     """Order by order ``D_m = J_0^{-1} (G_m - sum_{l=1..m} J_l D_{m-l})``.
 
@@ -336,7 +340,7 @@ def _series_solve_kernel(J: np.ndarray, J0inv: np.ndarray, G: np.ndarray) -> np.
     D = np.zeros_like(G)
     D[..., 0] = np.einsum("bij,bj->bi", J0inv, G[..., 0])
     for mth in range(1, K):
-        rhs = G[..., mth] - np.einsum("bijl,bjl->bi", J[..., 1:mth + 1], D[..., mth - 1::-1])
+        rhs = G[..., mth] - np.einsum("bijl,bjl->bi", J[..., 1 : mth + 1], D[..., mth - 1 :: -1])
         D[..., mth] = np.einsum("bij,bj->bi", J0inv, rhs)
     return D
 
@@ -376,7 +380,7 @@ class _NumpyKernels:
             x, y = (a, b) if ra == 1 else (b, a)
             out = np.multiply(x[0], y, dtype=dt)
             for j in range(1, m):
-                out[j:] += x[j] * y[:m - j]
+                out[j:] += x[j] * y[: m - j]
             return out
         af, bf, shape = _full3(a, b)
         return _mul_kernel(af, bf).reshape(shape)
@@ -414,8 +418,9 @@ class _NumpyKernels:
 _F8, _C16 = np.dtype(np.float64), np.dtype(np.complex128)
 
 
-_OTHER_FLOATS = frozenset(np.dtype(t) for t in (np.float16, np.float32, np.longdouble, np.complex64,
-                                                  np.clongdouble)) - {_F8, _C16}
+_OTHER_FLOATS = frozenset(
+    np.dtype(t) for t in (np.float16, np.float32, np.longdouble, np.complex64, np.clongdouble)
+) - {_F8, _C16}
 
 
 def _kernel_dtype(*arrays: Any) -> np.dtype | None:
@@ -444,6 +449,7 @@ def _sc() -> Any:
     compiled code cost a few tenths of a second: paid by the first series operation of the compiled
     backend, not by every ``import planners``)."""
     from . import _series_compiled
+
     return _series_compiled
 
 
@@ -586,11 +592,13 @@ def _select_backend() -> str:
     """
     want = os.environ.get(BACKEND_ENV, "").strip().lower() or "numpy"
     if want not in BACKENDS:
-        raise InputError(f"environment variable {BACKEND_ENV}={want!r}: the series backend must be one of "
-                         f"{', '.join(BACKENDS)}")
+        raise InputError(
+            f"environment variable {BACKEND_ENV}={want!r}: the series backend must be one of {', '.join(BACKENDS)}"
+        )
     if want == "compiled" and importlib.util.find_spec("numba") is None:
-        raise InputError(f"environment variable {BACKEND_ENV}=compiled needs numba (pip install numba, or the "
-                         f"'fast' extra)")
+        raise InputError(
+            f"environment variable {BACKEND_ENV}=compiled needs numba (pip install numba, or the 'fast' extra)"
+        )
     return want
 
 
@@ -602,6 +610,7 @@ _K = _CompiledKernels if BACKEND == "compiled" else _NumpyKernels
 # ---------------------------------------------------------------------------
 # The Series class
 # ---------------------------------------------------------------------------
+
 
 class Series:
     """Batch of truncated power series ``sum_k c_k (t - t0)^k + O((t - t0)^(n+1))``.
@@ -640,15 +649,14 @@ class Series:
         elif arr.dtype.kind not in "fc":
             raise TypeError(f"Series coefficients must be real or complex numbers, got dtype {arr.dtype}")
         if arr.ndim == 0 or arr.shape[-1] == 0:
-            raise ValueError("Series coefficients need a last axis of length order + 1 >= 1, "
-                             f"got shape {arr.shape}")
+            raise ValueError(f"Series coefficients need a last axis of length order + 1 >= 1, got shape {arr.shape}")
         c = np.array(_coeff_axis_first(arr), order="C", copy=True)
         c.flags.writeable = False
         self._c = c
         self._memo: dict | None = None
 
     @classmethod
-    def _wrap(cls, c: np.ndarray) -> "Series":
+    def _wrap(cls, c: np.ndarray) -> Series:
         """Wrap an internal coefficient-first array without copying."""
         s = object.__new__(cls)
         c.flags.writeable = False
@@ -659,7 +667,7 @@ class Series:
     # ------------------------------------------------------------------ construction
 
     @classmethod
-    def constant(cls, values: Any, order: int) -> "Series":
+    def constant(cls, values: Any, order: int) -> Series:
         """Constant series ``values + 0 t + ...``.
 
         Parameters
@@ -681,7 +689,7 @@ class Series:
         return cls._wrap(c)
 
     @classmethod
-    def variable(cls, t0: Any, order: int) -> "Series":
+    def variable(cls, t0: Any, order: int) -> Series:
         """The series of ``t`` itself around ``t0``: coefficients ``[t0, 1, 0, ...]``.
 
         Parameters
@@ -703,7 +711,7 @@ class Series:
         return s
 
     @classmethod
-    def from_derivatives(cls, derivs: Any) -> "Series":
+    def from_derivatives(cls, derivs: Any) -> Series:
         """Series whose k-th derivative at ``t0`` is ``derivs[..., k]``.
 
         Parameters
@@ -720,17 +728,17 @@ class Series:
             d = d.astype(np.float64)
         return cls(d / _factorials(d.shape[-1]))
 
-    def zeros_like(self) -> "Series":
+    def zeros_like(self) -> Series:
         """Zero series with the same order, batch shape and dtype."""
         return Series._wrap(np.zeros_like(self._c))
 
-    def ones_like(self) -> "Series":
+    def ones_like(self) -> Series:
         """Constant series 1 with the same order, batch shape and dtype."""
         c = np.zeros_like(self._c)
         c[0] = 1
         return Series._wrap(c)
 
-    def astype(self, dtype: Any) -> "Series":
+    def astype(self, dtype: Any) -> Series:
         """Copy with coefficients cast to ``dtype`` (e.g. ``complex`` for a complex step)."""
         return Series._wrap(self._c.astype(dtype))
 
@@ -766,12 +774,12 @@ class Series:
         return self.coeffs * _factorials(self._c.shape[0])
 
     @property
-    def real(self) -> "Series":
+    def real(self) -> Series:
         """Series of the real parts of the coefficients."""
         return Series._wrap(np.ascontiguousarray(self._c.real))
 
     @property
-    def imag(self) -> "Series":
+    def imag(self) -> Series:
         """Series of the imaginary parts of the coefficients (zeros if real)."""
         return Series._wrap(np.ascontiguousarray(self._c.imag))
 
@@ -798,7 +806,7 @@ class Series:
 
     # ------------------------------------------------------------------ batch handling
 
-    def __getitem__(self, index: Any) -> "Series":
+    def __getitem__(self, index: Any) -> Series:
         """Index the batch axes (numpy semantics); the coefficient axis is kept."""
         if not isinstance(index, tuple):
             index = (index,)
@@ -811,19 +819,19 @@ class Series:
             raise TypeError("iteration over a series with a 0-d batch")
         return (self[i] for i in range(self.batch_shape[0]))
 
-    def reshape(self, *shape: Any) -> "Series":
+    def reshape(self, *shape: Any) -> Series:
         """Series with the batch reshaped to ``shape`` (numpy semantics, ``-1`` allowed)."""
         if len(shape) == 1 and isinstance(shape[0], (tuple, list)):
             shape = tuple(shape[0])
         return Series._wrap(self._c.reshape((self._c.shape[0],) + tuple(shape)))
 
-    def broadcast_to(self, shape: Any) -> "Series":
+    def broadcast_to(self, shape: Any) -> Series:
         """Series with the batch broadcast to ``shape`` (read-only view)."""
         shape = (shape,) if isinstance(shape, numbers.Integral) else tuple(shape)
         return Series._wrap(_bcast(self._c, shape))
 
     @staticmethod
-    def _common_parts(items: Sequence["Series"]) -> list[np.ndarray]:
+    def _common_parts(items: Sequence[Series]) -> list[np.ndarray]:
         """Internal arrays of ``items`` truncated to their smallest order."""
         if not items or not all(isinstance(s, Series) for s in items):
             raise TypeError("expected a non-empty sequence of Series")
@@ -831,7 +839,7 @@ class Series:
         return [s._c[:m] for s in items]
 
     @staticmethod
-    def stack(series: Iterable["Series"], axis: int = 0) -> "Series":
+    def stack(series: Iterable[Series], axis: int = 0) -> Series:
         """Stack series along a new batch axis.
 
         Parameters
@@ -854,7 +862,7 @@ class Series:
         return Series._wrap(np.stack([_bcast(p, shape) for p in parts], axis=ax))
 
     @staticmethod
-    def concatenate(series: Iterable["Series"], axis: int = 0) -> "Series":
+    def concatenate(series: Iterable[Series], axis: int = 0) -> Series:
         """Concatenate series along an existing batch axis (truncated to the smallest order)."""
         parts = Series._common_parts(list(series))
         nd = parts[0].ndim - 1
@@ -863,13 +871,13 @@ class Series:
         ax = axis + 1 if axis >= 0 else axis
         return Series._wrap(np.concatenate(parts, axis=ax))
 
-    def truncate(self, order: int) -> "Series":
+    def truncate(self, order: int) -> Series:
         """The same series truncated to a lower ``order`` (``0 <= order <= self.order``)."""
         if not 0 <= order <= self.order:
             raise ValueError(f"cannot truncate a series of order {self.order} to order {order}")
-        return Series._wrap(self._c[:order + 1])
+        return Series._wrap(self._c[: order + 1])
 
-    def pad(self, order: int) -> "Series":
+    def pad(self, order: int) -> Series:
         """The same polynomial as a series of higher ``order`` (zero coefficients appended).
 
         Padding adds no information: the new coefficients are zeros, not the
@@ -878,7 +886,7 @@ class Series:
         if order < self.order:
             raise ValueError(f"cannot pad a series of order {self.order} to order {order}")
         c = np.zeros((order + 1,) + self.batch_shape, self.dtype)
-        c[:self._c.shape[0]] = self._c
+        c[: self._c.shape[0]] = self._c
         return Series._wrap(c)
 
     # ------------------------------------------------------------------ evaluation / calculus
@@ -928,7 +936,7 @@ class Series:
             r = r * dt + c[j]
         return r
 
-    def shift(self, dt: Any) -> "Series":
+    def shift(self, dt: Any) -> Series:
         """Re-expand the truncated polynomial around ``t0 + dt`` (same order).
 
         Parameters
@@ -952,16 +960,16 @@ class Series:
         e = np.ones(shape, out.dtype)
         for p in range(1, m):
             e = e * dt / p
-            out[:m - p] += e * d[p:]
+            out[: m - p] += e * d[p:]
         return Series._wrap(out / fact)
 
-    def derivative(self) -> "Series":
+    def derivative(self) -> Series:
         """Derivative ``d/dt`` as a series of order ``n - 1``."""
         if self.order < 1:
             raise ValueError("an order-0 series carries no derivative information")
         return Series._wrap(_unflat(_diff_kernel(_flat(self._c)), self.batch_shape))
 
-    def integral(self, c0: Any = 0.0) -> "Series":
+    def integral(self, c0: Any = 0.0) -> Series:
         """Antiderivative with constant term ``c0``, a series of order ``n + 1``.
 
         Parameters
@@ -975,7 +983,7 @@ class Series:
         return Series._wrap(_unflat(r, shape))
 
     @staticmethod
-    def linear_combinations(weights: Any, items: Sequence[Any]) -> list["Series"]:
+    def linear_combinations(weights: Any, items: Sequence[Any]) -> list[Series]:
         """Rows of a weight matrix applied to a list of series and constants, ``sum_j w[i, j] items[j]``.
 
         One matrix product on the coefficient-first storage (the aerodynamic model's coefficients
@@ -1020,14 +1028,14 @@ class Series:
                 stack[i, 0] = x
             elif c.shape[1:] == shape:
                 stack[i] = c[:m]
-            else:   # leading batch axes of length 1: the assignment broadcasts them
+            else:  # leading batch axes of length 1: the assignment broadcasts them
                 stack[i] = c[:m].reshape((m,) + (1,) * (len(shape) - c.ndim + 1) + c.shape[1:])
         flat = stack.reshape(len(items), -1)
         out = _small_gemm(w, flat.view(np.float64) if dt.kind == "c" else flat)
         out = out.view(dt).reshape((w.shape[0], m) + shape)
         return [Series._wrap(out[i]) for i in range(w.shape[0])]
 
-    def compose(self, g: "Series") -> "Series":
+    def compose(self, g: Series) -> Series:
         """Composition ``f(g(t)) = sum_k c_k g(t)^k`` (Horner in series arithmetic).
 
         Parameters
@@ -1057,7 +1065,7 @@ class Series:
 
     # ------------------------------------------------------------------ elementary functions
 
-    def _apply(self, kernel: Callable[[np.ndarray], np.ndarray]) -> "Series":
+    def _apply(self, kernel: Callable[[np.ndarray], np.ndarray]) -> Series:
         return Series._wrap(_unflat(kernel(_flat(self._c)), self.batch_shape))
 
     def _memoised(self, key: str, compute: Callable[[], Any]) -> Any:
@@ -1068,31 +1076,31 @@ class Series:
             val = self._memo[key] = compute()
         return val
 
-    def square(self) -> "Series":
+    def square(self) -> Series:
         """``self * self``."""
         u = _flat(self._c)
         return Series._wrap(_unflat(_K.mul(u, u), self.batch_shape))
 
-    def reciprocal(self) -> "Series":
+    def reciprocal(self) -> Series:
         """``1 / self`` (requires a non-zero constant term)."""
         u = _flat(self._c)
         one = np.zeros_like(u)
         one[0] = 1.0
         return Series._wrap(_unflat(_K.div(one, u), self.batch_shape))
 
-    def sqrt(self) -> "Series":
+    def sqrt(self) -> Series:
         """Principal square root (requires a non-zero constant term)."""
         return self._apply(lambda u: _K.pow(u, 0.5, np.sqrt(u[0])))
 
-    def exp(self) -> "Series":
+    def exp(self) -> Series:
         """Exponential."""
         return self._apply(_K.exp)
 
-    def expm1(self) -> "Series":
+    def expm1(self) -> Series:
         """``exp(self) - 1`` with an accurate constant term."""
         return self._apply(lambda u: _K.exp(u, np.expm1(u[0])))
 
-    def _log_like(self, c0_fun: Callable, shift_one: bool) -> "Series":
+    def _log_like(self, c0_fun: Callable, shift_one: bool) -> Series:
         def kernel(u: np.ndarray) -> np.ndarray:
             c0 = c0_fun(u[0])
             if u.shape[0] == 1:
@@ -1102,56 +1110,62 @@ class Series:
                 den = den.copy()
                 den[0] += 1.0
             return _int_kernel(_K.div(_diff_kernel(u), den), c0)
+
         return self._apply(kernel)
 
-    def log(self) -> "Series":
+    def log(self) -> Series:
         """Principal natural logarithm, ``log(c0) + integral(u'/u)``."""
         return self._log_like(np.log, False)
 
-    def log1p(self) -> "Series":
+    def log1p(self) -> Series:
         """``log(1 + self)``, ``log1p(c0) + integral(u'/(1+u))``."""
         return self._log_like(np.log1p, True)
 
-    def sincos(self) -> tuple["Series", "Series"]:
+    def sincos(self) -> tuple[Series, Series]:
         """``(sin(self), cos(self))`` by the coupled recurrence (memoised)."""
+
         def compute() -> tuple[Series, Series]:
             s, c = _K.sincos(_flat(self._c), hyperbolic=False)
             return Series._wrap(_unflat(s, self.batch_shape)), Series._wrap(_unflat(c, self.batch_shape))
+
         return self._memoised("sincos", compute)
 
-    def sin(self) -> "Series":
+    def sin(self) -> Series:
         """Sine."""
         return self.sincos()[0]
 
-    def cos(self) -> "Series":
+    def cos(self) -> Series:
         """Cosine."""
         return self.sincos()[1]
 
-    def sinhcosh(self) -> tuple["Series", "Series"]:
+    def sinhcosh(self) -> tuple[Series, Series]:
         """``(sinh(self), cosh(self))`` by the coupled recurrence (memoised)."""
+
         def compute() -> tuple[Series, Series]:
             s, c = _K.sincos(_flat(self._c), hyperbolic=True)
             return Series._wrap(_unflat(s, self.batch_shape)), Series._wrap(_unflat(c, self.batch_shape))
+
         return self._memoised("sinhcosh", compute)
 
-    def sinh(self) -> "Series":
+    def sinh(self) -> Series:
         """Hyperbolic sine."""
         return self.sinhcosh()[0]
 
-    def cosh(self) -> "Series":
+    def cosh(self) -> Series:
         """Hyperbolic cosine."""
         return self.sinhcosh()[1]
 
-    def tan(self) -> "Series":
+    def tan(self) -> Series:
         """Tangent, by the recurrence of ``t' = (1 + t^2) u'``."""
         return self._apply(lambda u: _K.tan(u, hyperbolic=False))
 
-    def tanh(self) -> "Series":
+    def tanh(self) -> Series:
         """Hyperbolic tangent, by the recurrence of ``t' = (1 - t^2) u'``."""
         return self._apply(lambda u: _K.tan(u, hyperbolic=True))
 
-    def arctan(self) -> "Series":
+    def arctan(self) -> Series:
         """Arc tangent, ``arctan(c0) + integral(u'/(1 + u^2))``."""
+
         def kernel(u: np.ndarray) -> np.ndarray:
             c0 = np.arctan(u[0])
             if u.shape[0] == 1:
@@ -1160,9 +1174,10 @@ class Series:
             den = _K.mul(v, v)
             den[0] += 1.0
             return _int_kernel(_K.div(_diff_kernel(u), den), c0)
+
         return self._apply(kernel)
 
-    def _arcsin_like(self, c0_fun: Callable, sign: float) -> "Series":
+    def _arcsin_like(self, c0_fun: Callable, sign: float) -> Series:
         def kernel(u: np.ndarray) -> np.ndarray:
             c0 = c0_fun(u[0])
             if u.shape[0] == 1:
@@ -1174,54 +1189,55 @@ class Series:
             if sign < 0:
                 d = -d
             return _int_kernel(d, c0)
+
         return self._apply(kernel)
 
-    def arcsin(self) -> "Series":
+    def arcsin(self) -> Series:
         """Arc sine, ``arcsin(c0) + integral(u' (1 - u^2)^(-1/2))``."""
         return self._arcsin_like(np.arcsin, 1.0)
 
-    def arccos(self) -> "Series":
+    def arccos(self) -> Series:
         """Arc cosine, ``arccos(c0) - integral(u' (1 - u^2)^(-1/2))``."""
         return self._arcsin_like(np.arccos, -1.0)
 
     # ------------------------------------------------------------------ operators
 
-    def __neg__(self) -> "Series":
+    def __neg__(self) -> Series:
         return Series._wrap(-self._c)
 
-    def __pos__(self) -> "Series":
+    def __pos__(self) -> Series:
         return self
 
-    def __add__(self, other: Any) -> "Series":
+    def __add__(self, other: Any) -> Series:
         return _add(self, other)
 
-    def __radd__(self, other: Any) -> "Series":
+    def __radd__(self, other: Any) -> Series:
         return _add(other, self)
 
-    def __sub__(self, other: Any) -> "Series":
+    def __sub__(self, other: Any) -> Series:
         return _sub(self, other)
 
-    def __rsub__(self, other: Any) -> "Series":
+    def __rsub__(self, other: Any) -> Series:
         return _sub(other, self)
 
-    def __mul__(self, other: Any) -> "Series":
+    def __mul__(self, other: Any) -> Series:
         return _mul(self, other)
 
-    def __rmul__(self, other: Any) -> "Series":
+    def __rmul__(self, other: Any) -> Series:
         return _mul(other, self)
 
-    def __truediv__(self, other: Any) -> "Series":
+    def __truediv__(self, other: Any) -> Series:
         return _div(self, other)
 
-    def __rtruediv__(self, other: Any) -> "Series":
+    def __rtruediv__(self, other: Any) -> Series:
         return _div(other, self)
 
-    def __pow__(self, other: Any, modulo: Any = None) -> "Series":
+    def __pow__(self, other: Any, modulo: Any = None) -> Series:
         if modulo is not None:
             return NotImplemented
         return _pow(self, other)
 
-    def __rpow__(self, other: Any) -> "Series":
+    def __rpow__(self, other: Any) -> Series:
         return _pow(other, self)
 
     # ------------------------------------------------------------------ numpy dispatch
@@ -1246,6 +1262,7 @@ def _check_order(order: Any) -> int:
 # Binary operations (either operand may be a constant; at least one is a Series)
 # ---------------------------------------------------------------------------
 
+
 def _pair(a: Series, b: Series) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
     """Truncate to the common order and broadcast batches (internal layout views)."""
     m = min(a._c.shape[0], b._c.shape[0])
@@ -1269,10 +1286,10 @@ def _pair3(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[
         n = math.prod(sa)
         return a[:m].reshape(m, 1, n), b[:m].reshape(m, 1, n), sa
     la, lb = len(sa), len(sb)
-    if lb < la and sa[la - lb:] == sb:
+    if lb < la and sa[la - lb :] == sb:
         n = math.prod(sb)
         return a[:m].reshape(m, -1, n) if n else a[:m].reshape(m, 1, 0), b[:m].reshape(m, 1, n), sa
-    if la < lb and sb[lb - la:] == sa:
+    if la < lb and sb[lb - la :] == sa:
         n = math.prod(sa)
         return a[:m].reshape(m, 1, n), b[:m].reshape(m, -1, n) if n else b[:m].reshape(m, 1, 0), sb
     shape = np.broadcast_shapes(sa, sb)
@@ -1452,7 +1469,7 @@ def _pow(x: Any, y: Any) -> Series:
         p = p.reshape(()).item()
         if isinstance(p, complex) and p.imag == 0:
             p = p.real
-        if isinstance(p, (bool, int)) or (isinstance(p, float) and p.is_integer() and abs(p) < 2 ** 31):
+        if isinstance(p, (bool, int)) or (isinstance(p, float) and p.is_integer() and abs(p) < 2**31):
             return _int_power(x, int(p))
         if p == 0.5:
             return x.sqrt()
@@ -1499,6 +1516,7 @@ def _hypot(x: Any, y: Any) -> Series:
 def _unary(name: str) -> Callable[[Any], Any]:
     def impl(x: Any) -> Any:
         return getattr(x, name)() if isinstance(x, Series) else NotImplemented
+
     return impl
 
 
@@ -1513,10 +1531,27 @@ _UFUNCS: dict[np.ufunc, Callable[..., Any]] = {
     np.positive: lambda x: x,
     np.arctan2: _arctan2,
     np.hypot: _hypot,
-    **{getattr(np, name): _unary(name) for name in (
-        "square", "reciprocal", "sqrt", "exp", "expm1", "log", "log1p", "sin", "cos", "tan",
-        "arcsin", "arccos", "arctan", "sinh", "cosh", "tanh")},
+    **{
+        getattr(np, name): _unary(name)
+        for name in (
+            "square",
+            "reciprocal",
+            "sqrt",
+            "exp",
+            "expm1",
+            "log",
+            "log1p",
+            "sin",
+            "cos",
+            "tan",
+            "arcsin",
+            "arccos",
+            "arctan",
+            "sinh",
+            "cosh",
+            "tanh",
+        )
+    },
 }
 
-_COMPARISON_UFUNCS = frozenset({np.less, np.less_equal, np.greater, np.greater_equal,
-                                np.equal, np.not_equal})
+_COMPARISON_UFUNCS = frozenset({np.less, np.less_equal, np.greater, np.greater_equal, np.equal, np.not_equal})

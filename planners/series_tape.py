@@ -91,12 +91,23 @@ Design choices, measured (``python benchmarks/bench_series.py --tape``: the roll
 
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
-from .series import (Series, _add_sub, _as_constant, _constant_like, _plus_constant, _pow, _scale_array,
-                     _series_div, _series_mul, _arctan2)
+from .series import (
+    Series,
+    _add_sub,
+    _arctan2,
+    _as_constant,
+    _constant_like,
+    _plus_constant,
+    _pow,
+    _scale_array,
+    _series_div,
+    _series_mul,
+)
 
 __all__ = ["TapedResidual", "TraceError", "SeriesTape", "WHEN", "trace"]
 
@@ -109,6 +120,7 @@ class TraceError(Exception):
 # The internal-array functions the instructions call (each one is what the eager Series path calls)
 # ---------------------------------------------------------------------------
 
+
 def _rsub_constant(b: np.ndarray, const: Any) -> np.ndarray:
     """``const - b``, as the eager ``_sub(const, series)``."""
     return _plus_constant(-b, const)
@@ -116,24 +128,42 @@ def _rsub_constant(b: np.ndarray, const: Any) -> np.ndarray:
 
 def _method(name: str) -> Callable[[np.ndarray], np.ndarray]:
     """``Series.<name>()`` on an internal array (one output)."""
+
     def fn(a: np.ndarray) -> np.ndarray:
         return getattr(Series._wrap(a), name)()._c
+
     fn.__name__ = name
     return fn
 
 
 def _pair_method(name: str) -> Callable[[np.ndarray], tuple]:
     """``Series.<name>()`` returning a pair (``sincos``, ``sinhcosh``) on an internal array."""
+
     def fn(a: np.ndarray) -> tuple:
         s, c = getattr(Series._wrap(a), name)()
         return s._c, c._c
+
     fn.__name__ = name
     return fn
 
 
-_METHODS = {name: _method(name) for name in (
-    "square", "reciprocal", "sqrt", "exp", "expm1", "log", "log1p", "tan", "tanh", "arctan", "arcsin",
-    "arccos")}
+_METHODS = {
+    name: _method(name)
+    for name in (
+        "square",
+        "reciprocal",
+        "sqrt",
+        "exp",
+        "expm1",
+        "log",
+        "log1p",
+        "tan",
+        "tanh",
+        "arctan",
+        "arcsin",
+        "arccos",
+    )
+}
 _PAIRS = {name: _pair_method(name) for name in ("sincos", "sinhcosh")}
 
 
@@ -153,6 +183,7 @@ def _linear_combinations(weights: np.ndarray, spec: tuple, *args: Any) -> tuple:
 # Recording
 # ---------------------------------------------------------------------------
 
+
 class _Recorder:
     """The program under construction: the constants (by slot) and the instructions.
 
@@ -162,13 +193,13 @@ class _Recorder:
     """
 
     def __init__(self) -> None:
-        self.values: list = []          # constants by slot; None for the slots of traced values
-        self.instrs: list = []          # (fn, argument slots, output slot or slice of slots)
-        self.const_slots: dict = {}     # constant key -> slot
+        self.values: list = []  # constants by slot; None for the slots of traced values
+        self.instrs: list = []  # (fn, argument slots, output slot or slice of slots)
+        self.const_slots: dict = {}  # constant key -> slot
         self.n_inputs = 0
-        self.false = self.true = -1     # slots of the flags False and True, after the inputs'
+        self.false = self.true = -1  # slots of the flags False and True, after the inputs'
 
-    def input(self, c: np.ndarray) -> "_Traced":
+    def input(self, c: np.ndarray) -> _Traced:
         if len(self.values) != self.n_inputs:
             raise TraceError("the inputs must be the first slots of a recording")
         self.values.append(None)
@@ -182,11 +213,11 @@ class _Recorder:
         if slot is None:
             if type(x) is _Traced:
                 raise TraceError("a value traced for another evaluation")
-            self.values.append(x)       # kept alive: its id stays its key
+            self.values.append(x)  # kept alive: its id stays its key
             slot = self.const_slots[key] = len(self.values) - 1
         return slot
 
-    def emit(self, fn: Callable, slots: tuple, args: list) -> "_Traced":
+    def emit(self, fn: Callable, slots: tuple, args: list) -> _Traced:
         """Apply ``fn`` to ``args`` (the values of ``slots``), record it, and return its traced result."""
         value = fn(*args)
         if type(value) is not np.ndarray:
@@ -315,8 +346,11 @@ def _t_mul(x: Any, y: Any) -> Any:
     if sx and sy:
         return rec.emit(_series_mul, (xs, ys), [xv, yv])
     f = rec.false
-    return rec.emit(_scale_array, (xs, ys, f), [xv, yv, False]) if sx else \
-        rec.emit(_scale_array, (ys, xs, f), [yv, xv, False])
+    return (
+        rec.emit(_scale_array, (xs, ys, f), [xv, yv, False])
+        if sx
+        else rec.emit(_scale_array, (ys, xs, f), [yv, xv, False])
+    )
 
 
 def _t_div(x: Any, y: Any) -> Any:
@@ -349,7 +383,7 @@ def _t_pow(x: Any, y: Any) -> Any:
     return _rec_of(xo).op(_pow_constant, xo, yo)
 
 
-def _promote(x: Any, like: "_Traced") -> Any:
+def _promote(x: Any, like: _Traced) -> Any:
     if _is_series_like(x):
         return x
     c = _as_constant(x)
@@ -380,16 +414,42 @@ def _t_hypot(x: Any, y: Any) -> Any:
 def _unary(name: str) -> Callable[[Any], Any]:
     def impl(x: Any) -> Any:
         return getattr(x, name)() if type(x) is _Traced else NotImplemented
+
     return impl
 
 
 _UFUNCS: dict = {
-    np.add: _t_add, np.subtract: _t_sub, np.multiply: _t_mul, np.divide: _t_div, np.power: _t_pow,
-    np.float_power: _t_pow, np.negative: lambda x: -x, np.positive: lambda x: x, np.arctan2: _t_arctan2,
+    np.add: _t_add,
+    np.subtract: _t_sub,
+    np.multiply: _t_mul,
+    np.divide: _t_div,
+    np.power: _t_pow,
+    np.float_power: _t_pow,
+    np.negative: lambda x: -x,
+    np.positive: lambda x: x,
+    np.arctan2: _t_arctan2,
     np.hypot: _t_hypot,
-    **{getattr(np, name): _unary(name) for name in (
-        "square", "reciprocal", "sqrt", "exp", "expm1", "log", "log1p", "sin", "cos", "tan", "arcsin",
-        "arccos", "arctan", "sinh", "cosh", "tanh")},
+    **{
+        getattr(np, name): _unary(name)
+        for name in (
+            "square",
+            "reciprocal",
+            "sqrt",
+            "exp",
+            "expm1",
+            "log",
+            "log1p",
+            "sin",
+            "cos",
+            "tan",
+            "arcsin",
+            "arccos",
+            "arctan",
+            "sinh",
+            "cosh",
+            "tanh",
+        )
+    },
 }
 
 
@@ -438,10 +498,10 @@ class _Traced:
         raise TraceError("iteration over a traced series")
 
     # operators, as Series'
-    def __neg__(self) -> "_Traced":
+    def __neg__(self) -> _Traced:
         return self.rec.op(np.negative, self)
 
-    def __pos__(self) -> "_Traced":
+    def __pos__(self) -> _Traced:
         return self
 
     def __add__(self, o: Any) -> Any:
@@ -497,19 +557,19 @@ class _Traced:
     def sincos(self) -> tuple:
         return self._pair("sincos")
 
-    def sin(self) -> "_Traced":
+    def sin(self) -> _Traced:
         return self._pair("sincos")[0]
 
-    def cos(self) -> "_Traced":
+    def cos(self) -> _Traced:
         return self._pair("sincos")[1]
 
     def sinhcosh(self) -> tuple:
         return self._pair("sinhcosh")
 
-    def sinh(self) -> "_Traced":
+    def sinh(self) -> _Traced:
         return self._pair("sinhcosh")[0]
 
-    def cosh(self) -> "_Traced":
+    def cosh(self) -> _Traced:
         return self._pair("sinhcosh")[1]
 
     @staticmethod
@@ -533,6 +593,7 @@ for _name in _METHODS:
 # ---------------------------------------------------------------------------
 # The program and its replay
 # ---------------------------------------------------------------------------
+
 
 class SeriesTape:
     """A traced residual: instructions on coefficient-first arrays, replayable on new unknowns.
@@ -597,7 +658,7 @@ class SeriesTape:
         """
         prog = self._prog if self._prog is not None else self._build()
         v = self._template.copy()
-        v[:self.n_inputs] = inputs
+        v[: self.n_inputs] = inputs
         get = v.__getitem__
         for fn, slots, out, release in prog:
             v[out] = fn(*map(get, slots))
@@ -632,7 +693,7 @@ def trace(residual: Callable, u: Sequence[Series], k: int) -> tuple[SeriesTape, 
         exception).
     """
     rec = _Recorder()
-    traced = [rec.input(x._c) for x in u]       # the inputs are the first slots
+    traced = [rec.input(x._c) for x in u]  # the inputs are the first slots
     rec.false, rec.true = rec.const(False), rec.const(True)
     try:
         out = residual(traced, k)
@@ -708,14 +769,19 @@ class TapedResidual:
         list
             The residuals.
         """
-        if self.when != "never" and self.reason is None and u and all(
-                type(x) is Series and x._c.shape[0] == k + 1 for x in u):
+        if (
+            self.when != "never"
+            and self.reason is None
+            and u
+            and all(type(x) is Series and x._c.shape[0] == k + 1 for x in u)
+        ):
             tape = self.tapes.get(k)
             if tape is not None:
                 if len(u) == tape.n_inputs:
                     self.counts["replay"] += 1
-                    return [Series._wrap(o) if t else o
-                            for o, t in zip(tape.run([x._c for x in u]), tape.traced_outputs)]
+                    return [
+                        Series._wrap(o) if t else o for o, t in zip(tape.run([x._c for x in u]), tape.traced_outputs)
+                    ]
             elif self.when == "first" or k in self._seen or (self.when == "first-order" and not self._seen):
                 try:
                     tape, values = trace(self.residual, u, k)

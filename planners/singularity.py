@@ -94,12 +94,16 @@ def _near_zero_times(t, v, name, what) -> list[str]:
     flips = np.flatnonzero((np.sign(v[1:]) != np.sign(v[:-1])) & big[1:] & big[:-1])
     if np.any(small):
         ts = t[small]
-        out.append(f"{name} ({what}) near zero (< {NEAR_ZERO:g} of its maximum {scale:.3g}) at "
-                   f"{_ranges(ts)}; minimum {v[small][np.argmin(np.abs(v[small]))]:.3g} at "
-                   f"t = {ts[np.argmin(np.abs(v[small]))]:.4g} s")
+        out.append(
+            f"{name} ({what}) near zero (< {NEAR_ZERO:g} of its maximum {scale:.3g}) at "
+            f"{_ranges(ts)}; minimum {v[small][np.argmin(np.abs(v[small]))]:.3g} at "
+            f"t = {ts[np.argmin(np.abs(v[small]))]:.4g} s"
+        )
     for i in flips:
-        out.append(f"{name} ({what}) changes sign between t = {t[i]:.4g} s and t = {t[i + 1]:.4g} s "
-                   f"({v[i]:.3g} -> {v[i + 1]:.3g}): the flat output is singular there")
+        out.append(
+            f"{name} ({what}) changes sign between t = {t[i]:.4g} s and t = {t[i + 1]:.4g} s "
+            f"({v[i]:.3g} -> {v[i + 1]:.3g}): the flat output is singular there"
+        )
     return out
 
 
@@ -113,10 +117,12 @@ def _singular_nodes(t, v, name, what, kind) -> list[str]:
     if not bad.any():
         return []
     i = int(np.flatnonzero(bad)[0])
-    return [f"stage 2 of the flat parametrization is singular at {_ranges(t[bad])}: {name} ({what}) = "
-            f"{float(v[i]) or 0.0:.3g} at t = {t[i]:.4g} s (numerically zero, |{name}| <= {tiny:.3g}): the force "
-            f"equations do not determine the other unknowns there -- a singularity of the fourth flat output "
-            f"zeta = {kind!r} (choose another) or too little aerodynamic force (density, speed)"]
+    return [
+        f"stage 2 of the flat parametrization is singular at {_ranges(t[bad])}: {name} ({what}) = "
+        f"{float(v[i]) or 0.0:.3g} at t = {t[i]:.4g} s (numerically zero, |{name}| <= {tiny:.3g}): the force "
+        f"equations do not determine the other unknowns there -- a singularity of the fourth flat output "
+        f"zeta = {kind!r} (choose another) or too little aerodynamic force (density, speed)"
+    ]
 
 
 def _ranges(ts) -> str:
@@ -157,12 +163,30 @@ def monitor(plan, j: int = 0) -> SingularityReport:
 
     def fun(u):
         alpha, beta, mu, F = u
-        return np.stack(np.broadcast_arrays(*force_residuals(ac, env, s["z"], s["V"], s["gamma"], s["chi"],
-                                                              d1["V"], d1["gamma"], d1["chi"], s["eta"], h,
-                                                              alpha, beta, mu, F)))
+        return np.stack(
+            np.broadcast_arrays(
+                *force_residuals(
+                    ac,
+                    env,
+                    s["z"],
+                    s["V"],
+                    s["gamma"],
+                    s["chi"],
+                    d1["V"],
+                    d1["gamma"],
+                    d1["chi"],
+                    s["eta"],
+                    h,
+                    alpha,
+                    beta,
+                    mu,
+                    F,
+                )
+            )
+        )
 
     u = np.stack([s["alpha"], s["beta"], s["mu"], s["F"]])
-    Jm = jacobian(fun, u, "complex-batched")   # (3, 4, nodes): one evaluation for the 4 columns
+    Jm = jacobian(fun, u, "complex-batched")  # (3, 4, nodes): one evaluation for the 4 columns
     idx = {"alpha": 0, "beta": 1, "mu": 2, "F": 3}
     if kind in ("beta", "mu", "F"):
         free = [v for v in ("alpha", "beta", "mu", "F") if v != kind]
@@ -173,8 +197,11 @@ def monitor(plan, j: int = 0) -> SingularityReport:
         elif kind == "beta":
             name, what, pivot = "cond_beta", "eq. cond_beta: (alpha, mu) Jacobian with F eliminated", Jm[0, idx["F"]]
         else:
-            name, what, pivot = "stalling_cond", "eq. stalling_cond: (alpha, beta) Jacobian with F eliminated", \
-                Jm[0, idx["F"]]
+            name, what, pivot = (
+                "stalling_cond",
+                "eq. stalling_cond: (alpha, beta) Jacobian with F eliminated",
+                Jm[0, idx["F"]],
+            )
         with np.errstate(divide="ignore", invalid="ignore"):
             cond = det3 / pivot
     else:
@@ -195,8 +222,9 @@ def monitor(plan, j: int = 0) -> SingularityReport:
 
     warnings = _near_zero_times(t, cond, name, what)
     if np.min(np.abs(vcg)) < 1.0:
-        warnings.append(f"V cos(gamma) below 1 m/s at {_ranges(t[np.abs(vcg) < 1.0])} (stage 1 singular: "
-                        f"vertical flight path)")
+        warnings.append(
+            f"V cos(gamma) below 1 m/s at {_ranges(t[np.abs(vcg) < 1.0])} (stage 1 singular: vertical flight path)"
+        )
     if np.min(cb) < 0.2:
         warnings.append(f"cos(beta) below 0.2 at {_ranges(t[cb < 0.2])} (stage 3 singular)")
     failures = _singular_nodes(t, np.real(cond), name, what, kind)

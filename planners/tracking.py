@@ -78,8 +78,8 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Callable
 
 import numpy as np
 
@@ -94,8 +94,7 @@ INTEGRAL_NAMES: tuple[str, ...] = ("I1", "I2", "I3", "I4")
 
 #: The paper's Twin Otter list (section "Single engine", after Martin's thesis).  The paper prints
 #: lambda_{4,5} = 4 where I4 has three factors and lambda_{3,5} is missing: read as lambda_{3,5} = 4.
-TWIN_OTTER_LAMBDAS: tuple = ((1.0, 2.0, 3.0), (1.0, 1.0, 1.0, 2.0, 3.0), (1.5, 1.5, 1.5, 3.0, 4.0),
-                             (1.0, 2.0, 3.0))
+TWIN_OTTER_LAMBDAS: tuple = ((1.0, 2.0, 3.0), (1.0, 1.0, 1.0, 2.0, 3.0), (1.5, 1.5, 1.5, 3.0, 4.0), (1.0, 2.0, 3.0))
 #: The paper's forward slip (eq. GTM_FS): lambda_{i,j} = 0.5 for the three integrals of the thrust output.
 FORWARD_SLIP_LAMBDAS: tuple = ((0.5,) * 5, (0.5,) * 5, (0.5,) * 5)
 #: The aileron roll (the paper gives none).  The roll lasts 8 s and turns at pi/2 rad/s, so the
@@ -103,8 +102,7 @@ FORWARD_SLIP_LAMBDAS: tuple = ((0.5,) * 5, (0.5,) * 5, (0.5,) * 5)
 #: decay within the manoeuvre, at about the rate the paper's Twin Otter uses), the fastest at 4 rad/s
 #: (faster gains drive the GTM's surfaces into their limits for the 5 m / 1 deg offsets of the tests,
 #: and leave the frozen-time design further from the time-varying loop).
-ROLL_LAMBDAS: tuple = ((1.0, 2.0, 3.0), (1.0, 1.5, 2.0, 3.0, 4.0), (1.0, 1.5, 2.0, 3.0, 4.0),
-                       (1.0, 2.0, 3.0))
+ROLL_LAMBDAS: tuple = ((1.0, 2.0, 3.0), (1.0, 1.5, 2.0, 3.0, 4.0), (1.0, 1.5, 2.0, 3.0, 4.0), (1.0, 2.0, 3.0))
 
 #: Indices of the angles among the 12 states (differences wrapped into (-pi, pi]).
 _ANGLE_IDX = np.array([STATE_NAMES.index(n) for n in ("gamma", "chi", "alpha", "beta", "mu")])
@@ -131,8 +129,11 @@ def paper_lambdas(name: str):
     InputError
         For another name.
     """
-    table = {"twin-otter-single-engine": TWIN_OTTER_LAMBDAS, "gtm-forward-slip": FORWARD_SLIP_LAMBDAS,
-             "gtm-aileron-roll": ROLL_LAMBDAS}
+    table = {
+        "twin-otter-single-engine": TWIN_OTTER_LAMBDAS,
+        "gtm-forward-slip": FORWARD_SLIP_LAMBDAS,
+        "gtm-aileron-roll": ROLL_LAMBDAS,
+    }
     if name not in table:
         raise InputError(f"no paper lambdas for {name!r}; known: {', '.join(table)}")
     return [list(v) for v in table[name]]
@@ -174,7 +175,6 @@ class Linearization:
         return self.A.shape[-1] - 1
 
 
-
 def _check_linearization(plan, model: str, order, j: int) -> None:
     """The arguments of a linearization along a plan (aircraft or chained system), one message each."""
     if model not in ("full", "design"):
@@ -183,6 +183,7 @@ def _check_linearization(plan, model: str, order, j: int) -> None:
         raise InputError(f"order must be a non-negative integer, got {order!r}")
     if not -len(plan.iterates) <= j < len(plan.iterates):
         raise InputError(f"iterate j = {j} not in the plan (J = {plan.J})")
+
 
 def linearize(plan: Plan, j: int = -1, *, model: str = "full", order: int = 1) -> Linearization:
     """Jacobians of :func:`gna.eom.derivatives` along iterate ``j`` of a plan, as series at the nodes.
@@ -219,19 +220,27 @@ def linearize(plan: Plan, j: int = -1, *, model: str = "full", order: int = 1) -
     order = int(min(order, min(sol.series[n].order for n in names)))
     K = order + 1
     n_nodes = len(plan.t_nodes)
-    base = np.stack([np.broadcast_to(np.real(np.asarray(sol.series[n].coeffs))[..., :K], (n_nodes, K))
-                     for n in names])                                     # (17, N, K)
+    base = np.stack(
+        [np.broadcast_to(np.real(np.asarray(sol.series[n].coeffs))[..., :K], (n_nodes, K)) for n in names]
+    )  # (17, N, K)
     if model == "design":
         hv = HValues(*(Series(base[names.index(n)]) for n in ("p", "q", "r", "dl", "dm", "dn")))
 
         def f(v):
             return derivatives(plan.aircraft, plan.env, State(*v[:12]), Controls(*v[12:]), "simple", hv)
     else:
+
         def f(v):
             return derivatives(plan.aircraft, plan.env, State(*v[:12]), Controls(*v[12:]), "full")
-    jac = series_jacobian(f, base)                                          # (N, 12, 17, K)
-    return Linearization(np.asarray(plan.t_nodes, dtype=float), np.ascontiguousarray(jac[:, :, :12]),
-                         np.ascontiguousarray(jac[:, :, 12:]), model, j % len(plan.iterates))
+
+    jac = series_jacobian(f, base)  # (N, 12, 17, K)
+    return Linearization(
+        np.asarray(plan.t_nodes, dtype=float),
+        np.ascontiguousarray(jac[:, :, :12]),
+        np.ascontiguousarray(jac[:, :, 12:]),
+        model,
+        j % len(plan.iterates),
+    )
 
 
 def series_jacobian(f, base: np.ndarray) -> np.ndarray:
@@ -256,9 +265,13 @@ def series_jacobian(f, base: np.ndarray) -> np.ndarray:
     for v in range(nv):
         pert[v + 1, v, :, 0] += 1j * h
     out = f([Series(pert[:, v]) for v in range(nv)])
-    R = np.stack([np.broadcast_to(fa.coeffs if isinstance(fa, Series) else np.asarray(fa)[..., None],
-                                  (nv + 1, n_nodes, K)) for fa in out])   # (n_out, n_in + 1, N, K)
-    jac = np.imag(R[:, 1:]) / h                                             # (n_out, n_in, N, K)
+    R = np.stack(
+        [
+            np.broadcast_to(fa.coeffs if isinstance(fa, Series) else np.asarray(fa)[..., None], (nv + 1, n_nodes, K))
+            for fa in out
+        ]
+    )  # (n_out, n_in + 1, N, K)
+    jac = np.imag(R[:, 1:]) / h  # (n_out, n_in, N, K)
     return np.moveaxis(jac, 2, 0)
 
 
@@ -339,14 +352,18 @@ def _check_lambdas(lambdas, degrees: tuple) -> tuple:
     except (TypeError, ValueError):
         raise InputError(f"lambdas must be {n_int} lists of numbers (or one number), got {lambdas!r}") from None
     if [len(row) for row in lam] != list(degrees):
-        raise InputError(f"lambdas: need {n_int} lists of lengths {', '.join(map(str, degrees))} "
-                         f"(one factor per order of the integral's relative degree), got lengths "
-                         f"{[len(row) for row in lam]}")
+        raise InputError(
+            f"lambdas: need {n_int} lists of lengths {', '.join(map(str, degrees))} "
+            f"(one factor per order of the integral's relative degree), got lengths "
+            f"{[len(row) for row in lam]}"
+        )
     for p, row in enumerate(lam):
         for k, v in enumerate(row):
             if not (math.isfinite(v) and v > 0):
-                raise InputError(f"lambda_{{{p + 1},{k + 1}}} = {v!r}: the lambdas must be positive finite numbers "
-                                 f"(poles at -lambda)")
+                raise InputError(
+                    f"lambda_{{{p + 1},{k + 1}}} = {v!r}: the lambdas must be positive finite numbers "
+                    f"(poles at -lambda)"
+                )
     return tuple(lam)
 
 
@@ -360,8 +377,10 @@ def _structure(plan: Plan):
     if kind == "F":
         inputs = ("dl", "dm", fourth)
         return INTEGRAL_NAMES[:3], (5, 5, 5), inputs, (((0, 1, 2), (0, 1, 2)),), None
-    raise InputError(f"the tracking feedback supports the flat outputs beta, mu and F (paper, subsec. "
-                     f"'Design of the feed-back'), not {kind!r}")
+    raise InputError(
+        f"the tracking feedback supports the flat outputs beta, mu and F (paper, subsec. "
+        f"'Design of the feed-back'), not {kind!r}"
+    )
 
 
 def _place(A: np.ndarray, B: np.ndarray, n_x: int, degrees, polys, stages, t_nodes, check: bool) -> np.ndarray:
@@ -393,15 +412,19 @@ def _place(A: np.ndarray, B: np.ndarray, n_x: int, degrees, polys, stages, t_nod
                     Bk = B[:, :, remaining] if k - 1 <= r - 2 else Bl
                     if Bk.shape[2]:
                         lhs = np.abs(np.einsum("Na,Nam->Nm", np.real(R), np.real(Bk)))
-                        scale = (np.linalg.norm(np.real(R), axis=1)[:, None]
-                                 * np.linalg.norm(np.real(Bk), axis=1) + 1e-300)
+                        scale = (
+                            np.linalg.norm(np.real(R), axis=1)[:, None] * np.linalg.norm(np.real(Bk), axis=1) + 1e-300
+                        )
                         bad = np.max(lhs / scale, axis=1) > 1e-9
                         if np.any(bad):
                             i = int(np.flatnonzero(bad)[0])
-                            raise DomainError(f"integral {INTEGRAL_NAMES[p]}: an input acts on its derivative of "
-                                              f"order {k} at t = {t_nodes[i]:.6g} s (relative degree below {r}): "
-                                              f"the design model does not have the paper's structure there",
-                                              time=float(t_nodes[i]), variable=INTEGRAL_NAMES[p])
+                            raise DomainError(
+                                f"integral {INTEGRAL_NAMES[p]}: an input acts on its derivative of "
+                                f"order {k} at t = {t_nodes[i]:.6g} s (relative degree below {r}): "
+                                f"the design model does not have the paper's structure there",
+                                time=float(t_nodes[i]),
+                                variable=INTEGRAL_NAMES[p],
+                            )
                 if k == r:
                     G[:, row] = np.einsum("Na,Nam->Nm", R, Bs)
                 R = np.einsum("Na,Nab->Nb", R, Acur)
@@ -412,11 +435,15 @@ def _place(A: np.ndarray, B: np.ndarray, n_x: int, degrees, polys, stages, t_nod
             bad = ~(cond < 1e12)
             if np.any(bad):
                 i = int(np.flatnonzero(bad)[0])
-                raise DomainError(f"decoupling matrix of {', '.join(INTEGRAL_NAMES[p] for p in outs)} singular at "
-                                  f"t = {t_nodes[i]:.6g} s (condition number {cond[i]:.3g}): these inputs cannot "
-                                  f"steer these integrals independently there", time=float(t_nodes[i]),
-                                  variable="decoupling", value=float(cond[i]))
-        Ks = -np.linalg.solve(G, M)                      # (N, len(cols), n)
+                raise DomainError(
+                    f"decoupling matrix of {', '.join(INTEGRAL_NAMES[p] for p in outs)} singular at "
+                    f"t = {t_nodes[i]:.6g} s (condition number {cond[i]:.3g}): these inputs cannot "
+                    f"steer these integrals independently there",
+                    time=float(t_nodes[i]),
+                    variable="decoupling",
+                    value=float(cond[i]),
+                )
+        Ks = -np.linalg.solve(G, M)  # (N, len(cols), n)
         Kout[:, cols] = Ks
         Acur = Acur + np.einsum("Nam,Nmb->Nab", Bs, Ks)
         remaining = later
@@ -431,8 +458,9 @@ def _gain_series(A: np.ndarray, B: np.ndarray, n_x: int, degrees, polys, stages,
     if K > 1:
         # d/dt of the frozen-time gains: complex step through the (analytic) design formula.
         h = 1e-30
-        Kc = _place(A[..., 0] + 1j * h * A[..., 1], B[..., 0] + 1j * h * B[..., 1], n_x, degrees, polys, stages, t,
-                    check=False)
+        Kc = _place(
+            A[..., 0] + 1j * h * A[..., 1], B[..., 0] + 1j * h * B[..., 1], n_x, degrees, polys, stages, t, check=False
+        )
         gains[..., 1] = np.imag(Kc) / h
     return gains
 
@@ -481,11 +509,12 @@ def design(plan: Plan, lambdas, *, j: int = -1) -> TrackingDesign:
     cols = [CONTROL_NAMES.index(u) for u in inputs]
     B = np.zeros((N, n, len(inputs), K))
     B[:, :12] = lin.B[:, :, cols]
-    polys = [np.poly(-np.asarray(row))[::-1].real for row in lam]       # increasing powers, monic
+    polys = [np.poly(-np.asarray(row))[::-1].real for row in lam]  # increasing powers, monic
     t = plan.t_nodes
     gains = _gain_series(A, B, 12, degrees, polys, stages, t)
-    return TrackingDesign(np.asarray(t, dtype=float), A, B, gains, inputs, integrals, degrees, lam, polys, stages,
-                          lin.iterate)
+    return TrackingDesign(
+        np.asarray(t, dtype=float), A, B, gains, inputs, integrals, degrees, lam, polys, stages, lin.iterate
+    )
 
 
 def closed_loop_matrix(plan: Plan, des: TrackingDesign, model: str = "full") -> np.ndarray:
@@ -533,9 +562,9 @@ def _two_sided(coeffs: np.ndarray, t_nodes: np.ndarray) -> np.ndarray:
         for k in range(m, K):
             sj_shift[..., m] += math.comb(k, m) * sj[..., k] * (-h[..., 0]) ** (k - m)
     out = np.zeros(si.shape[:-1] + (K + 1,))
-    out[..., :K] += si                       # h s_i / h
-    out[..., 1:] -= si / h                   # -tau s_i / h
-    out[..., 1:] += sj_shift / h             # tau s_j(tau - h) / h
+    out[..., :K] += si  # h s_i / h
+    out[..., 1:] -= si / h  # -tau s_i / h
+    out[..., 1:] += sj_shift / h  # tau s_j(tau - h) / h
     return out
 
 
@@ -662,7 +691,7 @@ class TrackingController:
         """
         return np.zeros(self.n_states)
 
-    def at_times(self, times) -> "TrackingController":
+    def at_times(self, times) -> TrackingController:
         """The same controller with its reference and gains precomputed at given times.
 
         A sampled engine knows its sample times in advance (JSBSim's step grid,
@@ -703,7 +732,7 @@ class TrackingController:
     def _evaluate(self, t: float, x: np.ndarray, xc: np.ndarray):
         """Feedforward, unsaturated feedback, the correction applied and the integrands, from one
         evaluation of the reference and gains."""
-        ref, gain = self._reference_and_gain(t)                   # (17,), (5, n)
+        ref, gain = self._reference_and_gain(t)  # (17,), (5, n)
         e = np.asarray(x, dtype=float)[:12] - ref[:12]
         e[_ANGLE_IDX] = (e[_ANGLE_IDX] + math.pi) % _TWO_PI - math.pi
         du = gain[:, :12] @ e + gain[:, 12:] @ np.asarray(xc, dtype=float)
@@ -835,8 +864,8 @@ class TrackingController:
             c, s = math.cos(ref[_CHI, 0]), math.sin(ref[_CHI, 0])
         else:
             i, tau = self._locate_many(np.asarray(t, dtype=float))
-            ref = _horner(self.reference_poly[i], tau[:, None]).T                  # (17, n)
-            gain = _horner(self.gain_poly[i], tau[:, None, None])                 # (n, 5, 12 + n_states)
+            ref = _horner(self.reference_poly[i], tau[:, None]).T  # (17, n)
+            gain = _horner(self.gain_poly[i], tau[:, None, None])  # (n, 5, 12 + n_states)
             e = X[:12] - ref[:12]
             e[_ANGLE_IDX] = (e[_ANGLE_IDX] + math.pi) % _TWO_PI - math.pi
             du = (gain @ np.concatenate([e, XC]).T[:, :, None])[:, :, 0].T
@@ -881,8 +910,10 @@ class TrackingController:
         if controller_states is None:
             missing = [c for c in self.state_names if c not in df.columns]
             if missing:
-                raise InputError(f"saturated_time needs the controller states ({', '.join(self.state_names)}) as "
-                                 f"columns of the trajectory or as controller_states; missing {', '.join(missing)}")
+                raise InputError(
+                    f"saturated_time needs the controller states ({', '.join(self.state_names)}) as "
+                    f"columns of the trajectory or as controller_states; missing {', '.join(missing)}"
+                )
             controller_states = df[list(self.state_names)].to_numpy(dtype=float)
         xc = np.asarray(controller_states, dtype=float).reshape(len(df), self.n_states)
         t = df.index.to_numpy(dtype=float)
@@ -911,8 +942,9 @@ def _horner(coeffs: np.ndarray, tau: np.ndarray) -> np.ndarray:
     return acc
 
 
-def tracking_controller(plan: Plan, lambdas, *, feedforward_iterate: int = -1,
-                        saturate: bool = True, anti_windup: bool = True) -> TrackingController:
+def tracking_controller(
+    plan: Plan, lambdas, *, feedforward_iterate: int = -1, saturate: bool = True, anti_windup: bool = True
+) -> TrackingController:
     """The paper's tracking feedback for a plan.
 
     Parameters
@@ -974,9 +1006,22 @@ def tracking_controller(plan: Plan, lambdas, *, feedforward_iterate: int = -1,
     for outs, cols in des.stages:
         for p in outs:
             mask[p, [CONTROL_NAMES.index(des.inputs[k]) for k in cols]] = True
-    return TrackingController(np.asarray(plan.t_nodes, dtype=float), reference_poly, gain_poly, zeta_index, lower,
-                              upper, bool(saturate), des.integrals, des.inputs, des.lambdas, j, len(des.integrals),
-                              mask, bool(anti_windup))
+    return TrackingController(
+        np.asarray(plan.t_nodes, dtype=float),
+        reference_poly,
+        gain_poly,
+        zeta_index,
+        lower,
+        upper,
+        bool(saturate),
+        des.integrals,
+        des.inputs,
+        des.lambdas,
+        j,
+        len(des.integrals),
+        mask,
+        bool(anti_windup),
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -987,8 +1032,10 @@ def tracking_controller(plan: Plan, lambdas, *, feedforward_iterate: int = -1,
 def _chained_model(plan):
     model = plan.system.model
     if model is None:
-        raise InputError(f"{plan.system.name}: the system gives no explicit model (ChainedSystem.model) to "
-                         f"design a tracking feedback on")
+        raise InputError(
+            f"{plan.system.name}: the system gives no explicit model (ChainedSystem.model) to "
+            f"design a tracking feedback on"
+        )
     return model
 
 
@@ -1033,8 +1080,13 @@ def linearize_chained(plan, j: int = -1, *, model: str = "design", order: int = 
     base = np.stack([coeffs(n) for n in names])
     hat = {n: Series(coeffs(n)) for n in plan.system.neglected} if model == "design" else None
     jac = series_jacobian(lambda v: ssm.rhs(v[:n_x], v[n_x:], hat), base)
-    return Linearization(np.asarray(plan.t_nodes, dtype=float), np.ascontiguousarray(jac[:, :, :n_x]),
-                         np.ascontiguousarray(jac[:, :, n_x:]), model, j % len(plan.iterates))
+    return Linearization(
+        np.asarray(plan.t_nodes, dtype=float),
+        np.ascontiguousarray(jac[:, :, :n_x]),
+        np.ascontiguousarray(jac[:, :, n_x:]),
+        model,
+        j % len(plan.iterates),
+    )
 
 
 def design_chained(plan, lambdas, *, j: int = -1) -> TrackingDesign:
@@ -1083,7 +1135,7 @@ def design_chained(plan, lambdas, *, j: int = -1) -> TrackingDesign:
         for b, c in enumerate(row):
             if isinstance(c, Series):
                 cf = np.broadcast_to(np.real(np.asarray(c.coeffs)), (N, c.order + 1))[:, :K]
-                A[:, n_x + p, b, :cf.shape[1]] = cf
+                A[:, n_x + p, b, : cf.shape[1]] = cf
             else:
                 A[:, n_x + p, b, 0] = float(np.real(c))
     B = np.zeros((N, n, len(ssm.controls), K))
@@ -1091,8 +1143,19 @@ def design_chained(plan, lambdas, *, j: int = -1) -> TrackingDesign:
     polys = [np.poly(-np.asarray(row))[::-1].real for row in lam]
     gains = _gain_series(A, B, n_x, degrees, polys, ssm.stages, plan.t_nodes)
     names = tuple(f"I{p + 1}" for p in range(n_i))
-    return TrackingDesign(np.asarray(plan.t_nodes, dtype=float), A, B, gains, tuple(ssm.controls), names, degrees,
-                          lam, polys, tuple(ssm.stages), lin.iterate)
+    return TrackingDesign(
+        np.asarray(plan.t_nodes, dtype=float),
+        A,
+        B,
+        gains,
+        tuple(ssm.controls),
+        names,
+        degrees,
+        lam,
+        polys,
+        tuple(ssm.stages),
+        lin.iterate,
+    )
 
 
 @dataclass
@@ -1148,7 +1211,7 @@ class ChainedTracking:
         """
         i, tau = self._interval(t)
         v = _horner(self.reference_poly[i], tau)
-        return v[:len(self.states)], v[len(self.states):]
+        return v[: len(self.states)], v[len(self.states) :]
 
     def controls_at(self, t: float, x: np.ndarray, integrals: np.ndarray) -> np.ndarray:
         """The applied controls ``u~(t) + K(t) [x - x~(t); I]``.
@@ -1222,8 +1285,9 @@ class ChainedTracking:
         t_eval = np.asarray(t_eval, dtype=float)
         n_x = len(self.states)
         z0 = np.concatenate([np.asarray(x0, dtype=float), np.zeros(len(self.design.integrals))])
-        sol = solve_ivp(self.closed_loop_rhs, (t_eval[0], t_eval[-1]), z0, t_eval=t_eval, method="DOP853",
-                        rtol=rtol, atol=atol)
+        sol = solve_ivp(
+            self.closed_loop_rhs, (t_eval[0], t_eval[-1]), z0, t_eval=t_eval, method="DOP853", rtol=rtol, atol=atol
+        )
         if not sol.success:
             raise ConvergenceError(f"closed-loop simulation failed at t = {sol.t[-1]:.6g} s: {sol.message}")
         Z = sol.y.T
@@ -1263,7 +1327,14 @@ def chained_tracking(plan, lambdas, *, j: int = -1) -> ChainedTracking:
     series = np.zeros((N, len(names), Kr))
     for v, n in enumerate(names):
         c = np.broadcast_to(np.real(np.asarray(sol[n].coeffs)), (N, sol[n].order + 1))
-        series[:, v, :c.shape[1]] = c
-    return ChainedTracking(des, np.asarray(plan.t_nodes, dtype=float), tuple(ssm.states), tuple(ssm.controls),
-                           _two_sided(series, plan.t_nodes), _two_sided(des.K, plan.t_nodes), ssm.rhs,
-                           ssm.integrands)
+        series[:, v, : c.shape[1]] = c
+    return ChainedTracking(
+        des,
+        np.asarray(plan.t_nodes, dtype=float),
+        tuple(ssm.states),
+        tuple(ssm.controls),
+        _two_sided(series, plan.t_nodes),
+        _two_sided(des.K, plan.t_nodes),
+        ssm.rhs,
+        ssm.integrands,
+    )

@@ -102,21 +102,39 @@ def open_loop_check(problem, controls, x0, t_eval, reference=None) -> OpenLoopCh
     """
     grid = np.asarray(t_eval, dtype=float)
     span = (float(grid[0]), float(grid[-1]))
-    run = simulate(problem.aircraft, controls, span, x0, env=problem.env, t_eval=grid, method=VERIFY_METHOD,
-                   rtol=VERIFY_RTOL, atol=VERIFY_ATOL)
-    settings = {"method": VERIFY_METHOD, "rtol": VERIFY_RTOL, "atol": VERIFY_ATOL,
-                "dt_out": (span[1] - span[0]) / max(1, grid.size - 1), "model": "full"}
+    run = simulate(
+        problem.aircraft,
+        controls,
+        span,
+        x0,
+        env=problem.env,
+        t_eval=grid,
+        method=VERIFY_METHOD,
+        rtol=VERIFY_RTOL,
+        atol=VERIFY_ATOL,
+    )
+    settings = {
+        "method": VERIFY_METHOD,
+        "rtol": VERIFY_RTOL,
+        "atol": VERIFY_ATOL,
+        "dt_out": (span[1] - span[0]) / max(1, grid.size - 1),
+        "model": "full",
+    }
     df = run.df
     t = df.index.to_numpy(dtype=float)
-    flat = np.stack([np.broadcast_to(np.asarray(f(t), dtype=float), t.shape) for f in (problem.x, problem.y, problem.z)])
+    flat = np.stack(
+        [np.broadcast_to(np.asarray(f(t), dtype=float), t.shape) for f in (problem.x, problem.y, problem.z)]
+    )
     err = np.sqrt(((df[["x", "y", "z"]].to_numpy().T - flat) ** 2).sum(axis=0))
     if run.status != "completed" or not np.all(np.isfinite(err)):
         return OpenLoopCheck(float("nan"), float(run.t_end), float("nan"), run.status, run.message, settings)
     ang = float("nan")
     if reference is not None:
         ref = reference(t)
-        ang = max(float(np.max(np.abs(df[k].to_numpy() - ref[STATE_NAMES.index(k)])))
-                  for k in ("gamma", "chi", "alpha", "beta", "mu"))
+        ang = max(
+            float(np.max(np.abs(df[k].to_numpy() - ref[STATE_NAMES.index(k)])))
+            for k in ("gamma", "chi", "alpha", "beta", "mu")
+        )
     k = int(np.argmax(err))
     return OpenLoopCheck(float(err[k]), float(t[k]), ang, run.status, "", settings)
 
@@ -159,6 +177,7 @@ def open_loop_error(plan, j: int = -1, *, dt_out: float | None = None) -> OpenLo
     else:
         n = max(1, int(round((plan.t1 - plan.t0) / dt_out)))
         grid = np.linspace(plan.t0, plan.t1, n + 1)
-    check = open_loop_check(plan.problem, plan.control_function(j), plan.initial_state(j), grid,
-                            reference=lambda t: plan.state(t, j))
+    check = open_loop_check(
+        plan.problem, plan.control_function(j), plan.initial_state(j), grid, reference=lambda t: plan.state(t, j)
+    )
     return replace(check, settings={**check.settings, "iterate": j % len(plan.iterates)})

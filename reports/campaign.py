@@ -26,8 +26,9 @@ FIGURES: tuple[tuple[str, str], ...] = (
 )
 
 
-def render_campaign(folder: str | Path, summary: dict, rows: list, *, pdf: bool = True,
-                    date: str | None = None) -> dict:
+def render_campaign(
+    folder: str | Path, summary: dict, rows: list, *, pdf: bool = True, date: str | None = None
+) -> dict:
     """Render the campaign page, the pages of its worst and failed cases, and the PDF.
 
     Parameters
@@ -61,8 +62,9 @@ def render_campaign(folder: str | Path, summary: dict, rows: list, *, pdf: bool 
     for cid, group in listed.items():
         page = out / "cases" / f"{cid}.html"
         page.parent.mkdir(parents=True, exist_ok=True)
-        html = env.get_template("campaign_case.html").render(c=by_id[cid], group=group, date=date,
-                                                             data_dir=f"../../cases/{cid}", incomplete=incomplete)
+        html = env.get_template("campaign_case.html").render(
+            c=by_id[cid], group=group, date=date, data_dir=f"../../cases/{cid}", incomplete=incomplete
+        )
         write_text_atomic(page, html)
         pages.append(page)
     groups = []
@@ -71,10 +73,20 @@ def render_campaign(folder: str | Path, summary: dict, rows: list, *, pdf: bool 
         groups.append(dict(g, key=key, worst=worst))
     camp = summary.get("campaign") or {}
     n_done = summary["counts"]["done"]
-    context = dict(name=camp.get("name", folder.name), seed=camp.get("seed"), description=summary.get("description", ""),
-                   counts=summary["counts"], n_done=n_done, n_pass=sum(g["passed"] for g in groups), groups=groups,
-                   failed=summary["failed"], date=date, pdf=pdf, incomplete=incomplete,
-                   figures=[{"src": f, "alt": alt} for f, alt in FIGURES if (out / f).exists()])
+    context = dict(
+        name=camp.get("name", folder.name),
+        seed=camp.get("seed"),
+        description=summary.get("description", ""),
+        counts=summary["counts"],
+        n_done=n_done,
+        n_pass=sum(g["passed"] for g in groups),
+        groups=groups,
+        failed=summary["failed"],
+        date=date,
+        pdf=pdf,
+        incomplete=incomplete,
+        figures=[{"src": f, "alt": alt} for f, alt in FIGURES if (out / f).exists()],
+    )
     index = out / "index.html"
     write_text_atomic(index, env.get_template("campaign.html").render(**context))
     result = {"index": index, "pages": pages}

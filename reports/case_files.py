@@ -31,8 +31,15 @@ def case_title(result) -> str:
     return f"{result.plan.name} (J = {result.plan.J}), {result.case.loop} loop"
 
 
-def write_case(result, out_dir: str | Path | OutputDir, *, csv: bool = False, plan: bool = True,
-               manifest: bool = True, command_line: list | None = None) -> dict[str, Path | list[Path]]:
+def write_case(
+    result,
+    out_dir: str | Path | OutputDir,
+    *,
+    csv: bool = False,
+    plan: bool = True,
+    manifest: bool = True,
+    command_line: list | None = None,
+) -> dict[str, Path | list[Path]]:
     """Write a case's figures and data (:func:`harness.artefacts.write_artefacts`) to a folder.
 
     Parameters
@@ -62,18 +69,25 @@ def write_case(result, out_dir: str | Path | OutputDir, *, csv: bool = False, pl
     own = not isinstance(out_dir, OutputDir)
     out = OutputDir(out_dir, parents=True) if own else out_dir
     tol = result.settings.tolerances if result.settings is not None else result.case.tolerance_spec
-    figures = write_figures(result.runs, out, reference=result.reference_frame(), title=case_title(result),
-                            tolerances=tol)
+    figures = write_figures(
+        result.runs, out, reference=result.reference_frame(), title=case_title(result), tolerances=tol
+    )
     if result.closed_loop is not None:
         figures.append(write_tracking_figure(result, out))
-    files = write_artefacts(result, out, csv=csv, plan=plan, manifest=manifest, figures=[p.name for p in figures],
-                            command_line=command_line)
+    files = write_artefacts(
+        result, out, csv=csv, plan=plan, manifest=manifest, figures=[p.name for p in figures], command_line=command_line
+    )
     report = write_case_report(result, out, figures=[p.name for p in figures])
     if own:
         out.finish()
-    written: dict[str, Path | list[Path]] = {"figures": figures, "trajectories": files["trajectories"],
-                                             "plan": files["plan"], "differences": files["differences"][0],
-                                             "summary": files["summary"][0], "report": report}
+    written: dict[str, Path | list[Path]] = {
+        "figures": figures,
+        "trajectories": files["trajectories"],
+        "plan": files["plan"],
+        "differences": files["differences"][0],
+        "summary": files["summary"][0],
+        "report": report,
+    }
     if "manifest" in files:
         written["manifest"] = files["manifest"][0]
     return written

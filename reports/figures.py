@@ -8,8 +8,8 @@ drawn in degrees, everything else in SI units (:data:`gna.trajectory.UNITS`).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 import pandas as pd
@@ -68,8 +68,14 @@ def grid_margins(fig) -> None:
     m = MARGINS_IN
     ax_w = (w - m["left"] - m["right"] - (ncols - 1) * m["wspace"]) / ncols
     ax_h = (h - m["bottom"] - m["top"] - (nrows - 1) * m["hspace"]) / nrows
-    fig.subplots_adjust(left=m["left"] / w, right=1 - m["right"] / w, bottom=m["bottom"] / h, top=1 - m["top"] / h,
-                        wspace=m["wspace"] / ax_w, hspace=m["hspace"] / ax_h)
+    fig.subplots_adjust(
+        left=m["left"] / w,
+        right=1 - m["right"] / w,
+        bottom=m["bottom"] / h,
+        top=1 - m["top"] / h,
+        wspace=m["wspace"] / ax_w,
+        hspace=m["hspace"] / ax_h,
+    )
 
 
 def save_figure(fig, out, name: str, dpi: int = 110) -> Path:
@@ -102,8 +108,9 @@ def save_figure(fig, out, name: str, dpi: int = 110) -> Path:
     return path
 
 
-def write_figures(results: Mapping, out_dir, *, reference: pd.DataFrame | None = None,
-                  title: str = "", tolerances=None) -> list[Path]:
+def write_figures(
+    results: Mapping, out_dir, *, reference: pd.DataFrame | None = None, title: str = "", tolerances=None
+) -> list[Path]:
     """States and controls of every engine (and the reference), and the differences to the first engine.
 
     Parameters
@@ -170,7 +177,7 @@ def write_figures(results: Mapping, out_dir, *, reference: pd.DataFrame | None =
                 ax.axhline(tol[name], color="r", ls=":", lw=1.0, label="tolerance")
             ax.set_ylabel(f"|d {name}| [{UNITS.get(name, '')}]")
             ax.grid(alpha=0.3, which="both")
-        for ax in axs.ravel()[len(names):]:
+        for ax in axs.ravel()[len(names) :]:
             ax.axis("off")
         axs[0, 0].legend(fontsize=8)
         for ax in axs[-1]:
@@ -179,4 +186,3 @@ def write_figures(results: Mapping, out_dir, *, reference: pd.DataFrame | None =
         grid_margins(fig)
         paths.append(save_figure(fig, out, "differences.png"))
     return paths
-

@@ -36,8 +36,15 @@ RENDERED = frozenset((CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE))
 GENERATOR = '<meta name="generator" content="gflat report">'
 
 #: Column headings of the difference tables (others print as named).
-HEADERS = {"max_abs": "max |diff|", "t_max": "at t [s]", "rms": "RMS", "delta_pct": "\u03b4 %*",
-           "scale": "\u03b4 scale*", "ref_max": "max |ref|", "passed": "result"}
+HEADERS = {
+    "max_abs": "max |diff|",
+    "t_max": "at t [s]",
+    "rms": "RMS",
+    "delta_pct": "\u03b4 %*",
+    "scale": "\u03b4 scale*",
+    "ref_max": "max |ref|",
+    "passed": "result",
+}
 
 #: Sub-folder of a scenario holding its plan's files (linked from the case pages when present).
 PLAN_FOLDER = "plan"
@@ -59,7 +66,7 @@ def fmt(value, spec: str | None = None) -> str:
     """
     if value is None:
         return "-"
-    if isinstance(value, bool):                           # a setting, not a verdict (see :func:`cell`)
+    if isinstance(value, bool):  # a setting, not a verdict (see :func:`cell`)
         return "on" if value else "off"
     if isinstance(value, int):
         return str(value)
@@ -94,8 +101,9 @@ def cell(value, column: str, spec: str | None = None) -> str:
     """
     if isinstance(value, bool):
         return "pass" if value else "FAIL"
-    if column == "delta_pct" and (value is None or value in ("nan", "inf", "-inf")
-                                  or (isinstance(value, float) and not math.isfinite(value))):
+    if column == "delta_pct" and (
+        value is None or value in ("nan", "inf", "-inf") or (isinstance(value, float) and not math.isfinite(value))
+    ):
         return "\u2013"
     return fmt(value, spec)
 
@@ -116,16 +124,23 @@ def incomplete_notice(run_dir: str | Path) -> str | None:
     root = Path(run_dir).resolve()
     if any((d / MARKER).is_file() for d in (root, *root.parents)):
         return None
-    return (f"no completion marker {MARKER} in {root}: the run was interrupted (or is still running); "
-            f"cases may be missing or come from an earlier run")
+    return (
+        f"no completion marker {MARKER} in {root}: the run was interrupted (or is still running); "
+        f"cases may be missing or come from an earlier run"
+    )
 
 
 def _environment():
     import jinja2
 
-    env = jinja2.Environment(loader=jinja2.PackageLoader("reports", "templates"),
-                             autoescape=jinja2.select_autoescape(("html",)), undefined=jinja2.StrictUndefined,
-                             keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True)
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("reports", "templates"),
+        autoescape=jinja2.select_autoescape(("html",)),
+        undefined=jinja2.StrictUndefined,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
     env.filters["fmt"] = fmt
     env.filters["cell"] = cell
     env.filters["header"] = lambda name: HEADERS.get(name, name)
@@ -145,19 +160,33 @@ def _rel(target: Path, start: Path) -> str:
 def _case_view(root: Path, folder: Path, model: dict, page_dir: Path, embed: bool) -> dict:
     """What a template needs of one case beyond its model: image sources, links, the data files."""
     case_dir = root / folder
-    src = {f["file"]: (_data_uri(case_dir / f["file"]) if embed else _rel(case_dir / f["file"], page_dir))
-           for f in model["figures"]}
-    files = sorted(p for p in case_dir.iterdir() if p.is_file() and not p.name.startswith(".")
-                   and p.suffix != ".png" and p.name not in RENDERED)
+    src = {
+        f["file"]: (_data_uri(case_dir / f["file"]) if embed else _rel(case_dir / f["file"], page_dir))
+        for f in model["figures"]
+    }
+    files = sorted(
+        p
+        for p in case_dir.iterdir()
+        if p.is_file() and not p.name.startswith(".") and p.suffix != ".png" and p.name not in RENDERED
+    )
     # the plan beside the case (gflat paper: <scenario>/plan) or inside it (gflat compare), never outside the run
-    plan_dir = next((d for d in (case_dir / PLAN_FOLDER, case_dir.parent / PLAN_FOLDER)
-                     if d.is_dir() and d.resolve().is_relative_to(root.resolve())), None)
-    plan_files = sorted(p for p in plan_dir.iterdir() if p.is_file() and not p.name.startswith(".")) \
-        if plan_dir else []
-    return {"model": model, "folder": folder.as_posix() or ".", "img": src,
-            "page": _rel(case_dir / CASE_PAGE, page_dir),
-            "files": [{"name": p.name, "href": _rel(p, page_dir)} for p in files],
-            "plan_files": [{"name": f"{PLAN_FOLDER}/{p.name}", "href": _rel(p, page_dir)} for p in plan_files]}
+    plan_dir = next(
+        (
+            d
+            for d in (case_dir / PLAN_FOLDER, case_dir.parent / PLAN_FOLDER)
+            if d.is_dir() and d.resolve().is_relative_to(root.resolve())
+        ),
+        None,
+    )
+    plan_files = sorted(p for p in plan_dir.iterdir() if p.is_file() and not p.name.startswith(".")) if plan_dir else []
+    return {
+        "model": model,
+        "folder": folder.as_posix() or ".",
+        "img": src,
+        "page": _rel(case_dir / CASE_PAGE, page_dir),
+        "files": [{"name": p.name, "href": _rel(p, page_dir)} for p in files],
+        "plan_files": [{"name": f"{PLAN_FOLDER}/{p.name}", "href": _rel(p, page_dir)} for p in plan_files],
+    }
 
 
 def _manifest(root: Path):
@@ -172,8 +201,11 @@ def _manifest(root: Path):
 
 def _run_order(cases: list, manifest) -> list:
     """The cases in the order the run flew them (the manifest's ``cases``), the others after, as found."""
-    flown = [(c.get("scenario"), c.get("loop")) for c in (manifest or {}).get("cases", [])
-             if isinstance(c, dict) and isinstance(c.get("scenario"), str) and isinstance(c.get("loop"), str)]
+    flown = [
+        (c.get("scenario"), c.get("loop"))
+        for c in (manifest or {}).get("cases", [])
+        if isinstance(c, dict) and isinstance(c.get("scenario"), str) and isinstance(c.get("loop"), str)
+    ]
     rank = {key: i for i, key in reversed(list(enumerate(flown)))}
     return sorted(cases, key=lambda c: rank.get((c[1]["scenario"]["name"], c[1]["loop"]), len(rank)))
 
@@ -185,19 +217,26 @@ def render_date() -> str:
     -------
     str
     """
-    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
 
 
 def _run_context(root: Path, date: str | None):
     """The run's case models in run order and what every page shows: date, manifest, counts, notice."""
     cases = load_case_models(root)
     if not cases:
-        raise InputError(f"no {REPORT_JSON} under {root}: not the output folder of a gflat run "
-                         f"(gflat paper --out DIR, gflat compare --out DIR)")
+        raise InputError(
+            f"no {REPORT_JSON} under {root}: not the output folder of a gflat run "
+            f"(gflat paper --out DIR, gflat compare --out DIR)"
+        )
     manifest = _manifest(root)
     cases = _run_order(cases, manifest)
-    return cases, {"date": date or render_date(), "manifest": manifest, "n_pass": sum(m["passed"] for _, m in cases),
-                   "n": len(cases), "incomplete": incomplete_notice(root)}
+    return cases, {
+        "date": date or render_date(),
+        "manifest": manifest,
+        "n_pass": sum(m["passed"] for _, m in cases),
+        "n": len(cases),
+        "incomplete": incomplete_notice(root),
+    }
 
 
 def render_documents(run_dir: str | Path, *, date: str | None = None, embed: bool = False) -> dict[Path, str]:
@@ -233,7 +272,8 @@ def render_documents(run_dir: str | Path, *, date: str | None = None, embed: boo
         page_dir = root / folder
         view = _case_view(root, folder, model, page_dir, False)
         docs[page_dir / CASE_PAGE] = env.get_template("case.html").render(
-            case=view, index=_rel(root / INDEX_PAGE, page_dir), **common)
+            case=view, index=_rel(root / INDEX_PAGE, page_dir), **common
+        )
     if embed:
         single = root / SINGLE_PAGE
         views = [_case_view(root, f, m, root, True) for f, m in cases]
@@ -273,6 +313,7 @@ def _split(costs: list[float], parts: int) -> list[int]:
     n = len(costs)
     parts = max(1, min(parts, n))
     best: tuple[float, list[int]] = (float("inf"), [0])
+
     def search(start: int, left: int, acc: list[int], worst: float):
         nonlocal best
         if worst >= best[0]:
@@ -284,6 +325,7 @@ def _split(costs: list[float], parts: int) -> list[int]:
             return
         for cut in range(start + 1, n - left + 2):
             search(cut, left - 1, acc + [cut], max(worst, sum(costs[start:cut])))
+
     search(0, parts, [0], 0.0)
     return best[1]
 
@@ -325,14 +367,26 @@ def document_parts(run_dir: str | Path, parts: int, *, date: str | None = None) 
     if parts <= 1 or len(views) <= 1:
         return [template.render(cases=views, pdf=True, **common)]
     front = len(template.render(cases=[], all_cases=views, pdf=True, last_part=False, **common))
-    costs = [len(template.render(cases=[v], pdf=True, first_part=False, last_part=False, **common))
-             + FIGURE_WEIGHT * len(v["model"]["figures"]) for v in views]
+    costs = [
+        len(template.render(cases=[v], pdf=True, first_part=False, last_part=False, **common))
+        + FIGURE_WEIGHT * len(v["model"]["figures"])
+        for v in views
+    ]
     costs[0] += front
     starts = _split(costs, parts) + [len(views)]
-    later = [v["model"]["id"] for v in views[starts[1]:]]
-    return [template.render(cases=views[a:b], all_cases=views, pdf=True, first_part=(i == 0), later_ids=later,
-                            last_part=(b == len(views)), **common)
-            for i, (a, b) in enumerate(zip(starts, starts[1:]))]
+    later = [v["model"]["id"] for v in views[starts[1] :]]
+    return [
+        template.render(
+            cases=views[a:b],
+            all_cases=views,
+            pdf=True,
+            first_part=(i == 0),
+            later_ids=later,
+            last_part=(b == len(views)),
+            **common,
+        )
+        for i, (a, b) in enumerate(zip(starts, starts[1:]))
+    ]
 
 
 def _orphan_pages(root: Path) -> list[Path]:
@@ -344,8 +398,10 @@ def _orphan_pages(root: Path) -> list[Path]:
         page = top / rel
         if page.name != CASE_PAGE or not page.resolve().is_relative_to(root.resolve()) or not page.is_file():
             continue
-        if not (page.parent / REPORT_JSON).exists() and GENERATOR in page.read_text(encoding="utf-8",
-                                                                                     errors="replace")[:2000]:
+        if (
+            not (page.parent / REPORT_JSON).exists()
+            and GENERATOR in page.read_text(encoding="utf-8", errors="replace")[:2000]
+        ):
             pages.append(page)
     return pages
 
@@ -356,8 +412,9 @@ def _older_than_models(pdf: Path, root: Path) -> bool:
     return any(m.stat().st_mtime > stamp for m in run_files(root, REPORT_JSON))
 
 
-def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool = True,
-               date: str | None = None, jobs: int = 1) -> dict[str, Path]:
+def render_run(
+    run_dir: str | Path, *, self_contained: bool = False, pdf: bool = True, date: str | None = None, jobs: int = 1
+) -> dict[str, Path]:
     """Render a run folder's reports: ``index.html``, a page per case, optionally the single file and the PDF.
 
     Parameters
@@ -392,7 +449,7 @@ def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool =
     orphans = _orphan_pages(root)
     for page in orphans:
         page.unlink()
-        remove_empty_folders(page.parent, root)           # the case folder it leaves empty goes too
+        remove_empty_folders(page.parent, root)  # the case folder it leaves empty goes too
     for path, text in docs.items():
         write_text_atomic(path, text)
     out = {"index": root / INDEX_PAGE, "pages": [p for p in docs if p.name == CASE_PAGE]}
@@ -404,11 +461,12 @@ def render_run(run_dir: str | Path, *, self_contained: bool = False, pdf: bool =
         parts = jobs if jobs > 1 and can_merge() else 1
         out["pdf"] = write_pdf(document_parts(root, parts, date=date), root, root / PDF_FILE, jobs=parts)
     elif (root / PDF_FILE).is_file() and _older_than_models(root / PDF_FILE, root):
-        (root / PDF_FILE).unlink()                        # printed from results that have been replaced since
+        (root / PDF_FILE).unlink()  # printed from results that have been replaced since
         out["removed_pdf"] = root / PDF_FILE
     # the pages join the run's files (its marker or in-progress record): the run's command, run again there,
     # replaces or removes them as its own, and a later rendering removes only pages listed there
     written = [*docs, *([out["pdf"]] if "pdf" in out else [])]
-    record_in_marker(run_folder(root.resolve()), written, removed=[*orphans, *([out["removed_pdf"]]
-                                                                             if "removed_pdf" in out else [])])
+    record_in_marker(
+        run_folder(root.resolve()), written, removed=[*orphans, *([out["removed_pdf"]] if "removed_pdf" in out else [])]
+    )
     return out

@@ -16,14 +16,20 @@ import json
 from pathlib import Path
 
 from gna.errors import InputError
-from harness.fileio import json_safe as _json_safe, replacing
+from harness.fileio import json_safe as _json_safe
+from harness.fileio import replacing
 from harness.marker import walk_run
 from harness.outguard import previous_run
 from planners.scenario import load_scenario
 
-from .report_figures import (CONTROLS_LIMITS_PNG, SIGNED_DIFFERENCES_PNG, control_limits,
-                             write_controls_limits_figure, write_signed_differences_figure,
-                             write_singularity_figure)
+from .report_figures import (
+    CONTROLS_LIMITS_PNG,
+    SIGNED_DIFFERENCES_PNG,
+    control_limits,
+    write_controls_limits_figure,
+    write_signed_differences_figure,
+    write_singularity_figure,
+)
 
 #: Version of the model's layout (bumped when keys change meaning).
 SCHEMA = 1
@@ -32,14 +38,27 @@ SCHEMA = 1
 REPORT_JSON = "report.json"
 
 #: Keys a saved model must have (with their types) for the pages to render.
-MODEL_KEYS = {"schema": int, "title": str, "id": str, "loop": str, "engines": list, "passed": bool,
-              "settings": dict, "scenario": dict, "plan": dict, "runs": dict, "tables": dict, "figures": list,
-              "warnings": list, "provenance": dict}
+MODEL_KEYS = {
+    "schema": int,
+    "title": str,
+    "id": str,
+    "loop": str,
+    "engines": list,
+    "passed": bool,
+    "settings": dict,
+    "scenario": dict,
+    "plan": dict,
+    "runs": dict,
+    "tables": dict,
+    "figures": list,
+    "warnings": list,
+    "provenance": dict,
+}
 
 #: Figures a case page shows, in order: file name -> caption (those present in the case folder).
 FIGURES: dict[str, str] = {
     "tracking.png": "The paper's four curves: flat plan J = 0 (red), closed loop (dark blue), generalized plan "
-                    "(green), generalized controls open loop (cyan); bottom right, the position error.",
+    "(green), generalized controls open loop (cyan); bottom right, the position error.",
     "states.png": "States of every engine; the plan dotted.",
     CONTROLS_LIMITS_PNG: "Applied controls; the plan dotted, the aircraft's limits dash-dotted in red.",
     SIGNED_DIFFERENCES_PNG: "Signed differences to the reference engine, in the units of the state plots.",
@@ -73,31 +92,51 @@ def _records(frame) -> dict:
 
 
 def _table(tab, engine: str, window: str) -> dict:
-    return {"engine": engine, "window": window, "labels": list(tab.labels), "span": list(tab.window),
-            "samples": tab.samples, "notes": list(tab.notes), "passed": tab.passed,
-            "informative": all(r.tolerance is None for r in tab.rows), **_records(tab.to_frame())}
+    return {
+        "engine": engine,
+        "window": window,
+        "labels": list(tab.labels),
+        "span": list(tab.window),
+        "samples": tab.samples,
+        "notes": list(tab.notes),
+        "passed": tab.passed,
+        "informative": all(r.tolerance is None for r in tab.rows),
+        **_records(tab.to_frame()),
+    }
 
 
 def _scenario_section(result, scenario) -> dict:
     text = Path(scenario.path).read_text(encoding="utf-8") if scenario.path else ""
     plan = result.plan
-    return {"name": scenario.name, "description": scenario.description.strip(),
-            "aircraft": {"id": plan.aircraft.id, "name": plan.aircraft.name},
-            "flat_outputs": {str(k): str(v) for k, v in scenario.raw.get("flat_outputs", {}).items()},
-            "span_s": [plan.t0, plan.t1], "node_step_s": scenario.step, "file": Path(scenario.path).name
-            if scenario.path else None, "toml": text}
+    return {
+        "name": scenario.name,
+        "description": scenario.description.strip(),
+        "aircraft": {"id": plan.aircraft.id, "name": plan.aircraft.name},
+        "flat_outputs": {str(k): str(v) for k, v in scenario.raw.get("flat_outputs", {}).items()},
+        "span_s": [plan.t0, plan.t1],
+        "node_step_s": scenario.step,
+        "file": Path(scenario.path).name if scenario.path else None,
+        "toml": text,
+    }
 
 
 def _plan_section(result, scenario) -> dict:
     plan = result.plan
     times, variables = scenario.report_times or [plan.t0], scenario.report_variables or ("F", "dl", "dm", "dn")
     sing = plan.singularities
-    return {"J": plan.J, "nodes": len(plan.t_nodes), "flat_output": plan.problem.zeta.kind,
-            "orders": [it.order for it in plan.iterates], "feasible": plan.feasible,
-            "worst_newton_residual": plan.worst_newton_residual(), "timings_s": dict(plan.timings),
-            "planning_time_s": result.planning_time_s, "warnings": list(plan.warnings),
-            "convergence": _records(plan.convergence_table(variables, times)),
-            "singularity": None if sing is None else {"condition": sing.condition, "warnings": list(sing.warnings)}}
+    return {
+        "J": plan.J,
+        "nodes": len(plan.t_nodes),
+        "flat_output": plan.problem.zeta.kind,
+        "orders": [it.order for it in plan.iterates],
+        "feasible": plan.feasible,
+        "worst_newton_residual": plan.worst_newton_residual(),
+        "timings_s": dict(plan.timings),
+        "planning_time_s": result.planning_time_s,
+        "warnings": list(plan.warnings),
+        "convergence": _records(plan.convergence_table(variables, times)),
+        "singularity": None if sing is None else {"condition": sing.condition, "warnings": list(sing.warnings)},
+    }
 
 
 def _runs_section(result) -> dict:
@@ -105,9 +144,14 @@ def _runs_section(result) -> dict:
     for label, res in result.runs.items():
         settings = json_safe(res.settings)
         if isinstance(settings.get("extra"), dict):
-            settings["extra"].pop("wall_time_s", None)       # machine load, not a setting
-        out[label] = {"status": res.status, "message": res.message, "t_end": res.t_end,
-                      "warnings": list(res.warnings), "settings": settings}
+            settings["extra"].pop("wall_time_s", None)  # machine load, not a setting
+        out[label] = {
+            "status": res.status,
+            "message": res.message,
+            "t_end": res.t_end,
+            "warnings": list(res.warnings),
+            "settings": settings,
+        }
     return out
 
 
@@ -140,10 +184,14 @@ def case_model(result, figures=(), *, scenario=None) -> dict:
     verdict = result.verdict()
     tables = [_table(t, eng, w) for eng, per in result.tables.items() for w, t in per.items()]
     vs_plan = [_table(t, eng, "whole span") for eng, t in result.vs_plan.items()]
-    self_conv = [_table(t, eng, w) for eng, per in getattr(result, "self_convergence", {}).items()
-                 for w, t in per.items()]
-    settings = result.settings.to_dict() if getattr(result, "settings", None) is not None else {
-        "tolerances": case.tolerance_spec, "windows": case.window_spec, "dt_out": case.dt_out}
+    self_conv = [
+        _table(t, eng, w) for eng, per in getattr(result, "self_convergence", {}).items() for w, t in per.items()
+    ]
+    settings = (
+        result.settings.to_dict()
+        if getattr(result, "settings", None) is not None
+        else {"tolerances": case.tolerance_spec, "windows": case.window_spec, "dt_out": case.dt_out}
+    )
     warnings = [f"plan: {w}" for w in plan.warnings]
     for label, res in result.runs.items():
         if res.status != "completed":
@@ -153,16 +201,32 @@ def case_model(result, figures=(), *, scenario=None) -> dict:
     closed = None
     if result.closed_loop is not None:
         ctl = result.closed_loop.controller
-        closed = {"feedforward_iterate": result.closed_loop.feedforward_iterate,
-                  "lambdas": [list(x) for x in getattr(ctl, "lambdas", ())], "saturated_s": result.saturated_s()}
+        closed = {
+            "feedforward_iterate": result.closed_loop.feedforward_iterate,
+            "lambdas": [list(x) for x in getattr(ctl, "lambdas", ())],
+            "saturated_s": result.saturated_s(),
+        }
     shown = [{"file": f, "caption": c} for f, c in FIGURES.items() if f in set(map(str, figures))]
-    model = {"schema": SCHEMA, "title": f"{plan.name} (J = {plan.J}), {case.loop} loop", "id": f"{plan.name}-{case.loop}",
-             "loop": case.loop, "engines": list(result.runs), "reference_engine": result.reference_engine,
-             "passed": bool(verdict["pass"]), "verdict": verdict, "settings": settings,
-             "scenario": _scenario_section(result, scenario), "plan": _plan_section(result, scenario),
-             "runs": _runs_section(result), "tables": {"engines": tables, "plan": vs_plan, "self_convergence": self_conv},
-             "limits": control_limits(plan.aircraft), "closed_loop": closed, "warnings": warnings,
-             "figures": shown, "provenance": dict(result.provenance)}
+    model = {
+        "schema": SCHEMA,
+        "title": f"{plan.name} (J = {plan.J}), {case.loop} loop",
+        "id": f"{plan.name}-{case.loop}",
+        "loop": case.loop,
+        "engines": list(result.runs),
+        "reference_engine": result.reference_engine,
+        "passed": bool(verdict["pass"]),
+        "verdict": verdict,
+        "settings": settings,
+        "scenario": _scenario_section(result, scenario),
+        "plan": _plan_section(result, scenario),
+        "runs": _runs_section(result),
+        "tables": {"engines": tables, "plan": vs_plan, "self_convergence": self_conv},
+        "limits": control_limits(plan.aircraft),
+        "closed_loop": closed,
+        "warnings": warnings,
+        "figures": shown,
+        "provenance": dict(result.provenance),
+    }
     return json_safe(model)
 
 
@@ -208,8 +272,11 @@ def write_case_report(result, out, *, figures=(), scenario=None) -> Path:
     """
     if not hasattr(out, "write_text"):
         Path(out).mkdir(parents=True, exist_ok=True)
-    drawn = [write_singularity_figure(result.plan, out), write_controls_limits_figure(result, out),
-             write_signed_differences_figure(result, out)]
+    drawn = [
+        write_singularity_figure(result.plan, out),
+        write_controls_limits_figure(result, out),
+        write_signed_differences_figure(result, out),
+    ]
     names = list(map(str, figures)) + [p.name for p in drawn if p is not None]
     text = json.dumps(case_model(result, names, scenario=scenario), indent=1, allow_nan=False) + "\n"
     if hasattr(out, "write_text"):
@@ -309,8 +376,10 @@ def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:
         model = read_json_object(p, "a gflat report model")
         bad = [k for k, t in MODEL_KEYS.items() if not isinstance(model.get(k), t)]
         if bad:
-            raise InputError(f"{p}: not a gflat report model (missing or wrong type: {', '.join(bad)}); "
-                             f"render it again with gflat compare/paper")
+            raise InputError(
+                f"{p}: not a gflat report model (missing or wrong type: {', '.join(bad)}); "
+                f"render it again with gflat compare/paper"
+            )
         rel = p.parent.relative_to(root)
         found.append((rel, model))
     order = {"open": 0, "closed": 1}

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import io
 import os
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from harness.fileio import replacing
 
@@ -38,7 +38,7 @@ def _print(html: str, base_url: str) -> bytes:
     import weasyprint
 
     gc.collect()
-    gc.freeze()            # the objects alive before printing are not scanned again by every collection
+    gc.freeze()  # the objects alive before printing are not scanned again by every collection
     try:
         return weasyprint.HTML(string=html, base_url=base_url).write_pdf()
     finally:
@@ -60,14 +60,22 @@ def _merge(parts: list[bytes]) -> bytes:
     for reader in readers:
         for name, d in reader.named_destinations.items():
             page = writer.pages[offset + reader.get_destination_page_number(d)]
-            dests[str(name)] = ArrayObject([page.indirect_reference, NameObject("/XYZ"), FloatObject(d.left or 0),
-                                            FloatObject(d.top or 0), NumberObject(0)])
+            dests[str(name)] = ArrayObject(
+                [
+                    page.indirect_reference,
+                    NameObject("/XYZ"),
+                    FloatObject(d.left or 0),
+                    FloatObject(d.top or 0),
+                    NumberObject(0),
+                ]
+            )
         offset += len(reader.pages)
     tree = ArrayObject()
     for name in sorted(dests):
         tree += [TextStringObject(name), dests[name]]
     writer.root_object[NameObject("/Names")] = DictionaryObject(
-        {NameObject("/Dests"): DictionaryObject({NameObject("/Names"): tree})})
+        {NameObject("/Dests"): DictionaryObject({NameObject("/Names"): tree})}
+    )
     if readers[0].metadata:
         writer.add_metadata(dict(readers[0].metadata))
     buf = io.BytesIO()

@@ -20,8 +20,11 @@ from .figures import grid_margins, plot_scale, save_figure
 SIGNED_VARIABLES: tuple[str, ...] = ("x", "y", "z", "V", "gamma", "chi", "alpha", "beta", "mu", "p", "q", "r")
 
 #: File names of the figures this module draws.
-SINGULARITY_PNG, CONTROLS_LIMITS_PNG, SIGNED_DIFFERENCES_PNG = ("singularity.png", "controls-limits.png",
-                                                                "signed-differences.png")
+SINGULARITY_PNG, CONTROLS_LIMITS_PNG, SIGNED_DIFFERENCES_PNG = (
+    "singularity.png",
+    "controls-limits.png",
+    "signed-differences.png",
+)
 
 
 def control_limits(aircraft) -> dict[str, tuple[float, float]]:

@@ -67,17 +67,41 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
     for ax, var in zip(axs.ravel(), TRACKING_VARIABLES):
         k, unit = plot_scale(var)
         ax.plot(flat.index, flat[var] * k, color=COLOURS["flat"], lw=1.2, label="flat plan J = 0")
-        ax.plot(opened.index, opened[var] * k, color=COLOURS["open"], lw=1.0, ls="--",
-                label="open loop, generalized controls")
+        ax.plot(
+            opened.index,
+            opened[var] * k,
+            color=COLOURS["open"],
+            lw=1.0,
+            ls="--",
+            label="open loop, generalized controls",
+        )
         surf = " (delta + d delta)" if var in ("F", "dl", "dm", "dn") else ""
-        ax.plot(dark_blue.df.index, dark_blue.df[var] * k, color=COLOURS["closed"], lw=1.2,
-                label="closed loop, feedforward J = 0" + surf)
+        ax.plot(
+            dark_blue.df.index,
+            dark_blue.df[var] * k,
+            color=COLOURS["closed"],
+            lw=1.2,
+            label="closed loop, feedforward J = 0" + surf,
+        )
         if dark_blue is not closed:
-            ax.plot(closed.df.index, closed.df[var] * k, color=COLOURS["closed_last"], lw=1.0, ls=":",
-                    label=f"closed loop, feedforward j = {j}" + surf)
+            ax.plot(
+                closed.df.index,
+                closed.df[var] * k,
+                color=COLOURS["closed_last"],
+                lw=1.0,
+                ls=":",
+                label=f"closed loop, feedforward j = {j}" + surf,
+            )
         # drawn last, thin and translucent: it lies under the closed loop when the tracking is good
-        ax.plot(gen.index, gen[var] * k, color=COLOURS["generalized"], lw=2.5, alpha=0.55, ls=(0, (4, 3)),
-                label=f"generalized plan J = {plan.J}")
+        ax.plot(
+            gen.index,
+            gen[var] * k,
+            color=COLOURS["generalized"],
+            lw=2.5,
+            alpha=0.55,
+            ls=(0, (4, 3)),
+            label=f"generalized plan J = {plan.J}",
+        )
         ax.set_ylabel(f"{var} [{unit}]")
         ax.grid(alpha=0.3)
     ax = axs.ravel()[-1]
@@ -94,7 +118,9 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
         a.set_xlabel("t [s]")
     axs[0, 0].legend(fontsize=7)
     ax.legend(fontsize=7)
-    fig.suptitle(f"{plan.name}: closed loop with the tracking feedback (engine {result.reference_engine}) "
-                 f"against the flat (J = 0) and generalized (J = {plan.J}) plans")
+    fig.suptitle(
+        f"{plan.name}: closed loop with the tracking feedback (engine {result.reference_engine}) "
+        f"against the flat (J = 0) and generalized (J = {plan.J}) plans"
+    )
     grid_margins(fig)
     return save_figure(fig, out_dir, name)

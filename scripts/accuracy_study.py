@@ -56,7 +56,7 @@ def main() -> None:
     cpu = {c[0]: [] for c in cands}
     wall = {c[0]: [] for c in cands}
     plans = {}
-    for spec, sc, J, e in cands:                          # warm-up
+    for spec, sc, J, e in cands:  # warm-up  # noqa: B007
         plan_motion(sc.problem(), sc.t_nodes, J, e=e, name=sc.name)
     for _ in range(args.repeat):
         for spec, sc, J, e in cands:
@@ -64,8 +64,10 @@ def main() -> None:
             plans[spec] = plan_motion(sc.problem(), sc.t_nodes, J, e=e, name=sc.name)
             cpu[spec].append(time.process_time() - t)
             wall[spec].append(time.perf_counter() - w)
-    print("| scenario | step [s] | nodes | J | e | paper formula [m] | Hermite [m] | plan CPU [s] | plan wall [s] "
-          "| residual |")
+    print(
+        "| scenario | step [s] | nodes | J | e | paper formula [m] | Hermite [m] | plan CPU [s] | plan wall [s] "
+        "| residual |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for spec, sc, J, e in cands:
         p = plans[spec]
@@ -73,9 +75,12 @@ def main() -> None:
         for formula in ("paper", "hermite"):
             p.interpolation = formula
             acc[formula] = open_loop_error(p).max_position_error_m
-        print(f"| {sc.name} | {sc.step:g} | {len(sc.t_nodes)} | {J} | {e} | {acc['paper']:.2g} | "
-              f"{acc['hermite']:.2g} | {np.median(cpu[spec]):.3f} | {np.median(wall[spec]):.3f} | "
-              f"{p.iterate_residuals()[-1]:.1e} |", flush=True)
+        print(
+            f"| {sc.name} | {sc.step:g} | {len(sc.t_nodes)} | {J} | {e} | {acc['paper']:.2g} | "
+            f"{acc['hermite']:.2g} | {np.median(cpu[spec]):.3f} | {np.median(wall[spec]):.3f} | "
+            f"{p.iterate_residuals()[-1]:.1e} |",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

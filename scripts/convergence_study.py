@@ -50,8 +50,11 @@ def scaled_surface_forces(aircraft, factor: float):
     from gna.aero import AERO_VARIABLES
 
     idx = [AERO_VARIABLES.index(s) for s in SURFACES]
-    values = {t.index: t.value * factor for t in aircraft.aero.terms
-              if t.coefficient in ("CD", "CY", "CL") and any(t.exponents[i] for i in idx)}
+    values = {
+        t.index: t.value * factor
+        for t in aircraft.aero.terms
+        if t.coefficient in ("CD", "CY", "CL") and any(t.exponents[i] for i in idx)
+    }
     return replace(aircraft, aero=aircraft.aero.with_values(values, source=f"surface force terms x{factor:g}"))
 
 
@@ -91,8 +94,13 @@ def midpoint_residual(plan, j: int) -> float:
     t = 0.5 * (plan.t_nodes[1:] + plan.t_nodes[:-1])
     vals = {n: plan.evaluate(n, t, j) for n in STATE_NAMES + CONTROL_NAMES}
     d = State(*(plan.evaluate(n, t, j, derivative=1) for n in STATE_NAMES))
-    f = derivatives(plan.aircraft, plan.env, State(*(vals[n] for n in STATE_NAMES)),
-                    Controls(*(vals[n] for n in CONTROL_NAMES)), "full")
+    f = derivatives(
+        plan.aircraft,
+        plan.env,
+        State(*(vals[n] for n in STATE_NAMES)),
+        Controls(*(vals[n] for n in CONTROL_NAMES)),
+        "full",
+    )
     return float(max(np.max(np.abs(np.asarray(a) - np.asarray(b))) for a, b in zip(d, f)))
 
 
@@ -106,8 +114,9 @@ def timed(fun, repeat: int):
 
 
 def digits(res: list[float]) -> list[float]:
-    return [float(np.log10(a / b)) if a > 0 and b > 0 and np.isfinite(a / b) else float("nan")
-            for a, b in zip(res, res[1:])]
+    return [
+        float(np.log10(a / b)) if a > 0 and b > 0 and np.isfinite(a / b) else float("nan") for a, b in zip(res, res[1:])
+    ]
 
 
 def study(label, sc, jmax: int, repeat: int) -> dict:
@@ -115,7 +124,7 @@ def study(label, sc, jmax: int, repeat: int) -> dict:
     fp = plan_motion(pb, tn, jmax, name=label)
     r_fp = node_residuals(fp)
     best = int(np.nanargmin(r_fp))
-    dec = [b / a for a, b in zip(r_fp[:best], r_fp[1:best + 1])]
+    dec = [b / a for a, b in zip(r_fp[:best], r_fp[1 : best + 1])]
     contraction = float(np.exp(np.mean(np.log(dec)))) if dec else float("nan")
     grows = best < jmax
     # cost of the fixed point to its best iterate: plan_motion with J = best
@@ -123,19 +132,37 @@ def study(label, sc, jmax: int, repeat: int) -> dict:
     fp_best = plan_motion(cpb, tn, best)
     fp_evals = ctr.calls
     _, fp_time = timed(lambda: plan_motion(pb, tn, best), repeat)
-    out = {"label": label, "nodes": len(tn), "fp_res": r_fp, "best": best, "contraction": contraction,
-           "grows": grows, "fp_evals": fp_evals, "fp_time": fp_time,
-           "fp_mid": midpoint_residual(fp_best, -1), "fp": fp, "newton": {}}
+    out = {
+        "label": label,
+        "nodes": len(tn),
+        "fp_res": r_fp,
+        "best": best,
+        "contraction": contraction,
+        "grows": grows,
+        "fp_evals": fp_evals,
+        "fp_time": fp_time,
+        "fp_mid": midpoint_residual(fp_best, -1),
+        "fp": fp,
+        "newton": {},
+    }
     for depth in sorted({0, best}):
         cpb, ctr = counted(pb)
         nplan = plan_motion(cpb, tn, depth, method="newton", name=label)
         evals = ctr.calls
-        _, n_time = timed(lambda: plan_motion(pb, tn, depth, method="newton"), repeat)
+        _, n_time = timed(lambda: plan_motion(pb, tn, depth, method="newton"), repeat)  # noqa: B023
         r_n = node_residuals(nplan)
-        out["newton"][depth] = {"res": r_n, "h_res": nplan.generalized["residual"], "evals": evals,
-                                "time": n_time, "mid": midpoint_residual(nplan, -1), "plan": nplan,
-                                "reached": bool(r_n[-1] <= TARGET), "failures": len(nplan.newton_failure_records),
-                                "status": nplan.generalized["status"], "damping": nplan.generalized["damping"]}
+        out["newton"][depth] = {
+            "res": r_n,
+            "h_res": nplan.generalized["residual"],
+            "evals": evals,
+            "time": n_time,
+            "mid": midpoint_residual(nplan, -1),
+            "plan": nplan,
+            "reached": bool(r_n[-1] <= TARGET),
+            "failures": len(nplan.newton_failure_records),
+            "status": nplan.generalized["status"],
+            "damping": nplan.generalized["damping"],
+        }
     return out
 
 
@@ -146,26 +173,34 @@ def fmt(x: float, spec: str = ".1e") -> str:
 def report(results: list[dict], descriptions: dict, jmax: int, repeat: int, roll_times) -> str:
     L = []
     L.append("# Generalized flatness: the fixed point and Newton's method\n")
-    L.append("Written by `python scripts/convergence_study.py` "
-             f"(jmax = {jmax}, medians of {repeat} runs); do not edit by hand.\n")
+    L.append(
+        "Written by `python scripts/convergence_study.py` "
+        f"(jmax = {jmax}, medians of {repeat} runs); do not edit by hand.\n"
+    )
     L.append(INTRO)
     L.append("## Summary\n")
-    L.append("| scenario | variant | nodes | fixed point: contraction / iteration | best iterate | best node residual "
-             "| after it | Newton (depth 0): status, steps to 1e-10 | final node residual | evals FP→best / Newton | "
-             "time FP→best / Newton [s] |")
+    L.append(
+        "| scenario | variant | nodes | fixed point: contraction / iteration | best iterate | best node residual "
+        "| after it | Newton (depth 0): status, steps to 1e-10 | final node residual | evals FP→best / Newton | "
+        "time FP→best / Newton [s] |"
+    )
     L.append("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in results:
         n0 = r["newton"][0]
         steps = next((i for i, v in enumerate(n0["res"]) if v <= TARGET), None)
-        L.append(f"| {r['label']} | {descriptions[r['label']]} | {r['nodes']} | {fmt(r['contraction'], '.3f')} "
-                 f"| j = {r['best']} | {fmt(r['fp_res'][r['best']])} | "
-                 f"{'grows' if r['grows'] else 'still decreasing at jmax'} | "
-                 f"{n0['status']}, {steps if steps is not None else 'not reached'} | {fmt(n0['res'][-1])} | "
-                 f"{r['fp_evals']} / {n0['evals']} | {r['fp_time']:.2f} / {n0['time']:.2f} |")
+        L.append(
+            f"| {r['label']} | {descriptions[r['label']]} | {r['nodes']} | {fmt(r['contraction'], '.3f')} "
+            f"| j = {r['best']} | {fmt(r['fp_res'][r['best']])} | "
+            f"{'grows' if r['grows'] else 'still decreasing at jmax'} | "
+            f"{n0['status']}, {steps if steps is not None else 'not reached'} | {fmt(n0['res'][-1])} | "
+            f"{r['fp_evals']} / {n0['evals']} | {r['fp_time']:.2f} / {n0['time']:.2f} |"
+        )
     L.append("")
     L.append("## Full-model node residual per iterate and digits gained\n")
-    L.append("Max over nodes and the 12 equations of `d/dt state - f(state, controls)` (SI units per "
-             "second), `plan.equation_residuals(\"full\", j)`.  *digits* = `log10(r_j / r_(j+1))`.\n")
+    L.append(
+        "Max over nodes and the 12 equations of `d/dt state - f(state, controls)` (SI units per "
+        'second), `plan.equation_residuals("full", j)`.  *digits* = `log10(r_j / r_(j+1))`.\n'
+    )
     for r in results:
         L.append(f"### {r['label']}\n")
         hdr = "| method | " + " | ".join(f"j={j}" for j in range(jmax + 1)) + " |"
@@ -176,20 +211,29 @@ def report(results: list[dict], descriptions: dict, jmax: int, repeat: int, roll
         for depth, n in r["newton"].items():
             pad = [""] * (jmax + 1 - len(n["res"]))
             L.append(f"| Newton depth {depth}: residual | " + " | ".join([fmt(v) for v in n["res"]] + pad) + " |")
-            L.append(f"| Newton depth {depth}: digits | — | "
-                     + " | ".join([fmt(v, ".2f") for v in digits(n["res"])] + pad) + " |")
-            L.append(f"| Newton depth {depth}: max \\|H − G(H)\\| | "
-                     + " | ".join([fmt(v) for v in n["h_res"]] + pad) + " |")
+            L.append(
+                f"| Newton depth {depth}: digits | — | "
+                + " | ".join([fmt(v, ".2f") for v in digits(n["res"])] + pad)
+                + " |"
+            )
+            L.append(
+                f"| Newton depth {depth}: max \\|H − G(H)\\| | " + " | ".join([fmt(v) for v in n["h_res"]] + pad) + " |"
+            )
         L.append("")
         for depth, n in r["newton"].items():
             damped = [f"{d:g}" for d in n["damping"] if d < 1]
-            L.append(f"Newton depth {depth}: {n['status']}, {n['evals']} model evaluations, {n['time']:.2f} s, "
-                     f"residual between nodes {fmt(n['mid'])}"
-                     + (f", damped steps (factor {', '.join(damped)})" if damped else "")
-                     + (f", {n['failures']} stage-Newton failure record(s)" if n["failures"] else "") + ".  ")
-        L.append(f"Fixed point with J = {r['best']} (its best iterate; same output orders as Newton): "
-                 f"{r['fp_evals']} model evaluations, {r['fp_time']:.2f} s, residual between nodes "
-                 f"{fmt(r['fp_mid'])}.\n")
+            L.append(
+                f"Newton depth {depth}: {n['status']}, {n['evals']} model evaluations, {n['time']:.2f} s, "
+                f"residual between nodes {fmt(n['mid'])}"
+                + (f", damped steps (factor {', '.join(damped)})" if damped else "")
+                + (f", {n['failures']} stage-Newton failure record(s)" if n["failures"] else "")
+                + ".  "
+            )
+        L.append(
+            f"Fixed point with J = {r['best']} (its best iterate; same output orders as Newton): "
+            f"{r['fp_evals']} model evaluations, {r['fp_time']:.2f} s, residual between nodes "
+            f"{fmt(r['fp_mid'])}.\n"
+        )
     if roll_times is not None:
         L.append("## The paper's aileron-roll table, both methods\n")
         L.append(roll_times)
@@ -201,21 +245,36 @@ def open_loop_section(sc, best: int) -> str:
     """Open-loop flight of the full model with each plan's controls (the test of docs/planning.md)."""
     from gna.simulate import simulate
 
-    L = ["Open loop: the full model flown from the plan's initial state with its controls (`gna.simulate`), "
-         "maximum deviation from the plan over the manoeuvre (the quantity of test 8(c), docs/planning.md):\n",
-         "| method | J or depth | node residual | between nodes | position [m] | angles [rad] |",
-         "|---|---|---|---|---|---|"]
-    for method, J in sorted({("fixed-point", 4), ("fixed-point", sc.J), ("fixed-point", best), ("newton", 0),
-                             ("newton", 2), ("newton", 4), ("newton", best)}):
+    L = [
+        "Open loop: the full model flown from the plan's initial state with its controls (`gna.simulate`), "
+        "maximum deviation from the plan over the manoeuvre (the quantity of test 8(c), docs/planning.md):\n",
+        "| method | J or depth | node residual | between nodes | position [m] | angles [rad] |",
+        "|---|---|---|---|---|---|",
+    ]
+    for method, J in sorted(
+        {
+            ("fixed-point", 4),
+            ("fixed-point", sc.J),
+            ("fixed-point", best),
+            ("newton", 0),
+            ("newton", 2),
+            ("newton", 4),
+            ("newton", best),
+        }
+    ):
         plan = plan_motion(sc.problem(), sc.t_nodes, J, method=method)
-        r = simulate(sc.aircraft, plan.control_function(-1), (plan.t0, plan.t1), plan.initial_state(-1),
-                     env=sc.env, dt_out=0.1)
+        r = simulate(
+            sc.aircraft, plan.control_function(-1), (plan.t0, plan.t1), plan.initial_state(-1), env=sc.env, dt_out=0.1
+        )
         ref = plan.to_dataframe(r.df.index.values, j=-1)
-        pos = float(np.sqrt((r.df["x"] - ref["x"]) ** 2 + (r.df["y"] - ref["y"]) ** 2
-                            + (r.df["z"] - ref["z"]) ** 2).max())
+        pos = float(
+            np.sqrt((r.df["x"] - ref["x"]) ** 2 + (r.df["y"] - ref["y"]) ** 2 + (r.df["z"] - ref["z"]) ** 2).max()
+        )
         ang = max(float((r.df[k] - ref[k]).abs().max()) for k in ("alpha", "beta", "mu", "gamma", "chi"))
-        L.append(f"| {method} | {J} | {node_residuals(plan)[-1]:.1e} | {midpoint_residual(plan, -1):.1e} | "
-                 f"{pos:.3g} | {ang:.3g} |")
+        L.append(
+            f"| {method} | {J} | {node_residuals(plan)[-1]:.1e} | {midpoint_residual(plan, -1):.1e} | "
+            f"{pos:.3g} | {ang:.3g} |"
+        )
     return "\n".join(L) + "\n"
 
 
@@ -223,10 +282,12 @@ def roll_table(res: dict, t: float = -1.9) -> str:
     fp = res["fp"]
     tab = fp.convergence_table(("F", "dl", "dm", "dn"), [t])
     cols = list(tab.columns)
-    L = [f"Controls at t = {t} s (F [N], surfaces [rad]); fixed point iterates J = 0..{fp.J}, then the last "
-         "Newton iterate at each depth.\n",
-         "| variable | " + " | ".join(cols) + " | " + " | ".join(f"Newton depth {d}" for d in res["newton"]) + " |",
-         "|---" * (len(cols) + len(res["newton"]) + 1) + "|"]
+    L = [
+        f"Controls at t = {t} s (F [N], surfaces [rad]); fixed point iterates J = 0..{fp.J}, then the last "
+        "Newton iterate at each depth.\n",
+        "| variable | " + " | ".join(cols) + " | " + " | ".join(f"Newton depth {d}" for d in res["newton"]) + " |",
+        "|---" * (len(cols) + len(res["newton"]) + 1) + "|",
+    ]
     for v in ("F", "dl", "dm", "dn"):
         row = [f"{x:.6g}" for x in tab.loc[(t, v)].to_numpy()]
         row += [f"{float(n['plan'].evaluate(v, t)):.6g}" for n in res["newton"].values()]
@@ -304,29 +365,38 @@ def chained_section() -> str:
     tn = np.linspace(0.0, 3.0, 13)
     ref = lag_reference((w, 0.0), eps, w)
     zeta = {"x": lambda t: np.sin(w * t)}
-    L = ["## The generic almost chained system: `first-order-lag`\n",
-         "`planners.chained` runs the paper's algorithm on any system of the form eq. chained-sys "
-         "(`ChainedSystem` of `Stage`s, each a residual written once for series); "
-         "`planners.systems.first_order_lag(eps)` is the paper's `x' = y + eps y'` with x as generalized "
-         f"flat output (eps = {eps:g} s, x = sin(t), 13 nodes on [0, 3] s).  Error of y at the nodes against "
-         "the exact `y = (1 + eps d/dt)^-1 x' = (x' - eps x'')/(1 + eps^2 w^2)`:\n",
-         "| J (depth) | fixed point, iterate J | Newton at depth J | Newton steps | max \\|X^ − G(X^)\\| |",
-         "|---|---|---|---|---|"]
+    L = [
+        "## The generic almost chained system: `first-order-lag`\n",
+        "`planners.chained` runs the paper's algorithm on any system of the form eq. chained-sys "
+        "(`ChainedSystem` of `Stage`s, each a residual written once for series); "
+        "`planners.systems.first_order_lag(eps)` is the paper's `x' = y + eps y'` with x as generalized "
+        f"flat output (eps = {eps:g} s, x = sin(t), 13 nodes on [0, 3] s).  Error of y at the nodes against "
+        "the exact `y = (1 + eps d/dt)^-1 x' = (x' - eps x'')/(1 + eps^2 w^2)`:\n",
+        "| J (depth) | fixed point, iterate J | Newton at depth J | Newton steps | max \\|X^ − G(X^)\\| |",
+        "|---|---|---|---|---|",
+    ]
     for J in (0, 2, 4, 8, 12):
         fp = generalized_parametrization(first_order_lag(eps), tn, zeta, J=J)
         nw = newton_parametrization(first_order_lag(eps), tn, zeta, J=J)
         ef = float(np.max(np.abs(np.real(fp.iterates[-1]["y"].constant_term) - ref(tn))))
         en = float(np.max(np.abs(np.real(nw.iterates[-1]["y"].constant_term) - ref(tn))))
         L.append(f"| {J} | {ef:.1e} | {en:.1e} | {len(nw.residuals) - 1} | {nw.residuals[-1]:.1e} |")
-    nl = ChainedSystem("nonlinear-lag", {"x": 1},
-                       (Stage(("y",), lambda v: [v["x'"] - v["y"] - 0.1 * np.sin(v["y1"])], ("y1",), 2),
-                        Stage(("y1",), lambda v: [v["y'"] - v["y1"]])))
+    nl = ChainedSystem(
+        "nonlinear-lag",
+        {"x": 1},
+        (
+            Stage(("y",), lambda v: [v["x'"] - v["y"] - 0.1 * np.sin(v["y1"])], ("y1",), 2),
+            Stage(("y1",), lambda v: [v["y'"] - v["y1"]]),
+        ),
+    )
     nw = newton_parametrization(nl, tn, {"x": np.sin}, J=4)
     L.append("")
-    L.append("The fixed point gains one digit per iteration (eps w = 0.1: the paper's geometric series); Newton "
-             "solves the linear fixed point in one step, and at depth J it equals the fixed point's limit at that "
-             "starting order.  On the nonlinear `x' = y + 0.1 sin(y')` Newton converges quadratically: "
-             "max |X^ − G(X^)| = " + ", ".join(f"{r:.1e}" for r in nw.residuals) + ".\n")
+    L.append(
+        "The fixed point gains one digit per iteration (eps w = 0.1: the paper's geometric series); Newton "
+        "solves the linear fixed point in one step, and at depth J it equals the fixed point's limit at that "
+        "starting order.  On the nonlinear `x' = y + 0.1 sin(y')` Newton converges quadratically: "
+        "max |X^ − G(X^)| = " + ", ".join(f"{r:.1e}" for r in nw.residuals) + ".\n"
+    )
     L.append(car_section())
     return "\n".join(L) + "\n"
 
@@ -346,31 +416,38 @@ def car_section() -> str:
         X = simulate_car_two_trailers(g, lambda t: plan.evaluate("v0", t), lambda t: plan.evaluate("phi", t), x0, te)
         return float(np.max(np.hypot(X[:, 0] - zeta["x2"](te), X[:, 1] - zeta["y2"](te))))
 
-    L = ["### `car-two-trailers`\n",
-         f"`planners.systems.car_two_trailers`: car (wheelbase {g.l0:g} m) towing two trailers hitched off-axle "
-         f"(d1 = {g.d1:g} m, L1 = {g.L1:g} m, d2 = {g.d2:g} m, L2 = {g.L2:g} m; not flat, Rouchon et al. 1993), "
-         "planned by generalized flatness from the on-axle (flat) approximation with the last trailer's axle as "
-         f"flat output x2 = {V:g} t, y2 = {A:g} sin({w:g} t) (a weave at {V:g} m/s), 49 nodes on [0, 12] s, "
-         "order-3 controls.  The exact model flown open loop with the planned speed and steering (RK45, "
-         "rtol 1e-10): max distance of the last trailer from the plan:\n",
-         "| plan | open-loop error [m] |", "|---|---|"]
+    L = [
+        "### `car-two-trailers`\n",
+        f"`planners.systems.car_two_trailers`: car (wheelbase {g.l0:g} m) towing two trailers hitched off-axle "
+        f"(d1 = {g.d1:g} m, L1 = {g.L1:g} m, d2 = {g.d2:g} m, L2 = {g.L2:g} m; not flat, Rouchon et al. 1993), "
+        "planned by generalized flatness from the on-axle (flat) approximation with the last trailer's axle as "
+        f"flat output x2 = {V:g} t, y2 = {A:g} sin({w:g} t) (a weave at {V:g} m/s), 49 nodes on [0, 12] s, "
+        "order-3 controls.  The exact model flown open loop with the planned speed and steering (RK45, "
+        "rtol 1e-10): max distance of the last trailer from the plan:\n",
+        "| plan | open-loop error [m] |",
+        "|---|---|",
+    ]
     for J in (0, 1, 2, 4, 6):
         plan = generalized_parametrization(car_two_trailers(g, V), tn, zeta, J=J, e=3)
         L.append(f"| fixed point J = {J}{' (on-axle approximation)' if J == 0 else ''} | {err(plan):.2e} |")
     plan = newton_parametrization(car_two_trailers(g, V), tn, zeta, J=4, e=3)
-    L.append(f"| Newton depth 4 ({len(plan.residuals) - 1} steps, max \\|X^ − G(X^)\\| = "
-             f"{plan.residuals[-1]:.1e}) | {err(plan):.2e} |")
+    L.append(
+        f"| Newton depth 4 ({len(plan.residuals) - 1} steps, max \\|X^ − G(X^)\\| = "
+        f"{plan.residuals[-1]:.1e}) | {err(plan):.2e} |"
+    )
     L.append("")
-    L.append("`gflat plan first-order-lag`, `gflat plan car-two-trailers [--J N]` and `gflat plan my-system.toml` "
-             "run the chained-system scenario files (`planners/systems/scenarios/*.toml`, read by "
-             "`planners.systems.scenario`: `system`, `[parameters]`, `[constants]`, `[time]`, `[flat_outputs]`, "
-             "`[generalized]` J, e, method; `planners.systems.demos`: the plan, its check against the exact "
-             "reference, `plan.csv` and `summary.json`).  Python API: "
-             "`planners.chained.generalized_parametrization` / `newton_parametrization` with "
-             "`planners.systems.SYSTEMS`.  The aircraft is the instance `planners.systems.aircraft_system(problem)` "
-             "(r = 4, Z_1 = {x, y, z}, Z_3 = {zeta}, H = H_2(p, q, r, dl, dm, dn)), on which the generic planner "
-             "reproduces `planners.generalized.plan_motion` to the last bit; the tracking feedback runs on a "
-             "chained system's explicit model (`planners.tracking.chained_tracking`, docs/tracking.md).\n")
+    L.append(
+        "`gflat plan first-order-lag`, `gflat plan car-two-trailers [--J N]` and `gflat plan my-system.toml` "
+        "run the chained-system scenario files (`planners/systems/scenarios/*.toml`, read by "
+        "`planners.systems.scenario`: `system`, `[parameters]`, `[constants]`, `[time]`, `[flat_outputs]`, "
+        "`[generalized]` J, e, method; `planners.systems.demos`: the plan, its check against the exact "
+        "reference, `plan.csv` and `summary.json`).  Python API: "
+        "`planners.chained.generalized_parametrization` / `newton_parametrization` with "
+        "`planners.systems.SYSTEMS`.  The aircraft is the instance `planners.systems.aircraft_system(problem)` "
+        "(r = 4, Z_1 = {x, y, z}, Z_3 = {zeta}, H = H_2(p, q, r, dl, dm, dn)), on which the generic planner "
+        "reproduces `planners.generalized.plan_motion` to the last bit; the tracking feedback runs on a "
+        "chained system's explicit model (`planners.tracking.chained_tracking`, docs/tracking.md).\n"
+    )
     return "\n".join(L) + "\n"
 
 
@@ -391,36 +468,50 @@ def theorem1_section() -> str:
 
     def line(alpha, density):
         e = env if density == "constant" else None
-        V = trim(ac, {"alpha": alpha, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0}, altitude=alt, env=e,
-                 check_envelope=False).values["V"]
-        data = {"name": "line", "aircraft": "gtm", "time": {"t0": 0.0, "t1": 2.0, "step": 1.0},
-                "constants": {"V0": V},
-                "environment": {"density": "constant", "rho": rho} if density == "constant" else {"density": "isa"},
-                "flat_outputs": {"x": "V0*t", "y": "0", "z": f"-{alt}", "zeta": "beta", "zeta_value": "0"},
-                "calibration": {"alpha": alpha, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0, "altitude": alt},
-                "generalized": {"J": 0}}
+        V = trim(
+            ac, {"alpha": alpha, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0}, altitude=alt, env=e, check_envelope=False
+        ).values["V"]
+        data = {
+            "name": "line",
+            "aircraft": "gtm",
+            "time": {"t0": 0.0, "t1": 2.0, "step": 1.0},
+            "constants": {"V0": V},
+            "environment": {"density": "constant", "rho": rho} if density == "constant" else {"density": "isa"},
+            "flat_outputs": {"x": "V0*t", "y": "0", "z": f"-{alt}", "zeta": "beta", "zeta_value": "0"},
+            "calibration": {"alpha": alpha, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0, "altitude": alt},
+            "generalized": {"J": 0},
+        }
         return V, plan_scenario(scenario_from_dict(data), method="newton")
 
-    L = ["## Theorem 1 along a plan\n",
-         "`planners.flatness_test.flatness_test(plan, j, model=...)`: rank of the Silverman--Meadows matrix "
-         "`[M_0 .. M_11]`, `M_0 = B`, `M_(k+1) = A M_k - M_k'`, at every node, from the series of "
-         "`planners.tracking.linearize`; relative singular-value tolerance "
-         f"{RANK_TOL:g}.  Level straight lines of the GTM at {alt:g} m, planned from scenario dicts "
-         "(calibrated at their alpha, Newton method):\n",
-         f"The GNA `C_L` polynomial peaks at alpha = {a_cl:.4f} rad; the trimmed lift maximum (minimum of the "
-         f"level-flight speed, elevator lift and thrust included) is at alpha = {a_st:.6f} rad, V = {V_st:.4f} m/s "
-         "(`planners.flatness_test.stall_line`).\n",
-         "| line | alpha [rad] | V [m/s] | density | model | rank | smallest relative singular value | condition |",
-         "|---|---|---|---|---|---|---|---|"]
-    cases = [("cruise", 0.1, "constant"), ("C_L polynomial maximum", a_cl, "constant"),
-             ("stall - 1e-4 rad", a_st - 1e-4, "constant"), ("stall", a_st, "constant"),
-             ("stall + 1e-4 rad", a_st + 1e-4, "constant"), ("stall", a_st, "isa")]
+    L = [
+        "## Theorem 1 along a plan\n",
+        "`planners.flatness_test.flatness_test(plan, j, model=...)`: rank of the Silverman--Meadows matrix "
+        "`[M_0 .. M_11]`, `M_0 = B`, `M_(k+1) = A M_k - M_k'`, at every node, from the series of "
+        "`planners.tracking.linearize`; relative singular-value tolerance "
+        f"{RANK_TOL:g}.  Level straight lines of the GTM at {alt:g} m, planned from scenario dicts "
+        "(calibrated at their alpha, Newton method):\n",
+        f"The GNA `C_L` polynomial peaks at alpha = {a_cl:.4f} rad; the trimmed lift maximum (minimum of the "
+        f"level-flight speed, elevator lift and thrust included) is at alpha = {a_st:.6f} rad, V = {V_st:.4f} m/s "
+        "(`planners.flatness_test.stall_line`).\n",
+        "| line | alpha [rad] | V [m/s] | density | model | rank | smallest relative singular value | condition |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    cases = [
+        ("cruise", 0.1, "constant"),
+        ("C_L polynomial maximum", a_cl, "constant"),
+        ("stall - 1e-4 rad", a_st - 1e-4, "constant"),
+        ("stall", a_st, "constant"),
+        ("stall + 1e-4 rad", a_st + 1e-4, "constant"),
+        ("stall", a_st, "isa"),
+    ]
     for label, alpha, dens in cases:
         V, plan = line(alpha, dens)
         for model in ("full", "design"):
             ft = flatness_test(plan, model=model)
-            L.append(f"| {label} | {alpha:.6f} | {V:.4f} | {dens} | {model} | {int(ft.rank.min())} | "
-                     f"{float(ft.sigma_min.min()):.2e} | {'holds' if ft.passed else 'fails'} |")
+            L.append(
+                f"| {label} | {alpha:.6f} | {V:.4f} | {dens} | {model} | {int(ft.rank.min())} | "
+                f"{float(ft.sigma_min.min()):.2e} | {'holds' if ft.passed else 'fails'} |"
+            )
     L.append("")
     L.append("Along the paper's manoeuvres (iterate 0 of J = 5 plans, series of order 11, all blocks exact):\n")
     L.append("| scenario | nodes | rank | smallest relative singular value |")
@@ -473,9 +564,12 @@ def main() -> None:
         results.append(r)
         if label == "gtm-aileron-roll":
             roll = roll_table(r) + "\n" + open_loop_section(sc, r["best"])
-        print(f"{label}: contraction {r['contraction']:.3f}, best j = {r['best']} ({r['fp_res'][r['best']]:.1e}), "
-              f"Newton depth 0 {r['newton'][0]['res'][-1]:.1e} in {len(r['newton'][0]['res']) - 1} steps "
-              f"({time.perf_counter() - t:.0f} s)", flush=True)
+        print(
+            f"{label}: contraction {r['contraction']:.3f}, best j = {r['best']} ({r['fp_res'][r['best']]:.1e}), "
+            f"Newton depth 0 {r['newton'][0]['res'][-1]:.1e} in {len(r['newton'][0]['res']) - 1} steps "
+            f"({time.perf_counter() - t:.0f} s)",
+            flush=True,
+        )
     text = report(results, descriptions, jmax, args.repeat, roll)
     with np.errstate(all="ignore"):
         text += "\n" + theorem1_section() + "\n" + chained_section()

@@ -41,6 +41,7 @@ def main() -> None:
         def counted(u, k, *a, **k2):
             calls[_kind(u, k)] += 1
             return residual(u, k, *a, **k2)
+
         return original(counted, *args, **kw)
 
     flat.newton_series = counting
@@ -52,9 +53,11 @@ def main() -> None:
             for key in calls:
                 calls[key] = 0
             plan = plan_scenario(sc)
-            print(f"{name:<26} J = {plan.J}, {len(sc.t_nodes)} nodes: {sum(calls.values())} stage-residual "
-                  f"evaluations: {calls['J']} J (series, complex-step Jacobian), {calls['R']} R (series, real), "
-                  f"{calls['P']} P (pointwise)")
+            print(
+                f"{name:<26} J = {plan.J}, {len(sc.t_nodes)} nodes: {sum(calls.values())} stage-residual "
+                f"evaluations: {calls['J']} J (series, complex-step Jacobian), {calls['R']} R (series, real), "
+                f"{calls['P']} P (pointwise)"
+            )
     finally:
         flat.newton_series = original
         newton.TapedResidual = taped
@@ -71,8 +74,10 @@ def main() -> None:
             tapes.clear()
             plan_scenario(load_scenario(name))
             total = {k: sum(t.counts[k] for t in tapes) for k in ("trace", "replay", "eager")}
-            print(f"{name:<26} with the tape: {total['trace']} traced, {total['replay']} replayed, "
-                  f"{total['eager']} eager (pointwise and untraced orders)")
+            print(
+                f"{name:<26} with the tape: {total['trace']} traced, {total['replay']} replayed, "
+                f"{total['eager']} eager (pointwise and untraced orders)"
+            )
     finally:
         newton.TapedResidual = taped
 

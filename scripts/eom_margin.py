@@ -24,10 +24,20 @@ def main() -> None:
     for craft, env, s0, u0, amp, w, ph in CASES:
         u = _controls(u0, amp, w, ph)
         tol = dict(rtol=1e-12, atol=1e-12, method="DOP853", t_eval=np.linspace(0, 10, 201))
-        a = solve_ivp(lambda t, y: np.array(derivatives(craft, env, State(*y), Controls(*u(t))), dtype=float),
-                      (0, 10), s0, **tol).y
-        b = body6dof.to_wind_state(solve_ivp(lambda t, y: body6dof.derivative(craft, env, y, u(t)), (0, 10),
-                                             body6dof.from_wind_state(s0), **tol).y)
+        a = solve_ivp(
+            lambda t, y: np.array(derivatives(craft, env, State(*y), Controls(*u(t))), dtype=float),  # noqa: B023
+            (0, 10),
+            s0,
+            **tol,  # noqa: B023
+        ).y
+        b = body6dof.to_wind_state(
+            solve_ivp(
+                lambda t, y: body6dof.derivative(craft, env, y, u(t)),  # noqa: B023
+                (0, 10),
+                body6dof.from_wind_state(s0),
+                **tol,  # noqa: B023
+            ).y
+        )
         for i, n in enumerate(STATE_NAMES):
             bb = a[i] + np.angle(np.exp(1j * (b[i] - a[i]))) if n in ("chi", "mu") else b[i]
             worst[n] = max(worst[n], float(np.max(np.abs(a[i] - bb)) / max(np.max(np.abs(a[i])), 1e-3)))

@@ -27,8 +27,9 @@ HORIZONS = (5.0, 10.0, 30.0, 60.0)
 
 def position_error(df, xs, ys, zs) -> np.ndarray:
     t = df.index.to_numpy()
-    return np.sqrt((df["x"].to_numpy() - xs(t)) ** 2 + (df["y"].to_numpy() - ys(t)) ** 2
-                   + (df["z"].to_numpy() - zs(t)) ** 2)
+    return np.sqrt(
+        (df["x"].to_numpy() - xs(t)) ** 2 + (df["y"].to_numpy() - ys(t)) ** 2 + (df["z"].to_numpy() - zs(t)) ** 2
+    )
 
 
 def main() -> None:
@@ -37,14 +38,20 @@ def main() -> None:
     t = np.arange(sc.t0, sc.t1 + 1e-9, 0.02)
     X, U = plan.state(t), plan.controls(t)
     lim = sc.aircraft.envelope.control_limits
-    print(f"plan {sc.name}: feasible {plan.feasible}, Newton failures {len(plan.newton_failures)}, "
-          f"warnings {len(plan.warnings)}")
-    print(f"  max |mu| {math.degrees(np.abs(X[8]).max()):.2f} deg, max |beta| {math.degrees(np.abs(X[7]).max()):.2g} deg, "
-          f"alpha {math.degrees(X[6].min()):.2f}..{math.degrees(X[6].max()):.2f} deg, "
-          f"V {X[3].min():.2f}..{X[3].max():.2f} m/s")
+    print(
+        f"plan {sc.name}: feasible {plan.feasible}, Newton failures {len(plan.newton_failures)}, "
+        f"warnings {len(plan.warnings)}"
+    )
+    print(
+        f"  max |mu| {math.degrees(np.abs(X[8]).max()):.2f} deg, max |beta| {math.degrees(np.abs(X[7]).max()):.2g} deg, "
+        f"alpha {math.degrees(X[6].min()):.2f}..{math.degrees(X[6].max()):.2f} deg, "
+        f"V {X[3].min():.2f}..{X[3].max():.2f} m/s"
+    )
     for i, name in ((2, "dl"), (3, "dm"), (4, "dn")):
-        print(f"  {name}: {math.degrees(U[i].min()):+.3f}..{math.degrees(U[i].max()):+.3f} deg "
-              f"(limit +-{math.degrees(lim.get(name, math.nan)):.2f} deg)")
+        print(
+            f"  {name}: {math.degrees(U[i].min()):+.3f}..{math.degrees(U[i].max()):+.3f} deg "
+            f"(limit +-{math.degrees(lim.get(name, math.nan)):.2f} deg)"
+        )
     print(f"  F: {U[0].min():.0f}..{U[0].max():.0f} N (max {sc.aircraft.propulsion.max_thrust:.0f} N)")
 
     runs = fly(("inhouse", "jsbsim", JSBSimSourceEngine()), sc.aircraft, None, plan, (sc.t0, sc.t1), env=sc.env)
@@ -60,8 +67,10 @@ def main() -> None:
 
     tr = trim_level(sc.aircraft, 195.0, 3000.0, env=sc.env)
     v = tr.values
-    print(f"trim hold: fitted set's level trim at 195 m/s, 3000 m: alpha {math.degrees(v['alpha']):.3f} deg, "
-          f"dm {math.degrees(v['dm']):.3f} deg, F {v['F']:.0f} N; flown 10 s with constant controls")
+    print(
+        f"trim hold: fitted set's level trim at 195 m/s, 3000 m: alpha {math.degrees(v['alpha']):.3f} deg, "
+        f"dm {math.degrees(v['dm']):.3f} deg, F {v['F']:.0f} N; flown 10 s with constant controls"
+    )
     x0 = np.asarray(tr.state, dtype=float)
     u0 = np.asarray(tr.controls, dtype=float)
     t_wall = time.perf_counter()
@@ -70,10 +79,12 @@ def main() -> None:
         d, s = res.df, res.df.iloc[-1]
         x_ref = x0[0] + x0[3] * d.index.to_numpy()
         e = np.sqrt((d["x"] - x_ref) ** 2 + (d["y"] - x0[1]) ** 2 + (d["z"] - x0[2]) ** 2).to_numpy()
-        print(f"  {label:15s} after 10 s: position {e[-1]:.3g} m (z {s['z'] - x0[2]:+.3g} m), V {s['V'] - x0[3]:+.3g} m/s, "
-              f"gamma {math.degrees(s['gamma']):+.3g} deg, alpha {math.degrees(s['alpha'] - x0[6]):+.3g} deg, "
-              f"mu {math.degrees(s['mu']):+.3g} deg, chi {math.degrees(s['chi']):+.3g} deg; "
-              f"error at 5 s {e[np.searchsorted(d.index.to_numpy(), 5.0)]:.3g} m")
+        print(
+            f"  {label:15s} after 10 s: position {e[-1]:.3g} m (z {s['z'] - x0[2]:+.3g} m), V {s['V'] - x0[3]:+.3g} m/s, "
+            f"gamma {math.degrees(s['gamma']):+.3g} deg, alpha {math.degrees(s['alpha'] - x0[6]):+.3g} deg, "
+            f"mu {math.degrees(s['mu']):+.3g} deg, chi {math.degrees(s['chi']):+.3g} deg; "
+            f"error at 5 s {e[np.searchsorted(d.index.to_numpy(), 5.0)]:.3g} m"
+        )
     print(f"  ({time.perf_counter() - t_wall:.2f} s wall)")
 
 

@@ -19,35 +19,41 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "gna" / "data" / "aircraft"
 
 #: theta42 for the F-16C: the two transcriptions disagree in sign; see DECISIONS.
-F16_CHOICES = {31: (-8.267, "S1 PIGPSEE (S2 FlightDynamicsCalcs prints -8267: decimal point lost)"),
-               42: (-0.034, "S1 PIGPSEE; S2 FlightDynamicsCalcs has +0.034 (sign disputed, see notes)")}
+F16_CHOICES = {
+    31: (-8.267, "S1 PIGPSEE (S2 FlightDynamicsCalcs prints -8267: decimal point lost)"),
+    42: (-0.034, "S1 PIGPSEE; S2 FlightDynamicsCalcs has +0.034 (sign disputed, see notes)"),
+}
 
 META = {
     "F-16C": dict(
-        id="f16c", name="F-16C, Grauer-Morelli GNA parameter set",
+        id="f16c",
+        name="F-16C, Grauer-Morelli GNA parameter set",
         engines="count = 1\ny_p_m = 0.0\nepsilon_rad = 0.0\n"
-                "source = \"single engine on the symmetry plane; thrust line assumed along body x (no data); "
-                "max thrust unknown in the GNA sources\"",
+        'source = "single engine on the symmetry plane; thrust line assumed along body x (no data); '
+        'max thrust unknown in the GNA sources"',
         envelope="alpha_min_deg = -10.0\nalpha_max_deg = 45.0\nbeta_max_deg = 30.0\n"
-                 "dl_max_deg = 21.5\ndm_max_deg = 25.0\ndn_max_deg = 30.0\n"
-                 "source = \"GNA database ranges not retrieved (MISSING). Angles: range of the NASA F-16 wind-tunnel "
-                 "tables used in Stevens & Lewis, Aircraft Control and Simulation (alpha -10..45 deg, beta +-30 deg); "
-                 "surface limits: Stevens & Lewis F-16 model (elevator 25, aileron 21.5, rudder 30 deg). "
-                 "Assumed, not from the GNA paper.\"",
+        "dl_max_deg = 21.5\ndm_max_deg = 25.0\ndn_max_deg = 30.0\n"
+        'source = "GNA database ranges not retrieved (MISSING). Angles: range of the NASA F-16 wind-tunnel '
+        "tables used in Stevens & Lewis, Aircraft Control and Simulation (alpha -10..45 deg, beta +-30 deg); "
+        "surface limits: Stevens & Lewis F-16 model (elevator 25, aileron 21.5, rudder 30 deg). "
+        'Assumed, not from the GNA paper."',
         notes="theta31 = -8.267 (S2's -8267 has a lost decimal point). theta42 = -0.034: the two transcriptions "
-              "disagree in sign; we take S1 (PIGPSEE) because (1) S1 carries Unicode minus signs typical of "
-              "text pasted from the PDF while S2 contains a proven manual typing error (theta31), (2) the A-7 "
-              "value of the same term in the same paper is also negative (-0.02), (3) validation.md's "
-              "self-check values use -0.034. Unverified against the paper."),
+        "disagree in sign; we take S1 (PIGPSEE) because (1) S1 carries Unicode minus signs typical of "
+        "text pasted from the PDF while S2 contains a proven manual typing error (theta31), (2) the A-7 "
+        "value of the same term in the same paper is also negative (-0.02), (3) validation.md's "
+        "self-check values use -0.034. Unverified against the paper.",
+    ),
     "A-7": dict(
-        id="a7", name="A-7 Corsair II, Grauer-Morelli GNA parameter set",
+        id="a7",
+        name="A-7 Corsair II, Grauer-Morelli GNA parameter set",
         engines="count = 1\ny_p_m = 0.0\nepsilon_rad = 0.0\n"
-                "source = \"single engine on the symmetry plane; thrust line assumed along body x (no data); "
-                "max thrust unknown in the GNA sources\"",
+        'source = "single engine on the symmetry plane; thrust line assumed along body x (no data); '
+        'max thrust unknown in the GNA sources"',
         envelope="alpha_min_deg = -10.0\nalpha_max_deg = 30.0\nbeta_max_deg = 20.0\n"
-                 "source = \"GNA database ranges not retrieved (MISSING); gflat's default envelope, assumed\"",
+        'source = "GNA database ranges not retrieved (MISSING); gflat\'s default envelope, assumed"',
         notes="theta3, theta6, theta9, theta18, theta20 are 0.0 in the single source (possibly 'not estimated' "
-              "in the paper)."),
+        "in the paper).",
+    ),
 }
 
 
@@ -66,7 +72,7 @@ def main(shared: Path) -> None:
             "",
             "[provenance]",
             'source = "J. A. Grauer, E. A. Morelli, A Generic Nonlinear Aerodynamic Model for Aircraft, AIAA 2014-0542; '
-            'Generic Global Aerodynamic Model for Aircraft, J. Aircraft 52(1):13-20, 2015. Paper tables not read: '
+            "Generic Global Aerodynamic Model for Aircraft, J. Aircraft 52(1):13-20, 2015. Paper tables not read: "
             'values transcribed by S1 josh0tt/PIGPSEE src/gp.jl and S2 seanmcleod70/FlightDynamicsCalcs"',
             'transformation = "none on the aerodynamic parameters; mass/geometry kept in published English units, '
             'converted to SI on load with exact factors (gna.units)"',
@@ -74,20 +80,20 @@ def main(shared: Path) -> None:
             f'notes = "{meta["notes"]}"',
             "",
             "[mass]",
-            f'weight_lb = {g["weight"]["value"]}',
-            f'Ixx_slugft2 = {g["Ixx"]["value"]}',
-            f'Iyy_slugft2 = {g["Iyy"]["value"]}',
-            f'Izz_slugft2 = {g["Izz"]["value"]}',
-            f'Ixz_slugft2 = {g["Ixz"]["value"]}',
+            f"weight_lb = {g['weight']['value']}",
+            f"Ixx_slugft2 = {g['Ixx']['value']}",
+            f"Iyy_slugft2 = {g['Iyy']['value']}",
+            f"Izz_slugft2 = {g['Izz']['value']}",
+            f"Ixz_slugft2 = {g['Ixz']['value']}",
             f'source = "{g["weight"]["source"]}; confidence {g["weight"]["confidence"]}"',
             "",
             "[geometry]",
-            f'S_ft2 = {g["S"]["value"]}',
-            f'b_ft = {g["b"]["value"]}',
-            f'cbar_ft = {g["cbar"]["value"]}',
-            f'x_cg_cbar = {g["x_cm/cbar"]["value"]}',
-            f'x_ref_cbar = {g["x_ref/cbar"]["value"]}',
-            f'source = "{g["S"]["source"]}; x_cg_cbar is that code\'s xcm (meaning in the paper unknown), '
+            f"S_ft2 = {g['S']['value']}",
+            f"b_ft = {g['b']['value']}",
+            f"cbar_ft = {g['cbar']['value']}",
+            f"x_cg_cbar = {g['x_cm/cbar']['value']}",
+            f"x_ref_cbar = {g['x_ref/cbar']['value']}",
+            f"source = \"{g['S']['source']}; x_cg_cbar is that code's xcm (meaning in the paper unknown), "
             f'x_ref_cbar the moment reference; moments are transferred from x_ref to x_cg"',
             "",
             "[engines]",
@@ -109,8 +115,10 @@ def main(shared: Path) -> None:
             else:
                 value, src = F16_CHOICES[i]
             mono = r["regressor"].replace("de", "dm").replace("da", "dl").replace("dr", "dn")
-            lines.append(f'  {{ theta = {i}, coef = "{r["coefficient"]}", monomial = "{mono}", value = {value!r}, '
-                         f'source = "{src}" }},')
+            lines.append(
+                f'  {{ theta = {i}, coef = "{r["coefficient"]}", monomial = "{mono}", value = {value!r}, '
+                f'source = "{src}" }},'
+            )
         lines.append("]")
         (OUT / f"{meta['id']}.toml").write_text("\n".join(lines) + "\n")
         print("wrote", OUT / f"{meta['id']}.toml")

@@ -56,9 +56,11 @@ def main(names) -> None:
                 b = export_script(tmp, sc.name, sc.aircraft, plan, env=sc.env, table_dt=table_dt)
                 t, pos, ang = differences(replay(b), engine)
             first = t <= t[0] + 10.0 + 1e-9
-            print(f"{name} ({label}, step {b.dt:.6g} s, {b.rows} rows): max |position difference| "
-                  f"{pos[first].max():.3e} m over the first 10 s, {pos.max():.3e} m over {t[0]:g}..{t[-1]:g} s; "
-                  f"max |angle difference| {ang[first].max():.3e} rad / {ang.max():.3e} rad")
+            print(
+                f"{name} ({label}, step {b.dt:.6g} s, {b.rows} rows): max |position difference| "
+                f"{pos[first].max():.3e} m over the first 10 s, {pos.max():.3e} m over {t[0]:g}..{t[-1]:g} s; "
+                f"max |angle difference| {ang[first].max():.3e} rad / {ang.max():.3e} rad"
+            )
             axes[0].semilogy(t, np.maximum(pos, 1e-16), label=label)
             axes[1].semilogy(t, np.maximum(ang, 1e-18), label=label)
         axes[0].set_ylabel("|position difference| [m]")

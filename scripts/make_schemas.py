@@ -34,18 +34,43 @@ SCENARIO_SCHEMA = ROOT / "planners" / "schemas" / "scenario.schema.json"
 DOC = ROOT / "docs" / "scenarios.md"
 
 SAFE_NAME = "^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$"
-UNIT_WORDS = {"kg": "kg", "slug": "slug", "lb": "lb (weight, mass = W/g0)", "N": "N", "kgm2": "kg m^2",
-              "slugft2": "slug ft^2", "m": "m", "ft": "ft", "in": "in", "m2": "m^2", "ft2": "ft^2",
-              "rad": "rad", "deg": "deg", "lbf": "lbf", "ms": "m/s", "kt": "kt", "fps": "ft/s", "W": "W",
-              "kW": "kW", "shp": "shp (shaft horsepower)"}
+UNIT_WORDS = {
+    "kg": "kg",
+    "slug": "slug",
+    "lb": "lb (weight, mass = W/g0)",
+    "N": "N",
+    "kgm2": "kg m^2",
+    "slugft2": "slug ft^2",
+    "m": "m",
+    "ft": "ft",
+    "in": "in",
+    "m2": "m^2",
+    "ft2": "ft^2",
+    "rad": "rad",
+    "deg": "deg",
+    "lbf": "lbf",
+    "ms": "m/s",
+    "kt": "kt",
+    "fps": "ft/s",
+    "W": "W",
+    "kW": "kW",
+    "shp": "shp (shaft horsepower)",
+}
 
 
 def _text(description: str, **extra) -> dict:
     return {"type": "string", "description": description, **extra}
 
 
-def _quantity(props: dict, conflicts: list, name: str, kind: str, description: str, default: str | None = None,
-              extra: tuple[tuple[str, str, str], ...] = ()) -> None:
+def _quantity(
+    props: dict,
+    conflicts: list,
+    name: str,
+    kind: str,
+    description: str,
+    default: str | None = None,
+    extra: tuple[tuple[str, str, str], ...] = (),
+) -> None:
     """Keys ``name_<unit>`` of one quantity; any two of them exclude each other."""
     keys = []
     for unit in UNIT_FACTORS[kind]:
@@ -74,90 +99,161 @@ def _table(description: str, props: dict, conflicts: list = (), required: tuple 
 def aircraft_schema() -> dict:
     """The JSON Schema of aircraft files (``gna/data/aircraft/*.toml``)."""
     mass, cm = {}, []
-    _quantity(mass, cm, "mass", "mass", "Mass (required: one of mass_* or weight_*)",
-              extra=tuple((f"weight_{u}", UNIT_WORDS[u], "Weight (mass = W / g0)") for u in UNIT_FACTORS["weight"]))
+    _quantity(
+        mass,
+        cm,
+        "mass",
+        "mass",
+        "Mass (required: one of mass_* or weight_*)",
+        extra=tuple((f"weight_{u}", UNIT_WORDS[u], "Weight (mass = W / g0)") for u in UNIT_FACTORS["weight"]),
+    )
     for axis, req in (("Ixx", True), ("Iyy", True), ("Izz", True), ("Ixz", False)):
-        _quantity(mass, cm, axis, "inertia", f"{axis}, body axes" + (" (required)" if req else
-                  ", flight-dynamics sign: integral of x z dm"), None if req else "0")
+        _quantity(
+            mass,
+            cm,
+            axis,
+            "inertia",
+            f"{axis}, body axes" + (" (required)" if req else ", flight-dynamics sign: integral of x z dm"),
+            None if req else "0",
+        )
     mass["source"] = _text("Where the numbers come from")
     geo, cg = {}, []
     _quantity(geo, cg, "S", "area", "Reference wing area (required)")
     _quantity(geo, cg, "b", "length", "Reference span (required)")
     _quantity(geo, cg, "cbar", "length", "Mean aerodynamic chord (required)")
-    _quantity(geo, cg, "x_cg", "length", "Centre of gravity aft of the leading edge of the m.a.c.", "0",
-              extra=(("x_cg_cbar", "cbar", "Centre of gravity aft of the m.a.c. leading edge, in chords"),))
-    _quantity(geo, cg, "x_ref", "length", "Moment reference point aft of the m.a.c. leading edge", "x_cg",
-              extra=(("x_ref_cbar", "cbar", "Moment reference point aft of the m.a.c. leading edge, in chords"),))
+    _quantity(
+        geo,
+        cg,
+        "x_cg",
+        "length",
+        "Centre of gravity aft of the leading edge of the m.a.c.",
+        "0",
+        extra=(("x_cg_cbar", "cbar", "Centre of gravity aft of the m.a.c. leading edge, in chords"),),
+    )
+    _quantity(
+        geo,
+        cg,
+        "x_ref",
+        "length",
+        "Moment reference point aft of the m.a.c. leading edge",
+        "x_cg",
+        extra=(("x_ref_cbar", "cbar", "Moment reference point aft of the m.a.c. leading edge, in chords"),),
+    )
     # chord fractions and lengths are not mixed between x_cg and x_ref (one of them would be ignored)
     for a, b in (("x_cg", "x_ref"), ("x_ref", "x_cg")):
         cg.extend((f"{a}_cbar", f"{b}_{u}") for u in UNIT_FACTORS["length"])
     geo["source"] = _text("Where the numbers come from")
-    eng, ce = {"count": {"type": "integer", "enum": [1, 2], "x-default": "1",
-                         "description": "Number of engines: 1 on the symmetry plane, 2 at y = -y_p and +y_p"}}, []
+    eng, ce = (
+        {
+            "count": {
+                "type": "integer",
+                "enum": [1, 2],
+                "x-default": "1",
+                "description": "Number of engines: 1 on the symmetry plane, 2 at y = -y_p and +y_p",
+            }
+        },
+        [],
+    )
     _quantity(eng, ce, "y_p", "length", "Lateral offset of each engine of a twin (0 for one engine)", "0")
     _quantity(eng, ce, "epsilon", "angle", "Thrust line tilt, nose-up from the body x axis", "0")
     _quantity(eng, ce, "max_thrust", "force", "Total thrust limit (optional)")
     eng["source"] = _text("Where the numbers come from")
     _quantity(eng, ce, "engine_power", "power", "Shaft power rating of ONE engine (optional; propeller engines)")
-    eng["propeller_efficiency"] = {"type": "number", "exclusiveMinimum": 0, "maximum": 1,
-                                   "description": "Propeller efficiency for the in-flight thrust limit "
-                                                  "eff * P / V (optional; 1 when a power is given without it)"}
+    eng["propeller_efficiency"] = {
+        "type": "number",
+        "exclusiveMinimum": 0,
+        "maximum": 1,
+        "description": "Propeller efficiency for the in-flight thrust limit "
+        "eff * P / V (optional; 1 when a power is given without it)",
+    }
     _quantity(eng, ce, "engine_static_thrust", "force", "Static thrust rating of ONE engine (optional)")
     eng["engine_source"] = _text("Where the per-engine rating comes from")
     env, cv = {}, []
     _quantity(env, cv, "alpha_min", "angle", "Lowest angle of attack of the model's validity domain", "-10 deg")
     _quantity(env, cv, "alpha_max", "angle", "Highest angle of attack (above alpha_min)", "30 deg")
-    _quantity(env, cv, "beta_max", "angle", "Largest |sideslip| of the validity domain, in (0, 90] deg",
-              "20 deg")
+    _quantity(env, cv, "beta_max", "angle", "Largest |sideslip| of the validity domain, in (0, 90] deg", "20 deg")
     for s, word in (("dl", "aileron"), ("dm", "elevator"), ("dn", "rudder")):
         _quantity(env, cv, f"{s}_max", "angle", f"Largest |{word} deflection| (optional)")
     env["source"] = _text("Where the numbers come from")
-    term = {"type": "object", "additionalProperties": False,
-            "description": "One term value * monomial of a coefficient (paper eq. (GNA))",
-            "properties": {
-                "theta": {"type": "integer", "minimum": 0, "description": "Term index (theta_i of the paper)",
-                          "x-default": "position in the list"},
-                "index": {"type": "integer", "minimum": 0, "description": "Same as theta"},
-                "coef": {"enum": list(COEFFICIENTS), "description": "Coefficient the term belongs to"},
-                "coefficient": {"enum": list(COEFFICIENTS), "description": "Same as coef"},
-                "monomial": {"type": "string", "description": "Product of alpha, beta, phat, qhat, rhat, dl, dm, dn "
-                             f"with exponents ^1..^{MAX_EXPONENT}, or \"1\" (required)"},
-                "value": {"type": "number", "description": "Parameter value (required)"},
-                "std_error": {"type": "number", "minimum": 0, "description": "Standard error of a fitted value"},
-                "source": _text("Where the value comes from")},
-            "required": ["monomial", "value"],
-            "anyOf": [{"required": ["coef"]}, {"required": ["coefficient"]}],
-            "allOf": [{"not": {"required": ["theta", "index"]}}, {"not": {"required": ["coef", "coefficient"]}}]}
-    aero = _table("The aerodynamic model as a table of polynomial terms", {
-        "structure": _text("Name of the structure (gna45 for the paper's 45 terms)", **{"x-default": "custom"}),
-        "conventions": _text("The axes and sign conventions of the terms"),
-        "terms": {"type": "array", "minItems": 1, "items": term,
-                  "description": "The terms (required, at least one; a coefficient/monomial pair at most once)"},
-        "absent_coefficients": {"type": "array", "items": {"enum": list(COEFFICIENTS)},
-                                "description": "Coefficients a fit could not identify (written by gflat fit)"}},
-        required=("terms",))
+    term = {
+        "type": "object",
+        "additionalProperties": False,
+        "description": "One term value * monomial of a coefficient (paper eq. (GNA))",
+        "properties": {
+            "theta": {
+                "type": "integer",
+                "minimum": 0,
+                "description": "Term index (theta_i of the paper)",
+                "x-default": "position in the list",
+            },
+            "index": {"type": "integer", "minimum": 0, "description": "Same as theta"},
+            "coef": {"enum": list(COEFFICIENTS), "description": "Coefficient the term belongs to"},
+            "coefficient": {"enum": list(COEFFICIENTS), "description": "Same as coef"},
+            "monomial": {
+                "type": "string",
+                "description": "Product of alpha, beta, phat, qhat, rhat, dl, dm, dn "
+                f'with exponents ^1..^{MAX_EXPONENT}, or "1" (required)',
+            },
+            "value": {"type": "number", "description": "Parameter value (required)"},
+            "std_error": {"type": "number", "minimum": 0, "description": "Standard error of a fitted value"},
+            "source": _text("Where the value comes from"),
+        },
+        "required": ["monomial", "value"],
+        "anyOf": [{"required": ["coef"]}, {"required": ["coefficient"]}],
+        "allOf": [{"not": {"required": ["theta", "index"]}}, {"not": {"required": ["coef", "coefficient"]}}],
+    }
+    aero = _table(
+        "The aerodynamic model as a table of polynomial terms",
+        {
+            "structure": _text("Name of the structure (gna45 for the paper's 45 terms)", **{"x-default": "custom"}),
+            "conventions": _text("The axes and sign conventions of the terms"),
+            "terms": {
+                "type": "array",
+                "minItems": 1,
+                "items": term,
+                "description": "The terms (required, at least one; a coefficient/monomial pair at most once)",
+            },
+            "absent_coefficients": {
+                "type": "array",
+                "items": {"enum": list(COEFFICIENTS)},
+                "description": "Coefficients a fit could not identify (written by gflat fit)",
+            },
+        },
+        required=("terms",),
+    )
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "$id": "https://gflat.invalid/schemas/aircraft.schema.json",
         "title": "gflat aircraft file",
         "description": "An aircraft: mass, geometry, engines, envelope and aerodynamic term table (TOML). Each "
-                       "quantity is written in one unit, the unit being part of the key; numbers are converted "
-                       "to SI with the exact factors of gna.units.",
-        "type": "object", "additionalProperties": False, "required": ["id", "mass", "geometry", "aero"],
+        "quantity is written in one unit, the unit being part of the key; numbers are converted "
+        "to SI with the exact factors of gna.units.",
+        "type": "object",
+        "additionalProperties": False,
+        "required": ["id", "mass", "geometry", "aero"],
         "properties": {
-            "id": _text("Identifier, also the name of exported files (required)", pattern=SAFE_NAME,
-                        errorMessage="use 1 to 64 letters, digits, '.', '_' or '-' starting with a letter or a "
-                                     "digit (it names output files)"),
+            "id": _text(
+                "Identifier, also the name of exported files (required)",
+                pattern=SAFE_NAME,
+                errorMessage="use 1 to 64 letters, digits, '.', '_' or '-' starting with a letter or a "
+                "digit (it names output files)",
+            ),
             "name": _text("Full name", **{"x-default": "the id"}),
-            "provenance": {"type": "object", "additionalProperties": {"type": "string"},
-                           "description": "Source, transformation and date of the data set (strings)"},
+            "provenance": {
+                "type": "object",
+                "additionalProperties": {"type": "string"},
+                "description": "Source, transformation and date of the data set (strings)",
+            },
             "mass": _table("Mass and inertia, body axes", mass, cm),
             "geometry": _table("Reference geometry", geo, cg),
             "engines": _table("Propulsion layout", eng, ce),
             "envelope": _table("Validity domain of the aerodynamic model, and control limits", env, cv),
             "aero": aero,
-            "fit": {"type": "object", "description": "Record of the fit that produced the terms (written by "
-                                                     "gflat fit; not read by the model)"},
+            "fit": {
+                "type": "object",
+                "description": "Record of the fit that produced the terms (written by "
+                "gflat fit; not read by the model)",
+            },
         },
     }
 
@@ -171,55 +267,115 @@ def _expr(description: str, default: str | None = None) -> dict:
 
 #: The ``[tracking.perturbation]`` keys (values checked by gna.perturbation.perturbation_from_dict).
 PERTURBATION = {
-    "aero_spread": {"x-type": "number", "x-unit": "-", "x-default": "0", "description": "Every aerodynamic term times its own seeded "
-                    "random factor in [1 - s, 1 + s], 0 <= s < 1 (needs a seed)"},
-    "aero_scale": {"x-type": "table", "x-default": "{}", "description": "Table of factors by term index or coefficient name"},
+    "aero_spread": {
+        "x-type": "number",
+        "x-unit": "-",
+        "x-default": "0",
+        "description": "Every aerodynamic term times its own seeded "
+        "random factor in [1 - s, 1 + s], 0 <= s < 1 (needs a seed)",
+    },
+    "aero_scale": {
+        "x-type": "table",
+        "x-default": "{}",
+        "description": "Table of factors by term index or coefficient name",
+    },
     "mass_scale": {"x-type": "number", "x-default": "1", "description": "Factor on the mass (positive)"},
     "inertia_scale": {"x-type": "number", "x-default": "1", "description": "Factor on the inertia matrix (positive)"},
-    "position_m": {"x-type": "number", "x-unit": "m", "x-default": "0", "description": "Initial position offset along (1, 1, 1)/sqrt(3)"},
+    "position_m": {
+        "x-type": "number",
+        "x-unit": "m",
+        "x-default": "0",
+        "description": "Initial position offset along (1, 1, 1)/sqrt(3)",
+    },
     "speed_mps": {"x-type": "number", "x-unit": "m/s", "x-default": "0", "description": "Initial speed offset"},
-    "angle_rad": {"x-type": "number", "x-unit": "rad", "x-default": "0", "description": "Offset added to gamma, chi, alpha, beta, mu"},
+    "angle_rad": {
+        "x-type": "number",
+        "x-unit": "rad",
+        "x-default": "0",
+        "description": "Offset added to gamma, chi, alpha, beta, mu",
+    },
     "state_offsets": {"x-type": "table", "x-default": "{}", "description": "Table of offsets by state name (SI, rad)"},
     "seed": {"x-type": "integer", "x-default": "none", "description": "Seed of the random factors (whole number)"},
 }
 
 
 COMPARE = {
-    "tolerances": {"x-type": "number or table", "x-unit": "SI unit of each variable",
-                   "description": "Absolute tolerances: one number for every compared variable, or a table "
-                                  "quantity (position, velocity, angle, rate) or variable -> tolerance"},
-    "rtol": {"x-type": "number or table", "x-unit": "-",
-             "description": "Relative tolerances (fraction of max |reference| over the window), same forms"},
-    "windows": {"x-type": "table", "x-unit": "s", "description": "Comparison windows: name -> duration from t0, "
-                                                                   "or \"all\" for the whole span"},
-    "dt_out": {"x-type": "number", "x-unit": "s", "x-default": "0.05",
-               "description": "Output grid step of every engine and of the plan comparison"},
-    "jsbsim_dt": {"x-type": "number", "x-unit": "s", "x-default": "1/480",
-                  "description": "JSBSim's own step, independent of dt_out"},
-    "self_convergence": {"x-type": "boolean", "x-default": "false",
-                         "description": "Also fly JSBSim at half its step and report that difference"},
+    "tolerances": {
+        "x-type": "number or table",
+        "x-unit": "SI unit of each variable",
+        "description": "Absolute tolerances: one number for every compared variable, or a table "
+        "quantity (position, velocity, angle, rate) or variable -> tolerance",
+    },
+    "rtol": {
+        "x-type": "number or table",
+        "x-unit": "-",
+        "description": "Relative tolerances (fraction of max |reference| over the window), same forms",
+    },
+    "windows": {
+        "x-type": "table",
+        "x-unit": "s",
+        "description": 'Comparison windows: name -> duration from t0, or "all" for the whole span',
+    },
+    "dt_out": {
+        "x-type": "number",
+        "x-unit": "s",
+        "x-default": "0.05",
+        "description": "Output grid step of every engine and of the plan comparison",
+    },
+    "jsbsim_dt": {
+        "x-type": "number",
+        "x-unit": "s",
+        "x-default": "1/480",
+        "description": "JSBSim's own step, independent of dt_out",
+    },
+    "self_convergence": {
+        "x-type": "boolean",
+        "x-default": "false",
+        "description": "Also fly JSBSim at half its step and report that difference",
+    },
 }
 
 
 def scenario_schema() -> dict:
     """The JSON Schema of scenario files (``planners/scenarios/*.toml``)."""
     num = {"type": "number"}
-    tracking = _table("The closed loop (planners.tracking.tracking_controller)", {
-        "lambdas": {"x-type": "number or table", "description": "Pole magnitudes of the tracking feedback: one positive number for all, or a "
-                               "table of lists I1, I2, I3, I4 of 3, 5, 5, 3 positive numbers (I1..I3 of 5 with "
-                               "zeta = 'F'); checked by planners.scenario", "x-unit": "1/s", "x-default": "1.0"},
-        "feedforward_iterate": {"type": "integer", "description": "Plan iterate of the feedforward (-1 = last, "
-                                "0 = the flat plan)", "x-default": "-1"},
-        "saturate": {"type": "boolean", "description": "Clip the applied controls at the aircraft's limits",
-                     "x-default": "true"},
-        "controller_dt": {"anyOf": [{"type": "number", "exclusiveMinimum": 0}, {"const": "step"}],
-                          "x-type": "number or \"step\"",
-                          "description": "Sampling interval of the feedback on sampled engines (JSBSim), the output "
-                                         "held in between; \"step\" samples at every engine step",
-                          "x-unit": "s", "x-default": "\"step\""},
-        "perturbation": {"type": "object", "additionalProperties": False,
-                         "description": "Model and initial-state perturbation (gna.perturbation)",
-                         "properties": PERTURBATION}})
+    tracking = _table(
+        "The closed loop (planners.tracking.tracking_controller)",
+        {
+            "lambdas": {
+                "x-type": "number or table",
+                "description": "Pole magnitudes of the tracking feedback: one positive number for all, or a "
+                "table of lists I1, I2, I3, I4 of 3, 5, 5, 3 positive numbers (I1..I3 of 5 with "
+                "zeta = 'F'); checked by planners.scenario",
+                "x-unit": "1/s",
+                "x-default": "1.0",
+            },
+            "feedforward_iterate": {
+                "type": "integer",
+                "description": "Plan iterate of the feedforward (-1 = last, 0 = the flat plan)",
+                "x-default": "-1",
+            },
+            "saturate": {
+                "type": "boolean",
+                "description": "Clip the applied controls at the aircraft's limits",
+                "x-default": "true",
+            },
+            "controller_dt": {
+                "anyOf": [{"type": "number", "exclusiveMinimum": 0}, {"const": "step"}],
+                "x-type": 'number or "step"',
+                "description": "Sampling interval of the feedback on sampled engines (JSBSim), the output "
+                'held in between; "step" samples at every engine step',
+                "x-unit": "s",
+                "x-default": '"step"',
+            },
+            "perturbation": {
+                "type": "object",
+                "additionalProperties": False,
+                "description": "Model and initial-state perturbation (gna.perturbation)",
+                "properties": PERTURBATION,
+            },
+        },
+    )
     assert tuple(PERTURBATION) == PERTURBATION_KEYS
     assert set(tracking["properties"]) == set(TRACKING_KEYS)
     assert tuple(COMPARE) == COMPARE_KEYS
@@ -228,94 +384,203 @@ def scenario_schema() -> dict:
         "$id": "https://gflat.invalid/schemas/scenario.schema.json",
         "title": "gflat scenario file",
         "description": "A manoeuvre to plan (TOML): aircraft, time grid, flat outputs as expressions of t, "
-                       "generalized-flatness iterations, first-iterate H values, report, environment, tracking.",
-        "type": "object", "additionalProperties": False, "required": ["aircraft", "time", "flat_outputs"],
+        "generalized-flatness iterations, first-iterate H values, report, environment, tracking.",
+        "type": "object",
+        "additionalProperties": False,
+        "required": ["aircraft", "time", "flat_outputs"],
         "allOf": [{"not": {"required": ["h", "calibration"]}}],
         "properties": {
-            "name": _text("Name, also the name of output folders", pattern=SAFE_NAME,
-                          errorMessage="use 1 to 64 letters, digits, '.', '_' or '-' starting with a letter or a "
-                                       "digit (it names output folders)", **{"x-default": "the file name"}),
-            "description": _text("Free text", **{"x-default": "\"\""}),
-            "aircraft": _text("Bundled aircraft id, or path of an aircraft file (relative to the scenario's "
-                              "folder) (required)"),
-            "time": _table("Time span and grid", {
-                "t0": dict(num, description="Start (required)", **{"x-unit": "s"}),
-                "t1": dict(num, description="End, after t0 (required)", **{"x-unit": "s"}),
-                "step": dict(num, exclusiveMinimum=0, description=f"Grid step dividing t1 - t0, at most "
-                             f"{MAX_NODES} steps (required)", **{"x-unit": "s"})},
-                required=("t0", "t1", "step")),
-            "flat_outputs": _table("Flat outputs", {
-                "x": _expr("North position (required)", None) | {"x-unit": "m, expression of t [s]"},
-                "y": _expr("East position (required)", None) | {"x-unit": "m, expression of t [s]"},
-                "z": _expr("Down position (required)", None) | {"x-unit": "m, expression of t [s]"},
-                "zeta": {"enum": list(FLAT_KINDS), "description": "The fourth flat output",
-                         "x-default": "beta"},
-                "zeta_value": _expr("Value of the fourth flat output (rad, or N for F)", "0"),
-                "eta": _expr("Thrust asymmetry, the rudder being a control (not with dn)", "0"),
-                "dn": _expr("Fixed rudder [rad] (eta becomes a control; not with eta)"),
-                "f1": _expr("With zeta = 'mix': f1 beta + f2 mu = zeta_value"),
-                "f2": _expr("With zeta = 'mix': f1 beta + f2 mu = zeta_value")},
-                conflicts=[("eta", "dn")], required=("x", "y", "z")),
-            "generalized": _table("Generalized flatness", {
-                "J": {"anyOf": [{"type": "integer"}, {"enum": [AUTO_J]}], "minimum": 0, "maximum": 30,
-                      "x-type": "integer or \"auto\"",
-                      "x-default": "0",
-                      "description": "Number of iterations J, or \"auto\": chosen by the convergence test on the "
-                                     "full-model equation residual at the nodes (J_tol, J_max; docs/planning.md)"},
-                "e": {"type": "integer", "minimum": 0, "maximum": MAX_E, "x-default": "1",
-                      "description": "Output order e: the controls' series order in the last iterate (the flat "
-                                     "outputs start at order e + 4 + 2J)"},
-                "interpolation": {"type": "string", "enum": list(INTERPOLATIONS), "x-default": DEFAULT_INTERPOLATION,
-                                  "description": "Evaluation between nodes: two-point Hermite interpolation of the "
-                                                 "node series, or the paper's two-sided formula (docs/planning.md)"},
-                "J_tol": {"type": "number", "minimum": 0, "x-default": f"{AUTO_J_TOL:g}", "x-unit": "m/s^2, rad/s",
-                          "description": "J = \"auto\": stop at the first iterate whose full-model residual at the "
-                                         "nodes is at most this"},
-                "J_max": {"type": "integer", "minimum": 0, "maximum": 30, "x-default": str(AUTO_J_MAX),
-                          "description": "J = \"auto\": largest J tried"},
-                "method": {"type": "string", "enum": list(METHODS), "x-default": "fixed-point",
-                           "description": "The paper's J iterations, or Newton's method on their fixed point "
-                                          "(J is then the depth; docs/generalized.md)"}}),
-            "constants": {"type": "object", "description": "Named numbers the expressions may use; a name may "
-                          "not be t, a built-in constant (" + ", ".join(CONSTANTS) + ") or a function ("
-                          + ", ".join(FUNCTIONS) + ")",
-                          "propertyNames": {"pattern": "^[A-Za-z_][A-Za-z0-9_]*$",
-                                            "errorMessage": "a constant's name is a letter or '_' followed by "
-                                                            "letters, digits or '_'"},
-                          "additionalProperties": num},
-            "calibration": {"type": "object", "description": "H values of the first iterate from a full-model "
-                            "trim: four of the trim variables (SI, rad) and optionally altitude [m] (default: "
-                            "mean of -z)",
-                            "propertyNames": {"enum": list(TRIM_VARIABLES) + ["altitude"]},
-                            "additionalProperties": num},
-            "h": _table("H values of the first iterate (not with [calibration])", {
-                k: dict(num, description=d, **{"x-unit": u, "x-default": "0"}) for k, d, u in (
-                    ("p", "Roll rate", "rad/s"), ("q", "Pitch rate", "rad/s"), ("r", "Yaw rate", "rad/s"),
-                    ("dl", "Aileron", "rad"), ("dm", "Elevator", "rad"), ("dn", "Rudder", "rad"))}),
-            "report": _table("What the plan report shows", {
-                "times": {"type": "array", "items": num, "description": "Times within [t0, t1] tabulated",
-                          "x-unit": "s", "x-default": "[]"},
-                "variables": {"type": "array", "items": {"enum": list(PLAN_VARIABLES)},
-                              "description": "Plan variables tabulated", "x-default": "[\"F\", \"dl\", \"dm\", "
-                                                                               "\"dn\"]"}}),
-            "environment": _table("Atmosphere and gravity", {
-                "density": {"type": "string", "description": "'isa' or 'constant'", "x-default": "isa"},
-                "rho": dict(num, exclusiveMinimum=0, description="Density with density = 'constant' (required "
-                            "then)", **{"x-unit": "kg/m^3"}),
-                "g": dict(num, exclusiveMinimum=0, description="Gravity", **{"x-unit": "m/s^2",
-                                                                             "x-default": "9.80665"}),
-                "ground_effect": _table("Ground effect on lift and induced drag over a flat ground "
-                                        "(gna.ground_effect, docs/ground_effect.md); the table present turns it on", {
-                    "elevation": dict(num, description="Ground elevation (altitude of the ground plane)",
-                                      **{"x-unit": "m", "x-default": "0"}),
-                    "oswald": dict(num, exclusiveMinimum=0, maximum=1, description="Oswald factor e of the "
-                                   "induced drag CL^2/(pi e A)", **{"x-default": "0.8"}),
-                    "section_lift_slope": dict(num, exclusiveMinimum=0, description="Section lift slope a0 of the "
-                                               "lifting-line lift factor", **{"x-unit": "1/rad",
-                                                                               "x-default": "2 pi"})})}),
+            "name": _text(
+                "Name, also the name of output folders",
+                pattern=SAFE_NAME,
+                errorMessage="use 1 to 64 letters, digits, '.', '_' or '-' starting with a letter or a "
+                "digit (it names output folders)",
+                **{"x-default": "the file name"},
+            ),
+            "description": _text("Free text", **{"x-default": '""'}),
+            "aircraft": _text(
+                "Bundled aircraft id, or path of an aircraft file (relative to the scenario's folder) (required)"
+            ),
+            "time": _table(
+                "Time span and grid",
+                {
+                    "t0": dict(num, description="Start (required)", **{"x-unit": "s"}),
+                    "t1": dict(num, description="End, after t0 (required)", **{"x-unit": "s"}),
+                    "step": dict(
+                        num,
+                        exclusiveMinimum=0,
+                        description=f"Grid step dividing t1 - t0, at most {MAX_NODES} steps (required)",
+                        **{"x-unit": "s"},
+                    ),
+                },
+                required=("t0", "t1", "step"),
+            ),
+            "flat_outputs": _table(
+                "Flat outputs",
+                {
+                    "x": _expr("North position (required)", None) | {"x-unit": "m, expression of t [s]"},
+                    "y": _expr("East position (required)", None) | {"x-unit": "m, expression of t [s]"},
+                    "z": _expr("Down position (required)", None) | {"x-unit": "m, expression of t [s]"},
+                    "zeta": {"enum": list(FLAT_KINDS), "description": "The fourth flat output", "x-default": "beta"},
+                    "zeta_value": _expr("Value of the fourth flat output (rad, or N for F)", "0"),
+                    "eta": _expr("Thrust asymmetry, the rudder being a control (not with dn)", "0"),
+                    "dn": _expr("Fixed rudder [rad] (eta becomes a control; not with eta)"),
+                    "f1": _expr("With zeta = 'mix': f1 beta + f2 mu = zeta_value"),
+                    "f2": _expr("With zeta = 'mix': f1 beta + f2 mu = zeta_value"),
+                },
+                conflicts=[("eta", "dn")],
+                required=("x", "y", "z"),
+            ),
+            "generalized": _table(
+                "Generalized flatness",
+                {
+                    "J": {
+                        "anyOf": [{"type": "integer"}, {"enum": [AUTO_J]}],
+                        "minimum": 0,
+                        "maximum": 30,
+                        "x-type": 'integer or "auto"',
+                        "x-default": "0",
+                        "description": 'Number of iterations J, or "auto": chosen by the convergence test on the '
+                        "full-model equation residual at the nodes (J_tol, J_max; docs/planning.md)",
+                    },
+                    "e": {
+                        "type": "integer",
+                        "minimum": 0,
+                        "maximum": MAX_E,
+                        "x-default": "1",
+                        "description": "Output order e: the controls' series order in the last iterate (the flat "
+                        "outputs start at order e + 4 + 2J)",
+                    },
+                    "interpolation": {
+                        "type": "string",
+                        "enum": list(INTERPOLATIONS),
+                        "x-default": DEFAULT_INTERPOLATION,
+                        "description": "Evaluation between nodes: two-point Hermite interpolation of the "
+                        "node series, or the paper's two-sided formula (docs/planning.md)",
+                    },
+                    "J_tol": {
+                        "type": "number",
+                        "minimum": 0,
+                        "x-default": f"{AUTO_J_TOL:g}",
+                        "x-unit": "m/s^2, rad/s",
+                        "description": 'J = "auto": stop at the first iterate whose full-model residual at the '
+                        "nodes is at most this",
+                    },
+                    "J_max": {
+                        "type": "integer",
+                        "minimum": 0,
+                        "maximum": 30,
+                        "x-default": str(AUTO_J_MAX),
+                        "description": 'J = "auto": largest J tried',
+                    },
+                    "method": {
+                        "type": "string",
+                        "enum": list(METHODS),
+                        "x-default": "fixed-point",
+                        "description": "The paper's J iterations, or Newton's method on their fixed point "
+                        "(J is then the depth; docs/generalized.md)",
+                    },
+                },
+            ),
+            "constants": {
+                "type": "object",
+                "description": "Named numbers the expressions may use; a name may "
+                "not be t, a built-in constant ("
+                + ", ".join(CONSTANTS)
+                + ") or a function ("
+                + ", ".join(FUNCTIONS)
+                + ")",
+                "propertyNames": {
+                    "pattern": "^[A-Za-z_][A-Za-z0-9_]*$",
+                    "errorMessage": "a constant's name is a letter or '_' followed by letters, digits or '_'",
+                },
+                "additionalProperties": num,
+            },
+            "calibration": {
+                "type": "object",
+                "description": "H values of the first iterate from a full-model "
+                "trim: four of the trim variables (SI, rad) and optionally altitude [m] (default: "
+                "mean of -z)",
+                "propertyNames": {"enum": list(TRIM_VARIABLES) + ["altitude"]},
+                "additionalProperties": num,
+            },
+            "h": _table(
+                "H values of the first iterate (not with [calibration])",
+                {
+                    k: dict(num, description=d, **{"x-unit": u, "x-default": "0"})
+                    for k, d, u in (
+                        ("p", "Roll rate", "rad/s"),
+                        ("q", "Pitch rate", "rad/s"),
+                        ("r", "Yaw rate", "rad/s"),
+                        ("dl", "Aileron", "rad"),
+                        ("dm", "Elevator", "rad"),
+                        ("dn", "Rudder", "rad"),
+                    )
+                },
+            ),
+            "report": _table(
+                "What the plan report shows",
+                {
+                    "times": {
+                        "type": "array",
+                        "items": num,
+                        "description": "Times within [t0, t1] tabulated",
+                        "x-unit": "s",
+                        "x-default": "[]",
+                    },
+                    "variables": {
+                        "type": "array",
+                        "items": {"enum": list(PLAN_VARIABLES)},
+                        "description": "Plan variables tabulated",
+                        "x-default": '["F", "dl", "dm", "dn"]',
+                    },
+                },
+            ),
+            "environment": _table(
+                "Atmosphere and gravity",
+                {
+                    "density": {"type": "string", "description": "'isa' or 'constant'", "x-default": "isa"},
+                    "rho": dict(
+                        num,
+                        exclusiveMinimum=0,
+                        description="Density with density = 'constant' (required then)",
+                        **{"x-unit": "kg/m^3"},
+                    ),
+                    "g": dict(
+                        num, exclusiveMinimum=0, description="Gravity", **{"x-unit": "m/s^2", "x-default": "9.80665"}
+                    ),
+                    "ground_effect": _table(
+                        "Ground effect on lift and induced drag over a flat ground "
+                        "(gna.ground_effect, docs/ground_effect.md); the table present turns it on",
+                        {
+                            "elevation": dict(
+                                num,
+                                description="Ground elevation (altitude of the ground plane)",
+                                **{"x-unit": "m", "x-default": "0"},
+                            ),
+                            "oswald": dict(
+                                num,
+                                exclusiveMinimum=0,
+                                maximum=1,
+                                description="Oswald factor e of the induced drag CL^2/(pi e A)",
+                                **{"x-default": "0.8"},
+                            ),
+                            "section_lift_slope": dict(
+                                num,
+                                exclusiveMinimum=0,
+                                description="Section lift slope a0 of the lifting-line lift factor",
+                                **{"x-unit": "1/rad", "x-default": "2 pi"},
+                            ),
+                        },
+                    ),
+                },
+            ),
             "tracking": tracking,
-            "compare": _table("Engine comparison settings (gflat compare, gflat paper); keys checked by every "
-                              "command, values by harness.validation.parse_compare", COMPARE),
+            "compare": _table(
+                "Engine comparison settings (gflat compare, gflat paper); keys checked by every "
+                "command, values by harness.validation.parse_compare",
+                COMPARE,
+            ),
         },
     }
 
@@ -333,8 +598,10 @@ def _rows(schema: dict, prefix: str) -> list[str]:
             t = " or ".join(t)
         elif t == "object":
             t = "table"
-        rows.append(f"| `{path}` | {t or 'any'} | {s.get('x-unit', '')} | {s.get('x-default', '')} | "
-                    f"{s.get('description', '').replace('|', chr(92) + '|')} |")
+        rows.append(
+            f"| `{path}` | {t or 'any'} | {s.get('x-unit', '')} | {s.get('x-default', '')} | "
+            f"{s.get('description', '').replace('|', chr(92) + '|')} |"
+        )
         subs = [s] + [x for x in s.get("oneOf", []) if isinstance(x, dict)]
         for sub in subs:
             if sub.get("type") == "object" and "properties" in sub:
@@ -348,44 +615,65 @@ def _section(title: str, schema: dict, path: str) -> list[str]:
     lines = [f"## {title}", "", schema["description"], "", f"JSON Schema: `{path}`.", ""]
     for key, s in schema["properties"].items():
         if s.get("type") == "object" and "properties" in s:
-            lines += [f"### `[{key}]`", "", s.get("description", ""), "",
-                      "| key | type | unit | default | meaning |", "|---|---|---|---|---|"]
+            lines += [
+                f"### `[{key}]`",
+                "",
+                s.get("description", ""),
+                "",
+                "| key | type | unit | default | meaning |",
+                "|---|---|---|---|---|",
+            ]
             lines += _rows(s, key) + [""]
         elif s.get("type") == "object":
             lines += [f"### `[{key}]`", "", s.get("description", ""), ""]
             if "propertyNames" in s and "enum" in s["propertyNames"]:
                 lines += ["Keys: " + ", ".join(f"`{k}`" for k in s["propertyNames"]["enum"]) + ".", ""]
     top = {"properties": {k: v for k, v in schema["properties"].items() if v.get("type") != "object"}}
-    lines[6:6] = ["### Top-level keys", "", "| key | type | unit | default | meaning |", "|---|---|---|---|---|"] + \
-        _rows(top, "") + [""]
+    lines[6:6] = (
+        ["### Top-level keys", "", "| key | type | unit | default | meaning |", "|---|---|---|---|---|"]
+        + _rows(top, "")
+        + [""]
+    )
     return lines
 
 
 def markdown(aircraft: dict, scenario: dict) -> str:
     """The text of ``docs/scenarios.md``."""
-    lines = ["# Scenario and aircraft files", "",
-             "<!-- Generated by scripts/make_schemas.py from the JSON Schemas; do not edit by hand. -->", "",
-             "Both files are TOML. Every table is checked against its JSON Schema when loaded: an unknown key "
-             "(with the closest known key suggested), a key of the wrong type, two keys giving the same quantity "
-             "(`weight_lb` beside `mass_kg`) or a value out of range is refused with one line naming the file, "
-             "table, key and value. Identifiers that name output files (`id`, `name`) are 1 to 64 letters, "
-             "digits, `.`, `_` or `-`, starting with a letter or a digit, without `..`.", "",
-             "Files are read as UTF-8 (a leading byte-order mark is accepted). An `aircraft` path inside a "
-             "scenario is resolved from the scenario's folder. Defaults in the tables are those the loaders "
-             "apply when a key is absent; SI units inside, angles in radians.", ""]
+    lines = [
+        "# Scenario and aircraft files",
+        "",
+        "<!-- Generated by scripts/make_schemas.py from the JSON Schemas; do not edit by hand. -->",
+        "",
+        "Both files are TOML. Every table is checked against its JSON Schema when loaded: an unknown key "
+        "(with the closest known key suggested), a key of the wrong type, two keys giving the same quantity "
+        "(`weight_lb` beside `mass_kg`) or a value out of range is refused with one line naming the file, "
+        "table, key and value. Identifiers that name output files (`id`, `name`) are 1 to 64 letters, "
+        "digits, `.`, `_` or `-`, starting with a letter or a digit, without `..`.",
+        "",
+        "Files are read as UTF-8 (a leading byte-order mark is accepted). An `aircraft` path inside a "
+        "scenario is resolved from the scenario's folder. Defaults in the tables are those the loaders "
+        "apply when a key is absent; SI units inside, angles in radians.",
+        "",
+    ]
     lines += _section("Scenario files", scenario, "planners/schemas/scenario.schema.json")
     lines += _section("Aircraft files", aircraft, "gna/data/schemas/aircraft.schema.json")
-    lines += ["Each aerodynamic term `[[aero.terms]]` names one coefficient (CD, CY, CL, Cl, Cm, Cn) and one "
-              "monomial; a coefficient/monomial pair appears at most once, and term indices are unique. "
-              f"Exponents are at most {MAX_EXPONENT}.", ""]
+    lines += [
+        "Each aerodynamic term `[[aero.terms]]` names one coefficient (CD, CY, CL, Cl, Cm, Cn) and one "
+        "monomial; a coefficient/monomial pair appears at most once, and term indices are unique. "
+        f"Exponents are at most {MAX_EXPONENT}.",
+        "",
+    ]
     return "\n".join(lines).rstrip() + "\n"
 
 
 def outputs() -> dict[Path, str]:
     """``{path: text}`` of the three generated files."""
     a, s = aircraft_schema(), scenario_schema()
-    return {AIRCRAFT_SCHEMA: json.dumps(a, indent=2) + "\n", SCENARIO_SCHEMA: json.dumps(s, indent=2) + "\n",
-            DOC: markdown(a, s)}
+    return {
+        AIRCRAFT_SCHEMA: json.dumps(a, indent=2) + "\n",
+        SCENARIO_SCHEMA: json.dumps(s, indent=2) + "\n",
+        DOC: markdown(a, s),
+    }
 
 
 def main() -> int:

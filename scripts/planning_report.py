@@ -30,14 +30,17 @@ def main() -> None:
         print("       " + "  ".join(f"j={j}: {r:.2e}" for j, r in enumerate(res)))
         print("       ratio per iteration: " + "  ".join(f"{a / b:.1f}" for a, b in zip(res, res[1:])))
         for j in (0, plan.J):
-            r = simulate(sc.aircraft, plan.control_function(j), (plan.t0, plan.t1), plan.initial_state(j),
-                         env=sc.env, dt_out=0.1)
+            r = simulate(
+                sc.aircraft, plan.control_function(j), (plan.t0, plan.t1), plan.initial_state(j), env=sc.env, dt_out=0.1
+            )
             ref = plan.to_dataframe(r.df.index.values, j=j)
             pos = np.sqrt((r.df["x"] - ref["x"]) ** 2 + (r.df["y"] - ref["y"]) ** 2 + (r.df["z"] - ref["z"]) ** 2)
             ang = max(float((r.df[k] - ref[k]).abs().max()) for k in ANGLES)
             status = "" if r.completed else f" ({r.status} at t = {r.t_end:.3g} s)"
-            print(f"  8(c) open loop with the j = {j} controls over {plan.t0:g}..{r.t_end:g} s: max position "
-                  f"deviation {pos.max():.3g} m, max angle deviation {ang:.3g} rad{status}")
+            print(
+                f"  8(c) open loop with the j = {j} controls over {plan.t0:g}..{r.t_end:g} s: max position "
+                f"deviation {pos.max():.3g} m, max angle deviation {ang:.3g} rad{status}"
+            )
 
 
 if __name__ == "__main__":

@@ -21,10 +21,15 @@ def f16():
     return ac, np.array(tr.state, dtype=float), np.array(tr.controls, dtype=float)
 
 
-@pytest.mark.parametrize("J, match", [(-1, "J must be between 0 and 30, got -1"),
-                                      ("3", "J must be a whole number, got '3'"),
-                                      (2.5, "J must be a whole number, got 2.5"),
-                                      (True, "J must be a whole number")])
+@pytest.mark.parametrize(
+    "J, match",
+    [
+        (-1, "J must be between 0 and 30, got -1"),
+        ("3", "J must be a whole number, got '3'"),
+        (2.5, "J must be a whole number, got 2.5"),
+        (True, "J must be a whole number"),
+    ],
+)
 def test_plan_scenario_checks_J_as_the_loader_does(J, match):
     sc = load_scenario("gtm-aileron-roll")
     with pytest.raises(InputError, match=match):

@@ -114,8 +114,12 @@ def _returns_value(func, node) -> bool:
         return ann not in (None, "None", type(None))
     if node is None:
         return False
-    return any(isinstance(n, ast.Return) and n.value is not None
-               and not (isinstance(n.value, ast.Constant) and n.value.value is None) for n in _own_nodes(node))
+    return any(
+        isinstance(n, ast.Return)
+        and n.value is not None
+        and not (isinstance(n.value, ast.Constant) and n.value.value is None)
+        for n in _own_nodes(node)
+    )
 
 
 def _raises(node) -> bool:
@@ -204,7 +208,7 @@ def public_api(module):
                     fn, method = member, True
                 else:
                     continue
-                if fn.__module__ != module.__name__ or id(fn) in seen:   # generated (NamedTuple, Protocol)
+                if fn.__module__ != module.__name__ or id(fn) in seen:  # generated (NamedTuple, Protocol)
                     continue
                 seen.add(id(fn))
                 yield f"{module.__name__}.{name}.{mname}", fn, method
@@ -302,8 +306,10 @@ def test_checker_wants_returns_and_raises_from_the_own_body():
         x : float
             A number.
         """
+
         def inner():
-            raise RuntimeError          # nested: not f's own raise
+            raise RuntimeError  # nested: not f's own raise
+
         if x < 0:
             raise ValueError("x < 0")
         return 2 * x
@@ -319,19 +325,23 @@ def test_checker_wants_returns_and_raises_from_the_own_body():
         try:
             x()
         except TypeError:
-            raise                       # a bare re-raise needs no Raises section
+            raise  # a bare re-raise needs no Raises section
         return None
 
-    assert check_docstring(f, "f") == ["f: returns a value but has no Returns section",
-                                       "f: raises but has no Raises section"]
+    assert check_docstring(f, "f") == [
+        "f: returns a value but has no Returns section",
+        "f: raises but has no Raises section",
+    ]
     assert check_docstring(g, "g") == []
 
 
 def test_checker_fails_on_a_real_function_with_a_parameter_doc_removed():
     """Removing one parameter's entry from a real public function's docstring makes it fail."""
     from gna.eom import force_equations
+
     assert check_docstring(force_equations, "gna.eom.force_equations") == []
     broken = _strip(force_equations, "X, Y, Z :")
     problems = check_docstring(broken, "gna.eom.force_equations")
-    assert problems == [f"gna.eom.force_equations: parameter '{p}' is not documented in Parameters"
-                        for p in ("X", "Y", "Z")]
+    assert problems == [
+        f"gna.eom.force_equations: parameter '{p}' is not documented in Parameters" for p in ("X", "Y", "Z")
+    ]

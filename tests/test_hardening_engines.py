@@ -50,6 +50,7 @@ def _scenario_file(tmp_path, *replacements) -> Path:
 
 # --------------------------------------------------------------------------- 6: altitude and absurd plans
 
+
 @pytest.mark.parametrize("altitude", [25000.0, 1e7, -5000.0])
 def test_k6_trim_refuses_altitudes_outside_the_isa(altitude):
     with pytest.raises(DomainError, match=r"altitude .* outside the ISA model.*-2000 to 20000 m") as exc:
@@ -72,6 +73,7 @@ def test_k6_cli_trim_at_1e7_m_is_one_clear_line(capsys):
 def test_k6_plan_at_100_km_is_refused_naming_the_altitude(tmp_path):
     sc = load_scenario(_scenario_file(tmp_path, ("h_apex = 1000.0", "h_apex = 100000.0")))
     from planners.generalized import plan_scenario
+
     with pytest.raises(DomainError, match=r"altitude 99969.4 m at t = -2.5 s .* outside the ISA model"):
         plan_scenario(sc)
 
@@ -80,8 +82,9 @@ def test_k6_plan_leaving_the_domain_by_orders_of_magnitude_is_infeasible(tmp_pat
     # At 100 km in constant density (ISA 100 km: 5.6e-7 kg/m^3) the plan needs absurd angles: the cause is
     # named first (the stage-2 determinant is 1e-12 of ordinary flight's: the forces barely depend on the
     # angles), the departure from the domain it leads to is in the warnings.
-    p = _scenario_file(tmp_path, ("h_apex = 1000.0", "h_apex = 100000.0"),
-                       ('density = "isa"', 'density = "constant"\nrho = 5.6e-7'))
+    p = _scenario_file(
+        tmp_path, ("h_apex = 1000.0", "h_apex = 100000.0"), ('density = "isa"', 'density = "constant"\nrho = 5.6e-7')
+    )
     assert main(["plan", str(p), "--J", "1", "--out", str(tmp_path / "out")]) == 1
     cap = capsys.readouterr()
     last = cap.err.strip().splitlines()[-1]
@@ -92,15 +95,19 @@ def test_k6_plan_leaving_the_domain_by_orders_of_magnitude_is_infeasible(tmp_pat
 
 # --------------------------------------------------------------------------- 7: Python API arguments
 
-@pytest.mark.parametrize("kw, message", [
-    (dict(dt_out=0.0), "dt_out must be a positive"),
-    (dict(dt_out=-1.0), "dt_out must be a positive"),
-    (dict(dt_out=float("nan")), "dt_out must be a positive"),
-    (dict(dt_out=0.3), r"dt_out = 0.3 s does not divide the span \[0, 1\] s"),
-    (dict(t_eval=[0.0, 0.5, 2.0]), r"t_eval must lie in t_span \[0, 1\] s"),
-    (dict(t_eval=[0.5, 0.2]), "increasing"),
-    (dict(model="weird"), "model must be 'full' or 'simple'"),
-])
+
+@pytest.mark.parametrize(
+    "kw, message",
+    [
+        (dict(dt_out=0.0), "dt_out must be a positive"),
+        (dict(dt_out=-1.0), "dt_out must be a positive"),
+        (dict(dt_out=float("nan")), "dt_out must be a positive"),
+        (dict(dt_out=0.3), r"dt_out = 0.3 s does not divide the span \[0, 1\] s"),
+        (dict(t_eval=[0.0, 0.5, 2.0]), r"t_eval must lie in t_span \[0, 1\] s"),
+        (dict(t_eval=[0.5, 0.2]), "increasing"),
+        (dict(model="weird"), "model must be 'full' or 'simple'"),
+    ],
+)
 def test_k7_simulate_refuses_bad_arguments(f16, kw, message):
     a, x0, u0 = f16
     with pytest.raises(InputError, match=message):
@@ -108,12 +115,15 @@ def test_k7_simulate_refuses_bad_arguments(f16, kw, message):
 
 
 @pytest.mark.parametrize("engine", [InHouseEngine(), JSBSimEngine()], ids=["inhouse", "jsbsim"])
-@pytest.mark.parametrize("kw, message", [
-    (dict(dt_out=0.0), "dt_out must be a positive"),
-    (dict(dt_out=-1.0), "dt_out must be a positive"),
-    (dict(dt_out=0.3), "does not divide the span"),
-    (dict(t_eval=[0.0, 2.0]), "t_eval must lie in t_span"),
-])
+@pytest.mark.parametrize(
+    "kw, message",
+    [
+        (dict(dt_out=0.0), "dt_out must be a positive"),
+        (dict(dt_out=-1.0), "dt_out must be a positive"),
+        (dict(dt_out=0.3), "does not divide the span"),
+        (dict(t_eval=[0.0, 2.0]), "t_eval must lie in t_span"),
+    ],
+)
 def test_k7_both_engines_share_the_output_checks(f16, engine, kw, message):
     a, x0, u0 = f16
     with pytest.raises(InputError, match=message):
@@ -137,6 +147,7 @@ def test_k7_a_dividing_dt_out_is_honoured_exactly():
 
 def test_k7_trim_model_and_plan_step_are_input_errors(f16):
     from planners.generalized import plan_scenario
+
     with pytest.raises(InputError, match="model must be 'full' or 'simple', got 'weird'"):
         trim(f16[0], {"V": 150.0, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0}, model="weird")
     plan = plan_scenario(load_scenario("gtm-aileron-roll"), J=0)
@@ -144,11 +155,12 @@ def test_k7_trim_model_and_plan_step_are_input_errors(f16):
         with pytest.raises(InputError, match="step must be"):
             plan.to_dataframe(step=step)
     span = plan.t1 - plan.t0
-    df = plan.to_dataframe(step=0.3 * span)           # does not divide the span: stops at t1 or before
+    df = plan.to_dataframe(step=0.3 * span)  # does not divide the span: stops at t1 or before
     assert df.index[-1] <= plan.t1 and np.allclose(np.diff(df.index), 0.3 * span)
 
 
 # --------------------------------------------------------------------------- 8: divergence alike on both engines
+
 
 def test_k8_the_domain_test_names_time_variable_and_value():
     x = np.zeros(12)
@@ -203,6 +215,7 @@ def test_k8_a_stalled_vertical_climb_ends_alike(f16):
 
 # --------------------------------------------------------------------------- 9: continuous angles on JSBSim
 
+
 def test_k9_jsbsim_mu_is_continuous_at_a_coarse_output_grid():
     a = load_aircraft("f16c")
     t = trim_level(a, 200.0, 3000.0)
@@ -215,15 +228,17 @@ def test_k9_jsbsim_mu_is_continuous_at_a_coarse_output_grid():
     ref = InHouseEngine().simulate(a, u, (0.0, 10.0), x0, dt_out=1.0)
     r = JSBSimEngine().simulate(a, u, (0.0, 10.0), x0, dt_out=1.0)
     assert r.completed and ref.completed
-    assert ref.df["mu"].iloc[-1] > 6 * math.pi                 # several turns, > pi between samples
+    assert ref.df["mu"].iloc[-1] > 6 * math.pi  # several turns, > pi between samples
     np.testing.assert_allclose(r.df["mu"].to_numpy(), ref.df["mu"].to_numpy(), atol=0.05)
     np.testing.assert_allclose(r.df["chi"].to_numpy(), ref.df["chi"].to_numpy(), atol=0.05)
 
 
 # --------------------------------------------------------------------------- 10: planning cost
 
+
 def test_k10_a_huge_plan_is_refused_at_once_with_the_override_named():
     from planners.generalized import MAX_PLAN_COST, plan_cost, plan_motion
+
     sc = load_scenario("gtm-aileron-roll")
     nodes = np.linspace(sc.t0, sc.t1, 10001)
     assert plan_cost(10001, 30) > 50 * MAX_PLAN_COST
@@ -231,7 +246,7 @@ def test_k10_a_huge_plan_is_refused_at_once_with_the_override_named():
     with pytest.raises(InputError, match=r"J = 30 on 10001 nodes costs 4.79e\+08 .*--max-cost"):
         plan_motion(sc.problem(), nodes, J=30)
     assert time.perf_counter() - start < 5.0
-    assert plan_cost(len(sc.t_nodes), 7) < MAX_PLAN_COST / 40   # the paper's plans are far below
+    assert plan_cost(len(sc.t_nodes), 7) < MAX_PLAN_COST / 40  # the paper's plans are far below
 
 
 def test_k10_cli_max_cost(tmp_path, capsys):
@@ -241,6 +256,7 @@ def test_k10_cli_max_cost(tmp_path, capsys):
 
 def test_k10_long_plans_log_their_progress_per_iterate(monkeypatch, caplog):
     import planners.generalized as gen
+
     monkeypatch.setattr(gen, "PROGRESS_COST", 0.0)
     sc = load_scenario("gtm-aileron-roll")
     with caplog.at_level(logging.INFO, logger="planners.generalized"):
@@ -251,6 +267,7 @@ def test_k10_long_plans_log_their_progress_per_iterate(monkeypatch, caplog):
 
 
 # --------------------------------------------------------------------------- 11: controls and trim parameters
+
 
 def test_k11_eta_outside_its_range_is_refused(capsys):
     assert main(["trim", "twin-otter", "--speed", "72", "--eta", "5"]) == 2
@@ -275,18 +292,30 @@ def test_k11_the_twin_otters_live_engine_is_checked_against_its_own_rating():
 def test_k11_trajectories_are_checked_per_engine():
     a = load_aircraft("twin-otter")
     n = 5
-    df = pd.DataFrame({"alpha": np.zeros(n), "beta": np.zeros(n), "F": np.full(n, 5900.0), "eta": np.ones(n),
-                       "dl": np.zeros(n), "dm": np.zeros(n), "dn": np.zeros(n), "V": np.full(n, 140 * KT)},
-                      index=pd.Index(np.arange(n, dtype=float), name="t"))
+    df = pd.DataFrame(
+        {
+            "alpha": np.zeros(n),
+            "beta": np.zeros(n),
+            "F": np.full(n, 5900.0),
+            "eta": np.ones(n),
+            "dl": np.zeros(n),
+            "dm": np.zeros(n),
+            "dn": np.zeros(n),
+            "V": np.full(n, 140 * KT),
+        },
+        index=pd.Index(np.arange(n, dtype=float), name="t"),
+    )
     w = [x for x in envelope_warnings(a, df) if "rating" in x]
     assert len(w) == 1 and w[0].startswith("engine 1 thrust 5900.0 N at t = 0 s") and "(100 % of the run)" in w[0]
 
 
 # --------------------------------------------------------------------------- 12: the JSBSim fitting source
 
+
 def test_k12_the_f104s_normalised_elevator_follows_the_elevator():
     from gna.aero import AeroState
     from gna.fit.sources.jsbsim_aero import JSBSimAeroSource
+
     src = JSBSimAeroSource("f104", mach=0.5, altitude=3000.0)
     assert src.surface_copies == {"fcs/elevator-pos-norm": ("fcs/elevator-pos-rad", "aerosurface_scale")}
     assert float(src.coefficients(AeroState(0.05, 0, 0, 0, 0, 0, -0.3, 0)).CD) == pytest.approx(0.0592, abs=2e-4)
@@ -295,8 +324,10 @@ def test_k12_the_f104s_normalised_elevator_follows_the_elevator():
 
 def test_k12_sampling_does_not_run_the_aircrafts_output_directives(tmp_path):
     import jsbsim
+
     from gna.aero import AeroState
     from gna.fit.sources.jsbsim_aero import JSBSimAeroSource
+
     pkg = Path(jsbsim.__file__).parent
     root = tmp_path / "jsbsim"
     (root / "aircraft").mkdir(parents=True)
@@ -311,10 +342,12 @@ def test_k12_sampling_does_not_run_the_aircrafts_output_directives(tmp_path):
 def test_k12_surface_properties_can_be_given_explicitly():
     from gna.fit.sources.jsbsim_aero import JSBSimAeroSource
     from harness.commands.fit import _surface_overrides, _surface_property
+
     with pytest.raises(InputError, match=r"--property dl=PROPERTY"):
         JSBSimAeroSource("c172x", mach=0.15, altitude=1000.0)
-    over = _surface_overrides([_surface_property("dl=fcs/effective-aileron-pos"),
-                               _surface_property("dm=fcs/elevator-pos-deg")])
+    over = _surface_overrides(
+        [_surface_property("dl=fcs/effective-aileron-pos"), _surface_property("dm=fcs/elevator-pos-deg")]
+    )
     assert over == {"dl": ("fcs/effective-aileron-pos", -1.0), "dm": ("fcs/elevator-pos-deg", 180.0 / math.pi)}
     src = JSBSimAeroSource("c172x", mach=0.15, altitude=1000.0, surfaces={"dl": over["dl"]})
     assert src.surface_map["dl"] == ("fcs/effective-aileron-pos", -1.0)

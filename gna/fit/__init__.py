@@ -27,5 +27,17 @@ from .lstsq import FitResult, Samples, SingularFitError, fit_table
 from .pipeline import fit_source, gna45_structure, structure_from_file
 from .quality import ReferenceCondition, trim_comparison
 
-__all__ = ["Block", "SamplingDesign", "standard_design", "FitResult", "Samples", "SingularFitError", "fit_table",
-           "fit_source", "gna45_structure", "structure_from_file", "ReferenceCondition", "trim_comparison"]
+__all__ = [
+    "Block",
+    "SamplingDesign",
+    "standard_design",
+    "FitResult",
+    "Samples",
+    "SingularFitError",
+    "fit_table",
+    "fit_source",
+    "gna45_structure",
+    "structure_from_file",
+    "ReferenceCondition",
+    "trim_comparison",
+]

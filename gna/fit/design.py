@@ -23,8 +23,8 @@ are held out for validation.  The same design and seed give the same points.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 
@@ -88,20 +88,24 @@ class Block:
         missing = [v for v in AERO_VARIABLES if v not in self.ranges]
         extra = [v for v in self.ranges if v not in AERO_VARIABLES]
         if missing or extra:
-            raise InputError(f"design block {self.name!r}: ranges must give exactly {', '.join(AERO_VARIABLES)} "
-                             f"(missing: {', '.join(missing) or 'none'}; unknown: {', '.join(extra) or 'none'})")
+            raise InputError(
+                f"design block {self.name!r}: ranges must give exactly {', '.join(AERO_VARIABLES)} "
+                f"(missing: {', '.join(missing) or 'none'}; unknown: {', '.join(extra) or 'none'})"
+            )
         clean = {}
         for v in AERO_VARIABLES:
             try:
                 lo, hi = (float(x) for x in self.ranges[v])
             except (TypeError, ValueError):
-                raise InputError(f"design block {self.name!r}: range of {v} must be two numbers, "
-                                 f"got {self.ranges[v]!r}") from None
+                raise InputError(
+                    f"design block {self.name!r}: range of {v} must be two numbers, got {self.ranges[v]!r}"
+                ) from None
             if not (math.isfinite(lo) and math.isfinite(hi)):
                 raise InputError(f"design block {self.name!r}: range of {v} is not finite ({lo}, {hi})")
             if lo > hi:
-                raise InputError(f"design block {self.name!r}: range of {v} is empty "
-                                 f"({format_value(v, lo)} > {format_value(v, hi)})")
+                raise InputError(
+                    f"design block {self.name!r}: range of {v} is empty ({format_value(v, lo)} > {format_value(v, hi)})"
+                )
             clean[v] = (lo, hi)
         object.__setattr__(self, "ranges", clean)
         for k in ("n_fit", "n_test"):
@@ -110,20 +114,23 @@ class Block:
                 raise InputError(f"design block {self.name!r}: {k} must be a positive integer, got {n!r}")
         if not (math.isfinite(self.dm_band) and self.dm_band >= 0):
             raise InputError(f"design block {self.name!r}: dm_band must be >= 0, got {self.dm_band}")
-        if self.dm_band > 0 and not (self.ranges["dm"][1] > self.ranges["dm"][0]
-                                     and self.ranges["alpha"][1] > self.ranges["alpha"][0]):
-            raise InputError(f"design block {self.name!r}: a dm band around the trim schedule needs "
-                             f"alpha and dm to vary")
+        if self.dm_band > 0 and not (
+            self.ranges["dm"][1] > self.ranges["dm"][0] and self.ranges["alpha"][1] > self.ranges["alpha"][0]
+        ):
+            raise InputError(
+                f"design block {self.name!r}: a dm band around the trim schedule needs alpha and dm to vary"
+            )
 
     @property
     def varied(self) -> tuple[str, ...]:
         """Variables that vary in this block."""
         return tuple(v for v in AERO_VARIABLES if self.ranges[v][1] > self.ranges[v][0])
 
-    def contains(self, other: "Block") -> bool:
+    def contains(self, other: Block) -> bool:
         """True when ``other``'s box lies inside this one."""
-        return all(self.ranges[v][0] <= other.ranges[v][0] and other.ranges[v][1] <= self.ranges[v][1]
-                   for v in AERO_VARIABLES)
+        return all(
+            self.ranges[v][0] <= other.ranges[v][0] and other.ranges[v][1] <= self.ranges[v][1] for v in AERO_VARIABLES
+        )
 
     def draw(self, rng: np.random.Generator, schedule=None) -> tuple[AeroState, AeroState]:
         """Uniform independent points: (fit, test) states.
@@ -138,16 +145,17 @@ class Block:
             cols.append(lo + (hi - lo) * u[:, j] if hi > lo else np.full(n, lo))
         if self.dm_band > 0:
             if schedule is None:
-                raise InputError(f"design block {self.name!r} samples dm around the trim schedule: "
-                                 f"the source is needed to draw it")
+                raise InputError(
+                    f"design block {self.name!r} samples dm around the trim schedule: the source is needed to draw it"
+                )
             j = AERO_VARIABLES.index("dm")
             lo, hi = self.ranges["dm"]
             centre = np.interp(cols[0], schedule[0], schedule[1])
             a = np.clip(centre - self.dm_band, lo, hi)
             b = np.clip(centre + self.dm_band, lo, hi)
             cols[j] = a + (b - a) * u[:, j]
-        fit = AeroState(*(c[:self.n_fit] for c in cols))
-        test = AeroState(*(c[self.n_fit:] for c in cols))
+        fit = AeroState(*(c[: self.n_fit] for c in cols))
+        test = AeroState(*(c[self.n_fit :] for c in cols))
         return fit, test
 
     def to_dict(self) -> dict:
@@ -158,8 +166,12 @@ class Block:
                 rng[f"{v}_deg"] = [_clean(math.degrees(lo)), _clean(math.degrees(hi))]
             else:
                 rng[v] = [lo, hi]
-        out = {"coefficients": list(self.coefficients), "n_fit": int(self.n_fit), "n_test": int(self.n_test),
-               "ranges": rng}
+        out = {
+            "coefficients": list(self.coefficients),
+            "n_fit": int(self.n_fit),
+            "n_test": int(self.n_test),
+            "ranges": rng,
+        }
         if self.dm_band > 0:
             out["dm_band_deg"] = _clean(math.degrees(self.dm_band))
             out["dm_schedule"] = SCHEDULE_DESCRIPTION
@@ -210,18 +222,28 @@ class SamplingDesign:
         return out
 
     def to_dict(self) -> dict:
-        return {"method": "independent uniform points per block, numpy.random.default_rng([seed, block index])",
-                "seed": int(self.seed), "description": self.description,
-                "blocks": {b.name: b.to_dict() for b in self.blocks}}
+        return {
+            "method": "independent uniform points per block, numpy.random.default_rng([seed, block index])",
+            "seed": int(self.seed),
+            "description": self.description,
+            "blocks": {b.name: b.to_dict() for b in self.blocks},
+        }
 
 
-SCHEDULE_DESCRIPTION = ("dm0(alpha) solves Cm = 0 at beta = phat = qhat = rhat = dl = dn = 0 on a 0.5 deg alpha "
-                        "grid (bisection, 60 steps, within the dm range; the range end of smaller |Cm| where Cm "
-                        "does not change sign), linearly interpolated")
+SCHEDULE_DESCRIPTION = (
+    "dm0(alpha) solves Cm = 0 at beta = phat = qhat = rhat = dl = dn = 0 on a 0.5 deg alpha "
+    "grid (bisection, 60 steps, within the dm range; the range end of smaller |Cm| where Cm "
+    "does not change sign), linearly interpolated"
+)
 
 
-def elevator_schedule(source, alpha_range: tuple[float, float], dm_range: tuple[float, float],
-                      step: float = math.radians(0.5), iterations: int = 60) -> tuple[np.ndarray, np.ndarray]:
+def elevator_schedule(
+    source,
+    alpha_range: tuple[float, float],
+    dm_range: tuple[float, float],
+    step: float = math.radians(0.5),
+    iterations: int = 60,
+) -> tuple[np.ndarray, np.ndarray]:
     """The source's pitch-trim schedule ``dm0(alpha)`` on a grid over ``alpha_range``.
 
     ``Cm(alpha, 0, 0, 0, 0, 0, dm0, 0) = 0`` by bisection, all grid points at
@@ -251,14 +273,21 @@ def elevator_schedule(source, alpha_range: tuple[float, float], dm_range: tuple[
         f_lo = np.where(left, f_mid, f_lo)
         hi = np.where(left, hi, mid)
     root = 0.5 * (lo + hi)
-    ends = np.where(np.abs(cm(np.full(n, dm_range[0]))) < np.abs(cm(np.full(n, dm_range[1]))),
-                    dm_range[0], dm_range[1])
+    ends = np.where(np.abs(cm(np.full(n, dm_range[0]))) < np.abs(cm(np.full(n, dm_range[1]))), dm_range[0], dm_range[1])
     return alpha, np.where(bracket, root, ends)
 
 
-def standard_design(ranges: Mapping[str, tuple[float, float]], *, n_fit: int = 4000, n_test: int = 1000,
-                    seed: int = 0, longitudinal_plane: bool = True, n_fit_lon: int | None = None,
-                    n_test_lon: int | None = None, dm_band: float = 0.0) -> SamplingDesign:
+def standard_design(
+    ranges: Mapping[str, tuple[float, float]],
+    *,
+    n_fit: int = 4000,
+    n_test: int = 1000,
+    seed: int = 0,
+    longitudinal_plane: bool = True,
+    n_fit_lon: int | None = None,
+    n_test_lon: int | None = None,
+    dm_band: float = 0.0,
+) -> SamplingDesign:
     """The design of the bundled fits: an 8-D box, plus the longitudinal plane for CD, CL, Cm.
 
     Parameters
@@ -288,9 +317,18 @@ def standard_design(ranges: Mapping[str, tuple[float, float]], *, n_fit: int = 4
             if not lo <= 0.0 <= hi:
                 raise InputError(f"the longitudinal plane holds {v} = 0, outside its range {format_range(v, lo, hi)}")
             lon[v] = (0.0, 0.0)
-    plane = Block("longitudinal", ("CD", "CL", "Cm"), lon, n_fit if n_fit_lon is None else n_fit_lon,
-                  n_test if n_test_lon is None else n_test_lon, dm_band)
+    plane = Block(
+        "longitudinal",
+        ("CD", "CL", "Cm"),
+        lon,
+        n_fit if n_fit_lon is None else n_fit_lon,
+        n_test if n_test_lon is None else n_test_lon,
+        dm_band,
+    )
     band = f", dm within {math.degrees(dm_band):.3g} deg of the pitch-trim schedule" if dm_band > 0 else ""
-    return SamplingDesign((box, plane), seed,
-                          "CY, Cl, Cn fitted on the 8-D box; CD, CL, Cm on the longitudinal plane "
-                          f"(beta = phat = rhat = dl = dn = 0{band})")
+    return SamplingDesign(
+        (box, plane),
+        seed,
+        "CY, Cl, Cn fitted on the 8-D box; CD, CL, Cm on the longitudinal plane "
+        f"(beta = phat = rhat = dl = dn = 0{band})",
+    )

@@ -3,22 +3,26 @@
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from collections.abc import Mapping
 
+from ..aero import COEFFICIENTS
 from .design import SamplingDesign
 from .lstsq import FitResult
 from .quality import ReferenceCondition
 from .writer import Inline, aircraft_document
-from ..aero import COEFFICIENTS
 
-CONVENTIONS = ("CD, CL stability axes; CY, Cl, Cm, Cn body axes about x_ref; alpha, beta, surfaces in rad; "
-               "phat = p b/2V, qhat = q cbar/2V, rhat = r b/2V; dl right aileron trailing edge down, dm trailing "
-               "edge down, dn trailing edge left positive")
+CONVENTIONS = (
+    "CD, CL stability axes; CY, Cl, Cm, Cn body axes about x_ref; alpha, beta, surfaces in rad; "
+    "phat = p b/2V, qhat = q cbar/2V, rhat = r b/2V; dl right aileron trailing edge down, dm trailing "
+    "edge down, dn trailing edge left positive"
+)
 
-TRANSFORMATION = ("least-squares fit (gna.fit) of the aerodynamic term structure to samples of the source model "
-                  "in the project's conventions (stability-axis CD = -(CX cos a + CZ sin a), CL = CX sin a - "
-                  "CZ cos a from the source's body axes); mass, geometry and engines in the source's units, "
-                  "converted to SI on load with exact factors (gna.units)")
+TRANSFORMATION = (
+    "least-squares fit (gna.fit) of the aerodynamic term structure to samples of the source model "
+    "in the project's conventions (stability-axis CD = -(CX cos a + CZ sin a), CL = CX sin a - "
+    "CZ cos a from the source's body axes); mass, geometry and engines in the source's units, "
+    "converted to SI on load with exact factors (gna.units)"
+)
 
 
 def _deg(x: float) -> float:
@@ -34,8 +38,10 @@ def envelope_section(design: SamplingDesign, limits_deg: Mapping[str, float], li
     for k in ("dl", "dm", "dn"):
         if k in limits_deg:
             out[f"{k}_max_deg"] = float(limits_deg[k])
-    out["source"] = ("alpha and beta: the sampling design's box (the fit is validated only inside it); "
-                     f"surface limits: {limits_source}")
+    out["source"] = (
+        "alpha and beta: the sampling design's box (the fit is validated only inside it); "
+        f"surface limits: {limits_source}"
+    )
     return out
 
 
@@ -45,30 +51,48 @@ def statistics_summary(result: FitResult, set_name: str = "test") -> str:
 
 def trim_summary(trim: Mapping, reference: ReferenceCondition) -> str:
     g, s = trim["gna"], trim["source"]
-    return (f"level flight at {reference.label}: GNA fit alpha {g['alpha_deg']:.3f} deg, dm {g['dm_deg']:.3f} deg, "
-            f"thrust {g['thrust_N']:.1f} N; source model alpha {s['alpha_deg']:.3f} deg, dm {s['dm_deg']:.3f} deg, "
-            f"thrust {s['thrust_N']:.1f} N (same equations of motion, mass and engines)")
+    return (
+        f"level flight at {reference.label}: GNA fit alpha {g['alpha_deg']:.3f} deg, dm {g['dm_deg']:.3f} deg, "
+        f"thrust {g['thrust_N']:.1f} N; source model alpha {s['alpha_deg']:.3f} deg, dm {s['dm_deg']:.3f} deg, "
+        f"thrust {s['thrust_N']:.1f} N (same equations of motion, mass and engines)"
+    )
 
 
-def fitted_document(*, ident: str, name: str, source_provenance: Mapping[str, str], sections: Mapping[str, dict],
-                    envelope: dict, design: SamplingDesign, result: FitResult, reference: ReferenceCondition,
-                    trim: Mapping | None, notes: str, date: str, command: str) -> dict:
+def fitted_document(
+    *,
+    ident: str,
+    name: str,
+    source_provenance: Mapping[str, str],
+    sections: Mapping[str, dict],
+    envelope: dict,
+    design: SamplingDesign,
+    result: FitResult,
+    reference: ReferenceCondition,
+    trim: Mapping | None,
+    notes: str,
+    date: str,
+    command: str,
+) -> dict:
     """The aircraft document (a dict ready for :func:`gna.fit.writer.aircraft_document`)."""
     prov = {"source": source_provenance["source"]}
     if "source_model" in source_provenance:
         prov["source_model"] = source_provenance["source_model"]
-    prov.update({
-        "transformation": TRANSFORMATION,
-        "date": date,
-        "sampling": (f"{design.description}; {sum(b.n_fit for b in design.blocks)} fit and "
-                     f"{sum(b.n_test for b in design.blocks)} held-out points, seed {design.seed} "
-                     f"(details in [fit.design])"),
-        "reference_condition": f"{reference.label}: V = {reference.V:.6g} m/s, altitude {reference.altitude:.6g} m",
-        "statistics": "held-out R2 (RMS) per coefficient: " + statistics_summary(result),
-        "trim_check": trim_summary(trim, reference) if trim else "not computed",
-        "regenerate": command,
-        "notes": notes,
-    })
+    prov.update(
+        {
+            "transformation": TRANSFORMATION,
+            "date": date,
+            "sampling": (
+                f"{design.description}; {sum(b.n_fit for b in design.blocks)} fit and "
+                f"{sum(b.n_test for b in design.blocks)} held-out points, seed {design.seed} "
+                f"(details in [fit.design])"
+            ),
+            "reference_condition": f"{reference.label}: V = {reference.V:.6g} m/s, altitude {reference.altitude:.6g} m",
+            "statistics": "held-out R2 (RMS) per coefficient: " + statistics_summary(result),
+            "trim_check": trim_summary(trim, reference) if trim else "not computed",
+            "regenerate": command,
+            "notes": notes,
+        }
+    )
     stats = {c: Inline({k: Inline(v.to_dict()) for k, v in s.items()}) for c, s in result.stats.items()}
     conds = {c: f.condition for c, f in result.fits.items()}
     fit = {
@@ -84,8 +108,16 @@ def fitted_document(*, ident: str, name: str, source_provenance: Mapping[str, st
     se = result.std_errors()
     terms = []
     for t in result.table.terms:
-        terms.append({"theta": t.index, "coef": t.coefficient, "monomial": t.monomial, "value": t.value,
-                      "std_error": se[t.index], "source": "least-squares fit, see [fit]"})
+        terms.append(
+            {
+                "theta": t.index,
+                "coef": t.coefficient,
+                "monomial": t.monomial,
+                "value": t.value,
+                "std_error": se[t.index],
+                "source": "least-squares fit, see [fit]",
+            }
+        )
     doc = {"id": ident, "name": name, "provenance": prov}
     doc.update({k: dict(v) for k, v in sections.items()})
     doc["envelope"] = envelope
@@ -111,8 +143,14 @@ def fitted_aircraft(ident: str, name: str, sections: Mapping[str, dict], envelop
     """The :class:`~gna.aircraft.Aircraft` of a fit (to trim it), with errors naming the source of the data."""
     from ..aircraft import aircraft_from_dict
     from ..errors import InputError
-    base = {"id": ident, "name": name, **{k: dict(v) for k, v in sections.items()}, "envelope": envelope,
-            "aero": {"structure": table.structure, "terms": table.to_records()}}
+
+    base = {
+        "id": ident,
+        "name": name,
+        **{k: dict(v) for k, v in sections.items()},
+        "envelope": envelope,
+        "aero": {"structure": table.structure, "terms": table.to_records()},
+    }
     try:
         return aircraft_from_dict(base, where=f"{ident} (fitted)")
     except InputError as exc:

@@ -24,8 +24,8 @@ represent, as in Grauer & Morelli's identification.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 
@@ -62,13 +62,15 @@ class Samples:
     def __len__(self) -> int:
         return int(np.shape(self.state.alpha)[0])
 
-    def take(self, index) -> "Samples":
+    def take(self, index) -> Samples:
         """The samples at ``index`` (slice or integer array)."""
-        return Samples(AeroState(*(np.asarray(v)[index] for v in self.state)),
-                       Coefficients(*(np.asarray(v)[index] for v in self.coefficients)))
+        return Samples(
+            AeroState(*(np.asarray(v)[index] for v in self.state)),
+            Coefficients(*(np.asarray(v)[index] for v in self.coefficients)),
+        )
 
     @classmethod
-    def from_source(cls, source, state: AeroState) -> "Samples":
+    def from_source(cls, source, state: AeroState) -> Samples:
         """Evaluate ``source.coefficients`` on 1-D state arrays."""
         arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in state))
         st = AeroState(*(np.ravel(a).copy() for a in arrays))
@@ -98,8 +100,9 @@ def statistics(model: np.ndarray, source: np.ndarray) -> CoefficientStats:
     ss_res = float(np.sum(e * e))
     ss_tot = float(np.sum((y - y.mean()) ** 2))
     r2 = 1.0 - ss_res / ss_tot if ss_tot > 0 else (1.0 if ss_res == 0 else -math.inf)
-    return CoefficientStats(n=len(y), rms=math.sqrt(ss_res / len(y)), max_abs=float(np.max(np.abs(e))),
-                            r2=r2, range=float(np.ptp(y)))
+    return CoefficientStats(
+        n=len(y), rms=math.sqrt(ss_res / len(y)), max_abs=float(np.max(np.abs(e))), r2=r2, range=float(np.ptp(y))
+    )
 
 
 @dataclass(frozen=True)
@@ -129,8 +132,10 @@ def fit_coefficient(structure: TermTable, coefficient: str, samples: Samples) ->
     label = [f"theta{t.index} ({coefficient}: {t.monomial})" for t in terms]
     n, p = len(samples), len(terms)
     if n < p + 1:
-        raise SingularFitError(f"{coefficient}: {n} samples for {p} terms; a least-squares fit needs at least "
-                               f"{p + 1} (more samples, or fewer terms)")
+        raise SingularFitError(
+            f"{coefficient}: {n} samples for {p} terms; a least-squares fit needs at least "
+            f"{p + 1} (more samples, or fewer terms)"
+        )
     mons = structure.monomials(samples.state)
     X = np.column_stack([np.broadcast_to(np.asarray(mons[i], dtype=float), (n,)) for i in idx])
     y = np.asarray(getattr(samples.coefficients, coefficient), dtype=float)
@@ -138,22 +143,26 @@ def fit_coefficient(structure: TermTable, coefficient: str, samples: Samples) ->
     for j, t in enumerate(terms):
         col = X[:, j]
         if t.monomial != "1" and (scale[j] == 0 or np.ptp(col) <= 1e-12 * scale[j]):
-            raise SingularFitError(f"{coefficient}: regressor {label[j]} is constant (= {col[0]:.6g}) over the "
-                                   f"{n} samples; the sampling design must vary its variables")
+            raise SingularFitError(
+                f"{coefficient}: regressor {label[j]} is constant (= {col[0]:.6g}) over the "
+                f"{n} samples; the sampling design must vary its variables"
+            )
     Xs = X / scale
     U, s, Vt = np.linalg.svd(Xs, full_matrices=False)
     cond = float(s[0] / s[-1]) if s[-1] > 0 else math.inf
     if not s[-1] > RANK_TOLERANCE * s[0]:
         v = Vt[-1]
         involved = [label[j] for j in np.argsort(-np.abs(v)) if abs(v[j]) > 0.1 * np.max(np.abs(v))]
-        raise SingularFitError(f"{coefficient}: the regressors are linearly dependent over the samples "
-                               f"(condition number {cond:.3g}); involved: {', '.join(involved)}")
+        raise SingularFitError(
+            f"{coefficient}: the regressors are linearly dependent over the samples "
+            f"(condition number {cond:.3g}); involved: {', '.join(involved)}"
+        )
     beta_s = Vt.T @ ((U.T @ y) / s)
     theta = beta_s / scale
     resid = y - X @ theta
     dof = n - p
     s2 = float(resid @ resid) / dof
-    cov_diag = np.sum((Vt.T / s) ** 2, axis=1) / scale ** 2
+    cov_diag = np.sum((Vt.T / s) ** 2, axis=1) / scale**2
     se = np.sqrt(s2 * cov_diag)
     return CoefficientFit(coefficient, tuple(float(v) for v in theta), tuple(float(v) for v in se), cond, n)
 
@@ -185,9 +194,12 @@ class FitResult:
         return out
 
 
-def fit_table(structure: TermTable, fit_sets: Mapping[str, Samples],
-              validation_sets: Mapping[str, Mapping[str, Samples]] | None = None,
-              source: str = "least-squares fit") -> FitResult:
+def fit_table(
+    structure: TermTable,
+    fit_sets: Mapping[str, Samples],
+    validation_sets: Mapping[str, Mapping[str, Samples]] | None = None,
+    source: str = "least-squares fit",
+) -> FitResult:
     """Fit every coefficient of ``structure``.
 
     Parameters

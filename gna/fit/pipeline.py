@@ -12,11 +12,11 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from .design import SamplingDesign
-from .lstsq import FitResult, Samples, fit_table
 from ..aero import TermTable
 from ..aircraft import load_aircraft
 from ..errors import InputError
+from .design import SamplingDesign
+from .lstsq import FitResult, Samples, fit_table
 
 
 def gna45_structure() -> TermTable:
@@ -33,8 +33,9 @@ def structure_from_file(path: str) -> TermTable:
     return TermTable(tuple(replace(t, value=0.0, source="") for t in table.terms), table.structure)
 
 
-def fit_source(source, structure: TermTable, design: SamplingDesign,
-               term_source: str | None = None, check_envelope: bool = True) -> FitResult:
+def fit_source(
+    source, structure: TermTable, design: SamplingDesign, term_source: str | None = None, check_envelope: bool = True
+) -> FitResult:
     """Sample ``source`` on ``design`` and fit ``structure`` by least squares.
 
     Each coefficient is fitted on the fit points of its design block and
@@ -57,8 +58,10 @@ def fit_source(source, structure: TermTable, design: SamplingDesign,
     if check_envelope and check is not None:
         check(design)
     drawn = design.draw(source)
-    samples = {name: (Samples.from_source(source, fit), Samples.from_source(source, test))
-               for name, (fit, test) in drawn.items()}
+    samples = {
+        name: (Samples.from_source(source, fit), Samples.from_source(source, test))
+        for name, (fit, test) in drawn.items()
+    }
     fit_sets, validation = {}, {}
     for block in design.blocks:
         for c in block.coefficients:

@@ -48,9 +48,15 @@ class ReferenceCondition:
 def trim_record(t: TrimResult) -> dict:
     """The quantities the quality table compares, in degrees and newtons."""
     v = t.values
-    return {"alpha_deg": math.degrees(v["alpha"]), "dm_deg": math.degrees(v["dm"]), "thrust_N": v["F"],
-            "dl_deg": math.degrees(v["dl"]), "dn_deg": math.degrees(v["dn"]), "mu_deg": math.degrees(v["mu"]),
-            "max_residual": t.max_residual}
+    return {
+        "alpha_deg": math.degrees(v["alpha"]),
+        "dm_deg": math.degrees(v["dm"]),
+        "thrust_N": v["F"],
+        "dl_deg": math.degrees(v["dl"]),
+        "dn_deg": math.degrees(v["dn"]),
+        "mu_deg": math.degrees(v["mu"]),
+        "max_residual": t.max_residual,
+    }
 
 
 def trim_comparison(aircraft: Aircraft, source, reference: ReferenceCondition) -> dict:

@@ -46,44 +46,53 @@ def record(ident: str) -> dict:
 
 
 def statistics_table(ids=FITTED) -> str:
-    rows = ["| aircraft | coef | R² held-out | RMS held-out | max abs held-out | range of source | R² on 8-D box |",
-            "|---|---|---|---|---|---|---|"]
+    rows = [
+        "| aircraft | coef | R² held-out | RMS held-out | max abs held-out | range of source | R² on 8-D box |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for ident in ids:
         stats = record(ident)["fit"]["statistics"]
         for c, s in stats.items():
             t = s["test"]
             box = num(s["test_box"]["r2"], 4) if "test_box" in s else "(fitted on it)"
-            rows.append(f"| {ident} | {c} | {num(t['r2'], 4)} | {num(t['rms'], 5)} | {num(t['max_abs'], 5)} "
-                        f"| {num(t['range'], 4)} | {box} |")
+            rows.append(
+                f"| {ident} | {c} | {num(t['r2'], 4)} | {num(t['rms'], 5)} | {num(t['max_abs'], 5)} "
+                f"| {num(t['range'], 4)} | {box} |"
+            )
     return "\n".join(rows)
 
 
 def trim_table(ids=FITTED) -> str:
-    rows = ["| aircraft | reference condition | α GNA / source [deg] | Δα [deg] | δm GNA / source [deg] "
-            "| Δδm [deg] | thrust GNA / source [N] | Δthrust | target (0.5°, 1°) |",
-            "|---|---|---|---|---|---|---|---|---|"]
+    rows = [
+        "| aircraft | reference condition | α GNA / source [deg] | Δα [deg] | δm GNA / source [deg] "
+        "| Δδm [deg] | thrust GNA / source [N] | Δthrust | target (0.5°, 1°) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for ident in ids:
         f = record(ident)["fit"]
         g, s, d = f["trim"]["gna"], f["trim"]["source"], f["trim"]["difference"]
         ref = f["reference"]
         ok = abs(d["alpha_deg"]) <= TARGET_ALPHA_DEG and abs(d["dm_deg"]) <= TARGET_DM_DEG
-        rows.append(f"| {ident} | {ref['label']}, V = {num(ref['V_ms'], 3)} m/s "
-                    f"| {num(g['alpha_deg'], 3)} / {num(s['alpha_deg'], 3)} | {num(d['alpha_deg'], 3, True)} "
-                    f"| {num(g['dm_deg'], 3)} / {num(s['dm_deg'], 3)} | {num(d['dm_deg'], 3, True)} "
-                    f"| {num(g['thrust_N'], 1)} / {num(s['thrust_N'], 1)} | {num(100 * d['thrust_rel'], 1, True)} % "
-                    f"| {'met' if ok else 'NOT met'} |")
+        rows.append(
+            f"| {ident} | {ref['label']}, V = {num(ref['V_ms'], 3)} m/s "
+            f"| {num(g['alpha_deg'], 3)} / {num(s['alpha_deg'], 3)} | {num(d['alpha_deg'], 3, True)} "
+            f"| {num(g['dm_deg'], 3)} / {num(s['dm_deg'], 3)} | {num(d['dm_deg'], 3, True)} "
+            f"| {num(g['thrust_N'], 1)} / {num(s['thrust_N'], 1)} | {num(100 * d['thrust_rel'], 1, True)} % "
+            f"| {'met' if ok else 'NOT met'} |"
+        )
     return "\n".join(rows)
 
 
 def lateral_trim_table(ids=FITTED) -> str:
-    rows = ["| aircraft | δl GNA / source [deg] | δn GNA / source [deg] | μ GNA / source [deg] |",
-            "|---|---|---|---|"]
+    rows = ["| aircraft | δl GNA / source [deg] | δn GNA / source [deg] | μ GNA / source [deg] |", "|---|---|---|---|"]
     for ident in ids:
         t = record(ident)["fit"]["trim"]
         g, s = t["gna"], t["source"]
-        rows.append(f"| {ident} | {num(g['dl_deg'], 4)} / {num(s['dl_deg'], 4)} "
-                    f"| {num(g['dn_deg'], 4)} / {num(s['dn_deg'], 4)} "
-                    f"| {num(g['mu_deg'], 4)} / {num(s['mu_deg'], 4)} |")
+        rows.append(
+            f"| {ident} | {num(g['dl_deg'], 4)} / {num(s['dl_deg'], 4)} "
+            f"| {num(g['dn_deg'], 4)} / {num(s['dn_deg'], 4)} "
+            f"| {num(g['mu_deg'], 4)} / {num(s['mu_deg'], 4)} |"
+        )
     return "\n".join(rows)
 
 
@@ -92,35 +101,62 @@ def f16_comparison() -> str:
     a, b = load_aircraft("f16c"), load_aircraft("f16-jsbsim")
     rec = record("f16-jsbsim")
     se = {t["theta"]: t.get("std_error") for t in rec["aero"]["terms"]}
-    rows = ["| θ | coef | monomial | f16c (Grauer–Morelli) | f16-jsbsim (fit) | std error of fit |",
-            "|---|---|---|---|---|---|"]
+    rows = [
+        "| θ | coef | monomial | f16c (Grauer–Morelli) | f16-jsbsim (fit) | std error of fit |",
+        "|---|---|---|---|---|---|",
+    ]
     for ta, tb in zip(a.aero.terms, b.aero.terms):
         if (ta.coefficient, ta.exponents) != (tb.coefficient, tb.exponents):
             raise InputError(f"f16c and f16-jsbsim structures differ at theta {ta.index}")
-        rows.append(f"| {ta.index} | {ta.coefficient} | {ta.monomial} | {ta.value:.4g} | {tb.value:.4g} "
-                    f"| {se.get(tb.index, float('nan')):.2g} |")
+        rows.append(
+            f"| {ta.index} | {ta.coefficient} | {ta.monomial} | {ta.value:.4g} | {tb.value:.4g} "
+            f"| {se.get(tb.index, float('nan')):.2g} |"
+        )
     ref = rec["fit"]["reference"]
     tc = trim_record(trim_level(a, ref["V_ms"], ref["altitude_m"]))
     tj, ts = rec["fit"]["trim"]["gna"], rec["fit"]["trim"]["source"]
     trims = ["| model (own mass, geometry) | α [deg] | δm [deg] | thrust [N] |", "|---|---|---|---|"]
     for name, t in (("f16c (Grauer–Morelli GNA)", tc), ("f16-jsbsim (GNA fit)", tj), ("JSBSim f16 aerodynamics", ts)):
         trims.append(f"| {name} | {num(t['alpha_deg'], 3)} | {num(t['dm_deg'], 3)} | {num(t['thrust_N'], 1)} |")
-    mass = (f"f16c: m = {a.mass.mass:.1f} kg, x_cg − x_ref = {a.geometry.x_cg - a.geometry.x_ref:+.4f} m; "
-            f"f16-jsbsim: m = {b.mass.mass:.1f} kg, moments about its CG")
-    return ("\n".join(rows) + f"\n\nLevel trim at {ref['label']} (V = {ref['V_ms']:.3f} m/s, "
-            f"{ref['altitude_m']:.1f} m), same equations of motion ({mass}):\n\n" + "\n".join(trims))
+    mass = (
+        f"f16c: m = {a.mass.mass:.1f} kg, x_cg − x_ref = {a.geometry.x_cg - a.geometry.x_ref:+.4f} m; "
+        f"f16-jsbsim: m = {b.mass.mass:.1f} kg, moments about its CG"
+    )
+    return (
+        "\n".join(rows) + f"\n\nLevel trim at {ref['label']} (V = {ref['V_ms']:.3f} m/s, "
+        f"{ref['altitude_m']:.1f} m), same equations of motion ({mass}):\n\n" + "\n".join(trims)
+    )
 
 
 def generated_block() -> str:
     """The generated part of ``docs/fit_quality.md`` (between the markers)."""
-    parts = [BEGIN, "", "### Held-out statistics", "",
-             "Each coefficient on the held-out points of the block it was fitted on; CD, CL, Cm (fitted on the "
-             "longitudinal plane) also on the held-out points of the 8-D box.", "", statistics_table(), "",
-             "### Level-flight trim, GNA fit against its source model", "",
-             "Straight, level, wings-level flight (γ = χ' = β = 0), ISA density, same equations of motion, mass "
-             "and engines; only the aerodynamic model differs.", "", trim_table(), "",
-             "Lateral trim variables at the same conditions:", "", lateral_trim_table(), "",
-             "### f16-jsbsim against f16c", "", f16_comparison(), "", END]
+    parts = [
+        BEGIN,
+        "",
+        "### Held-out statistics",
+        "",
+        "Each coefficient on the held-out points of the block it was fitted on; CD, CL, Cm (fitted on the "
+        "longitudinal plane) also on the held-out points of the 8-D box.",
+        "",
+        statistics_table(),
+        "",
+        "### Level-flight trim, GNA fit against its source model",
+        "",
+        "Straight, level, wings-level flight (γ = χ' = β = 0), ISA density, same equations of motion, mass "
+        "and engines; only the aerodynamic model differs.",
+        "",
+        trim_table(),
+        "",
+        "Lateral trim variables at the same conditions:",
+        "",
+        lateral_trim_table(),
+        "",
+        "### f16-jsbsim against f16c",
+        "",
+        f16_comparison(),
+        "",
+        END,
+    ]
     return "\n".join(parts)
 
 

@@ -32,8 +32,19 @@ from pathlib import Path
 from ..errors import InputError
 
 #: Tables of the GTM database that the nominal (undamaged) simulation uses.
-GTM_NOMINAL_TABLES: tuple[str, ...] = ("C6_bas", "dC3_sym", "dC3_ele", "dC3_lgr", "dC3_p", "dC3_q", "dC3_r",
-                                       "dC6_ail", "dC6_rud", "dC6_spo", "dC6_w")
+GTM_NOMINAL_TABLES: tuple[str, ...] = (
+    "C6_bas",
+    "dC3_sym",
+    "dC3_ele",
+    "dC3_lgr",
+    "dC3_p",
+    "dC3_q",
+    "dC3_r",
+    "dC6_ail",
+    "dC6_rud",
+    "dC6_spo",
+    "dC6_w",
+)
 
 
 def _require(path: Path) -> Path:
@@ -55,8 +66,8 @@ def vendor_gtm(src: Path, out: Path) -> dict[str, str]:
         "source": db["source"],
         "conventions": db["conventions"],
         "transformation": "subset of shared/data/gtm/gtm_aero_db.json: the nominal tables "
-                          f"({', '.join(GTM_NOMINAL_TABLES)}) and the flap derivatives, values unchanged; "
-                          "damage tables omitted",
+        f"({', '.join(GTM_NOMINAL_TABLES)}) and the flap derivatives, values unchanged; "
+        "damage tables omitted",
         "tables": {t: db["tables"][t] for t in GTM_NOMINAL_TABLES},
         "linear_derivatives": db["linear_derivatives"],
     }
@@ -66,8 +77,10 @@ def vendor_gtm(src: Path, out: Path) -> dict[str, str]:
     target.write_bytes(gzip.compress(raw, compresslevel=9, mtime=0))
     for name in ("vehicle.json", "reference_points.csv"):
         shutil.copyfile(_require(src / name), out / name)
-    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in (target, out / "vehicle.json", out / "reference_points.csv")}
+    return {
+        p.name: hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in (target, out / "vehicle.json", out / "reference_points.csv")
+    }
 
 
 def vendor_twin_otter(src: Path, out: Path) -> dict[str, str]:

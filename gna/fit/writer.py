@@ -15,7 +15,8 @@ from __future__ import annotations
 import json
 import math
 import tomllib
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 from ..aircraft import aircraft_from_dict
 from ..errors import InputError
@@ -96,8 +97,9 @@ def aircraft_document(doc: Mapping[str, Any], header: str) -> str:
     return text
 
 
-def differences(a: Any, b: Any, *, rtol: float = 1e-8, atol: float = 1e-10, ignore: tuple[str, ...] = (),
-                path: str = "") -> list[str]:
+def differences(
+    a: Any, b: Any, *, rtol: float = 1e-8, atol: float = 1e-10, ignore: tuple[str, ...] = (), path: str = ""
+) -> list[str]:
     """Where two parsed documents differ: floats beyond ``atol + rtol*max(|a|,|b|)``, anything else exactly."""
     if path in ignore:
         return []

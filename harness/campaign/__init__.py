@@ -26,6 +26,18 @@ from .sampling import dispersed_aircraft, draw_sample, sample_seed
 from .spec import Campaign, Dispersion, SampleTask, bundled_campaigns, campaign_from_dict, load_campaign
 from .store import CampaignStore
 
-__all__ = ["run_sample", "rerun_case", "run_campaign", "dispersed_aircraft", "draw_sample", "sample_seed",
-           "Campaign", "Dispersion", "SampleTask", "bundled_campaigns", "campaign_from_dict", "load_campaign",
-           "CampaignStore"]
+__all__ = [
+    "run_sample",
+    "rerun_case",
+    "run_campaign",
+    "dispersed_aircraft",
+    "draw_sample",
+    "sample_seed",
+    "Campaign",
+    "Dispersion",
+    "SampleTask",
+    "bundled_campaigns",
+    "campaign_from_dict",
+    "load_campaign",
+    "CampaignStore",
+]

@@ -23,8 +23,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from gna.atmosphere import Environment
 from gna.aero import COEFFICIENTS, Coefficients
+from gna.atmosphere import Environment
 from gna.eom import Controls, State, derivatives
 from gna.errors import InputError
 from gna.trajectory import control_function, domain_bounds, inside_domain
@@ -57,7 +57,7 @@ class BatchTerms:
         for i, t in enumerate(table.terms):
             ind[COEFFICIENTS.index(t.coefficient), i] = 1.0
         self.indicator = ind
-        self.exponents = np.array([t.exponents for t in table.terms], dtype=int)   # (n_terms, 8)
+        self.exponents = np.array([t.exponents for t in table.terms], dtype=int)  # (n_terms, 8)
         self._columns = np.arange(self.exponents.shape[1])
 
     def coefficients(self, state) -> Coefficients:
@@ -76,12 +76,12 @@ class BatchTerms:
         gna.aero.Coefficients
             Arrays of shape (n,).
         """
-        v = np.array(np.broadcast_arrays(*state, self.values[0]))[:-1]           # (8, n)
+        v = np.array(np.broadcast_arrays(*state, self.values[0]))[:-1]  # (8, n)
         powers = np.empty((self.exponents.max() + 1,) + v.shape)
         powers[0] = 1.0
         for k in range(1, powers.shape[0]):
             powers[k] = powers[k - 1] * v
-        mons = powers[self.exponents, self._columns].prod(axis=1)                 # (n_terms, n)
+        mons = powers[self.exponents, self._columns].prod(axis=1)  # (n_terms, n)
         return Coefficients(*(self.indicator @ (self.values * mons)))
 
 
@@ -105,11 +105,18 @@ def batched_aircraft(aircraft, draws):
     ms = np.array([d.mass_scale for d in draws])
     si = np.array([d.inertia_scale for d in draws])
     mass = SimpleNamespace(mass=m.mass * ms, Ixx=m.Ixx * si, Iyy=m.Iyy * si, Izz=m.Izz * si, Ixz=m.Ixz * si)
-    geometry = SimpleNamespace(S=g.S, b=g.b, cbar=g.cbar, x_ref=g.x_ref,
-                               x_cg=g.x_cg + np.array([d.cg_shift_m for d in draws]))
+    geometry = SimpleNamespace(
+        S=g.S, b=g.b, cbar=g.cbar, x_ref=g.x_ref, x_cg=g.x_cg + np.array([d.cg_shift_m for d in draws])
+    )
     values = np.stack([d.aero_values for d in draws], axis=1)
-    return SimpleNamespace(id=aircraft.id, mass=mass, geometry=geometry, propulsion=aircraft.propulsion,
-                           envelope=aircraft.envelope, aero=BatchTerms(aircraft.aero, values))
+    return SimpleNamespace(
+        id=aircraft.id,
+        mass=mass,
+        geometry=geometry,
+        propulsion=aircraft.propulsion,
+        envelope=aircraft.envelope,
+        aero=BatchTerms(aircraft.aero, values),
+    )
 
 
 @dataclass
@@ -152,10 +159,22 @@ class BatchResult:
         return self.X[:, :3, :]
 
 
-def simulate_batch(aircraft, x0: np.ndarray, controls, t_span, *, env: Environment | None = None,
-                   controller=None, dt_out: float = 0.05, t_eval=None, method: str = "DOP853",
-                   rtol: float = 1e-10, atol: float = 1e-10, max_step: float = 0.01,
-                   max_steps: int | None = None) -> BatchResult:
+def simulate_batch(
+    aircraft,
+    x0: np.ndarray,
+    controls,
+    t_span,
+    *,
+    env: Environment | None = None,
+    controller=None,
+    dt_out: float = 0.05,
+    t_eval=None,
+    method: str = "DOP853",
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    max_step: float = 0.01,
+    max_steps: int | None = None,
+) -> BatchResult:
     """Integrate n samples of the 12-state model (and a controller's states) at once.
 
     Parameters
@@ -221,8 +240,15 @@ def simulate_batch(aircraft, x0: np.ndarray, controls, t_span, *, env: Environme
         out = fixed(system, grid, t0, t1, max_step, TABLEAUS[method]())
     system.t_end[np.isinf(system.t_end)] = t1
     status = np.where(system.stalled, "stalled", np.where(system.t_end < t1, "domain", "completed"))
-    return BatchResult(t=grid, X=out[:, :12], XC=out[:, 12:], status=status, t_end=system.t_end, nfev=system.nfev,
-                       steps=getattr(system, "steps", None))
+    return BatchResult(
+        t=grid,
+        X=out[:, :12],
+        XC=out[:, 12:],
+        status=status,
+        t_end=system.t_end,
+        nfev=system.nfev,
+        steps=getattr(system, "steps", None),
+    )
 
 
 class _System:
@@ -255,7 +281,7 @@ class _System:
         alive = self.alive if cols is None else self.alive[cols]
         m = Y.shape[1]
         D = np.empty((self.rows, m))
-        if self.own_feedforward:       # the controller's own feedforward: evaluated once with the feedback
+        if self.own_feedforward:  # the controller's own feedforward: evaluated once with the feedback
             du, D[12:], U = self.controller.output_and_derivative_many(t, Y[:12], Y[12:], with_feedforward=True)
             U = U + du
         else:
@@ -304,5 +330,11 @@ def _take(aircraft, cols):
     m, g = aircraft.mass, aircraft.geometry
     mass = SimpleNamespace(**{k: np.asarray(getattr(m, k))[cols] for k in ("mass", "Ixx", "Iyy", "Izz", "Ixz")})
     geometry = SimpleNamespace(S=g.S, b=g.b, cbar=g.cbar, x_ref=g.x_ref, x_cg=np.asarray(g.x_cg)[cols])
-    return SimpleNamespace(id=aircraft.id, mass=mass, geometry=geometry, propulsion=aircraft.propulsion,
-                           envelope=aircraft.envelope, aero=BatchTerms(aircraft.aero.table, aircraft.aero.values[:, cols]))
+    return SimpleNamespace(
+        id=aircraft.id,
+        mass=mass,
+        geometry=geometry,
+        propulsion=aircraft.propulsion,
+        envelope=aircraft.envelope,
+        aero=BatchTerms(aircraft.aero.table, aircraft.aero.values[:, cols]),
+    )

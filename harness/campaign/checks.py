@@ -45,7 +45,7 @@ def closest_name(value: str, names) -> str:
         The suggestion, or an empty string.
     """
     names = list(names)
-    hint = did_you_mean(value, names)       # difflib or a unique prefix, as for misspelt keys
+    hint = did_you_mean(value, names)  # difflib or a unique prefix, as for misspelt keys
     if hint:
         return hint
     looser = difflib.get_close_matches(value, names, n=1, cutoff=0.4)
@@ -86,15 +86,18 @@ def check_case(case: ValidationCase, where: str, loaded: dict | None = None) -> 
     if _is_bare_name(name):
         names = list_scenarios()
         if name not in names:
-            raise InputError(f"{where}: scenario = {name!r} is not a bundled scenario{closest_name(name, names)}; "
-                             f"bundled scenarios: {', '.join(names)} (or give the path of a .toml file)")
+            raise InputError(
+                f"{where}: scenario = {name!r} is not a bundled scenario{closest_name(name, names)}; "
+                f"bundled scenarios: {', '.join(names)} (or give the path of a .toml file)"
+            )
     key = (name, case.J)
     if key not in loaded:
         try:
             loaded[key] = load_scenario(name, J=case.J)
         except InputError as exc:
-            raise InputError(f"{where}: scenario = {name!r}" + (f" with J = {case.J!r}" if case.J is not None else "")
-                             + f": {exc}") from None
+            raise InputError(
+                f"{where}: scenario = {name!r}" + (f" with J = {case.J!r}" if case.J is not None else "") + f": {exc}"
+            ) from None
     sc = loaded[key]
     try:
         settings = case_settings(case, sc)
@@ -104,9 +107,9 @@ def check_case(case: ValidationCase, where: str, loaded: dict | None = None) -> 
         output_grid(sc.t0, sc.t1, settings.dt_out)
     except InputError as exc:
         origin = {"scenario": f"{sc.path or sc.name} [compare] ", "default": "the default "}.get(
-            settings.sources["dt_out"], "")
+            settings.sources["dt_out"], ""
+        )
         raise InputError(f"{where}: {origin}{exc}") from None
-
 
 
 def check_samples(campaign, samples: int | None, bound: float = MAX_CASES) -> int:
@@ -135,6 +138,8 @@ def check_samples(campaign, samples: int | None, bound: float = MAX_CASES) -> in
     pairs = len(campaign.cases) * len(campaign.dispersions)
     total = n * pairs
     if total > bound:
-        raise InputError(f"campaign {campaign.name!r}: --samples {n} x {pairs} case-dispersion pairs = {total:.3g} "
-                         f"cases, above the bound {bound:.3g} (--max-cases N to raise it, inf for none)")
+        raise InputError(
+            f"campaign {campaign.name!r}: --samples {n} x {pairs} case-dispersion pairs = {total:.3g} "
+            f"cases, above the bound {bound:.3g} (--max-cases N to raise it, inf for none)"
+        )
     return total

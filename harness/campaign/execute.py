@@ -70,7 +70,7 @@ def _fly(task: SampleTask):
     plan, scenario = planned.plan, planned.scenario
     draw = draw_sample(plan.aircraft, task.dispersion, task.seed)
     span = (plan.t0, plan.t1)
-    settings = case_settings(case, scenario)     # as run_case: the case's > the scenario's [compare] > defaults
+    settings = case_settings(case, scenario)  # as run_case: the case's > the scenario's [compare] > defaults
     engines = {n: with_step(get_engine(n), settings.jsbsim_dt) for n in case.engines}
     aircraft = dispersed_aircraft(plan.aircraft, draw)
     if case.loop == "closed":
@@ -78,12 +78,27 @@ def _fly(task: SampleTask):
         setup = closed_loop_setup(plan, nominal)
         ctl, j = setup.controller, setup.feedforward_iterate
         engines = sampled_engines(engines, scenario.tracking.controller_dt)
-        runs = fly(engines, aircraft, setup.x0 + draw.offsets, ctl.controls, span, env=plan.env, controller=ctl,
-                   dt_out=settings.dt_out)
+        runs = fly(
+            engines,
+            aircraft,
+            setup.x0 + draw.offsets,
+            ctl.controls,
+            span,
+            env=plan.env,
+            controller=ctl,
+            dt_out=settings.dt_out,
+        )
     else:
         ctl, j = None, plan.J
-        runs = fly(engines, aircraft, np.asarray(plan.initial_state(j), dtype=float) + draw.offsets,
-                   plan.control_function(j), span, env=plan.env, dt_out=settings.dt_out)
+        runs = fly(
+            engines,
+            aircraft,
+            np.asarray(plan.initial_state(j), dtype=float) + draw.offsets,
+            plan.control_function(j),
+            span,
+            env=plan.env,
+            dt_out=settings.dt_out,
+        )
     return plan, draw, runs, ctl, j, planned.planning_time_s, settings
 
 
@@ -93,21 +108,26 @@ def _metrics(plan, runs, ctl, j, settings) -> dict:
     out_runs = {}
     for label, res in runs.items():
         sat = saturated_seconds(ctl, res)["any"] if ctl is not None else 0.0
-        out_runs[label] = {"status": res.status, "t_end": float(res.t_end),
-                           "max_position_error_m": _finite_or_none(max_position_error(res, ref)),
-                           "max_position_error_after_5s_m": _finite_or_none(
-                               max_position_error(res, ref, (plan.t0 + 5.0, None))),
-                           "saturated_s": float(sat)}
+        out_runs[label] = {
+            "status": res.status,
+            "t_end": float(res.t_end),
+            "max_position_error_m": _finite_or_none(max_position_error(res, ref)),
+            "max_position_error_after_5s_m": _finite_or_none(max_position_error(res, ref, (plan.t0 + 5.0, None))),
+            "saturated_s": float(sat),
+        }
     diffs, passed = {}, True
     if len(runs) > 1:
         tables = engine_tables(runs, span, settings.tolerances, settings.windows, rtol=settings.rtol or None)
         for label, per in tables.items():
             tab = per.get("whole span") or next(iter(per.values()))
-            diffs[label] = {"max_position_m": _finite_or_none(tab.row("position").max_abs),
-                            "max_angle_rad": _finite_or_none(max(tab.row(v).max_abs for v in
-                                                                 ("gamma", "chi", "alpha", "beta", "mu"))),
-                            "pass": bool(all(t.passed for t in per.values())),
-                            "failing": sorted({f"{r.variable} ({w})" for w, t in per.items() for r in t.failures()})}
+            diffs[label] = {
+                "max_position_m": _finite_or_none(tab.row("position").max_abs),
+                "max_angle_rad": _finite_or_none(
+                    max(tab.row(v).max_abs for v in ("gamma", "chi", "alpha", "beta", "mu"))
+                ),
+                "pass": bool(all(t.passed for t in per.values())),
+                "failing": sorted({f"{r.variable} ({w})" for w, t in per.items() for r in t.failures()}),
+            }
             passed = passed and diffs[label]["pass"]
     ok = passed and all(r.status == "completed" for r in runs.values())
     return {"runs": out_runs, "differences": diffs, "pass": bool(ok)}
@@ -137,8 +157,15 @@ def run_sample(task: SampleTask) -> dict:
         error raised while planning or flying makes a sample ``failed``.
     """
     t_start = time.perf_counter()
-    out = {"case_id": task.case_id, "status": "failed", "metrics": None, "draw": None, "error": None,
-           "timings": {}, "files": {}}
+    out = {
+        "case_id": task.case_id,
+        "status": "failed",
+        "metrics": None,
+        "draw": None,
+        "error": None,
+        "timings": {},
+        "files": {},
+    }
     try:
         plan, draw, runs, ctl, j, plan_s, settings = _fly(task)
         t_fly = time.perf_counter()

@@ -122,6 +122,7 @@ def _rk4():
 def _dop853():
     # The 12-stage, 8th-order Dormand-Prince pair's propagating tableau (Hairer, Norsett & Wanner, ODEs I, II.10).
     from scipy.integrate._ivp import dop853_coefficients as c
+
     return (c.A[:12, :12].tolist(), c.B.tolist(), c.C[:12].tolist())
 
 
@@ -157,6 +158,7 @@ def per_sample(system, grid, t0, t1, rtol, atol, max_steps=None):
         States on the grid; a sample frozen out of the domain keeps its last state.
     """
     from scipy.integrate._ivp import dop853_coefficients as c
+
     A, B, C, E3, E5 = c.A[:12, :12], c.B, c.C[:12], c.E3, c.E5
     A_extra, C_extra, D = c.A[13:], c.C[13:], c.D
     rows, n, G = system.rows, system.n, len(grid)
@@ -206,8 +208,9 @@ def per_sample(system, grid, t0, t1, rtol, atol, max_steps=None):
             for s, (a, cc) in enumerate(zip(A_extra, C_extra), start=13):
                 Ks[s] = system.rhs(ti[sub] + cc * hs, yi[:, sub] + np.tensordot(a[:s], Ks[:s], axes=1) * hs, cols)
             dy = ynew[:, sub] - yi[:, sub]
-            P = np.concatenate([[dy, hs * Ks[0] - dy, 2 * dy - hs * (Ks[12] + Ks[0])],
-                                hs * np.tensordot(D, Ks, axes=1)])
+            P = np.concatenate(
+                [[dy, hs * Ks[0] - dy, 2 * dy - hs * (Ks[12] + Ks[0])], hs * np.tensordot(D, Ks, axes=1)]
+            )
             todo = np.ones(sub.size, dtype=bool)
             while todo.any():
                 k = np.nonzero(todo)[0]
@@ -226,6 +229,6 @@ def per_sample(system, grid, t0, t1, rtol, atol, max_steps=None):
             over = idx[system.alive[idx] & (system.steps[idx] >= max_steps)]
             system.alive[over], system.stalled[over], system.t_end[over] = False, True, t[over]
         idx = np.nonzero(system.alive & (gi < G))[0]
-    for j in np.nonzero(gi < G)[0]:       # frozen samples keep their last state
-        out[gi[j]:, :, j] = Y[:, j]
+    for j in np.nonzero(gi < G)[0]:  # frozen samples keep their last state
+        out[gi[j] :, :, j] = Y[:, j]
     return out

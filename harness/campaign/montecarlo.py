@@ -13,15 +13,23 @@ from dataclasses import replace
 
 import numpy as np
 
-
 from ..validation.closed import closed_loop_setup
 from .batch import batched_aircraft, simulate_batch
 
 __all__ = ["fly_batch", "batch_metrics"]
 
 
-def fly_batch(plan, scenario, draws, *, loop: str = "closed", t_span=None, dt_out: float = 0.05,
-              method: str = "DOP853", max_steps: int | None = None):
+def fly_batch(
+    plan,
+    scenario,
+    draws,
+    *,
+    loop: str = "closed",
+    t_span=None,
+    dt_out: float = 0.05,
+    method: str = "DOP853",
+    max_steps: int | None = None,
+):
     """Fly a plan on many dispersed aircraft at once.
 
     Parameters
@@ -55,13 +63,30 @@ def fly_batch(plan, scenario, draws, *, loop: str = "closed", t_span=None, dt_ou
         nominal = replace(scenario, tracking=replace(scenario.tracking, perturbation=None))
         setup = closed_loop_setup(plan, nominal)
         ctl, j = setup.controller, setup.feedforward_iterate
-        res = simulate_batch(aircraft, setup.x0[None, :] + offsets, ctl.controls, span, env=plan.env,
-                             controller=ctl, dt_out=dt_out, method=method, max_steps=max_steps)
+        res = simulate_batch(
+            aircraft,
+            setup.x0[None, :] + offsets,
+            ctl.controls,
+            span,
+            env=plan.env,
+            controller=ctl,
+            dt_out=dt_out,
+            method=method,
+            max_steps=max_steps,
+        )
         return res, ctl, j
     j = plan.J
     x0 = np.asarray(plan.initial_state(j), dtype=float)
-    res = simulate_batch(aircraft, x0[None, :] + offsets, plan.control_function(j), span, env=plan.env,
-                         dt_out=dt_out, method=method, max_steps=max_steps)
+    res = simulate_batch(
+        aircraft,
+        x0[None, :] + offsets,
+        plan.control_function(j),
+        span,
+        env=plan.env,
+        dt_out=dt_out,
+        method=method,
+        max_steps=max_steps,
+    )
     return res, None, j
 
 
@@ -87,8 +112,8 @@ def batch_metrics(result, plan, j: int, controller=None) -> list[dict]:
         :meth:`planners.tracking.TrackingController.saturated_time`).
     """
     t = result.t
-    ref = np.asarray(plan.state(t, j), dtype=float)                                # (12, m)
-    dist = np.linalg.norm(result.X[:, :3, :] - ref[:3].T[:, :, None], axis=1)      # (m, n)
+    ref = np.asarray(plan.state(t, j), dtype=float)  # (12, m)
+    dist = np.linalg.norm(result.X[:, :3, :] - ref[:3].T[:, :, None], axis=1)  # (m, n)
     sat = np.zeros((len(t), result.X.shape[2]), dtype=bool)
     if controller is not None and controller.saturate:
         free = replace(controller, saturate=False, samples=None)
@@ -103,12 +128,16 @@ def batch_metrics(result, plan, j: int, controller=None) -> list[dict]:
         after = valid & (t >= plan.t0 + 5.0)
 
         def worst(mask):
-            v = dist[mask, i]
+            v = dist[mask, i]  # noqa: B023
             return float(v.max()) if v.size and np.isfinite(v).all() else None
 
-        out.append({"status": str(result.status[i]), "t_end": float(result.t_end[i]),
-                    "max_position_error_m": worst(valid), "max_position_error_after_5s_m": worst(after),
-                    "saturated_s": float(np.sum(dt[valid & sat[:, i]]))})
+        out.append(
+            {
+                "status": str(result.status[i]),
+                "t_end": float(result.t_end[i]),
+                "max_position_error_m": worst(valid),
+                "max_position_error_after_5s_m": worst(after),
+                "saturated_s": float(np.sum(dt[valid & sat[:, i]])),
+            }
+        )
     return out
-
-

@@ -28,7 +28,7 @@ def _ranks(v: np.ndarray) -> np.ndarray:
     order = np.argsort(v, kind="mergesort")
     r = np.empty(len(v))
     r[order] = np.arange(len(v))
-    for val in np.unique(v):           # average ranks of ties
+    for val in np.unique(v):  # average ranks of ties
         tie = v == val
         if tie.sum() > 1:
             r[tie] = r[tie].mean()
@@ -47,8 +47,13 @@ def _stats(values) -> dict:
     v = np.array([x for x in values if x is not None and math.isfinite(x)], dtype=float)
     if v.size == 0:
         return {"n": 0}
-    return {"n": int(v.size), "min": float(v.min()), "median": float(np.median(v)), "p90": float(np.quantile(v, 0.9)),
-            "max": float(v.max())}
+    return {
+        "n": int(v.size),
+        "min": float(v.min()),
+        "median": float(np.median(v)),
+        "p90": float(np.quantile(v, 0.9)),
+        "max": float(v.max()),
+    }
 
 
 def campaign_summary(folder: str | Path) -> dict:
@@ -86,23 +91,37 @@ def campaign_summary(folder: str | Path) -> dict:
     for key, rs in groups.items():
         engines = rs[0]["params"]["engines"]
         ref = engines[0]
-        g = {"scenario": rs[0]["params"]["scenario"], "loop": rs[0]["params"]["loop"], "engines": engines,
-             "n": len(rs), "passed": sum(bool(r["pass"]) for r in rs)}
+        g = {
+            "scenario": rs[0]["params"]["scenario"],
+            "loop": rs[0]["params"]["loop"],
+            "engines": engines,
+            "n": len(rs),
+            "passed": sum(bool(r["pass"]) for r in rs),
+        }
         g["pass_rate"] = g["passed"] / g["n"]
         g["status"] = {e: {} for e in engines}
         for r in rs:
             for e, run in r["metrics"]["runs"].items():
                 g["status"][e][run["status"]] = g["status"][e].get(run["status"], 0) + 1
-        g["tracking_error_m"] = {e: _stats(r["metrics"]["runs"][e]["max_position_error_m"] for r in rs)
-                                 for e in engines}
+        g["tracking_error_m"] = {
+            e: _stats(r["metrics"]["runs"][e]["max_position_error_m"] for r in rs) for e in engines
+        }
         g["saturated_s"] = {e: _stats(r["metrics"]["runs"][e]["saturated_s"] for r in rs) for e in engines}
-        g["engine_difference_m"] = {e: _stats(r["metrics"]["differences"][e]["max_position_m"] for r in rs)
-                                    for e in engines[1:]}
+        g["engine_difference_m"] = {
+            e: _stats(r["metrics"]["differences"][e]["max_position_m"] for r in rs) for e in engines[1:]
+        }
         err = np.array([r["metrics"]["runs"][ref]["max_position_error_m"] or np.nan for r in rs], dtype=float)
         order = np.argsort(np.where(np.isfinite(err), -err, np.inf))[:N_WORST]
-        g["worst"] = [{"case_id": rs[i]["case_id"], "seed": rs[i]["seed"], "pass": bool(rs[i]["pass"]),
-                       "tracking_error_m": None if not math.isfinite(err[i]) else float(err[i]),
-                       "status": {e: run["status"] for e, run in rs[i]["metrics"]["runs"].items()}} for i in order]
+        g["worst"] = [
+            {
+                "case_id": rs[i]["case_id"],
+                "seed": rs[i]["seed"],
+                "pass": bool(rs[i]["pass"]),
+                "tracking_error_m": None if not math.isfinite(err[i]) else float(err[i]),
+                "status": {e: run["status"] for e, run in rs[i]["metrics"]["runs"].items()},
+            }
+            for i in order
+        ]
         params = sorted({k for r in rs for k in (r["draw"] or {})})
         corr = {}
         for p in params:
@@ -113,14 +132,21 @@ def campaign_summary(folder: str | Path) -> dict:
         g["correlations"] = [[p, rho] for p, rho in sorted(corr.items(), key=lambda kv: -abs(kv[1]))]
         out_groups[key] = g
     failed = {r["case_id"]: (r["error"] or "").splitlines()[0] for r in rows if r["status"] == "failed"}
-    return {"campaign": meta.get("campaign"), "description": (meta.get("definition") or {}).get("description", ""),
-            "counts": counts, "groups": out_groups, "failed": failed}
+    return {
+        "campaign": meta.get("campaign"),
+        "description": (meta.get("definition") or {}).get("description", ""),
+        "counts": counts,
+        "groups": out_groups,
+        "failed": failed,
+    }
 
 
 def _figures(folder: Path, summary: dict, rows: list, outdir: Path) -> list[Path]:
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     paths = []
     groups = summary["groups"]
     by_group: dict[str, list] = {}
@@ -136,12 +162,20 @@ def _figures(folder: Path, summary: dict, rows: list, outdir: Path) -> list[Path
     ax.set_ylim(0, 100)
     ax.set_title("Cases passing (runs complete, engines within tolerances)")
     figs.append(("pass_rate.png", fig))
-    for metric, title, unit in (("max_position_error_m", "Largest distance to the flat outputs", "m"),
-                                ("saturated_s", "Time with a control commanded beyond its limits", "s")):
+    for metric, title, unit in (
+        ("max_position_error_m", "Largest distance to the flat outputs", "m"),
+        ("saturated_s", "Time with a control commanded beyond its limits", "s"),
+    ):
         fig, axes = plt.subplots(1, len(keys), figsize=(3.2 * max(len(keys), 1), 3), squeeze=False)
         for ax, k in zip(axes[0], keys):
-            vals = {e: [x for x in (r["metrics"]["runs"][e][metric] for r in by_group[k])
-                        if x is not None and math.isfinite(x)] for e in groups[k]["engines"]}
+            vals = {
+                e: [
+                    x
+                    for x in (r["metrics"]["runs"][e][metric] for r in by_group[k])
+                    if x is not None and math.isfinite(x)
+                ]
+                for e in groups[k]["engines"]
+            }
             flat = [x for v in vals.values() for x in v]
             # A diverged run (1e20 m) hides the rest on a linear axis: decades then.
             logx = metric == "max_position_error_m" and flat and min(flat) > 0 and max(flat) > 100 * min(flat)

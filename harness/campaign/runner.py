@@ -52,8 +52,10 @@ DASK_SCHEMES: tuple[str, ...] = ("tcp", "tls", "ws", "wss", "ucx")
 #: until then.
 DASK_TIMEOUT_S = 20.0
 
-_ADDRESS = re.compile(r"^(?:(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+)"
-                      r":(?P<port>[0-9]{1,5})$")
+_ADDRESS = re.compile(
+    r"^(?:(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+)"
+    r":(?P<port>[0-9]{1,5})$"
+)
 
 
 def parse_dask(spec: str | None):
@@ -77,8 +79,10 @@ def parse_dask(spec: str | None):
     """
     if spec is None:
         return None
-    forms = (f"local:N (a local cluster of N workers) or a scheduler address [SCHEME://]HOST:PORT "
-             f"(SCHEME one of {', '.join(DASK_SCHEMES)}; e.g. tcp://127.0.0.1:8786)")
+    forms = (
+        f"local:N (a local cluster of N workers) or a scheduler address [SCHEME://]HOST:PORT "
+        f"(SCHEME one of {', '.join(DASK_SCHEMES)}; e.g. tcp://127.0.0.1:8786)"
+    )
     if spec == "local" or spec.startswith("local:"):
         _, _, n = spec.partition(":")
         if not n.isdigit() or int(n) < 1:
@@ -118,8 +122,14 @@ def _connect(where, timeout: float, scratch: Path | None = None):
 
         local = {} if scratch is None else {"local_directory": str(scratch)}
         with dask.config.set({"temporary-directory": str(scratch)} if scratch is not None else {}):
-            cluster = LocalCluster(n_workers=arg, threads_per_worker=1, processes=True, dashboard_address=None,
-                                   silence_logs=logging.ERROR, **local)
+            cluster = LocalCluster(
+                n_workers=arg,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+                **local,
+            )
         return Client(cluster), cluster
     # In a thread of its own, waited for at most the timeout and a margin: a server that is not a Dask
     # scheduler may accept the connection and never answer (Dask's timeout does not cover the handshake),
@@ -129,21 +139,29 @@ def _connect(where, timeout: float, scratch: Path | None = None):
     def connect():
         try:
             box["client"] = Client(arg, timeout=f"{timeout}s")
-        except BaseException as exc:            # noqa: BLE001  (reported below, in one line)
+        except BaseException as exc:  # noqa: BLE001  (reported below, in one line)
             box["error"] = exc
 
     worker = threading.Thread(target=connect, name="gflat-dask-connect", daemon=True)
     worker.start()
     worker.join(timeout + CONNECT_MARGIN_S)
     if worker.is_alive():
-        raise InputError(f"cannot connect to the Dask scheduler at {arg}: no answer within {timeout:g} s "
-                         f"(+{CONNECT_MARGIN_S:g} s): is a Dask scheduler listening there?")
+        raise InputError(
+            f"cannot connect to the Dask scheduler at {arg}: no answer within {timeout:g} s "
+            f"(+{CONNECT_MARGIN_S:g} s): is a Dask scheduler listening there?"
+        )
     exc = box.get("error")
     if exc is not None:
-        why = "a malformed address" if isinstance(exc, ValueError) else \
-            "refused, unreachable or timed out" if isinstance(exc, OSError) else "not a Dask scheduler?"
-        raise InputError(f"cannot connect to the Dask scheduler at {arg}: {type(exc).__name__}: {exc} "
-                         f"({why})") from None
+        why = (
+            "a malformed address"
+            if isinstance(exc, ValueError)
+            else "refused, unreachable or timed out"
+            if isinstance(exc, OSError)
+            else "not a Dask scheduler?"
+        )
+        raise InputError(
+            f"cannot connect to the Dask scheduler at {arg}: {type(exc).__name__}: {exc} ({why})"
+        ) from None
     return box["client"], None
 
 
@@ -151,8 +169,10 @@ def _progress(total: int, quiet: bool, label: str):
     if quiet or total == 0:
         return None
     from tqdm import tqdm
-    return tqdm(total=total, desc=label, unit="case", file=sys.stderr, dynamic_ncols=True,
-                mininterval=0.5, smoothing=0.1)
+
+    return tqdm(
+        total=total, desc=label, unit="case", file=sys.stderr, dynamic_ncols=True, mininterval=0.5, smoothing=0.1
+    )
 
 
 def _local_pool(tasks, workers: int, commit):
@@ -178,8 +198,11 @@ def _local_pool(tasks, workers: int, commit):
             pool.shutdown(wait=False, cancel_futures=True)
             if not isinstance(exc, BrokenProcessPool):
                 raise
-            print(f"gflat campaign: a worker process died; restarting the pool for the {len(remaining)} cases left "
-                  f"(attempt {attempt + 1} of {MAX_POOL_RESTARTS})", file=sys.stderr)
+            print(
+                f"gflat campaign: a worker process died; restarting the pool for the {len(remaining)} cases left "
+                f"(attempt {attempt + 1} of {MAX_POOL_RESTARTS})",
+                file=sys.stderr,
+            )
     return list(remaining)
 
 
@@ -210,8 +233,15 @@ def _dask(tasks, where, commit, client=None, timeout: float = DASK_TIMEOUT_S, sc
                     outcome = fut.result()
                 except Exception as exc:  # KilledWorker: the scheduler gave up on this case
                     t = futures[fut]
-                    outcome = {"case_id": t.case_id, "status": "failed", "metrics": None, "draw": None,
-                               "error": f"{type(exc).__name__}: {exc}", "timings": {}, "files": {}}
+                    outcome = {
+                        "case_id": t.case_id,
+                        "status": "failed",
+                        "metrics": None,
+                        "draw": None,
+                        "error": f"{type(exc).__name__}: {exc}",
+                        "timings": {},
+                        "files": {},
+                    }
                 commit(outcome)
         finally:
             if own and client is not None:
@@ -222,9 +252,18 @@ def _dask(tasks, where, commit, client=None, timeout: float = DASK_TIMEOUT_S, sc
                 shutil.rmtree(scratch, ignore_errors=True)
 
 
-def run_campaign(campaign: Campaign | str | Path, out: str | Path, *, samples: int | None = None,
-                 workers: int | None = None, dask: str | None = None, retry_failed: bool = False,
-                 quiet: bool = False, only=None, dask_timeout: float = DASK_TIMEOUT_S) -> dict:
+def run_campaign(
+    campaign: Campaign | str | Path,
+    out: str | Path,
+    *,
+    samples: int | None = None,
+    workers: int | None = None,
+    dask: str | None = None,
+    retry_failed: bool = False,
+    quiet: bool = False,
+    only=None,
+    dask_timeout: float = DASK_TIMEOUT_S,
+) -> dict:
     """Run (or resume) a campaign into a folder.
 
     Everything is checked before the folder is created or touched: the
@@ -271,8 +310,12 @@ def run_campaign(campaign: Campaign | str | Path, out: str | Path, *, samples: i
     where = parse_dask(dask)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise InputError(f"--workers must be a positive integer, got {workers!r}")
-    if isinstance(dask_timeout, bool) or not isinstance(dask_timeout, (int, float)) or not dask_timeout > 0 \
-            or dask_timeout == float("inf"):
+    if (
+        isinstance(dask_timeout, bool)
+        or not isinstance(dask_timeout, (int, float))
+        or not dask_timeout > 0
+        or dask_timeout == float("inf")
+    ):
         raise InputError(f"--dask-timeout must be a positive number of seconds, got {dask_timeout!r}")
     tasks = camp.tasks(samples)
     if only is not None:
@@ -284,7 +327,7 @@ def run_campaign(campaign: Campaign | str | Path, out: str | Path, *, samples: i
         _distributed()
     if where is not None and where[0] == "address":
         with _dask_logs():
-            client, _ = _connect(where, dask_timeout)     # an unreachable scheduler: nothing written
+            client, _ = _connect(where, dask_timeout)  # an unreachable scheduler: nothing written
     try:
         return _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only)
     finally:
@@ -306,7 +349,7 @@ def _campaign_folder(out):
     check_destination(path, parents=True)
     lock = FolderLock(path, make_folder(path))
     try:
-        check_previous(path, previous_run(path), "campaign", clean=False)   # read while the folder is held
+        check_previous(path, previous_run(path), "campaign", clean=False)  # read while the folder is held
         yield path
     finally:
         lock.release()
@@ -322,7 +365,7 @@ def _mark_started(path: Path) -> list[str]:
         with replacing(path / INCOMPLETE) as tmp:
             tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
         with contextlib.suppress(FileNotFoundError):
-            (path / MARKER).unlink()                      # cases pending from here until the run ends
+            (path / MARKER).unlink()  # cases pending from here until the run ends
     except OSError as exc:
         raise InputError(f"cannot write {path / INCOMPLETE}: {exc.strerror or exc}") from None
     return kept
@@ -346,8 +389,10 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
     meta = store.meta()
     ident = {"name": camp.name, "seed": camp.seed}
     if meta.get("campaign") and meta["campaign"] != ident:
-        raise InputError(f"{out} holds campaign {meta['campaign']['name']!r} (seed {meta['campaign']['seed']}), "
-                         f"not {camp.name!r} (seed {camp.seed}): use another folder")
+        raise InputError(
+            f"{out} holds campaign {meta['campaign']['name']!r} (seed {meta['campaign']['seed']}), "
+            f"not {camp.name!r} (seed {camp.seed}): use another folder"
+        )
     kept = _mark_started(store.root)
     store.set_meta(campaign=ident, definition=camp.raw, source=camp.source)
     store.add_cases(tasks)
@@ -358,12 +403,16 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
         only = set(only)
         tasks = [t for t in tasks if t.case_id in only]
         wanted = only
-    todo = [t for t in tasks
-            if status[t.case_id] == "pending" or ((retry_failed or only) and status[t.case_id] == "failed")]
+    todo = [
+        t for t in tasks if status[t.case_id] == "pending" or ((retry_failed or only) and status[t.case_id] == "failed")
+    ]
     skipped = len(wanted) - len(todo)
     if not quiet:
-        print(f"campaign {camp.name}: {len(wanted)} cases, {skipped} already recorded, {len(todo)} to run"
-              + (" - nothing to compute" if not todo else ""), file=sys.stderr)
+        print(
+            f"campaign {camp.name}: {len(wanted)} cases, {skipped} already recorded, {len(todo)} to run"
+            + (" - nothing to compute" if not todo else ""),
+            file=sys.stderr,
+        )
     versions = provenance()
     versions.pop("date_utc", None)
     bar = _progress(len(todo), quiet, camp.name)
@@ -391,10 +440,15 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
         if bar is not None:
             bar.close()
     counts = store.counts()
-    if counts["pending"] == 0:                            # else (cases left, Ctrl-C) the record says interrupted
+    if counts["pending"] == 0:  # else (cases left, Ctrl-C) the record says interrupted
         _mark(store.root, kept)
-    return {**counts, "computed": tally["done"] + tally["failed"], "skipped": skipped,
-            "elapsed_s": time.perf_counter() - t0, "folder": str(out)}
+    return {
+        **counts,
+        "computed": tally["done"] + tally["failed"],
+        "skipped": skipped,
+        "elapsed_s": time.perf_counter() - t0,
+        "folder": str(out),
+    }
 
 
 def rerun_case(out: str | Path, case_id: str, campaign: Campaign | str | Path | None = None) -> dict:
@@ -422,6 +476,7 @@ def rerun_case(out: str | Path, case_id: str, campaign: Campaign | str | Path | 
         Not a campaign folder, or an unknown case id.
     """
     from .spec import campaign_from_dict
+
     if not (Path(out) / "campaign.sqlite").is_file():
         raise InputError(f"{out} is not a campaign folder (no campaign.sqlite)")
     store = CampaignStore(out)
@@ -444,6 +499,7 @@ def rerun_case(out: str | Path, case_id: str, campaign: Campaign | str | Path | 
         raise InputError(f"case {case_id!r} is not part of campaign {camp.name!r}")
     outcome = run_sample(task)
     stored = row["metrics"]
-    outcome["same_as_stored"] = (None if stored is None else
-                                 json.dumps(stored, sort_keys=True) == json.dumps(outcome["metrics"], sort_keys=True))
+    outcome["same_as_stored"] = (
+        None if stored is None else json.dumps(stored, sort_keys=True) == json.dumps(outcome["metrics"], sort_keys=True)
+    )
     return outcome

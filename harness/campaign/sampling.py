@@ -55,8 +55,11 @@ def sample_seed(campaign_seed: int, key: str, sample: int) -> int:
 def _std_errors_of_file(path: str) -> dict:
     with open(path, "rb") as fh:
         data = tomllib.load(fh)
-    return {int(t.get("theta", i + 1)): float(t["std_error"])
-            for i, t in enumerate(data.get("aero", {}).get("terms", [])) if "std_error" in t}
+    return {
+        int(t.get("theta", i + 1)): float(t["std_error"])
+        for i, t in enumerate(data.get("aero", {}).get("terms", []))
+        if "std_error" in t
+    }
 
 
 def term_std_errors(aircraft) -> np.ndarray:
@@ -152,7 +155,7 @@ def draw_sample(aircraft, dispersion: Dispersion, seed: int) -> SampleDraw:
     rng = np.random.default_rng(seed)
     c = dispersion.truncate
     z = np.clip(rng.standard_normal(n + 3 + len(OFFSET_STATES)), -c, c)
-    za, zm, zi, zcg, zs = z[:n], z[n], z[n + 1], z[n + 2], z[n + 3:]
+    za, zm, zi, zcg, zs = z[:n], z[n], z[n + 1], z[n + 2], z[n + 3 :]
     values = np.array([t.value for t in terms], dtype=float) if terms is not None else np.zeros(0)
     if dispersion.aero == "none":
         za = np.zeros(n)
@@ -163,15 +166,25 @@ def draw_sample(aircraft, dispersion: Dispersion, seed: int) -> SampleDraw:
             sigma = np.where(np.isfinite(se), se, sigma)
         values = values + sigma * za
         za = np.where(sigma > 0, za, 0.0)
-    spreads = {"x": dispersion.position_m, "y": dispersion.position_m, "z": dispersion.position_m,
-               "V": dispersion.speed_mps}
+    spreads = {
+        "x": dispersion.position_m,
+        "y": dispersion.position_m,
+        "z": dispersion.position_m,
+        "V": dispersion.speed_mps,
+    }
     offsets = np.zeros(12)
     for name, zk in zip(OFFSET_STATES, zs):
         offsets[STATE_NAMES.index(name)] = spreads.get(name, dispersion.angle_rad) * zk
-    return SampleDraw(seed=int(seed), aero_values=values, aero_z=za, mass_scale=1.0 + dispersion.mass * zm,
-                      inertia_scale=1.0 + dispersion.inertia * zi,
-                      cg_shift_m=dispersion.cg_cbar * aircraft.geometry.cbar * zcg, offsets=offsets,
-                      aero_labels=tuple(f"theta{t.index}:{t.coefficient}:{t.monomial}" for t in terms or ()))
+    return SampleDraw(
+        seed=int(seed),
+        aero_values=values,
+        aero_z=za,
+        mass_scale=1.0 + dispersion.mass * zm,
+        inertia_scale=1.0 + dispersion.inertia * zi,
+        cg_shift_m=dispersion.cg_cbar * aircraft.geometry.cbar * zcg,
+        offsets=offsets,
+        aero_labels=tuple(f"theta{t.index}:{t.coefficient}:{t.monomial}" for t in terms or ()),
+    )
 
 
 def dispersed_aircraft(aircraft, draw: SampleDraw):

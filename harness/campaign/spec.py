@@ -42,9 +42,10 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from gna.catalogue import bundled
 from gna.errors import InputError
@@ -54,8 +55,16 @@ from planners.flat import check_iterations
 from ..validation import ValidationCase
 from .checks import check_case
 
-__all__ = ["Campaign", "CaseSpec", "Dispersion", "SampleTask", "load_campaign", "campaign_from_dict",
-           "bundled_campaigns", "AERO_MODES"]
+__all__ = [
+    "Campaign",
+    "CaseSpec",
+    "Dispersion",
+    "SampleTask",
+    "load_campaign",
+    "campaign_from_dict",
+    "bundled_campaigns",
+    "AERO_MODES",
+]
 
 #: How the aerodynamic terms are dispersed.
 AERO_MODES: tuple[str, ...] = ("std_error", "relative", "none")
@@ -63,8 +72,18 @@ AERO_MODES: tuple[str, ...] = ("std_error", "relative", "none")
 _TOP_KEYS = ("name", "description", "seed", "samples", "cases", "dispersions", "output")
 _CASE_KEYS = ("id", "scenario", "J", "loop", "engines", "tolerances", "rtol", "dt_out", "jsbsim_dt", "windows")
 _EXPANDED = ("scenario", "J", "loop")
-_DISP_KEYS = ("aero", "aero_sigma", "aero_relative", "mass", "inertia", "cg_cbar", "position_m", "speed_mps",
-              "angle_rad", "truncate")
+_DISP_KEYS = (
+    "aero",
+    "aero_sigma",
+    "aero_relative",
+    "mass",
+    "inertia",
+    "cg_cbar",
+    "position_m",
+    "speed_mps",
+    "angle_rad",
+    "truncate",
+)
 _OUTPUT_KEYS = ("trajectories",)
 
 
@@ -127,7 +146,7 @@ class Dispersion:
     truncate: float = 3.0
 
     @classmethod
-    def from_dict(cls, name: str, table: Mapping[str, Any], where: str) -> "Dispersion":
+    def from_dict(cls, name: str, table: Mapping[str, Any], where: str) -> Dispersion:
         """A dispersion set from a TOML table.
 
         Parameters
@@ -157,7 +176,10 @@ class Dispersion:
         mode = table.get("aero", "std_error")
         if mode not in AERO_MODES:
             raise InputError(f"{where}: aero must be one of {', '.join(AERO_MODES)}, got {mode!r}")
-        if kw.get("mass", 0.0) * kw.get("truncate", 3.0) >= 1.0 or kw.get("inertia", 0.0) * kw.get("truncate", 3.0) >= 1.0:
+        if (
+            kw.get("mass", 0.0) * kw.get("truncate", 3.0) >= 1.0
+            or kw.get("inertia", 0.0) * kw.get("truncate", 3.0) >= 1.0
+        ):
             raise InputError(f"{where}: mass and inertia spreads times truncate must stay below 1 (positive mass)")
         return cls(name=name, aero=mode, **kw)
 
@@ -219,9 +241,17 @@ class SampleTask:
         dict
         """
         c = self.spec.case
-        return {"label": self.spec.label, "scenario": c.scenario, "J": c.J, "loop": c.loop,
-                "engines": list(c.engines), **c.overrides, "dispersion": self.dispersion.to_dict(),
-                "sample": self.sample, "seed": self.seed}
+        return {
+            "label": self.spec.label,
+            "scenario": c.scenario,
+            "J": c.J,
+            "loop": c.loop,
+            "engines": list(c.engines),
+            **c.overrides,
+            "dispersion": self.dispersion.to_dict(),
+            "sample": self.sample,
+            "seed": self.seed,
+        }
 
 
 @dataclass(frozen=True)
@@ -276,6 +306,7 @@ class Campaign:
             ``samples`` not a positive integer.
         """
         from .sampling import sample_seed
+
         n = self.samples if samples is None else samples
         if isinstance(n, bool) or not isinstance(n, int) or n < 1:
             raise InputError(f"samples must be a positive integer, got {n!r}")
@@ -284,8 +315,9 @@ class Campaign:
             for disp in self.dispersions:
                 key = f"{spec.label}.{disp.name}"
                 for k in range(n):
-                    out.append(SampleTask(f"{key}.{k:04d}", spec, disp, k, sample_seed(self.seed, key, k),
-                                          self.trajectories))
+                    out.append(
+                        SampleTask(f"{key}.{k:04d}", spec, disp, k, sample_seed(self.seed, key, k), self.trajectories)
+                    )
         return out
 
 
@@ -294,7 +326,7 @@ def _expand_case(entry: Mapping, where: str, base: Path | None, loaded: dict) ->
     if "scenario" not in entry:
         raise InputError(f"{where}: missing 'scenario'")
     if "id" in entry:
-        check_name(entry["id"], "id", where)          # part of every case folder's name
+        check_name(entry["id"], "id", where)  # part of every case folder's name
     lists = {k: entry[k] for k in _EXPANDED if isinstance(entry.get(k), list)}
     if any(len(v) == 0 for v in lists.values()):
         raise InputError(f"{where}: an empty list in {', '.join(k for k, v in lists.items() if not v)}")
@@ -305,7 +337,7 @@ def _expand_case(entry: Mapping, where: str, base: Path | None, loaded: dict) ->
         label = str(entry.get("id") or Path(str(data["scenario"])).stem)
         for k, v in zip(lists, combo):
             label += f"-{Path(str(v)).stem}" if k == "scenario" else f"-{k}{v}" if k == "J" else f"-{v}"
-        if data.get("J") is not None and not isinstance(data["J"], str):     # the planner's bounds, first
+        if data.get("J") is not None and not isinstance(data["J"], str):  # the planner's bounds, first
             check_iterations(data["J"], f"{where} (case {label})")
         case = ValidationCase.from_dict(data, where=where, base=base)
         check_case(case, f"{where} (case {label})", loaded)
@@ -347,7 +379,7 @@ def campaign_from_dict(data: Mapping[str, Any], where: str = "campaign", base: P
     if not isinstance(cases_raw, list) or not cases_raw:
         raise InputError(f"{where}: needs at least one [[cases]] table")
     cases: list[CaseSpec] = []
-    loaded: dict = {}                                  # scenarios by (name, J), loaded once
+    loaded: dict = {}  # scenarios by (name, J), loaded once
     for i, entry in enumerate(cases_raw):
         cases += _expand_case(entry, f"{where} [[cases]] #{i + 1}", base, loaded)
     labels = [c.label for c in cases]
@@ -357,16 +389,26 @@ def campaign_from_dict(data: Mapping[str, Any], where: str = "campaign", base: P
     disp_raw = data.get("dispersions", {"nominal": {"aero": "none"}})
     if not isinstance(disp_raw, Mapping) or not disp_raw:
         raise InputError(f"{where}: [dispersions.NAME] tables expected, got {disp_raw!r}")
-    disps = tuple(Dispersion.from_dict(check_name(n, "name", f"{where} [dispersions.{n}]"), t,
-                                       f"{where} [dispersions.{n}]") for n, t in disp_raw.items())
+    disps = tuple(
+        Dispersion.from_dict(check_name(n, "name", f"{where} [dispersions.{n}]"), t, f"{where} [dispersions.{n}]")
+        for n, t in disp_raw.items()
+    )
     out = data.get("output", {})
     _check_keys(out, _OUTPUT_KEYS, f"{where} [output]")
     traj = out.get("trajectories", True)
     if not isinstance(traj, bool):
         raise InputError(f"{where} [output]: trajectories must be true or false, got {traj!r}")
-    return Campaign(name=str(data.get("name", where)), seed=seed, samples=samples, cases=tuple(cases),
-                    dispersions=disps, description=str(data.get("description", "")), trajectories=traj,
-                    source=where, raw=dict(data))
+    return Campaign(
+        name=str(data.get("name", where)),
+        seed=seed,
+        samples=samples,
+        cases=tuple(cases),
+        dispersions=disps,
+        description=str(data.get("description", "")),
+        trajectories=traj,
+        source=where,
+        raw=dict(data),
+    )
 
 
 def bundled_campaigns() -> dict[str, Path]:
@@ -398,9 +440,11 @@ def load_campaign(name_or_path: str | Path) -> Campaign:
         Unknown name, unreadable or invalid file, unknown keys, bad values.
     """
     cat = bundled_campaigns()
-    path = find_file(name_or_path, cat, "campaign")    # a missing file, a folder, a name not ending in .toml
+    path = find_file(name_or_path, cat, "campaign")  # a missing file, a folder, a name not ending in .toml
     if path is None:
-        raise InputError(f"unknown campaign {str(name_or_path)!r}; bundled campaigns: {', '.join(cat)} "
-                         f"(or give the path of a .toml file)")
-    camp = campaign_from_dict(read_toml(path), where=path.name, base=path.parent)   # UTF-8 (BOM accepted), TOML
+        raise InputError(
+            f"unknown campaign {str(name_or_path)!r}; bundled campaigns: {', '.join(cat)} "
+            f"(or give the path of a .toml file)"
+        )
+    camp = campaign_from_dict(read_toml(path), where=path.name, base=path.parent)  # UTF-8 (BOM accepted), TOML
     return replace(camp, source=str(path.resolve()))

@@ -110,8 +110,10 @@ class CampaignStore:
         """
         with self.db:
             self.db.execute("BEGIN IMMEDIATE")
-            self.db.executemany("INSERT OR REPLACE INTO campaign (key, value) VALUES (?, ?)",
-                                [(k, _dumps(v)) for k, v in values.items()])
+            self.db.executemany(
+                "INSERT OR REPLACE INTO campaign (key, value) VALUES (?, ?)",
+                [(k, _dumps(v)) for k, v in values.items()],
+            )
 
     def add_cases(self, tasks) -> int:
         """Register tasks as pending cases (those already present are left untouched).
@@ -137,14 +139,19 @@ class CampaignStore:
             params = _dumps(t.parameters())
             if t.case_id in known:
                 if known[t.case_id] != params:
-                    raise InputError(f"{self.root}: case {t.case_id} is stored with other parameters (another "
-                                     f"campaign or other settings): use a new folder")
+                    raise InputError(
+                        f"{self.root}: case {t.case_id} is stored with other parameters (another "
+                        f"campaign or other settings): use a new folder"
+                    )
                 continue
             rows.append((t.case_id, n0 + i, t.spec.label, t.dispersion.name, t.sample, t.seed, params))
         with self.db:
             self.db.execute("BEGIN IMMEDIATE")
-            self.db.executemany("INSERT INTO cases (case_id, ordinal, label, dispersion, sample, seed, params) "
-                                "VALUES (?, ?, ?, ?, ?, ?, ?)", rows)
+            self.db.executemany(
+                "INSERT INTO cases (case_id, ordinal, label, dispersion, sample, seed, params) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                rows,
+            )
         return len(rows)
 
     def statuses(self) -> dict:
@@ -259,10 +266,19 @@ class CampaignStore:
             self.db.execute(
                 "UPDATE cases SET status = ?, pass = ?, metrics = ?, draw = ?, error = ?, timings = ?, files = ?, "
                 "versions = ?, attempts = attempts + 1, finished_utc = ? WHERE case_id = ?",
-                (outcome["status"], None if m is None else int(bool(m["pass"])),
-                 None if m is None else _dumps(m), None if outcome.get("draw") is None else _dumps(outcome["draw"]),
-                 outcome.get("error"), _dumps(outcome.get("timings", {})), _dumps(names), _dumps(versions),
-                 time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), cid))
+                (
+                    outcome["status"],
+                    None if m is None else int(bool(m["pass"])),
+                    None if m is None else _dumps(m),
+                    None if outcome.get("draw") is None else _dumps(outcome["draw"]),
+                    outcome.get("error"),
+                    _dumps(outcome.get("timings", {})),
+                    _dumps(names),
+                    _dumps(versions),
+                    time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                    cid,
+                ),
+            )
 
     def integrity(self) -> str:
         """``PRAGMA integrity_check`` of the index.

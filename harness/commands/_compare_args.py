@@ -48,26 +48,64 @@ def window(text: str) -> tuple[str, float | None]:
 
 
 def add_compare_arguments(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("comparison settings", "override the scenario's [compare] table, which overrides the "
-                                                    "defaults; a variable passes when max|diff| <= tol + rtol * "
-                                                    "max|reference| over the window")
+    g = p.add_argument_group(
+        "comparison settings",
+        "override the scenario's [compare] table, which overrides the "
+        "defaults; a variable passes when max|diff| <= tol + rtol * "
+        "max|reference| over the window",
+    )
     for q in QUANTITIES:
-        g.add_argument(f"--tol-{q}", type=nonnegative_float, default=None, metavar=_UNITS[q].upper().replace("/", "_"),
-                       help=f"absolute tolerance of the {q} [{_UNITS[q]}] ({', '.join(QUANTITIES[q])})")
-        g.add_argument(f"--rtol-{q}", type=nonnegative_float, default=None, metavar="FRACTION",
-                       help=f"relative tolerance of the {q} (fraction of max |reference|)")
-    g.add_argument("--window", type=window, action="append", default=None, metavar="NAME=SECONDS",
-                   help="comparison window from t0 (repeat; NAME=all for the whole span); replaces the windows")
-    g.add_argument("--dt-out", type=positive_float, default=None, metavar="S",
-                   help="output grid of every engine and of the plan comparison [s] (default 0.05)")
-    g.add_argument("--jsbsim-dt", type=positive_float, default=None, metavar="S",
-                   help="JSBSim's own step [s], independent of --dt-out (default 1/480)")
-    g.add_argument("--self-convergence", action=argparse.BooleanOptionalAction, default=None,
-                   help="also fly JSBSim at half its step and report that difference next to the cross-engine one")
-    g.add_argument("--max-steps", type=cost_bound, default=MAX_STEPS, metavar="N",
-                   help=f"bound on the engine steps plus {SAMPLE_COST} x the output samples of all the flights over the "
-                        f"manoeuvres' spans, checked before any work (default {MAX_STEPS:.0e}, about 3.5 GB; "
-                        f"'inf' for none)")
+        g.add_argument(
+            f"--tol-{q}",
+            type=nonnegative_float,
+            default=None,
+            metavar=_UNITS[q].upper().replace("/", "_"),
+            help=f"absolute tolerance of the {q} [{_UNITS[q]}] ({', '.join(QUANTITIES[q])})",
+        )
+        g.add_argument(
+            f"--rtol-{q}",
+            type=nonnegative_float,
+            default=None,
+            metavar="FRACTION",
+            help=f"relative tolerance of the {q} (fraction of max |reference|)",
+        )
+    g.add_argument(
+        "--window",
+        type=window,
+        action="append",
+        default=None,
+        metavar="NAME=SECONDS",
+        help="comparison window from t0 (repeat; NAME=all for the whole span); replaces the windows",
+    )
+    g.add_argument(
+        "--dt-out",
+        type=positive_float,
+        default=None,
+        metavar="S",
+        help="output grid of every engine and of the plan comparison [s] (default 0.05)",
+    )
+    g.add_argument(
+        "--jsbsim-dt",
+        type=positive_float,
+        default=None,
+        metavar="S",
+        help="JSBSim's own step [s], independent of --dt-out (default 1/480)",
+    )
+    g.add_argument(
+        "--self-convergence",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="also fly JSBSim at half its step and report that difference next to the cross-engine one",
+    )
+    g.add_argument(
+        "--max-steps",
+        type=cost_bound,
+        default=MAX_STEPS,
+        metavar="N",
+        help=f"bound on the engine steps plus {SAMPLE_COST} x the output samples of all the flights over the "
+        f"manoeuvres' spans, checked before any work (default {MAX_STEPS:.0e}, about 3.5 GB; "
+        f"'inf' for none)",
+    )
     p.add_argument("--csv", action="store_true", help="write every trajectory as CSV too (Parquet always)")
 
 
@@ -85,7 +123,7 @@ def flight_steps(case, scenario, settings) -> tuple[int, int]:
     engines = list(case.engines) + ([case.engines[0]] * 2 if case.loop == "closed" else [])
     jsbsim = [e for e in engines if str(e).startswith("jsbsim")]
     if settings.self_convergence:
-        jsbsim += [e for e in case.engines if str(e).startswith("jsbsim")] * 2    # a flight at dt / 2
+        jsbsim += [e for e in case.engines if str(e).startswith("jsbsim")] * 2  # a flight at dt / 2
         engines += [e for e in case.engines if str(e).startswith("jsbsim")]
     return steps * len(jsbsim), samples * len(engines)
 
@@ -107,15 +145,17 @@ def check_steps(planned, bound: float, command: str) -> None:
         steps, samples = steps + st, samples + sa
     cost = steps + SAMPLE_COST * samples
     if cost > min(bound, COMPUTABLE_STEPS):
-        if cost > COMPUTABLE_STEPS:   # whatever the bound: no machine holds the arrays (2**53 samples)
+        if cost > COMPUTABLE_STEPS:  # whatever the bound: no machine holds the arrays (2**53 samples)
             bound, how = COMPUTABLE_STEPS, "no machine holds the arrays of such a run, whatever --max-steps says"
         else:
             how = "--max-steps N to raise it, inf for none"
         names = ", ".join(dict.fromkeys(f"{sc.name} ({sc.t1 - sc.t0:g} s)" for _, sc, _ in planned))
         s = max(planned, key=lambda p: sum(flight_steps(*p)))[2]
-        raise InputError(f"{command}: --jsbsim-dt {s.jsbsim_dt:g} s and --dt-out {s.dt_out:g} s over {names} "
-                         f"make {steps:.3g} engine steps + {SAMPLE_COST} x {samples:.3g} output samples = "
-                         f"{cost:.3g}, above the bound {bound:.3g} ({how})")
+        raise InputError(
+            f"{command}: --jsbsim-dt {s.jsbsim_dt:g} s and --dt-out {s.dt_out:g} s over {names} "
+            f"make {steps:.3g} engine steps + {SAMPLE_COST} x {samples:.3g} output samples = "
+            f"{cost:.3g}, above the bound {bound:.3g} ({how})"
+        )
 
 
 def compare_overrides(args) -> dict:
@@ -125,11 +165,18 @@ def compare_overrides(args) -> dict:
     names = [name for name, _ in args.window or ()]
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
-        raise InputError(f"--window: each name once, {', '.join(map(repr, repeated))} given "
-                         f"{max(names.count(n) for n in repeated)} times")
-    kw = {"tolerances": tol or None, "rtol": rtol or None, "dt_out": args.dt_out, "jsbsim_dt": args.jsbsim_dt,
-          "self_convergence": args.self_convergence,
-          "windows": dict(args.window) if args.window else None}
+        raise InputError(
+            f"--window: each name once, {', '.join(map(repr, repeated))} given "
+            f"{max(names.count(n) for n in repeated)} times"
+        )
+    kw = {
+        "tolerances": tol or None,
+        "rtol": rtol or None,
+        "dt_out": args.dt_out,
+        "jsbsim_dt": args.jsbsim_dt,
+        "self_convergence": args.self_convergence,
+        "windows": dict(args.window) if args.window else None,
+    }
     return {k: v for k, v in kw.items() if v is not None}
 
 

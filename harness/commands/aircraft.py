@@ -9,8 +9,11 @@ from gna.aircraft import list_aircraft, load_aircraft
 
 
 def register(sub) -> None:
-    p = sub.add_parser("aircraft", help="list the aircraft and their provenance",
-                       description="List the bundled aircraft with their provenance, or show one in detail.")
+    p = sub.add_parser(
+        "aircraft",
+        help="list the aircraft and their provenance",
+        description="List the bundled aircraft with their provenance, or show one in detail.",
+    )
     p.add_argument("name", nargs="?", help="aircraft identifier or path to an aircraft TOML file")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=run)
@@ -18,19 +21,37 @@ def register(sub) -> None:
 
 def _describe(a) -> dict:
     return {
-        "id": a.id, "name": a.name,
-        "mass_kg": a.mass.mass, "Ixx_kgm2": a.mass.Ixx, "Iyy_kgm2": a.mass.Iyy, "Izz_kgm2": a.mass.Izz,
-        "Ixz_kgm2": a.mass.Ixz, "S_m2": a.geometry.S, "b_m": a.geometry.b, "cbar_m": a.geometry.cbar,
-        "x_cg_m": a.geometry.x_cg, "x_ref_m": a.geometry.x_ref,
-        "engines": {"count": a.propulsion.count, "y_p_m": a.propulsion.y_p, "epsilon_rad": a.propulsion.epsilon,
-                    "max_thrust_N": a.propulsion.max_thrust},
-        "envelope_deg": {"alpha_min": math.degrees(a.envelope.alpha_min),
-                         "alpha_max": math.degrees(a.envelope.alpha_max),
-                         "beta_max": math.degrees(a.envelope.beta_max)},
+        "id": a.id,
+        "name": a.name,
+        "mass_kg": a.mass.mass,
+        "Ixx_kgm2": a.mass.Ixx,
+        "Iyy_kgm2": a.mass.Iyy,
+        "Izz_kgm2": a.mass.Izz,
+        "Ixz_kgm2": a.mass.Ixz,
+        "S_m2": a.geometry.S,
+        "b_m": a.geometry.b,
+        "cbar_m": a.geometry.cbar,
+        "x_cg_m": a.geometry.x_cg,
+        "x_ref_m": a.geometry.x_ref,
+        "engines": {
+            "count": a.propulsion.count,
+            "y_p_m": a.propulsion.y_p,
+            "epsilon_rad": a.propulsion.epsilon,
+            "max_thrust_N": a.propulsion.max_thrust,
+        },
+        "envelope_deg": {
+            "alpha_min": math.degrees(a.envelope.alpha_min),
+            "alpha_max": math.degrees(a.envelope.alpha_max),
+            "beta_max": math.degrees(a.envelope.beta_max),
+        },
         "aero": {"structure": a.aero.structure, "terms": len(a.aero)},
         "provenance": dict(a.provenance),
-        "sources": {"mass": a.mass.source, "geometry": a.geometry.source, "engines": a.propulsion.source,
-                    "envelope": a.envelope.source},
+        "sources": {
+            "mass": a.mass.source,
+            "geometry": a.geometry.source,
+            "engines": a.propulsion.source,
+            "envelope": a.envelope.source,
+        },
     }
 
 
@@ -55,6 +76,8 @@ def run(args) -> int:
     for a in crafts:
         print(f"{a.id:<12} {a.name}")
         print(f"{'':<12} source: {a.provenance.get('source', 'not stated')}")
-        print(f"{'':<12} transformation: {a.provenance.get('transformation', 'not stated')}; "
-              f"date: {a.provenance.get('date', 'not stated')}")
+        print(
+            f"{'':<12} transformation: {a.provenance.get('transformation', 'not stated')}; "
+            f"date: {a.provenance.get('date', 'not stated')}"
+        )
     return 0

@@ -21,28 +21,54 @@ from ._args import cost_bound, positive_float, positive_int
 
 
 def register(sub) -> None:
-    p = sub.add_parser("campaign", help="validation campaigns: many cases over dispersed aircraft",
-                       description="Run, inspect and report validation campaigns (a product of validation cases "
-                                   "and aircraft dispersions, stored in an SQLite-indexed folder).")
+    p = sub.add_parser(
+        "campaign",
+        help="validation campaigns: many cases over dispersed aircraft",
+        description="Run, inspect and report validation campaigns (a product of validation cases "
+        "and aircraft dispersions, stored in an SQLite-indexed folder).",
+    )
     csub = p.add_subparsers(dest="campaign_command", metavar="ACTION")
     csub.required = True
     r = csub.add_parser("run", help="run or resume a campaign")
     r.add_argument("campaign", metavar="NAME_OR_FILE", help="bundled campaign (paper-dispersions) or a TOML file")
     r.add_argument("--out", required=True, metavar="DIR", help="campaign folder (resumed when it exists)")
     r.add_argument("--samples", type=positive_int, default=None, help="samples per case and dispersion set")
-    r.add_argument("--max-cases", type=cost_bound, default=MAX_CASES, metavar="N",
-                   help=f"bound on the cases run, samples x cases x dispersion sets, checked before any work "
-                        f"(default {MAX_CASES:.0e}; 'inf' for none)")
-    r.add_argument("--workers", type=positive_int, default=None,
-                   help="local worker processes (default: the number of CPUs; 1: in this process)")
-    r.add_argument("--dask", default=None, metavar="ADDRESS|local:N",
-                   help="run on Dask distributed: a scheduler address [tcp://]HOST:PORT (also tls, ws, wss, "
-                        "ucx), or local:N for a local cluster of N workers")
-    r.add_argument("--dask-timeout", type=positive_float, default=None, metavar="S",
-                   help="seconds to wait for the scheduler at a --dask address (default 20)")
+    r.add_argument(
+        "--max-cases",
+        type=cost_bound,
+        default=MAX_CASES,
+        metavar="N",
+        help=f"bound on the cases run, samples x cases x dispersion sets, checked before any work "
+        f"(default {MAX_CASES:.0e}; 'inf' for none)",
+    )
+    r.add_argument(
+        "--workers",
+        type=positive_int,
+        default=None,
+        help="local worker processes (default: the number of CPUs; 1: in this process)",
+    )
+    r.add_argument(
+        "--dask",
+        default=None,
+        metavar="ADDRESS|local:N",
+        help="run on Dask distributed: a scheduler address [tcp://]HOST:PORT (also tls, ws, wss, "
+        "ucx), or local:N for a local cluster of N workers",
+    )
+    r.add_argument(
+        "--dask-timeout",
+        type=positive_float,
+        default=None,
+        metavar="S",
+        help="seconds to wait for the scheduler at a --dask address (default 20)",
+    )
     r.add_argument("--retry-failed", action="store_true", help="run the failed cases again")
-    r.add_argument("--only", action="append", default=None, metavar="CASE_ID",
-                   help="run only this case (a done case is computed again alone and compared with the store)")
+    r.add_argument(
+        "--only",
+        action="append",
+        default=None,
+        metavar="CASE_ID",
+        help="run only this case (a done case is computed again alone and compared with the store)",
+    )
     r.set_defaults(func=run)
     s = csub.add_parser("status", help="count the cases of a campaign folder")
     s.add_argument("dir", metavar="DIR")
@@ -56,6 +82,7 @@ def register(sub) -> None:
 
 def _store(folder: str):
     from harness.campaign.store import DB_NAME, CampaignStore
+
     if not (Path(folder) / DB_NAME).is_file():
         raise InputError(f"{folder} is not a campaign folder (no {DB_NAME})")
     return CampaignStore(folder)
@@ -66,11 +93,13 @@ def run(args) -> int:
     from harness.campaign.checks import check_samples
     from harness.campaign.runner import parse_dask
     from harness.campaign.spec import load_campaign
-    parse_dask(args.dask)                     # a bad --dask refused first, whatever runs
+
+    parse_dask(args.dask)  # a bad --dask refused first, whatever runs
     camp = load_campaign(args.campaign)
-    check_samples(camp, args.samples, args.max_cases)     # the work bounded before any case is expanded
+    check_samples(camp, args.samples, args.max_cases)  # the work bounded before any case is expanded
     if args.only:
         from harness.campaign.store import DB_NAME
+
         if (Path(args.out) / DB_NAME).is_file():
             st = _store(args.out)
             try:
@@ -79,17 +108,37 @@ def run(args) -> int:
                 st.close()
             for cid in done:
                 out = rerun_case(args.out, cid, camp)
-                print(json.dumps({"case_id": cid, "status": out["status"], "metrics": out["metrics"],
-                                  "same_as_stored": out["same_as_stored"]}, indent=2))
+                print(
+                    json.dumps(
+                        {
+                            "case_id": cid,
+                            "status": out["status"],
+                            "metrics": out["metrics"],
+                            "same_as_stored": out["same_as_stored"],
+                        },
+                        indent=2,
+                    )
+                )
             args.only = [c for c in args.only if c not in done]
             if not args.only:
                 return 0
-    quiet = bool(getattr(args, "quiet", 0))        # gflat's -q/--quiet: no progress bar
+    quiet = bool(getattr(args, "quiet", 0))  # gflat's -q/--quiet: no progress bar
     timeout = {} if args.dask_timeout is None else {"dask_timeout": args.dask_timeout}
-    res = run_campaign(camp, args.out, samples=args.samples, workers=args.workers, dask=args.dask,
-                       retry_failed=args.retry_failed, quiet=quiet, only=args.only, **timeout)
-    note = (f"{res['computed']} computed in {res['elapsed_s']:.1f} s, {res['skipped']} skipped; "
-            f"{res['done']} done, {res['failed']} failed, {res['pending']} pending of {res['cases']} -> {res['folder']}")
+    res = run_campaign(
+        camp,
+        args.out,
+        samples=args.samples,
+        workers=args.workers,
+        dask=args.dask,
+        retry_failed=args.retry_failed,
+        quiet=quiet,
+        only=args.only,
+        **timeout,
+    )
+    note = (
+        f"{res['computed']} computed in {res['elapsed_s']:.1f} s, {res['skipped']} skipped; "
+        f"{res['done']} done, {res['failed']} failed, {res['pending']} pending of {res['cases']} -> {res['folder']}"
+    )
     print(note, file=sys.stderr if quiet else sys.stdout)
     return 0 if res["pending"] == 0 else 1
 
@@ -105,8 +154,10 @@ def status(args) -> int:
     if args.json:
         print(json.dumps({**counts, "passed": passed}, indent=2))
     else:
-        print(f"{args.dir}: {counts['cases']} cases: {counts['done']} done ({passed} pass), "
-              f"{counts['failed']} failed, {counts['pending']} pending")
+        print(
+            f"{args.dir}: {counts['cases']} cases: {counts['done']} done ({passed} pass), "
+            f"{counts['failed']} failed, {counts['pending']} pending"
+        )
         for r in rows:
             if r["status"] == "failed":
                 print(f"  failed {r['case_id']}: {(r['error'] or '').splitlines()[0]}")
@@ -117,8 +168,9 @@ def report(args) -> int:
     from harness.campaign.report import write_report
     from harness.marker import amending
     from reports.campaign import render_campaign
+
     _store(args.dir).close()
-    with amending(args.dir):                  # refused while a campaign run writes the folder, and held meanwhile
+    with amending(args.dir):  # refused while a campaign run writes the folder, and held meanwhile
         summary, rows, paths = write_report(args.dir)
         pages = render_campaign(args.dir, summary, rows, pdf=not args.no_pdf)
     paths += [pages["index"], *pages["pages"]] + ([pages["pdf"]] if "pdf" in pages else [])

@@ -30,19 +30,34 @@ from ._compare_args import add_compare_arguments, check_steps, compare_overrides
 
 
 def register(sub) -> None:
-    p = sub.add_parser("compare", help="fly a plan open loop on several engines and compare them",
-                       description="Plan a scenario and fly its controls open loop on the in-house model and "
-                                   "JSBSim from the same initial state. Bundled scenarios: "
-                                   + ", ".join(list_scenarios()))
+    p = sub.add_parser(
+        "compare",
+        help="fly a plan open loop on several engines and compare them",
+        description="Plan a scenario and fly its controls open loop on the in-house model and "
+        "JSBSim from the same initial state. Bundled scenarios: " + ", ".join(list_scenarios()),
+    )
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
-    p.add_argument("--J", type=iterations, default=None, help="generalized-flatness iterations, or auto "
-                                                                   "(default: the scenario's)")
-    p.add_argument("--engines", default="inhouse,jsbsim",
-                   help=f"comma-separated engines, the first is the reference ({', '.join(engine_names())})")
-    p.add_argument("--loop", choices=("open", "closed"), default="open",
-                   help="open: the plan's controls alone; closed: with the tracking feedback (default open)")
-    p.add_argument("--out", type=out_path, default=None, metavar="DIR",
-                   help="output folder (default reports/out/<scenario>/open, or closed)")
+    p.add_argument(
+        "--J", type=iterations, default=None, help="generalized-flatness iterations, or auto (default: the scenario's)"
+    )
+    p.add_argument(
+        "--engines",
+        default="inhouse,jsbsim",
+        help=f"comma-separated engines, the first is the reference ({', '.join(engine_names())})",
+    )
+    p.add_argument(
+        "--loop",
+        choices=("open", "closed"),
+        default="open",
+        help="open: the plan's controls alone; closed: with the tracking feedback (default open)",
+    )
+    p.add_argument(
+        "--out",
+        type=out_path,
+        default=None,
+        metavar="DIR",
+        help="output folder (default reports/out/<scenario>/open, or closed)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object (the verdict) instead of the tables")
     add_compare_arguments(p)
     p.set_defaults(func=run)
@@ -57,14 +72,15 @@ def run(args) -> int:
     engines = tuple(engines_from_names(args.engines, minimum=2))
     case = ValidationCase(args.scenario, J=args.J, engines=engines, loop=args.loop, **compare_overrides(args))
     scenario = load_scenario(case.scenario, J=case.J)
-    settings = case_settings(case, scenario)         # settings, work and destination checked before planning
+    settings = case_settings(case, scenario)  # settings, work and destination checked before planning
     check_steps([(case, scenario, settings)], args.max_steps, "compare")
-    out = OutputDir(args.out, command="compare") if args.out else default_out(scenario.name, args.loop,
-                                                                              command="compare")
+    out = (
+        OutputDir(args.out, command="compare") if args.out else default_out(scenario.name, args.loop, command="compare")
+    )
     result = run_case(case, scenario=scenario)
     write_case(result, out, csv=args.csv, command_line=getattr(args, "command_line", None))
-    out.finish(release=False)                         # the folder stays this run's until its report is written
-    report = render_run(out.root, pdf=False)          # the case page and an index of one
+    out.finish(release=False)  # the folder stays this run's until its report is written
+    report = render_run(out.root, pdf=False)  # the case page and an index of one
     out.release()
     verdict = result.verdict()
     if args.json:
@@ -74,8 +90,10 @@ def run(args) -> int:
     if args.loop == "closed":
         for label, r in verdict["runs"].items():
             after = error_text(r["max_position_error_after_5s_m"], result.runs[label].t_end)
-            print(f"{label} against the flat outputs: max {r['max_position_error_m']:.3e} m, after 5 s "
-                  f"{after}; controls saturated {r['saturated_s']:.2f} s")
+            print(
+                f"{label} against the flat outputs: max {r['max_position_error_m']:.3e} m, after 5 s "
+                f"{after}; controls saturated {r['saturated_s']:.2f} s"
+            )
     print(f"figures, trajectories and tables written to {out.root}/, report {report['index']}")
     if not verdict["pass"]:
         print("gflat compare: the engines disagree beyond the tolerances (or a run ended early): FAIL")

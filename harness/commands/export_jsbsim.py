@@ -14,17 +14,27 @@ from ._args import out_path
 
 
 def register(sub) -> None:
-    p = sub.add_parser("export-jsbsim", help="write the JSBSim aircraft files (aircraft_xml/<id>/<id>.xml)",
-                       description="Generate JSBSim aircraft files from the gflat aircraft: GNA aerodynamics as "
-                                   "function trees, two thrust forces, declared control properties, flat-earth "
-                                   "planet, English units with exact factors. The output is deterministic.")
-    p.add_argument("aircraft", nargs="*", help="aircraft identifiers or TOML files (default with --all: every bundled "
-                                               "aircraft)")
+    p = sub.add_parser(
+        "export-jsbsim",
+        help="write the JSBSim aircraft files (aircraft_xml/<id>/<id>.xml)",
+        description="Generate JSBSim aircraft files from the gflat aircraft: GNA aerodynamics as "
+        "function trees, two thrust forces, declared control properties, flat-earth "
+        "planet, English units with exact factors. The output is deterministic.",
+    )
+    p.add_argument(
+        "aircraft", nargs="*", help="aircraft identifiers or TOML files (default with --all: every bundled aircraft)"
+    )
     p.add_argument("--all", action="store_true", help="export every bundled aircraft")
-    p.add_argument("--out", type=out_path, default=None, metavar="DIR",
-                   help="output folder (default: the repository's aircraft_xml/)")
-    p.add_argument("--check", action="store_true",
-                   help="write nothing; exit 1 if a file is missing or differs from a fresh export")
+    p.add_argument(
+        "--out",
+        type=out_path,
+        default=None,
+        metavar="DIR",
+        help="output folder (default: the repository's aircraft_xml/)",
+    )
+    p.add_argument(
+        "--check", action="store_true", help="write nothing; exit 1 if a file is missing or differs from a fresh export"
+    )
     p.set_defaults(func=run)
 
 
@@ -50,7 +60,7 @@ def run(args) -> int:
     if args.out is None:
         (out.root / INCOMPLETE).unlink(missing_ok=True)
     for a in crafts:
-        path = out.write_text(a.id, f"{a.id}.xml", text=aircraft_xml(a))   # an id leaving the folder is refused
+        path = out.write_text(a.id, f"{a.id}.xml", text=aircraft_xml(a))  # an id leaving the folder is refused
         print(f"{a.id}: {path}")
     out.finish()
     return 0

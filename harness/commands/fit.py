@@ -33,8 +33,9 @@ from ._args import finite_float, nonnegative_int, out_path, positive_float
 def _out_file(text: str) -> Path:
     """``--out FILE``: refused when empty (an empty name would silently mean the default)."""
     if not text.strip():
-        raise argparse.ArgumentTypeError("an empty path; give the aircraft file's name, or leave --out out for "
-                                         "the default <id>.toml")
+        raise argparse.ArgumentTypeError(
+            "an empty path; give the aircraft file's name, or leave --out out for the default <id>.toml"
+        )
     return Path(text)
 
 
@@ -60,6 +61,7 @@ def _surface_overrides(items) -> dict[str, tuple[str, float]]:
     """The ``--property`` options as :class:`JSBSimAeroSource` ``surfaces`` (default factors filled in)."""
     from gna.errors import InputError
     from gna.fit.sources.jsbsim_aero import SURFACE_CANDIDATES
+
     out = {}
     for var, (prop, factor) in items:
         if var in out:
@@ -71,10 +73,13 @@ def _surface_overrides(items) -> dict[str, tuple[str, float]]:
 
 
 def register(sub) -> None:
-    p = sub.add_parser("fit", help="fit GNA aerodynamic parameters to a source model",
-                       description="Fit the 45-term GNA structure (or the terms of --structure) by least squares "
-                                   "to samples of a source aerodynamic model and write an aircraft file with "
-                                   "provenance, sampling design, held-out statistics and a level-trim check.")
+    p = sub.add_parser(
+        "fit",
+        help="fit GNA aerodynamic parameters to a source model",
+        description="Fit the 45-term GNA structure (or the terms of --structure) by least squares "
+        "to samples of a source aerodynamic model and write an aircraft file with "
+        "provenance, sampling design, held-out statistics and a level-trim check.",
+    )
     sp = p.add_subparsers(dest="source", metavar="SOURCE")
     sp.required = True
 
@@ -83,32 +88,62 @@ def register(sub) -> None:
     j.add_argument("--root", help="JSBSim root directory (default: the jsbsim package's)")
     j.add_argument("--mach", type=positive_float, required=True, help="reference Mach number")
     j.add_argument("--altitude", type=finite_float, required=True, metavar="H_M", help="reference altitude [m]")
-    j.add_argument("--property", action="append", type=_surface_property, default=[], metavar="VAR=PROP[:FACTOR]",
-                   help="JSBSim property of a surface (dl, dm or dn), written as FACTOR x the variable [rad]; "
-                        "FACTOR defaults to the detected sign (-1 for dl: JSBSim's positive aileron rolls right, "
-                        "+1 otherwise), times 180/pi for a '-deg' property; e.g. --property "
-                        "dl=fcs/effective-aileron-pos, --property dm=fcs/elevator-pos-norm:-2.9 (repeatable)")
-    _design_args(j, alpha=(-5.0, 20.0), beta=15.0, phat=0.15, qhat=0.03, rhat=0.06, surfaces=None,
-                 band=math.degrees(0.1))
+    j.add_argument(
+        "--property",
+        action="append",
+        type=_surface_property,
+        default=[],
+        metavar="VAR=PROP[:FACTOR]",
+        help="JSBSim property of a surface (dl, dm or dn), written as FACTOR x the variable [rad]; "
+        "FACTOR defaults to the detected sign (-1 for dl: JSBSim's positive aileron rolls right, "
+        "+1 otherwise), times 180/pi for a '-deg' property; e.g. --property "
+        "dl=fcs/effective-aileron-pos, --property dm=fcs/elevator-pos-norm:-2.9 (repeatable)",
+    )
+    _design_args(
+        j, alpha=(-5.0, 20.0), beta=15.0, phat=0.15, qhat=0.03, rhat=0.06, surfaces=None, band=math.degrees(0.1)
+    )
     _common(j)
 
     g = sp.add_parser("gtm", help="NASA GTM T2 database (clean configuration)")
-    _design_args(g, alpha=(-5.0, 16.0), beta=25.0, phat=0.1, qhat=0.0075, rhat=0.1,
-                 surfaces={"dl": (-20.0, 20.0), "dm": (-30.0, 20.0), "dn": (-30.0, 30.0)}, band=0.0)
-    g.add_argument("--speed", type=positive_float, default=75.0 * 1852.0 / 3600.0, metavar="V_MS",
-                   help="reference speed for the trim check [m/s] (default 75 kt)")
+    _design_args(
+        g,
+        alpha=(-5.0, 16.0),
+        beta=25.0,
+        phat=0.1,
+        qhat=0.0075,
+        rhat=0.1,
+        surfaces={"dl": (-20.0, 20.0), "dm": (-30.0, 20.0), "dn": (-30.0, 30.0)},
+        band=0.0,
+    )
+    g.add_argument(
+        "--speed",
+        type=positive_float,
+        default=75.0 * 1852.0 / 3600.0,
+        metavar="V_MS",
+        help="reference speed for the trim check [m/s] (default 75 kt)",
+    )
     g.add_argument("--altitude", type=finite_float, default=0.0, metavar="H_M", help="reference altitude [m]")
     _common(g)
 
     lin = sp.add_parser("linear", help="linear derivative model in the Twin Otter CSV format")
     lin.add_argument("csv", help="group,name,value,unit,note file with derivatives, geometry and mass rows")
-    _design_args(lin, alpha=(-5.0, 12.0), beta=15.0, phat=0.1, qhat=0.03, rhat=0.06,
-                 surfaces={"dl": (-20.0, 20.0), "dm": (-20.0, 20.0), "dn": (-20.0, 20.0)}, band=0.0)
+    _design_args(
+        lin,
+        alpha=(-5.0, 12.0),
+        beta=15.0,
+        phat=0.1,
+        qhat=0.03,
+        rhat=0.06,
+        surfaces={"dl": (-20.0, 20.0), "dm": (-20.0, 20.0), "dn": (-20.0, 20.0)},
+        band=0.0,
+    )
     lin.add_argument("--engines", type=int, choices=(1, 2), default=1, help="number of engines")
-    lin.add_argument("--engine-offset", type=finite_float, default=0.0, metavar="Y_M",
-                     help="lateral engine offset [m] (two engines)")
-    lin.add_argument("--speed", type=positive_float, required=True, metavar="V_MS",
-                     help="reference speed for the trim check [m/s]")
+    lin.add_argument(
+        "--engine-offset", type=finite_float, default=0.0, metavar="Y_M", help="lateral engine offset [m] (two engines)"
+    )
+    lin.add_argument(
+        "--speed", type=positive_float, required=True, metavar="V_MS", help="reference speed for the trim check [m/s]"
+    )
     lin.add_argument("--altitude", type=finite_float, default=0.0, metavar="H_M", help="reference altitude [m]")
     _common(lin)
 
@@ -128,8 +163,14 @@ def register(sub) -> None:
 
 def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band) -> None:
     d = p.add_argument_group("sampling design (angles in degrees)")
-    d.add_argument("--alpha", nargs=2, type=finite_float, default=alpha, metavar=("LO", "HI"),
-                   help=f"angle-of-attack range (default {alpha[0]:g} {alpha[1]:g})")
+    d.add_argument(
+        "--alpha",
+        nargs=2,
+        type=finite_float,
+        default=alpha,
+        metavar=("LO", "HI"),
+        help=f"angle-of-attack range (default {alpha[0]:g} {alpha[1]:g})",
+    )
     d.add_argument("--beta", type=positive_float, default=beta, metavar="MAX", help=f"|sideslip| (default {beta:g})")
     d.add_argument("--phat", type=positive_float, default=phat, metavar="MAX", help=f"|p b/2V| (default {phat:g})")
     d.add_argument("--qhat", type=positive_float, default=qhat, metavar="MAX", help=f"|q c/2V| (default {qhat:g})")
@@ -137,18 +178,33 @@ def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band) -> None:
     for k, name in (("dl", "aileron"), ("dm", "elevator"), ("dn", "rudder")):
         default = None if surfaces is None else surfaces[k]
         hint = "the source's range" if default is None else f"{default[0]:g} {default[1]:g}"
-        d.add_argument(f"--{k}", nargs=2, type=finite_float, default=default, metavar=("LO", "HI"),
-                       help=f"{name} range (default {hint})")
+        d.add_argument(
+            f"--{k}",
+            nargs=2,
+            type=finite_float,
+            default=default,
+            metavar=("LO", "HI"),
+            help=f"{name} range (default {hint})",
+        )
     d.add_argument("--samples", type=nonnegative_int, default=4000, help="fit points per block (default 4000)")
     d.add_argument("--test", type=nonnegative_int, default=1000, help="held-out points per block (default 1000)")
     d.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (default 0)")
-    d.add_argument("--dm-band", type=finite_float, default=band, metavar="DEG",
-                   help=f"sample dm within this of the pitch-trim schedule on the longitudinal plane, 0 = "
-                        f"whole range (default {band:.3g})")
-    d.add_argument("--box-only", action="store_true",
-                   help="fit CD, CL, Cm on the 8-D box too (default: on the longitudinal plane)")
-    d.add_argument("--allow-extrapolation", action="store_true",
-                   help="sample beyond the source's data (JSBSim holds table end values there)")
+    d.add_argument(
+        "--dm-band",
+        type=finite_float,
+        default=band,
+        metavar="DEG",
+        help=f"sample dm within this of the pitch-trim schedule on the longitudinal plane, 0 = "
+        f"whole range (default {band:.3g})",
+    )
+    d.add_argument(
+        "--box-only", action="store_true", help="fit CD, CL, Cm on the 8-D box too (default: on the longitudinal plane)"
+    )
+    d.add_argument(
+        "--allow-extrapolation",
+        action="store_true",
+        help="sample beyond the source's data (JSBSim holds table end values there)",
+    )
 
 
 def _common(p) -> None:
@@ -161,12 +217,18 @@ def _common(p) -> None:
 
 def _ranges(args, source_envelope=None) -> dict:
     rad = math.radians
-    out = {"alpha": (rad(args.alpha[0]), rad(args.alpha[1])), "beta": (-rad(args.beta), rad(args.beta)),
-           "phat": (-args.phat, args.phat), "qhat": (-args.qhat, args.qhat), "rhat": (-args.rhat, args.rhat)}
+    out = {
+        "alpha": (rad(args.alpha[0]), rad(args.alpha[1])),
+        "beta": (-rad(args.beta), rad(args.beta)),
+        "phat": (-args.phat, args.phat),
+        "qhat": (-args.qhat, args.qhat),
+        "rhat": (-args.rhat, args.rhat),
+    }
     for k in ("dl", "dm", "dn"):
         v = getattr(args, k)
         if v is None:
             from gna.errors import InputError
+
             if not source_envelope or k not in source_envelope:
                 raise InputError(f"the source gives no range for {k}: pass --{k} LO HI")
             out[k] = source_envelope[k]
@@ -177,8 +239,15 @@ def _ranges(args, source_envelope=None) -> dict:
 
 def _design(args, ranges):
     from gna.fit.design import standard_design
-    return standard_design(ranges, n_fit=args.samples, n_test=args.test, seed=args.seed,
-                           longitudinal_plane=not args.box_only, dm_band=math.radians(args.dm_band))
+
+    return standard_design(
+        ranges,
+        n_fit=args.samples,
+        n_test=args.test,
+        seed=args.seed,
+        longitudinal_plane=not args.box_only,
+        dm_band=math.radians(args.dm_band),
+    )
 
 
 def run(args) -> int:
@@ -187,15 +256,21 @@ def run(args) -> int:
     if args.source == "compare":
         return _compare(args)
     ident = args.ident or _default_ident(args)
-    out = _output_file(args.out or Path(f"{ident}.toml"), ident)     # checked before the source is read
+    out = _output_file(args.out or Path(f"{ident}.toml"), ident)  # checked before the source is read
     from gna.fit.document import envelope_section, fitted_aircraft, fitted_document, render
     from gna.fit.pipeline import fit_source, gna45_structure, structure_from_file
     from gna.fit.quality import ReferenceCondition, trim_comparison
 
     if args.source == "jsbsim":
         from gna.fit.sources.jsbsim_aero import JSBSimAeroSource, vehicle_sections
-        src = JSBSimAeroSource(args.model, mach=args.mach, altitude=args.altitude, root=args.root,
-                               surfaces=_surface_overrides(args.property))
+
+        src = JSBSimAeroSource(
+            args.model,
+            mach=args.mach,
+            altitude=args.altitude,
+            root=args.root,
+            surfaces=_surface_overrides(args.property),
+        )
         sections = vehicle_sections(src)
         ranges = _ranges(args, src.envelope)
         reference = ReferenceCondition(src.V_ref, args.altitude, f"Mach {args.mach:g} at {args.altitude:g} m")
@@ -203,6 +278,7 @@ def run(args) -> int:
         limits_source = "the sampled surface ranges (largest magnitude)"
     elif args.source == "gtm":
         from gna.fit.sources.gtm import GTMSource, vehicle_sections
+
         src = GTMSource(V_ref=args.speed)
         sections = vehicle_sections()
         ranges = _ranges(args)
@@ -211,6 +287,7 @@ def run(args) -> int:
         limits_source = "GTM_DesignSim actuator limits"
     else:
         from gna.fit.sources.linear import LinearDerivativeModel
+
         ranges = _ranges(args)
         src = LinearDerivativeModel.from_csv(args.csv, {k: ranges[k] for k in ("alpha", "beta", "dl", "dm", "dn")})
         sections = _linear_sections(args)
@@ -226,12 +303,23 @@ def run(args) -> int:
     craft = fitted_aircraft(ident, name, sections, envelope, result.table, src.name)
     trim = None if args.no_trim_check else trim_comparison(craft, src, reference)
     command = _command_line(args, ranges)
-    doc = fitted_document(ident=ident, name=name, source_provenance=src.provenance(), sections=sections,
-                          envelope=envelope, design=design, result=result, reference=reference, trim=trim,
-                          notes="", date=datetime.date.today().isoformat(), command=command)
+    doc = fitted_document(
+        ident=ident,
+        name=name,
+        source_provenance=src.provenance(),
+        sections=sections,
+        envelope=envelope,
+        design=design,
+        result=result,
+        reference=reference,
+        trim=trim,
+        notes="",
+        date=datetime.date.today().isoformat(),
+        command=command,
+    )
     text = render(doc, name, command)
     try:
-        with replacing(out) as tmp:                      # atomic: a reader never sees half a file
+        with replacing(out) as tmp:  # atomic: a reader never sees half a file
             tmp.write_text(text, encoding="utf-8")
     except OSError as exc:
         raise InputError(f"cannot write {out}: {_cause(exc)}") from None
@@ -242,9 +330,11 @@ def run(args) -> int:
         print(f"  {c:<3} R2 {t.r2:8.5f}  RMS {t.rms:10.3g}  max {t.max_abs:10.3g}")
     if trim:
         g, s = trim["gna"], trim["source"]
-        print(f"level trim at {reference.label}: alpha {g['alpha_deg']:.3f} deg (source {s['alpha_deg']:.3f}), "
-              f"dm {g['dm_deg']:.3f} deg (source {s['dm_deg']:.3f}), thrust {g['thrust_N']:.1f} N "
-              f"(source {s['thrust_N']:.1f})")
+        print(
+            f"level trim at {reference.label}: alpha {g['alpha_deg']:.3f} deg (source {s['alpha_deg']:.3f}), "
+            f"dm {g['dm_deg']:.3f} deg (source {s['dm_deg']:.3f}), thrust {g['thrust_N']:.1f} N "
+            f"(source {s['thrust_N']:.1f})"
+        )
     return 0
 
 
@@ -273,14 +363,21 @@ def _command_line(args, ranges) -> str:
         if args.root:
             parts.append(f"--root {args.root}")
     elif args.source == "linear":
-        parts += [str(args.csv), f"--engines {args.engines}", f"--engine-offset {args.engine_offset:g}",
-                  f"--speed {args.speed:g}", f"--altitude {args.altitude:g}"]
+        parts += [
+            str(args.csv),
+            f"--engines {args.engines}",
+            f"--engine-offset {args.engine_offset:g}",
+            f"--speed {args.speed:g}",
+            f"--altitude {args.altitude:g}",
+        ]
     else:
         parts += [f"--speed {args.speed:g}", f"--altitude {args.altitude:g}"]
     deg = math.degrees
     parts.append(f"--alpha {deg(ranges['alpha'][0]):g} {deg(ranges['alpha'][1]):g}")
-    parts.append(f"--beta {deg(ranges['beta'][1]):g} --phat {ranges['phat'][1]:g} --qhat {ranges['qhat'][1]:g} "
-                 f"--rhat {ranges['rhat'][1]:g}")
+    parts.append(
+        f"--beta {deg(ranges['beta'][1]):g} --phat {ranges['phat'][1]:g} --qhat {ranges['qhat'][1]:g} "
+        f"--rhat {ranges['rhat'][1]:g}"
+    )
     for k in ("dl", "dm", "dn"):
         parts.append(f"--{k} {deg(ranges[k][0]):.10g} {deg(ranges[k][1]):.10g}")
     parts.append(f"--samples {args.samples} --test {args.test} --seed {args.seed} --dm-band {args.dm_band:.10g}")
@@ -295,6 +392,7 @@ def _command_line(args, ranges) -> str:
 def _linear_sections(args) -> dict:
     from gna.errors import InputError
     from gna.fit.sources.linear import vehicle_values
+
     v = vehicle_values(args.csv)
     need = ("Weight", "I_xx", "I_yy", "I_zz", "Sw", "bw", "cbar")
     missing = [k for k in need if k not in v]
@@ -304,8 +402,14 @@ def _linear_sections(args) -> dict:
         raise InputError(f"one engine sits on the symmetry plane; got --engine-offset {args.engine_offset}")
     src = f"{args.csv} (units as written there: lb, slug ft^2, ft)"
     return {
-        "mass": {"weight_lb": v["Weight"][0], "Ixx_slugft2": v["I_xx"][0], "Iyy_slugft2": v["I_yy"][0],
-                 "Izz_slugft2": v["I_zz"][0], "Ixz_slugft2": v.get("I_xz", (0.0, ""))[0], "source": src},
+        "mass": {
+            "weight_lb": v["Weight"][0],
+            "Ixx_slugft2": v["I_xx"][0],
+            "Iyy_slugft2": v["I_yy"][0],
+            "Izz_slugft2": v["I_zz"][0],
+            "Ixz_slugft2": v.get("I_xz", (0.0, ""))[0],
+            "source": src,
+        },
         "geometry": {"S_ft2": v["Sw"][0], "b_ft": v["bw"][0], "cbar_ft": v["cbar"][0], "source": src},
         "engines": {"count": args.engines, "y_p_m": abs(args.engine_offset), "source": "command line"},
     }
@@ -313,26 +417,39 @@ def _linear_sections(args) -> dict:
 
 def _compare(args) -> int:
     import json
+
     from gna.aircraft import load_aircraft
     from gna.errors import InputError
     from gna.fit.quality import ReferenceCondition, trim_comparison
     from gna.fit.regenerate import SPECS
+
     if args.ident not in SPECS:
         raise InputError(f"no source model known for {args.ident!r}; fitted aircraft: {', '.join(SPECS)}")
     src = SPECS[args.ident].make_source()
     ref = ReferenceCondition(args.speed, args.altitude, f"{args.speed:g} m/s at {args.altitude:g} m")
     res = trim_comparison(load_aircraft(args.ident), src, ref)
     if args.json:
-        print(json.dumps({"aircraft": args.ident, "source": src.name, "V_ms": args.speed,
-                          "altitude_m": args.altitude, **res}, indent=2))
+        print(
+            json.dumps(
+                {"aircraft": args.ident, "source": src.name, "V_ms": args.speed, "altitude_m": args.altitude, **res},
+                indent=2,
+            )
+        )
         return 0
     print(f"{args.ident}: level trim at {ref.label}, GNA fit vs source ({src.name})")
-    for k, unit in (("alpha_deg", "deg"), ("dm_deg", "deg"), ("thrust_N", "N"), ("dl_deg", "deg"),
-                    ("dn_deg", "deg"), ("mu_deg", "deg")):
+    for k, unit in (
+        ("alpha_deg", "deg"),
+        ("dm_deg", "deg"),
+        ("thrust_N", "N"),
+        ("dl_deg", "deg"),
+        ("dn_deg", "deg"),
+        ("mu_deg", "deg"),
+    ):
         print(f"  {k[:-4] if unit == 'deg' else k[:-2]:<7} {res['gna'][k]:12.6g} {res['source'][k]:12.6g} {unit}")
     return 0
 
 
 def _regenerate(args) -> int:
     from gna.fit.regenerate import run as regenerate_run
+
     return regenerate_run(args.ids or None, args.check, args.out, args.docs)

@@ -43,15 +43,29 @@ ANGLE_STATES = ("gamma", "chi", "alpha", "beta", "mu")
 
 
 def register(sub) -> None:
-    p = sub.add_parser("paper", help="plan the paper's three manoeuvres and fly them on both engines",
-                       description=__doc__.split("\n\n")[1])
-    p.add_argument("--out", type=out_path, default=None, metavar="DIR", help="output folder (default reports/out/paper)")
+    p = sub.add_parser(
+        "paper",
+        help="plan the paper's three manoeuvres and fly them on both engines",
+        description=__doc__.split("\n\n")[1],
+    )
+    p.add_argument(
+        "--out", type=out_path, default=None, metavar="DIR", help="output folder (default reports/out/paper)"
+    )
     p.add_argument("--J", type=iterations, default=None, help="iterations, or auto (default: each scenario's)")
-    p.add_argument("--loop", choices=("open", "closed", "both"), default="both",
-                   help="fly the plans open loop, closed loop with the tracking feedback, or both (default both)")
-    p.add_argument("--jobs", type=positive_int, default=None, metavar="N",
-                   help="worker processes flying the cases and drawing their figures concurrently (default: the "
-                        "CPUs available; 1: everything in this process); the results and files are the same")
+    p.add_argument(
+        "--loop",
+        choices=("open", "closed", "both"),
+        default="both",
+        help="fly the plans open loop, closed loop with the tracking feedback, or both (default both)",
+    )
+    p.add_argument(
+        "--jobs",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="worker processes flying the cases and drawing their figures concurrently (default: the "
+        "CPUs available; 1: everything in this process); the results and files are the same",
+    )
     add_compare_arguments(p)
     p.set_defaults(func=run)
 
@@ -73,27 +87,31 @@ def paper_cases(J: int | None = None, loop: str = "open", **overrides) -> list[V
     -------
     list of ValidationCase
     """
-    return [ValidationCase(name, J=J, engines=("inhouse", "jsbsim"), loop=loop, **overrides)
-            for name in PAPER_SCENARIOS]
+    return [
+        ValidationCase(name, J=J, engines=("inhouse", "jsbsim"), loop=loop, **overrides) for name in PAPER_SCENARIOS
+    ]
 
 
 def _timed(fn):
     """``fn`` wrapped to return ``(value, wall time [s])``."""
+
     def timed():
         t0 = time.perf_counter()
         return fn(), time.perf_counter() - t0
+
     return timed
 
 
 def _write_task(result, root, sub: tuple, plan_sub: tuple | None, csv: bool):
     """A case folder's files (and the plan iterates with ``plan_sub``) written to memory, in the serial order."""
+
     def write():
         mem = MemoryOutputDir(root)
         write_case(result, mem.sub(*sub), csv=csv, plan=False, manifest=False)
         if plan_sub is not None:
-            write_plan_iterates(mem.sub(*plan_sub), result.plan, result.runs[result.reference_engine].df.index,
-                                csv=csv)
+            write_plan_iterates(mem.sub(*plan_sub), result.plan, result.runs[result.reference_engine].df.index, csv=csv)
         return mem.files
+
     return write
 
 
@@ -119,23 +137,29 @@ class _Scenario:
         t0 = time.perf_counter()
         planned = plan_case(self.case)
         self.name = planned.scenario.name
-        for loop in self.loops:                       # each case's flights submitted as soon as it is set up
-            self.flights[loop] = case_flights(replace(self.case, loop=loop), plan=planned.plan,
-                                              scenario=planned.scenario)
+        for loop in self.loops:  # each case's flights submitted as soon as it is set up
+            self.flights[loop] = case_flights(
+                replace(self.case, loop=loop), plan=planned.plan, scenario=planned.scenario
+            )
             self.runs[loop] = {}
             for name in self.flights[loop].flights:
                 if not (loop == "closed" and name == OPEN_LOOP and "open" in self.loops):
-                    self._fly(pool, loop, name)     # the open-loop run waits for the open case's
+                    self._fly(pool, loop, name)  # the open-loop run waits for the open case's
         mem = MemoryOutputDir(self.root)
-        self.lines.append(write_plan(planned.scenario, planned.plan, planned.planning_time_s,
-                                     mem.sub(self.name, "plan"))[0])
+        self.lines.append(
+            write_plan(planned.scenario, planned.plan, planned.planning_time_s, mem.sub(self.name, "plan"))[0]
+        )
         self.files["plan"] = mem.files
         self.t_plan = time.perf_counter() - t0
 
     def _fly(self, pool: ForkPool, loop: str, name: str) -> None:
         self.submitted.add((loop, name))
-        pool.submit(("fly", self.name, loop, name), _timed(self.flights[loop].flights[name]), priority=1,
-                    what=f"flying {self.name} ({loop} loop, {name})")
+        pool.submit(
+            ("fly", self.name, loop, name),
+            _timed(self.flights[loop].flights[name]),
+            priority=1,
+            what=f"flying {self.name} ({loop} loop, {name})",
+        )
 
     def receive(self, pool: ForkPool, key: tuple, value) -> None:
         """A worker's result: a run, or a case folder's files; the next steps submitted."""
@@ -158,9 +182,12 @@ class _Scenario:
                 continue
             self.results[lp] = result = finish_case(cf, self.runs[lp])
             plan_sub = (self.name, "plan") if lp == self.loops[0] else None
-            pool.submit(("write", self.name, lp), _timed(_write_task(result, self.root, (self.name, lp), plan_sub,
-                                                                     self.csv)),
-                        priority=2, what=f"writing the {lp}-loop files of {self.name}")
+            pool.submit(
+                ("write", self.name, lp),
+                _timed(_write_task(result, self.root, (self.name, lp), plan_sub, self.csv)),
+                priority=2,
+                what=f"writing the {lp}-loop files of {self.name}",
+            )
 
     @property
     def done(self) -> bool:
@@ -173,10 +200,10 @@ def run(args) -> int:
     cases = paper_cases(args.J, **compare_overrides(args))
     loops = ("open", "closed") if args.loop == "both" else (args.loop,)
     planned = []
-    for case in cases:                         # every scenario's [compare] table checked before any planning
+    for case in cases:  # every scenario's [compare] table checked before any planning
         scenario = load_scenario(case.scenario, J=case.J)
         planned += [(replace(case, loop=loop), scenario, case_settings(case, scenario)) for loop in loops]
-    check_steps(planned, args.max_steps, "paper")     # and the work of every flight
+    check_steps(planned, args.max_steps, "paper")  # and the work of every flight
     out = OutputDir(args.out or "reports/out/paper", parents=args.out is None, command="paper")
     with ForkPool(args.jobs or default_jobs()) as pool:
         scenarios = [_Scenario(case, loops, out.root, args.csv) for case in cases]
@@ -190,7 +217,7 @@ def run(args) -> int:
                 key, value = pool.next_result()
                 by_name[key[1]].receive(pool, key, value)
                 continue
-            sc = scenarios[emitted]                    # files written and lines printed in the scenarios' order
+            sc = scenarios[emitted]  # files written and lines printed in the scenarios' order
             emitted += 1
             name = sc.name
             for part in ("plan", *loops):
@@ -205,10 +232,22 @@ def run(args) -> int:
                 pos = lambda tab: tab.row("position").max_abs  # noqa: E731
                 ang = lambda tab: max(tab.row(v).max_abs for v in ANGLE_STATES)  # noqa: E731
                 J = result.plan.J
-                rows.append((name, result.plan.aircraft.id, J, pos(first), ang(first), pos(whole), ang(whole),
-                             sc.t_plan + sc.elapsed["open"]))
-                print(f"  in-house vs JSBSim (open loop, J = {J}): first 10 s {pos(first):.2e} m, "
-                      f"{ang(first):.2e} rad; whole span {pos(whole):.2e} m, {ang(whole):.2e} rad")
+                rows.append(
+                    (
+                        name,
+                        result.plan.aircraft.id,
+                        J,
+                        pos(first),
+                        ang(first),
+                        pos(whole),
+                        ang(whole),
+                        sc.t_plan + sc.elapsed["open"],
+                    )
+                )
+                print(
+                    f"  in-house vs JSBSim (open loop, J = {J}): first 10 s {pos(first):.2e} m, "
+                    f"{ang(first):.2e} rad; whole span {pos(whole):.2e} m, {ang(whole):.2e} rad"
+                )
                 print(f"  figures, trajectories and tables: {out.path(name, 'open')}/")
             if "closed" not in loops:
                 continue
@@ -217,43 +256,66 @@ def run(args) -> int:
             v = closed.verdict()
             passed[-1] = passed[-1] and v["pass"]
             runs = v["runs"]
-            closed_rows.append((name, runs["inhouse"]["max_position_error_m"], runs["jsbsim"]["max_position_error_m"],
-                                v["differences"]["jsbsim"]["max_position_m"], runs["inhouse"]["saturated_s"],
-                                v["pass"]))
-            print(f"  closed loop (tracking feedback): in-house {runs['inhouse']['status']}, max "
-                  f"{runs['inhouse']['max_position_error_m']:.2e} m from the flat outputs; JSBSim "
-                  f"{runs['jsbsim']['status']}, {runs['jsbsim']['max_position_error_m']:.2e} m; in-house vs JSBSim "
-                  f"{v['differences']['jsbsim']['max_position_m']:.2e} m")
+            closed_rows.append(
+                (
+                    name,
+                    runs["inhouse"]["max_position_error_m"],
+                    runs["jsbsim"]["max_position_error_m"],
+                    v["differences"]["jsbsim"]["max_position_m"],
+                    runs["inhouse"]["saturated_s"],
+                    v["pass"],
+                )
+            )
+            print(
+                f"  closed loop (tracking feedback): in-house {runs['inhouse']['status']}, max "
+                f"{runs['inhouse']['max_position_error_m']:.2e} m from the flat outputs; JSBSim "
+                f"{runs['jsbsim']['status']}, {runs['jsbsim']['max_position_error_m']:.2e} m; in-house vs JSBSim "
+                f"{v['differences']['jsbsim']['max_position_m']:.2e} m"
+            )
             print(f"  four-curve figure: {out.path(name, 'closed', 'tracking.png')}")
         jobs, log = pool.jobs, pool.log
-    how = ("cases flown and drawn in forked worker processes, files written by the main process in the serial order"
-           if jobs > 1 else "in one process")
-    write_manifest(out, results, command_line=getattr(args, "command_line", None),
-                   execution={"jobs": jobs, "how": how,
-                              "planning_s": {sc.name: sc.t_plan for sc in scenarios}, "tasks": log})
-    out.finish(release=False)                         # the folder stays this run's until its report is written
+    how = (
+        "cases flown and drawn in forked worker processes, files written by the main process in the serial order"
+        if jobs > 1
+        else "in one process"
+    )
+    write_manifest(
+        out,
+        results,
+        command_line=getattr(args, "command_line", None),
+        execution={"jobs": jobs, "how": how, "planning_s": {sc.name: sc.t_plan for sc in scenarios}, "tasks": log},
+    )
+    out.finish(release=False)  # the folder stays this run's until its report is written
     print(f"\nmanifest, plans, trajectories, figures and tables written to {out.root}/")
     failed = [c.scenario for c, ok in zip(cases, passed) if not ok]
     if rows:
         print("\nsummary: in-house vs JSBSim, open loop with the generalized-flatness controls")
-        print(f"  {'scenario':<26} {'aircraft':<10} {'J':>2} {'pos 10 s [m]':>12} {'ang 10 s [rad]':>14} "
-              f"{'pos all [m]':>11} {'ang all [rad]':>13} {'time [s]':>8}")
+        print(
+            f"  {'scenario':<26} {'aircraft':<10} {'J':>2} {'pos 10 s [m]':>12} {'ang 10 s [rad]':>14} "
+            f"{'pos all [m]':>11} {'ang all [rad]':>13} {'time [s]':>8}"
+        )
     for r in rows:
         print(f"  {r[0]:<26} {r[1]:<10} {r[2]:>2} {r[3]:>12.2e} {r[4]:>14.2e} {r[5]:>11.2e} {r[6]:>13.2e} {r[7]:>8.1f}")
     if closed_rows:
         print("\nclosed loop with the tracking feedback (from the planned initial state)")
-        print(f"  {'scenario':<26} {'in-house [m]':>12} {'JSBSim [m]':>11} {'in-house vs JSBSim [m]':>22} "
-              f"{'beyond limits [s]':>17}  result")
+        print(
+            f"  {'scenario':<26} {'in-house [m]':>12} {'JSBSim [m]':>11} {'in-house vs JSBSim [m]':>22} "
+            f"{'beyond limits [s]':>17}  result"
+        )
     for r in closed_rows:
         print(f"  {r[0]:<26} {r[1]:>12.2e} {r[2]:>11.2e} {r[3]:>22.2e} {r[4]:>17.2f}  {'PASS' if r[5] else 'FAIL'}")
     if closed_rows:
-        print("  (beyond limits: time the commanded controls exceed the aircraft's limits, clipped when the scenario's\n"
-              "   [tracking] saturate is on; the forward slip's plan itself needs dl of about -28 deg, beyond the GTM's\n"
-              "   20 deg, and is flown unclipped)")
-    report = render_run(out.root, jobs=jobs)          # HTML and PDF from the saved report.json files
+        print(
+            "  (beyond limits: time the commanded controls exceed the aircraft's limits, clipped when the scenario's\n"
+            "   [tracking] saturate is on; the forward slip's plan itself needs dl of about -28 deg, beyond the GTM's\n"
+            "   20 deg, and is flown unclipped)"
+        )
+    report = render_run(out.root, jobs=jobs)  # HTML and PDF from the saved report.json files
     out.release()
     print(f"\nreport: {report['index']} (PDF: {report['pdf']})")
     if failed:
-        print(f"gflat paper: engines disagree beyond the tolerances, or a run ended early, for {', '.join(failed)}: FAIL")
+        print(
+            f"gflat paper: engines disagree beyond the tolerances, or a run ended early, for {', '.join(failed)}: FAIL"
+        )
         return 1
     return 0

@@ -22,7 +22,6 @@ from pathlib import Path
 import numpy as np
 
 from gna.errors import InputError
-
 from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
 from planners.systems.demos import DEMOS, is_chained_scenario, run_demo
@@ -35,25 +34,44 @@ from ._compare_args import default_out
 
 
 def register(sub) -> None:
-    p = sub.add_parser("plan", help="plan a manoeuvre (flatness + generalized flatness)",
-                       description="Plan a scenario: flat parametrization on a grid of power series, then J "
-                                   "generalized-flatness iterations. Bundled scenarios: " + ", ".join(list_scenarios())
-                                   + "; chained-system demos: " + ", ".join(DEMOS))
+    p = sub.add_parser(
+        "plan",
+        help="plan a manoeuvre (flatness + generalized flatness)",
+        description="Plan a scenario: flat parametrization on a grid of power series, then J "
+        "generalized-flatness iterations. Bundled scenarios: "
+        + ", ".join(list_scenarios())
+        + "; chained-system demos: "
+        + ", ".join(DEMOS),
+    )
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
-    p.add_argument("--J", type=iterations, default=None, help="generalized-flatness iterations, or auto (a convergence test; default: the "
-                                                                   "scenario's)")
-    p.add_argument("--out", type=out_path, default=None, metavar="DIR",
-                   help="output folder (default reports/out/<scenario>/plan)")
-    p.add_argument("--max-cost", type=cost_bound, default=None, metavar="UNITS",
-                   help="bound on the plan's cost, nodes x sum of squared orders (default 5e6, about 30 s; "
-                        "'inf' for none)")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object (planning_time_s, feasible, residual per iterate, ...) instead of "
-                        "the text report")
-    p.add_argument("--verify", action="store_true",
-                   help="fly the planned controls open loop on the full model (DOP853, rtol = atol = 1e-10) from "
-                        "the plan's initial state and report the largest distance to the flat outputs "
-                        "(open_loop_max_position_error_m)")
+    p.add_argument(
+        "--J",
+        type=iterations,
+        default=None,
+        help="generalized-flatness iterations, or auto (a convergence test; default: the scenario's)",
+    )
+    p.add_argument(
+        "--out", type=out_path, default=None, metavar="DIR", help="output folder (default reports/out/<scenario>/plan)"
+    )
+    p.add_argument(
+        "--max-cost",
+        type=cost_bound,
+        default=None,
+        metavar="UNITS",
+        help="bound on the plan's cost, nodes x sum of squared orders (default 5e6, about 30 s; 'inf' for none)",
+    )
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print one JSON object (planning_time_s, feasible, residual per iterate, ...) instead of the text report",
+    )
+    p.add_argument(
+        "--verify",
+        action="store_true",
+        help="fly the planned controls open loop on the full model (DOP853, rtol = atol = 1e-10) from "
+        "the plan's initial state and report the largest distance to the flat outputs "
+        "(open_loop_max_position_error_m)",
+    )
     p.set_defaults(func=run)
 
 
@@ -77,8 +95,10 @@ def infeasible_reason(plan) -> str | None:
     if plan.domain_failures:
         return plan.domain_failures[-1]
     if not plan.feasible:
-        return (f"Newton failed ({len(plan.newton_failures)} warning(s)); its values at those times are not a "
-                f"solution of the model")
+        return (
+            f"Newton failed ({len(plan.newton_failures)} warning(s)); its values at those times are not a "
+            f"solution of the model"
+        )
     return None
 
 
@@ -115,7 +135,7 @@ def save_plan_files(plan, out: OutputDir, step: float | None = None) -> dict:
             for name, s in it.series.items():
                 arrays[f"j{j}/{name}"] = np.real(np.asarray(s.coeffs))
         with out.atomic("plan_series.npz") as tmp:
-            with open(tmp, "wb") as fh:                    # a file object: numpy adds no suffix
+            with open(tmp, "wb") as fh:  # a file object: numpy adds no suffix
                 np.savez_compressed(fh, **arrays)
         written["series"] = str(out.path("plan_series.npz"))
     step = step if step is not None else float(np.min(np.diff(plan.t_nodes))) / 4
@@ -162,26 +182,50 @@ def plan_summary(sc, plan, elapsed: float, check=None, not_flown: str | None = N
         ``open_loop_settings``; with ``not_flown`` the same keys as None and ``open_loop_message``.
     """
     res = plan.iterate_residuals()
-    out = {"scenario": sc.name, "aircraft": sc.aircraft.id, "environment": plan.env.describe(), "g": plan.env.g,
-           "J": plan.J, "J_rule": plan.generalized.get("J_rule", "given"),
-           "J_stop": plan.generalized.get("J_stop"), "e": plan.e,
-           "interpolation": plan.interpolation, "nodes": len(plan.t_nodes),
-           "orders": [it.order for it in plan.iterates], "planning_time_s": elapsed, "timings_s": plan.timings,
-           "feasible": bool(plan.feasible and not plan.domain_failures), "infeasible_reason": infeasible_reason(plan),
-           "worst_newton_residual": plan.worst_newton_residual(), "equation_residual_per_iterate": res,
-           "warnings": plan.warnings}
+    out = {
+        "scenario": sc.name,
+        "aircraft": sc.aircraft.id,
+        "environment": plan.env.describe(),
+        "g": plan.env.g,
+        "J": plan.J,
+        "J_rule": plan.generalized.get("J_rule", "given"),
+        "J_stop": plan.generalized.get("J_stop"),
+        "e": plan.e,
+        "interpolation": plan.interpolation,
+        "nodes": len(plan.t_nodes),
+        "orders": [it.order for it in plan.iterates],
+        "planning_time_s": elapsed,
+        "timings_s": plan.timings,
+        "feasible": bool(plan.feasible and not plan.domain_failures),
+        "infeasible_reason": infeasible_reason(plan),
+        "worst_newton_residual": plan.worst_newton_residual(),
+        "equation_residual_per_iterate": res,
+        "warnings": plan.warnings,
+    }
     if check is not None:
         ok = math.isfinite(check.max_position_error_m)
-        out.update({"open_loop_max_position_error_m": check.max_position_error_m if ok else None,
-                    "open_loop_t_worst_s": check.t_worst, "open_loop_max_angle_error_rad":
-                    check.max_angle_error_rad if ok else None, "open_loop_status": check.status,
-                    "open_loop_settings": check.settings})
+        out.update(
+            {
+                "open_loop_max_position_error_m": check.max_position_error_m if ok else None,
+                "open_loop_t_worst_s": check.t_worst,
+                "open_loop_max_angle_error_rad": check.max_angle_error_rad if ok else None,
+                "open_loop_status": check.status,
+                "open_loop_settings": check.settings,
+            }
+        )
         if not ok:
             out["open_loop_message"] = check.message
     elif not_flown is not None:
-        out.update({"open_loop_max_position_error_m": None, "open_loop_t_worst_s": None,
-                    "open_loop_max_angle_error_rad": None, "open_loop_status": "not flown",
-                    "open_loop_settings": None, "open_loop_message": not_flown})
+        out.update(
+            {
+                "open_loop_max_position_error_m": None,
+                "open_loop_t_worst_s": None,
+                "open_loop_max_angle_error_rad": None,
+                "open_loop_status": "not flown",
+                "open_loop_settings": None,
+                "open_loop_message": not_flown,
+            }
+        )
     return out
 
 
@@ -215,25 +259,32 @@ def write_plan(sc, plan, elapsed: float, out, check=None, not_flown: str | None 
     written = save_plan_files(plan, od)
     summary = plan_summary(sc, plan, elapsed, check, not_flown)
     tn = plan.t_nodes
-    lines = [f"{sc.name}: {sc.aircraft.id}, t = {tn[0]:g} .. {tn[-1]:g} s, {len(tn)} nodes, flat output "
-             f"{sc.zeta.kind}, J = {plan.J}"]
+    lines = [
+        f"{sc.name}: {sc.aircraft.id}, t = {tn[0]:g} .. {tn[-1]:g} s, {len(tn)} nodes, flat output "
+        f"{sc.zeta.kind}, J = {plan.J}"
+    ]
     orders = summary["orders"]
     if summary["J_rule"] != "given":
-        lines.append(f"  J = {plan.J} chosen by the convergence test (stopped by {summary['J_stop']}): "
-                     f"{summary['J_rule']}")
+        lines.append(
+            f"  J = {plan.J} chosen by the convergence test (stopped by {summary['J_stop']}): {summary['J_rule']}"
+        )
     lines.append(f"  orders of x, y, z per iterate: {orders} (controls at order {orders[-1] - 4})")
     lines.append(f"  planning time {elapsed:.3f} s ({', '.join(f'j={j}: {t:.3f}' for j, t in plan.timings.items())})")
     lines.append(f"  worst Newton residual: {plan.worst_newton_residual():.2e}")
-    lines.append("  full-model equation residual at the nodes (max over the 12 equations) per iterate: "
-                 + ", ".join(f"j={j}: {r:.2e}" for j, r in enumerate(summary["equation_residual_per_iterate"])))
+    lines.append(
+        "  full-model equation residual at the nodes (max over the 12 equations) per iterate: "
+        + ", ".join(f"j={j}: {r:.2e}" for j, r in enumerate(summary["equation_residual_per_iterate"]))
+    )
     if check is not None:
         if summary["open_loop_max_position_error_m"] is None:
             lines.append(f"  open-loop check: the flight stopped ({check.status}): {check.message}")
         else:
-            lines.append(f"  open-loop check (full model, {check.settings['method']}, rtol = atol = "
-                         f"{check.settings['rtol']:g}): max distance to the flat outputs "
-                         f"{check.max_position_error_m:.3g} m at t = {check.t_worst:g} s; angles within "
-                         f"{check.max_angle_error_rad:.2g} rad of the plan")
+            lines.append(
+                f"  open-loop check (full model, {check.settings['method']}, rtol = atol = "
+                f"{check.settings['rtol']:g}): max distance to the flat outputs "
+                f"{check.max_position_error_m:.3g} m at t = {check.t_worst:g} s; angles within "
+                f"{check.max_angle_error_rad:.2g} rad of the plan"
+            )
     elif not_flown is not None:
         lines.append(f"  open-loop check: {not_flown}")
     if plan.warnings:
@@ -242,9 +293,11 @@ def write_plan(sc, plan, elapsed: float, out, check=None, not_flown: str | None 
     else:
         lines.append("  no Newton or singularity warnings")
     if _singular(plan):
-        lines.append(f"  no convergence table, plan_series.npz or plan_j{plan.J}.csv: the iterates j >= 1 are built on a "
-                     "singular stage 2 and are not solutions of the model (plan_j0.csv: the flat plan; "
-                     "singularities.csv: the condition at the nodes)")
+        lines.append(
+            f"  no convergence table, plan_series.npz or plan_j{plan.J}.csv: the iterates j >= 1 are built on a "
+            "singular stage 2 and are not solutions of the model (plan_j0.csv: the flat plan; "
+            "singularities.csv: the condition at the nodes)"
+        )
     else:
         times = sc.report_times or [float(tn[0])]
         table = plan.convergence_table(sc.report_variables, times)
@@ -264,18 +317,26 @@ def write_plan(sc, plan, elapsed: float, out, check=None, not_flown: str | None 
 
 def run(args) -> int:
     if is_chained_scenario(args.scenario):  # a chained system of planners.systems, not an aircraft scenario
-        refused = [flag for flag, given in (("--verify", args.verify), ("--max-cost", args.max_cost is not None),
-                                            ("--J auto", args.J == "auto")) if given]
+        refused = [
+            flag
+            for flag, given in (
+                ("--verify", args.verify),
+                ("--max-cost", args.max_cost is not None),
+                ("--J auto", args.J == "auto"),
+            )
+            if given
+        ]
         if refused:
-            raise InputError(f"{', '.join(refused)}: for aircraft scenarios only; a chained system's plan is always "
-                             f"checked against its exact model (summary: checks, feasible) and takes a whole J")
-        out = OutputDir(Path(args.out), command="plan") if args.out else None   # checked before planning
+            raise InputError(
+                f"{', '.join(refused)}: for aircraft scenarios only; a chained system's plan is always "
+                f"checked against its exact model (summary: checks, feasible) and takes a whole J"
+            )
+        out = OutputDir(Path(args.out), command="plan") if args.out else None  # checked before planning
         demo = run_demo(args.scenario, J=args.J)
         out = out if out is not None else default_out(demo.summary["scenario"], "plan", command="plan")
         out.write_text("plan.csv", text=demo.csv)
         out.write_json("summary.json", obj=demo.summary)
-        print(json.dumps(json_safe(demo.summary), indent=2) if args.json
-              else demo.text + f"\n  written to {out.root}/")
+        print(json.dumps(json_safe(demo.summary), indent=2) if args.json else demo.text + f"\n  written to {out.root}/")
         out.finish()
         if demo.summary["failure"]:
             print(f"gflat plan: the plan is not feasible: {demo.summary['failure']}", file=sys.stderr)
@@ -296,8 +357,11 @@ def run(args) -> int:
         if plan.domain_failures or _singular(plan):
             print(f"gflat plan: the plan is not feasible: {reason}", file=sys.stderr)
         else:
-            print(f"gflat plan: the plan is not feasible: Newton failed ({len(plan.newton_failures)} warning(s) "
-                  f"above); its values at those times are not a solution of the model", file=sys.stderr)
+            print(
+                f"gflat plan: the plan is not feasible: Newton failed ({len(plan.newton_failures)} warning(s) "
+                f"above); its values at those times are not a solution of the model",
+                file=sys.stderr,
+            )
         return 1
     if check is not None and summary["open_loop_max_position_error_m"] is None:
         print(f"gflat plan: the open-loop check did not reach the end of the plan: {check.message}", file=sys.stderr)

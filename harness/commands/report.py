@@ -43,25 +43,34 @@ def _one_run(path: Path, top: Path) -> None:
     runs = runs_inside(path)
     if runs:
         names = _few([str(r.relative_to(path)) for r in runs], 4)
-        raise InputError(f"{path} is not a run's folder; it holds {len(runs)} separate run(s) ({names}): render "
-                         f"each with gflat report {runs[0]} (and so on)")
+        raise InputError(
+            f"{path} is not a run's folder; it holds {len(runs)} separate run(s) ({names}): render "
+            f"each with gflat report {runs[0]} (and so on)"
+        )
 
 
 def register(sub) -> None:
-    p = sub.add_parser("report", help="render a run's HTML and PDF reports again from its saved results",
-                       description=__doc__.split("\n\n")[1])
+    p = sub.add_parser(
+        "report",
+        help="render a run's HTML and PDF reports again from its saved results",
+        description=__doc__.split("\n\n")[1],
+    )
     p.add_argument("dir", metavar="DIR", help="output folder of a run (gflat paper --out DIR, gflat compare --out DIR)")
-    p.add_argument("--self-contained", action="store_true",
-                   help="also write DIR/report.html: every case in one file, images embedded")
-    p.add_argument("--pdf", action=argparse.BooleanOptionalAction, default=True,
-                   help="write DIR/report.pdf (default yes)")
+    p.add_argument(
+        "--self-contained",
+        action="store_true",
+        help="also write DIR/report.html: every case in one file, images embedded",
+    )
+    p.add_argument(
+        "--pdf", action=argparse.BooleanOptionalAction, default=True, help="write DIR/report.pdf (default yes)"
+    )
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     root = Path(args.dir)
     t0 = time.perf_counter()
-    with amending(root) as top:                       # refused while a run writes there, and held meanwhile
+    with amending(root) as top:  # refused while a run writes there, and held meanwhile
         _one_run(root.expanduser().resolve(), top)
         # the pages, the single page and the PDF join the run's files (render_run): a later run into the folder
         # replaces or removes them

@@ -18,16 +18,21 @@ from ._args import finite_float, positive_float
 
 
 def register(sub) -> None:
-    p = sub.add_parser("trim", help="steady flight (trim) of an aircraft",
-                       description="Solve the nine steady-flight equations with V, gamma, turn rate and beta fixed. "
-                                   "Density: ISA at the given altitude.")
+    p = sub.add_parser(
+        "trim",
+        help="steady flight (trim) of an aircraft",
+        description="Solve the nine steady-flight equations with V, gamma, turn rate and beta fixed. "
+        "Density: ISA at the given altitude.",
+    )
     p.add_argument("aircraft", help="aircraft identifier (see 'gflat aircraft') or TOML file")
     p.add_argument("--speed", type=positive_float, required=True, metavar="V_MS", help="airspeed [m/s]")
     p.add_argument("--altitude", type=finite_float, default=0.0, metavar="H_M", help="altitude [m] (default 0)")
     p.add_argument("--gamma", type=finite_float, default=0.0, metavar="RAD", help="flight-path angle [rad]")
     p.add_argument("--beta", type=finite_float, default=0.0, metavar="RAD", help="sideslip angle [rad]")
     p.add_argument("--turn-rate", type=finite_float, default=0.0, metavar="RAD_S", help="track rate chi' [rad/s]")
-    p.add_argument("--eta", type=finite_float, default=0.0, help="thrust asymmetry (F1-F2)/F in [-1, 1] (0 for one engine)")
+    p.add_argument(
+        "--eta", type=finite_float, default=0.0, help="thrust asymmetry (F1-F2)/F in [-1, 1] (0 for one engine)"
+    )
     p.add_argument("--model", choices=("full", "simple"), default="full")
     p.add_argument("--json", action="store_true", help="print the trim as JSON")
     p.set_defaults(func=run)
@@ -36,9 +41,14 @@ def register(sub) -> None:
 def run(args) -> int:
     a = load_aircraft(args.aircraft)
     try:
-        t = trim(a, {"V": args.speed, "gamma": args.gamma, "chi_dot": args.turn_rate, "beta": args.beta},
-                 altitude=args.altitude, eta=args.eta, model=args.model)
-    except ConvergenceError as exc:        # the equations were solved for, without a steady state found
+        t = trim(
+            a,
+            {"V": args.speed, "gamma": args.gamma, "chi_dot": args.turn_rate, "beta": args.beta},
+            altitude=args.altitude,
+            eta=args.eta,
+            model=args.model,
+        )
+    except ConvergenceError as exc:  # the equations were solved for, without a steady state found
         if args.json:
             print(json.dumps({"aircraft": a.id, "converged": False, "message": str(exc)}))
         print(f"gflat trim: no steady flight found: {exc}", file=sys.stderr)
@@ -47,12 +57,25 @@ def run(args) -> int:
         print(t.to_json())
         return 0
     v = t.values
-    print(f"{a.id} trim ({t.model} model), altitude {t.altitude:g} m, density {t.density:.5g} kg/m^3: "
-          f"converged in {t.iterations} Newton iterations")
-    rows = [("V", v["V"], "m/s"), ("gamma", v["gamma"], "rad"), ("chi'", v["chi_dot"], "rad/s"),
-            ("F", v["F"], "N"), ("alpha", v["alpha"], "rad"), ("beta", v["beta"], "rad"), ("mu", v["mu"], "rad"),
-            ("p", v["p"], "rad/s"), ("q", v["q"], "rad/s"), ("r", v["r"], "rad/s"),
-            ("dl", v["dl"], "rad"), ("dm", v["dm"], "rad"), ("dn", v["dn"], "rad")]
+    print(
+        f"{a.id} trim ({t.model} model), altitude {t.altitude:g} m, density {t.density:.5g} kg/m^3: "
+        f"converged in {t.iterations} Newton iterations"
+    )
+    rows = [
+        ("V", v["V"], "m/s"),
+        ("gamma", v["gamma"], "rad"),
+        ("chi'", v["chi_dot"], "rad/s"),
+        ("F", v["F"], "N"),
+        ("alpha", v["alpha"], "rad"),
+        ("beta", v["beta"], "rad"),
+        ("mu", v["mu"], "rad"),
+        ("p", v["p"], "rad/s"),
+        ("q", v["q"], "rad/s"),
+        ("r", v["r"], "rad/s"),
+        ("dl", v["dl"], "rad"),
+        ("dm", v["dm"], "rad"),
+        ("dn", v["dn"], "rad"),
+    ]
     for name, val, unit in rows:
         extra = f"  ({math.degrees(val):9.4f} deg)" if unit == "rad" else ""
         print(f"  {name:<6} {val:14.8g} {unit:<6}{extra}")

@@ -26,11 +26,37 @@ from gna.trajectory import COLUMNS, ControlFunction, control_function, controls_
 from .base import Engine, EngineError
 from .fly import fly
 from .inhouse import InHouseEngine
-from .jsbsim import (CONTROLLER_SCHEME, INTEGRATOR_CODES, JSBSIM_DEFAULT_INTEGRATORS, Integrators, JSBSimEngine,
-                     initial_condition_properties, load_fdm)
+from .jsbsim import (
+    CONTROLLER_SCHEME,
+    INTEGRATOR_CODES,
+    JSBSIM_DEFAULT_INTEGRATORS,
+    Integrators,
+    JSBSimEngine,
+    initial_condition_properties,
+    load_fdm,
+)
 from .registry import ENGINES, check_engine_names, engine_names, engines_from_names, get_engine
 
-__all__ = ["Engine", "EngineError", "fly", "get_engine", "engine_names", "engines_from_names", "check_engine_names", "ENGINES",
-           "InHouseEngine", "JSBSimEngine", "Integrators", "INTEGRATOR_CODES", "JSBSIM_DEFAULT_INTEGRATORS",
-           "CONTROLLER_SCHEME", "initial_condition_properties", "load_fdm", "COLUMNS", "ControlFunction",
-           "control_function", "controls_on_grid", "initial_state"]
+__all__ = [
+    "Engine",
+    "EngineError",
+    "fly",
+    "get_engine",
+    "engine_names",
+    "engines_from_names",
+    "check_engine_names",
+    "ENGINES",
+    "InHouseEngine",
+    "JSBSimEngine",
+    "Integrators",
+    "INTEGRATOR_CODES",
+    "JSBSIM_DEFAULT_INTEGRATORS",
+    "CONTROLLER_SCHEME",
+    "initial_condition_properties",
+    "load_fdm",
+    "COLUMNS",
+    "ControlFunction",
+    "control_function",
+    "controls_on_grid",
+    "initial_state",
+]

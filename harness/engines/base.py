@@ -34,8 +34,18 @@ class Engine(Protocol):
 
     name: str
 
-    def simulate(self, aircraft: Aircraft, controls, t_span, x0=None, *, env: Environment | None = None,
-                 controller=None, dt_out: float = 0.02, t_eval: np.ndarray | None = None) -> SimulationResult:
+    def simulate(
+        self,
+        aircraft: Aircraft,
+        controls,
+        t_span,
+        x0=None,
+        *,
+        env: Environment | None = None,
+        controller=None,
+        dt_out: float = 0.02,
+        t_eval: np.ndarray | None = None,
+    ) -> SimulationResult:
         """Fly ``aircraft`` from ``x0`` over ``t_span``.
 
         Parameters

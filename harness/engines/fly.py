@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -14,8 +14,18 @@ from gna.trajectory import SimulationResult, environment_of, initial_state
 from .registry import get_engine
 
 
-def fly(engines, aircraft: Aircraft, x0, controls, t_span, *, env: Environment | None = None,
-        controller=None, dt_out: float = 0.02, t_eval: np.ndarray | None = None) -> dict[str, SimulationResult]:
+def fly(
+    engines,
+    aircraft: Aircraft,
+    x0,
+    controls,
+    t_span,
+    *,
+    env: Environment | None = None,
+    controller=None,
+    dt_out: float = 0.02,
+    t_eval: np.ndarray | None = None,
+) -> dict[str, SimulationResult]:
     """Fly the same problem on several engines, on the same output grid.
 
     Parameters
@@ -63,5 +73,7 @@ def fly(engines, aircraft: Aircraft, x0, controls, t_span, *, env: Environment |
     if len(set(labels)) != len(labels):
         raise InputError(f"engine labels must be distinct, got {', '.join(labels)}; pass a mapping label -> engine")
     y0 = initial_state(controls, x0)
-    return {label: e.simulate(aircraft, controls, t_span, y0, env=env, controller=controller, dt_out=dt_out,
-                              t_eval=t_eval) for label, e in pairs}
+    return {
+        label: e.simulate(aircraft, controls, t_span, y0, env=env, controller=controller, dt_out=dt_out, t_eval=t_eval)
+        for label, e in pairs
+    }

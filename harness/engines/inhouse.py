@@ -38,8 +38,18 @@ class InHouseEngine:
     model: str = "full"
     name: ClassVar[str] = "inhouse"
 
-    def simulate(self, aircraft: Aircraft, controls, t_span, x0=None, *, env: Environment | None = None,
-                 controller=None, dt_out: float = 0.02, t_eval: np.ndarray | None = None) -> SimulationResult:
+    def simulate(
+        self,
+        aircraft: Aircraft,
+        controls,
+        t_span,
+        x0=None,
+        *,
+        env: Environment | None = None,
+        controller=None,
+        dt_out: float = 0.02,
+        t_eval: np.ndarray | None = None,
+    ) -> SimulationResult:
         """Integrate the wind-frame equations, a controller's states with them.
 
         Parameters
@@ -69,8 +79,20 @@ class InHouseEngine:
         """
         y0 = initial_state(controls, x0)
         env = environment_of(controls, env)
-        res = simulate(aircraft, control_function(controls), t_span, y0, env=env, model=self.model,
-                       controller=controller, dt_out=dt_out, t_eval=t_eval, rtol=self.rtol, atol=self.atol,
-                       method=self.method, max_step=self.max_step)
+        res = simulate(
+            aircraft,
+            control_function(controls),
+            t_span,
+            y0,
+            env=env,
+            model=self.model,
+            controller=controller,
+            dt_out=dt_out,
+            t_eval=t_eval,
+            rtol=self.rtol,
+            atol=self.atol,
+            method=self.method,
+            max_step=self.max_step,
+        )
         res.settings = dataclasses.replace(res.settings, engine=self.name)
         return res

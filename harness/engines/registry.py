@@ -7,9 +7,9 @@ come from here.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Mapping
 from functools import partial
 from types import MappingProxyType
-from typing import Callable, Iterable, Mapping
 
 from gna.errors import InputError
 
@@ -19,12 +19,14 @@ from .jsbsim import JSBSimEngine
 from .jsbsim.source import JSBSimSourceEngine
 
 #: Engine name -> factory (called without arguments), in display order.
-ENGINES: Mapping[str, Callable[[], Engine]] = MappingProxyType({
-    "inhouse": InHouseEngine,
-    "jsbsim": JSBSimEngine,
-    "jsbsim-wgs84": partial(JSBSimEngine, earth="wgs84"),
-    "jsbsim-source": JSBSimSourceEngine,
-})
+ENGINES: Mapping[str, Callable[[], Engine]] = MappingProxyType(
+    {
+        "inhouse": InHouseEngine,
+        "jsbsim": JSBSimEngine,
+        "jsbsim-wgs84": partial(JSBSimEngine, earth="wgs84"),
+        "jsbsim-source": JSBSimSourceEngine,
+    }
+)
 
 
 def engine_names() -> tuple[str, ...]:
@@ -97,8 +99,10 @@ def check_engine_names(names: str | Iterable[str], minimum: int = 1) -> tuple[st
     bad = [e for e in items if e not in ENGINES]
     if bad or len(items) < minimum or len(set(items)) != len(items):
         need = f"at least {minimum} distinct" if minimum > 1 else "distinct names"
-        raise InputError(f"engines: {need} of {', '.join(ENGINES)} needed; got {text!r}"
-                         + (f" (unknown: {', '.join(bad)})" if bad else ""))
+        raise InputError(
+            f"engines: {need} of {', '.join(ENGINES)} needed; got {text!r}"
+            + (f" (unknown: {', '.join(bad)})" if bad else "")
+        )
     return tuple(items)
 
 

@@ -23,10 +23,31 @@ runs
 
 from .runs import engine_tables, max_position_error, position_error, window_span
 from .scales import DATUM_DEPENDENT, DEFAULT_TOLERANCES, PERCENT_FLOORS, percent_floor, percent_scale
-from .tables import (DEFAULT_VARIABLES, DEFAULT_WINDOWS, DifferenceRow, DifferenceTable, difference_table,
-                     differences, resolve_tolerances)
+from .tables import (
+    DEFAULT_VARIABLES,
+    DEFAULT_WINDOWS,
+    DifferenceRow,
+    DifferenceTable,
+    difference_table,
+    differences,
+    resolve_tolerances,
+)
 
-__all__ = ["DATUM_DEPENDENT", "DEFAULT_TOLERANCES", "DEFAULT_VARIABLES", "DEFAULT_WINDOWS", "PERCENT_FLOORS",
-           "DifferenceRow", "DifferenceTable", "difference_table", "differences", "percent_floor", "percent_scale",
-           "resolve_tolerances",
-           "engine_tables", "window_span", "position_error", "max_position_error"]
+__all__ = [
+    "DATUM_DEPENDENT",
+    "DEFAULT_TOLERANCES",
+    "DEFAULT_VARIABLES",
+    "DEFAULT_WINDOWS",
+    "PERCENT_FLOORS",
+    "DifferenceRow",
+    "DifferenceTable",
+    "difference_table",
+    "differences",
+    "percent_floor",
+    "percent_scale",
+    "resolve_tolerances",
+    "engine_tables",
+    "window_span",
+    "position_error",
+    "max_position_error",
+]

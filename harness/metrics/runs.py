@@ -8,7 +8,7 @@ planned flat outputs (x, y, z).
 
 from __future__ import annotations
 
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -39,9 +39,14 @@ def window_span(t_span: tuple[float, float], duration: float | None) -> tuple[fl
     return t0, None if duration is None else min(t0 + float(duration), float(t_span[1]))
 
 
-def engine_tables(runs: Mapping, t_span: tuple[float, float], tolerances=None,
-                  windows: Mapping[str, float | None] | None = None, *,
-                  rtol=None) -> dict[str, dict[str, DifferenceTable]]:
+def engine_tables(
+    runs: Mapping,
+    t_span: tuple[float, float],
+    tolerances=None,
+    windows: Mapping[str, float | None] | None = None,
+    *,
+    rtol=None,
+) -> dict[str, dict[str, DifferenceTable]]:
     """Difference tables of every run against the first, per time window.
 
     Parameters
@@ -70,10 +75,15 @@ def engine_tables(runs: Mapping, t_span: tuple[float, float], tolerances=None,
     labels = list(runs)
     windows = DEFAULT_WINDOWS if windows is None else windows
     ref = labels[0] if labels else None
-    return {other: {name: difference_table(runs[ref], runs[other], tolerances, window=window_span(t_span, dur),
-                                           labels=(ref, other), rtol=rtol)
-                    for name, dur in windows.items()}
-            for other in labels[1:]}
+    return {
+        other: {
+            name: difference_table(
+                runs[ref], runs[other], tolerances, window=window_span(t_span, dur), labels=(ref, other), rtol=rtol
+            )
+            for name, dur in windows.items()
+        }
+        for other in labels[1:]
+    }
 
 
 def position_error(trajectory, reference, window: tuple[float | None, float | None] | None = None) -> pd.Series:
@@ -119,12 +129,14 @@ def _reference_positions(reference: Callable | pd.DataFrame, t: np.ndarray) -> n
     if isinstance(reference, pd.DataFrame):
         tr = np.asarray(reference.index, dtype=float)
         if t.size and (t[0] < tr[0] - 1e-9 or t[-1] > tr[-1] + 1e-9):
-            raise InputError(f"the reference covers t = {tr[0]:g} .. {tr[-1]:g} s, the trajectory "
-                             f"t = {t[0]:g} .. {t[-1]:g} s")
+            raise InputError(
+                f"the reference covers t = {tr[0]:g} .. {tr[-1]:g} s, the trajectory t = {t[0]:g} .. {t[-1]:g} s"
+            )
         return np.array([np.interp(t, tr, reference[c].to_numpy(float)) for c in ("x", "y", "z")])
     if not callable(reference):
-        raise InputError(f"reference must be a callable t -> (x, y, z, ...) or a DataFrame, "
-                         f"got {type(reference).__name__}")
+        raise InputError(
+            f"reference must be a callable t -> (x, y, z, ...) or a DataFrame, got {type(reference).__name__}"
+        )
     R = np.asarray(reference(t), dtype=float)
     if R.ndim != 2 or R.shape[0] < 3 or R.shape[1] != t.size:
         raise InputError(f"reference(t) must have shape (>=3, {t.size}) for {t.size} times, got {R.shape}")

@@ -28,9 +28,19 @@ from gna.trajectory import POSITION, UNITS
 #: 1e-2 m in position, 1e-4 rad in angles; speed and rates get the same relative
 #: scale, 1e-3 m/s and 1e-3 rad/s.
 DEFAULT_TOLERANCES: dict[str, float] = {
-    POSITION: 1e-2, "x": 1e-2, "y": 1e-2, "z": 1e-2, "V": 1e-3,
-    "gamma": 1e-4, "chi": 1e-4, "alpha": 1e-4, "beta": 1e-4, "mu": 1e-4,
-    "p": 1e-3, "q": 1e-3, "r": 1e-3,
+    POSITION: 1e-2,
+    "x": 1e-2,
+    "y": 1e-2,
+    "z": 1e-2,
+    "V": 1e-3,
+    "gamma": 1e-4,
+    "chi": 1e-4,
+    "alpha": 1e-4,
+    "beta": 1e-4,
+    "mu": 1e-4,
+    "p": 1e-3,
+    "q": 1e-3,
+    "r": 1e-3,
 }
 
 #: Scale of ``delta_pct`` (SI units) taken as zero to rounding for the kinds of quantity without a floor in
@@ -47,8 +57,12 @@ REFERENCE_ZERO = 1e-9
 #: 26.2 kg) by the speed tolerance over the 10 s window, 2.6e-3 N, or its roll rate (Ixx = 1.66 kg m^2) by the
 #: rate tolerance, 1.7e-4 N m, each rounded down to its decade.
 PERCENT_FLOORS: dict[str, float] = {
-    "m": DEFAULT_TOLERANCES["x"], "m/s": DEFAULT_TOLERANCES["V"], "rad": DEFAULT_TOLERANCES["alpha"],
-    "rad/s": DEFAULT_TOLERANCES["p"], "N": 1e-3, "N m": 1e-4,
+    "m": DEFAULT_TOLERANCES["x"],
+    "m/s": DEFAULT_TOLERANCES["V"],
+    "rad": DEFAULT_TOLERANCES["alpha"],
+    "rad/s": DEFAULT_TOLERANCES["p"],
+    "N": 1e-3,
+    "N m": 1e-4,
 }
 
 #: Variables whose zero is a datum, not physics: the positions (NED origin) and the heading chi (north).
@@ -114,9 +128,9 @@ def _diameter(points: np.ndarray) -> float:
 
     points = points - points[0]
     if len(points) > 64:
-        try:               # QJ: joggled input, so a level (planar) or straight (linear) path still has a hull
+        try:  # QJ: joggled input, so a level (planar) or straight (linear) path still has a hull
             points = points[ConvexHull(points, qhull_options="QJ").vertices]
         except (QhullError, ValueError):
             pass
-    step = max(1, 2_000_000 // len(points))                      # blocks of at most 2e6 pairs
-    return max(float(np.max(cdist(points[i:i + step], points))) for i in range(0, len(points), step))
+    step = max(1, 2_000_000 // len(points))  # blocks of at most 2e6 pairs
+    return max(float(np.max(cdist(points[i : i + step], points))) for i in range(0, len(points), step))

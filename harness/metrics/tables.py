@@ -20,18 +20,17 @@ of the variable's kind of quantity (:mod:`harness.metrics.scales`).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 
-from gna.errors import InputError
 from gna.eom import STATE_NAMES
+from gna.errors import InputError
 from gna.trajectory import ANGLES, POSITION, UNITS
 
-from .scales import (DATUM_DEPENDENT, DEFAULT_TOLERANCES, PERCENT_FLOORS, REFERENCE_ZERO,  # noqa: F401
-                     percent_floor, percent_scale)
+from .scales import DATUM_DEPENDENT, DEFAULT_TOLERANCES, PERCENT_FLOORS, REFERENCE_ZERO, percent_floor, percent_scale  # noqa: F401
 
 #: Default variables of a table: position, then the 12 states.
 DEFAULT_VARIABLES: tuple[str, ...] = (POSITION,) + STATE_NAMES
@@ -155,10 +154,25 @@ class DifferenceTable:
             Indexed by variable; columns ``unit, max_abs, t_max, rms, delta_pct, scale, ref_max, atol, rtol,
             tolerance, passed``.
         """
-        return pd.DataFrame([{"variable": r.variable, "unit": r.unit, "max_abs": r.max_abs, "t_max": r.t_max,
-                              "rms": r.rms, "delta_pct": r.delta_pct, "scale": r.scale, "ref_max": r.ref_max,
-                              "atol": r.atol, "rtol": r.rtol, "tolerance": r.tolerance, "passed": r.passed} for r in self.rows]
-                            ).set_index("variable")
+        return pd.DataFrame(
+            [
+                {
+                    "variable": r.variable,
+                    "unit": r.unit,
+                    "max_abs": r.max_abs,
+                    "t_max": r.t_max,
+                    "rms": r.rms,
+                    "delta_pct": r.delta_pct,
+                    "scale": r.scale,
+                    "ref_max": r.ref_max,
+                    "atol": r.atol,
+                    "rtol": r.rtol,
+                    "tolerance": r.tolerance,
+                    "passed": r.passed,
+                }
+                for r in self.rows
+            ]
+        ).set_index("variable")
 
     def format(self) -> str:
         """The printed difference table.
@@ -169,15 +183,18 @@ class DifferenceTable:
             Header (labels, window, samples), one line per variable, notes, overall result.
         """
         a, b = self.labels
-        lines = [f"difference {b} - {a}, t in [{self.window[0]:g}, {self.window[1]:g}] s, {self.samples} samples",
-                 f"  {'variable':<9} {'unit':<6} {'max |diff|':>11} {'at t [s]':>9} {'RMS':>10} "
-                 f"{'delta [%]':>10} {'tolerance':>10}  result"]
+        lines = [
+            f"difference {b} - {a}, t in [{self.window[0]:g}, {self.window[1]:g}] s, {self.samples} samples",
+            f"  {'variable':<9} {'unit':<6} {'max |diff|':>11} {'at t [s]':>9} {'RMS':>10} "
+            f"{'delta [%]':>10} {'tolerance':>10}  result",
+        ]
         for r in self.rows:
             tol = f"{r.tolerance:10.1e}" if r.tolerance is not None else f"{'-':>10}"
             res = {True: "pass", False: "FAIL", None: ""}[r.passed]
             delta = f"{r.delta_pct:10.3e}" if math.isfinite(r.delta_pct) else f"{'-':>10}"
-            lines.append(f"  {r.variable:<9} {r.unit:<6} {r.max_abs:11.3e} {r.t_max:9.3f} {r.rms:10.3e} "
-                         f"{delta} {tol}  {res}")
+            lines.append(
+                f"  {r.variable:<9} {r.unit:<6} {r.max_abs:11.3e} {r.t_max:9.3f} {r.rms:10.3e} {delta} {tol}  {res}"
+            )
         for n in self.notes:
             lines.append(f"  note: {n}")
         fails = [r.variable for r in self.failures()]
@@ -188,9 +205,11 @@ class DifferenceTable:
         else:
             lines.append("  overall: FAIL" + (f" ({', '.join(fails)})" if fails else " (coverage)"))
         floors = dict.fromkeys(f"{percent_floor(r.variable):g} {r.unit}".strip(" -") for r in self.rows)
-        foot = (f"delta = 100 max|diff| / scale over the window, scale = max|reference| (its excursion max - min "
-                f"for x, y, z, chi; the path's diameter for position), undefined (-) where the scale is at most the "
-                f"floor of its kind ({', '.join(floors)})")
+        foot = (
+            f"delta = 100 max|diff| / scale over the window, scale = max|reference| (its excursion max - min "
+            f"for x, y, z, chi; the path's diameter for position), undefined (-) where the scale is at most the "
+            f"floor of its kind ({', '.join(floors)})"
+        )
         if any(r.rtol for r in self.rows):
             foot = "tolerance = atol + rtol * max |reference| over the window; " + foot
         lines.append(f"  ({foot})")
@@ -250,10 +269,17 @@ def resolve_tolerances(tolerances, variables: Sequence[str]) -> dict[str, float]
     return {k: v for k in variables}
 
 
-def difference_table(a, b, tolerances=None, *, variables: Sequence[str] | None = None,
-                     window: tuple[float | None, float | None] | None = None,
-                     labels: tuple[str, str] = ("a", "b"), interpolate: bool = False,
-                     rtol=None) -> DifferenceTable:
+def difference_table(
+    a,
+    b,
+    tolerances=None,
+    *,
+    variables: Sequence[str] | None = None,
+    window: tuple[float | None, float | None] | None = None,
+    labels: tuple[str, str] = ("a", "b"),
+    interpolate: bool = False,
+    rtol=None,
+) -> DifferenceTable:
     """Per-variable max and RMS of ``b - a``, time of the maximum and pass/fail.
 
     Parameters
@@ -331,8 +357,9 @@ def difference_table(a, b, tolerances=None, *, variables: Sequence[str] | None =
     if interpolate:
         tt = tt[(tt >= tb[0] - tol_t) & (tt <= tb[-1] + tol_t)]
         ia = np.searchsorted(ta, tt)
-        Bv = {n: np.interp(tt, tb, np.unwrap(B[n].to_numpy(float)) if n in ANGLES else B[n].to_numpy(float))
-              for n in need}
+        Bv = {
+            n: np.interp(tt, tb, np.unwrap(B[n].to_numpy(float)) if n in ANGLES else B[n].to_numpy(float)) for n in need
+        }
         Av = {n: A[n].to_numpy(float)[ia] for n in need}
     else:
         j = np.searchsorted(tb, tt)
@@ -346,8 +373,10 @@ def difference_table(a, b, tolerances=None, *, variables: Sequence[str] | None =
         Av = {n: A[n].to_numpy(float)[ia] for n in need}
         Bv = {n: B[n].to_numpy(float)[jb] for n in need}
     if tt.size == 0:
-        raise InputError(f"{labels[0]} and {labels[1]} have no common output times in [{lo:g}, {hi:g}] s"
-                         + ("" if interpolate else "; pass interpolate=True to compare different grids"))
+        raise InputError(
+            f"{labels[0]} and {labels[1]} have no common output times in [{lo:g}, {hi:g}] s"
+            + ("" if interpolate else "; pass interpolate=True to compare different grids")
+        )
 
     rows = []
     for v in variables:
@@ -368,8 +397,9 @@ def difference_table(a, b, tolerances=None, *, variables: Sequence[str] | None =
         t_ = None if a_ is None and r_ is None else (a_ or 0.0) + (r_ or 0.0) * (ref_max if ref_max > 0 else 0.0)
         passed = None if t_ is None else bool(np.isfinite(mx) and mx <= t_)
         rows.append(DifferenceRow(v, UNITS.get(v, ""), mx, rms, tm, t_, passed, ref_max, pct, a_, r_, scale))
-    return DifferenceTable(rows=rows, labels=tuple(labels), window=(float(tt[0]), float(tt[-1])),
-                           samples=int(tt.size), notes=notes)
+    return DifferenceTable(
+        rows=rows, labels=tuple(labels), window=(float(tt[0]), float(tt[-1])), samples=int(tt.size), notes=notes
+    )
 
 
 def _reference(variable: str, A: Mapping):

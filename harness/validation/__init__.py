@@ -29,6 +29,20 @@ from .result import CaseResult
 from .run import EngineComparison, PlannedCase, case_settings, compare_engines, plan_case, provenance, run_case
 from .tolerances import QUANTITIES, CompareSettings, parse_compare, resolve_compare
 
-__all__ = ["LOOPS", "ValidationCase", "load_case", "CaseResult", "CompareSettings", "QUANTITIES",
-           "EngineComparison", "PlannedCase", "case_settings", "compare_engines", "parse_compare", "plan_case",
-           "provenance", "resolve_compare", "run_case"]
+__all__ = [
+    "LOOPS",
+    "ValidationCase",
+    "load_case",
+    "CaseResult",
+    "CompareSettings",
+    "QUANTITIES",
+    "EngineComparison",
+    "PlannedCase",
+    "case_settings",
+    "compare_engines",
+    "parse_compare",
+    "plan_case",
+    "provenance",
+    "resolve_compare",
+    "run_case",
+]

@@ -25,9 +25,10 @@ Every comparison setting left unset (None) is taken from the scenario's
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from gna.errors import InputError
 from gna.schema import read_toml
@@ -39,11 +40,22 @@ from .tolerances import parse_compare, unknown_key
 #: Loop kinds of a case: the plan's controls alone, or with the tracking feedback.
 LOOPS: tuple[str, ...] = ("open", "closed")
 
-_CASE_KEYS = ("scenario", "J", "engines", "loop", "tolerances", "rtol", "windows", "dt_out", "jsbsim_dt",
-              "self_convergence")
+_CASE_KEYS = (
+    "scenario",
+    "J",
+    "engines",
+    "loop",
+    "tolerances",
+    "rtol",
+    "windows",
+    "dt_out",
+    "jsbsim_dt",
+    "self_convergence",
+)
 
 
 # --------------------------------------------------------------------------- the case
+
 
 def _positive(value, what: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
@@ -104,8 +116,11 @@ class ValidationCase:
             set_(self, "scenario", str(self.scenario))
         if not isinstance(self.scenario, str) or not self.scenario:
             raise InputError(f"scenario must be a name or a path, got {self.scenario!r}")
-        if self.J is not None and self.J != "auto" and (isinstance(self.J, bool) or not isinstance(self.J, int)
-                                                        or self.J < 0):
+        if (
+            self.J is not None
+            and self.J != "auto"
+            and (isinstance(self.J, bool) or not isinstance(self.J, int) or self.J < 0)
+        ):
             raise InputError(f"J must be an integer >= 0, 'auto' or None, got {self.J!r}")
         # a comparison: at least two distinct engines, the rule of gflat compare --engines
         set_(self, "engines", check_engine_names(self.engines, minimum=2))
@@ -145,10 +160,14 @@ class ValidationCase:
     @property
     def overrides(self) -> dict:
         """The comparison settings this case sets, as a ``[compare]`` table (unset ones are None)."""
-        return {"tolerances": self.tolerance_spec,
-                "rtol": dict(self.rtol) if isinstance(self.rtol, tuple) else self.rtol,
-                "windows": dict(self.windows) if self.windows is not None else None,
-                "dt_out": self.dt_out, "jsbsim_dt": self.jsbsim_dt, "self_convergence": self.self_convergence}
+        return {
+            "tolerances": self.tolerance_spec,
+            "rtol": dict(self.rtol) if isinstance(self.rtol, tuple) else self.rtol,
+            "windows": dict(self.windows) if self.windows is not None else None,
+            "dt_out": self.dt_out,
+            "jsbsim_dt": self.jsbsim_dt,
+            "self_convergence": self.self_convergence,
+        }
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], where: str = "case", base: Path | None = None) -> ValidationCase:
@@ -216,7 +235,7 @@ class ValidationCase:
         p = Path(path)
         if not p.is_file():
             raise InputError(f"cannot read the case file {p}: {'it is a folder' if p.is_dir() else 'no such file'}")
-        return cls.from_dict(read_toml(p), where=p.name, base=p.parent)    # UTF-8 (BOM accepted), valid TOML
+        return cls.from_dict(read_toml(p), where=p.name, base=p.parent)  # UTF-8 (BOM accepted), valid TOML
 
 
 def load_case(path: str | Path) -> ValidationCase:

@@ -78,10 +78,12 @@ def closed_loop_setup(plan, scenario, *, feedforward_iterate: int | None = None)
     pert = tr.perturbation
     if pert is not None:
         from gna.perturbation import offset_state, perturbed_aircraft
+
         aircraft = perturbed_aircraft(aircraft, pert)
         x0 = np.asarray(offset_state(x0, pert), dtype=float)
-    return ClosedLoopSetup(controller=controller, aircraft=aircraft, x0=x0,
-                           feedforward_iterate=j % len(plan.iterates), perturbation=pert)
+    return ClosedLoopSetup(
+        controller=controller, aircraft=aircraft, x0=x0, feedforward_iterate=j % len(plan.iterates), perturbation=pert
+    )
 
 
 def saturated_seconds(controller, run) -> dict:
@@ -124,6 +126,9 @@ def sampled_engines(engines: dict, controller_dt: float | None) -> dict:
     """
     from dataclasses import fields, is_dataclass, replace
 
-    return {label: replace(e, controller_dt=controller_dt)
-            if is_dataclass(e) and "controller_dt" in {f.name for f in fields(e)} else e
-            for label, e in engines.items()}
+    return {
+        label: replace(e, controller_dt=controller_dt)
+        if is_dataclass(e) and "controller_dt" in {f.name for f in fields(e)}
+        else e
+        for label, e in engines.items()
+    }

@@ -12,8 +12,9 @@ writes files or prints.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -91,8 +92,11 @@ def _same_open_loop(run, plan, setup: ClosedLoopSetup, ref: str, dt_out: float) 
     if getattr(run.settings, "engine", None) != ref or not np.array_equal(setup.x0, plan.initial_state(plan.J)):
         return False
     t = np.asarray(run.df.index, dtype=float)
-    return (run.status != "completed" or t.size == 0 or
-            (abs(t[0] - plan.t0) < 1e-9 and (t.size < 2 or abs(t[1] - t[0] - dt_out) < 1e-9)))
+    return (
+        run.status != "completed"
+        or t.size == 0
+        or (abs(t[0] - plan.t0) < 1e-9 and (t.size < 2 or abs(t[1] - t[0] - dt_out) < 1e-9))
+    )
 
 
 def reusable_open_loop(flights: CaseFlights, run) -> bool:
@@ -155,15 +159,19 @@ def case_flights(case: ValidationCase, *, plan=None, scenario=None, open_loop=No
     if not isinstance(case, ValidationCase):
         raise InputError(f"run_case needs a ValidationCase, got {type(case).__name__}")
     if plan is not None and not isinstance(plan, Plan):
-        raise InputError(f"plan must be a planners.plan.Plan, got {type(plan).__name__} {plan!r:.60}; "
-                         f"planners.generalized.plan_scenario(scenario) makes one")
+        raise InputError(
+            f"plan must be a planners.plan.Plan, got {type(plan).__name__} {plan!r:.60}; "
+            f"planners.generalized.plan_scenario(scenario) makes one"
+        )
     if scenario is not None and not isinstance(scenario, Scenario):
-        raise InputError(f"scenario must be a planners.scenario.Scenario, got {type(scenario).__name__} "
-                         f"{scenario!r:.60}; planners.scenario.load_scenario(name) makes one")
+        raise InputError(
+            f"scenario must be a planners.scenario.Scenario, got {type(scenario).__name__} "
+            f"{scenario!r:.60}; planners.scenario.load_scenario(name) makes one"
+        )
     planning_time = None
     if scenario is None:
         scenario = load_scenario(case.scenario, J=case.J)
-    settings = case_settings(case, scenario)      # a bad [compare] table is refused before planning
+    settings = case_settings(case, scenario)  # a bad [compare] table is refused before planning
     if plan is None:
         t_start = time.perf_counter()
         plan = plan_scenario(scenario)
@@ -171,7 +179,7 @@ def case_flights(case: ValidationCase, *, plan=None, scenario=None, open_loop=No
     elif isinstance(case.J, int) and plan.J != case.J:
         raise InputError(f"the plan given has J = {plan.J}, the case asks for J = {case.J}")
     if not plan.feasible:
-        singular = plan.singularities.failures if plan.singularities is not None else []   # the cause first
+        singular = plan.singularities.failures if plan.singularities is not None else []  # the cause first
         why = (singular or plan.newton_failures or plan.domain_failures[-1:] or ["not feasible"])[0]
         raise DomainError(f"{plan.name}: the plan is not feasible, nothing to fly: {why}")
     J = plan.J
@@ -189,19 +197,39 @@ def case_flights(case: ValidationCase, *, plan=None, scenario=None, open_loop=No
         if _same_open_loop(open_loop, plan, setup, ref, dt_out):
             reused[OPEN_LOOP] = open_loop
         else:
-            flights[OPEN_LOOP] = _fly_one(ref, engines[ref], ((setup.aircraft, setup.x0, plan.control_function(J),
-                                                              span), dict(env=plan.env, dt_out=dt_out)))
-        if setup.feedforward_iterate != 0:          # the paper's dark-blue run: the flat plan's feedforward
+            flights[OPEN_LOOP] = _fly_one(
+                ref,
+                engines[ref],
+                ((setup.aircraft, setup.x0, plan.control_function(J), span), dict(env=plan.env, dt_out=dt_out)),
+            )
+        if setup.feedforward_iterate != 0:  # the paper's dark-blue run: the flat plan's feedforward
             flat = closed_loop_setup(plan, scenario, feedforward_iterate=0)
-            flights[FLAT_LOOP] = _fly_one(ref, engines[ref], (
-                (flat.aircraft, flat.x0, flat.controller.controls, span),
-                dict(env=plan.env, controller=flat.controller, dt_out=dt_out)))
+            flights[FLAT_LOOP] = _fly_one(
+                ref,
+                engines[ref],
+                (
+                    (flat.aircraft, flat.x0, flat.controller.controls, span),
+                    dict(env=plan.env, controller=flat.controller, dt_out=dt_out),
+                ),
+            )
     else:
-        problem = ((plan.aircraft, plan.initial_state(J), plan.control_function(J), span),
-                   dict(env=plan.env, dt_out=dt_out))
+        problem = (
+            (plan.aircraft, plan.initial_state(J), plan.control_function(J), span),
+            dict(env=plan.env, dt_out=dt_out),
+        )
         flights = {label: _fly_one(label, e, problem) for label, e in engines.items()}
-    return CaseFlights(case=case, plan=plan, scenario=scenario, settings=settings, engines=engines, problem=problem,
-                       flights=flights, planning_time_s=planning_time, closed_loop=setup, reused=reused)
+    return CaseFlights(
+        case=case,
+        plan=plan,
+        scenario=scenario,
+        settings=settings,
+        engines=engines,
+        problem=problem,
+        flights=flights,
+        planning_time_s=planning_time,
+        closed_loop=setup,
+        reused=reused,
+    )
 
 
 def finish_case(flights: CaseFlights, runs: Mapping[str, Any]) -> CaseResult:
@@ -237,19 +265,35 @@ def finish_case(flights: CaseFlights, runs: Mapping[str, Any]) -> CaseResult:
     span = (plan.t0, plan.t1)
     dt_out = settings.dt_out
     tables = engine_tables(main, span, settings.tolerances, settings.windows, rtol=settings.rtol or None)
-    half, self_conv = (_self_convergence(flights.engines, main, flights.problem, span, settings)
-                       if settings.self_convergence else ({}, {}))
+    half, self_conv = (
+        _self_convergence(flights.engines, main, flights.problem, span, settings)
+        if settings.self_convergence
+        else ({}, {})
+    )
     grid = np.arange(plan.t0, plan.t1 + 0.5 * dt_out, dt_out)
     plan_df = plan.to_dataframe(grid[grid <= plan.t1 + 1e-9], j=plan.J)
     # no tolerances: the open-loop drift from the plan is information, not a pass/fail criterion
-    vs_plan = {label: difference_table(plan_df, res.df, tolerances={}, labels=("plan", label))
-               for label, res in main.items()}
+    vs_plan = {
+        label: difference_table(plan_df, res.df, tolerances={}, labels=("plan", label)) for label, res in main.items()
+    }
     open_loop = flat_loop = None
     if flights.closed_loop is not None:
         ref = case.engines[0]
         open_loop = every[OPEN_LOOP]
         flat_loop = every.get(FLAT_LOOP, main[ref])
-    return CaseResult(case=case, plan=plan, runs=main, tables=tables, vs_plan=vs_plan, provenance=provenance(),
-                      planning_time_s=flights.planning_time_s, closed_loop=flights.closed_loop, open_loop=open_loop,
-                      settings=settings, half_step=half, self_convergence=self_conv, scenario=flights.scenario,
-                      flat_closed_loop=flat_loop)
+    return CaseResult(
+        case=case,
+        plan=plan,
+        runs=main,
+        tables=tables,
+        vs_plan=vs_plan,
+        provenance=provenance(),
+        planning_time_s=flights.planning_time_s,
+        closed_loop=flights.closed_loop,
+        open_loop=open_loop,
+        settings=settings,
+        half_step=half,
+        self_convergence=self_conv,
+        scenario=flights.scenario,
+        flat_closed_loop=flat_loop,
+    )

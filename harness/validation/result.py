@@ -8,8 +8,9 @@ always travels with the tolerances that made it.  Nothing here writes files.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -27,18 +28,23 @@ DELTA_PCT_DEFINITION = (
     "differences.<engine>.delta_pct: informative, not a verdict; per variable, 100 max|b - a| / scale [%] over "
     "{window}, a = the reference engine; scale = max|a|, or for x, y, z, chi (no physical zero) the "
     "excursion max(a) - min(a) (for position, the largest distance between two points of a's path); null where "
-    "the scale is at most the floor of its kind (" + ", ".join(f"{v:g} {k}" for k, v in PERCENT_FLOORS.items())
-    + ", 1e-09 otherwise)")
+    "the scale is at most the floor of its kind ("
+    + ", ".join(f"{v:g} {k}" for k, v in PERCENT_FLOORS.items())
+    + ", 1e-09 otherwise)"
+)
+
 
 def _runs_report(runs: Mapping, tables: Mapping) -> str:
     """Status and settings of every run, then every difference table."""
     out = []
     for label, res in runs.items():
         s = res.settings
-        extra = (f"dt = {s['dt']:.6g} s, integrators {s['integrators']}"
-                 + (f", earth {s['earth']}" if s.get("earth") else "")
-                 if s.get("dt") is not None else
-                 f"{s.get('method')} rtol = {s.get('rtol')}, atol = {s.get('atol')}")
+        extra = (
+            f"dt = {s['dt']:.6g} s, integrators {s['integrators']}"
+            + (f", earth {s['earth']}" if s.get("earth") else "")
+            if s.get("dt") is not None
+            else f"{s.get('method')} rtol = {s.get('rtol')}, atol = {s.get('atol')}"
+        )
         out.append(f"{label}: {res.status}{(' - ' + res.message) if res.message else ''}; {extra}")
         out += [f"  warning: {w}" for w in res.warnings]
     for per in tables.values():
@@ -130,8 +136,9 @@ class CaseResult:
             see :func:`harness.metrics.max_position_error`.
         """
         J = self.plan.J
-        return {label: max_position_error(res, lambda t: self.plan.state(t, J), window)
-                for label, res in self.runs.items()}
+        return {
+            label: max_position_error(res, lambda t: self.plan.state(t, J), window) for label, res in self.runs.items()
+        }
 
     def saturated_s(self) -> dict:
         """Per engine, the seconds a control was commanded beyond its limits (closed loop).
@@ -168,22 +175,35 @@ class CaseResult:
         whole = self.max_position_error_m()
         after = self.max_position_error_m((t0 + 5.0, None))
         sat = self.saturated_s()
-        runs = {label: {"status": res.status, "max_position_error_m": whole[label],
-                        "max_position_error_after_5s_m": after[label],
-                        "saturated_s": sat[label]["any"] if label in sat else 0.0}
-                for label, res in self.runs.items()}
-        diffs = {label: dict(_maxima(per), delta_pct={r.variable: r.delta_pct for r in _whole(per).rows})
-                 for label, per in self.tables.items()}
+        runs = {
+            label: {
+                "status": res.status,
+                "max_position_error_m": whole[label],
+                "max_position_error_after_5s_m": after[label],
+                "saturated_s": sat[label]["any"] if label in sat else 0.0,
+            }
+            for label, res in self.runs.items()
+        }
+        diffs = {
+            label: dict(_maxima(per), delta_pct={r.variable: r.delta_pct for r in _whole(per).rows})
+            for label, per in self.tables.items()
+        }
         ok = self.passed and all(r.status == "completed" for r in self.runs.values())
         where = "the whole span"
         for per in self.tables.values():
             name = "whole span" if "whole span" in per else next(iter(per))
             where = f"the window {name!r}, t in [{per[name].window[0]:g}, {per[name].window[1]:g}] s"
             break
-        return {"scenario": self.plan.name, "loop": self.case.loop, "runs": runs, "differences": diffs,
-                "delta_pct_definition": DELTA_PCT_DEFINITION.format(window=where), "pass": ok,
-                "settings": self.settings.to_dict() if self.settings is not None else None,
-                "self_convergence": {label: _maxima(per) for label, per in self.self_convergence.items()}}
+        return {
+            "scenario": self.plan.name,
+            "loop": self.case.loop,
+            "runs": runs,
+            "differences": diffs,
+            "delta_pct_definition": DELTA_PCT_DEFINITION.format(window=where),
+            "pass": ok,
+            "settings": self.settings.to_dict() if self.settings is not None else None,
+            "self_convergence": {label: _maxima(per) for label, per in self.self_convergence.items()},
+        }
 
     def reference_frame(self):
         """The plan's J-th iterate at the reference engine's output times.
@@ -213,15 +233,24 @@ class CaseResult:
             ``settings`` (tolerances and settings of the verdict),
             ``self_convergence_tables`` (JSBSim engine -> window -> row records).
         """
+
         def records(tables):
-            return {eng: {w: t.to_frame().reset_index().to_dict(orient="records") for w, t in per.items()}
-                    for eng, per in tables.items()}
-        return {"scenario": self.plan.name, "J": self.plan.J, "engines": list(self.runs), "passed": self.passed,
-                "status": {k: r.status for k, r in self.runs.items()},
-                "tables": records(self.tables),
-                "figures": [str(p) for p in figures],
-                "settings": self.settings.to_dict() if self.settings is not None else None,
-                "self_convergence_tables": records(self.self_convergence)}
+            return {
+                eng: {w: t.to_frame().reset_index().to_dict(orient="records") for w, t in per.items()}
+                for eng, per in tables.items()
+            }
+
+        return {
+            "scenario": self.plan.name,
+            "J": self.plan.J,
+            "engines": list(self.runs),
+            "passed": self.passed,
+            "status": {k: r.status for k, r in self.runs.items()},
+            "tables": records(self.tables),
+            "figures": [str(p) for p in figures],
+            "settings": self.settings.to_dict() if self.settings is not None else None,
+            "self_convergence_tables": records(self.self_convergence),
+        }
 
     def report_text(self) -> str:
         """The difference report (``differences.txt``).
@@ -233,8 +262,10 @@ class CaseResult:
             engine per window, tables against the plan.
         """
         p = self.plan
-        lines = [f"{p.name}: {p.aircraft.id}, J = {p.J}, t = {p.t0:g} .. {p.t1:g} s, {self.case.loop} loop",
-                 _runs_report(self.runs, self.tables)]
+        lines = [
+            f"{p.name}: {p.aircraft.id}, J = {p.J}, t = {p.t0:g} .. {p.t1:g} s, {self.case.loop} loop",
+            _runs_report(self.runs, self.tables),
+        ]
         for label, per in self.self_convergence.items():
             for name, tab in per.items():
                 lines.append(f"[self-convergence of {label}: step against half the step, {name}]")
@@ -253,6 +284,7 @@ def _whole(per: Mapping):
 def _maxima(per: Mapping) -> dict:
     """Largest position [m] and angle [rad] differences over the whole span."""
     tab = _whole(per)
-    return {"max_position_m": tab.row("position").max_abs,
-            "max_angle_rad": max(tab.row(v).max_abs for v in ANGLE_STATES)}
-
+    return {
+        "max_position_m": tab.row("position").max_abs,
+        "max_angle_rad": max(tab.row(v).max_abs for v in ANGLE_STATES),
+    }

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 from gna.errors import InputError
 from planners.generalized import plan_scenario
@@ -85,9 +86,19 @@ class EngineComparison:
         return _runs_report(self.results, self.tables)
 
 
-def compare_engines(aircraft, controls, t_span=None, x0=None, *, engines=("inhouse", "jsbsim"), env=None,
-                    controller=None, dt_out: float = 0.02, tolerances=None,
-                    windows: Mapping[str, float | None] | None = None) -> EngineComparison:
+def compare_engines(
+    aircraft,
+    controls,
+    t_span=None,
+    x0=None,
+    *,
+    engines=("inhouse", "jsbsim"),
+    env=None,
+    controller=None,
+    dt_out: float = 0.02,
+    tolerances=None,
+    windows: Mapping[str, float | None] | None = None,
+) -> EngineComparison:
     """Fly one problem on several engines and compare each with the first.
 
     Parameters
@@ -181,7 +192,6 @@ def plan_case(case: ValidationCase, max_cost: float | None = None) -> PlannedCas
     return PlannedCase(scenario=sc, plan=plan, planning_time_s=time.perf_counter() - t0)
 
 
-
 def case_settings(case: ValidationCase, scenario) -> CompareSettings:
     """The comparison settings of a case: the case's (command line) > the scenario's ``[compare]`` > defaults.
 
@@ -231,9 +241,16 @@ def _self_convergence(engines, runs, problem, span, settings: CompareSettings):
         if not (dataclasses.is_dataclass(e) and hasattr(e, "dt") and str(e.name).startswith("jsbsim")):
             continue
         half[label] = fly({label: with_step(e, e.dt / 2)}, *problem[0], **problem[1])[label]
-        tables[label] = {name: difference_table(runs[label], half[label], tolerances={},
-                                                window=window_span(span, dur), labels=(f"{label} dt", f"{label} dt/2"))
-                         for name, dur in settings.windows.items()}
+        tables[label] = {
+            name: difference_table(
+                runs[label],
+                half[label],
+                tolerances={},
+                window=window_span(span, dur),
+                labels=(f"{label} dt", f"{label} dt/2"),
+            )
+            for name, dur in settings.windows.items()
+        }
     return half, tables
 
 

@@ -23,13 +23,14 @@ same absolute tolerance for every compared variable).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 from gna.errors import InputError
 from gna.schema import unknown_key_message
 from gna.trajectory import COLUMNS, POSITION
-from planners.scenario import COMPARE_KEYS   # the keys of a [compare] table: one definition, checked there
+from planners.scenario import COMPARE_KEYS  # the keys of a [compare] table: one definition, checked there
 
 from ..metrics import DEFAULT_TOLERANCES, DEFAULT_VARIABLES, DEFAULT_WINDOWS
 
@@ -70,10 +71,14 @@ def unknown_key(key: str, known, where: str) -> InputError:
 
 
 def _number(value, what: str, *, positive: bool) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-            or value < 0 or (positive and value == 0):
-        raise InputError(f"{what} must be a {'positive' if positive else 'non-negative'} finite number, "
-                         f"got {value!r}")
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not math.isfinite(value)
+        or value < 0
+        or (positive and value == 0)
+    ):
+        raise InputError(f"{what} must be a {'positive' if positive else 'non-negative'} finite number, got {value!r}")
     return float(value)
 
 
@@ -111,7 +116,7 @@ def expand_tolerances(spec, where: str = "tolerances") -> dict[str, float] | Non
     for key in spec:
         if key not in known:
             raise unknown_key(key, list(QUANTITIES) + list(DEFAULT_VARIABLES[1:]), where)
-    for key, value in spec.items():                       # quantities first, variables override them
+    for key, value in spec.items():  # quantities first, variables override them
         if key in QUANTITIES:
             v = _number(value, f"{where}: {key}", positive=False)
             out.update({var: v for var in QUANTITIES[key]})
@@ -144,11 +149,13 @@ def parse_windows(spec, where: str = "windows") -> dict[str, float | None] | Non
     if spec is None:
         return None
     if not isinstance(spec, Mapping):
-        raise InputError(f"{where} must be a table name -> duration [s] or \"all\", got {spec!r}")
+        raise InputError(f'{where} must be a table name -> duration [s] or "all", got {spec!r}')
     if not spec:
         raise InputError(f"{where}: at least one comparison window is needed")
-    return {str(k): None if v is None or v == "all" else _number(v, f"{where}: window {k!r}", positive=True)
-            for k, v in spec.items()}
+    return {
+        str(k): None if v is None or v == "all" else _number(v, f"{where}: window {k!r}", positive=True)
+        for k, v in spec.items()
+    }
 
 
 def parse_compare(table: Mapping[str, Any] | None, where: str = "[compare]") -> dict[str, Any]:
@@ -234,14 +241,24 @@ class CompareSettings:
         dict
             The attributes; windows as name -> seconds or ``"all"``.
         """
-        return {"tolerances": dict(self.tolerances), "rtol": dict(self.rtol),
-                "windows": {k: "all" if v is None else v for k, v in self.windows.items()},
-                "dt_out": self.dt_out, "jsbsim_dt": self.jsbsim_dt, "self_convergence": self.self_convergence,
-                "sources": dict(self.sources)}
+        return {
+            "tolerances": dict(self.tolerances),
+            "rtol": dict(self.rtol),
+            "windows": {k: "all" if v is None else v for k, v in self.windows.items()},
+            "dt_out": self.dt_out,
+            "jsbsim_dt": self.jsbsim_dt,
+            "self_convergence": self.self_convergence,
+            "sources": dict(self.sources),
+        }
 
 
-def resolve_compare(scenario_table: Mapping | None = None, overrides: Mapping | None = None, *,
-                    where: str = "[compare]", override_source: str = "command line") -> CompareSettings:
+def resolve_compare(
+    scenario_table: Mapping | None = None,
+    overrides: Mapping | None = None,
+    *,
+    where: str = "[compare]",
+    override_source: str = "command line",
+) -> CompareSettings:
     """Merge the defaults, a scenario's ``[compare]`` table and the overrides (command line or case).
 
     Parameters
@@ -279,8 +296,12 @@ def resolve_compare(scenario_table: Mapping | None = None, overrides: Mapping | 
         if "rtol" in d:
             rtol.update(d["rtol"])
             sources["rtol"] = src
-    defaults = {"windows": dict(DEFAULT_WINDOWS), "dt_out": DEFAULT_DT_OUT, "jsbsim_dt": DEFAULT_JSBSIM_DT,
-                "self_convergence": False}
+    defaults = {
+        "windows": dict(DEFAULT_WINDOWS),
+        "dt_out": DEFAULT_DT_OUT,
+        "jsbsim_dt": DEFAULT_JSBSIM_DT,
+        "self_convergence": False,
+    }
     values = {}
     for key, default in defaults.items():
         if key in over:

@@ -13,5 +13,13 @@ from .first_order_lag import first_order_lag, lag_exact, lag_reference
 
 SYSTEMS = {"first-order-lag": first_order_lag, "car-two-trailers": car_two_trailers}
 
-__all__ = ["SYSTEMS", "CarTrailers", "aircraft_system", "car_two_trailers", "first_order_lag", "lag_exact",
-           "lag_reference", "simulate_car_two_trailers"]
+__all__ = [
+    "SYSTEMS",
+    "CarTrailers",
+    "aircraft_system",
+    "car_two_trailers",
+    "first_order_lag",
+    "lag_exact",
+    "lag_reference",
+    "simulate_car_two_trailers",
+]

@@ -26,8 +26,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from gna.eom import H_NAMES, Controls, HValues, State, force_equations, kinematics, loads, rotational_dynamics, \
-    wind_angle_rates
+from gna.eom import (
+    H_NAMES,
+    Controls,
+    HValues,
+    State,
+    force_equations,
+    kinematics,
+    loads,
+    rotational_dynamics,
+    wind_angle_rates,
+)
 
 from ..chained import ChainedSystem, Stage
 from ..flat import FlatProblem, _check_inputs, _stage2_guess, _unwrap_constant, force_residuals, stage1, stage3
@@ -64,8 +73,18 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
 
     def state(v, rates=True):
         pqr = (v["p"], v["q"], v["r"]) if rates else (0.0, 0.0, 0.0)
-        return State(0.0, 0.0, v["z"], v["V"], v["gamma"], v["chi"], v.get("alpha", 0.0), v.get("beta", 0.0),
-                     v.get("mu", 0.0), *pqr)
+        return State(
+            0.0,
+            0.0,
+            v["z"],
+            v["V"],
+            v["gamma"],
+            v["chi"],
+            v.get("alpha", 0.0),
+            v.get("beta", 0.0),
+            v.get("mu", 0.0),
+            *pqr,
+        )
 
     # ---- stage 1: kinematics
     def residual1(v):
@@ -73,16 +92,42 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
         return [v["x'"] - xd, v["y'"] - yd, v["z'"] - zd]
 
     def solve1(v, t_nodes):
-        _check_inputs(t_nodes, {"x": v["x"], "y": v["y"], "z": v["z"], "zeta": v["zeta"], "f1": v.get("f1"),
-                                "f2": v.get("f2"), "eta": v.get("eta"), "dn": v.get("dn")})
+        _check_inputs(
+            t_nodes,
+            {
+                "x": v["x"],
+                "y": v["y"],
+                "z": v["z"],
+                "zeta": v["zeta"],
+                "f1": v.get("f1"),
+                "f2": v.get("f2"),
+                "eta": v.get("eta"),
+                "dn": v.get("dn"),
+            },
+        )
         return list(stage1(v["x"], v["y"], v["z"]))
 
     # ---- stage 2: force equations and the fourth flat output, H_2 at the neglected values
     def residual2(v):
         h = HValues(*(v[n] for n in H_NAMES))
         eta = v["eta"] if rudder_control else 0.0
-        r1, r2, r3 = force_residuals(ac, env, v["z"], v["V"], v["gamma"], v["chi"], v["V'"], v["gamma'"],
-                                     v["chi'"], eta, h, v["alpha"], v["beta"], v["mu"], v["F"])
+        r1, r2, r3 = force_residuals(
+            ac,
+            env,
+            v["z"],
+            v["V"],
+            v["gamma"],
+            v["chi"],
+            v["V'"],
+            v["gamma'"],
+            v["chi'"],
+            eta,
+            h,
+            v["alpha"],
+            v["beta"],
+            v["mu"],
+            v["F"],
+        )
         if kind == "beta":
             r4 = v["beta"] - v["zeta"]
         elif kind == "mu":
@@ -94,13 +139,22 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
         return [r1, r2, r3, r4]
 
     def start2(v, t_nodes):
-        d = {"z": v["z"], "V": v["V"], "gamma": v["gamma"], "Vd": v["V'"], "gd": v["gamma'"], "chid": v["chi'"],
-             "zv": v["zeta"], "f1": v.get("f1"), "f2": v.get("f2")}
+        d = {
+            "z": v["z"],
+            "V": v["V"],
+            "gamma": v["gamma"],
+            "Vd": v["V'"],
+            "gd": v["gamma'"],
+            "chid": v["chi'"],
+            "zv": v["zeta"],
+            "f1": v.get("f1"),
+            "f2": v.get("f2"),
+        }
         return [np.real(s.constant_term) for s in _stage2_guess(problem, t_nodes, d, [v[n] for n in H_NAMES])]
 
     def post2(u):
         alpha, beta, mu, F = u
-        return [alpha, beta, _unwrap_constant(mu), F]   # neighbouring nodes on the same bank branch
+        return [alpha, beta, _unwrap_constant(mu), F]  # neighbouring nodes on the same bank branch
 
     # ---- stage 3: wind-angle rates
     def residual3(v):
@@ -128,12 +182,14 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
     return ChainedSystem(
         name="aircraft",
         flat_outputs={"x": 1, "y": 1, "z": 1, "zeta": 3},
-        stages=(Stage(STAGE_UNKNOWNS[0], residual1, solve=solve1),
-                Stage(STAGE_UNKNOWNS[1], residual2, neglected=H_NAMES, ell=3, start=start2, post=post2),
-                Stage(STAGE_UNKNOWNS[2], residual3, solve=solve3),
-                Stage(controls4, residual4)),
+        stages=(
+            Stage(STAGE_UNKNOWNS[0], residual1, solve=solve1),
+            Stage(STAGE_UNKNOWNS[1], residual2, neglected=H_NAMES, ell=3, start=start2, post=post2),
+            Stage(STAGE_UNKNOWNS[2], residual3, solve=solve3),
+            Stage(controls4, residual4),
+        ),
         description=f"{ac.id}: wind-frame model, flat outputs x, y, z and {kind}"
-                    + ("" if rudder_control else ", rudder fixed (eta the fourth control)"),
+        + ("" if rudder_control else ", rudder fixed (eta the fourth control)"),
         inputs=inputs,
         outputs=outputs,
         neglected_values=dict(zip(H_NAMES, problem.h)),

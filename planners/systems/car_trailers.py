@@ -82,14 +82,15 @@ def car_two_trailers(geometry: CarTrailers = CarTrailers(), speed: float = 5.0) 
 
     def stage2(v):
         c, s = np.cos(v["theta1"] - v["theta2"]), np.sin(v["theta1"] - v["theta2"])
-        return [v["v2"] - v["v1"] * c - g.d2 * v["w1"] * s,
-                g.L2 * v["theta2'"] - v["v1"] * s + g.d2 * v["w1"] * c]
+        return [v["v2"] - v["v1"] * c - g.d2 * v["w1"] * s, g.L2 * v["theta2'"] - v["v1"] * s + g.d2 * v["w1"] * c]
 
     def stage3(v):
         c, s = np.cos(v["theta0"] - v["theta1"]), np.sin(v["theta0"] - v["theta1"])
-        return [v["w1"] - v["theta1'"],
-                v["v1"] - v["v0"] * c - g.d1 * v["w0"] * s,
-                g.L1 * v["theta1'"] - v["v0"] * s + g.d1 * v["w0"] * c]
+        return [
+            v["w1"] - v["theta1'"],
+            v["v1"] - v["v0"] * c - g.d1 * v["w0"] * s,
+            g.L1 * v["theta1'"] - v["v0"] * s + g.d1 * v["w0"] * c,
+        ]
 
     def stage4(v):
         return [v["w0"] - v["theta0'"], g.l0 * v["theta0'"] - v["v0"] * np.tan(v["phi"])]
@@ -101,18 +102,26 @@ def car_two_trailers(geometry: CarTrailers = CarTrailers(), speed: float = 5.0) 
 
     # I1 (along track): second derivative dv2 -> dv0 (degree 2); I2 (cross track): theta2 -> theta1 ->
     # theta0 -> phi (degree 5), decoupled after I1 (the aircraft's sequential construction)
-    model = StateSpaceModel(STATES, CONTROLS, lambda x, u, hat=None: kinematics(g, x, u, hat), integrands,
-                            degrees=(2, 5), stages=(((0,), (0,)), ((1,), (1,))))
+    model = StateSpaceModel(
+        STATES,
+        CONTROLS,
+        lambda x, u, hat=None: kinematics(g, x, u, hat),
+        integrands,
+        degrees=(2, 5),
+        stages=(((0,), (0,)), ((1,), (1,))),
+    )
     return ChainedSystem(
         name="car-two-trailers",
         flat_outputs={"x2": 1, "y2": 1},
-        stages=(Stage(("v2", "theta2"), stage1),
-                Stage(("v1", "theta1"), stage2, neglected=("w1",), ell=2),
-                Stage(("v0", "theta0", "w1"), stage3, neglected=("w0",), ell=2),
-                Stage(("phi", "w0"), stage4)),
+        stages=(
+            Stage(("v2", "theta2"), stage1),
+            Stage(("v1", "theta1"), stage2, neglected=("w1",), ell=2),
+            Stage(("v0", "theta0", "w1"), stage3, neglected=("w0",), ell=2),
+            Stage(("phi", "w0"), stage4),
+        ),
         guess={"v2": speed, "v1": speed, "v0": speed},
         description=f"car with two trailers hitched off-axle (d1 = {g.d1:g} m, d2 = {g.d2:g} m); flat output "
-                    "(x2, y2) of the on-axle approximation",
+        "(x2, y2) of the on-axle approximation",
         model=model,
     )
 
@@ -202,13 +211,21 @@ def simulate_car_two_trailers(geometry: CarTrailers, v0, phi, state0, t_eval) ->
     from scipy.integrate import solve_ivp
 
     t_eval = np.asarray(t_eval, dtype=float)
-    sol = solve_ivp(lambda t, x: car_trailers_rhs(geometry, float(v0(t)), float(phi(t)), x),
-                    (t_eval[0], t_eval[-1]), np.asarray(state0, dtype=float), t_eval=t_eval, rtol=1e-10,
-                    atol=1e-10, method="RK45")
+    sol = solve_ivp(
+        lambda t, x: car_trailers_rhs(geometry, float(v0(t)), float(phi(t)), x),
+        (t_eval[0], t_eval[-1]),
+        np.asarray(state0, dtype=float),
+        t_eval=t_eval,
+        rtol=1e-10,
+        atol=1e-10,
+        method="RK45",
+    )
     if sol.status != 0 or sol.y.shape[1] != t_eval.size:
         t_stop = float(sol.t[-1]) if sol.t.size else float(t_eval[0])
-        raise DomainError(f"the exact car-with-trailers model flown open loop stopped at t = {t_stop:.6g} s "
-                          f"(of {t_eval[-1]:g} s): {sol.message}")
+        raise DomainError(
+            f"the exact car-with-trailers model flown open loop stopped at t = {t_stop:.6g} s "
+            f"(of {t_eval[-1]:g} s): {sol.message}"
+        )
     return sol.y.T
 
 
@@ -242,7 +259,7 @@ def open_loop_error(plan, geometry: CarTrailers, x2, y2, samples: int = 241) -> 
     """
     te = np.linspace(plan.t_nodes[0], plan.t_nodes[-1], samples)
     x0 = [plan.evaluate(n, te[0]) for n in ("x2", "y2", "theta2", "theta1", "theta0")]
-    X = simulate_car_two_trailers(geometry, lambda t: plan.evaluate("v0", t), lambda t: plan.evaluate("phi", t),
-                                  x0, te)
-    return float(np.max(np.hypot(X[:, 0] - np.broadcast_to(x2(te), te.shape),
-                                 X[:, 1] - np.broadcast_to(y2(te), te.shape))))
+    X = simulate_car_two_trailers(geometry, lambda t: plan.evaluate("v0", t), lambda t: plan.evaluate("phi", t), x0, te)
+    return float(
+        np.max(np.hypot(X[:, 0] - np.broadcast_to(x2(te), te.shape), X[:, 1] - np.broadcast_to(y2(te), te.shape)))
+    )

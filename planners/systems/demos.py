@@ -15,8 +15,13 @@ import numpy as np
 
 from gna.errors import DomainError
 
-from .scenario import (ChainedScenario, is_chained_scenario, list_chained_scenarios, load_chained_scenario,
-                       plan_chained_scenario)
+from .scenario import (
+    ChainedScenario,
+    is_chained_scenario,
+    list_chained_scenarios,
+    load_chained_scenario,
+    plan_chained_scenario,
+)
 
 #: The bundled chained-system scenarios (``planners/systems/scenarios/*.toml``), run by ``gflat plan NAME``.
 DEMOS = tuple(list_chained_scenarios())
@@ -75,14 +80,17 @@ def run_demo(name: str, J: int | None = None, method: str | None = None) -> Demo
     try:
         checks = sc.spec.check(plan, sc)
         failure = sc.spec.verdict(checks, sc) if sc.spec.verdict is not None else None
-    except DomainError as exc:       # the exact model cannot be flown along the plan
+    except DomainError as exc:  # the exact model cannot be flown along the plan
         checks, failure = {}, str(exc)
     tn = plan.t_nodes
     outputs = ", ".join(f"{z} = {e.text}" for z, e in sc.flat_outputs.items())
     params = ", ".join(f"{k} = {v:g}" for k, v in sc.parameters.items())
-    lines = [f"{sc.name}: {sc.system.description}", f"  parameters: {params}; flat outputs: {outputs}",
-             f"  {len(tn)} nodes, t = {tn[0]:g} .. {tn[-1]:g}, {method}, J = {sc.J}, e = {sc.e}, "
-             f"{len(plan.iterates)} iterate(s), planning time {elapsed:.3f} s"]
+    lines = [
+        f"{sc.name}: {sc.system.description}",
+        f"  parameters: {params}; flat outputs: {outputs}",
+        f"  {len(tn)} nodes, t = {tn[0]:g} .. {tn[-1]:g}, {method}, J = {sc.J}, e = {sc.e}, "
+        f"{len(plan.iterates)} iterate(s), planning time {elapsed:.3f} s",
+    ]
     if plan.residuals:
         lines.append("  Newton max |X^ - G(X^)| per step: " + ", ".join(f"{r:.2e}" for r in plan.residuals))
     lines += [f"  {k}: {v:.3e}" for k, v in checks.items()]
@@ -91,13 +99,30 @@ def run_demo(name: str, J: int | None = None, method: str | None = None) -> Demo
     grid = np.linspace(tn[0], tn[-1], 4 * (len(tn) - 1) + 1)
     names = list(plan.iterates[-1])
     buf = io.StringIO()
-    np.savetxt(buf, np.column_stack([grid] + [plan.evaluate(n, grid) for n in names]), delimiter=",",
-               header=",".join(["t"] + names), comments="", fmt="%.10g")
-    summary = {"scenario": sc.name, "system": sc.system_name, "description": sc.description,
-               "parameters": sc.parameters, "flat_outputs": {z: e.text for z, e in sc.flat_outputs.items()},
-               "method": method, "J": sc.J, "e": sc.e, "nodes": len(tn), "planning_time_s": elapsed,
-               "checks": checks, "feasible": failure is None, "failure": failure,
-               "newton_residuals": plan.residuals}
+    np.savetxt(
+        buf,
+        np.column_stack([grid] + [plan.evaluate(n, grid) for n in names]),
+        delimiter=",",
+        header=",".join(["t"] + names),
+        comments="",
+        fmt="%.10g",
+    )
+    summary = {
+        "scenario": sc.name,
+        "system": sc.system_name,
+        "description": sc.description,
+        "parameters": sc.parameters,
+        "flat_outputs": {z: e.text for z, e in sc.flat_outputs.items()},
+        "method": method,
+        "J": sc.J,
+        "e": sc.e,
+        "nodes": len(tn),
+        "planning_time_s": elapsed,
+        "checks": checks,
+        "feasible": failure is None,
+        "failure": failure,
+        "newton_residuals": plan.residuals,
+    }
     return DemoResult("\n".join(lines), buf.getvalue(), summary, plan)
 
 

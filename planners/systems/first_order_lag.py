@@ -40,14 +40,21 @@ def first_order_lag(eps: float = 0.1) -> ChainedSystem:
         name="first-order-lag",
         flat_outputs={"x": 1},
         # at stage 1, "y1" is the neglected variable's value from the previous iterate
-        stages=(Stage(("y",), lambda v: [v["x'"] - v["y"] - eps * v["y1"]], neglected=("y1",), ell=2),
-                Stage(("y1",), lambda v: [v["y'"] - v["y1"]])),
+        stages=(
+            Stage(("y",), lambda v: [v["x'"] - v["y"] - eps * v["y1"]], neglected=("y1",), ell=2),
+            Stage(("y1",), lambda v: [v["y'"] - v["y1"]]),
+        ),
         description=f"x' = y + eps y' with eps = {eps:g} s; x is a generalized flat output",
         # states x, y, control y1 = y'; the design model freezes H_1 = eps y1 at the plan's values:
         # I = int dx has relative degree 3 (dx, then dy, then dy1)
-        model=StateSpaceModel(("x", "y"), ("y1",),
-                              lambda x, u, hat=None: [x[1] + eps * (u[0] if hat is None else hat["y1"]), u[0]],
-                              lambda ref: [[1.0, 0.0]], degrees=(3,), stages=(((0,), (0,)),)),
+        model=StateSpaceModel(
+            ("x", "y"),
+            ("y1",),
+            lambda x, u, hat=None: [x[1] + eps * (u[0] if hat is None else hat["y1"]), u[0]],
+            lambda ref: [[1.0, 0.0]],
+            degrees=(3,),
+            stages=(((0,), (0,)),),
+        ),
     )
 
 

@@ -35,9 +35,10 @@ loop with the planned controls.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -92,27 +93,29 @@ _LAG_SCALE = "max |(1 + eps d/dt)^-1 x'| at the nodes"
 LAG_RTOL = 1e-6
 
 
-def _lag_check(plan: ChainedPlan, sc: "ChainedScenario") -> dict:
+def _lag_check(plan: ChainedPlan, sc: ChainedScenario) -> dict:
     tn = plan.t_nodes
     y = np.real(plan.iterates[-1]["y"].constant_term)
     ref = lag_exact(sc.flat_outputs["x"], sc.parameters["eps"], tn)
     return {_LAG_ERROR: float(np.max(np.abs(y - ref))), _LAG_SCALE: float(np.max(np.abs(ref)))}
 
 
-def _lag_verdict(checks: Mapping, sc: "ChainedScenario") -> str | None:
+def _lag_verdict(checks: Mapping, sc: ChainedScenario) -> str | None:
     err, scale = checks[_LAG_ERROR], max(checks[_LAG_SCALE], 1e-300)
     if np.isfinite(err) and err <= LAG_RTOL * scale:
         return None
-    return (f"the planned y is not the lag's output: {_LAG_ERROR} = {err:.3g}, {err / scale:.3g} of its size "
-            f"(> {LAG_RTOL:g}); the series (1 + eps d/dt)^-1 = sum (-eps d/dt)^k converges only where eps "
-            f"times the frequencies of x' stays below 1 (eps = {sc.parameters['eps']:g} s)")
+    return (
+        f"the planned y is not the lag's output: {_LAG_ERROR} = {err:.3g}, {err / scale:.3g} of its size "
+        f"(> {LAG_RTOL:g}); the series (1 + eps d/dt)^-1 = sum (-eps d/dt)^k converges only where eps "
+        f"times the frequencies of x' stays below 1 (eps = {sc.parameters['eps']:g} s)"
+    )
 
 
 def _car_geometry(p: Mapping) -> CarTrailers:
     return CarTrailers(l0=p["l0"], d1=p["d1"], L1=p["L1"], d2=p["d2"], L2=p["L2"])
 
 
-def _car_check(plan: ChainedPlan, sc: "ChainedScenario") -> dict:
+def _car_check(plan: ChainedPlan, sc: ChainedScenario) -> dict:
     err = open_loop_error(plan, _car_geometry(sc.parameters), sc.flat_outputs["x2"], sc.flat_outputs["y2"])
     return {"open-loop error of the exact off-axle model [m]": err}
 
@@ -125,18 +128,22 @@ SPECS: dict[str, SystemSpec] = {
         check=_lag_check,
         verdict=_lag_verdict,
         description="x' = y + eps y', x a generalized flat output (paper, 'Generalized flatness from the "
-                    "theoretical standpoint')"),
+        "theoretical standpoint')",
+    ),
     "car-two-trailers": SystemSpec(
         build=lambda p: car_two_trailers(_car_geometry(p), p["speed"]),
-        parameters={"l0": (2.7, "m", "car wheelbase"),
-                    "d1": (0.8, "m", "trailer 1 hitch offset behind the car's rear axle (0: on-axle)"),
-                    "L1": (3.0, "m", "trailer 1 hitch-to-axle length"),
-                    "d2": (0.6, "m", "trailer 2 hitch offset behind trailer 1's axle (0: on-axle)"),
-                    "L2": (3.0, "m", "trailer 2 hitch-to-axle length"),
-                    "speed": (5.0, "m/s", "typical forward speed: Newton's starting value of the speeds")},
+        parameters={
+            "l0": (2.7, "m", "car wheelbase"),
+            "d1": (0.8, "m", "trailer 1 hitch offset behind the car's rear axle (0: on-axle)"),
+            "L1": (3.0, "m", "trailer 1 hitch-to-axle length"),
+            "d2": (0.6, "m", "trailer 2 hitch offset behind trailer 1's axle (0: on-axle)"),
+            "L2": (3.0, "m", "trailer 2 hitch-to-axle length"),
+            "speed": (5.0, "m/s", "typical forward speed: Newton's starting value of the speeds"),
+        },
         check=_car_check,
         description="car with two trailers hitched off-axle (Rouchon, Fliess, Levine and Martin 1993), flat "
-                    "output (x2, y2) of the on-axle approximation"),
+        "output (x2, y2) of the on-axle approximation",
+    ),
 }
 
 
@@ -144,10 +151,15 @@ def _schema(system: str | None) -> dict:
     """JSON Schema of a chained scenario file (the parameters of ``system``, or any when unknown)."""
     num = {"type": "number"}
     spec = SPECS.get(system) if system else None
-    params = {k: dict(num, description=f"{d} [{u}], default {v:g}") for k, (v, u, d) in spec.parameters.items()} \
-        if spec else {}
-    flat = {z: {"type": ["string", "number"], "description": "flat output, expression of t"}
-            for z in (spec.build({k: v[0] for k, v in spec.parameters.items()}).flat_outputs if spec else ())}
+    params = (
+        {k: dict(num, description=f"{d} [{u}], default {v:g}") for k, (v, u, d) in spec.parameters.items()}
+        if spec
+        else {}
+    )
+    flat = {
+        z: {"type": ["string", "number"], "description": "flat output, expression of t"}
+        for z in (spec.build({k: v[0] for k, v in spec.parameters.items()}).flat_outputs if spec else ())
+    }
 
     def table(props, required=()):
         out = {"type": "object", "properties": props, "additionalProperties": False}
@@ -157,7 +169,9 @@ def _schema(system: str | None) -> dict:
 
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "type": "object", "additionalProperties": False, "required": ["system", "time", "flat_outputs"],
+        "type": "object",
+        "additionalProperties": False,
+        "required": ["system", "time", "flat_outputs"],
         "properties": {
             "name": {"type": "string", "pattern": SAFE_NAME.pattern},
             "description": {"type": "string"},
@@ -166,9 +180,13 @@ def _schema(system: str | None) -> dict:
             "constants": {"type": "object", "additionalProperties": num},
             "time": table({"t0": num, "t1": num, "step": dict(num, exclusiveMinimum=0)}, ("t0", "t1", "step")),
             "flat_outputs": table(flat, tuple(flat)),
-            "generalized": table({"J": {"type": "integer", "minimum": 0},
-                                  "e": {"type": "integer", "minimum": 1, "maximum": 20},
-                                  "method": {"type": "string", "enum": list(METHODS)}}),
+            "generalized": table(
+                {
+                    "J": {"type": "integer", "minimum": 0},
+                    "e": {"type": "integer", "minimum": 1, "maximum": 20},
+                    "method": {"type": "string", "enum": list(METHODS)},
+                }
+            ),
         },
     }
 
@@ -295,13 +313,16 @@ def load_chained_scenario(name_or_path: str | Path, J: int | None = None) -> Cha
     cat = _catalogue()
     path = find_file(name_or_path, cat, "scenario")
     if path is None:
-        raise InputError(f"unknown chained-system scenario {str(name_or_path)!r}; bundled: {', '.join(cat)} "
-                         f"(or give the path of a .toml file)")
+        raise InputError(
+            f"unknown chained-system scenario {str(name_or_path)!r}; bundled: {', '.join(cat)} "
+            f"(or give the path of a .toml file)"
+        )
     return chained_scenario_from_dict(read_toml(path), where=path.name, J=J, path=str(path))
 
 
-def chained_scenario_from_dict(data: Mapping[str, Any], where: str = "scenario", J: int | None = None,
-                               path: str | None = None) -> ChainedScenario:
+def chained_scenario_from_dict(
+    data: Mapping[str, Any], where: str = "scenario", J: int | None = None, path: str | None = None
+) -> ChainedScenario:
     """Build a :class:`ChainedScenario` from a parsed TOML document.
 
     Parameters
@@ -328,12 +349,17 @@ def chained_scenario_from_dict(data: Mapping[str, Any], where: str = "scenario",
         raise InputError(f"{where}: a scenario is a table of tables, got {type(data).__name__}")
     system = data.get("system")
     if not isinstance(system, str) or system not in SPECS:
-        raise InputError(f"{where}: system = {system!r} is not a chained system{did_you_mean(system, SPECS)}; "
-                         f"known: {', '.join(SPECS)}")
+        raise InputError(
+            f"{where}: system = {system!r} is not a chained system{did_you_mean(system, SPECS)}; "
+            f"known: {', '.join(SPECS)}"
+        )
     validate(data, _schema(system), where)
     spec = SPECS[system]
-    name = check_name(data["name"], "name", where) if "name" in data else check_name(
-        Path(path).stem if path else system, "name (from the file name)", where)
+    name = (
+        check_name(data["name"], "name", where)
+        if "name" in data
+        else check_name(Path(path).stem if path else system, "name (from the file name)", where)
+    )
     params = {k: v[0] for k, v in spec.parameters.items()}
     for k in data.get("parameters", {}):
         params[k] = _num(data["parameters"], k, f"{where} [parameters]")
@@ -349,10 +375,12 @@ def chained_scenario_from_dict(data: Mapping[str, Any], where: str = "scenario",
         raise InputError(f"{where} [time]: t1 = {t1:g} must be after t0 = {t0:g}")
     n_steps = (t1 - t0) / step
     if step > t1 - t0 or n_steps > MAX_STEPS or abs(n_steps - round(n_steps)) > 1e-9 * n_steps:
-        raise InputError(f"{where} [time]: step {step:g} s must divide the span {t1 - t0:g} s into at most "
-                         f"{MAX_STEPS} steps")
-    flat = {z: compile_expression(v, consts, where=f"{where} [flat_outputs] {z}")
-            for z, v in data["flat_outputs"].items()}
+        raise InputError(
+            f"{where} [time]: step {step:g} s must divide the span {t1 - t0:g} s into at most {MAX_STEPS} steps"
+        )
+    flat = {
+        z: compile_expression(v, consts, where=f"{where} [flat_outputs] {z}") for z, v in data["flat_outputs"].items()
+    }
     gen = data.get("generalized", {})
     J_file = check_iterations(gen.get("J", 0), f"{where} [generalized]")
     J = J_file if J is None else check_iterations(J, where)
@@ -360,10 +388,22 @@ def chained_scenario_from_dict(data: Mapping[str, Any], where: str = "scenario",
         sysm = spec.build(params)
     except (ValueError, ZeroDivisionError) as exc:
         raise InputError(f"{where} [parameters]: {exc}") from None
-    return ChainedScenario(name=name, description=str(data.get("description", "")), system_name=system,
-                           parameters=params, system=sysm, t0=t0, t1=t1, step=step, flat_outputs=flat, J=J,
-                           e=int(gen.get("e", 1)), method=str(gen.get("method", "fixed-point")), path=path,
-                           raw=dict(data))
+    return ChainedScenario(
+        name=name,
+        description=str(data.get("description", "")),
+        system_name=system,
+        parameters=params,
+        system=sysm,
+        t0=t0,
+        t1=t1,
+        step=step,
+        flat_outputs=flat,
+        J=J,
+        e=int(gen.get("e", 1)),
+        method=str(gen.get("method", "fixed-point")),
+        path=path,
+        raw=dict(data),
+    )
 
 
 def plan_chained_scenario(sc: ChainedScenario, J: int | None = None, method: str | None = None) -> ChainedPlan:

@@ -87,8 +87,9 @@ def test_roll_open_loop_accuracy(bc):
 def test_mixed_fourth_output(bc):
     from tests.planners.conftest import make_scenario
 
-    sc = make_scenario(flat_outputs={"zeta": "mix", "zeta_value": "0.01", "f1": "1", "f2": "0.5 + 0.1*sin(t/7)"},
-                       generalized={"J": 1})
+    sc = make_scenario(
+        flat_outputs={"zeta": "mix", "zeta_value": "0.01", "f1": "1", "f2": "0.5 + 0.1*sin(t/7)"}, generalized={"J": 1}
+    )
     pb = sc.problem()
     prob = bc.CollocationProblem(sc, 4.0, bc.planner_guess(sc))
     sol = prob.solve()
@@ -111,8 +112,9 @@ def test_trim_guess_kinematics_and_trim(bc):
     e = 1e-5
     vel = np.stack([(f(t + e) - f(t - e)) / (2 * e) for f in (pb.x, pb.y, pb.z)])
     V, gam, chi = X[3], X[4], X[5]
-    assert np.allclose(vel, V * np.stack([np.cos(gam) * np.cos(chi), np.cos(gam) * np.sin(chi), -np.sin(gam)]),
-                       atol=1e-6)
+    assert np.allclose(
+        vel, V * np.stack([np.cos(gam) * np.cos(chi), np.cos(gam) * np.sin(chi), -np.sin(gam)]), atol=1e-6
+    )
     # The rest held at one trim: steady straight flight along the initial velocity, no sideslip.
     tr = guess.trim
     assert tr.fixed == pytest.approx({"V": V[0], "gamma": gam[0], "chi_dot": 0.0, "beta": 0.0})
@@ -122,8 +124,9 @@ def test_trim_guess_kinematics_and_trim(bc):
 
 def test_trim_guess_smoke(bc):
     """The trim guess on one small grid, through the benchmark's own loop (one repetition, one graph)."""
-    res = bc.bench_scenario("twin-otter-single-engine", factors=(8.0,), repeat=1, finer=(), graphs=("SX",),
-                            log=lambda *a: None)
+    res = bc.bench_scenario(
+        "twin-otter-single-engine", factors=(8.0,), repeat=1, finer=(), graphs=("SX",), log=lambda *a: None
+    )
     assert set(res["guesses"]) == {"plan-j0", "trim"}
     for gname, gres in res["guesses"].items():
         (g,) = gres["grids"]
@@ -144,8 +147,7 @@ def test_trim_guess_smoke(bc):
     # The planner's controls fly to the same figure in one piece (planners.verify) and by pieces.
     assert res["planner"]["accuracy_one_piece_m"] == pytest.approx(res["planner"]["accuracy_m"], rel=1e-2)
     both = res["guesses"]
-    assert both["plan-j0"]["grids"][0]["accuracy_m"] == pytest.approx(both["trim"]["grids"][0]["accuracy_m"],
-                                                                      rel=1e-3)
+    assert both["plan-j0"]["grids"][0]["accuracy_m"] == pytest.approx(both["trim"]["grids"][0]["accuracy_m"], rel=1e-3)
     text = bc.markdown_table([res])
     assert "guess trim" in text and "guess plan-j0" in text and "trim (" in text
     assert "none; most accurate: 8x" in text
@@ -162,8 +164,17 @@ def test_set_guess_resolves_to_the_same_solution(bc):
 
 def test_planner_settings_change_the_compared_problem(bc):
     """--step and --e plan with other settings, and the grids' intervals follow the planner's step."""
-    res = bc.bench_scenario("twin-otter-single-engine", factors=(8.0,), repeat=1, finer=(), graphs=("SX",),
-                            guesses=("plan-j0",), log=lambda *a: None, step=4.0, e=2)
+    res = bc.bench_scenario(
+        "twin-otter-single-engine",
+        factors=(8.0,),
+        repeat=1,
+        finer=(),
+        graphs=("SX",),
+        guesses=("plan-j0",),
+        log=lambda *a: None,
+        step=4.0,
+        e=2,
+    )
     assert res["step_s"] == 4.0 and res["planner"]["settings"] == {"e": 2}
     assert res["planner"]["nodes"] == 16  # 60 s in 4 s steps
     assert res["scenario"] == "twin-otter-single-engine (step 4, e 2)"
@@ -196,8 +207,16 @@ def test_open_loop_flight_restarts_at_every_break(bc, monkeypatch):
     grid = bc.verification_grid(sc)
     states = bc.fly_by_pieces(sc.problem(), sol.control_function, sol.initial_state, grid)
     assert [s[0] for s in spans] == pytest.approx(prob.breaks[:-1]) and spans[-1][1] == pytest.approx(sc.t1)
-    tight = simulate(sc.problem().aircraft, sol.control_function, (grid[0], grid[-1]), sol.initial_state,
-                     env=sc.problem().env, t_eval=grid, rtol=1e-13, atol=1e-13)
+    tight = simulate(
+        sc.problem().aircraft,
+        sol.control_function,
+        (grid[0], grid[-1]),
+        sol.initial_state,
+        env=sc.problem().env,
+        t_eval=grid,
+        rtol=1e-13,
+        atol=1e-13,
+    )
     one = tight.df[list(eom.STATE_NAMES)].to_numpy().T
     assert np.max(np.abs(states[:3] - one[:3])) < 1e-7
     err = bc.open_loop_error_of(sc, sol.control_function, sol.initial_state)

@@ -20,26 +20,29 @@ def no_work(bc, monkeypatch):
     monkeypatch.setattr(bc, "bench_scenario", lambda *a, **k: pytest.fail("ran before checking the arguments"))
 
 
-@pytest.mark.parametrize("argv, words", [
-    (["--step", "1e-9"], "8e+09 nodes"),
-    (["--step", "1000"], "longer than the 8 s span"),
-    (["--step", "0.3"], "does not divide the 8 s span"),
-    (["--e", "100"], "--e: a whole number from 0 to 10"),
-    (["--J", "31"], "--J: a whole number from 0 to 30"),
-    (["--J", "1000"], "got '1000'"),
-    (["--factors", "0"], "--factors"),
-    (["--factors", "nan"], "--factors"),
-    (["--factors", "1e-9"], "collocation intervals"),
-    (["--factors="], "--factors"),
-    (["--factors=-4"], "--factors"),
-    (["--graphs", "QX"], "--graphs"),
-    (["--scenarios", "nope"], "unknown scenario 'nope'"),
-    (["--repeat", "0"], "--repeat: at least 1"),
-    (["--repeat", "-2"], "--repeat: at least 1"),
-    (["--json", "/proc/x"], "--json: cannot write '/proc/x'"),
-    (["--json", "/nonexistent-folder/x.json"], "does not exist"),
-    (["--markdown", "/tmp"], "is a folder"),
-])
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["--step", "1e-9"], "8e+09 nodes"),
+        (["--step", "1000"], "longer than the 8 s span"),
+        (["--step", "0.3"], "does not divide the 8 s span"),
+        (["--e", "100"], "--e: a whole number from 0 to 10"),
+        (["--J", "31"], "--J: a whole number from 0 to 30"),
+        (["--J", "1000"], "got '1000'"),
+        (["--factors", "0"], "--factors"),
+        (["--factors", "nan"], "--factors"),
+        (["--factors", "1e-9"], "collocation intervals"),
+        (["--factors="], "--factors"),
+        (["--factors=-4"], "--factors"),
+        (["--graphs", "QX"], "--graphs"),
+        (["--scenarios", "nope"], "unknown scenario 'nope'"),
+        (["--repeat", "0"], "--repeat: at least 1"),
+        (["--repeat", "-2"], "--repeat: at least 1"),
+        (["--json", "/proc/x"], "--json: cannot write '/proc/x'"),
+        (["--json", "/nonexistent-folder/x.json"], "does not exist"),
+        (["--markdown", "/tmp"], "is a folder"),
+    ],
+)
 def test_bad_arguments_are_one_usage_line(bc, no_work, argv, words, capsys):
     if argv[:1] == ["--step"] or argv[:1] == ["--factors"] and "1e-9" in argv:
         argv = [*argv, "--scenarios", "gtm-aileron-roll"]
@@ -54,6 +57,7 @@ def test_bad_arguments_are_one_usage_line(bc, no_work, argv, words, capsys):
 def test_ctrl_c_is_one_line(bc, monkeypatch, capsys):
     def interrupted(*a, **k):
         raise KeyboardInterrupt
+
     monkeypatch.setattr(bc, "bench_scenario", interrupted)
     with pytest.raises(SystemExit) as exc:
         bc.main(["--scenarios", "gtm-aileron-roll", "--quick"])

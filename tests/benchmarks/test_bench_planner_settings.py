@@ -34,18 +34,21 @@ def test_a_setting_that_cannot_be_planned_is_a_row_with_its_reason(bps, capsys):
     assert "cannot be planned" in out
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["nope"], "unknown scenario 'nope'"),
-    (["gtm-aileron-roll", "--step", "0"], "--step: positive numbers"),
-    (["gtm-aileron-roll", "--e", "x"], "--e: comma-separated numbers"),
-    (["gtm-aileron-roll", "--J", "-1"], "--J: whole numbers from 0 to 30"),
-    (["gtm-aileron-roll", "--J", "31"], "--J: whole numbers from 0 to 30"),
-    (["gtm-aileron-roll", "--e", "100"], "--e: whole numbers from 0 to 10"),
-    (["gtm-aileron-roll", "--step", "1e-9"], "makes 8e+09 nodes"),
-    (["gtm-aileron-roll", "--step", "0.3"], "does not divide the 8 s span"),
-    (["gtm-aileron-roll", "--step", "1000"], "longer than the 8 s span"),
-    (["gtm-aileron-roll", "--repeat", "0"], "--repeat: at least 1"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["nope"], "unknown scenario 'nope'"),
+        (["gtm-aileron-roll", "--step", "0"], "--step: positive numbers"),
+        (["gtm-aileron-roll", "--e", "x"], "--e: comma-separated numbers"),
+        (["gtm-aileron-roll", "--J", "-1"], "--J: whole numbers from 0 to 30"),
+        (["gtm-aileron-roll", "--J", "31"], "--J: whole numbers from 0 to 30"),
+        (["gtm-aileron-roll", "--e", "100"], "--e: whole numbers from 0 to 10"),
+        (["gtm-aileron-roll", "--step", "1e-9"], "makes 8e+09 nodes"),
+        (["gtm-aileron-roll", "--step", "0.3"], "does not divide the 8 s span"),
+        (["gtm-aileron-roll", "--step", "1000"], "longer than the 8 s span"),
+        (["gtm-aileron-roll", "--repeat", "0"], "--repeat: at least 1"),
+    ],
+)
 def test_bad_settings_are_one_line_and_exit_2(bps, capsys, argv, message):
     with pytest.raises(SystemExit) as exc:
         bps.main(argv)

@@ -16,11 +16,14 @@ from gna.errors import InputError
 D = math.radians
 
 
-@pytest.mark.parametrize("name, expected", [
-    # validation.md of shared/data/gna: computed self-check at alpha 10, beta 5, rates 0.01, de -2, da 3, dr 4 deg.
-    ("f16c", (0.13003, -0.07854, 1.04748, -0.01595, -0.14334, 0.01144)),
-    ("a7", (0.06875, -0.06981, 0.63406, -0.01443, -0.19733, 0.00069)),
-])
+@pytest.mark.parametrize(
+    "name, expected",
+    [
+        # validation.md of shared/data/gna: computed self-check at alpha 10, beta 5, rates 0.01, de -2, da 3, dr 4 deg.
+        ("f16c", (0.13003, -0.07854, 1.04748, -0.01595, -0.14334, 0.01144)),
+        ("a7", (0.06875, -0.06981, 0.63406, -0.01443, -0.19733, 0.00069)),
+    ],
+)
 def test_transcription_self_check(name, expected):
     c = load_aircraft(name).aero.coefficients(AeroState(D(10), D(5), 0.01, 0.01, 0.01, D(3), D(-2), D(4)))
     np.testing.assert_allclose(np.array(c, dtype=float), expected, atol=5e-6)
@@ -57,11 +60,23 @@ def test_bad_term_value_rejected():
 
 
 def _random_states(n, rng):
-    s = State(0.0, 0.0, -1000.0, rng.uniform(80, 200, n), rng.uniform(-0.3, 0.3, n), 0.0,
-              rng.uniform(-0.1, 0.5, n), rng.uniform(-0.3, 0.3, n), rng.uniform(-1, 1, n),
-              rng.uniform(-1, 1, n), rng.uniform(-1, 1, n), rng.uniform(-1, 1, n))
-    u = Controls(rng.uniform(0, 5e4, n), 0.0, rng.uniform(-0.3, 0.3, n), rng.uniform(-0.3, 0.3, n),
-                 rng.uniform(-0.3, 0.3, n))
+    s = State(
+        0.0,
+        0.0,
+        -1000.0,
+        rng.uniform(80, 200, n),
+        rng.uniform(-0.3, 0.3, n),
+        0.0,
+        rng.uniform(-0.1, 0.5, n),
+        rng.uniform(-0.3, 0.3, n),
+        rng.uniform(-1, 1, n),
+        rng.uniform(-1, 1, n),
+        rng.uniform(-1, 1, n),
+        rng.uniform(-1, 1, n),
+    )
+    u = Controls(
+        rng.uniform(0, 5e4, n), 0.0, rng.uniform(-0.3, 0.3, n), rng.uniform(-0.3, 0.3, n), rng.uniform(-0.3, 0.3, n)
+    )
     return s, u
 
 
@@ -111,7 +126,9 @@ def test_complex_step_through_coefficients():
     a = load_aircraft("f16c").aero
     x, h = 0.2, 1e-30
     c = a.coefficients(AeroState(x + 1j * h, 0.05, 0.01, 0.02, 0.0, 0.0, -0.05, 0.0))
-    fd = (np.array(a.coefficients(AeroState(x + 1e-7, 0.05, 0.01, 0.02, 0.0, 0.0, -0.05, 0.0)))
-          - np.array(a.coefficients(AeroState(x - 1e-7, 0.05, 0.01, 0.02, 0.0, 0.0, -0.05, 0.0)))) / 2e-7
+    fd = (
+        np.array(a.coefficients(AeroState(x + 1e-7, 0.05, 0.01, 0.02, 0.0, 0.0, -0.05, 0.0)))
+        - np.array(a.coefficients(AeroState(x - 1e-7, 0.05, 0.01, 0.02, 0.0, 0.0, -0.05, 0.0)))
+    ) / 2e-7
     np.testing.assert_allclose(np.imag(np.array(c)) / h, fd, rtol=1e-6, atol=1e-9)
     assert len(AERO_VARIABLES) == 8

@@ -8,7 +8,7 @@ import math
 import pytest
 
 from gna import units
-from gna.aircraft import Propulsion, Geometry, MassProperties, aircraft_from_dict, list_aircraft, load_aircraft
+from gna.aircraft import Geometry, MassProperties, Propulsion, aircraft_from_dict, list_aircraft, load_aircraft
 from gna.errors import InputError, UnknownAircraftError
 
 
@@ -24,7 +24,7 @@ def test_catalogue_has_published_gna_aircraft():
 def test_english_units_converted_exactly():
     a = load_aircraft("f16c")
     assert a.mass.mass == pytest.approx(20500 * 0.45359237, rel=1e-15)
-    assert a.mass.Ixx == pytest.approx(9496 * 14.593902937206364 * 0.3048 ** 2, rel=1e-14)
+    assert a.mass.Ixx == pytest.approx(9496 * 14.593902937206364 * 0.3048**2, rel=1e-14)
     assert a.geometry.S == pytest.approx(300 * 0.09290304, rel=1e-15)
     assert a.geometry.x_ref - a.geometry.x_cg == pytest.approx(0.10 * 11.32 * 0.3048, rel=1e-12)
     assert units.SLUG == pytest.approx(14.593902937206364, rel=1e-15)
@@ -48,9 +48,12 @@ def test_bad_numbers_refused():
 
 
 def test_malformed_file_messages(tmp_path):
-    good = {"id": "x", "mass": {"mass_kg": 100.0, "Ixx_kgm2": 10.0, "Iyy_kgm2": 20.0, "Izz_kgm2": 25.0},
-            "geometry": {"S_m2": 1.0, "b_m": 2.0, "cbar_m": 0.5},
-            "aero": {"terms": [{"coef": "CL", "monomial": "alpha", "value": 5.0}]}}
+    good = {
+        "id": "x",
+        "mass": {"mass_kg": 100.0, "Ixx_kgm2": 10.0, "Iyy_kgm2": 20.0, "Izz_kgm2": 25.0},
+        "geometry": {"S_m2": 1.0, "b_m": 2.0, "cbar_m": 0.5},
+        "aero": {"terms": [{"coef": "CL", "monomial": "alpha", "value": 5.0}]},
+    }
     a = aircraft_from_dict(good)
     assert a.mass.mass == 100.0 and len(a.aero) == 1
     bad = dict(good, mass={"Ixx_kgm2": 10.0, "Iyy_kgm2": 20.0, "Izz_kgm2": 25.0})
@@ -75,11 +78,12 @@ def test_envelope_violations_named():
 
 def test_declared_structure_must_have_its_terms(tmp_path):
     import tomllib
+
     src = load_aircraft("f16c").path
     data = tomllib.loads(open(src, encoding="utf-8").read())
     data["aero"]["terms"] = [t for t in data["aero"]["terms"] if t.get("theta") not in (7, 30)]
     assert data["aero"]["structure"] == "gna45"
     with pytest.raises(InputError, match=r"structure = 'gna45' has 45 terms .* the file gives 43: missing theta 7, 30"):
         aircraft_from_dict(data, where="f16c-44.toml")
-    data["aero"]["structure"] = "custom"                  # a custom structure may have any terms
+    data["aero"]["structure"] = "custom"  # a custom structure may have any terms
     assert len(aircraft_from_dict(data, where="custom.toml").aero) == 43

@@ -13,8 +13,7 @@ from planners.series import Series
 def test_standard_values():
     isa = ISA()
     # U.S. Standard Atmosphere 1976 (geopotential altitude): 1.2250, 0.36392, 0.088035 kg/m^3
-    np.testing.assert_allclose(isa.density(np.array([0.0, 11000.0, 20000.0])), [1.2250, 0.36392, 0.088035],
-                               rtol=2e-4)
+    np.testing.assert_allclose(isa.density(np.array([0.0, 11000.0, 20000.0])), [1.2250, 0.36392, 0.088035], rtol=2e-4)
 
 
 def test_continuous_at_tropopause():

@@ -18,7 +18,7 @@ from scipy.integrate import solve_ivp
 
 from gna import body6dof
 from gna.aircraft import Propulsion, load_aircraft
-from gna.atmosphere import ConstantDensity, Environment, ISA
+from gna.atmosphere import ISA, ConstantDensity, Environment
 from gna.eom import STATE_NAMES, Controls, State, derivatives, state_vector_derivative
 from gna.trim import trim_level
 
@@ -41,14 +41,16 @@ def _cases(n=24, seed=20261122):
         alt = rng.uniform(500.0, 6000.0)
         tr = trim_level(craft, V, alt, env=env)
         s = np.array(tr.state, dtype=float)
-        s[4] += rng.uniform(-0.1, 0.1)            # gamma
-        s[5] = rng.uniform(-math.pi, math.pi)      # chi
-        s[6] += rng.uniform(-0.03, 0.03)           # alpha
-        s[7] = rng.uniform(-0.08, 0.08)            # beta
-        s[8] = rng.uniform(-0.5, 0.5)              # mu
-        s[9:12] = rng.uniform(-0.1, 0.1, 3)        # p, q, r
+        s[4] += rng.uniform(-0.1, 0.1)  # gamma
+        s[5] = rng.uniform(-math.pi, math.pi)  # chi
+        s[6] += rng.uniform(-0.03, 0.03)  # alpha
+        s[7] = rng.uniform(-0.08, 0.08)  # beta
+        s[8] = rng.uniform(-0.5, 0.5)  # mu
+        s[9:12] = rng.uniform(-0.1, 0.1, 3)  # p, q, r
         u0 = np.array(tr.controls, dtype=float)
-        amp = np.array([0.1 * u0[0], 0.3 if craft.propulsion.count == 2 else 0.0, 0.02, 0.02, 0.02]) * rng.uniform(0.2, 1, 5)
+        amp = np.array([0.1 * u0[0], 0.3 if craft.propulsion.count == 2 else 0.0, 0.02, 0.02, 0.02]) * rng.uniform(
+            0.2, 1, 5
+        )
         w = rng.uniform(0.2, 2.0, 5)
         ph = rng.uniform(0, 2 * math.pi, 5)
         cases.append((craft, env, s, u0, amp, w, ph))
@@ -68,10 +70,15 @@ def test_wind_frame_equals_body_frame(case):
     ufun = _controls(u0, amp, w, ph)
     t_eval = np.linspace(0.0, 10.0, 201)
     tol = dict(rtol=1e-12, atol=1e-12, method="DOP853", t_eval=t_eval)
-    wind = solve_ivp(lambda t, y: np.array(derivatives(craft, env, State(*y), Controls(*ufun(t))), dtype=float),
-                     (0.0, 10.0), s0, **tol)
-    body = solve_ivp(lambda t, y: body6dof.derivative(craft, env, y, ufun(t)),
-                     (0.0, 10.0), body6dof.from_wind_state(s0), **tol)
+    wind = solve_ivp(
+        lambda t, y: np.array(derivatives(craft, env, State(*y), Controls(*ufun(t))), dtype=float),
+        (0.0, 10.0),
+        s0,
+        **tol,
+    )
+    body = solve_ivp(
+        lambda t, y: body6dof.derivative(craft, env, y, ufun(t)), (0.0, 10.0), body6dof.from_wind_state(s0), **tol
+    )
     assert wind.success and body.success
     bw = body6dof.to_wind_state(body.y)
     for i, name in enumerate(STATE_NAMES):

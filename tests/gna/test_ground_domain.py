@@ -8,17 +8,25 @@ import numpy as np
 
 from gna.atmosphere import ISA, Environment
 from gna.ground_effect import GroundEffect
-from gna.trajectory import (DOMAIN, DOMAIN_TESTS, GROUND_TEST, domain_bounds, domain_margins, domain_violation,
-                            first_domain_violation, ground_violation)
+from gna.trajectory import (
+    DOMAIN,
+    DOMAIN_TESTS,
+    GROUND_TEST,
+    domain_bounds,
+    domain_margins,
+    domain_violation,
+    first_domain_violation,
+    ground_violation,
+)
 
 GE = Environment(ISA(), ground_effect=GroundEffect(elevation=-5.0))
-STATE = [0.0, 0.0, 4.0, 50.0, 0.0, 0.0, 0.05, 0.0, 0.0, 0.0, 0.0, 0.0]     # 1 m above a ground at -5 m
+STATE = [0.0, 0.0, 4.0, 50.0, 0.0, 0.0, 0.05, 0.0, 0.0, 0.0, 0.0, 0.0]  # 1 m above a ground at -5 m
 
 
 def test_free_air_bounds_are_the_domain_and_have_no_height_test():
     assert domain_bounds(None) is DOMAIN and domain_bounds(Environment(ISA())) is DOMAIN
     assert DOMAIN.ground is None and DOMAIN_TESTS[GROUND_TEST][0] == "z"
-    deep = STATE[:2] + [1e4] + STATE[3:]                 # 10 km below sea level: no ground, no test
+    deep = STATE[:2] + [1e4] + STATE[3:]  # 10 km below sea level: no ground, no test
     assert domain_margins(deep)[GROUND_TEST] == math.inf
     assert domain_violation(1.0, deep) is None and ground_violation(1.0, 1e4) is None
 
@@ -29,8 +37,10 @@ def test_height_test_with_ground_effect():
     assert domain_margins(STATE, b)[GROUND_TEST] == 1.0
     assert domain_violation(0.0, STATE, b) is None
     below = STATE[:2] + [5.25] + STATE[3:]
-    msg = ("left the physical domain at t = 2.5 s: height above the ground at or below 0 (ground at -5 m altitude; "
-           "no ground contact is modelled) (h = -0.25 m, z = 5.25 m)")
+    msg = (
+        "left the physical domain at t = 2.5 s: height above the ground at or below 0 (ground at -5 m altitude; "
+        "no ground contact is modelled) (h = -0.25 m, z = 5.25 m)"
+    )
     assert domain_violation(2.5, below, b) == msg == ground_violation(2.5, 5.25, b)
     X = np.array([STATE, STATE, below]).T
     assert first_domain_violation([0.0, 1.0, 2.5], X, b) == msg

@@ -30,7 +30,7 @@ U = Controls(5000.0, 0.1, 0.02, -0.05, 0.01)
 
 def test_mccormick_factor_values():
     # phi = (16 h/b)^2 / (1 + (16 h/b)^2), McCormick 1995 ch. 7
-    assert induced_drag_factor(0.3) == pytest.approx(4.8 ** 2 / (1 + 4.8 ** 2), rel=1e-15)
+    assert induced_drag_factor(0.3) == pytest.approx(4.8**2 / (1 + 4.8**2), rel=1e-15)
     assert induced_drag_factor(0.1) == pytest.approx(2.56 / 3.56, rel=1e-15)
     assert induced_drag_factor(10.0) > 0.9999
     K = 2 * math.pi / (math.pi * 0.8 * A)
@@ -47,8 +47,7 @@ def test_lift_and_drag_change_match_formula_at_0p3_span():
     kL = (1 + K) / (1 + K * phi)
     CL, CD = free.force_coeffs.CL, free.force_coeffs.CD
     assert ge.force_coeffs.CL / CL == pytest.approx(kL, rel=1e-14)
-    assert ge.force_coeffs.CD - CD == pytest.approx((phi * kL * kL - 1) * CL * CL / (math.pi * 0.8 * A),
-                                                    rel=1e-12)
+    assert ge.force_coeffs.CD - CD == pytest.approx((phi * kL * kL - 1) * CL * CL / (math.pi * 0.8 * A), rel=1e-12)
     # the aerodynamic lift force (stability axes, beta rotation leaves it alone) scales by k_L too
     qS = free.qbar * AC.geometry.S
     assert (ge.Za - free.Za) == pytest.approx(-(kL - 1) * qS * CL, rel=1e-12)
@@ -82,6 +81,7 @@ def test_far_from_ground_vanishes_and_arrays_broadcast():
 
 def test_series_evaluation_matches_pointwise():
     from planners.series import Series
+
     z = Series.variable(np.zeros(1), 6) * (-0.5) - 0.3 * B  # climbing at 0.5 m/s from 0.3 span
     ld = loads(AC, GE, _state(0.0)._replace(z=z), U)
     for dt in (0.0, 0.1):

@@ -17,10 +17,10 @@ def test_scalar_and_vector_paths_agree_with_the_definition():
     for n, tt in enumerate(t):
         i = min(np.searchsorted(pp.breaks, tt, side="right") - 1, 2)
         s = tt - pp.breaks[i]
-        ref = sum(pp.coeffs[i, :, k] * s ** k for k in range(4))
+        ref = sum(pp.coeffs[i, :, k] * s**k for k in range(4))
         np.testing.assert_allclose(pp(tt), ref, rtol=1e-14, atol=1e-14)
         np.testing.assert_allclose(many[:, n], ref, rtol=1e-14, atol=1e-14)
-        np.testing.assert_array_equal(pp(tt), many[:, n])          # the same Horner sums, bit for bit
+        np.testing.assert_array_equal(pp(tt), many[:, n])  # the same Horner sums, bit for bit
 
 
 def test_derivatives_are_exact():

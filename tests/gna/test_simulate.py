@@ -21,8 +21,13 @@ def f16_trim():
 
 def test_trimmed_flight_stays_trimmed(f16_trim):
     a, t = f16_trim
-    r = simulate(a, np.array(t.controls, dtype=float), (0.0, 10.0), np.array(t.state, dtype=float),
-                 env=Environment.constant(3048.0))
+    r = simulate(
+        a,
+        np.array(t.controls, dtype=float),
+        (0.0, 10.0),
+        np.array(t.state, dtype=float),
+        env=Environment.constant(3048.0),
+    )
     assert r.completed and r.message == ""
     df = r.df
     assert list(df.columns[:17]) == list(STATE_NAMES) + list(CONTROL_NAMES)
@@ -61,15 +66,22 @@ def test_envelope_warning(f16_trim):
     u = np.array(t.controls, dtype=float)
     u[3] = -0.5
     r = simulate(a, u, (0.0, 20.0), np.array(t.state, dtype=float))
-    assert any(w.startswith("control dm beyond its limit 25.0 deg from t = 0 to") and "worst" in w
-               for w in r.warnings), r.warnings
+    assert any(
+        w.startswith("control dm beyond its limit 25.0 deg from t = 0 to") and "worst" in w for w in r.warnings
+    ), r.warnings
 
 
 def test_simple_model_and_callable_controls(f16_trim):
     a, t = f16_trim
     u0 = np.array(t.controls, dtype=float)
-    r = simulate(a, lambda tt: u0 + np.array([0, 0, 0.01 * np.sin(tt), 0, 0]), (0.0, 5.0),
-                 np.array(t.state, dtype=float), model="simple", dt_out=0.5)
+    r = simulate(
+        a,
+        lambda tt: u0 + np.array([0, 0, 0.01 * np.sin(tt), 0, 0]),
+        (0.0, 5.0),
+        np.array(t.state, dtype=float),
+        model="simple",
+        dt_out=0.5,
+    )
     assert r.completed and len(r.df) == 11
     assert r.df["dl"].iloc[2] == pytest.approx(u0[2] + 0.01 * np.sin(1.0))
 
@@ -77,8 +89,13 @@ def test_simple_model_and_callable_controls(f16_trim):
 def test_controller_correction_applied(f16_trim):
     a, t = f16_trim
     u0 = np.array(t.controls, dtype=float)
-    r = simulate(a, u0, (0.0, 2.0), np.array(t.state, dtype=float),
-                 controller=lambda tt, x: np.array([0.0, 0.0, 0.0, -0.5 * x[10], 0.0]))
+    r = simulate(
+        a,
+        u0,
+        (0.0, 2.0),
+        np.array(t.state, dtype=float),
+        controller=lambda tt, x: np.array([0.0, 0.0, 0.0, -0.5 * x[10], 0.0]),
+    )
     assert r.completed
 
 
@@ -125,6 +142,7 @@ def test_controller_states_integrated_with_the_aircraft(f16_trim):
     @dataclass(frozen=True)
     class Ramp:
         """xc' = 1 (a clock); output adds 10 N per second of thrust."""
+
         n_states = 1
 
         def initial_state(self, t0, x0):
@@ -141,8 +159,9 @@ def test_controller_states_integrated_with_the_aircraft(f16_trim):
     assert r.completed and r.settings.controller_states == 1 and "DOP853" in r.settings.controller_scheme
     np.testing.assert_allclose(r.controller_states["xc0"], 0.5 + r.df.index.to_numpy(), rtol=0, atol=1e-12)
     np.testing.assert_allclose(r.feedback["F"], 10.0 * r.df.index.to_numpy(), rtol=0, atol=1e-10)
-    np.testing.assert_allclose(r.df[list(STATE_NAMES)].to_numpy(), open_loop.df[list(STATE_NAMES)].to_numpy(),
-                               rtol=1e-8, atol=1e-6)
+    np.testing.assert_allclose(
+        r.df[list(STATE_NAMES)].to_numpy(), open_loop.df[list(STATE_NAMES)].to_numpy(), rtol=1e-8, atol=1e-6
+    )
 
 
 def test_a_chattering_feedback_stops_as_stalled_instead_of_creeping():

@@ -10,7 +10,7 @@ from gna.solve import batched_solve, jacobian, newton
 
 def test_batched_solve_with_a_singular_member_falls_back_to_least_squares():
     J = np.zeros((2, 2, 3))
-    J[0, 0], J[1, 1] = [1.0, 2.0, 1.0], [1.0, 4.0, 0.0]   # third matrix singular
+    J[0, 0], J[1, 1] = [1.0, 2.0, 1.0], [1.0, 4.0, 0.0]  # third matrix singular
     f = np.array([[1.0, 2.0, 3.0], [1.0, 8.0, 0.0]])
     dx = batched_solve(J, f)
     assert np.allclose(dx[:, 0], [1.0, 1.0]) and np.allclose(dx[:, 1], [1.0, 2.0])

@@ -17,13 +17,13 @@ import numpy as np
 import pytest
 
 from gna.aircraft import list_aircraft, load_aircraft
-from gna.atmosphere import ConstantDensity, Environment, ISA
+from gna.atmosphere import ISA, ConstantDensity, Environment
 from gna.eom import Controls, HValues, State, derivatives
 from gna.tape import CompiledDerivatives, compile_derivatives, trace_program
 from gna.trim import trim_level
 
 AIRCRAFT = list_aircraft()
-gsim = importlib.import_module("gna.simulate")   # the module (gna.simulate is also the function)
+gsim = importlib.import_module("gna.simulate")  # the module (gna.simulate is also the function)
 
 
 def _random_points(rng, n, high=False):
@@ -91,10 +91,9 @@ def test_guards_follow_the_isa_layers():
 
 def test_constants_folded_and_subexpressions_shared():
     craft = load_aircraft("gtm")
-    _, source = trace_program(craft, Environment(), [0, 0, -100, 30, 0, 0, 0.05, 0, 0, 0, 0, 0],
-                              [20, 0, 0, 0, 0])
+    _, source = trace_program(craft, Environment(), [0, 0, -100, 30, 0, 0, 0.05, 0, 0, 0, 0, 0], [20, 0, 0, 0, 0])
     assert "aircraft" not in source and "State" not in source
-    assert source.count("cos(v7)") == 1 and source.count("sin(v7)") == 1       # cos, sin(beta) computed once
+    assert source.count("cos(v7)") == 1 and source.count("sin(v7)") == 1  # cos, sin(beta) computed once
     assert repr(craft.mass.mass) in source
 
 
@@ -156,7 +155,7 @@ def test_value_dependent_choices_become_guards():
     rng = np.random.default_rng(3)
     for high in (False, True, False):
         X, U = _random_points(rng, 40, high)
-        X[:5, 2] = 500.0                   # below the ground of the clip
+        X[:5, 2] = 500.0  # below the ground of the clip
         for x, u in zip(X, U):
             _assert_equal(f(x, u), _generic(craft, env, x, u), f"layered at z = {x[2]}")
     assert f.reason is None and f.generic_calls == 0 and 2 <= len(f.programs) <= 8

@@ -74,8 +74,10 @@ def test_stall_speed(f16):
     assert 30 < s.V_stall < 80
     assert f16.envelope.alpha_min < s.alpha_stall <= f16.envelope.alpha_max
     # Any slower level flight at lower alpha needs more speed.
-    assert trim(f16, {"alpha": s.alpha_stall * 0.8, "gamma": 0, "chi_dot": 0, "beta": 0},
-                check_envelope=False).values["V"] > s.V_stall
+    assert (
+        trim(f16, {"alpha": s.alpha_stall * 0.8, "gamma": 0, "chi_dot": 0, "beta": 0}, check_envelope=False).values["V"]
+        > s.V_stall
+    )
 
 
 def test_input_errors(f16):
@@ -99,12 +101,15 @@ def test_convergence_failure_message(f16):
         trim(f16, {"V": 150.0, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0}, maxiter=3, tol=1e-30)
 
 
-@pytest.mark.parametrize("entry", [
-    lambda ac: trim_level(ac, 5000.0, altitude=3048.0),
-    lambda ac: level_alpha(ac, 5000.0),
-    lambda ac: coordinated_turn(ac, 3500.0, 0.01),
-    lambda ac: trim(ac, {"V": 0.5, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0}),
-])
+@pytest.mark.parametrize(
+    "entry",
+    [
+        lambda ac: trim_level(ac, 5000.0, altitude=3048.0),
+        lambda ac: level_alpha(ac, 5000.0),
+        lambda ac: coordinated_turn(ac, 3500.0, 0.01),
+        lambda ac: trim(ac, {"V": 0.5, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0}),
+    ],
+)
 def test_trim_refuses_a_speed_outside_the_physical_domain(entry):
     with pytest.raises(DomainError, match=r"V = .* m/s is outside the physical domain \[1, 3000\] m/s"):
         entry(load_aircraft("f16c"))

@@ -70,15 +70,17 @@ def test_plan_unknown_scenario(capsys):
 
 def test_compare_command_prints_tables(tmp_path, capsys):
     scen = tmp_path / "short.toml"
-    scen.write_text('name = "short"\naircraft = "a7"\n[time]\nt0 = 0.0\nt1 = 4.0\nstep = 0.5\n'
-                    '[flat_outputs]\nx = "130*t"\ny = "20*sin(t/3)"\nz = "-1500"\nzeta = "beta"\n'
-                    'zeta_value = "0"\n[generalized]\nJ = 2\n')
+    scen.write_text(
+        'name = "short"\naircraft = "a7"\n[time]\nt0 = 0.0\nt1 = 4.0\nstep = 0.5\n'
+        '[flat_outputs]\nx = "130*t"\ny = "20*sin(t/3)"\nz = "-1500"\nzeta = "beta"\n'
+        'zeta_value = "0"\n[generalized]\nJ = 2\n'
+    )
     assert main(["compare", str(scen), "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
     assert "[first 10 s]" in out and "[whole span]" in out
     engine_part = out.split("[inhouse against the plan")[0]
     assert engine_part.count("overall: PASS") == 2 and "FAIL" not in engine_part
-    assert "no tolerances given" in out      # the tables against the plan are informative
+    assert "no tolerances given" in out  # the tables against the plan are informative
     plan_part = out.split("[inhouse against the plan")[1]
     assert "overall: PASS" not in plan_part  # an informative table has no verdict line
     assert (tmp_path / "out" / "states.png").is_file()
@@ -88,9 +90,11 @@ def test_compare_command_prints_tables(tmp_path, capsys):
 def test_compare_fails_when_engines_diverge(tmp_path, capsys):
     """A plan that leaves the physical domain open loop: the comparison fails with exit status 1."""
     scen = tmp_path / "fast.toml"
-    scen.write_text('name = "fast"\naircraft = "f16c"\n[time]\nt0 = 0.0\nt1 = 10.0\nstep = 0.5\n'
-                    '[flat_outputs]\nx = "150*t"\ny = "400*sin(t)"\nz = "-3000 + 300*sin(2*t)"\nzeta = "beta"\n'
-                    'zeta_value = "0"\n')
+    scen.write_text(
+        'name = "fast"\naircraft = "f16c"\n[time]\nt0 = 0.0\nt1 = 10.0\nstep = 0.5\n'
+        '[flat_outputs]\nx = "150*t"\ny = "400*sin(t)"\nz = "-3000 + 300*sin(2*t)"\nzeta = "beta"\n'
+        'zeta_value = "0"\n'
+    )
     rc = main(["compare", str(scen), "--out", str(tmp_path / "out")])
     out = capsys.readouterr()
     assert rc in (1, 2), out.out[-2000:]
@@ -99,13 +103,22 @@ def test_compare_fails_when_engines_diverge(tmp_path, capsys):
 
 def test_position_error_of_a_run_that_ended_early_is_not_nan():
     from harness.commands.compare import error_text
+
     assert error_text(1.5e-3, 10.0) == "1.500e-03 m"
     assert error_text(float("nan"), 3.25) == "n/a (run ended at t = 3.25 s)"
 
 
-@pytest.mark.parametrize("command", [["compare", "gtm-aileron-roll"], ["paper"], ["plan", "gtm-aileron-roll"],
-                                     ["export-jsbsim", "f16c"], ["export-jsbsim-script", "gtm-aileron-roll"],
-                                     ["fit", "regenerate"]])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["compare", "gtm-aileron-roll"],
+        ["paper"],
+        ["plan", "gtm-aileron-roll"],
+        ["export-jsbsim", "f16c"],
+        ["export-jsbsim-script", "gtm-aileron-roll"],
+        ["fit", "regenerate"],
+    ],
+)
 def test_an_empty_out_is_refused(command, capsys):
     with pytest.raises(SystemExit) as exc:
         main([*command, "--out", ""])
@@ -113,18 +126,23 @@ def test_an_empty_out_is_refused(command, capsys):
 
 
 def test_a_repeated_window_name_is_refused(tmp_path, capsys):
-    assert main(["compare", "gtm-aileron-roll", "--window", "a=1", "--window", "a=2", "--out", str(tmp_path / "o")]) == 2
+    assert (
+        main(["compare", "gtm-aileron-roll", "--window", "a=1", "--window", "a=2", "--out", str(tmp_path / "o")]) == 2
+    )
     assert "--window: each name once, 'a' given 2 times" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
     from harness.validation import ValidationCase
+
     with pytest.raises(InputError, match="windows: each name once, 'a' repeated"):
         ValidationCase("x", windows=[("a", 1.0), ("a", 2.0)])
 
 
 def test_an_input_error_after_the_checks_leaves_no_output_folder(tmp_path, capsys):
     scen = tmp_path / "high.toml"
-    scen.write_text('name = "high"\naircraft = "a7"\n[time]\nt0 = 0.0\nt1 = 4.0\nstep = 0.5\n'
-                    '[flat_outputs]\nx = "130*t"\ny = "0"\nz = "-1e6"\nzeta = "beta"\nzeta_value = "0"\n')
+    scen.write_text(
+        'name = "high"\naircraft = "a7"\n[time]\nt0 = 0.0\nt1 = 4.0\nstep = 0.5\n'
+        '[flat_outputs]\nx = "130*t"\ny = "0"\nz = "-1e6"\nzeta = "beta"\nzeta_value = "0"\n'
+    )
     assert main(["plan", str(scen), "--out", str(tmp_path / "D")]) == 2
     assert "outside the ISA model" in capsys.readouterr().err
     assert not (tmp_path / "D").exists()
@@ -137,7 +155,12 @@ def test_manifest_records_the_gflat_command_line(tmp_path):
     out = tmp_path / "c"
     assert main(["compare", "gtm-aileron-roll", "--out", str(out)]) == 0
     assert json.loads((out / "manifest.json").read_text())["command_line"] == [
-        "gflat", "compare", "gtm-aileron-roll", "--out", str(out)]
+        "gflat",
+        "compare",
+        "gtm-aileron-roll",
+        "--out",
+        str(out),
+    ]
 
 
 def test_a_bad_series_backend_is_one_line_not_a_traceback():
@@ -145,12 +168,18 @@ def test_a_bad_series_backend_is_one_line_not_a_traceback():
     import os
     import subprocess
     import sys
-    out = subprocess.run([sys.executable, "-m", "harness.cli", "plan", "gtm-aileron-roll"], capture_output=True,
-                         text=True, env={**os.environ, "GFLAT_SERIES_BACKEND": "bogus"})
+
+    out = subprocess.run(
+        [sys.executable, "-m", "harness.cli", "plan", "gtm-aileron-roll"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "GFLAT_SERIES_BACKEND": "bogus"},
+    )
     assert out.returncode == 2
     assert out.stderr.strip().splitlines() == [
         "gflat: error: environment variable GFLAT_SERIES_BACKEND='bogus': the series backend must be one of "
-        "numpy, compiled"]
+        "numpy, compiled"
+    ]
 
 
 def test_trim_that_does_not_converge_is_a_negative_verdict(capsys):
@@ -175,5 +204,6 @@ def test_fit_writes_its_file_atomically_and_refuses_a_folder(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "a folder; give the aircraft file's name" in err
     assert main(["fit", "gtm", "--out", str(tmp_path / "gtm-fit.toml"), "--no-trim-check"]) == 0
-    assert (tmp_path / "gtm-fit.toml").read_text().startswith("#") and \
-        [p.name for p in tmp_path.iterdir()] == ["gtm-fit.toml"]        # no temporary file left
+    assert (tmp_path / "gtm-fit.toml").read_text().startswith("#") and [p.name for p in tmp_path.iterdir()] == [
+        "gtm-fit.toml"
+    ]  # no temporary file left

@@ -29,26 +29,38 @@ def test_closed_loop_from_the_plan_stays_on_the_flat_outputs_and_engines_agree(t
     # The feedback acted through its integral states, reported on the output grid.
     states = r.runs["inhouse"].controller_states
     assert list(states.columns) == list(r.closed_loop.controller.state_names)
-    assert r.open_loop is not None and r.open_loop.completed            # the paper's cyan curve
-    pickle.dumps(r.closed_loop.controller)                              # campaigns ship it to workers
+    assert r.open_loop is not None and r.open_loop.completed  # the paper's cyan curve
+    pickle.dumps(r.closed_loop.controller)  # campaigns ship it to workers
 
 
 def test_roll_closed_loop_agrees_across_engines():
     v = run_case(ValidationCase("gtm-aileron-roll", loop="closed")).verdict()
     assert v["pass"], v
-    assert v["differences"]["jsbsim"]["max_position_m"] <= 1e-2        # measured 1.7e-5 m
-    assert max(r["max_position_error_m"] for r in v["runs"].values()) < 1e-2   # measured 8.4e-4 m
+    assert v["differences"]["jsbsim"]["max_position_m"] <= 1e-2  # measured 1.7e-5 m
+    assert max(r["max_position_error_m"] for r in v["runs"].values()) < 1e-2  # measured 8.4e-4 m
 
 
 def test_compare_json_contract(tmp_path, capsys):
     code = main(["compare", "twin-otter-single-engine", "--loop", "closed", "--json", "--out", str(tmp_path)])
     d = json.loads(capsys.readouterr().out)
     assert code == 0 and d["pass"] is True
-    assert set(d) == {"scenario", "loop", "runs", "differences", "delta_pct_definition", "pass", "settings",
-                      "self_convergence"}
+    assert set(d) == {
+        "scenario",
+        "loop",
+        "runs",
+        "differences",
+        "delta_pct_definition",
+        "pass",
+        "settings",
+        "self_convergence",
+    }
     assert set(d["runs"]) == {"inhouse", "jsbsim"} and set(d["differences"]) == {"jsbsim"}
-    assert set(d["runs"]["jsbsim"]) == {"status", "max_position_error_m", "max_position_error_after_5s_m",
-                                        "saturated_s"}
+    assert set(d["runs"]["jsbsim"]) == {
+        "status",
+        "max_position_error_m",
+        "max_position_error_after_5s_m",
+        "saturated_s",
+    }
     assert set(d["differences"]["jsbsim"]) == {"max_position_m", "max_angle_rad", "delta_pct"}
     assert (tmp_path / "tracking.png").is_file() and (tmp_path / "summary.json").is_file()
 

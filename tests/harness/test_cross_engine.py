@@ -22,8 +22,15 @@ def test_inhouse_and_jsbsim_agree_on_paper_plans(name):
     plan = plan_scenario(sc)
     J = plan.J
     t1 = min(plan.t1, plan.t0 + HORIZON)
-    comp = compare_engines(sc.aircraft, plan.control_function(J), (plan.t0, t1), plan.initial_state(J),
-                           env=plan.env, dt_out=0.05, windows={"horizon": None})
+    comp = compare_engines(
+        sc.aircraft,
+        plan.control_function(J),
+        (plan.t0, t1),
+        plan.initial_state(J),
+        env=plan.env,
+        dt_out=0.05,
+        windows={"horizon": None},
+    )
     for res in comp.results.values():
         assert res.status == "completed", res.message
     table = comp.table("horizon")

@@ -39,28 +39,48 @@ def _one_line(capsys, rc) -> str:
 
 def test_an_output_file_that_cannot_be_written_is_refused_before_fitting(tmp_path, no_fit, capsys):
     (tmp_path / "a-file").write_text("")
-    cases = {tmp_path / "missing" / "x.toml": "No such file or directory",
-             tmp_path / "a-file" / "x.toml": "Not a directory",
-             Path("/proc/gflat-fit.toml"): _PROC}                           # a folder that takes no files
+    cases = {
+        tmp_path / "missing" / "x.toml": "No such file or directory",
+        tmp_path / "a-file" / "x.toml": "Not a directory",
+        Path("/proc/gflat-fit.toml"): _PROC,
+    }  # a folder that takes no files
     for out, cause in cases.items():
         err = _one_line(capsys, main(["fit", "gtm", "--out", str(out)]))
         assert err == f"gflat fit: error: cannot write {out}: {cause}\n"
-    err = _one_line(capsys, main(["fit", "jsbsim", "F4N", "--mach", "0.5", "--altitude", "3000", "--out",
-                                  str(tmp_path / "missing" / "f4n.toml")]))
+    err = _one_line(
+        capsys,
+        main(
+            [
+                "fit",
+                "jsbsim",
+                "F4N",
+                "--mach",
+                "0.5",
+                "--altitude",
+                "3000",
+                "--out",
+                str(tmp_path / "missing" / "f4n.toml"),
+            ]
+        ),
+    )
     assert "cannot write" in err
-    assert list(tmp_path.iterdir()) == [tmp_path / "a-file"]          # no probe file left behind
+    assert list(tmp_path.iterdir()) == [tmp_path / "a-file"]  # no probe file left behind
 
 
 def test_a_folder_given_as_the_file_is_refused_before_fitting(tmp_path, monkeypatch, no_fit, capsys):
     err = _one_line(capsys, main(["fit", "gtm", "--out", str(tmp_path)]))
-    assert err == (f"gflat fit: error: --out {tmp_path}: a folder; give the aircraft file's name "
-                   f"(e.g. {tmp_path / 'gtm-fit.toml'})\n")
-    err = _one_line(capsys, main(["fit", "jsbsim", "aircraft/F4N/F4N.xml", "--mach", "0.5", "--altitude", "0",
-                                  "--out", str(tmp_path)]))
-    assert f"(e.g. {tmp_path / 'f4n.toml'})" in err                    # the default id, as the source names it
+    assert err == (
+        f"gflat fit: error: --out {tmp_path}: a folder; give the aircraft file's name "
+        f"(e.g. {tmp_path / 'gtm-fit.toml'})\n"
+    )
+    err = _one_line(
+        capsys,
+        main(["fit", "jsbsim", "aircraft/F4N/F4N.xml", "--mach", "0.5", "--altitude", "0", "--out", str(tmp_path)]),
+    )
+    assert f"(e.g. {tmp_path / 'f4n.toml'})" in err  # the default id, as the source names it
     monkeypatch.chdir(tmp_path)
     (tmp_path / "gtm-fit.toml").mkdir()
-    err = _one_line(capsys, main(["fit", "gtm"]))                       # the default file, in the current folder
+    err = _one_line(capsys, main(["fit", "gtm"]))  # the default file, in the current folder
     assert err.startswith("gflat fit: error: --out gtm-fit.toml: a folder; give the aircraft file's name")
 
 
@@ -91,8 +111,10 @@ def test_anything_but_a_regular_file_is_refused_and_left_as_it_is(tmp_path, no_f
     (tmp_path / "link").symlink_to(fifo)
     for out, what in ((fifo, "a named pipe (fifo)"), (tmp_path / "link", "a symbolic link to a named pipe (fifo)")):
         err = _one_line(capsys, main(["fit", "gtm", "--out", str(out)]))
-        assert err == (f"gflat fit: error: cannot write {out}: it is {what}, not a regular file (it would be "
-                       f"replaced by one): give the path of a new or regular file\n")
+        assert err == (
+            f"gflat fit: error: cannot write {out}: it is {what}, not a regular file (it would be "
+            f"replaced by one): give the path of a new or regular file\n"
+        )
     assert stat.S_ISFIFO(os.stat(fifo).st_mode) and (tmp_path / "link").is_symlink()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link", "pipe"]
 
@@ -111,12 +133,17 @@ def test_a_file_into_a_runs_folder_is_refused(tmp_path, no_fit, capsys, record):
         marker.update({"command": "paper"} if record == "complete" else {})
         (run / ".gflat-complete.json").write_text(json.dumps(marker))
     before = {p: p.read_bytes() for p in run.rglob("*") if p.is_file()}
-    what = {"complete": "a complete run of 'gflat paper'", "no command": "a complete run",
-            "interrupted": "an interrupted (or running) run of 'gflat paper'"}[record]
+    what = {
+        "complete": "a complete run of 'gflat paper'",
+        "no command": "a complete run",
+        "interrupted": "an interrupted (or running) run of 'gflat paper'",
+    }[record]
     for out in (run / "manifest.json", run / "case" / "x.toml"):
         err = _one_line(capsys, main(["fit", "gtm", "--out", str(out)]))
-        assert err == (f"gflat fit: error: cannot write {out}: {run} is the folder of {what}, which holds "
-                       f"that run's files only: give a path outside it\n")
+        assert err == (
+            f"gflat fit: error: cannot write {out}: {run} is the folder of {what}, which holds "
+            f"that run's files only: give a path outside it\n"
+        )
     assert {p: p.read_bytes() for p in run.rglob("*") if p.is_file()} == before
 
 
@@ -124,8 +151,10 @@ def test_an_empty_out_asks_for_a_file(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["fit", "gtm", "--out", ""])
     assert exc.value.code == 2
-    assert "argument --out: an empty path; give the aircraft file's name, or leave --out out for the default " \
-           "<id>.toml" in capsys.readouterr().err
+    assert (
+        "argument --out: an empty path; give the aircraft file's name, or leave --out out for the default "
+        "<id>.toml" in capsys.readouterr().err
+    )
 
 
 def test_a_folder_that_exists_but_takes_no_files_is_named_so_by_every_command(capsys):

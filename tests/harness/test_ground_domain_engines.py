@@ -23,14 +23,13 @@ from harness.engines import fly
 AC = load_aircraft("twin-otter")
 GE = Environment(ISA(), ground_effect=GroundEffect(elevation=0.0))
 FREE = Environment(ISA())
-TEXT = ("height above the ground at or below 0 (ground at 0 m altitude; no ground contact is modelled) "
-        "(h = ")
+TEXT = "height above the ground at or below 0 (ground at 0 m altitude; no ground contact is modelled) (h = "
 
 
 def _glide():
     t = trim_level(AC, 45.0, altitude=3.0, env=GE)
     u = [float(v) for v in t.controls]
-    u[0] = 0.0                                          # thrust cut: it sinks
+    u[0] = 0.0  # thrust cut: it sinks
     return np.array(t.state, dtype=float), u
 
 
@@ -43,7 +42,7 @@ def test_flight_into_the_ground_stops_on_both_engines():
         assert m, r.message
         t_hit, h = float(m.group(1)), float(m.group(2))
         assert 4.2 < t_hit < 4.45 and -0.01 < h <= 0.0, r.message
-        assert float(-r.df.z.iloc[-1]) > -1e-9           # nothing kept below the ground
+        assert float(-r.df.z.iloc[-1]) > -1e-9  # nothing kept below the ground
     # The in-house engine locates the crossing (h = 0 to 1e-12 m); JSBSim stops at its first step there.
     assert abs(runs["inhouse"].t_end - 4.3276) < 1e-3
     assert runs["jsbsim"].t_end <= runs["inhouse"].t_end
@@ -58,7 +57,10 @@ def test_free_air_has_no_ground():
 
 def test_initial_state_below_the_ground_is_refused():
     x0, u = _glide()
-    x0[2] = 0.5                                          # 0.5 m below the ground
-    with pytest.raises(InputError, match="initial state is outside the physical domain: left the physical domain "
-                                         "at t = 0 s: height above the ground at or below 0"):
+    x0[2] = 0.5  # 0.5 m below the ground
+    with pytest.raises(
+        InputError,
+        match="initial state is outside the physical domain: left the physical domain "
+        "at t = 0 s: height above the ground at or below 0",
+    ):
         simulate(AC, u, (0.0, 1.0), x0, env=GE)

@@ -23,7 +23,7 @@ from harness.engines.jsbsim.fdm import Integrators, prepare
 from harness.engines.jsbsim.ground import GROUND_EFFECT_PROPERTIES
 
 AC = load_aircraft("twin-otter")
-H = 0.3 * AC.geometry.b          # 5.94 m: a low pass at 0.3 span
+H = 0.3 * AC.geometry.b  # 5.94 m: a low pass at 0.3 span
 V = 45.0
 FREE = Environment(ISA())
 GE = Environment(ISA(), ground_effect=GroundEffect(elevation=0.0))
@@ -48,7 +48,7 @@ def test_low_pass_at_0p3_span_agrees_as_in_free_air():
     # Trimmed in ground effect and flown in ground effect: both engines hold the height.
     pos_g, ang_g, a_g, runs = _difference(GE, GE)
     pos_f, ang_f, a_f, _ = _difference(FREE, FREE)
-    assert float(np.ptp(a_g.z)) < 1e-5                     # the in-ground-effect trim holds 0.3 span
+    assert float(np.ptp(a_g.z)) < 1e-5  # the in-ground-effect trim holds 0.3 span
     assert "ground effect" in runs["jsbsim"].settings.environment
     assert "ground effect" in runs["inhouse"].settings.environment
     # Free-air trim flown in ground effect (extra lift: it balloons, h/b varies 0.30 -> 0.36) and the
@@ -78,7 +78,7 @@ def test_jsbsim_lift_change_matches_formula():
         got = {k: fdm[p] for k, p in GROUND_EFFECT_PROPERTIES.items()}
         CL, CD = fdm[jx.COEFFICIENT_PROPERTIES["CL"]], fdm[jx.COEFFICIENT_PROPERTIES["CD"]]
     assert capture.problems() == []
-    A = AC.geometry.b ** 2 / AC.geometry.S
+    A = AC.geometry.b**2 / AC.geometry.S
     # JSBSim's aero/h_b-cg-ft is the in-house h/b up to the altitude quantisation of the 1e11 ft planet
     # (8 ulp of its radius: 3.7e-5 ft); measured 3.0e-8 (0.6 micrometre).
     assert got["h_b"] == pytest.approx(0.3, abs=8 * np.spacing(jx.PLANET_RADIUS_FT) * units.FT / AC.geometry.b)
@@ -91,7 +91,7 @@ def test_jsbsim_lift_change_matches_formula():
     assert got["CL"] == pytest.approx(kL * CL, rel=1e-14)
     assert got["CD"] == pytest.approx(CD + (phi * kL * kL - 1) * CL * CL / (math.pi * 0.8 * A), rel=1e-12)
     ld = loads(AC, GE, State(*x0), Controls(*t.controls))
-    assert ld.force_coeffs.CL == pytest.approx(got["CL"], rel=1e-8)   # measured 1.6e-9 (the h quantisation)
+    assert ld.force_coeffs.CL == pytest.approx(got["CL"], rel=1e-8)  # measured 1.6e-9 (the h quantisation)
 
 
 def test_free_air_export_unchanged_and_ground_file_differs_only_by_ground_effect():
@@ -107,6 +107,12 @@ def test_free_air_export_unchanged_and_ground_file_differs_only_by_ground_effect
 def test_source_engine_refuses_ground_effect():
     from gna.errors import InputError
     from harness.engines.jsbsim.source import JSBSimSourceEngine
+
     with pytest.raises(InputError, match="ground effect"):
-        JSBSimSourceEngine().simulate(load_aircraft("f16-jsbsim"), [1.0, 0, 0, 0, 0], (0, 1),
-                                      np.array([0, 0, -H, 150.0, 0, 0, 0.05, 0, 0, 0, 0, 0]), env=GE)
+        JSBSimSourceEngine().simulate(
+            load_aircraft("f16-jsbsim"),
+            [1.0, 0, 0, 0, 0],
+            (0, 1),
+            np.array([0, 0, -H, 150.0, 0, 0, 0.05, 0, 0, 0, 0, 0]),
+            env=GE,
+        )

@@ -13,10 +13,10 @@ import pytest
 from gna import units
 from gna.aero import AERO_VARIABLES, AeroState, Term, TermTable
 from gna.aircraft import Propulsion, list_aircraft, load_aircraft
-from harness.engines.jsbsim import export as jx
-from harness.engines.jsbsim import files as jf
 from harness.cli import main
 from harness.engines import load_fdm
+from harness.engines.jsbsim import export as jx
+from harness.engines.jsbsim import files as jf
 
 AIRCRAFT = list_aircraft()
 ROOT = jf.default_root()
@@ -26,8 +26,9 @@ ROOT = jf.default_root()
 def test_committed_file_is_current(name):
     path = jf.xml_path(ROOT, name)
     assert path.is_file(), f"{path} missing: run 'gflat export-jsbsim --all'"
-    assert path.read_bytes() == jx.aircraft_xml(load_aircraft(name)).encode("utf-8"), \
+    assert path.read_bytes() == jx.aircraft_xml(load_aircraft(name)).encode("utf-8"), (
         f"{path} is stale: run 'gflat export-jsbsim --all'"
+    )
 
 
 def test_no_file_for_unknown_aircraft():
@@ -90,8 +91,15 @@ def test_file_loads_without_warnings_and_units_are_exact(name):
     cg = mb.find("location")
     assert float(cg.find("x").text) * units.IN == pytest.approx(a.geometry.x_cg, rel=1e-15, abs=1e-15)
     # Only English units, never JSBSim's truncated SI factors.
-    assert {e.get("unit") for e in root.iter() if e.get("unit")} <= {"FT", "FT2", "IN", "LBS", "SLUG*FT2",
-                                                                      "RAD/SEC", "FT3/SEC2"}
+    assert {e.get("unit") for e in root.iter() if e.get("unit")} <= {
+        "FT",
+        "FT2",
+        "IN",
+        "LBS",
+        "SLUG*FT2",
+        "RAD/SEC",
+        "FT3/SEC2",
+    }
 
 
 def test_thrust_geometry_of_a_twin_with_tilted_engines():
@@ -106,20 +114,23 @@ def test_thrust_geometry_of_a_twin_with_tilted_engines():
         assert loc.get("unit") == "IN"
         assert float(loc.find("y").text) == pytest.approx(sign * 1.8 / units.IN, rel=1e-15)
         d = f.find("direction")
-        assert (float(d.find("x").text), float(d.find("y").text), float(d.find("z").text)) == \
-            pytest.approx((math.cos(math.radians(3.0)), 0.0, -math.sin(math.radians(3.0))), rel=1e-15)
+        assert (float(d.find("x").text), float(d.find("y").text), float(d.find("z").text)) == pytest.approx(
+            (math.cos(math.radians(3.0)), 0.0, -math.sin(math.radians(3.0))), rel=1e-15
+        )
 
 
 def _odd_table():
     """A structure unlike GNA's: empty, single-term and high-power coefficients over every variable."""
     terms, i = [], 1
     rng = np.random.default_rng(7)
-    layout = {"CD": [(0,) * 8, (2, 0, 0, 0, 0, 0, 0, 0), (0, 2, 0, 0, 0, 0, 0, 0), (0, 0, 0, 0, 0, 0, 2, 0)],
-              "CY": [(0, 1, 0, 0, 0, 0, 0, 0)],                                     # one term
-              "CL": [(0,) * 8, (1, 0, 0, 0, 0, 0, 0, 0), (5, 0, 0, 0, 0, 0, 0, 0), (1, 1, 1, 1, 1, 1, 1, 1)],
-              "Cl": [],                                                             # no term
-              "Cm": [(0,) * 8, (0, 0, 0, 1, 0, 0, 0, 0), (3, 0, 0, 1, 0, 0, 1, 0)],
-              "Cn": [(0, 1, 0, 0, 0, 0, 0, 0), (0, 0, 1, 0, 1, 0, 0, 1), (0, 0, 0, 0, 0, 0, 0, 0)]}
+    layout = {
+        "CD": [(0,) * 8, (2, 0, 0, 0, 0, 0, 0, 0), (0, 2, 0, 0, 0, 0, 0, 0), (0, 0, 0, 0, 0, 0, 2, 0)],
+        "CY": [(0, 1, 0, 0, 0, 0, 0, 0)],  # one term
+        "CL": [(0,) * 8, (1, 0, 0, 0, 0, 0, 0, 0), (5, 0, 0, 0, 0, 0, 0, 0), (1, 1, 1, 1, 1, 1, 1, 1)],
+        "Cl": [],  # no term
+        "Cm": [(0,) * 8, (0, 0, 0, 1, 0, 0, 0, 0), (3, 0, 0, 1, 0, 0, 1, 0)],
+        "Cn": [(0, 1, 0, 0, 0, 0, 0, 0), (0, 0, 1, 0, 1, 0, 0, 1), (0, 0, 0, 0, 0, 0, 0, 0)],
+    }
     for coef, monos in layout.items():
         for m in monos:
             terms.append(Term(i, coef, m, float(rng.uniform(-2, 2))))
@@ -148,8 +159,9 @@ def test_any_term_structure_exports_and_evaluates():
             assert fdm.run_ic()
             g = a.geometry
             Vs = V * units.FT
-            ref = a.aero.coefficients(AeroState(al, be, p * g.b / (2 * Vs), q * g.cbar / (2 * Vs),
-                                                r * g.b / (2 * Vs), dl, dm, dn))
+            ref = a.aero.coefficients(
+                AeroState(al, be, p * g.b / (2 * Vs), q * g.cbar / (2 * Vs), r * g.b / (2 * Vs), dl, dm, dn)
+            )
             for name, val in zip(("CD", "CY", "CL", "Cl", "Cm", "Cn"), ref):
                 got = fdm[jx.COEFFICIENT_PROPERTIES[name]]
                 worst = max(worst, abs(got - val) / max(abs(val), 1e-3))

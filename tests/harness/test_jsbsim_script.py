@@ -27,8 +27,14 @@ def _max_differences(replayed, engine, t_max=None):
     a = replayed.set_axis(np.round(replayed.index, 9)).loc[t]
     b = engine.set_axis(np.round(engine.index, 9)).loc[t]
     pos = float(np.max(np.linalg.norm(a[["x", "y", "z"]].to_numpy() - b[["x", "y", "z"]].to_numpy(), axis=1)))
-    ang = float(np.max(np.abs(a[["gamma", "chi", "alpha", "beta", "mu"]].to_numpy()
-                              - b[["gamma", "chi", "alpha", "beta", "mu"]].to_numpy())))
+    ang = float(
+        np.max(
+            np.abs(
+                a[["gamma", "chi", "alpha", "beta", "mu"]].to_numpy()
+                - b[["gamma", "chi", "alpha", "beta", "mu"]].to_numpy()
+            )
+        )
+    )
     return t.size, pos, ang
 
 
@@ -39,7 +45,7 @@ def test_replay_agrees_with_the_engine(roll, tmp_path, table_dt):
     replayed = replay(b)
     engine = fly(["jsbsim"], sc.aircraft, None, plan, (plan.t0, plan.t1), env=sc.env, dt_out=b.dt_out)["jsbsim"].df
     n, pos, ang = _max_differences(replayed, engine)
-    assert n == engine.index.size                               # every output time replayed
+    assert n == engine.index.size  # every output time replayed
     # The engine's samples exactly: round-off (altitude quantised by the 1e11 ft planet, 4.6e-6 m);
     # 5-step tables: linear interpolation of the controls between the nodes.
     assert pos < (1e-5 if table_dt is None else 2e-3)
@@ -66,7 +72,7 @@ def test_names_cannot_escape(roll, tmp_path):
     with pytest.raises(InputError, match="not a safe identifier"):
         export_script(tmp_path / "o", "../up", sc.aircraft, plan, env=sc.env)
     with pytest.raises(InputError, match="not a safe identifier"):
-        replace(sc.aircraft, id="../../evil")                      # refused where an aircraft is made
+        replace(sc.aircraft, id="../../evil")  # refused where an aircraft is made
     assert not any(tmp_path.iterdir())
 
 
@@ -80,14 +86,15 @@ def test_the_marker_names_the_command_and_its_rerun_keeps_the_earlier_scenario(t
     marker = json.loads((out / MARKER).read_text())
     assert marker["command"] == "export-jsbsim-script"
     first = [f["path"] for f in marker["files"]]
-    assert main(["plan", "gtm-aileron-roll", "--out", str(out)]) == 2      # another command's run: refused
-    assert f"output folder {out} holds a complete run of 'gflat export-jsbsim-script' (3 files)" in \
-        capsys.readouterr().err
+    assert main(["plan", "gtm-aileron-roll", "--out", str(out)]) == 2  # another command's run: refused
+    assert (
+        f"output folder {out} holds a complete run of 'gflat export-jsbsim-script' (3 files)" in capsys.readouterr().err
+    )
     (tmp_path / "short.toml").write_text(SHORT)
-    assert main(["export-jsbsim-script", str(tmp_path / "short.toml"), "--out", str(out)]) == 0   # its own rerun
+    assert main(["export-jsbsim-script", str(tmp_path / "short.toml"), "--out", str(out)]) == 0  # its own rerun
     listed = [f["path"] for f in json.loads((out / MARKER).read_text())["files"]]
     assert listed == [*first, "aircraft/a7/a7.xml", "aircraft/a7/short-init.xml", "scripts/short.xml"]
-    assert all((out / f).is_file() for f in listed)       # one JSBSim root, both scripts, all listed
+    assert all((out / f).is_file() for f in listed)  # one JSBSim root, both scripts, all listed
 
 
 def test_the_folder_is_checked_before_planning(tmp_path, monkeypatch, capsys):
@@ -108,25 +115,30 @@ def test_the_folder_is_checked_before_planning(tmp_path, monkeypatch, capsys):
 
 def test_the_csv_holds_the_output_grid_and_ends_at_t1(roll, tmp_path):
     import pandas as pd
+
     sc, plan = roll
     for dt_out in (b_dt := 1 / 480, 0.025):
         b = export_script(tmp_path / f"o{dt_out}", sc.name, sc.aircraft, plan, env=sc.env, dt_out=dt_out)
         assert b.dt == pytest.approx(b_dt)
         replay(b)
         t = pd.read_csv(b.root / b.output).iloc[:, 0].to_numpy()
-        assert t[0] == pytest.approx(plan.t0) and t[-1] == pytest.approx(plan.t1, abs=1e-9)   # not t1 + dt
+        assert t[0] == pytest.approx(plan.t0) and t[-1] == pytest.approx(plan.t1, abs=1e-9)  # not t1 + dt
         assert t.size == round((plan.t1 - plan.t0) / dt_out) + 1
 
 
-@pytest.mark.parametrize("flag, value, words", [
-    ("--dt-out", "0.001", ["--dt-out = 0.001 s", "0.002083333333 s", "0.48 of a step", "(1 step)"]),
-    ("--dt-out", "0.02", ["--dt-out = 0.02 s", "9.6 steps", "0.02083333333 (10 steps)"]),
-    ("--table-dt", "0.001", ["--table-dt = 0.001 s", "0.48 of a step"]),
-    ("--table-dt", "0.003", ["--table-dt = 0.003 s", "1.44 steps"]),
-    ("--table-dt", "100", ["--table-dt 100 s", "node step 0.5 s"]),
-])
-def test_intervals_that_are_not_whole_steps_are_refused_before_planning(flag, value, words, tmp_path, monkeypatch,
-                                                                         capsys):
+@pytest.mark.parametrize(
+    "flag, value, words",
+    [
+        ("--dt-out", "0.001", ["--dt-out = 0.001 s", "0.002083333333 s", "0.48 of a step", "(1 step)"]),
+        ("--dt-out", "0.02", ["--dt-out = 0.02 s", "9.6 steps", "0.02083333333 (10 steps)"]),
+        ("--table-dt", "0.001", ["--table-dt = 0.001 s", "0.48 of a step"]),
+        ("--table-dt", "0.003", ["--table-dt = 0.003 s", "1.44 steps"]),
+        ("--table-dt", "100", ["--table-dt 100 s", "node step 0.5 s"]),
+    ],
+)
+def test_intervals_that_are_not_whole_steps_are_refused_before_planning(
+    flag, value, words, tmp_path, monkeypatch, capsys
+):
     from harness.commands import export_script as command
 
     monkeypatch.setattr(command, "plan_scenario", lambda sc: pytest.fail("planned before checking the intervals"))

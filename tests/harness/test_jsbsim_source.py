@@ -27,19 +27,24 @@ def f16():
 
 def _pulse(u0, index, amp, t_on=0.2, t_off=0.7):
     """Constant trim controls with a pulse of ``amp`` on control ``index`` over [t_on, t_off)."""
+
     def u(t):
         t = np.asarray(t, dtype=float)
         out = np.repeat(np.asarray(u0, dtype=float)[:, None], t.size, axis=1)
         out[index] += amp * ((t >= t_on) & (t < t_off))
         return out if t.ndim else out[:, 0]
+
     return u
 
 
 def test_source_model_read_from_provenance(f16):
     src = source_model(f16[0])
     assert src.model == "f16"
-    assert src.surfaces == {"dm": ("fcs/elevator-pos-rad", 1.0), "dl": ("fcs/aileron-pos-rad", -1.0),
-                            "dn": ("fcs/rudder-pos-rad", 1.0)}
+    assert src.surfaces == {
+        "dm": ("fcs/elevator-pos-rad", 1.0),
+        "dl": ("fcs/aileron-pos-rad", -1.0),
+        "dn": ("fcs/rudder-pos-rad", 1.0),
+    }
     assert src.configuration["gear/gear-pos-norm"] == 0.0
     assert src.configuration["fcs/lef-pos-rad"] == 0.0
 
@@ -128,8 +133,9 @@ def test_controller_with_states_and_stateless(f16):
     assert np.allclose(res.df["dm"].to_numpy() - u0[3], 1e-3 * t, atol=1e-12)
     assert res.settings.controller_states == 1 and "AB2" in res.settings.controller_scheme
     assert list(res.controller_states.columns) == ["xc0"]
-    res2 = JSBSimSourceEngine().simulate(ac, u0, (0.0, 1.0), x0, controller=lambda t, x: (0, 0, 0, 0, -0.01 * x[10]),
-                                         dt_out=0.1)
+    res2 = JSBSimSourceEngine().simulate(
+        ac, u0, (0.0, 1.0), x0, controller=lambda t, x: (0, 0, 0, 0, -0.01 * x[10]), dt_out=0.1
+    )
     assert res2.status == "completed" and res2.settings.controller_states == 0
     assert math.isfinite(res2.df["q"].iloc[-1])
 
@@ -145,9 +151,12 @@ def test_a_coarser_controller_rate_is_held_and_recorded(f16):
 
 def test_fitted_source_parses_a_file_outside_the_package():
     from gna.fit.sources.jsbsim_aero import fitted_source
-    prov = {"source": "JSBSim 1.3.3 aircraft x1 (/tmp/aircraft/x1/x1.xml)",
-            "source_model": "at Mach 0.5; surfaces: dm = fcs/elevator-pos-rad, dl = -fcs/left-aileron-pos-rad, "
-                            "dn = fcs/rudder-pos-rad; configuration held: none; functions removed: none"}
+
+    prov = {
+        "source": "JSBSim 1.3.3 aircraft x1 (/tmp/aircraft/x1/x1.xml)",
+        "source_model": "at Mach 0.5; surfaces: dm = fcs/elevator-pos-rad, dl = -fcs/left-aileron-pos-rad, "
+        "dn = fcs/rudder-pos-rad; configuration held: none; functions removed: none",
+    }
     src = fitted_source(prov)
     assert src.model == "/tmp/aircraft/x1/x1.xml" and src.configuration == {}
     assert src.surfaces["dl"] == ("fcs/left-aileron-pos-rad", -1.0)

@@ -20,7 +20,7 @@ def test_earlier_files_are_those_still_there_inside_the_folder(tmp_path):
 def test_the_run_folder_of_a_case_folder_is_the_one_holding_the_marker(tmp_path):
     case = tmp_path / "paper" / "s" / "open"
     case.mkdir(parents=True)
-    assert run_folder(case) == case                       # no run: the folder itself
+    assert run_folder(case) == case  # no run: the folder itself
     (tmp_path / "paper" / INCOMPLETE).write_text('{"command": "paper"}\n')
     assert run_folder(case) == tmp_path / "paper"
     (case / MARKER).write_text("{}")

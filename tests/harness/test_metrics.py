@@ -10,10 +10,18 @@ import pytest
 
 from gna.eom import STATE_NAMES
 from gna.errors import InputError
-from harness.metrics import (DEFAULT_TOLERANCES, PERCENT_FLOORS, difference_table, differences, engine_tables,
-                             max_position_error, percent_floor, position_error, window_span)
+from harness.metrics import (
+    DEFAULT_TOLERANCES,
+    PERCENT_FLOORS,
+    difference_table,
+    differences,
+    engine_tables,
+    max_position_error,
+    percent_floor,
+    position_error,
+    window_span,
+)
 from harness.testing import assert_trajectories_close
-
 
 
 def _traj(t, **over):
@@ -37,8 +45,19 @@ def test_table_values_time_of_maximum_and_pass_fail():
     text = tab.format()
     assert "difference other - ref, t in [0, 10] s, 101 samples" in text
     assert "mu" in text and "FAIL" in text and "overall: FAIL (mu)" in text
-    assert set(tab.to_frame().columns) == {"unit", "max_abs", "t_max", "rms", "delta_pct", "scale", "ref_max", "atol",
-                                           "rtol", "tolerance", "passed"}
+    assert set(tab.to_frame().columns) == {
+        "unit",
+        "max_abs",
+        "t_max",
+        "rms",
+        "delta_pct",
+        "scale",
+        "ref_max",
+        "atol",
+        "rtol",
+        "tolerance",
+        "passed",
+    }
     # Window: the first 5 s only.
     early = difference_table(a, b, window=(0.0, 5.0))
     assert early.passed and early.window == (0.0, 5.0) and early.samples == 51
@@ -49,7 +68,7 @@ def test_angles_wrap_and_tolerance_forms():
     a = _traj(t, chi=np.full_like(t, math.pi - 1e-6))
     b = _traj(t, chi=np.full_like(t, -math.pi + 1e-6))
     assert difference_table(a, b).row("chi").max_abs == pytest.approx(2e-6, abs=1e-12)
-    tab = difference_table(a, b, 1e-7)               # one tolerance for every variable
+    tab = difference_table(a, b, 1e-7)  # one tolerance for every variable
     assert tab.row("chi").passed is False and tab.row("V").passed is True
     tab = difference_table(a, b, {"chi": 1e-5}, variables=("chi", "V"))
     assert tab.passed and tab.row("V").passed is None
@@ -62,11 +81,11 @@ def test_angles_wrap_and_tolerance_forms():
 def test_grids_and_coverage():
     t = np.linspace(0.0, 4.0, 41)
     a = _traj(t, x=2.0 * t)
-    b = _traj(t[:21], x=2.0 * t[:21])                 # stopped early at t = 2
+    b = _traj(t[:21], x=2.0 * t[:21])  # stopped early at t = 2
     tab = difference_table(a, b)
     assert not tab.passed and "ends at t = 2" in tab.notes[0] and "overall: FAIL (coverage)" in tab.format()
     fine = np.linspace(0.0, 4.0, 401)
-    c = _traj(fine + 0.005, x=2.0 * (fine + 0.005))   # shifted grid: no common times
+    c = _traj(fine + 0.005, x=2.0 * (fine + 0.005))  # shifted grid: no common times
     with pytest.raises(InputError, match="no common output times.*interpolate=True"):
         difference_table(a, c)
     tab = difference_table(a, c, interpolate=True, window=(0.01, 4.0))
@@ -116,7 +135,7 @@ def test_position_error_against_flat_outputs():
 
     def outputs(tt):
         tt = np.asarray(tt, dtype=float)
-        return np.vstack([100.0 * tt, 0 * tt, -1000.0 + 0 * tt, 0 * tt])   # extra rows are ignored
+        return np.vstack([100.0 * tt, 0 * tt, -1000.0 + 0 * tt, 0 * tt])  # extra rows are ignored
 
     err = position_error(flown, outputs)
     assert err.iloc[0] == 0.0 and err.iloc[-1] == pytest.approx(5.0)
@@ -153,9 +172,14 @@ def test_informative_table_has_one_overall_line_and_undefined_delta_is_a_dash():
     text = difference_table(a, b, labels=("plan", "run"), tolerances={}).format()
     assert text.count("overall:") == 1 and "overall: - (no tolerances given: informative)" in text
     assert "overall: PASS" not in text
-    y_line = next(line for line in text.splitlines() if line.split()[:1] == ["y"])   # max|y_ref| = 0
-    assert "nan" not in y_line and "undefined (-) where the scale is at most the floor of its kind " \
-        "(0.01 m, 0.001 m/s, 0.0001 rad, 0.001 rad/s)" in text and "max - min for x, y, z, chi" in text
+    y_line = next(line for line in text.splitlines() if line.split()[:1] == ["y"])  # max|y_ref| = 0
+    assert (
+        "nan" not in y_line
+        and "undefined (-) where the scale is at most the floor of its kind "
+        "(0.01 m, 0.001 m/s, 0.0001 rad, 0.001 rad/s)"
+        in text
+        and "max - min for x, y, z, chi" in text
+    )
 
 
 def test_delta_is_undefined_where_the_reference_is_zero_to_rounding():
@@ -166,7 +190,7 @@ def test_delta_is_undefined_where_the_reference_is_zero_to_rounding():
     row = difference_table(a, b, tolerances={}).row("beta")
     assert row.ref_max == pytest.approx(1e-26, rel=1e-2) and row.max_abs == pytest.approx(1e-14, rel=1e-2)
     assert math.isnan(row.delta_pct)
-    c = _traj(t, beta=1e-3 * np.sin(t), V=100.0 + 0 * t)     # a small but resolved sideslip keeps its metric
+    c = _traj(t, beta=1e-3 * np.sin(t), V=100.0 + 0 * t)  # a small but resolved sideslip keeps its metric
     d = _traj(t, beta=1e-3 * np.sin(t) + 1e-9 * np.cos(t), V=100.0 + 0 * t)
     assert difference_table(c, d, tolerances={}).row("beta").delta_pct == pytest.approx(1e-4, rel=1e-3)
 
@@ -188,8 +212,12 @@ def test_delta_is_undefined_where_the_reference_is_within_the_agreement_of_its_k
     # z is relative to its excursion (max - min): a level flight at altitude has none, a 1.01 cm descent has one
     high = difference_table(_traj(t, z=-1000.0 + 0 * t), _traj(t, z=-1000.0 + 1e-5 + 0 * t), tolerances={})
     assert math.isnan(high.row("z").delta_pct) and high.row("z").ref_max == 1000.0 and high.row("z").scale == 0.0
-    edge = [difference_table(_traj(t, z=-1000.0 + dz * t / 10), _traj(t, z=-1000.0 + dz * t / 10 + 1e-5),
-                             tolerances={}).row("z").delta_pct for dz in (1e-2, 1.01e-2)]
+    edge = [
+        difference_table(_traj(t, z=-1000.0 + dz * t / 10), _traj(t, z=-1000.0 + dz * t / 10 + 1e-5), tolerances={})
+        .row("z")
+        .delta_pct
+        for dz in (1e-2, 1.01e-2)
+    ]
     assert math.isnan(edge[0]) and edge[1] == pytest.approx(100 * 1e-5 / 1.01e-2)
     assert [percent_floor(n) for n in ("V", "alpha", "p", "X", "L", "qbar")] == [1e-3, 1e-4, 1e-3, 1e-3, 1e-4, 1e-9]
 
@@ -202,9 +230,15 @@ def _turn(t, *, shift=(0.0, 0.0, 0.0), heading=0.0, error=0.0):
     bump = error * np.sin(t)
     xl, yl = R * np.sin(th) + 0.3 * bump, R * (1.0 - np.cos(th)) - 0.2 * bump
     c, s = math.cos(heading), math.sin(heading)
-    return _traj(t, x=shift[0] + c * xl - s * yl, y=shift[1] + s * xl + c * yl, z=shift[2] - 2.0 * t + 0.1 * bump,
-                 chi=np.remainder(heading + th + 1e-3 * bump + math.pi, 2 * math.pi) - math.pi, V=V + 0 * t,
-                 mu=0.3 + 1e-3 * bump)
+    return _traj(
+        t,
+        x=shift[0] + c * xl - s * yl,
+        y=shift[1] + s * xl + c * yl,
+        z=shift[2] - 2.0 * t + 0.1 * bump,
+        chi=np.remainder(heading + th + 1e-3 * bump + math.pi, 2 * math.pi) - math.pi,
+        V=V + 0 * t,
+        mu=0.3 + 1e-3 * bump,
+    )
 
 
 def test_delta_of_datum_dependent_variables_is_the_same_wherever_and_whichever_way_the_manoeuvre_is_flown():
@@ -221,13 +255,13 @@ def test_delta_of_datum_dependent_variables_is_the_same_wherever_and_whichever_w
     assert all(math.isfinite(v) and v > 0 for v in base.values())
     for where in ({"shift": (0.0, 0.0, -1000.0)}, {"shift": (5e3, -7e4, -1e4)}, {"heading": math.pi}):
         assert deltas(**where) == pytest.approx(base, rel=1e-6)
-    east = deltas(heading=math.pi / 2, shift=(0.0, 0.0, -1e4))     # rotated by 90 deg: x and y swap roles
+    east = deltas(heading=math.pi / 2, shift=(0.0, 0.0, -1e4))  # rotated by 90 deg: x and y swap roles
     assert east["x"] == pytest.approx(base["y"], rel=1e-6) and east["y"] == pytest.approx(base["x"], rel=1e-6)
-    free = ("position", "z", "chi", "mu")                           # any heading: x and y mix, these do not
+    free = ("position", "z", "chi", "mu")  # any heading: x and y mix, these do not
     for where in ({"heading": math.pi / 2, "shift": (0.0, 0.0, -1e4)}, {"heading": 2.9, "shift": (1e5, 1e5, -1e4)}):
         assert {n: deltas(**where)[n] for n in free} == pytest.approx({n: base[n] for n in free}, rel=1e-6)
     tab = difference_table(_turn(t), _turn(t, error=1e-2), tolerances={}, variables=names)
     z, mu, pos = tab.row("z"), tab.row("mu"), tab.row("position")
     assert z.scale == pytest.approx(20.0) and z.delta_pct == pytest.approx(100 * z.max_abs / 20.0)
-    assert mu.scale == mu.ref_max == pytest.approx(0.3)                  # a physical zero keeps max|ref|
+    assert mu.scale == mu.ref_max == pytest.approx(0.3)  # a physical zero keeps max|ref|
     assert pos.scale == pytest.approx(math.hypot(200.0 * math.sqrt(2 - 2 * math.cos(2.5)), 20.0), rel=1e-9)

@@ -47,9 +47,14 @@ def test_a_folder_inside_a_run_being_written_is_refused(tmp_path):
     run = tmp_path / "LP2"
     proc = _holder(run)
     try:
-        (run / ".gflat-incomplete").unlink()               # only the lock tells: as before the first file
-        out = subprocess.run([sys.executable, "-m", "harness.cli", *COMMANDS["compare"], "--out",
-                              str(run / "case" / "open")], cwd=ROOT, capture_output=True, text=True, timeout=120)
+        (run / ".gflat-incomplete").unlink()  # only the lock tells: as before the first file
+        out = subprocess.run(
+            [sys.executable, "-m", "harness.cli", *COMMANDS["compare"], "--out", str(run / "case" / "open")],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
         assert out.returncode == 2, out.stderr
         assert out.stderr.count("\n") == 1
         assert f"lies inside {run}, the folder of a gflat run writing it now" in out.stderr
@@ -60,10 +65,10 @@ def test_a_folder_inside_a_run_being_written_is_refused(tmp_path):
 
 def test_a_run_writes_its_own_sub_folders_and_beside_other_runs(tmp_path):
     out = OutputDir(tmp_path / "run", command="paper")
-    out.sub("case", "open").write_text("a.txt", text="a")   # its own case folder: not a new run
+    out.sub("case", "open").write_text("a.txt", text="a")  # its own case folder: not a new run
     out.finish()
-    OutputDir(tmp_path / "other", command="compare").finish()   # a sibling of a run is fine
-    OutputDir(tmp_path / "run", command="paper").finish()       # the run's own folder again
+    OutputDir(tmp_path / "other", command="compare").finish()  # a sibling of a run is fine
+    OutputDir(tmp_path / "run", command="paper").finish()  # the run's own folder again
 
 
 def test_the_default_folders_of_plan_and_compare_sit_side_by_side(tmp_path, monkeypatch):
@@ -71,7 +76,7 @@ def test_the_default_folders_of_plan_and_compare_sit_side_by_side(tmp_path, monk
     monkeypatch.chdir(tmp_path)
     assert main(["plan", "gtm-aileron-roll", "--J", "1"]) == 0
     assert main(["compare", "gtm-aileron-roll", "--loop", "open", "--J", "1"]) == 0
-    assert main(["plan", "gtm-aileron-roll", "--J", "1"]) == 0           # and again, after the comparison
+    assert main(["plan", "gtm-aileron-roll", "--J", "1"]) == 0  # and again, after the comparison
     root = tmp_path / "reports" / "out" / "gtm-aileron-roll"
     assert sorted(p.name for p in root.iterdir()) == ["open", "plan"]
     assert (root / "plan" / ".gflat-complete.json").is_file() and (root / "open" / ".gflat-complete.json").is_file()

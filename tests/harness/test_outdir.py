@@ -21,7 +21,7 @@ def test_writes_are_recorded_and_marked(tmp_path):
     sub = out.sub("plan")
     sub.write_bytes("p.bin", data=b"\x00\x01")
     assert [str(p) for p in out.written] == ["a.txt", "s/summary.json", "plan/p.bin"]
-    assert sub.written == out.written                     # one shared record
+    assert sub.written == out.written  # one shared record
     marker = json.loads(out.finish().read_text())
     assert [f["path"] for f in marker["files"]] == ["a.txt", "s/summary.json", "plan/p.bin"]
     assert all(len(f["sha256"]) == 64 for f in marker["files"]) and marker["date_utc"].endswith("+00:00")
@@ -39,9 +39,9 @@ def test_missing_parent_is_refused_unless_parents(tmp_path):
     with pytest.raises(InputError, match="does not exist"):
         OutputDir(tmp_path / "no" / "such" / "dir")
     out = OutputDir(tmp_path / "no" / "such" / "dir", parents=True)
-    assert out.root.is_dir()                               # made at once, to be locked
+    assert out.root.is_dir()  # made at once, to be locked
     out.release()
-    assert list(tmp_path.iterdir()) == []                  # nothing written: the folders made are removed
+    assert list(tmp_path.iterdir()) == []  # nothing written: the folders made are removed
     out = OutputDir(tmp_path / "no" / "such" / "dir", parents=True)
     out.write_text("x.txt", text="1")
     out.release()
@@ -98,7 +98,7 @@ def test_rerun_removes_stale_files_only(tmp_path):
     (tmp_path / "run" / "mine.txt").write_text("user's own file")
     second = OutputDir(tmp_path / "run")
     second.write_text("plan_j0.csv", text="0 again")
-    assert not (tmp_path / "run" / MARKER).exists()        # being rewritten: not a complete set
+    assert not (tmp_path / "run" / MARKER).exists()  # being rewritten: not a complete set
     second.finish()
     names = sorted(p.name for p in (tmp_path / "run").rglob("*"))
     assert names == sorted([MARKER, "plan_j0.csv", "mine.txt"])
@@ -122,17 +122,17 @@ def test_a_stale_name_turned_link_is_not_followed(tmp_path):
 
 def test_interrupted_rerun_then_smaller_run_leaves_no_stale_file(tmp_path):
     run = tmp_path / "run"
-    first = OutputDir(run)                                 # a complete run: open and closed loop
+    first = OutputDir(run)  # a complete run: open and closed loop
     for name in ("open/a.csv", "closed/b.csv", "closed/c.csv", "index.html"):
         first.write_text(name, text="1")
     first.finish()
-    (run / "mine.txt").write_text("user's own file")       # never listed: never deleted
-    second = OutputDir(run)                                # interrupted: writes, never finishes
+    (run / "mine.txt").write_text("user's own file")  # never listed: never deleted
+    second = OutputDir(run)  # interrupted: writes, never finishes
     second.write_text("open/a.csv", text="2")
     second.write_text("open/new-name.csv", text="2")
     assert not (run / MARKER).exists() and (run / INCOMPLETE).is_file()
-    second.release()                                       # the interrupted run has ended
-    third = OutputDir(run)                                 # a smaller complete run
+    second.release()  # the interrupted run has ended
+    third = OutputDir(run)  # a smaller complete run
     third.write_text("open/a.csv", text="3")
     third.write_text("index.html", text="3")
     third.finish()
@@ -155,14 +155,14 @@ def test_marker_mode_follows_umask(tmp_path):
 
 
 def test_missing_folder_is_made_at_the_first_file_only(tmp_path):
-    OutputDir(tmp_path / "run")                            # checked, nothing written: nothing left
+    OutputDir(tmp_path / "run")  # checked, nothing written: nothing left
     OutputDir(tmp_path / "deep" / "er", parents=True).sub("plan")
     assert list(tmp_path.iterdir()) == []
     out = OutputDir(tmp_path / "deep" / "er", parents=True)
     out.sub("plan").write_text("p.csv", text="1")
     assert (tmp_path / "deep" / "er" / "plan" / "p.csv").is_file()
     empty = OutputDir(tmp_path / "empty")
-    assert empty.finish().is_file()                         # a complete run of no file still gets its marker
+    assert empty.finish().is_file()  # a complete run of no file still gets its marker
 
 
 def test_no_clean_keeps_old_files(tmp_path):
@@ -209,9 +209,13 @@ def test_unwritable_folder_is_refused_whoever_runs(tmp_path, monkeypatch):
 
     def refuse(*a, **k):
         raise PermissionError(13, "Permission denied")
+
     monkeypatch.setattr(tempfile, "mkstemp", refuse)
-    with pytest.raises(InputError, match=r"output folder .*ro: cannot create it, its nearest existing folder "
-                                         r".* takes no files: Permission denied"):
+    with pytest.raises(
+        InputError,
+        match=r"output folder .*ro: cannot create it, its nearest existing folder "
+        r".* takes no files: Permission denied",
+    ):
         OutputDir(tmp_path / "ro")
     (tmp_path / "ro").mkdir()
     with pytest.raises(InputError, match=r"output folder .*ro: cannot write there: Permission denied"):
@@ -228,30 +232,34 @@ def test_files_get_the_permissions_of_the_users_umask(tmp_path):
         p = out.write_text("a.txt", text="x")
     finally:
         os.umask(old)
-    assert stat.S_IMODE(p.stat().st_mode) == 0o644          # not private to the owner, as mkstemp would make it
+    assert stat.S_IMODE(p.stat().st_mode) == 0o644  # not private to the owner, as mkstemp would make it
 
 
 def test_files_recorded_after_a_run_are_removed_by_the_next_run(tmp_path):
     """A report rendered again into a finished run's folder joins its files: the next run removes it if stale."""
     from harness.marker import record_in_marker
+
     od = OutputDir(tmp_path / "run")
     od.write_text("a.txt", text="a")
     od.finish()
     extra = tmp_path / "run" / "report.html"
     extra.write_text("later")
     assert record_in_marker(tmp_path / "run", [extra])
-    assert record_in_marker(tmp_path / "run", [extra])          # recorded once, not twice
+    assert record_in_marker(tmp_path / "run", [extra])  # recorded once, not twice
     files = [f["path"] for f in json.loads((tmp_path / "run" / ".gflat-complete.json").read_text())["files"]]
     assert files == ["a.txt", "report.html"]
     again = OutputDir(tmp_path / "run")
     again.write_text("a.txt", text="b")
     again.finish()
     assert not extra.exists() and (tmp_path / "run" / "a.txt").read_text() == "b"
-    assert not record_in_marker(tmp_path / "elsewhere", [])      # no marker: nothing recorded
+    assert not record_in_marker(tmp_path / "elsewhere", [])  # no marker: nothing recorded
 
 
 def test_a_new_folder_in_a_virtual_file_system_names_the_folder_asked_for(tmp_path):
     # /proc takes no new files (ENOENT): the message names the folder asked for and the folder that refused
-    with pytest.raises(InputError, match=r"output folder /proc/gflat-x: cannot create it, its nearest existing "
-                                         r"folder /proc takes no files: "):
+    with pytest.raises(
+        InputError,
+        match=r"output folder /proc/gflat-x: cannot create it, its nearest existing "
+        r"folder /proc takes no files: ",
+    ):
         OutputDir("/proc/gflat-x")

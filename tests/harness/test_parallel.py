@@ -28,6 +28,7 @@ class _Unpicklable(Exception):
 def _raise(exc):
     def fn():
         raise exc
+
     return fn
 
 
@@ -88,12 +89,11 @@ def test_memory_folder_replayed_gives_the_files_of_a_direct_write(tmp_path):
 def test_closed_loop_reuses_the_open_cases_run(short_scenario):  # noqa: F811
     open_case = run_case(ValidationCase(str(short_scenario)))
     closed = ValidationCase(str(short_scenario), loop="closed")
-    reused = run_case(closed, plan=open_case.plan, scenario=open_case.scenario,
-                      open_loop=open_case.runs["inhouse"])
+    reused = run_case(closed, plan=open_case.plan, scenario=open_case.scenario, open_loop=open_case.runs["inhouse"])
     flown = run_case(closed, plan=open_case.plan, scenario=open_case.scenario)
     assert reused.open_loop is open_case.runs["inhouse"]
     assert flown.open_loop.df.equals(reused.open_loop.df)
-    assert json.dumps(reused.verdict()["runs"]) == json.dumps(flown.verdict()["runs"])   # NaN included
+    assert json.dumps(reused.verdict()["runs"]) == json.dumps(flown.verdict()["runs"])  # NaN included
 
 
 def test_paper_in_workers_writes_the_files_of_one_process(short_scenario, tmp_path, monkeypatch, capsys):  # noqa: F811
@@ -107,26 +107,41 @@ def test_paper_in_workers_writes_the_files_of_one_process(short_scenario, tmp_pa
         assert main(["paper", "--jobs", str(jobs), "--out", str(root)]) == 0
         outs[jobs] = capsys.readouterr().out
         execution = json.loads((root / "manifest.json").read_text())["execution"]
-        assert execution["jobs"] == jobs and len(execution["tasks"]) == 7     # 2 + 3 flights, 2 case folders
-    files = {j: sorted(p.relative_to(tmp_path / f"jobs{j}") for p in (tmp_path / f"jobs{j}").rglob("*")
-                       if p.is_file()) for j in (1, 2)}
+        assert execution["jobs"] == jobs and len(execution["tasks"]) == 7  # 2 + 3 flights, 2 case folders
+    files = {
+        j: sorted(p.relative_to(tmp_path / f"jobs{j}") for p in (tmp_path / f"jobs{j}").rglob("*") if p.is_file())
+        for j in (1, 2)
+    }
     assert files[1] == files[2]
-    volatile = {"index.html", "case.html", "report.pdf", "manifest.json", ".gflat-complete.json", "report.json",
-                "summary.json"}
+    volatile = {
+        "index.html",
+        "case.html",
+        "report.pdf",
+        "manifest.json",
+        ".gflat-complete.json",
+        "report.json",
+        "summary.json",
+    }
     for rel in files[1]:
         a, b = tmp_path / "jobs1" / rel, tmp_path / "jobs2" / rel
-        if rel.suffix == ".parquet":                  # JSBSim's metadata carries its wall times
+        if rel.suffix == ".parquet":  # JSBSim's metadata carries its wall times
             assert pd.read_parquet(a).equals(pd.read_parquet(b)), rel
         elif rel.name not in volatile:
             assert a.read_bytes() == b.read_bytes(), rel
     marker = [json.loads((tmp_path / f"jobs{j}" / ".gflat-complete.json").read_text()) for j in (1, 2)]
     assert [f["path"] for f in marker[0]["files"]] == [f["path"] for f in marker[1]["files"]]
-    strip = lambda text: [line for line in text.splitlines() if "time" not in line and "jobs" not in line  # noqa: E731
-                          and str(tmp_path) not in line and not line.startswith("  short ")]
+    strip = lambda text: [  # noqa: E731
+        line
+        for line in text.splitlines()
+        if "time" not in line
+        and "jobs" not in line  # noqa: E731
+        and str(tmp_path) not in line
+        and not line.startswith("  short ")
+    ]
     assert strip(outs[1]) == strip(outs[2])
 
 
-_INTERRUPTED_POOLS = r'''
+_INTERRUPTED_POOLS = r"""
 import os, random, signal, sys, time
 from harness.parallel import ForkPool, MemoryOutputDir
 
@@ -161,7 +176,7 @@ for round in range(int(sys.argv[2])):
         interrupted += 1
 print(interrupted)
 sys.exit(130 if interrupted else 0)
-'''
+"""
 
 
 def test_pool_interrupted_at_any_moment_ends_quietly(tmp_path):
@@ -170,11 +185,18 @@ def test_pool_interrupted_at_any_moment_ends_quietly(tmp_path):
     # reaches the terminal.
     import subprocess
     import sys
+
     scratch = tmp_path / "tmp"
     scratch.mkdir()
     env = dict(os.environ, TMPDIR=str(scratch), PYTHONPATH=str(Path(__file__).resolve().parents[2]))
-    r = subprocess.run([sys.executable, "-c", _INTERRUPTED_POOLS, "7", "40"], capture_output=True, text=True,
-                       env=env, start_new_session=True, timeout=120)
+    r = subprocess.run(
+        [sys.executable, "-c", _INTERRUPTED_POOLS, "7", "40"],
+        capture_output=True,
+        text=True,
+        env=env,
+        start_new_session=True,
+        timeout=120,
+    )
     assert r.stderr == ""
     assert r.returncode == 130 and int(r.stdout) >= 20
 
@@ -194,7 +216,7 @@ def test_the_pools_pipes_and_processes_end_while_ctrl_c_waits(monkeypatch):
     def record(*_):
         blocked.append(signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, ()))
 
-    gc.collect()                                   # earlier tests' garbage ends before the recording starts
+    gc.collect()  # earlier tests' garbage ends before the recording starts
     gc.disable()
     try:
         monkeypatch.setattr(multiprocessing.connection.Connection, "__del__", record, raising=False)
@@ -208,10 +230,10 @@ def test_the_pools_pipes_and_processes_end_while_ctrl_c_waits(monkeypatch):
                     pool.next_result()
                 except ValueError:
                     pass
-            pool.submit("left", lambda: time.sleep(5))          # ended by close()
+            pool.submit("left", lambda: time.sleep(5))  # ended by close()
         ends = len(blocked)
         gc.collect()
-        assert len(blocked) == ends                 # none of the pool's pipes was left to the garbage collector
+        assert len(blocked) == ends  # none of the pool's pipes was left to the garbage collector
     finally:
         gc.enable()
     assert ends >= 2 * 7 and all(blocked)
@@ -261,4 +283,4 @@ def test_a_killed_worker_leaves_no_temporary_folder(tmp_path):
         where = Path(note.read_text())
         assert where.exists() and where.parent.name.startswith("gflat-pool-")
     assert not where.exists() and not where.parent.exists()
-    assert tempfile.gettempdir() != str(where.parent)          # the parent's own temp dir is untouched
+    assert tempfile.gettempdir() != str(where.parent)  # the parent's own temp dir is untouched

@@ -14,14 +14,14 @@ def test_plan_json_verify_prints_one_object_with_the_contract_keys(tmp_path, cap
     rc = main(["plan", "twin-otter-single-engine", "--json", "--verify", "--out", str(tmp_path / "out")])
     out = capsys.readouterr().out
     assert rc == 0
-    d = json.loads(out)                               # stdout is one JSON object and nothing else
+    d = json.loads(out)  # stdout is one JSON object and nothing else
     assert d["feasible"] is True
     assert d["planning_time_s"] > 0
     res = d["equation_residual_per_iterate"]
     assert len(res) == d["J"] + 1 and all(math.isfinite(r) for r in res)
-    assert res[-1] < res[0]                           # generalized flatness reduces the neglected terms' residual
+    assert res[-1] < res[0]  # generalized flatness reduces the neglected terms' residual
     err = d["open_loop_max_position_error_m"]
-    assert 0 < err < 0.02, err                        # full model flown open loop from the plan's initial state
+    assert 0 < err < 0.02, err  # full model flown open loop from the plan's initial state
     assert d["open_loop_status"] == "completed"
     assert d["open_loop_settings"]["rtol"] == 1e-10 and d["open_loop_settings"]["method"] == "DOP853"
     saved = json.loads((tmp_path / "out" / "summary.json").read_text())
@@ -78,13 +78,20 @@ def test_singular_flat_output_is_one_line_exit_1_and_no_absurd_files(tmp_path, c
     assert len(err) == 1 and "stage 2 of the flat parametrization is singular" in err[0] and "cond_beta" in err[0]
     d = json.loads(cap.out)
     assert d["feasible"] is False and "stage 2" in d["infeasible_reason"]
-    for key in ("open_loop_max_position_error_m", "open_loop_t_worst_s", "open_loop_max_angle_error_rad",
-                "open_loop_settings"):
+    for key in (
+        "open_loop_max_position_error_m",
+        "open_loop_t_worst_s",
+        "open_loop_max_angle_error_rad",
+        "open_loop_settings",
+    ):
         assert key in d and d[key] is None
     assert d["open_loop_status"] == "not flown"
     assert d["open_loop_message"].startswith("not flown: the plan is not feasible: stage 2")
-    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == \
-        ["plan_j0.csv", "singularities.csv", "summary.json"]
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+        "plan_j0.csv",
+        "singularities.csv",
+        "summary.json",
+    ]
 
 
 def test_infeasible_plan_json_verify_carries_the_reason_and_null_open_loop_keys(tmp_path, capsys):
@@ -117,6 +124,7 @@ def test_compare_table_keys_are_refused_by_plan_too(tmp_path, capsys):
 
 def test_J_out_of_range_blames_the_option(capsys):
     import pytest
+
     with pytest.raises(SystemExit) as exc:
         main(["plan", "gtm-aileron-roll", "--J", "1000"])
     err = capsys.readouterr().err

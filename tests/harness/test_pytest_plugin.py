@@ -25,6 +25,7 @@ def run(pytester, monkeypatch):
 
     def go(*args):
         return pytester.runpytest("-p", "harness.pytest_plugin", "-q", *args)
+
     return go
 
 
@@ -32,16 +33,16 @@ def test_three_line_test_regenerates_passes_and_fails_when_tightened(pytester, r
     pytester.makepyfile(test_user=USER_TEST.format(extra=""))
     golden = pytester.path / "gflat_golden" / "test_user" / "test_twin_otter.csv"
 
-    missing = run()                                  # no golden file yet: a clear failure, how to create it
+    missing = run()  # no golden file yet: a clear failure, how to create it
     missing.assert_outcomes(failed=1)
     missing.stdout.fnmatch_lines(["*golden trajectory*test_twin_otter.csv is missing*--gflat-regen*"])
     assert not golden.exists()
 
-    run("--gflat-regen").assert_outcomes(passed=1)   # written from the first engine (inhouse)
+    run("--gflat-regen").assert_outcomes(passed=1)  # written from the first engine (inhouse)
     assert golden.is_file()
     assert golden.read_text().splitlines()[0].startswith("t,x,y,z,V,")
 
-    run().assert_outcomes(passed=1)                  # jsbsim within the default tolerances (1e-2 m, 1e-4 rad)
+    run().assert_outcomes(passed=1)  # jsbsim within the default tolerances (1e-2 m, 1e-4 rad)
 
     # The engines differ by 4.1e-6 m in altitude over these 5 s: a 1e-6 m position tolerance fails on jsbsim,
     # with the difference table.
@@ -60,7 +61,7 @@ def test_regeneration_replaces_a_stale_golden_file(pytester, run):
     golden = pytester.path / "gflat_golden" / "test_user" / "test_twin_otter.csv"
     lines = golden.read_text().splitlines()
     head, first = lines[0].split(","), lines[1].split(",")
-    first[head.index("z")] = str(float(first[head.index("z")]) + 0.5)   # a stale golden: 0.5 m off at t0
+    first[head.index("z")] = str(float(first[head.index("z")]) + 0.5)  # a stale golden: 0.5 m off at t0
     golden.write_text("\n".join([lines[0], ",".join(first)] + lines[2:]) + "\n")
     stale = run()
     stale.assert_outcomes(failed=1)
@@ -84,14 +85,20 @@ def test_entry_point_declared():
     assert all(ep.value == "harness.pytest_plugin" for ep in installed)
 
 
-@pytest.mark.parametrize("extra, message", [
-    (', duration=1e6', "*duration = 1e+06 s is longer than the scenario's span of * s*"),
-    (', atol={"position": -1.0}', "*atol of position must be a non-negative number, got -1.0*"),
-    (', atol={"positon": 1.0}', "*atol given for positon: neither a group*"),
-])
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (", duration=1e6", "*duration = 1e+06 s is longer than the scenario's span of * s*"),
+        (', atol={"position": -1.0}', "*atol of position must be a non-negative number, got -1.0*"),
+        (', atol={"positon": 1.0}', "*atol given for positon: neither a group*"),
+    ],
+)
 def test_bad_arguments_fail_before_flying_or_writing(pytester, run, extra, message):
-    pytester.makepyfile(test_user=USER_TEST.format(extra="").replace("duration=5.0", "duration=5.0" + extra)
-                        if "duration" not in extra else USER_TEST.format(extra="").replace("duration=5.0", extra[2:]))
+    pytester.makepyfile(
+        test_user=USER_TEST.format(extra="").replace("duration=5.0", "duration=5.0" + extra)
+        if "duration" not in extra
+        else USER_TEST.format(extra="").replace("duration=5.0", extra[2:])
+    )
     res = run("--gflat-regen")
     res.assert_outcomes(failed=1)
     res.stdout.fnmatch_lines([message])

@@ -42,37 +42,45 @@ def _listed(folder: Path) -> list[str]:
     return [f["path"] for f in json.loads((folder / MARKER).read_text())["files"]]
 
 
-_HOLDER = r'''
+_HOLDER = r"""
 import sys
 from harness.outdir import OutputDir
 out = OutputDir(sys.argv[1], command="compare")
 print("holding", flush=True)
 sys.stdin.readline()
-'''
+"""
 
 
 def test_report_is_refused_while_a_run_writes_the_folder(compared, tmp_path):
     run = _copy(compared, tmp_path / "run")
     before = _files(run)
-    holder = subprocess.Popen([sys.executable, "-c", _HOLDER, str(run)], cwd=ROOT, stdin=subprocess.PIPE,
-                              stdout=subprocess.PIPE, text=True)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", _HOLDER, str(run)], cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+    )
     try:
-        assert holder.stdout.readline() == "holding\n"    # gflat compare --out DIR is running again
-        second = subprocess.run([sys.executable, "-m", "harness.cli", "report", str(run), "--no-pdf"], cwd=ROOT,
-                                capture_output=True, text=True, timeout=120)
+        assert holder.stdout.readline() == "holding\n"  # gflat compare --out DIR is running again
+        second = subprocess.run(
+            [sys.executable, "-m", "harness.cli", "report", str(run), "--no-pdf"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
     finally:
         holder.communicate("\n", timeout=60)
     assert second.returncode == 2, second.stderr
-    assert second.stderr == (f"gflat report: error: output folder {run} is in use by another gflat run (it holds "
-                             f"the folder until it ends): wait for it to end\n")
-    assert _files(run) == before                          # nothing changed
-    assert main(["report", str(run), "--no-pdf"]) == 0    # free again
+    assert second.stderr == (
+        f"gflat report: error: output folder {run} is in use by another gflat run (it holds "
+        f"the folder until it ends): wait for it to end\n"
+    )
+    assert _files(run) == before  # nothing changed
+    assert main(["report", str(run), "--no-pdf"]) == 0  # free again
 
 
 def test_a_run_into_the_folder_is_refused_while_report_writes_it(compared, tmp_path, capsys):
     run = _copy(compared, tmp_path / "run")
     before = _files(run)
-    with amending(run):                                   # what gflat report holds while it renders
+    with amending(run):  # what gflat report holds while it renders
         assert main(["compare", "gtm-aileron-roll", "--J", "0", "--out", str(run)]) == 2
         assert main(["report", str(run), "--no-pdf"]) == 2
     err = capsys.readouterr().err.splitlines()
@@ -94,19 +102,19 @@ def test_a_case_folder_inside_a_run_is_held_with_its_run(compared, tmp_path, cap
         assert main(["report", str(case), "--self-contained", "--no-pdf"]) == 2
     assert "is in use by another gflat run" in capsys.readouterr().err
     assert main(["report", str(case), "--self-contained", "--no-pdf"]) == 0
-    assert _listed(top)[-1] == "short/open/report.html"   # listed in the run's marker, relative to its top
+    assert _listed(top)[-1] == "short/open/report.html"  # listed in the run's marker, relative to its top
     assert json.loads((top / MARKER).read_text())["command"] == "paper"
 
 
 def test_report_adds_its_files_to_the_run_of_another_command_and_a_rerun_replaces_them(compared, tmp_path, capsys):
     run = _copy(compared, tmp_path / "run")
     listed = _listed(run)
-    assert main(["report", str(run), "--self-contained", "--no-pdf"]) == 0   # a gflat compare run: not refused
+    assert main(["report", str(run), "--self-contained", "--no-pdf"]) == 0  # a gflat compare run: not refused
     marker = json.loads((run / MARKER).read_text())
-    assert marker["command"] == "compare"                 # still the run of gflat compare
-    assert [f["path"] for f in marker["files"]] == [*listed, "report.html"]   # the run's list kept, the page added
+    assert marker["command"] == "compare"  # still the run of gflat compare
+    assert [f["path"] for f in marker["files"]] == [*listed, "report.html"]  # the run's list kept, the page added
     assert main(["report", str(run), "--self-contained", "--no-pdf"]) == 0
-    assert _listed(run) == [*listed, "report.html"]       # once
+    assert _listed(run) == [*listed, "report.html"]  # once
     capsys.readouterr()
     # gflat compare run again there: the single page of the earlier results is one of the run's stale files
     assert main(["compare", str(compared.parent / "short.toml"), "--J", "0", "--out", str(run)]) == 0
@@ -118,26 +126,29 @@ def test_report_adds_its_files_to_the_run_of_another_command_and_a_rerun_replace
 def test_report_of_an_interrupted_run_lists_its_files_in_the_in_progress_record(compared, tmp_path, capsys):
     run = _copy(compared, tmp_path / "run")
     listed = _listed(run)
-    (run / INCOMPLETE).write_text(json.dumps({"command": "compare"}) + "\n"
-                                  + "".join(json.dumps(f) + "\n" for f in listed) + '"cut sho')
-    (run / MARKER).unlink()                               # interrupted: the record, its last line cut short
+    (run / INCOMPLETE).write_text(
+        json.dumps({"command": "compare"}) + "\n" + "".join(json.dumps(f) + "\n" for f in listed) + '"cut sho'
+    )
+    (run / MARKER).unlink()  # interrupted: the record, its last line cut short
     assert main(["report", str(run), "--self-contained", "--no-pdf"]) == 0
     assert "warning: incomplete run" in capsys.readouterr().err
     prev = previous_run(run)
     assert prev.command == "compare" and not prev.complete and prev.files == [*listed, "report.html"]
     with pytest.raises(InputError, match="holds an interrupted run of 'gflat compare'"):
-        OutputDir(run, command="plan")                    # the page counts as the run's, like its other files
+        OutputDir(run, command="plan")  # the page counts as the run's, like its other files
 
 
 def test_report_of_a_run_by_an_earlier_gflat_keeps_its_marker(compared, tmp_path):
     run = _copy(compared, tmp_path / "run")
     marker = json.loads((run / MARKER).read_text())
-    del marker["command"]                                 # an earlier gflat named no command
+    del marker["command"]  # an earlier gflat named no command
     (run / MARKER).write_text(json.dumps(marker))
     assert main(["report", str(run), "--self-contained", "--no-pdf"]) == 0
     after = json.loads((run / MARKER).read_text())
     assert "command" not in after and [f["path"] for f in after["files"]] == [
-        *(f["path"] for f in marker["files"]), "report.html"]
+        *(f["path"] for f in marker["files"]),
+        "report.html",
+    ]
 
 
 def test_a_stale_pdf_removed_by_report_leaves_the_marker(compared, tmp_path, capsys):
@@ -148,7 +159,8 @@ def test_a_stale_pdf_removed_by_report_leaves_the_marker(compared, tmp_path, cap
     old = (run / "report.json").stat().st_mtime - 100
     os.utime(pdf, (old, old))
     from harness.marker import record_in_marker
-    assert record_in_marker(run, [pdf])                   # as an earlier gflat report --pdf recorded it
+
+    assert record_in_marker(run, [pdf])  # as an earlier gflat report --pdf recorded it
     assert "report.pdf" in _listed(run)
     assert main(["report", str(run), "--no-pdf"]) == 0
     assert "removed the stale" in capsys.readouterr().out and not pdf.exists()

@@ -35,7 +35,7 @@ def test_a_kept_page_beside_the_run_is_not_removed(compared, tmp_path, capsys): 
     (demo / "case2").mkdir()
     shutil.copy(demo / "report.json", demo / "case2" / "report.json")
     marker = json.loads((demo / MARKER).read_text())
-    marker["files"].append({"path": "case2/report.json"})     # a case of the run's own
+    marker["files"].append({"path": "case2/report.json"})  # a case of the run's own
     (demo / MARKER).write_text(json.dumps(marker))
     assert main(["report", str(demo), "--no-pdf"]) == 0
     assert "case2/case.html" in [f["path"] for f in json.loads((demo / MARKER).read_text())["files"]]
@@ -62,8 +62,9 @@ def test_a_folder_of_separate_runs_is_refused_naming_them(compared, tmp_path, ca
         shutil.copytree(compared, w / name)
     before = _files(w)
     err = _one_line(capsys, 2, w)
-    assert f"{w} is not a run's folder; it holds 2 separate run(s) (a, b): render each with gflat report {w / 'a'}" \
-        in err
+    assert (
+        f"{w} is not a run's folder; it holds 2 separate run(s) (a, b): render each with gflat report {w / 'a'}" in err
+    )
     assert _files(w) == before
     assert main(["report", str(w / "a"), "--no-pdf"]) == 0  # each run alone
     assert "(1 case page(s))" in capsys.readouterr().out
@@ -72,7 +73,7 @@ def test_a_folder_of_separate_runs_is_refused_naming_them(compared, tmp_path, ca
 def test_a_run_holding_another_run_renders_its_own_cases_only(compared, tmp_path, capsys):  # noqa: F811
     run = tmp_path / "run"
     shutil.copytree(compared, run)
-    shutil.copytree(compared, run / "inner")               # a run inside (made before the output-folder rules)
+    shutil.copytree(compared, run / "inner")  # a run inside (made before the output-folder rules)
     assert main(["report", str(run), "--no-pdf"]) == 0
     assert "inner/case.html" not in (run / "index.html").read_text()
     assert "(1 case page(s))" in capsys.readouterr().out
@@ -90,11 +91,16 @@ def test_a_root_or_the_home_folder_is_refused(where, tmp_path, monkeypatch, caps
 
 
 @pytest.mark.parametrize("name", ["manifest.json", "report.json"])
-@pytest.mark.parametrize("text, cause", [("[1, 2]", "a JSON array, not an object"),
-                                         ('"str"', "a JSON string, not an object"),
-                                         ("NaN", "NaN is not a JSON number"),
-                                         ('{"x": NaN}', "NaN is not a JSON number"),
-                                         ('{"x":', "invalid JSON: Expecting value")])
+@pytest.mark.parametrize(
+    "text, cause",
+    [
+        ("[1, 2]", "a JSON array, not an object"),
+        ('"str"', "a JSON string, not an object"),
+        ("NaN", "NaN is not a JSON number"),
+        ('{"x": NaN}', "NaN is not a JSON number"),
+        ('{"x":', "invalid JSON: Expecting value"),
+    ],
+)
 def test_a_bad_saved_file_is_one_line(compared, tmp_path, capsys, name, text, cause):  # noqa: F811
     run = tmp_path / "m"
     shutil.copytree(compared, run)
@@ -105,8 +111,9 @@ def test_a_bad_saved_file_is_one_line(compared, tmp_path, capsys, name, text, ca
     assert _files(run) == before
 
 
-@pytest.mark.parametrize("text, cause", [('{"cases": 5}', "'cases' is not a list"),
-                                         ('{"cases": [{"scenario": 5, "loop": []}]}', None)])
+@pytest.mark.parametrize(
+    "text, cause", [('{"cases": 5}', "'cases' is not a list"), ('{"cases": [{"scenario": 5, "loop": []}]}', None)]
+)
 def test_a_manifest_with_bad_cases_is_one_line_or_ignored(compared, tmp_path, capsys, text, cause):  # noqa: F811
     """'cases' not a list: one line naming the file; entries of the wrong kind only lose their place in the order."""
     run = tmp_path / "m"

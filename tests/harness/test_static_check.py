@@ -32,9 +32,9 @@ from gna.aircraft import Propulsion, list_aircraft, load_aircraft
 from gna.atmosphere import ISA, ConstantDensity, Environment
 from gna.eom import Controls, State, derivatives, loads
 from gna.frames import C_body_wind
+from harness.engines import initial_condition_properties, load_fdm
 from harness.engines.jsbsim import export as jx
 from harness.engines.jsbsim import files as jf
-from harness.engines import initial_condition_properties, load_fdm
 
 N_SAMPLES = 200
 REL_TOL = 1e-9
@@ -68,12 +68,21 @@ def test_jsbsim_loads_and_derivatives_equal_inhouse(name):
     with capture:
         fdm["simulation/gravity-model"] = 0
         for i in range(N_SAMPLES):
-            s = State(rng.uniform(-2e3, 2e3), rng.uniform(-2e3, 2e3), -rng.uniform(0.0, 15e3),
-                      rng.uniform(15.0, 250.0), rng.uniform(-0.5, 0.5), rng.uniform(-math.pi, math.pi),
-                      rng.uniform(*env_alpha), rng.uniform(-0.3, 0.3), rng.uniform(-1.2, 1.2),
-                      *rng.uniform(-1.0, 1.0, 3))
-            u = Controls(rng.uniform(0.0, 1.0) * a.mass.mass * units.G0, rng.uniform(-1.0, 1.0),
-                         *rng.uniform(-0.3, 0.3, 3))
+            s = State(
+                rng.uniform(-2e3, 2e3),
+                rng.uniform(-2e3, 2e3),
+                -rng.uniform(0.0, 15e3),
+                rng.uniform(15.0, 250.0),
+                rng.uniform(-0.5, 0.5),
+                rng.uniform(-math.pi, math.pi),
+                rng.uniform(*env_alpha),
+                rng.uniform(-0.3, 0.3),
+                rng.uniform(-1.2, 1.2),
+                *rng.uniform(-1.0, 1.0, 3),
+            )
+            u = Controls(
+                rng.uniform(0.0, 1.0) * a.mass.mass * units.G0, rng.uniform(-1.0, 1.0), *rng.uniform(-0.3, 0.3, 3)
+            )
             constant = i % 2 == 1
             rho_c = rng.uniform(0.3, 1.3)
             fdm[jx.DENSITY_MODEL_PROPERTY] = 1.0 if constant else 0.0
@@ -88,7 +97,7 @@ def test_jsbsim_loads_and_derivatives_equal_inhouse(name):
 
             h = fdm["position/h-sl-ft"] * units.FT
             g = fdm["accelerations/gravity-ft_sec2"] * units.FT
-            assert abs(h + s.z) <= 1e-5                                   # ECEF quantisation only
+            assert abs(h + s.z) <= 1e-5  # ECEF quantisation only
             assert abs(g - planet_g.g) <= planet_g.g * (2.0 * abs(h) / (planet_g.radius_ft * units.FT) + 1e-12)
             env = Environment(ConstantDensity(rho_c) if constant else ISA(), g)
             sj = s._replace(z=-h)
@@ -102,9 +111,13 @@ def test_jsbsim_loads_and_derivatives_equal_inhouse(name):
             F_aero = C_body_wind(sj.alpha, sj.beta) @ np.array([ld.Xa, ld.Ya, ld.Za]) - F_thrust
             M_aero = np.array([ld.L, ld.M, ld.N]) - M_thrust
             ca, sa, cb, sb = math.cos(s.alpha), math.sin(s.alpha), math.cos(s.beta), math.sin(s.beta)
-            uvw_dot = np.array([d.V * ca * cb - s.V * sa * cb * d.alpha - s.V * ca * sb * d.beta,
-                                d.V * sb + s.V * cb * d.beta,
-                                d.V * sa * cb + s.V * ca * cb * d.alpha - s.V * sa * sb * d.beta])
+            uvw_dot = np.array(
+                [
+                    d.V * ca * cb - s.V * sa * cb * d.alpha - s.V * ca * sb * d.beta,
+                    d.V * sb + s.V * cb * d.beta,
+                    d.V * sa * cb + s.V * ca * cb * d.alpha - s.V * sa * sb * d.beta,
+                ]
+            )
 
             def j3(fmt, factor):
                 return np.array([fdm[fmt.format(c)] for c in "xyz"]) * factor
@@ -119,21 +132,29 @@ def test_jsbsim_loads_and_derivatives_equal_inhouse(name):
                 "thrust force": (F_thrust, j3("forces/fb{}-external-lbs", units.LBF)),
                 "thrust moment": (M_thrust, m3("moments/{}-external-lbsft", lbft)),
                 "u', v', w'": (uvw_dot, np.array([fdm[f"accelerations/{c}dot-ft_sec2"] for c in "uvw"]) * units.FT),
-                "p', q', r'": (np.array([d.p, d.q, d.r]),
-                               np.array([fdm[f"accelerations/{c}dot-rad_sec2"] for c in "pqr"])),
+                "p', q', r'": (
+                    np.array([d.p, d.q, d.r]),
+                    np.array([fdm[f"accelerations/{c}dot-rad_sec2"] for c in "pqr"]),
+                ),
                 "alpha'": (d.alpha, fdm["aero/alphadot-rad_sec"]),
                 "beta'": (d.beta, fdm["aero/betadot-rad_sec"]),
-                "coefficients": (np.array(ld.moment_coeffs),
-                                 np.array([fdm[jx.COEFFICIENT_PROPERTIES[c]] for c in ("CD", "CY", "CL", "Cl",
-                                                                                       "Cm", "Cn")])),
+                "coefficients": (
+                    np.array(ld.moment_coeffs),
+                    np.array([fdm[jx.COEFFICIENT_PROPERTIES[c]] for c in ("CD", "CY", "CL", "Cl", "Cm", "Cn")]),
+                ),
                 "qbar": (ld.qbar, fdm[jx.QBAR_PROPERTY] * units.LBF / units.FT2),
                 "rho": (ld.rho, fdm[jx.RHO_PROPERTY] * units.SLUG_FT3),
             }
             for key, (x, y) in checks.items():
                 worst[key] = max(worst.get(key, 0.0), _rel(x, y))
     assert capture.problems() == []
-    print(f"{name}: largest relative differences over {N_SAMPLES} states: "
-          + ", ".join(f"{k} {v:.1e}" for k, v in worst.items()))
+    print(
+        f"{name}: largest relative differences over {N_SAMPLES} states: "
+        + ", ".join(f"{k} {v:.1e}" for k, v in worst.items())
+    )
     bad = {k: v for k, v in worst.items() if not v <= REL_TOL}
-    assert not bad, f"{name}: relative differences above {REL_TOL:g}: " + \
-        ", ".join(f"{k} {v:.2e}" for k, v in bad.items()) + f" (all: {worst})"
+    assert not bad, (
+        f"{name}: relative differences above {REL_TOL:g}: "
+        + ", ".join(f"{k} {v:.2e}" for k, v in bad.items())
+        + f" (all: {worst})"
+    )

@@ -26,7 +26,7 @@ def test_groups_column_overrides_and_relative_tolerances():
     e = _traj(t, x=50.0 * t, mu=0.1 * t)
     a = _traj(t, x=50.0 * t + 0.02 * t, mu=0.1 * t + 2e-4)
     with pytest.raises(AssertionError, match=r"2 of 12 columns exceed .*\(x, mu\)"):
-        assert_trajectories_close(expected=e, actual=a)                         # defaults 1e-2 m, 1e-4 rad
+        assert_trajectories_close(expected=e, actual=a)  # defaults 1e-2 m, 1e-4 rad
     assert_trajectories_close(expected=e, actual=a, atol={"position": 0.1, "mu": 3e-4})
     with pytest.raises(AssertionError, match=r"\(mu\)"):
         assert_trajectories_close(expected=e, actual=a, atol={"position": 0.1, "angle": 1e-3, "mu": 1e-4})
@@ -42,7 +42,7 @@ def test_common_times_interpolation_and_coverage():
     t = np.linspace(0.0, 2.0, 21)
     fine = np.linspace(0.0, 2.0, 2001)
     e = _traj(t, x=3.0 * t, chi=np.full_like(t, math.pi - 1e-3))
-    a = _traj(fine, x=3.0 * fine, chi=np.full_like(fine, -math.pi + 1e-3))     # chi across the wrap: 2e-3 rad
+    a = _traj(fine, x=3.0 * fine, chi=np.full_like(fine, -math.pi + 1e-3))  # chi across the wrap: 2e-3 rad
     assert_trajectories_close(expected=e, actual=a, atol={"angle": 3e-3})
     assert_trajectories_close(expected=e, actual=a, atol={"angle": 3e-3}, times=[0.005, 1.2345, 1.999])
     short = a.loc[:1.5]
@@ -56,8 +56,7 @@ def test_message_has_the_table_and_names_which_is_which():
     e = _traj(t)
     a = _traj(t, z=0.05 * (t >= 0.5), F=np.full_like(t, 3.0))
     with pytest.raises(AssertionError) as exc:
-        assert_trajectories_close(expected=e, actual=a, columns=["z", "F"], atol={"F": 1.0},
-                                  labels=("plan", "jsbsim"))
+        assert_trajectories_close(expected=e, actual=a, columns=["z", "F"], atol={"F": 1.0}, labels=("plan", "jsbsim"))
     msg = str(exc.value)
     assert msg.startswith("trajectories differ: jsbsim (actual) vs plan (expected): 2 of 2 columns exceed")
     assert "column   unit    max|diff|" in msg
@@ -87,6 +86,7 @@ def test_nan_fails_and_bad_input_is_named():
 def test_to_timeresponse():
     control = pytest.importorskip("control")
     from gna.trajectory import COLUMNS, DERIVED_NAMES, RunSettings
+
     t = np.linspace(0.0, 1.0, 11)
     df = pd.DataFrame({c: np.full_like(t, float(i)) for i, c in enumerate(COLUMNS)}, index=pd.Index(t, name="t"))
     r = SimulationResult(df=df, status="completed", settings=RunSettings(engine="jsbsim"))
@@ -105,12 +105,14 @@ def test_to_timeresponse():
 
 def test_to_timeresponse_without_control(monkeypatch):
     import builtins
+
     real = builtins.__import__
 
     def fake(name, *args, **kwargs):
         if name == "control":
             raise ImportError("No module named 'control'")
         return real(name, *args, **kwargs)
+
     monkeypatch.setattr(builtins, "__import__", fake)
     r = SimulationResult(df=pd.DataFrame(), status="completed")
     with pytest.raises(ImportError, match=r"gflat\[control\]"):

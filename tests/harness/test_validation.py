@@ -16,19 +16,30 @@ from gna.aircraft import Propulsion, list_aircraft, load_aircraft
 from gna.eom import STATE_NAMES
 from gna.errors import InputError
 from gna.trim import stall_speed, trim_level
-from harness.testing import smooth_inputs
 from harness.engines import engine_names
+from harness.testing import smooth_inputs
 from harness.validation import CaseResult, ValidationCase, compare_engines, load_case, run_case
 from reports.case_files import write_case
 from reports.figures import write_figures
 
 ANGLES = ("gamma", "chi", "alpha", "beta", "mu")
 
-SHORT = ('name = "short"\naircraft = "a7"\n[time]\nt0 = 0.0\nt1 = 4.0\nstep = 0.5\n'
-         '[flat_outputs]\nx = "130*t"\ny = "20*sin(t/3)"\nz = "-1500"\nzeta = "beta"\n'
-         'zeta_value = "0"\n[generalized]\nJ = 2\n')
-SUMMARY_KEYS = {"scenario", "J", "engines", "passed", "status", "tables", "figures", "settings",
-                "self_convergence_tables"}
+SHORT = (
+    'name = "short"\naircraft = "a7"\n[time]\nt0 = 0.0\nt1 = 4.0\nstep = 0.5\n'
+    '[flat_outputs]\nx = "130*t"\ny = "20*sin(t/3)"\nz = "-1500"\nzeta = "beta"\n'
+    'zeta_value = "0"\n[generalized]\nJ = 2\n'
+)
+SUMMARY_KEYS = {
+    "scenario",
+    "J",
+    "engines",
+    "passed",
+    "status",
+    "tables",
+    "figures",
+    "settings",
+    "self_convergence_tables",
+}
 
 
 @pytest.fixture
@@ -50,23 +61,26 @@ def test_case_defaults_normalisation_and_pickling():
     assert "jsbsim-wgs84" in engine_names() and engine_names()[0] == "inhouse"
 
 
-@pytest.mark.parametrize("kw, match", [
-    ({"engines": ("inhouse", "xplane")}, "unknown: xplane"),
-    ({"engines": ("inhouse", "inhouse")}, "distinct"),
-    ({"engines": ("inhouse",)}, "engines: at least 2 distinct of .* needed; got 'inhouse'"),
-    ({"engines": "inhouse"}, "at least 2 distinct"),
-    ({"engines": ()}, "at least 2 distinct"),
-    ({"engines": (1, 2)}, "names of"),
-    ({"loop": "half"}, "loop must be one of open, closed"),
-    ({"J": -1}, "J must be an integer"),
-    ({"dt_out": 0.0}, "dt_out must be a positive number"),
-    ({"tolerances": {"mu": -1.0}}, "tolerances: mu must be a non-negative finite number"),
-    ({"tolerances": {"positon": 1.0}}, "unknown key 'positon' \\(did you mean 'position'\\?\\)"),
-    ({"rtol": {"angle": "big"}}, "rtol: angle must be a non-negative finite number"),
-    ({"jsbsim_dt": 0.0}, "jsbsim_dt must be a positive"),
-    ({"self_convergence": "yes"}, "self_convergence must be true or false"),
-    ({"windows": {"w": -2.0}}, "window 'w' must be a positive number"),
-])
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        ({"engines": ("inhouse", "xplane")}, "unknown: xplane"),
+        ({"engines": ("inhouse", "inhouse")}, "distinct"),
+        ({"engines": ("inhouse",)}, "engines: at least 2 distinct of .* needed; got 'inhouse'"),
+        ({"engines": "inhouse"}, "at least 2 distinct"),
+        ({"engines": ()}, "at least 2 distinct"),
+        ({"engines": (1, 2)}, "names of"),
+        ({"loop": "half"}, "loop must be one of open, closed"),
+        ({"J": -1}, "J must be an integer"),
+        ({"dt_out": 0.0}, "dt_out must be a positive number"),
+        ({"tolerances": {"mu": -1.0}}, "tolerances: mu must be a non-negative finite number"),
+        ({"tolerances": {"positon": 1.0}}, "unknown key 'positon' \\(did you mean 'position'\\?\\)"),
+        ({"rtol": {"angle": "big"}}, "rtol: angle must be a non-negative finite number"),
+        ({"jsbsim_dt": 0.0}, "jsbsim_dt must be a positive"),
+        ({"self_convergence": "yes"}, "self_convergence must be true or false"),
+        ({"windows": {"w": -2.0}}, "window 'w' must be a positive number"),
+    ],
+)
 def test_case_refuses_bad_values(kw, match):
     with pytest.raises(InputError, match=match):
         ValidationCase("gtm-forward-slip", **kw)
@@ -74,15 +88,23 @@ def test_case_refuses_bad_values(kw, match):
 
 def test_case_from_toml(tmp_path, short_scenario):
     f = tmp_path / "case.toml"
-    f.write_text('scenario = "short.toml"\nJ = 1\nengines = ["inhouse", "jsbsim-wgs84"]\ndt_out = 0.1\n'
-                 'tolerances = 0.5\n[windows]\n"first 2 s" = 2.0\nall = "all"\n')
+    f.write_text(
+        'scenario = "short.toml"\nJ = 1\nengines = ["inhouse", "jsbsim-wgs84"]\ndt_out = 0.1\n'
+        'tolerances = 0.5\n[windows]\n"first 2 s" = 2.0\nall = "all"\n'
+    )
     case = load_case(f)
-    assert case == ValidationCase(str(short_scenario), J=1, engines=("inhouse", "jsbsim-wgs84"), dt_out=0.1,
-                                  tolerances=0.5, windows={"first 2 s": 2.0, "all": None})
+    assert case == ValidationCase(
+        str(short_scenario),
+        J=1,
+        engines=("inhouse", "jsbsim-wgs84"),
+        dt_out=0.1,
+        tolerances=0.5,
+        windows={"first 2 s": 2.0, "all": None},
+    )
     f.write_text('scenario = "gtm-forward-slip"\ntolerance = 0.5\nengine = ["inhouse"]\n')
     with pytest.raises(InputError, match="case.toml: unknown key 'tolerance' \\(did you mean 'tolerances'\\?\\)"):
         ValidationCase.from_toml(f)
-    f.write_text('J = 2\n')
+    f.write_text("J = 2\n")
     with pytest.raises(InputError, match="missing 'scenario'"):
         load_case(f)
     f.write_text('scenario = "gtm-forward-slip"\nloop = "sideways"\n')
@@ -153,12 +175,21 @@ def test_paper_plans_each_scenario_once(short_scenario, tmp_path, monkeypatch, c
     assert calls == ["short"]
     out = capsys.readouterr().out
     assert "convergence table" in out and "in-house vs JSBSim (open loop, J = 2)" in out
-    for f in ("plan/plan_series.npz", "plan/summary.json", "plan/plan-j0.parquet", "plan/plan-j2.parquet",
-              "open/states.png", "open/differences.txt", "open/summary.json", "open/trajectory-inhouse.parquet",
-              "open/trajectory-jsbsim.parquet", "closed/trajectory-inhouse-open-loop.parquet"):
+    for f in (
+        "plan/plan_series.npz",
+        "plan/summary.json",
+        "plan/plan-j0.parquet",
+        "plan/plan-j2.parquet",
+        "open/states.png",
+        "open/differences.txt",
+        "open/summary.json",
+        "open/trajectory-inhouse.parquet",
+        "open/trajectory-jsbsim.parquet",
+        "closed/trajectory-inhouse-open-loop.parquet",
+    ):
         assert (tmp_path / "paper" / "short" / f).is_file(), f
     assert [c.scenario for c in paper.paper_cases()] == [str(short_scenario)]
-    assert (tmp_path / "paper" / "short" / "closed" / "tracking.png").is_file()    # both loops by default
+    assert (tmp_path / "paper" / "short" / "closed" / "tracking.png").is_file()  # both loops by default
     manifest = json.loads((tmp_path / "paper" / "manifest.json").read_text())
     assert [c["loop"] for c in manifest["cases"]] == ["open", "closed"] and manifest["command_line"]
     assert {"gflat", "jsbsim", "numpy", "scipy", "date_utc", "inputs"} <= set(manifest)
@@ -187,8 +218,6 @@ def _two_engine_aircraft():
     return dataclasses.replace(base, propulsion=Propulsion(count=2, y_p=1.8, epsilon=math.radians(3.0)))
 
 
-
-
 @pytest.mark.parametrize("which", ["f16c", "a7", "twin"])
 def test_engines_agree_on_smooth_manoeuvres_from_trim(which, tmp_path):
     """Matched physics, smooth controls: in-house vs JSBSim <= 1e-2 m and <= 1e-4 rad over the first 10 s (and 12 s)."""
@@ -206,7 +235,7 @@ def test_engines_agree_on_smooth_manoeuvres_from_trim(which, tmp_path):
     assert max(whole.row(v).max_abs for v in ANGLES) <= 1e-5, c.report()
     text = c.report()
     assert "[first 10 s]" in text and "[whole span]" in text and "overall: PASS" in text
-    if which == "twin":                       # figures from the result objects alone
+    if which == "twin":  # figures from the result objects alone
         times = c.results["inhouse"].df.index
         ref = pd.DataFrame(np.tile(x0, (times.size, 1)), index=times, columns=STATE_NAMES)
         figures = write_figures(c.results, tmp_path / "cmp", reference=ref, title="twin")
@@ -219,10 +248,22 @@ def test_a_plan_flies_open_loop_on_both_engines():
     from planners.generalized import plan_scenario
     from planners.scenario import scenario_from_dict
 
-    sc = scenario_from_dict({"name": "f16c-weave", "aircraft": "f16c", "time": {"t0": 0.0, "t1": 10.0, "step": 0.5},
-                             "flat_outputs": {"x": "150*t", "y": "30*(1-cos(t/4))", "z": "-3000 - 5*sin(t/3)",
-                                              "zeta": "beta", "zeta_value": "0", "eta": "0"},
-                             "generalized": {"J": 1}})
+    sc = scenario_from_dict(
+        {
+            "name": "f16c-weave",
+            "aircraft": "f16c",
+            "time": {"t0": 0.0, "t1": 10.0, "step": 0.5},
+            "flat_outputs": {
+                "x": "150*t",
+                "y": "30*(1-cos(t/4))",
+                "z": "-3000 - 5*sin(t/3)",
+                "zeta": "beta",
+                "zeta_value": "0",
+                "eta": "0",
+            },
+            "generalized": {"J": 1},
+        }
+    )
     plan = plan_scenario(sc)
     c = compare_engines(plan.aircraft, plan)
     assert c.results["jsbsim"].settings["environment"].startswith(plan.env.atmosphere.describe())
@@ -232,7 +273,8 @@ def test_a_plan_flies_open_loop_on_both_engines():
 
 def test_case_file_not_utf8_is_one_clear_error(tmp_path):
     from harness.validation import ValidationCase
+
     bad = tmp_path / "case.toml"
-    bad.write_bytes(b"scenario = \"gtm-aileron-roll\"\n\xff")
+    bad.write_bytes(b'scenario = "gtm-aileron-roll"\n\xff')
     with pytest.raises(InputError, match="not UTF-8"):
         ValidationCase.from_toml(bad)

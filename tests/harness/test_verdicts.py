@@ -13,9 +13,11 @@ from harness.cli import main
 from harness.outdir import MARKER
 from harness.validation import ValidationCase, plan_case, resolve_compare, run_case
 
-SHORT = ('name = "short"\naircraft = "a7"\n[time]\nt0 = 0.0\nt1 = 4.0\nstep = 0.5\n'
-         '[flat_outputs]\nx = "130*t"\ny = "20*sin(t/3)"\nz = "-1500"\nzeta = "beta"\nzeta_value = "0"\n'
-         '[generalized]\nJ = 2\n')
+SHORT = (
+    'name = "short"\naircraft = "a7"\n[time]\nt0 = 0.0\nt1 = 4.0\nstep = 0.5\n'
+    '[flat_outputs]\nx = "130*t"\ny = "20*sin(t/3)"\nz = "-1500"\nzeta = "beta"\nzeta_value = "0"\n'
+    "[generalized]\nJ = 2\n"
+)
 
 
 @pytest.fixture(scope="module")
@@ -26,13 +28,21 @@ def planned(tmp_path_factory):
 
 
 def test_settings_precedence_and_unknown_keys():
-    s = resolve_compare({"tolerances": {"position": 0.5, "z": 0.1}, "dt_out": 0.1, "self_convergence": True},
-                        {"tolerances": {"angle": 1e-3}, "jsbsim_dt": 1e-3})
+    s = resolve_compare(
+        {"tolerances": {"position": 0.5, "z": 0.1}, "dt_out": 0.1, "self_convergence": True},
+        {"tolerances": {"angle": 1e-3}, "jsbsim_dt": 1e-3},
+    )
     assert s.tolerances["position"] == 0.5 and s.tolerances["x"] == 0.5 and s.tolerances["z"] == 0.1
-    assert s.tolerances["mu"] == 1e-3 and s.tolerances["V"] == 1e-3          # default kept for V
+    assert s.tolerances["mu"] == 1e-3 and s.tolerances["V"] == 1e-3  # default kept for V
     assert (s.dt_out, s.jsbsim_dt, s.self_convergence) == (0.1, 1e-3, True)
-    assert s.sources == {"tolerances": "command line", "rtol": "default", "windows": "default", "dt_out": "scenario",
-                         "jsbsim_dt": "command line", "self_convergence": "scenario"}
+    assert s.sources == {
+        "tolerances": "command line",
+        "rtol": "default",
+        "windows": "default",
+        "dt_out": "scenario",
+        "jsbsim_dt": "command line",
+        "self_convergence": "scenario",
+    }
     with pytest.raises(InputError, match=r"unknown key 'tolerance' \(did you mean 'tolerances'\?\)"):
         resolve_compare({"tolerance": 1.0}, where="s.toml [compare]")
     with pytest.raises(InputError, match=r"unknown key 'angles' \(did you mean 'angle'\?\)"):
@@ -57,8 +67,9 @@ def test_a_tolerance_in_the_scenario_or_the_case_flips_the_verdict(planned):
     loose = run_case(ValidationCase(str(path), tolerances={"position": 1.0}), plan=plan, scenario=strict)
     assert loose.passed and loose.settings.sources["tolerances"] == "command line"
     # a relative tolerance alone: max|d| <= rtol * max|ref| (position: distance from the origin, about 520 m)
-    rel = run_case(ValidationCase(str(path), tolerances={"position": 0.0}, rtol={"position": 1e-3}), plan=plan,
-                   scenario=sc)
+    rel = run_case(
+        ValidationCase(str(path), tolerances={"position": 0.0}, rtol={"position": 1e-3}), plan=plan, scenario=sc
+    )
     row = rel.tables["jsbsim"]["whole span"].row("position")
     assert rel.passed and row.tolerance == pytest.approx(1e-3 * row.ref_max) and row.delta_pct < 0.1
     assert "delta_pct" in base.verdict()["differences"]["jsbsim"]
@@ -66,8 +77,9 @@ def test_a_tolerance_in_the_scenario_or_the_case_flips_the_verdict(planned):
 
 def test_self_convergence_is_reported_next_to_the_cross_engine_difference(planned, tmp_path):
     path, pc = planned
-    r = run_case(ValidationCase(str(path), self_convergence=True, jsbsim_dt=1 / 240), plan=pc.plan,
-                 scenario=pc.scenario)
+    r = run_case(
+        ValidationCase(str(path), self_convergence=True, jsbsim_dt=1 / 240), plan=pc.plan, scenario=pc.scenario
+    )
     assert set(r.half_step) == {"jsbsim"} and r.half_step["jsbsim"].settings["dt"] == pytest.approx(1 / 480)
     assert r.runs["jsbsim"].settings["dt"] == pytest.approx(1 / 240)
     sc = r.verdict()["self_convergence"]["jsbsim"]
@@ -75,8 +87,9 @@ def test_self_convergence_is_reported_next_to_the_cross_engine_difference(planne
     assert "[self-convergence of jsbsim: step against half the step, whole span]" in r.report_text()
     files = write_artefacts(r, tmp_path / "case", csv=True)
     names = sorted(p.name for p in files["trajectories"])
-    assert names == sorted(f"trajectory-{e}.{x}" for e in ("inhouse", "jsbsim", "jsbsim-half-step")
-                           for x in ("parquet", "csv"))
+    assert names == sorted(
+        f"trajectory-{e}.{x}" for e in ("inhouse", "jsbsim", "jsbsim-half-step") for x in ("parquet", "csv")
+    )
     df, units = read_trajectory(tmp_path / "case" / "trajectory-jsbsim.parquet")
     assert units["t"] == "s" and units["x"] == "m" and units["phi"] == "rad" and units["Mach"] == "-"
     assert {"h", "phi", "theta", "psi", "u", "v", "w", "Mach"} <= set(df.columns)
@@ -93,17 +106,17 @@ def test_self_convergence_is_reported_next_to_the_cross_engine_difference(planne
 
 def test_compare_flags_and_scenario_table_on_the_command_line(tmp_path, capsys):
     scen = tmp_path / "short.toml"
-    scen.write_text(SHORT + '[compare]\ntolerances = { position = 1e-9 }\ndt_out = 0.1\n')
+    scen.write_text(SHORT + "[compare]\ntolerances = { position = 1e-9 }\ndt_out = 0.1\n")
     out = tmp_path / "out"
-    assert main(["compare", str(scen), "--json", "--out", str(out), "--csv"]) == 1           # the scenario's 1e-9 m
+    assert main(["compare", str(scen), "--json", "--out", str(out), "--csv"]) == 1  # the scenario's 1e-9 m
     v = json.loads(capsys.readouterr().out)
     assert v["pass"] is False and v["settings"]["dt_out"] == 0.1 and v["settings"]["tolerances"]["position"] == 1e-9
     assert {"scenario", "loop", "runs", "differences", "pass"} <= set(v)
     assert (out / "trajectory-jsbsim.csv").is_file()
-    assert main(["compare", str(scen), "--json", "--out", str(out), "--tol-position", "1"]) == 0   # the flag wins
+    assert main(["compare", str(scen), "--json", "--out", str(out), "--tol-position", "1"]) == 0  # the flag wins
     v = json.loads(capsys.readouterr().out)
     assert v["pass"] is True and v["settings"]["sources"]["tolerances"] == "command line"
-    assert not (out / "trajectory-jsbsim.csv").exists()          # the rerun removed the earlier run's CSV
+    assert not (out / "trajectory-jsbsim.csv").exists()  # the rerun removed the earlier run's CSV
     assert (out / MARKER).is_file()
 
 
@@ -112,6 +125,7 @@ def test_bad_destination_and_bad_compare_table_stop_before_planning(tmp_path, ca
 
     def no_planning(*a, **k):
         raise AssertionError("planned before the inputs were checked")
+
     monkeypatch.setattr(generalized, "plan_motion", no_planning)
     scen = tmp_path / "short.toml"
     scen.write_text(SHORT)
@@ -121,7 +135,7 @@ def test_bad_destination_and_bad_compare_table_stop_before_planning(tmp_path, ca
     assert "not a folder" in err and str(tmp_path / "file") in err and len(err.strip().splitlines()) == 1
     assert main(["plan", str(scen), "--out", str(tmp_path / "no" / "parent")]) == 2
     assert "does not exist" in capsys.readouterr().err
-    scen.write_text(SHORT + '[compare]\ntolerances = { positon = 1.0 }\n')
+    scen.write_text(SHORT + "[compare]\ntolerances = { positon = 1.0 }\n")
     assert main(["compare", str(scen), "--out", str(tmp_path / "o")]) == 2
     assert "did you mean 'position'" in capsys.readouterr().err
 
@@ -133,10 +147,10 @@ def test_identifiers_cannot_write_outside_the_output_folder(tmp_path, monkeypatc
     from gna.aircraft import load_aircraft
     from harness.engines import JSBSimEngine
 
-    with pytest.raises(InputError, match="not a safe identifier"):      # refused where an aircraft is made
+    with pytest.raises(InputError, match="not a safe identifier"):  # refused where an aircraft is made
         dataclasses.replace(load_aircraft("a7"), id="../../esc")
     a = dataclasses.replace(load_aircraft("a7"))
-    object.__setattr__(a, "id", "../../esc")     # and, should one get through, at every writer (defence in depth)
+    object.__setattr__(a, "id", "../../esc")  # and, should one get through, at every writer (defence in depth)
     out = tmp_path / "a" / "b" / "c"
     out.mkdir(parents=True)
     monkeypatch.setattr(ej, "load_aircraft", lambda name: a)
@@ -152,12 +166,38 @@ def test_comparison_flags_parse_into_case_settings():
     from harness.cli import build_parser
     from harness.commands._compare_args import compare_overrides
 
-    args = build_parser().parse_args(["paper", "--tol-angle", "2e-4", "--rtol-velocity", "1e-6", "--window", "a=5",
-                                      "--window", "all=all", "--dt-out", "0.1", "--jsbsim-dt", "0.001",
-                                      "--self-convergence", "--csv"])
+    args = build_parser().parse_args(
+        [
+            "paper",
+            "--tol-angle",
+            "2e-4",
+            "--rtol-velocity",
+            "1e-6",
+            "--window",
+            "a=5",
+            "--window",
+            "all=all",
+            "--dt-out",
+            "0.1",
+            "--jsbsim-dt",
+            "0.001",
+            "--self-convergence",
+            "--csv",
+        ]
+    )
     kw = compare_overrides(args)
-    assert kw == {"tolerances": {"angle": 2e-4}, "rtol": {"velocity": 1e-6}, "windows": {"a": 5.0, "all": None},
-                  "dt_out": 0.1, "jsbsim_dt": 0.001, "self_convergence": True} and args.csv
+    assert (
+        kw
+        == {
+            "tolerances": {"angle": 2e-4},
+            "rtol": {"velocity": 1e-6},
+            "windows": {"a": 5.0, "all": None},
+            "dt_out": 0.1,
+            "jsbsim_dt": 0.001,
+            "self_convergence": True,
+        }
+        and args.csv
+    )
     s = resolve_compare({"tolerances": {"angle": 1.0}}, ValidationCase("x", **kw).overrides)
     assert s.tolerances["mu"] == 2e-4 and s.rtol == {"V": 1e-6} and s.windows == {"a": 5.0, "all": None}
     assert compare_overrides(build_parser().parse_args(["paper"])) == {}

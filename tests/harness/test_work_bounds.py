@@ -12,20 +12,23 @@ from harness.validation import ValidationCase, case_settings
 from planners.scenario import list_scenarios, load_scenario
 
 
-@pytest.mark.parametrize("argv, value", [
-    (["compare", "gtm-aileron-roll", "--jsbsim-dt", "1e-7"], "--jsbsim-dt 1e-07 s"),
-    (["compare", "gtm-aileron-roll", "--dt-out", "1e-5"], "--dt-out 1e-05 s"),
-    (["paper", "--jsbsim-dt", "1e-6"], "--jsbsim-dt 1e-06 s"),
-    (["compare", "gtm-aileron-roll", "--jsbsim-dt", "1e-4", "--max-steps", "1e4"], "--jsbsim-dt 0.0001 s"),
-    # beyond what any machine holds, whatever the bound (was a ValueError traceback from numpy)
-    (["compare", "gtm-aileron-roll", "--jsbsim-dt", "1e-300", "--max-steps", "inf"], "--jsbsim-dt 1e-300 s"),
-])
+@pytest.mark.parametrize(
+    "argv, value",
+    [
+        (["compare", "gtm-aileron-roll", "--jsbsim-dt", "1e-7"], "--jsbsim-dt 1e-07 s"),
+        (["compare", "gtm-aileron-roll", "--dt-out", "1e-5"], "--dt-out 1e-05 s"),
+        (["paper", "--jsbsim-dt", "1e-6"], "--jsbsim-dt 1e-06 s"),
+        (["compare", "gtm-aileron-roll", "--jsbsim-dt", "1e-4", "--max-steps", "1e4"], "--jsbsim-dt 0.0001 s"),
+        # beyond what any machine holds, whatever the bound (was a ValueError traceback from numpy)
+        (["compare", "gtm-aileron-roll", "--jsbsim-dt", "1e-300", "--max-steps", "inf"], "--jsbsim-dt 1e-300 s"),
+    ],
+)
 def test_a_run_beyond_the_step_bound_is_refused_before_any_work(argv, value, tmp_path, capsys):
     out = tmp_path / "out"
     assert main([*argv, "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and value in err and "above the bound" in err and "--max-steps" in err
-    assert not out.exists()                      # nothing planned, flown or written
+    assert not out.exists()  # nothing planned, flown or written
 
 
 @pytest.mark.parametrize("text", ["0", "-1", "x"])
@@ -48,11 +51,10 @@ def test_every_bundled_scenario_fits_the_default_bound(name):
 
 
 def test_flight_steps_counts_every_flight():
-    sc = load_scenario("gtm-aileron-roll")                  # 8 s
-    case = ValidationCase("gtm-aileron-roll", engines=("inhouse", "jsbsim"), loop="closed", dt_out=0.5,
-                          jsbsim_dt=0.01)
+    sc = load_scenario("gtm-aileron-roll")  # 8 s
+    case = ValidationCase("gtm-aileron-roll", engines=("inhouse", "jsbsim"), loop="closed", dt_out=0.5, jsbsim_dt=0.01)
     steps, samples = flight_steps(case, sc, case_settings(case, sc))
-    assert steps == 800 and samples == 4 * 17                # closed loop: open-loop and flat-loop flights too
+    assert steps == 800 and samples == 4 * 17  # closed loop: open-loop and flat-loop flights too
 
 
 def test_campaign_samples_bound(tmp_path, capsys):
@@ -61,8 +63,7 @@ def test_campaign_samples_bound(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "--samples 100000000" in err and "3e+08 cases" in err and "1e+05" in err
     assert not out.exists()
-    assert main(["campaign", "run", "paper-dispersions", "--samples", "3", "--max-cases", "5",
-                 "--out", str(out)]) == 2
+    assert main(["campaign", "run", "paper-dispersions", "--samples", "3", "--max-cases", "5", "--out", str(out)]) == 2
     assert "9 cases, above the bound 5" in capsys.readouterr().err
     camp = load_campaign("paper-dispersions")
     assert check_samples(camp, None) == camp.samples * len(camp.cases) * len(camp.dispersions) <= MAX_CASES

@@ -7,10 +7,16 @@ import pytest
 from planners.scenario import scenario_from_dict
 
 WEAVE = {
-    "name": "f16-weave", "aircraft": "f16c",
+    "name": "f16-weave",
+    "aircraft": "f16c",
     "time": {"t0": 0.0, "t1": 30.0, "step": 0.5},
-    "flat_outputs": {"x": "150*t", "y": "200*sin(t/20)", "z": "-3000 + 50*sin(t/15)",
-                     "zeta": "beta", "zeta_value": "0"},
+    "flat_outputs": {
+        "x": "150*t",
+        "y": "200*sin(t/20)",
+        "z": "-3000 + 50*sin(t/15)",
+        "zeta": "beta",
+        "zeta_value": "0",
+    },
     "generalized": {"J": 4},
 }
 
@@ -28,5 +34,6 @@ def make_scenario(**changes):
 @pytest.fixture(scope="session")
 def weave_plan():
     from planners.generalized import plan_scenario
+
     sc = make_scenario()
     return sc, plan_scenario(sc)

@@ -18,8 +18,9 @@ def open_loop_error(plan, geometry) -> float:
     """Max distance of the exact model's last trailer, flown open loop with the plan's v0 and phi,
     from the planned flat output (x2, y2)."""
     x0 = [plan.evaluate(n, 0.0) for n in ("x2", "y2", "theta2", "theta1", "theta0")]
-    X = simulate_car_two_trailers(geometry, lambda t: plan.evaluate("v0", t), lambda t: plan.evaluate("phi", t),
-                                  x0, T_EVAL)
+    X = simulate_car_two_trailers(
+        geometry, lambda t: plan.evaluate("v0", t), lambda t: plan.evaluate("phi", t), x0, T_EVAL
+    )
     return float(np.max(np.hypot(X[:, 0] - ZETA["x2"](T_EVAL), X[:, 1] - ZETA["y2"](T_EVAL))))
 
 
@@ -40,7 +41,7 @@ def test_newton_and_on_axle():
     plan = newton_parametrization(car_two_trailers(g, V), T_NODES, ZETA, J=4, e=3)
     assert plan.residuals[-1] < 1e-12 and len(plan.residuals) <= 4
     assert open_loop_error(plan, g) < 2e-5
-    flat = CarTrailers(d1=0.0, d2=0.0)        # on-axle: flat, iterate 0 exact up to interpolation
+    flat = CarTrailers(d1=0.0, d2=0.0)  # on-axle: flat, iterate 0 exact up to interpolation
     plan = generalized_parametrization(car_two_trailers(flat, V), T_NODES, ZETA, J=0, e=3)
     assert open_loop_error(plan, flat) < 2e-5
 
@@ -50,8 +51,10 @@ def test_gflat_plan_runs_the_chained_demos(tmp_path, capsys):
 
     from harness.cli import main
 
-    for name, key in (("first-order-lag", "max |y - (1 + eps d/dt)^-1 x'| at the nodes"),
-                      ("car-two-trailers", "open-loop error of the exact off-axle model [m]")):
+    for name, key in (
+        ("first-order-lag", "max |y - (1 + eps d/dt)^-1 x'| at the nodes"),
+        ("car-two-trailers", "open-loop error of the exact off-axle model [m]"),
+    ):
         assert main(["plan", name, "--out", str(tmp_path / name)]) == 0
         summary = json.loads((tmp_path / name / "summary.json").read_text())
         assert summary["checks"][key] < (1e-10 if name == "first-order-lag" else 1e-4)
@@ -59,6 +62,7 @@ def test_gflat_plan_runs_the_chained_demos(tmp_path, capsys):
     assert "written to" in capsys.readouterr().out
     from gna.errors import InputError
     from planners.systems.demos import run_demo
+
     with pytest.raises(InputError, match="unknown chained-system scenario"):
         run_demo("unicycle")
     assert "Newton max" in run_demo("first-order-lag", J=2, method="newton").text

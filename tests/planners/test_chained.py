@@ -22,8 +22,9 @@ def test_lag_matches_the_inverse_operator_series_to_1e_10():
     y = np.real(plan.iterates[-1]["y"].coeffs)
     assert np.max(np.abs(y[:, 0] - ref(tn))) < 1e-10
     # the derivatives at the nodes too, and the two-sided interpolation between them
-    assert np.max(np.abs(y[:, 1] - (-W * W * np.sin(W * tn) + EPS * W ** 3 * np.cos(W * tn))
-                         / (1 + (EPS * W) ** 2))) < 1e-10
+    assert (
+        np.max(np.abs(y[:, 1] - (-W * W * np.sin(W * tn) + EPS * W**3 * np.cos(W * tn)) / (1 + (EPS * W) ** 2))) < 1e-10
+    )
     tm = np.linspace(0.0, 3.0, 61)
     assert np.max(np.abs(plan.evaluate("y", tm) - ref(tm))) < 1e-8
     # geometric convergence with ratio eps w, as the paper's series
@@ -35,8 +36,8 @@ def test_lag_matches_the_inverse_operator_series_to_1e_10():
 def test_lag_polynomial_output_is_exact_after_finitely_many_iterations():
     """x = t^3: (d/dt)^4 x = 0, so y = 3 t^2 - 6 eps t + 6 eps^2 exactly from J = 2 on."""
     tn = np.linspace(-1.0, 1.0, 5)
-    plan = generalized_parametrization(first_order_lag(EPS), tn, {"x": lambda t: t ** 3}, J=3)
-    exact = 3 * tn ** 2 - 6 * EPS * tn + 6 * EPS ** 2
+    plan = generalized_parametrization(first_order_lag(EPS), tn, {"x": lambda t: t**3}, J=3)
+    exact = 3 * tn**2 - 6 * EPS * tn + 6 * EPS**2
     for j, it in enumerate(plan.iterates):
         err = np.max(np.abs(np.real(it["y"].constant_term) - exact))
         assert (err < 1e-13) == (j >= 2), (j, err)
@@ -68,16 +69,20 @@ def _nonlinear_lag(eps):
     """x' = y + eps sin(y'): a nonlinear almost chained system (H_1 = eps sin(y1), l_1 = 2)."""
     from planners.chained import ChainedSystem, Stage
 
-    return ChainedSystem("nonlinear-lag", {"x": 1},
-                         (Stage(("y",), lambda v: [v["x'"] - v["y"] - eps * np.sin(v["y1"])], ("y1",), 2),
-                          Stage(("y1",), lambda v: [v["y'"] - v["y1"]])))
+    return ChainedSystem(
+        "nonlinear-lag",
+        {"x": 1},
+        (
+            Stage(("y",), lambda v: [v["x'"] - v["y"] - eps * np.sin(v["y1"])], ("y1",), 2),
+            Stage(("y1",), lambda v: [v["y'"] - v["y1"]]),
+        ),
+    )
 
 
 def test_newton_on_the_chained_fixed_point():
     """Newton on X^ = G~(X^) for a chained system: exact Jacobian (central differences agree), quadratic
     convergence on the nonlinear lag, one step on the linear one, node equation solved to rounding."""
-    from planners.chained import (_chained_jacobian, _hat_dict, _hat_vector, flat_parametrization,
-                                  newton_parametrization)
+    from planners.chained import _chained_jacobian, _hat_dict, _hat_vector, flat_parametrization, newton_parametrization
 
     tn = np.linspace(0.0, 3.0, 7)
     zeta = {"x": np.sin}

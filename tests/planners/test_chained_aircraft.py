@@ -25,7 +25,7 @@ def worst_relative_difference(aircraft_iterates, chained_iterates, nodes: int) -
             ca = np.real(np.broadcast_to(s.coeffs, (nodes, s.order + 1)))
             cb = np.real(np.broadcast_to(b[name].coeffs, (nodes, b[name].order + 1)))
             k = min(ca.shape[1], cb.shape[1])
-            assert k == s.order + 1 or name in ("eta", "dn"), name     # same orders (inputs: higher)
+            assert k == s.order + 1 or name in ("eta", "dn"), name  # same orders (inputs: higher)
             scale = np.maximum(np.max(np.abs(ca[:, :k]), axis=0), 1e-12)
             worst = max(worst, float(np.max(np.abs(ca[:, :k] - cb[:, :k]) / scale)))
     return worst
@@ -43,7 +43,7 @@ def test_generic_chained_planner_reproduces_the_aircraft_planner(name):
     system = aircraft_system(sc.problem())
     assert system.r == 4 and system.L == 2
     assert system.stage_of("zeta") == 3 and system.stage_of("dl") == 5
-    plan = generalized_parametrization(system, sc.t_nodes, None, J, e=ref.e)     # the scenario's output order
+    plan = generalized_parametrization(system, sc.t_nodes, None, J, e=ref.e)  # the scenario's output order
     assert worst_relative_difference(ref.iterates, plan.iterates, len(sc.t_nodes)) < 1e-7
     # the flat outputs given explicitly, as a caller of the generic API does
     p = sc.problem()
@@ -63,10 +63,13 @@ def _variant(name: str, **flat_outputs):
     return scenario_from_dict(raw, name)
 
 
-@pytest.mark.parametrize("flat_outputs", [
-    {"eta": None, "dn": "0.02"},                                                      # rudder fixed: eta a control
-    {"zeta": "mix", "f1": "1 + t/100", "f2": "0.5", "zeta_value": "0.001*sin(t/10)"},  # mixed fourth output
-])
+@pytest.mark.parametrize(
+    "flat_outputs",
+    [
+        {"eta": None, "dn": "0.02"},  # rudder fixed: eta a control
+        {"zeta": "mix", "f1": "1 + t/100", "f2": "0.5", "zeta_value": "0.001*sin(t/10)"},  # mixed fourth output
+    ],
+)
 def test_fixed_rudder_and_mixed_output(flat_outputs):
     sc = _variant("twin-otter-single-engine", **flat_outputs)
     ref = plan_scenario(sc, J=1)
@@ -85,7 +88,7 @@ def test_every_stage_equation_holds_on_the_closed_form_solution():
     system = aircraft_system(sc.problem())
     tn = sc.t_nodes
     sol, reports = flat_parametrization(system, tn, 7)
-    assert sorted(reports) == [2, 4]                  # Newton on stages 2 and 4 only
+    assert sorted(reports) == [2, 4]  # Newton on stages 2 and 4 only
     for h, stage in enumerate(system.stages, start=1):
         k = 7 - h
         v = {n: s.truncate(min(s.order, k)) for n, s in sol.items()}

@@ -11,8 +11,14 @@ from gna.errors import InputError
 from gna.schema import read_toml
 from planners.scenario import list_scenarios
 from planners.systems.first_order_lag import lag_exact, lag_reference
-from planners.systems.scenario import (SPECS, chained_scenario_from_dict, is_chained_scenario,
-                                       list_chained_scenarios, load_chained_scenario, plan_chained_scenario)
+from planners.systems.scenario import (
+    SPECS,
+    chained_scenario_from_dict,
+    is_chained_scenario,
+    list_chained_scenarios,
+    load_chained_scenario,
+    plan_chained_scenario,
+)
 
 
 def test_bundled_chained_scenarios_load_and_are_not_aircraft_scenarios():
@@ -55,20 +61,23 @@ def test_car_scenario_open_loop_error_and_newton():
     newton = sc.spec.check(plan_chained_scenario(sc, method="newton"), sc)[key]
     assert fixed < 1e-4 and newton < 2e-5
     flat = sc.spec.check(plan_chained_scenario(sc, J=0), sc)[key]
-    assert 0.2 < flat < 1.0          # the on-axle (flat) approximation alone
+    assert 0.2 < flat < 1.0  # the on-axle (flat) approximation alone
 
 
-@pytest.mark.parametrize("change, message", [
-    ({"parameters": {"epss": 0.1}}, r"\[parameters\]: unknown key 'epss' \(did you mean 'eps'\?\)"),
-    ({"generalized": {"JJ": 2}}, r"unknown key 'JJ' \(did you mean 'J'\?\)"),
-    ({"flat_outputs": {"x": "sin(t)", "y": "t"}}, r"\[flat_outputs\]: unknown key 'y'"),
-    ({"system": "unicycle"}, r"system"),
-    ({"time": {"t0": 0.0, "t1": 1.0, "step": 0.3}}, r"step 0.3 s must divide"),
-    ({"flat_outputs": {"x": "sin(t"}}, r"\[flat_outputs\] x: cannot parse"),
-    ({"generalized": {"method": "bisection"}}, r"method"),
-    ({"constants": {"pi": 3.0}}, r"shadow"),
-    ({"frobnicate": 1}, r"unknown key 'frobnicate'"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"parameters": {"epss": 0.1}}, r"\[parameters\]: unknown key 'epss' \(did you mean 'eps'\?\)"),
+        ({"generalized": {"JJ": 2}}, r"unknown key 'JJ' \(did you mean 'J'\?\)"),
+        ({"flat_outputs": {"x": "sin(t)", "y": "t"}}, r"\[flat_outputs\]: unknown key 'y'"),
+        ({"system": "unicycle"}, r"system"),
+        ({"time": {"t0": 0.0, "t1": 1.0, "step": 0.3}}, r"step 0.3 s must divide"),
+        ({"flat_outputs": {"x": "sin(t"}}, r"\[flat_outputs\] x: cannot parse"),
+        ({"generalized": {"method": "bisection"}}, r"method"),
+        ({"constants": {"pi": 3.0}}, r"shadow"),
+        ({"frobnicate": 1}, r"unknown key 'frobnicate'"),
+    ],
+)
 def test_bad_files_are_refused_with_one_clear_line(change, message):
     raw = read_toml(load_chained_scenario("first-order-lag").path)
     raw.update(change)
@@ -77,14 +86,15 @@ def test_bad_files_are_refused_with_one_clear_line(change, message):
 
 
 def test_gflat_plan_runs_a_chained_scenario_file(tmp_path, capsys):
-    from harness.cli import main
-
     from pathlib import Path
+
+    from harness.cli import main
 
     text = Path(load_chained_scenario("car-two-trailers").path).read_text(encoding="utf-8")
     path = tmp_path / "my-car.toml"
-    path.write_text(text.replace('name = "car-two-trailers"', 'name = "my-car"').replace("d2 = 0.6", "d2 = 0.0"),
-                    encoding="utf-8")
+    path.write_text(
+        text.replace('name = "car-two-trailers"', 'name = "my-car"').replace("d2 = 0.6", "d2 = 0.0"), encoding="utf-8"
+    )
     assert is_chained_scenario(str(path))
     assert main(["plan", str(path), "--J", "2", "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
@@ -97,10 +107,11 @@ def test_gflat_plan_runs_a_chained_scenario_file(tmp_path, capsys):
 def test_a_plan_that_is_not_a_solution_of_the_exact_model_exits_1(tmp_path, capsys):
     """A lag whose series diverges (eps w = 1.5) and a car whose exact model jack-knifes open loop: one line
     on stderr naming why, exit 1, no traceback."""
-    from harness.cli import main
     from pathlib import Path
 
     import planners.systems
+    from harness.cli import main
+
     src = (Path(planners.systems.__file__).parent / "scenarios" / "first-order-lag.toml").read_text()
     lag = tmp_path / "lag.toml"
     lag.write_text(src.replace("eps = 0.1", "eps = 0.5").replace("w = 1.0", "w = 3.0"))

@@ -11,8 +11,17 @@ import pytest
 
 from gna.aircraft import load_aircraft
 from gna.atmosphere import Environment
-from gna.eom import (STATE_NAMES, Controls, HValues, State, aero_coefficients, derivatives, force_equations,
-                     wind_angle_rates, wind_forces)
+from gna.eom import (
+    STATE_NAMES,
+    Controls,
+    HValues,
+    State,
+    aero_coefficients,
+    derivatives,
+    force_equations,
+    wind_angle_rates,
+    wind_forces,
+)
 from planners.series import Series
 
 N_NODES, ORDER = 7, 5
@@ -21,8 +30,25 @@ N_NODES, ORDER = 7, 5
 def _random_trajectory(ac, seed):
     """States and controls as series of order ORDER at N_NODES nodes around a plausible flight condition."""
     rng = np.random.default_rng(seed)
-    centre = dict(x=0.0, y=0.0, z=-1500.0, V=120.0, gamma=0.02, chi=0.3, alpha=0.06, beta=0.01, mu=0.2,
-                  p=0.05, q=0.02, r=-0.03, F=0.3 * ac.mass.mass * 9.8, eta=0.0, dl=0.01, dm=-0.02, dn=0.005)
+    centre = dict(
+        x=0.0,
+        y=0.0,
+        z=-1500.0,
+        V=120.0,
+        gamma=0.02,
+        chi=0.3,
+        alpha=0.06,
+        beta=0.01,
+        mu=0.2,
+        p=0.05,
+        q=0.02,
+        r=-0.03,
+        F=0.3 * ac.mass.mass * 9.8,
+        eta=0.0,
+        dl=0.01,
+        dm=-0.02,
+        dn=0.005,
+    )
     spread = dict(x=100.0, y=100.0, z=200.0, V=20.0, F=0.1 * centre["F"])
     out = {}
     for name, c in centre.items():
@@ -34,8 +60,9 @@ def _random_trajectory(ac, seed):
     return out
 
 
-@pytest.mark.parametrize("name,model", [("f16c", "full"), ("gtm", "full"), ("f16c", "simple"),
-                                        ("twin-otter", "simple")])
+@pytest.mark.parametrize(
+    "name,model", [("f16c", "full"), ("gtm", "full"), ("f16c", "simple"), ("twin-otter", "simple")]
+)
 def test_derivatives_on_series_match_floats_node_by_node(name, model):
     """Constant terms equal the float evaluation at each node; the first coefficient is the chain rule
     ``(df/dx) x'(0)``, checked by a complex step along the series' slope."""
@@ -65,7 +92,7 @@ def _g3_check(plan, j, model_forces: bool):
     """alpha', beta', mu' of the plan's series against the forward G3 group (all coefficients)."""
     ac, env = plan.aircraft, plan.env
     sol = plan.iterates[j]
-    k = sol["p"].order     # the rates come out one order below alpha, beta, mu
+    k = sol["p"].order  # the rates come out one order below alpha, beta, mu
     v = {n: sol[n].truncate(min(k, sol[n].order)) for n in STATE_NAMES}
     s = State(*(v[n] for n in STATE_NAMES))
     gd, chid = sol["gamma"].derivative().truncate(k), sol["chi"].derivative().truncate(k)
@@ -87,7 +114,7 @@ def _g3_check(plan, j, model_forces: bool):
     for name, f in zip(("alpha", "beta", "mu"), fwd):
         stage3 = np.real(sol[name].derivative().coeffs)
         g3 = np.real(np.broadcast_to(f.coeffs, stage3.shape))
-        scale = np.maximum(np.max(np.abs(stage3), axis=0), 1e-3)   # per coefficient order, over the nodes
+        scale = np.maximum(np.max(np.abs(stage3), axis=0), 1e-3)  # per coefficient order, over the nodes
         yield name, np.max(np.abs(g3 - stage3) / scale)
 
 
@@ -97,8 +124,10 @@ def bank_plan():
     from planners.generalized import plan_scenario
 
     from .conftest import make_scenario
-    sc = make_scenario(name="f16-weave-mu", generalized={"J": 1},
-                       flat_outputs={"zeta": "mu", "zeta_value": "0.02 + 0.1*sin(t/5)"})
+
+    sc = make_scenario(
+        name="f16-weave-mu", generalized={"J": 1}, flat_outputs={"zeta": "mu", "zeta_value": "0.02 + 0.1*sin(t/5)"}
+    )
     plan = plan_scenario(sc)
     assert plan.feasible
     return plan

@@ -30,16 +30,19 @@ def test_on_series_matches_taylor():
     np.testing.assert_allclose(np.real(s.constant_term), e(np.array([0.5, 1.0])), rtol=1e-15)
 
 
-@pytest.mark.parametrize("bad, message", [
-    ("__import__('os').system('true')", "not allowed"),
-    ("t.real", "Attribute not allowed"),
-    ("open('x')", "unknown function"),
-    ("x + 1", "unknown name 'x'"),
-    ("[t]", "List not allowed"),
-    ("sin(t, 2)", "takes 1 argument"),
-    ("t +", "cannot parse"),
-    ("lambda: 1", "Lambda not allowed"),
-])
+@pytest.mark.parametrize(
+    "bad, message",
+    [
+        ("__import__('os').system('true')", "not allowed"),
+        ("t.real", "Attribute not allowed"),
+        ("open('x')", "unknown function"),
+        ("x + 1", "unknown name 'x'"),
+        ("[t]", "List not allowed"),
+        ("sin(t, 2)", "takes 1 argument"),
+        ("t +", "cannot parse"),
+        ("lambda: 1", "Lambda not allowed"),
+    ],
+)
 def test_refused(bad, message):
     with pytest.raises(InputError, match=message):
         compile_expression(bad, where="flat_outputs x")
@@ -48,18 +51,20 @@ def test_refused(bad, message):
 def test_size_is_bounded_with_a_clear_message():
     """Issue kind: a 20 000-term expression raised RecursionError."""
     from planners.expressions import MAX_NODES, compile_expression
+
     with pytest.raises(InputError, match="at most 4000"):
         compile_expression("+".join(["t"] * 20000), where="[flat_outputs] y")
     with pytest.raises(InputError, match="too large"):
         compile_expression("+".join(["t"] * (MAX_NODES // 2 + 10)), where="[flat_outputs] y")
     with pytest.raises(InputError, match="too large"):
-        compile_expression("-" * 300 + "t", where="[flat_outputs] y")          # nesting
+        compile_expression("-" * 300 + "t", where="[flat_outputs] y")  # nesting
     assert compile_expression("+".join(["t"] * 100))(1.0) == 100.0
 
 
 def test_complex_values_are_refused():
     """Issue kind: (-1)**0.5 silently dropped its imaginary part."""
     from planners.expressions import compile_expression
+
     with pytest.raises(InputError, match="not real"):
         compile_expression("(-1)**0.5", where="[flat_outputs] y")
     f = compile_expression("(t - 5)**0.5", where="[flat_outputs] y")

@@ -19,8 +19,7 @@ CASES = {
     "beta": {"zeta": "beta", "zeta_value": "0.02*sin(t/5)"},
     "mu": {"zeta": "mu", "zeta_value": "0.1*sin(t/10)"},
     # a steady turn: thrust above the coordinated-turn need, balanced by sideslip drag on one side
-    "F": {"zeta": "F", "zeta_value": "14500 + 300*sin(t/8)", "x": "3000*sin(0.05*t)",
-          "y": "3000*(1 - cos(0.05*t))"},
+    "F": {"zeta": "F", "zeta_value": "14500 + 300*sin(t/8)", "x": "3000*sin(0.05*t)", "y": "3000*(1 - cos(0.05*t))"},
     "mix": {"zeta": "mix", "zeta_value": "0.01", "f1": "1", "f2": "0.5 + 0.1*sin(t/7)"},
 }
 
@@ -84,12 +83,20 @@ def test_rudder_failure_eta_as_control():
     """With the rudder fixed, differential thrust eta is the fourth control (paper: deltan=0, eta=u_4)."""
     sc = make_scenario()
     twin = dataclasses.replace(sc.aircraft, propulsion=Propulsion(count=2, y_p=1.5))
-    prob = FlatProblem(twin, sc.env, sc.x, sc.y, sc.z, FlatOutput("beta", compile_expression(0.0)),
-                       eta=None, dn=compile_expression(0.0))
+    prob = FlatProblem(
+        twin,
+        sc.env,
+        sc.x,
+        sc.y,
+        sc.z,
+        FlatOutput("beta", compile_expression(0.0)),
+        eta=None,
+        dn=compile_expression(0.0),
+    )
     plan = plan_motion(prob, sc.t_nodes, J=1)
     st, ct = plan.node_values(1)
     np.testing.assert_array_equal(ct.dn, 0.0)
-    assert np.max(np.abs(ct.eta)) > 1e-4        # the weave needs yaw moment from the engines
+    assert np.max(np.abs(ct.eta)) > 1e-4  # the weave needs yaw moment from the engines
     r = plan.equation_residuals("simple", j=0)
     assert float(r.abs().max().max()) < 1e-7
 
@@ -97,6 +104,7 @@ def test_rudder_failure_eta_as_control():
 def test_problem_validation():
     sc = make_scenario()
     from gna.errors import InputError
+
     with pytest.raises(InputError, match="either eta"):
         FlatProblem(sc.aircraft, sc.env, sc.x, sc.y, sc.z, sc.zeta, eta=None, dn=None)
     with pytest.raises(InputError, match="order >= 4"):
@@ -107,12 +115,13 @@ def test_problem_validation():
 
 def test_bank_angle_continuous_in_inverted_flight():
     """Near mu = pi the node values stay on one branch, so the plan between nodes is the inverted attitude."""
-    sc = make_scenario(flat_outputs={"x": "150*t", "y": "3*sin(2*t)", "z": "-3000 + 0.75*g0*t**2"},
-                       time={"t1": 4.0, "step": 0.25})
+    sc = make_scenario(
+        flat_outputs={"x": "150*t", "y": "3*sin(2*t)", "z": "-3000 + 0.75*g0*t**2"}, time={"t1": 4.0, "step": 0.25}
+    )
     plan = plan_motion(sc.problem(), sc.t_nodes, J=0)
     st, _ = plan.node_values(0)
-    assert np.all(np.abs(np.diff(st.mu)) < 2.0), st.mu   # no 2 pi jumps between neighbouring nodes
-    assert np.max(np.abs(st.mu)) > 2.0          # inverted: the lift points up only with |mu| > pi/2
+    assert np.all(np.abs(np.diff(st.mu)) < 2.0), st.mu  # no 2 pi jumps between neighbouring nodes
+    assert np.max(np.abs(st.mu)) > 2.0  # inverted: the lift points up only with |mu| > pi/2
     tn = plan.t_nodes
     mid = 0.5 * (tn[:-1] + tn[1:])
     between = plan.evaluate("mu", mid, j=0)
@@ -121,13 +130,17 @@ def test_bank_angle_continuous_in_inverted_flight():
     np.testing.assert_array_less(np.abs(between - left), 0.3)
 
 
-@pytest.mark.parametrize("changes, message", [
-    ({"zeta_value": "log(t - 20)"}, r"zeta\(t\) or its derivative is not finite at t = 0 s"),
-    ({"z": "-3000 + log(t - 5)"}, r"z\(t\) or its derivative is not finite at t = 0 s"),
-    ({"x": "0", "y": "0", "z": "-3000 - 100*t"}, "vertical or zero velocity"),
-])
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        ({"zeta_value": "log(t - 20)"}, r"zeta\(t\) or its derivative is not finite at t = 0 s"),
+        ({"z": "-3000 + log(t - 5)"}, r"z\(t\) or its derivative is not finite at t = 0 s"),
+        ({"x": "0", "y": "0", "z": "-3000 - 100*t"}, "vertical or zero velocity"),
+    ],
+)
 def test_non_finite_or_singular_inputs_refused(changes, message):
     from gna.errors import DomainError
+
     sc = make_scenario(flat_outputs=changes)
     with pytest.raises(DomainError, match=message):
         plan_motion(sc.problem(), sc.t_nodes, J=0)

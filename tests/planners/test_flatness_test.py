@@ -27,13 +27,23 @@ def level_line(aircraft, alpha, density="constant"):
     env = Environment.constant(ALT)
     rho = float(env.density(-ALT))
     envs = {"density": "constant", "rho": rho} if density == "constant" else {"density": "isa"}
-    V = trim(aircraft, {"alpha": alpha, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0}, altitude=ALT,
-             env=env if density == "constant" else None, check_envelope=False).values["V"]
-    data = {"name": f"line-{alpha:.4f}", "aircraft": aircraft.id, "time": {"t0": 0.0, "t1": 2.0, "step": 1.0},
-            "constants": {"V0": V}, "environment": envs,
-            "flat_outputs": {"x": "V0*t", "y": "0", "z": f"-{ALT}", "zeta": "beta", "zeta_value": "0"},
-            "calibration": {"alpha": alpha, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0, "altitude": ALT},
-            "generalized": {"J": 0}}
+    V = trim(
+        aircraft,
+        {"alpha": alpha, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0},
+        altitude=ALT,
+        env=env if density == "constant" else None,
+        check_envelope=False,
+    ).values["V"]
+    data = {
+        "name": f"line-{alpha:.4f}",
+        "aircraft": aircraft.id,
+        "time": {"t0": 0.0, "t1": 2.0, "step": 1.0},
+        "constants": {"V0": V},
+        "environment": envs,
+        "flat_outputs": {"x": "V0*t", "y": "0", "z": f"-{ALT}", "zeta": "beta", "zeta_value": "0"},
+        "calibration": {"alpha": alpha, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0, "altitude": ALT},
+        "generalized": {"J": 0},
+    }
     return plan_scenario(scenario_from_dict(data), method="newton")
 
 
@@ -49,7 +59,7 @@ def test_time_varying_needs_the_derivative_term():
     """x1' = u, x2' = t x1: at t = 0, A(0) = 0 and Kalman's frozen test gives rank 1, but the system is
     controllable: M1 = A B - B' = (0, t), M2 = A M1 - M1' = (0, -1)."""
     A = np.zeros((1, 2, 2, 3))
-    A[0, 1, 0, 1] = 1.0              # A21 = t
+    A[0, 1, 0, 1] = 1.0  # A21 = t
     B = np.zeros((1, 2, 1, 3))
     B[0, 0, 0, 0] = 1.0
     M = silverman_meadows(A, B, 3)[0]
@@ -63,14 +73,14 @@ def test_stall_line_fails_cruise_passes(gtm):
     The trimmed lift maximum (minimum level-flight speed) is above the C_L polynomial's maximum
     (elevator lift and thrust); there the linearized full model loses rank 12 -> 11 at every node."""
     a_cl = lift_maximum(gtm)
-    assert 0.25 < a_cl < 0.26                          # GTM: 0.2540 rad
+    assert 0.25 < a_cl < 0.26  # GTM: 0.2540 rad
     alpha, V = stall_line(gtm, ALT, env=Environment.constant(ALT))
     assert a_cl < alpha < gtm.envelope.alpha_max and 28.0 < V < 30.0
     stall = flatness_test(level_line(gtm, alpha))
     assert not stall.passed
     assert list(stall.failed_nodes) == [0, 1, 2] and set(stall.rank) == {11}
     assert np.all(stall.sigma_min < RANK_TOL) and "fails at 3 of 3 nodes" in stall.message
-    cruise = flatness_test(level_line(gtm, 0.1))        # 40.6 m/s
+    cruise = flatness_test(level_line(gtm, 0.1))  # 40.6 m/s
     assert cruise.passed and np.all(cruise.sigma_min > 100 * RANK_TOL)
     # a V-shaped minimum: 1e-4 rad either side already passes
     for da in (-1e-4, 1e-4):

@@ -35,11 +35,14 @@ def test_series_jacobian_matches_finite_differences(roll):
     dG = h_jacobian(pb, tn, kappa, sol, H)
     d = np.random.default_rng(1).standard_normal(H.shape) * 1e-3 / (1 + np.arange(N + 1)) ** 2
     eps = 1e-3
-    g = [pad_h(parametrize(pb, tn, kappa, h=_as_h(H + s * eps * d), guess=sol.series).h_values(), nodes, N)
-         for s in (1, -1)]
+    g = [
+        pad_h(parametrize(pb, tn, kappa, h=_as_h(H + s * eps * d), guess=sol.series).h_values(), nodes, N)
+        for s in (1, -1)
+    ]
     fd = (g[0] - g[1]) / (2 * eps)
-    lin = np.moveaxis(np.einsum("nij,nj->ni", dG, np.moveaxis(d, 1, 0).reshape(nodes, -1))
-                      .reshape(nodes, 6, N + 1), 0, 1)
+    lin = np.moveaxis(
+        np.einsum("nij,nj->ni", dG, np.moveaxis(d, 1, 0).reshape(nodes, -1)).reshape(nodes, 6, N + 1), 0, 1
+    )
     assert np.max(np.abs(fd)) > 1e-5
     assert np.max(np.abs(fd - lin)) < 1e-9 * max(1.0, np.max(np.abs(fd)))
     # causality of the order loss: output coefficient k depends on input coefficients <= k + 2 only
@@ -63,7 +66,7 @@ def test_newton_reaches_1e_10_where_the_fixed_point_stalls(roll):
     fixed = plan_scenario(roll, J=10)
     res_f = [node_residual(fixed, j) for j in range(fixed.J + 1)]
     assert min(res_f) > 1e-7, res_f
-    assert res_f[-1] > min(res_f)          # diverging beyond the best J
+    assert res_f[-1] > min(res_f)  # diverging beyond the best J
 
 
 def test_newton_cheaper_than_fixed_point_to_the_fixed_points_best(roll):

@@ -18,9 +18,12 @@ BUNDLED = Path(planners.__file__).parent / "scenarios" / "twin-otter-single-engi
 
 def _scenario(tmp_path, table: str):
     path = tmp_path / "twin-otter-low-pass.toml"
-    path.write_text(BUNDLED.read_text(encoding="utf-8").replace('name = "twin-otter-single-engine"',
-                                                                'name = "twin-otter-low-pass"')
-                    + "\n[environment.ground_effect]\n" + table, encoding="utf-8")
+    path.write_text(
+        BUNDLED.read_text(encoding="utf-8").replace('name = "twin-otter-single-engine"', 'name = "twin-otter-low-pass"')
+        + "\n[environment.ground_effect]\n"
+        + table,
+        encoding="utf-8",
+    )
     return load_scenario(path)
 
 
@@ -41,4 +44,4 @@ def test_plan_at_0p3_span_flies_open_loop_as_planned(tmp_path):
     sc = _scenario(tmp_path, "elevation = -5.9436\n")
     plan = plan_scenario(sc)
     err = open_loop_error(plan).max_position_error_m
-    assert err <= 1e-2    # measured 2.2e-3 m (free air 6.2e-3 m); a planner blind to the ground: 17 m
+    assert err <= 1e-2  # measured 2.2e-3 m (free air 6.2e-3 m); a planner blind to the ground: 17 m

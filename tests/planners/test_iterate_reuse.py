@@ -29,6 +29,7 @@ def test_later_iterates_start_newton_at_the_full_order():
 def _kinds(monkeypatch):
     """Record the series evaluations of newton_series by kind: "J" (with the complex-step Jacobian), "R"."""
     import importlib
+
     newton = importlib.import_module("planners.newton")
     log = []
     rj, ro = newton._residual_and_jacobian, newton._residual_only
@@ -51,6 +52,7 @@ def test_later_iterates_reuse_the_previous_jacobian(monkeypatch):
     previous iterate's Jacobian series (its constant term renewed pointwise) reach the tolerance; the
     plan is the one of fresh Jacobians within the Newton tolerance."""
     import importlib
+
     generalized = importlib.import_module("planners.generalized")
     log = _kinds(monkeypatch)
     original = generalized.parametrize
@@ -63,7 +65,7 @@ def test_later_iterates_reuse_the_previous_jacobian(monkeypatch):
     plan = plan_scenario(load_scenario("gtm-aileron-roll"))
     starts = [i for i, e in enumerate(log) if e == ("iterate",)]
     assert len(starts) == plan.J + 1 == 8
-    late = log[starts[3]:]
+    late = log[starts[3] :]
     assert [e for e in late if e[0] == "R"] and not [e for e in late if e[0] == "J"], late
     for it in plan.iterates[1:]:
         for rep in it.reports.values():

@@ -27,14 +27,14 @@ def test_batched_newton_solves_each_problem():
 
 
 def test_complex_step_jacobian_exact():
-    f = lambda x: np.stack([np.sin(x[0]) * x[1], np.exp(x[1])])
+    f = lambda x: np.stack([np.sin(x[0]) * x[1], np.exp(x[1])])  # noqa: E731
     x = np.array([[0.3], [0.7]])
     J = jacobian(f, x)[..., 0]
     np.testing.assert_allclose(J, [[np.cos(0.3) * 0.7, np.sin(0.3)], [0.0, np.exp(0.7)]], rtol=1e-15)
 
 
 def test_newton_reports_failure_without_raising():
-    r = newton(lambda x: x ** 2 + 1.0, np.ones((1, 3)), maxiter=PAPER_MAXITER)
+    r = newton(lambda x: x**2 + 1.0, np.ones((1, 3)), maxiter=PAPER_MAXITER)
     assert not r.all_converged and r.iterations == PAPER_MAXITER
     assert np.all(r.residual >= 1.0)
 
@@ -49,8 +49,9 @@ def test_newton_series_sqrt_and_arctan():
         tk = t.truncate(k) if k else t0
         return [u[0] * u[0] - (1 + tk), np.tan(u[1]) - tk]
 
-    (u, v), rep = newton_series(residual, [Series.constant(np.ones(3), 0), Series.constant(np.zeros(3), 0)],
-                                order, names=("u", "v"), t_nodes=t0)
+    (u, v), rep = newton_series(
+        residual, [Series.constant(np.ones(3), 0), Series.constant(np.zeros(3), 0)], order, names=("u", "v"), t_nodes=t0
+    )
     np.testing.assert_allclose(np.real(u.coeffs), np.sqrt(1 + t).coeffs, atol=1e-13)
     np.testing.assert_allclose(np.real(v.coeffs), np.arctan(t).coeffs, atol=1e-13)
     assert rep.doubling_orders == [1, 2, 4, 9]
@@ -61,7 +62,7 @@ def test_newton_series_paper_warning_names_time():
     t0 = np.array([0.0, 1.0, 2.0])
 
     def residual(u, k):
-        return [u[0] * u[0] + 1.0 + 0 * u[0]]   # no real solution
+        return [u[0] * u[0] + 1.0 + 0 * u[0]]  # no real solution
 
     _, rep = newton_series(residual, [Series.constant(np.ones(3), 0)], 3, names=("u",), t_nodes=t0)
     assert len(rep.warnings) == 1
@@ -93,6 +94,7 @@ def test_pointwise_newton_lives_in_the_model_package():
     import importlib
 
     import gna.solve
+
     pn = importlib.import_module("planners.newton")  # the package re-exports the function ``newton``
     assert pn.newton is gna.solve.newton and pn.jacobian is gna.solve.jacobian
     assert pn.NewtonResult is gna.solve.NewtonResult
@@ -100,6 +102,7 @@ def test_pointwise_newton_lives_in_the_model_package():
 
 def test_doubling_orders_from_the_top():
     from planners.newton import doubling_orders
+
     assert doubling_orders(0) == [] and doubling_orders(1) == [1] and doubling_orders(18) == [1, 2, 4, 9, 18]
     for order in range(1, 70):
         ks = doubling_orders(order)
@@ -113,6 +116,7 @@ def _counting(residual):
     def wrapped(u, k):
         calls.append(k)
         return residual(u, k)
+
     return wrapped, calls
 
 
@@ -152,7 +156,6 @@ def test_warm_newton_series_falls_back_to_the_full_scheme():
     assert warm.doubling_orders == [1, 3]
 
 
-
 def _chord_problem():
     """u^2 (1 + eps v) = 2 + t, tan v + eps u = t on four nodes (order 12), and a start near its solution."""
     t0 = np.array([0.0, 0.5, 1.0, 1.5])
@@ -163,6 +166,7 @@ def _chord_problem():
         def residual(u, k):
             tk = t.truncate(k) if k else t0
             return [u[0] * u[0] * (1 + eps * u[1]) - (2 + tk), np.tan(u[1]) + eps * u[0] - tk]
+
         return residual
 
     start = [Series.constant(np.ones(4), 0), Series.constant(np.zeros(4), 0)]
@@ -172,6 +176,7 @@ def _chord_problem():
 
 def _kinds(monkeypatch):
     import importlib
+
     newton_module = importlib.import_module("planners.newton")
     log = []
     rj, ro = newton_module._residual_and_jacobian, newton_module._residual_only
@@ -233,8 +238,9 @@ def test_chord_that_diverges_returns_to_its_start_for_a_newton_step(monkeypatch)
 def test_a_jacobian_of_another_shape_is_ignored(monkeypatch):
     t0, order, problem, near, rep_near = _chord_problem()
     log = _kinds(monkeypatch)
-    warm, _ = newton_series(problem(2e-3), near, order, t_nodes=t0, warm=True,
-                            jacobian=np.array(rep_near.jacobian)[..., :order])   # one coefficient short
+    warm, _ = newton_series(
+        problem(2e-3), near, order, t_nodes=t0, warm=True, jacobian=np.array(rep_near.jacobian)[..., :order]
+    )  # one coefficient short
     assert log[0] == "J"
     assert _weighted_residual(problem(2e-3), warm, order, 0.5) <= 1e-12
 
@@ -244,6 +250,7 @@ def test_contraction_accepts_a_chord_step_without_a_check(monkeypatch):
     measured with that Jacobian proves the next one below it (theta s <= 0.1 tol): the result's own
     residual, evaluated here, is then below 0.1 tol, and no evaluation was spent only to check it."""
     import importlib
+
     newton_module = importlib.import_module("planners.newton")
     t0, order, problem, near, rep_near = _chord_problem()
     sizes = []

@@ -43,8 +43,9 @@ def test_8b_full_residual_decreases_with_j(paper_plan):
 def test_8c_open_loop_follows_generalized_plan(paper_plan):
     sc, plan = paper_plan
     J = plan.J
-    r = simulate(sc.aircraft, plan.control_function(J), (plan.t0, plan.t1), plan.initial_state(J),
-                 env=sc.env, dt_out=0.1)
+    r = simulate(
+        sc.aircraft, plan.control_function(J), (plan.t0, plan.t1), plan.initial_state(J), env=sc.env, dt_out=0.1
+    )
     assert r.completed, r.message
     ref = plan.to_dataframe(r.df.index.values, j=J)
     pos = np.sqrt((r.df["x"] - ref["x"]) ** 2 + (r.df["y"] - ref["y"]) ** 2 + (r.df["z"] - ref["z"]) ** 2).max()

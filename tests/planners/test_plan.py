@@ -14,7 +14,7 @@ def test_two_sided_formula_at_and_between_nodes(weave_plan):
     from dataclasses import replace
 
     sc, plan = weave_plan
-    plan = replace(plan, interpolation="paper")   # the paper's formula (the default is Hermite)
+    plan = replace(plan, interpolation="paper")  # the paper's formula (the default is Hermite)
     sol = plan.iterates[-1]
     tn = plan.t_nodes
     # at the nodes: the series' constant terms
@@ -41,8 +41,9 @@ def test_derivatives_of_the_blend(weave_plan):
         np.testing.assert_allclose(plan.evaluate(name, t, derivative=1), fd, rtol=1e-6, atol=1e-9)
     # the derivative of x is V cos(chi) cos(gamma) to interpolation accuracy
     xd = plan.evaluate("x", t, derivative=1)
-    np.testing.assert_allclose(xd, plan.evaluate("V", t) * np.cos(plan.evaluate("chi", t))
-                               * np.cos(plan.evaluate("gamma", t)), rtol=1e-8)
+    np.testing.assert_allclose(
+        xd, plan.evaluate("V", t) * np.cos(plan.evaluate("chi", t)) * np.cos(plan.evaluate("gamma", t)), rtol=1e-8
+    )
 
 
 def test_dataframe_and_bounds(weave_plan):
@@ -76,8 +77,9 @@ def test_open_loop_full_model_follows_generalized_plan(weave_plan):
     sc, plan = weave_plan
     devs = {}
     for j in (0, plan.J):
-        r = simulate(sc.aircraft, plan.control_function(j), (plan.t0, plan.t1), plan.initial_state(j),
-                     env=sc.env, dt_out=0.25)
+        r = simulate(
+            sc.aircraft, plan.control_function(j), (plan.t0, plan.t1), plan.initial_state(j), env=sc.env, dt_out=0.25
+        )
         assert r.completed, r.message
         ref = plan.to_dataframe(r.df.index.values, j=j)
         devs[j] = np.sqrt((r.df["x"] - ref["x"]) ** 2 + (r.df["y"] - ref["y"]) ** 2 + (r.df["z"] - ref["z"]) ** 2).max()
@@ -96,8 +98,12 @@ def test_infeasible_plan_reports_structured_newton_failures():
 
     from .conftest import make_scenario
 
-    sc = make_scenario(name="fast", time={"t0": 0.0, "t1": 10.0, "step": 0.5}, generalized={"J": 1},
-                       flat_outputs={"x": "150*t", "y": "400*sin(t)", "z": "-3000 + 300*sin(2*t)"})
+    sc = make_scenario(
+        name="fast",
+        time={"t0": 0.0, "t1": 10.0, "step": 0.5},
+        generalized={"J": 1},
+        flat_outputs={"x": "150*t", "y": "400*sin(t)", "z": "-3000 + 300*sin(2*t)"},
+    )
     plan = plan_scenario(sc)
     assert not plan.feasible
     recs = plan.newton_failure_records

@@ -37,13 +37,14 @@ def _poly_plan(coeffs, t_nodes, order, interpolation):
 @pytest.mark.parametrize("m", [0, 1, 2, 3, 5])
 def test_hermite_is_exact_on_polynomials_of_degree_2m_plus_1(m):
     rng = np.random.default_rng(m)
-    tn = np.cumsum(np.r_[0.0, rng.uniform(0.3, 1.7, 7)]) - 2.0          # non-uniform grid
+    tn = np.cumsum(np.r_[0.0, rng.uniform(0.3, 1.7, 7)]) - 2.0  # non-uniform grid
     plan, P = _poly_plan(rng.normal(size=2 * m + 2), tn, m, "hermite")
     t = np.linspace(tn[0], tn[-1], 301)
     for k in range(2 * m + 3):
         ref = P.deriv(k)(t) if k else P(t)
-        np.testing.assert_allclose(plan.evaluate("x", t, derivative=k), ref, rtol=0,
-                                   atol=1e-11 * 10 ** k * max(1.0, float(np.max(np.abs(ref)))))
+        np.testing.assert_allclose(
+            plan.evaluate("x", t, derivative=k), ref, rtol=0, atol=1e-11 * 10**k * max(1.0, float(np.max(np.abs(ref))))
+        )
     # and the degree is 2m + 1: one more degree is not reproduced between the nodes
     plan2, P2 = _poly_plan(np.r_[np.zeros(2 * m + 2), 1.0], tn, m, "hermite")
     assert np.max(np.abs(plan2.evaluate("x", t) - P2(t))) > 1e-6
@@ -70,7 +71,7 @@ def test_hermite_matches_the_series_derivatives_at_both_ends():
 
 
 def test_hermite_matrix_is_rational_exact_and_capped():
-    M = hermite_matrix(1)       # the cubic Hermite basis
+    M = hermite_matrix(1)  # the cubic Hermite basis
     np.testing.assert_array_equal(M, [[1, 0, 0, 0], [0, 1, 0, 0], [-3, -2, 3, -1], [2, 1, -2, 1]])
     assert HERMITE_MAX_ORDER >= 4
     with pytest.raises(InputError):
@@ -94,13 +95,16 @@ def test_control_function_is_a_piecewise_polynomial(weave_plan):
     _, plan = weave_plan
     f = plan.control_function()
     assert isinstance(f, PiecewisePolynomial) and f.n_functions == 5
-    assert f.degree == 2 * plan.e + 1          # every control with the surfaces' e derivatives at both ends
-    assert f(np.array([plan.t0, plan.t1])).shape == (5, 2)      # arrays of times (batched integrators)
+    assert f.degree == 2 * plan.e + 1  # every control with the surfaces' e derivatives at both ends
+    assert f(np.array([plan.t0, plan.t1])).shape == (5, 2)  # arrays of times (batched integrators)
     t = np.linspace(plan.t0, plan.t1, 173)
     np.testing.assert_allclose(np.stack([f(v) for v in t], axis=1), plan.controls(t), rtol=1e-13, atol=1e-13)
-    np.testing.assert_allclose(f.evaluate(t, derivative=1), np.stack([plan.evaluate(n, t, derivative=1) for n in
-                                                                       ("F", "eta", "dl", "dm", "dn")]),
-                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        f.evaluate(t, derivative=1),
+        np.stack([plan.evaluate(n, t, derivative=1) for n in ("F", "eta", "dl", "dm", "dn")]),
+        rtol=1e-12,
+        atol=1e-12,
+    )
     assert plan.interpolation == "hermite" and plan.e == 1
     with pytest.raises(InputError, match="not in the plan"):
         plan.control_function(j=99)
@@ -160,7 +164,7 @@ def test_auto_J_plan_is_the_fixed_J_plan(weave_plan):
     J = auto.J
     assert g["J_stop"] in ("tolerance", "stagnation") and "auto" in g["J_rule"]
     assert choose_J(g["J_residuals"], g["J_tol"]) == (J, g["J_stop"])
-    assert auto.iterate_residuals() == pytest.approx(g["J_residuals"][:J + 1], rel=1e-6)
+    assert auto.iterate_residuals() == pytest.approx(g["J_residuals"][: J + 1], rel=1e-6)
     fixed = plan_scenario(sc, J=J)
     assert [it.order for it in auto.iterates] == [it.order for it in fixed.iterates]
     t = np.linspace(sc.t0, sc.t1, 77)
@@ -172,8 +176,13 @@ def test_auto_J_plan_is_the_fixed_J_plan(weave_plan):
     assert p.generalized["J_tol"] == 1e-3 and p.J <= 2 and p.generalized["J_stop"] == "tolerance"
     capped = plan_scenario(make_scenario(generalized={"J": "auto", "J_tol": 0.0, "J_max": 1}))
     assert capped.J == 1 and capped.generalized["J_stop"] == "J_max" and any("J_max" in w for w in capped.warnings)
-    for bad in ({"J": "many"}, {"J": "auto", "J_max": -1}, {"J": "auto", "J_tol": -1.0}, {"e": 99},
-                {"interpolation": "cubic"}):
+    for bad in (
+        {"J": "many"},
+        {"J": "auto", "J_max": -1},
+        {"J": "auto", "J_tol": -1.0},
+        {"e": 99},
+        {"interpolation": "cubic"},
+    ):
         with pytest.raises(InputError):
             make_scenario(generalized=bad)
     with pytest.raises(InputError, match="fixed-point"):

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planners.flat import _path_terms, _stage3, _stage3_series, stage3
 from gna.simulate import ENVELOPE_VARIABLES
+from planners.flat import _path_terms, _stage3, _stage3_series, stage3
 from planners.generalized import domain_failures
 from planners.series import Series
 
@@ -58,7 +58,7 @@ def test_domain_failures_name_each_failed_iterate(weave_plan):
     sol = plan.iterates[1]
     series = dict(sol.series)
     c = np.array(series["V"].coeffs)
-    c[3, 0] = -1.0                                       # a negative airspeed at the fourth node
+    c[3, 0] = -1.0  # a negative airspeed at the fourth node
     series["V"] = Series(c)
     bad.iterates[1] = replace(sol, series=series)
     out = domain_failures(bad)
@@ -78,8 +78,8 @@ def test_envelope_columns_are_those_of_the_whole_table(weave_plan):
 
 def test_linear_combinations_broadcast_batches_and_constants():
     rng = np.random.default_rng(3)
-    a = Series(rng.normal(size=(3, 5, 4)) + 1j * rng.normal(size=(3, 5, 4)))      # batch (3, 5), order 3
-    b = Series(rng.normal(size=(5, 6)))                                           # batch (5,), order 5
+    a = Series(rng.normal(size=(3, 5, 4)) + 1j * rng.normal(size=(3, 5, 4)))  # batch (3, 5), order 3
+    b = Series(rng.normal(size=(5, 6)))  # batch (5,), order 5
     w = rng.normal(size=(2, 4))
     out = Series.linear_combinations(w, [a, b, 2.0, np.arange(5.0)])
     for i in range(2):

@@ -20,26 +20,29 @@ def test_grid_and_J_override():
     assert scenario_from_dict(WEAVE, J=2).J == 2
 
 
-@pytest.mark.parametrize("change, message", [
-    ({"time": {"t1": -1.0}}, "must be after"),
-    ({"time": {"step": 0.0}}, "step must be"),
-    ({"flat_outputs": {"x": "import os"}}, "cannot parse"),
-    ({"flat_outputs": {"zeta": "alpha"}}, "zeta must be one of"),
-    ({"aircraft": "concorde"}, "unknown aircraft"),
-    ({"generalized": {"J": -1}}, "J must be"),
-    ({"environment": {"density": "mars"}}, "density must be"),
-    ({"calibration": {"alpha": 0.1}}, "calibration failed"),
-    ({"time": 5}, "must be a table"),
-    ({"generalized": {"J": "two"}}, "whole number"),
-    ({"generalized": {"J": 2.7}}, "whole number"),
-    ({"time": {"step": 0.7}}, "does not divide"),
-    ({"time": {"t1": 1e9, "step": 1.0}}, "exceed the limit"),
-    ({"report": {"times": ["abc"]}}, "times must be"),
-    ({"report": {"times": [100.0]}}, "times must be"),
-    ({"report": {"variables": ["theta"]}}, "variables must be"),
-    ({"flat_outputs": {"zeta_value": "1/0"}}, "cannot be evaluated"),
-    ({"flat_outputs": {"zeta_value": "10**400"}}, "cannot be evaluated"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"time": {"t1": -1.0}}, "must be after"),
+        ({"time": {"step": 0.0}}, "step must be"),
+        ({"flat_outputs": {"x": "import os"}}, "cannot parse"),
+        ({"flat_outputs": {"zeta": "alpha"}}, "zeta must be one of"),
+        ({"aircraft": "concorde"}, "unknown aircraft"),
+        ({"generalized": {"J": -1}}, "J must be"),
+        ({"environment": {"density": "mars"}}, "density must be"),
+        ({"calibration": {"alpha": 0.1}}, "calibration failed"),
+        ({"time": 5}, "must be a table"),
+        ({"generalized": {"J": "two"}}, "whole number"),
+        ({"generalized": {"J": 2.7}}, "whole number"),
+        ({"time": {"step": 0.7}}, "does not divide"),
+        ({"time": {"t1": 1e9, "step": 1.0}}, "exceed the limit"),
+        ({"report": {"times": ["abc"]}}, "times must be"),
+        ({"report": {"times": [100.0]}}, "times must be"),
+        ({"report": {"variables": ["theta"]}}, "variables must be"),
+        ({"flat_outputs": {"zeta_value": "1/0"}}, "cannot be evaluated"),
+        ({"flat_outputs": {"zeta_value": "10**400"}}, "cannot be evaluated"),
+    ],
+)
 def test_malformed(change, message):
     with pytest.raises(Exception, match=message) as exc:
         make_scenario(**change)
@@ -63,6 +66,7 @@ def test_auto_j_settings_beside_a_fixed_j_are_refused(tmp_path):
 
     from gna.errors import InputError as _InputError
     from planners.scenario import load_scenario as _load
+
     src = _load("gtm-aileron-roll").path
     text = open(src, encoding="utf-8").read()
     p = tmp_path / "s.toml"

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import planners.series as S
 from planners.series import Series
@@ -21,8 +22,9 @@ ORDERS = st.integers(0, 26)
 SHAPES = st.sampled_from([(), (1,), (5,), (2, 3), (0,)])
 #: (first, second) batch shapes of binary operations: equal, suffix broadcast (a complex-step batch
 #: against the nodes), scalar batch, and a general broadcast.
-PAIR_SHAPES = st.sampled_from([((4,), (4,)), ((3, 4), (4,)), ((4,), (3, 4)), ((), (5,)), ((4, 1), (3,)),
-                               ((2, 3), (2, 3))])
+PAIR_SHAPES = st.sampled_from(
+    [((4,), (4,)), ((3, 4), (4,)), ((4,), (3, 4)), ((), (5,)), ((4, 1), (3,)), ((2, 3), (2, 3))]
+)
 KINDS = st.sampled_from(["real", "complex"])
 
 
@@ -93,14 +95,14 @@ UNARY = {
     "cosh": (np.cosh, (-1, 1)),
     "sinhcosh": (lambda u: u.sinhcosh(), (-1, 1)),
     "tanh": (np.tanh, (-1, 1)),
-    "pow 2.5": (lambda u: u ** 2.5, (0.5, 2)),
-    "pow -1.5": (lambda u: u ** -1.5, (0.5, 2)),
+    "pow 2.5": (lambda u: u**2.5, (0.5, 2)),
+    "pow -1.5": (lambda u: u**-1.5, (0.5, 2)),
     "pow 1/3": (lambda u: np.power(u, 1 / 3), (0.5, 2)),
     "pow complex": (lambda u: u ** (0.5 + 0.25j), (0.5, 2)),
-    "pow int 5": (lambda u: u ** 5, (-1, 1)),
-    "pow int -3": (lambda u: u ** -3, (0.5, 2)),
+    "pow int 5": (lambda u: u**5, (-1, 1)),
+    "pow int -3": (lambda u: u**-3, (0.5, 2)),
     "float_power": (lambda u: np.float_power(u, 1.7), (0.5, 2)),
-    "scalar ** u": (lambda u: 2.0 ** u, (-1, 1)),
+    "scalar ** u": (lambda u: 2.0**u, (-1, 1)),
     "hypot(u, 1)": (lambda u: np.hypot(u, 1.0), (-1, 1)),
     "arctan2(u, 2)": (lambda u: np.arctan2(u, 2.0), (-1, 1)),
     "1 / u": (lambda u: 1.0 / u, (0.5, 2)),
@@ -111,7 +113,7 @@ UNARY = {
 
 @pytest.mark.parametrize("name", sorted(UNARY))
 @SET
-@given(seed=st.integers(0, 2 ** 32 - 1), order=ORDERS, shape=SHAPES, kind=KINDS)
+@given(seed=st.integers(0, 2**32 - 1), order=ORDERS, shape=SHAPES, kind=KINDS)
 def test_unary_operations_agree(name, seed, order, shape, kind):
     fn, c0 = UNARY[name]
     u = Series(coefficients(seed, order, shape, kind, c0, tail=0.25))
@@ -133,8 +135,13 @@ BINARY = {
 
 @pytest.mark.parametrize("name", sorted(BINARY))
 @SET
-@given(seed=st.integers(0, 2 ** 32 - 1), order=ORDERS, shapes=PAIR_SHAPES, kinds=st.tuples(KINDS, KINDS),
-       order2=st.integers(0, 26))
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    order=ORDERS,
+    shapes=PAIR_SHAPES,
+    kinds=st.tuples(KINDS, KINDS),
+    order2=st.integers(0, 26),
+)
 def test_binary_operations_agree(name, seed, order, shapes, kinds, order2):
     fn, c0 = BINARY[name]
     a = Series(coefficients(seed, order, shapes[0], kinds[0], c0, tail=0.25))
@@ -143,24 +150,31 @@ def test_binary_operations_agree(name, seed, order, shapes, kinds, order2):
 
 
 @SET
-@given(seed=st.integers(0, 2 ** 32 - 1), order=ORDERS, shape=st.sampled_from([(3,), (2, 3)]), kind=KINDS)
+@given(seed=st.integers(0, 2**32 - 1), order=ORDERS, shape=st.sampled_from([(3,), (2, 3)]), kind=KINDS)
 def test_array_exponent_and_array_operands_agree(seed, order, shape, kind):
     u = Series(coefficients(seed, order, shape, kind, (0.5, 2), tail=0.25))
     p = np.random.default_rng(seed).uniform(-2, 2, shape[-1:])
-    check(lambda s: s ** p, u)
+    check(lambda s: s**p, u)
     check(lambda s: p / s, u)
     check(lambda s: (p * s) * s - p, u)
 
 
 # ---------------------------------------------------------------------------- the kernels themselves
 
+
 def _arr(seed, order, n, kind, c0=(-1, 1)):
     return np.ascontiguousarray(np.moveaxis(coefficients(seed, order, (n,), kind, c0, 0.25), -1, 0))
 
 
 @SET
-@given(seed=st.integers(0, 2 ** 32 - 1), order=ORDERS, n=st.integers(0, 7), r=st.integers(1, 5),
-       kinds=st.tuples(KINDS, KINDS), which=st.sampled_from(["a", "b", "none"]))
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    order=ORDERS,
+    n=st.integers(0, 7),
+    r=st.integers(1, 5),
+    kinds=st.tuples(KINDS, KINDS),
+    which=st.sampled_from(["a", "b", "none"]),
+)
 def test_broadcasting_kernels_agree(seed, order, n, r, kinds, which):
     """mul3/div3 on (m, R|1, S) operands, either side broadcast along the middle axis."""
     m = order + 1
@@ -175,7 +189,7 @@ def test_broadcasting_kernels_agree(seed, order, n, r, kinds, which):
 
 
 @SET
-@given(seed=st.integers(0, 2 ** 32 - 1), order=ORDERS, n=st.integers(0, 6), kind=KINDS)
+@given(seed=st.integers(0, 2**32 - 1), order=ORDERS, n=st.integers(0, 6), kind=KINDS)
 def test_recurrence_kernels_agree(seed, order, n, kind):
     u = _arr(seed, order, n, kind, (0.5, 2))
     p = np.random.default_rng(seed).uniform(-2, 2, n)
@@ -192,7 +206,7 @@ def test_recurrence_kernels_agree(seed, order, n, kind):
 
 
 @SET
-@given(seed=st.integers(0, 2 ** 32 - 1), K=st.integers(1, 26), n=st.integers(1, 5), B=st.integers(0, 9))
+@given(seed=st.integers(0, 2**32 - 1), K=st.integers(1, 26), n=st.integers(1, 5), B=st.integers(0, 9))
 def test_series_solve_kernel_agrees(seed, K, n, B):
     """The order-by-order solve of Newton on series (planners.newton) on a well-conditioned J_0."""
     rng = np.random.default_rng(seed)
@@ -207,20 +221,30 @@ def test_float32_stays_on_the_numpy_kernels(monkeypatch):
     """Precisions other than float64/complex128 are left to the numpy kernels, which keep them."""
     monkeypatch.setattr(S, "_K", COMPILED)
     s = Series(np.array([1.0, 0.5, 0.25], dtype=np.float32))
-    for f in (np.exp, np.sin, np.tan, lambda u: u * u, lambda u: u / (u + 1), lambda u: u ** 2.5):
+    for f in (np.exp, np.sin, np.tan, lambda u: u * u, lambda u: u / (u + 1), lambda u: u**2.5):
         assert f(s).dtype == np.float32
 
 
 def test_backend_selection_is_read_once_from_the_environment():
     import subprocess
     import sys
+
     code = "import planners.series as S; print(S.BACKEND, S._K.name)"
     for want in ("numpy", "compiled"):
-        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
-                             env={**__import__("os").environ, S.BACKEND_ENV: want})
+        out = subprocess.run(
+            [sys.executable, "-c", code],
+            capture_output=True,
+            text=True,
+            check=True,
+            env={**__import__("os").environ, S.BACKEND_ENV: want},
+        )
         assert out.stdout.split() == [want, want]
-    bad = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         env={**__import__("os").environ, S.BACKEND_ENV: "fortran"})
+    bad = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        env={**__import__("os").environ, S.BACKEND_ENV: "fortran"},
+    )
     assert bad.returncode != 0 and "GFLAT_SERIES_BACKEND" in bad.stderr
 
 
@@ -231,6 +255,7 @@ def test_paper_plans_are_the_same_with_both_backends(name):
     a variable that is zero to rounding, such as a prescribed beta = 0)."""
     from planners.generalized import plan_scenario
     from planners.scenario import load_scenario
+
     sc = load_scenario(name)
     plans = {}
     for label, kernels in (("numpy", NUMPY), ("compiled", COMPILED)):
@@ -252,12 +277,16 @@ def test_paper_plans_are_the_same_with_both_backends(name):
 
 
 @SET
-@given(seed=st.integers(0, 2 ** 32 - 1), order=ORDERS, kind=KINDS, bshape=st.sampled_from([(4,), (3, 4)]))
+@given(seed=st.integers(0, 2**32 - 1), order=ORDERS, kind=KINDS, bshape=st.sampled_from([(4,), (3, 4)]))
 def test_linear_combinations_are_the_sums(seed, order, kind, bshape):
     """Series.linear_combinations (the aerodynamic model's contraction) equals the explicit sums."""
     rng = np.random.default_rng(seed)
-    items = [Series(coefficients(seed, order, bshape, kind)), Series(coefficients(seed + 1, order + 2, (4,), "real")),
-             0.5, rng.uniform(-1, 1, (4,))]
+    items = [
+        Series(coefficients(seed, order, bshape, kind)),
+        Series(coefficients(seed + 1, order + 2, (4,), "real")),
+        0.5,
+        rng.uniform(-1, 1, (4,)),
+    ]
     w = rng.uniform(-1, 1, (3, len(items)))
     w[0, 1] = 0.0
     got = Series.linear_combinations(w, items)

@@ -14,7 +14,8 @@ import importlib
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import planners.series as S
 from planners.newton import newton_series
@@ -24,13 +25,14 @@ from planners.series_tape import TapedResidual, TraceError, trace
 flat = importlib.import_module("planners.flat")
 
 PAPER = ("gtm-aileron-roll", "twin-otter-single-engine", "gtm-forward-slip")
-H = 1e-30   # the complex step of planners.newton
+H = 1e-30  # the complex step of planners.newton
 
 
 def _backends():
     out = [pytest.param(S._NumpyKernels, id="numpy")]
     try:
         import numba  # noqa: F401
+
         out.append(pytest.param(S._CompiledKernels, id="compiled"))
     except ImportError:
         out.append(pytest.param(None, id="compiled", marks=pytest.mark.skip(reason="numba not installed")))
@@ -56,7 +58,7 @@ def stage_residuals():
 
         def capture(residual, u0, order, **kw):
             u, rep = original(residual, u0, order, **kw)
-            captured.append((residual, u, order))
+            captured.append((residual, u, order))  # noqa: B023
             return u, rep
 
         flat.newton_series = capture
@@ -102,10 +104,10 @@ def test_replay_equals_eager_on_paper_residuals(stage_residuals, kernels, name, 
     for k in sorted({1, max(1, order // 2), order}):
         tr = TapedResidual(residual)
         a = _inputs(u, k, first)
-        _assert_same(tr(a, k), residual(a, k))                       # the trace's own values
+        _assert_same(tr(a, k), residual(a, k))  # the trace's own values
         for kind, shift in ((other, 0.0), (first, 1e-3), (other, -2e-3)):
             b = _inputs(u, k, kind, shift)
-            _assert_same(tr(b, k), residual(b, k))                   # replays, either kind
+            _assert_same(tr(b, k), residual(b, k))  # replays, either kind
         assert tr.counts == {"eager": 0, "trace": 1, "replay": 3}, tr.reason
         assert tr.reason is None
 
@@ -127,11 +129,15 @@ def test_orders_have_their_own_tapes(stage_residuals):
     assert sorted(tr.tapes) == [2, 4]
 
 
-@pytest.mark.parametrize("when, counts", [
-    ("first", {"eager": 0, "trace": 3, "replay": 3}),
-    ("first-order", {"eager": 2, "trace": 3, "replay": 1}),
-    ("second", {"eager": 3, "trace": 2, "replay": 1}),
-    ("never", {"eager": 6, "trace": 0, "replay": 0})])
+@pytest.mark.parametrize(
+    "when, counts",
+    [
+        ("first", {"eager": 0, "trace": 3, "replay": 3}),
+        ("first-order", {"eager": 2, "trace": 3, "replay": 1}),
+        ("second", {"eager": 3, "trace": 2, "replay": 1}),
+        ("never", {"eager": 6, "trace": 0, "replay": 0}),
+    ],
+)
 def test_when_to_trace(stage_residuals, when, counts):
     """The doubling pattern (each order once), then a warm pattern (one order, evaluated again)."""
     residual, u, order = stage_residuals["gtm-forward-slip"]["stage2"]
@@ -152,6 +158,7 @@ def test_pointwise_arrays_are_eager(stage_residuals):
 
 
 # ---------------------------------------------------------------------------- fallback
+
 
 @pytest.mark.parametrize("use", ["truncate", "index", "coeffs", "compare", "batch_shape", "float"])
 def test_untraceable_residual_falls_back_to_eager(use):
@@ -196,6 +203,7 @@ def test_untraceable_residual_falls_back_to_eager(use):
 def test_trace_error_names_the_operation():
     def residual(u, k):
         return [u[0].derivative()]
+
     with pytest.raises(TraceError, match="derivative"):
         trace(residual, [Series(np.ones((3, 4)))], 3)
 
@@ -207,7 +215,7 @@ def test_newton_series_with_an_untraceable_residual():
     def residual(u, k):
         x = u[0]
         if isinstance(x, Series):
-            x = x + 0.0 * x.truncate(k)            # not traced: eager fallback
+            x = x + 0.0 * x.truncate(k)  # not traced: eager fallback
         return [x * x - (target.truncate(k) if k > 0 else target.constant_term)]
 
     u, rep = newton_series(residual, [Series(np.full((3, 1), 1.5))], 3, names=("x",))
@@ -216,8 +224,27 @@ def test_newton_series_with_an_untraceable_residual():
 
 # ---------------------------------------------------------------------------- random programs
 
-UNARY = ["neg", "sin", "cos", "exp", "sqrt", "log", "square", "reciprocal", "tan", "arctan", "tanh", "sinh",
-         "cosh", "expm1", "log1p", "pow1.5", "pow3", "pow-2", "powarr"]
+UNARY = [
+    "neg",
+    "sin",
+    "cos",
+    "exp",
+    "sqrt",
+    "log",
+    "square",
+    "reciprocal",
+    "tan",
+    "arctan",
+    "tanh",
+    "sinh",
+    "cosh",
+    "expm1",
+    "log1p",
+    "pow1.5",
+    "pow3",
+    "pow-2",
+    "powarr",
+]
 BINARY = ["add", "sub", "mul", "div", "arctan2", "hypot", "pow"]
 OPERAND = ["value", "data", "float", "array", "npfloat"]
 
@@ -232,7 +259,7 @@ def _apply_unary(name, x, nodes):
     if name == "pow1.5":
         return (x * x + 1.0) ** 1.5
     if name == "pow3":
-        return x ** 3
+        return x**3
     if name == "pow-2":
         return (x * x + 1.0) ** -2
     if name == "powarr":
@@ -241,8 +268,9 @@ def _apply_unary(name, x, nodes):
 
 
 def _operand(kind, x, data, nodes):
-    return {"value": x, "data": data, "float": 0.7, "array": np.linspace(0.5, 1.5, nodes),
-            "npfloat": np.float64(1.3)}[kind]
+    return {"value": x, "data": data, "float": 0.7, "array": np.linspace(0.5, 1.5, nodes), "npfloat": np.float64(1.3)}[
+        kind
+    ]
 
 
 def _apply_binary(name, a, b):
@@ -268,8 +296,17 @@ def programs(draw):
             left = draw(st.sampled_from(OPERAND))
             right = draw(st.sampled_from(OPERAND))
             swap = draw(st.booleans())
-            ops.append(("b", draw(st.sampled_from(BINARY)), draw(st.integers(0, i + 1)),
-                        draw(st.integers(0, i + 1)), left, right, swap))
+            ops.append(
+                (
+                    "b",
+                    draw(st.sampled_from(BINARY)),
+                    draw(st.integers(0, i + 1)),
+                    draw(st.integers(0, i + 1)),
+                    left,
+                    right,
+                    swap,
+                )
+            )
     return ops
 
 
@@ -287,14 +324,18 @@ def _program_residual(ops, data, nodes):
                     b = vals[j % len(vals)]
                 a, b = (b, a) if swap else (a, b)
                 vals.append(_apply_binary(name, a, b))
-        lin = Series.linear_combinations(np.array([[1.0, -0.5, 2.0], [0.25, 0.0, 1.0]]),
-                                         [1.0, vals[-1], data]) if len(vals) > 2 else []
+        lin = (
+            Series.linear_combinations(np.array([[1.0, -0.5, 2.0], [0.25, 0.0, 1.0]]), [1.0, vals[-1], data])
+            if len(vals) > 2
+            else []
+        )
         return [vals[-1], vals[len(vals) // 2]] + list(lin)
+
     return residual
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(programs(), st.integers(0, 8), st.sampled_from(["real", "complex"]), st.integers(0, 2 ** 31))
+@given(programs(), st.integers(0, 8), st.sampled_from(["real", "complex"]), st.integers(0, 2**31))
 def test_random_programs_replay_exactly(kernels, ops, k, first, seed):
     nodes = 5
     rng = np.random.default_rng(seed)

@@ -24,12 +24,15 @@ def test_thrust_output_singular_in_vertical_plane():
     beta = mu = 0, where d/dmu of the forces vanishes by symmetry.
     """
     from gna.trim import trim_level
+
     sc0 = make_scenario()
     tr = trim_level(sc0.aircraft, 150.0, 3000.0, env=sc0.env)
     # start Newton on the symmetric solution (calibration: the beta = 0 level trim)
-    sc = make_scenario(flat_outputs={"x": "150*t", "y": "0", "z": "-3000", "zeta": "F",
-                                     "zeta_value": repr(tr.values["F"])}, time={"t1": 5.0},
-                       calibration={"V": 150.0, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0})
+    sc = make_scenario(
+        flat_outputs={"x": "150*t", "y": "0", "z": "-3000", "zeta": "F", "zeta_value": repr(tr.values["F"])},
+        time={"t1": 5.0},
+        calibration={"V": 150.0, "gamma": 0.0, "chi_dot": 0.0, "beta": 0.0},
+    )
     plan = plan_scenario(sc, J=0)
     rep = plan.singularities
     assert rep.condition == "cond_F"
@@ -54,8 +57,9 @@ def test_sideslip_output_singular_at_zero_g():
 
 def test_mixed_output_condition_is_dimensionless():
     """The mixed output's determinant is divided by the thrust pivot like the others: regular flight is quiet."""
-    plan = plan_scenario(make_scenario(flat_outputs={"zeta": "mix", "zeta_value": "0", "f1": "1", "f2": "1"},
-                                       time={"t1": 10.0}), J=0)
+    plan = plan_scenario(
+        make_scenario(flat_outputs={"zeta": "mix", "zeta_value": "0", "f1": "1", "f2": "1"}, time={"t1": 10.0}), J=0
+    )
     assert plan.singularities.condition == "det4"
     assert np.min(np.abs(plan.singularities.table["det4"])) > 0.1
     assert plan.singularities.warnings == []

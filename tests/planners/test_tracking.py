@@ -19,7 +19,9 @@ from planners.scenario import load_scenario, scenario_from_dict
 
 def _rudder_failure_scenario():
     """The Twin Otter with the rudder stuck at 0.01 rad: eta (differential thrust) is the fourth control."""
-    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in load_scenario("twin-otter-single-engine").raw.items()}
+    data = {
+        k: (dict(v) if isinstance(v, dict) else v) for k, v in load_scenario("twin-otter-single-engine").raw.items()
+    }
     data["name"] = "twin-otter-rudder-stuck"
     data["time"] = {"t0": 0.0, "t1": 20.0, "step": 0.5}
     data.pop("report", None)
@@ -92,8 +94,10 @@ def test_each_integral_obeys_its_polynomial_at_every_node(case):
         scale = np.zeros(N)
         ratio = np.linalg.norm(A1, axis=(1, 2)) / np.linalg.norm(Acl, axis=(1, 2))
         for k in range(1, len(poly)):
-            R0, R1 = (np.einsum("Na,Nab->Nb", R0, Acl),
-                      np.einsum("Na,Nab->Nb", R1, Acl) + np.einsum("Na,Nab->Nb", R0, A1))
+            R0, R1 = (
+                np.einsum("Na,Nab->Nb", R0, Acl),
+                np.einsum("Na,Nab->Nb", R1, Acl) + np.einsum("Na,Nab->Nb", R0, A1),
+            )
             acc += poly[k] * R1
             scale += abs(poly[k]) * (np.linalg.norm(R1, axis=1) + k * ratio * np.linalg.norm(R0, axis=1))
         assert np.max(np.linalg.norm(acc, axis=1) / (scale + 1e-300)) <= 1e-8
@@ -126,7 +130,7 @@ def test_linearization_matches_pointwise_complex_step(case):
     def f(v):
         return np.array(derivatives(plan.aircraft, plan.env, State(*v[:12]), Controls(*v[12:])))
 
-    J = np.moveaxis(jacobian(f, xu), -1, 0)            # (N, 12, 17)
+    J = np.moveaxis(jacobian(f, xu), -1, 0)  # (N, 12, 17)
     ref = np.concatenate([lin.A[..., 0], lin.B[..., 0]], axis=2)
     assert np.max(np.abs(J - ref)) <= 1e-9 * max(1.0, np.max(np.abs(J)))
 
@@ -145,8 +149,11 @@ def test_linearization_slope_is_the_time_derivative(case):
         def f(w):
             hv = tuple(v[[9, 10, 11, 14, 15, 16]])
             from gna.eom import HValues
-            return np.array(derivatives(plan.aircraft, plan.env, State(*w[:12]), Controls(*w[12:]), "simple",
-                                        HValues(*hv)))
+
+            return np.array(
+                derivatives(plan.aircraft, plan.env, State(*w[:12]), Controls(*w[12:]), "simple", HValues(*hv))
+            )
+
         return jacobian(f, v)[:, :12]
 
     fd = (A_at(t + eps) - A_at(t - eps)) / (2 * eps)
@@ -183,6 +190,7 @@ def test_controller_reference_and_zero_error(case):
 
 def test_controller_protocol_pickle_and_cost():
     from gna.controller import Controller, as_controller
+
     plan = plan_scenario(load_scenario("twin-otter-single-engine"))
     c = tr.tracking_controller(plan, tr.paper_lambdas("twin-otter-single-engine"))
     assert isinstance(c, Controller) and as_controller(c) is c
@@ -202,6 +210,7 @@ def test_controller_protocol_pickle_and_cost():
     # One evaluation for both (engines call gna.controller.evaluate), and the table precomputed at an
     # engine's sample times gives the same numbers there and falls back to the interpolants elsewhere.
     from gna.controller import at_sample_times, evaluate
+
     out, der = evaluate(c, 12.3, x, big)
     assert np.array_equal(out, c.output(12.3, x, big)) and np.array_equal(der, c.derivative(12.3, x, big))
     times = plan.t0 + np.arange(0, 600) / 60.0
@@ -229,6 +238,7 @@ def test_bad_lambdas_and_unsupported_outputs():
 
 def _fly(plan, c, x0, t1):
     from scipy.integrate import solve_ivp
+
     ac, env = plan.aircraft, plan.env
 
     def rhs(t, y):
@@ -238,8 +248,7 @@ def _fly(plan, c, x0, t1):
         return np.concatenate([np.array(f, dtype=float), c.derivative(t, x, xc)])
 
     y0 = np.concatenate([x0, c.initial_state(plan.t0, x0)])
-    return solve_ivp(rhs, (plan.t0, t1), y0, method="DOP853", rtol=1e-8, atol=1e-8, dense_output=True,
-                     max_step=0.1)
+    return solve_ivp(rhs, (plan.t0, t1), y0, method="DOP853", rtol=1e-8, atol=1e-8, dense_output=True, max_step=0.1)
 
 
 def test_closed_loop_twin_otter_offset_decays():
@@ -260,6 +269,7 @@ def test_closed_loop_twin_otter_offset_decays():
     assert np.max(err[tt >= 10.0]) < 0.5
     assert np.max(err[tt >= 15.0]) < 0.05
     import pandas as pd
+
     df = pd.DataFrame(Y[:12].T, columns=STATE_NAMES, index=pd.Index(tt, name="t"))
     sat = c.saturated_time(df, Y[12:].T)
     assert sat["any"] < 5.0

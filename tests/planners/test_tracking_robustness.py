@@ -20,24 +20,28 @@ from planners.generalized import plan_scenario
 from planners.scenario import Tracking, load_scenario, scenario_from_dict
 
 #: The perturbation the issue asks for.
-PAPER_TEST = Perturbation(aero_spread=0.1, mass_scale=1.05, position_m=5.0, speed_mps=1.0,
-                          angle_rad=math.radians(1.0), seed=1)
+PAPER_TEST = Perturbation(
+    aero_spread=0.1, mass_scale=1.05, position_m=5.0, speed_mps=1.0, angle_rad=math.radians(1.0), seed=1
+)
 
 
 def _fly(name, perturbation, *, saturate=None, t1=None):
     """Closed loop on the in-house engine; returns (result, times, |(x, y, z) - flat outputs|)."""
     sc = load_scenario(name)
     plan = plan_scenario(sc)
-    c = tr.tracking_controller(plan, sc.tracking.lambdas, feedforward_iterate=sc.tracking.feedforward_iterate,
-                               saturate=sc.tracking.saturate if saturate is None else saturate)
+    c = tr.tracking_controller(
+        plan,
+        sc.tracking.lambdas,
+        feedforward_iterate=sc.tracking.feedforward_iterate,
+        saturate=sc.tracking.saturate if saturate is None else saturate,
+    )
     ac = perturbed_aircraft(plan.aircraft, perturbation)
     x0 = offset_state(plan.initial_state(), perturbation)
     t1 = plan.t_nodes[-1] if t1 is None else t1
     tt = np.arange(plan.t0, t1 + 1e-9, 0.1)
     res = get_engine("inhouse").simulate(ac, c, (plan.t0, t1), x0, controller=c, env=plan.env, t_eval=tt)
     t = res.df.index.to_numpy()
-    err = np.linalg.norm(res.df[["x", "y", "z"]].to_numpy().T - np.array([plan.evaluate(n, t) for n in "xyz"]),
-                         axis=0)
+    err = np.linalg.norm(res.df[["x", "y", "z"]].to_numpy().T - np.array([plan.evaluate(n, t) for n in "xyz"]), axis=0)
     return res, plan, t, err
 
 
@@ -66,8 +70,14 @@ def test_perturbed_aircraft_is_deterministic_and_within_spread():
 def test_explicit_factors_and_offsets():
     ac = load_aircraft("twin-otter")
     first = ac.aero.terms[0]
-    p = Perturbation(aero_scale={"CL": 2.0, str(first.index): 3.0}, inertia_scale=1.1,
-                     state_offsets={"q": 0.1, "x": 1.0}, position_m=math.sqrt(3.0), speed_mps=2.0, angle_rad=0.01)
+    p = Perturbation(
+        aero_scale={"CL": 2.0, str(first.index): 3.0},
+        inertia_scale=1.1,
+        state_offsets={"q": 0.1, "x": 1.0},
+        position_m=math.sqrt(3.0),
+        speed_mps=2.0,
+        angle_rad=0.01,
+    )
     a = perturbed_aircraft(ac, p)
     for t0, t1 in zip(ac.aero.terms, a.aero.terms):
         f = (2.0 if t0.coefficient == "CL" else 1.0) * (3.0 if t0 is first else 1.0)
@@ -104,38 +114,59 @@ def test_bundled_tracking_tables():
 
 def _with_tracking(table, zeta="beta"):
     fo = {"x": "150*t", "y": "0", "z": "-3000", "zeta": zeta, "zeta_value": "0"}
-    return scenario_from_dict({"aircraft": "f16c", "time": {"t0": 0.0, "t1": 10.0, "step": 1.0},
-                               "flat_outputs": fo, "generalized": {"J": 2}, "tracking": table}, where="t.toml")
+    return scenario_from_dict(
+        {
+            "aircraft": "f16c",
+            "time": {"t0": 0.0, "t1": 10.0, "step": 1.0},
+            "flat_outputs": fo,
+            "generalized": {"J": 2},
+            "tracking": table,
+        },
+        where="t.toml",
+    )
 
 
 def test_tracking_table_parsing():
     assert _with_tracking({}).tracking == Tracking()
-    t = _with_tracking({"lambdas": {"I1": [1, 2, 3], "I2": [1] * 5, "I3": [2] * 5, "I4": [1, 1, 1]},
-                        "feedforward_iterate": 0, "saturate": False,
-                        "perturbation": {"aero_spread": 0.1, "seed": 7, "mass_scale": 1.05,
-                                         "state_offsets": {"V": 1.0}}}).tracking
+    t = _with_tracking(
+        {
+            "lambdas": {"I1": [1, 2, 3], "I2": [1] * 5, "I3": [2] * 5, "I4": [1, 1, 1]},
+            "feedforward_iterate": 0,
+            "saturate": False,
+            "perturbation": {"aero_spread": 0.1, "seed": 7, "mass_scale": 1.05, "state_offsets": {"V": 1.0}},
+        }
+    ).tracking
     assert t.lambdas[0] == (1.0, 2.0, 3.0) and t.feedforward_iterate == 0 and not t.saturate
     assert t.perturbation == Perturbation(aero_spread=0.1, seed=7, mass_scale=1.05, state_offsets={"V": 1.0})
     assert _with_tracking({"lambdas": 0.5}, zeta="F").tracking.lambdas == 0.5
 
 
-@pytest.mark.parametrize("table, match", [
-    ({"lambda": 1.0}, "unknown key 'lambda' \\(did you mean 'lambdas'\\?\\)"),
-    ({"saturate": 1}, "saturate must be true or false"),
-    ({"feedforward_iterate": 1.5}, "feedforward_iterate must be a whole number"),
-    ({"feedforward_iterate": 3}, "not an iterate"),
-    ({"lambdas": -1.0}, "positive"),
-    ({"lambdas": "fast"}, "positive"),
-    ({"lambdas": {"I1": [1, 2, 3], "I2": [1] * 5, "I3": [1] * 5}}, "missing I4"),
-    ({"lambdas": {"I1": [1, 2], "I2": [1] * 5, "I3": [1] * 5, "I4": [1] * 3}}, "I1 must be a list of 3"),
-    ({"lambdas": {"I1": [1, 2, 3], "I2": [1] * 5, "I3": [1] * 5, "I5": [1] * 3}}, "unknown key 'I5'.*I1, I2, I3, I4"),
-    ({"perturbation": {"seeds": 3}}, "tracking.perturbation\\]: unknown key 'seeds' \\(did you mean 'seed'"),
-    ({"perturbation": {"aero_spread": 0.1}}, "needs a seed"),
-    ({"perturbation": {"mass_scale": "big"}}, "mass_scale must be a finite number"),
-    ({"perturbation": {"state_offsets": {"vv": 1.0}}}, "unknown key 'vv'"),
-    ({"perturbation": {"state_offsets": {"vv": 1.0}}}, "^t.toml \\[tracking.perturbation\\] state_offsets: unknown key"),
-    ({"perturbation": 3}, "must be a table"),
-])
+@pytest.mark.parametrize(
+    "table, match",
+    [
+        ({"lambda": 1.0}, "unknown key 'lambda' \\(did you mean 'lambdas'\\?\\)"),
+        ({"saturate": 1}, "saturate must be true or false"),
+        ({"feedforward_iterate": 1.5}, "feedforward_iterate must be a whole number"),
+        ({"feedforward_iterate": 3}, "not an iterate"),
+        ({"lambdas": -1.0}, "positive"),
+        ({"lambdas": "fast"}, "positive"),
+        ({"lambdas": {"I1": [1, 2, 3], "I2": [1] * 5, "I3": [1] * 5}}, "missing I4"),
+        ({"lambdas": {"I1": [1, 2], "I2": [1] * 5, "I3": [1] * 5, "I4": [1] * 3}}, "I1 must be a list of 3"),
+        (
+            {"lambdas": {"I1": [1, 2, 3], "I2": [1] * 5, "I3": [1] * 5, "I5": [1] * 3}},
+            "unknown key 'I5'.*I1, I2, I3, I4",
+        ),
+        ({"perturbation": {"seeds": 3}}, "tracking.perturbation\\]: unknown key 'seeds' \\(did you mean 'seed'"),
+        ({"perturbation": {"aero_spread": 0.1}}, "needs a seed"),
+        ({"perturbation": {"mass_scale": "big"}}, "mass_scale must be a finite number"),
+        ({"perturbation": {"state_offsets": {"vv": 1.0}}}, "unknown key 'vv'"),
+        (
+            {"perturbation": {"state_offsets": {"vv": 1.0}}},
+            "^t.toml \\[tracking.perturbation\\] state_offsets: unknown key",
+        ),
+        ({"perturbation": 3}, "must be a table"),
+    ],
+)
 def test_tracking_table_refusals(table, match):
     with pytest.raises(InputError, match=match):
         _with_tracking(table)
@@ -160,13 +191,17 @@ def test_twin_otter_absorbs_the_perturbation_within_10s():
     assert np.max(err[t >= plan.t0 + 10.0]) < 1.0
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the paper's lambda = 0.5 loop departs (seed 1: t = 2.2 s without saturation; with it, the plan's dl = -28 deg "
-    "is clipped at the GTM's 20 deg and it departs at 0.9 s). Measured causes (python scripts/tracking_robustness.py "
-    "--analysis; docs/tracking.md, Robustness): the same flat outputs cannot be planned on 12 of 20 perturbed models, "
-    "seed 1 among them (a glider's only drag control is the slip, already at beta = 0.40); the frozen-time loop is "
-    "strongly non-normal (max ||exp(Mt)|| = 284, distance to instability 3.3e-4) and the seed-1 aerodynamics move its "
-    "slowest pole from -0.198 to -0.023; faster lambdas demand radians of rudder and depart sooner"))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "the paper's lambda = 0.5 loop departs (seed 1: t = 2.2 s without saturation; with it, the plan's dl = -28 deg "
+        "is clipped at the GTM's 20 deg and it departs at 0.9 s). Measured causes (python scripts/tracking_robustness.py "
+        "--analysis; docs/tracking.md, Robustness): the same flat outputs cannot be planned on 12 of 20 perturbed models, "
+        "seed 1 among them (a glider's only drag control is the slip, already at beta = 0.40); the frozen-time loop is "
+        "strongly non-normal (max ||exp(Mt)|| = 284, distance to instability 3.3e-4) and the seed-1 aerodynamics move its "
+        "slowest pole from -0.198 to -0.023; faster lambdas demand radians of rudder and depart sooner"
+    ),
+)
 def test_forward_slip_absorbs_the_full_perturbation_within_40s():
     res, plan, t, err = _fly("gtm-forward-slip", PAPER_TEST, t1=60.0)
     assert res.status == "completed"

@@ -26,11 +26,11 @@ DATE = "2000-01-01T00:00:00+00:00"
 @dataclass
 class Run:
     root: Path
-    results: dict            # loop -> CaseResult
+    results: dict  # loop -> CaseResult
     scenario: object
-    paper_pages: dict        # path relative to root -> bytes of each HTML page gflat paper wrote
-    paper_output: str        # what gflat paper printed
-    render_s: float          # wall time of render_run (HTML, single file and PDF)
+    paper_pages: dict  # path relative to root -> bytes of each HTML page gflat paper wrote
+    paper_output: str  # what gflat paper printed
+    render_s: float  # wall time of render_run (HTML, single file and PDF)
     written: dict
 
 
@@ -38,7 +38,7 @@ class Run:
 def report_run(tmp_path_factory) -> Run:
     root = tmp_path_factory.mktemp("run") / "paper"
     results = {}
-    real = paper.finish_case                  # each case's flights tabulated: its CaseResult
+    real = paper.finish_case  # each case's flights tabulated: its CaseResult
 
     def keep(flights, runs):
         r = real(flights, runs)
@@ -57,5 +57,12 @@ def report_run(tmp_path_factory) -> Run:
     pages = {p.relative_to(root): p.read_bytes() for p in sorted(root.rglob("*.html"))}
     t0 = time.perf_counter()
     written = render_run(root, self_contained=True, pdf=True, date=DATE)
-    return Run(root=root, results=results, scenario=results["open"].scenario, paper_pages=pages,
-               paper_output=buf.getvalue(), render_s=time.perf_counter() - t0, written=written)
+    return Run(
+        root=root,
+        results=results,
+        scenario=results["open"].scenario,
+        paper_pages=pages,
+        paper_output=buf.getvalue(),
+        render_s=time.perf_counter() - t0,
+        written=written,
+    )

@@ -22,8 +22,15 @@ from pathlib import Path
 import pytest
 
 CHROMIUM = "/usr/bin/chromium"
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-         "--disable-component-update", "--disable-sync", "--no-first-run"]
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
 SCREENSHOT_COPY = Path(__file__).resolve().parents[2] / "reports" / "out" / "report-index.png"
 
 
@@ -64,8 +71,9 @@ def served(report_run):
 
 def test_report_pages_load_in_chromium_with_images_links_and_no_console_error(report_run, served, tmp_path):
     sync_playwright = _sync_playwright()
-    pages = ["index.html", "report.html"] + [p.relative_to(report_run.root).as_posix()
-                                             for p in report_run.written["pages"]]
+    pages = ["index.html", "report.html"] + [
+        p.relative_to(report_run.root).as_posix() for p in report_run.written["pages"]
+    ]
     problems, visited, html_of = [], [], {}
     with sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=CHROMIUM, args=FLAGS)
@@ -86,7 +94,8 @@ def test_report_pages_load_in_chromium_with_images_links_and_no_console_error(re
                 assert response is not None and response.ok, url
                 html_of[rel] = page.content()
                 images = page.eval_on_selector_all(
-                    "img", "els => els.map(e => [e.getAttribute('alt'), e.complete, e.naturalWidth])")
+                    "img", "els => els.map(e => [e.getAttribute('alt'), e.complete, e.naturalWidth])"
+                )
                 if rel != "index.html":
                     assert images, f"{rel}: no image"
                 for alt, complete, width in images:
@@ -100,12 +109,12 @@ def test_report_pages_load_in_chromium_with_images_links_and_no_console_error(re
                         problems.append(f"{rel}: link leaves the report: {href}")
                         continue
                     links.add(href)
-                    target = urllib.parse.urldefrag(href).url[len(served):]
+                    target = urllib.parse.urldefrag(href).url[len(served) :]
                     if target.endswith(".html"):
                         pages.append(target)
-            for href in sorted(links):                    # every link resolves: file served, anchor present
+            for href in sorted(links):  # every link resolves: file served, anchor present
                 target, fragment = urllib.parse.urldefrag(href)
-                rel = target[len(served):]
+                rel = target[len(served) :]
                 status = page.request.get(target).status
                 if status != 200:
                     problems.append(f"link {href}: HTTP {status}")

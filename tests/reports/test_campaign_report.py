@@ -35,8 +35,16 @@ def campaign(tmp_path_factory):
 
 def test_campaign_report_files(campaign):
     rep = campaign / "report"
-    for name in ("summary.json", "index.html", "report.pdf", "pass_rate.png", "max_position_error_m.png",
-                 "saturated_s.png", "engine_differences.png", "correlations.png"):
+    for name in (
+        "summary.json",
+        "index.html",
+        "report.pdf",
+        "pass_rate.png",
+        "max_position_error_m.png",
+        "saturated_s.png",
+        "engine_differences.png",
+        "correlations.png",
+    ):
         assert (rep / name).stat().st_size > 0, name
     pypdf = pytest.importorskip("pypdf")
     text = "".join(p.extract_text() for p in pypdf.PdfReader(rep / "report.pdf").pages)
@@ -67,7 +75,8 @@ def test_campaign_report_in_chromium(campaign):
                     assert page.goto(served + rel, wait_until="load").ok, rel
                     html_of[rel] = page.content()
                     for alt, ok, width in page.eval_on_selector_all(
-                            "img", "els => els.map(e => [e.getAttribute('alt'), e.complete, e.naturalWidth])"):
+                        "img", "els => els.map(e => [e.getAttribute('alt'), e.complete, e.naturalWidth])"
+                    ):
                         if not (ok and width > 0):
                             problems.append(f"{rel}: image {alt!r} does not decode")
                     for href in page.eval_on_selector_all("a[href]", "els => els.map(e => e.href)"):
@@ -75,7 +84,7 @@ def test_campaign_report_in_chromium(campaign):
                             problems.append(f"{rel}: link leaves the campaign folder: {href}")
                             continue
                         links.add(href)
-                        target = urllib.parse.urldefrag(href).url[len(served):]
+                        target = urllib.parse.urldefrag(href).url[len(served) :]
                         if target.endswith(".html"):
                             todo.append(target)
                 for href in sorted(links):
@@ -83,7 +92,9 @@ def test_campaign_report_in_chromium(campaign):
                     status = page.request.get(target).status
                     if status != 200:
                         problems.append(f"link {href}: HTTP {status}")
-                    elif fragment and not re.search(rf'id="{re.escape(fragment)}"', html_of.get(target[len(served):], "")):
+                    elif fragment and not re.search(
+                        rf'id="{re.escape(fragment)}"', html_of.get(target[len(served) :], "")
+                    ):
                         problems.append(f"link {href}: no element with id {fragment!r}")
             finally:
                 browser.close()
@@ -91,5 +102,5 @@ def test_campaign_report_in_chromium(campaign):
         server.shutdown()
         server.server_close()
     assert not problems, "\n".join(problems)
-    assert len(visited) == 1 + 3                      # the index and the three cases (all among the worst)
+    assert len(visited) == 1 + 3  # the index and the three cases (all among the worst)
     assert any(h.endswith(".parquet") for h in links)

@@ -16,6 +16,7 @@ from .conftest import CASE_FOLDERS, SCENARIO
 def _strict(text):
     def refuse(name):
         raise ValueError(f"non-standard JSON constant {name}")
+
     return json.loads(text, parse_constant=refuse)
 
 
@@ -40,8 +41,13 @@ def test_every_case_folder_holds_its_model_as_strict_json(report_run):
         files = [f["file"] for f in model["figures"]]
         for f in files:
             assert (path.parent / f).stat().st_size > 0
-        assert {"states.png", "controls-limits.png", "signed-differences.png", "differences.png",
-                "singularity.png"} <= set(files)
+        assert {
+            "states.png",
+            "controls-limits.png",
+            "signed-differences.png",
+            "differences.png",
+            "singularity.png",
+        } <= set(files)
         assert ("tracking.png" in files) == (loop == "closed")
         assert (model["closed_loop"] is not None) == (loop == "closed")
         assert model["provenance"]["jsbsim"]
@@ -50,8 +56,11 @@ def test_every_case_folder_holds_its_model_as_strict_json(report_run):
         assert '"nan"' not in text and '"inf"' not in text and '"-inf"' not in text
         deltas = [row[t["columns"].index("delta_pct")] for t in model["tables"]["engines"] for row in t["rows"]]
         assert None in deltas and all(d is None or math.isfinite(d) for d in deltas)
-        assert all(d is None for d in model["verdict"]["differences"]["jsbsim"]["delta_pct"].values()
-                   if not isinstance(d, float))
+        assert all(
+            d is None
+            for d in model["verdict"]["differences"]["jsbsim"]["delta_pct"].values()
+            if not isinstance(d, float)
+        )
         assert "whole span" in model["verdict"]["delta_pct_definition"]
 
 
@@ -65,7 +74,16 @@ def test_the_model_is_a_function_of_the_result(report_run):
 def test_json_safe_and_cell_format():
     import numpy as np
 
-    assert json_safe({"a": (np.float64(1.5), float("nan"), np.int64(3), np.bool_(True), -math.inf)}) == \
-        {"a": [1.5, None, 3, True, None]}            # null, as in summary.json and --json
-    assert [fmt(None), fmt(True), fmt(False), fmt(3), fmt(0.25), fmt(1.2344e-7), fmt("nan"), fmt(-1.9, ".8g")] == \
-        ["-", "on", "off", "3", "0.25", "1.234e-07", "nan", "-1.9"]
+    assert json_safe({"a": (np.float64(1.5), float("nan"), np.int64(3), np.bool_(True), -math.inf)}) == {
+        "a": [1.5, None, 3, True, None]
+    }  # null, as in summary.json and --json
+    assert [fmt(None), fmt(True), fmt(False), fmt(3), fmt(0.25), fmt(1.2344e-7), fmt("nan"), fmt(-1.9, ".8g")] == [
+        "-",
+        "on",
+        "off",
+        "3",
+        "0.25",
+        "1.234e-07",
+        "nan",
+        "-1.9",
+    ]

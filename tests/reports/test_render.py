@@ -22,7 +22,7 @@ def _pages(root):
 
 def _undated(data: bytes) -> bytes:
     text = data.decode("utf-8")
-    assert len(RENDERED.findall(text)) == 1          # the date appears once, in the footer
+    assert len(RENDERED.findall(text)) == 1  # the date appears once, in the footer
     return RENDERED.sub("", text).encode("utf-8")
 
 
@@ -32,26 +32,34 @@ def test_render_is_the_same_apart_from_the_date(report_run):
     assert a.keys() == b.keys()
     for path in a:
         assert a[path] != b[path] and _undated(a[path].encode()) == _undated(b[path].encode())
-        assert a[path].encode() == (report_run.root / path).read_bytes()      # what the run wrote, date included
+        assert a[path].encode() == (report_run.root / path).read_bytes()  # what the run wrote, date included
 
 
 def test_gflat_paper_writes_the_report_and_says_where(report_run):
     root = report_run.root
     assert f"report: {root.resolve() / 'index.html'} (PDF: {root.resolve() / 'report.pdf'})" in report_run.paper_output
-    for f in ("index.html", "report.pdf", "manifest.json", f"{SCENARIO}/open/case.html",
-              f"{SCENARIO}/closed/case.html"):
+    for f in (
+        "index.html",
+        "report.pdf",
+        "manifest.json",
+        f"{SCENARIO}/open/case.html",
+        f"{SCENARIO}/closed/case.html",
+    ):
         assert (root / f).stat().st_size > 0, f
     for folder in CASE_FOLDERS.values():
         for engine in ("inhouse", "jsbsim"):
             assert (root / SCENARIO / folder / f"trajectory-{engine}.parquet").is_file()
-    assert set(report_run.paper_pages) == {Path("index.html"), Path(SCENARIO, "open", "case.html"),
-                                           Path(SCENARIO, "closed", "case.html")}
+    assert set(report_run.paper_pages) == {
+        Path("index.html"),
+        Path(SCENARIO, "open", "case.html"),
+        Path(SCENARIO, "closed", "case.html"),
+    }
 
 
 def test_gflat_report_reproduces_the_html_of_a_run(report_run, tmp_path, capsys):
     copy = tmp_path / "run"
     shutil.copytree(report_run.root, copy)
-    before = dict(report_run.paper_pages)         # as gflat paper rendered them
+    before = dict(report_run.paper_pages)  # as gflat paper rendered them
     before[Path("report.html")] = (report_run.root / "report.html").read_bytes()
     for p in copy.rglob("*.html"):
         p.unlink()
@@ -78,26 +86,28 @@ def test_the_self_contained_file_embeds_every_image(report_run):
     srcs = re.findall(r'<img src="([^"]*)"', text)
     n_figures = sum(len(list((report_run.root / SCENARIO / f).glob("*.png"))) for f in CASE_FOLDERS.values())
     assert srcs and all(s.startswith("data:image/png;base64,") for s in srcs)
-    assert len(srcs) == n_figures - 2         # every figure but the plain controls.png (drawn with limits instead)
+    assert len(srcs) == n_figures - 2  # every figure but the plain controls.png (drawn with limits instead)
     hrefs = re.findall(r'href="([^"]*)"', text)
-    assert hrefs and all(h.startswith(("#", "data:")) for h in hrefs)    # one file to mail: no link leaves it
+    assert hrefs and all(h.startswith(("#", "data:")) for h in hrefs)  # one file to mail: no link leaves it
 
 
 def test_a_rerun_with_fewer_cases_leaves_no_page_of_the_missing_case(report_run, tmp_path):
     copy = tmp_path / "run"
     shutil.copytree(report_run.root, copy)
     closed = copy / SCENARIO / CASE_FOLDERS["closed"]
-    for f in closed.iterdir():                     # what gflat paper --loop open into the same folder removes
+    for f in closed.iterdir():  # what gflat paper --loop open into the same folder removes
         if f.name != "case.html":
             f.unlink()
-    mine = copy / "notes" / "case.html"            # a page gflat did not write stays
+    mine = copy / "notes" / "case.html"  # a page gflat did not write stays
     mine.parent.mkdir()
     mine.write_text("<p>my notes</p>")
     assert main(["report", str(copy), "--no-pdf"]) == 0
     assert not (closed / "case.html").exists() and mine.exists()
-    assert not closed.exists() and closed.parent.exists()     # the emptied case folder goes, its scenario stays
+    assert not closed.exists() and closed.parent.exists()  # the emptied case folder goes, its scenario stays
     index = (copy / "index.html").read_text(encoding="utf-8")
-    assert f"{SCENARIO}/{CASE_FOLDERS['open']}/case.html" in index and CASE_FOLDERS["closed"] + "/case.html" not in index
+    assert (
+        f"{SCENARIO}/{CASE_FOLDERS['open']}/case.html" in index and CASE_FOLDERS["closed"] + "/case.html" not in index
+    )
 
 
 def test_a_case_folder_alone_renders_the_same_twice(report_run, tmp_path):
@@ -111,7 +121,10 @@ def test_a_case_folder_alone_renders_the_same_twice(report_run, tmp_path):
     again = render_documents(case, date="2099-12-31T23:59:59+00:00", embed=True)
     for path, text in again.items():
         assert _undated(text.encode()) == _undated(path.read_bytes()), path.name
-    assert 'href="index.html"' in (case / "case.html").read_text() and "report.html" not in (case / "case.html").read_text()
+    assert (
+        'href="index.html"' in (case / "case.html").read_text()
+        and "report.html" not in (case / "case.html").read_text()
+    )
 
 
 def test_a_corrupt_or_misshapen_model_is_one_clear_error(report_run, tmp_path, capsys):
@@ -128,16 +141,16 @@ def test_a_corrupt_or_misshapen_model_is_one_clear_error(report_run, tmp_path, c
 def test_an_incomplete_run_is_rendered_with_a_notice_and_a_stale_pdf_goes(report_run, tmp_path, capsys):
     copy = tmp_path / "run"
     shutil.copytree(report_run.root, copy)
-    assert main(["report", str(copy), "--no-pdf"]) == 0          # complete: no notice; the PDF of these results stays
+    assert main(["report", str(copy), "--no-pdf"]) == 0  # complete: no notice; the PDF of these results stays
     cap = capsys.readouterr()
     assert "incomplete" not in cap.err and "removed the stale" not in cap.out and (copy / "report.pdf").is_file()
     model = copy / SCENARIO / CASE_FOLDERS["open"] / "report.json"
     later = (copy / "report.pdf").stat().st_mtime + 10
-    os.utime(model, (later, later))                                # results saved after the PDF was printed
+    os.utime(model, (later, later))  # results saved after the PDF was printed
     assert main(["report", str(copy), "--no-pdf"]) == 0
     assert "removed the stale" in capsys.readouterr().out and not (copy / "report.pdf").exists()
     assert "incomplete run" not in (copy / "index.html").read_text(encoding="utf-8")
-    (copy / MARKER).unlink()                                       # an interrupted run
+    (copy / MARKER).unlink()  # an interrupted run
     assert main(["report", str(copy), "--no-pdf"]) == 0
     assert "warning: incomplete run" in capsys.readouterr().err
     for page in ("index.html", f"{SCENARIO}/{CASE_FOLDERS['open']}/case.html"):

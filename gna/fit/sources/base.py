@@ -12,13 +12,13 @@ False: tables are not complex-analytic, trim uses central differences).
 from __future__ import annotations
 
 import abc
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
-from ..design import SamplingDesign, format_range, format_value
 from ...aero import AeroState, Coefficients
 from ...errors import InputError
+from ..design import SamplingDesign, format_range, format_value
 
 
 def stability_from_body(alpha, CX, CZ):
@@ -80,4 +80,5 @@ class SourceModel(abc.ABC):
                         raise InputError(
                             f"sampling envelope outside the source's data: {var} = {format_value(var, value)} "
                             f"(design block {block.name!r}) is outside {format_range(var, lo_src, hi_src)} "
-                            f"covered by {self.name}" + (f" ({why})" if why else ""))
+                            f"covered by {self.name}" + (f" ({why})" if why else "")
+                        )

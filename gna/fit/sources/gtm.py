@@ -35,33 +35,69 @@ import gzip
 import itertools
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
-from typing import Mapping
 
 import numpy as np
 
-from .base import SourceModel, broadcast_state, stability_from_body
+from ... import units
 from ...aero import AeroState, Coefficients
 from ...errors import InputError
-from ... import units
+from .base import SourceModel, broadcast_state, stability_from_body
 
 #: The 18 individual surfaces of the simulation (deg; GEAR 0 up / 1 down).
-SURFACES: tuple[str, ...] = ("ELLOB", "ELLIB", "ELRIB", "ELROB", "STAB", "AILL", "AILR", "RUDU", "RUDL",
-                             "SPLLIB", "SPLLOB", "SPLRIB", "SPLROB", "FLAPLOB", "FLAPLIB", "FLAPRIB", "FLAPROB",
-                             "GEAR")
+SURFACES: tuple[str, ...] = (
+    "ELLOB",
+    "ELLIB",
+    "ELRIB",
+    "ELROB",
+    "STAB",
+    "AILL",
+    "AILR",
+    "RUDU",
+    "RUDL",
+    "SPLLIB",
+    "SPLLOB",
+    "SPLRIB",
+    "SPLROB",
+    "FLAPLOB",
+    "FLAPLIB",
+    "FLAPRIB",
+    "FLAPROB",
+    "GEAR",
+)
 
 #: Order in which the simulation sums the surface parts (Control Surfaces Mux).
-MUX_ORDER: tuple[str, ...] = ("RUDU", "RUDL", "AILL", "AILR", "SPLLIB", "SPLLOB", "SPLRIB", "SPLROB", "STAB",
-                              "ELLOB", "ELLIB", "ELRIB", "ELROB", "FLAPLOB", "FLAPLIB", "FLAPRIB", "FLAPROB", "GEAR")
+MUX_ORDER: tuple[str, ...] = (
+    "RUDU",
+    "RUDL",
+    "AILL",
+    "AILR",
+    "SPLLIB",
+    "SPLLOB",
+    "SPLRIB",
+    "SPLROB",
+    "STAB",
+    "ELLOB",
+    "ELLIB",
+    "ELRIB",
+    "ELROB",
+    "FLAPLOB",
+    "FLAPLIB",
+    "FLAPRIB",
+    "FLAPROB",
+    "GEAR",
+)
 
-_LAT = (1, 3, 5)   # CY, Cl, Cn in the body 6-vector [CX CY CZ Cl Cm Cn]
-_LON = (0, 2, 4)   # CX, CZ, Cm
+_LAT = (1, 3, 5)  # CY, Cl, Cn in the body 6-vector [CX CY CZ Cl Cm Cn]
+_LON = (0, 2, 4)  # CX, CZ, Cm
 _MIRROR = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
-_RUDDER_GAINS = {"RUDU": np.array([0.5, 0.5, 0.5, 0.67, 0.67, 0.5]),
-                 "RUDL": np.array([0.5, 0.5, 0.5, 0.33, 0.33, 0.5])}
-_SPOILER_GAINS = {"IB": np.array([0.45, 0.45, 0.45, 0.26, 0.45, 0.26]),
-                  "OB": np.array([0.55, 0.55, 0.55, 0.74, 0.55, 0.74])}
+_RUDDER_GAINS = {"RUDU": np.array([0.5, 0.5, 0.5, 0.67, 0.67, 0.5]), "RUDL": np.array([0.5, 0.5, 0.5, 0.33, 0.33, 0.5])}
+_SPOILER_GAINS = {
+    "IB": np.array([0.45, 0.45, 0.45, 0.26, 0.45, 0.26]),
+    "OB": np.array([0.55, 0.55, 0.55, 0.74, 0.55, 0.74]),
+}
 _ELEVATOR_ARMS = {"ELLOB": -0.07, "ELLIB": -0.03, "ELRIB": 0.03, "ELROB": 0.07}
 
 #: Simulation constants: ft/s -> kt gain, and the kt -> ft/s constant of the rate normalisation.
@@ -89,7 +125,7 @@ class Table:
     data: np.ndarray
 
     @classmethod
-    def from_json(cls, name: str, t: Mapping) -> "Table":
+    def from_json(cls, name: str, t: Mapping) -> Table:
         bps = tuple(np.asarray(d["values"], dtype=float) for d in t["dims"] if d["kind"] == "breakpoint")
         data = np.asarray(t["data"], dtype=float)
         if tuple(data.shape) != tuple(t["shape"]):
@@ -180,8 +216,19 @@ class GTMAeroDatabase:
         Reference area [ft^2], span and chord [ft] (used in the rate normalisation).
     """
 
-    NEEDED = ("C6_bas", "dC3_sym", "dC3_ele", "dC3_lgr", "dC3_p", "dC3_q", "dC3_r", "dC6_ail", "dC6_rud",
-              "dC6_spo", "dC6_w")
+    NEEDED = (
+        "C6_bas",
+        "dC3_sym",
+        "dC3_ele",
+        "dC3_lgr",
+        "dC3_p",
+        "dC3_q",
+        "dC3_r",
+        "dC6_ail",
+        "dC6_rud",
+        "dC6_spo",
+        "dC6_w",
+    )
 
     def __init__(self, tables: Mapping[str, Table], flaps: Mapping[str, np.ndarray], b: float, cbar: float):
         missing = [t for t in self.NEEDED if t not in tables]
@@ -193,7 +240,7 @@ class GTMAeroDatabase:
         self.cbar = float(cbar)
 
     @classmethod
-    def load(cls) -> "GTMAeroDatabase":
+    def load(cls) -> GTMAeroDatabase:
         """The vendored database (``gna/data/sources/gtm``)."""
         with _data_file("gtm_t2_aero_nominal.json.gz").open("rb") as fh:
             db = json.loads(gzip.decompress(fh.read()))
@@ -233,8 +280,11 @@ class GTMAeroDatabase:
         for side, mirror_beta, mirror in (("R", 1.0, np.ones(6)), ("L", -1.0, _MIRROR)):
             for pos in ("IB", "OB"):
                 name = f"SPL{side}{pos}"
-                parts[name] = _SPOILER_GAINS[pos] * mirror * T["dC6_spo"].interpolate(
-                    (alpha, mirror_beta * np.asarray(beta), s[name]))
+                parts[name] = (
+                    _SPOILER_GAINS[pos]
+                    * mirror
+                    * T["dC6_spo"].interpolate((alpha, mirror_beta * np.asarray(beta), s[name]))
+                )
         stab = s["STAB"]
         c0 = T["dC3_ele"].interpolate((alpha, beta, stab, 0.0))
         v = zeros6.copy()
@@ -244,8 +294,8 @@ class GTMAeroDatabase:
             d3 = 0.25 * (T["dC3_ele"].interpolate((alpha, beta, stab, s[name])) - c0)
             v = zeros6.copy()
             v[..., _LON] = d3
-            v[..., 3] = v[..., 3] + arm * d3[..., 1]   # Cl += arm * dCZ
-            v[..., 5] = v[..., 5] - arm * d3[..., 0]   # Cn -= arm * dCX
+            v[..., 3] = v[..., 3] + arm * d3[..., 1]  # Cl += arm * dCZ
+            v[..., 5] = v[..., 5] - arm * d3[..., 0]  # Cn -= arm * dCX
             parts[name] = v
         for name in ("FLAPLOB", "FLAPLIB", "FLAPRIB", "FLAPROB"):
             parts[name] = self.flaps[name] * np.asarray(s[name], dtype=float)[..., None]
@@ -280,8 +330,9 @@ class GTMAeroDatabase:
         tr[..., _LAT] = dr
         return out + tp + tq + tr
 
-    def body_coefficients(self, alpha_deg, beta_deg, p, q, r, V_fps,
-                          surfaces: Mapping[str, object] | None = None) -> np.ndarray:
+    def body_coefficients(
+        self, alpha_deg, beta_deg, p, q, r, V_fps, surfaces: Mapping[str, object] | None = None
+    ) -> np.ndarray:
         """Body-axis ``[CX, CY, CZ, Cl, Cm, Cn]`` about the 25 % MAC reference (last axis).
 
         Parameters
@@ -300,8 +351,9 @@ class GTMAeroDatabase:
             if k not in s:
                 raise InputError(f"unknown GTM surface {k!r}; known: {', '.join(SURFACES)}")
             s[k] = v
-        arrays = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in
-                                       (alpha_deg, beta_deg, p, q, r, V_fps, *s.values())))
+        arrays = np.broadcast_arrays(
+            *(np.asarray(x, dtype=float) for x in (alpha_deg, beta_deg, p, q, r, V_fps, *s.values()))
+        )
         a, b, p, q, r, V = arrays[:6]
         s = dict(zip(s, arrays[6:]))
         return self.basic(a, b) + self.surfaces(a, b, s) + self.dynamic(a, b, p, q, r, V)
@@ -360,17 +412,25 @@ class GTMSource(SourceModel):
         ai = self.db.breakpoint_range("dC6_ail", 2)
         ru = self.db.breakpoint_range("dC6_rud", 2)
         self.envelope = {
-            "alpha": (d(a_lo), d(a_hi)), "beta": (d(b_lo), d(b_hi)),
-            "phat": self.db.breakpoint_range("dC3_p", 1), "qhat": self.db.breakpoint_range("dC3_q", 1),
+            "alpha": (d(a_lo), d(a_hi)),
+            "beta": (d(b_lo), d(b_hi)),
+            "phat": self.db.breakpoint_range("dC3_p", 1),
+            "qhat": self.db.breakpoint_range("dC3_q", 1),
             "rhat": self.db.breakpoint_range("dC3_r", 1),
-            "dl": (d(ai[0]), d(ai[1])), "dm": (d(el[0]), d(el[1])), "dn": (d(ru[0]), d(-ru[0])),
+            "dl": (d(ai[0]), d(ai[1])),
+            "dm": (d(el[0]), d(el[1])),
+            "dn": (d(ru[0]), d(-ru[0])),
         }
         self.envelope_origin = {
             "alpha": "static tables C6_bas etc. from -5 deg; pitch forced-oscillation table dC3_q to 50 deg",
-            "beta": "static tables", "phat": "roll forced-oscillation table dC3_p",
-            "qhat": "pitch forced-oscillation table dC3_q", "rhat": "yaw forced-oscillation table dC3_r",
-            "dl": "aileron table dC6_ail", "dm": "elevator breakpoints of dC3_ele",
-            "dn": "rudder table dC6_rud (negative deflections, mirrored)"}
+            "beta": "static tables",
+            "phat": "roll forced-oscillation table dC3_p",
+            "qhat": "pitch forced-oscillation table dC3_q",
+            "rhat": "yaw forced-oscillation table dC3_r",
+            "dl": "aileron table dC6_ail",
+            "dm": "elevator breakpoints of dC3_ele",
+            "dn": "rudder table dC6_rud (negative deflections, mirrored)",
+        }
 
     def body_coefficients(self, state: AeroState) -> np.ndarray:
         st, _ = broadcast_state(state)
@@ -388,12 +448,14 @@ class GTMSource(SourceModel):
         return Coefficients(CD, c[..., 1], CL, c[..., 3], c[..., 4], c[..., 5])
 
     def provenance(self) -> dict[str, str]:
-        return {"source": "NASA GTM_DesignSim (github.com/nasa/GTM_DesignSim, commit 9717143), "
-                          "T2_polynomial_aerodatabase.mat 'Polynominal Fit Aero database (unlimited distribution), "
-                          "Version 0.2', vendored in gna/data/sources/gtm",
-                "source_model": "gna.fit.sources.gtm: the simulation's Aero subsystem re-implemented (nominal, "
-                                "clean: stab 0, flaps 0, spoilers 0, gear up); checked against "
-                                "reference_points.csv"}
+        return {
+            "source": "NASA GTM_DesignSim (github.com/nasa/GTM_DesignSim, commit 9717143), "
+            "T2_polynomial_aerodatabase.mat 'Polynominal Fit Aero database (unlimited distribution), "
+            "Version 0.2', vendored in gna/data/sources/gtm",
+            "source_model": "gna.fit.sources.gtm: the simulation's Aero subsystem re-implemented (nominal, "
+            "clean: stab 0, flaps 0, spoilers 0, gear up); checked against "
+            "reference_points.csv",
+        }
 
 
 def vehicle_sections() -> dict[str, dict]:
@@ -416,21 +478,34 @@ def vehicle_sections() -> dict[str, dict]:
     pitch = 0.5 * (eng["left"]["angles_deg"][1] + eng["right"]["angles_deg"][1])
     static = eng["thrust_model"]["static_sea_level_thrust_per_engine_lbf"]["throttle_100pct"]
     return {
-        "mass": {"weight_lb": veh["mass"]["weight_w0_lbf"],
-                 "Ixx_slugft2": inertia["Ixx_slug_ft2"], "Iyy_slugft2": inertia["Iyy_slug_ft2"],
-                 "Izz_slugft2": inertia["Izz_slug_ft2"], "Ixz_slugft2": inertia["Ixz_slug_ft2"],
-                 "source": "GTM_DesignSim AC_baseparams_T2.m:13,22-28,38-40 via gna/data/sources/gtm/vehicle.json "
-                           "(weight w0; inertia as the simulation uses it at zero fuel burn, gear up; "
-                           f"Ixy = {inertia['Ixy_slug_ft2']} slug ft^2 dropped)"},
-        "geometry": {"S_ft2": geo["S_ft2"], "b_ft": geo["b_ft"], "cbar_ft": geo["cbar_ft"],
-                     "x_cg_cbar": round(rp["cg_percent_mac"] / 100.0, 12),
-                     "x_ref_cbar": round(rp["ref_percent_mac"] / 100.0, 12),
-                     "source": "AC_baseparams_T2.m:43-48 via vehicle.json: CG cg_pos0 (21.99 % MAC, full fuel, gear "
-                               "up), moment reference 25 % MAC; the CG's offsets of 0.036 ft up and 0.0118 ft left "
-                               "of the reference are not represented"},
-        "engines": {"count": 2, "y_p_ft": yr, "epsilon_deg": round(pitch, 12), "max_thrust_lbf": 2.0 * static,
-                    "source": "AC_baseparams_T2.m:57-60 via vehicle.json: engines at y = +-1.1833 ft, thrust line "
-                              "pitched up by the mean of 1.98 and 1.95 deg; toe angles (2.22, -1.18 deg) and the "
-                              "0.33 ft offset of the thrust line below the CG not represented; max thrust = 2 x "
-                              f"{static:.4f} lbf, sea-level static at 100 % throttle from the JetCat P70 curve fits"},
+        "mass": {
+            "weight_lb": veh["mass"]["weight_w0_lbf"],
+            "Ixx_slugft2": inertia["Ixx_slug_ft2"],
+            "Iyy_slugft2": inertia["Iyy_slug_ft2"],
+            "Izz_slugft2": inertia["Izz_slug_ft2"],
+            "Ixz_slugft2": inertia["Ixz_slug_ft2"],
+            "source": "GTM_DesignSim AC_baseparams_T2.m:13,22-28,38-40 via gna/data/sources/gtm/vehicle.json "
+            "(weight w0; inertia as the simulation uses it at zero fuel burn, gear up; "
+            f"Ixy = {inertia['Ixy_slug_ft2']} slug ft^2 dropped)",
+        },
+        "geometry": {
+            "S_ft2": geo["S_ft2"],
+            "b_ft": geo["b_ft"],
+            "cbar_ft": geo["cbar_ft"],
+            "x_cg_cbar": round(rp["cg_percent_mac"] / 100.0, 12),
+            "x_ref_cbar": round(rp["ref_percent_mac"] / 100.0, 12),
+            "source": "AC_baseparams_T2.m:43-48 via vehicle.json: CG cg_pos0 (21.99 % MAC, full fuel, gear "
+            "up), moment reference 25 % MAC; the CG's offsets of 0.036 ft up and 0.0118 ft left "
+            "of the reference are not represented",
+        },
+        "engines": {
+            "count": 2,
+            "y_p_ft": yr,
+            "epsilon_deg": round(pitch, 12),
+            "max_thrust_lbf": 2.0 * static,
+            "source": "AC_baseparams_T2.m:57-60 via vehicle.json: engines at y = +-1.1833 ft, thrust line "
+            "pitched up by the mean of 1.98 and 1.95 deg; toe angles (2.22, -1.18 deg) and the "
+            "0.33 ft offset of the thrust line below the CG not represented; max thrust = 2 x "
+            f"{static:.4f} lbf, sea-level static at 100 % throttle from the JetCat P70 curve fits",
+        },
     }

@@ -32,17 +32,17 @@ import contextlib
 import math
 import re
 import tempfile
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 
-from . import jsbsim_xml as jx
-from .base import SourceModel, broadcast_state, stability_from_body
+from ... import units
 from ...aero import AeroState, Coefficients
 from ...errors import InputError, UnknownAircraftError
-from ... import units
+from . import jsbsim_xml as jx
+from .base import SourceModel, broadcast_state, stability_from_body
 
 #: Candidate properties for each surface, with the sign that maps them to the project's variable.
 SURFACE_CANDIDATES: dict[str, tuple[tuple[str, float], ...]] = {
@@ -66,14 +66,17 @@ class UnknownJSBSimAircraftError(UnknownAircraftError):
         super().__init__(name, known)
 
     def __str__(self) -> str:
-        return (f"unknown JSBSim aircraft {self.name!r} (no aircraft/{self.name}/{self.name}.xml under {self.root}); "
-                f"available: {', '.join(self.known)}")
+        return (
+            f"unknown JSBSim aircraft {self.name!r} (no aircraft/{self.name}/{self.name}.xml under {self.root}); "
+            f"available: {', '.join(self.known)}"
+        )
 
 
 @contextlib.contextmanager
 def _quiet():
     """JSBSim's message level is process-wide: silence it while we drive JSBSim, then restore it."""
     import jsbsim
+
     base = jsbsim.FGJSBBase()
     level = base.debug_lvl
     base.debug_lvl = 0
@@ -85,6 +88,7 @@ def _quiet():
 
 def default_root() -> Path:
     import jsbsim
+
     return Path(jsbsim.get_default_root_dir())
 
 
@@ -141,10 +145,18 @@ class JSBSimAeroSource(SourceModel):
         Property -> value overriding the default 0 of the configuration properties.
     """
 
-    def __init__(self, model: str, *, mach: float, altitude: float, root: str | Path | None = None,
-                 surfaces: Mapping[str, tuple[str, float]] | None = None,
-                 configuration: Mapping[str, float] | None = None):
+    def __init__(
+        self,
+        model: str,
+        *,
+        mach: float,
+        altitude: float,
+        root: str | Path | None = None,
+        surfaces: Mapping[str, tuple[str, float]] | None = None,
+        configuration: Mapping[str, float] | None = None,
+    ):
         import jsbsim
+
         if not (math.isfinite(mach) and 0 < mach < 5):
             raise InputError(f"reference Mach must be in (0, 5), got {mach}")
         if not (math.isfinite(altitude) and -500 <= altitude <= 30000):
@@ -165,14 +177,22 @@ class JSBSimAeroSource(SourceModel):
         self.removed = jx.angle_rate_functions(functions)
         for f in self.removed:
             if f.axis not in _FORCE_AXES and f.axis not in _MOMENT_AXES:
-                raise InputError(f"JSBSim {self.model}: alpha-dot/beta-dot function {f.name} in axis {f.axis} "
-                                 f"is not supported (only DRAG, SIDE, LIFT, ROLL, PITCH, YAW)")
+                raise InputError(
+                    f"JSBSim {self.model}: alpha-dot/beta-dot function {f.name} in axis {f.axis} "
+                    f"is not supported (only DRAG, SIDE, LIFT, ROLL, PITCH, YAW)"
+                )
         used = {p for p, _ in self.surface_map.values()}
         # The aircraft's own copies of the surfaces (normalised positions, mirrored surfaces) follow them.
         self.copies = jx.surface_copies(self._xml, self.aircraft_dir, self.root, used)
         copied = {o for o, _, _, _ in self.copies}
-        config = {p: 0.0 for p in sorted(reads) if p.startswith(("fcs/", "gear/", "systems/"))
-                  and p not in used and p not in copied and p not in DERIVED_SURFACE_PROPERTIES}
+        config = {
+            p: 0.0
+            for p in sorted(reads)
+            if p.startswith(("fcs/", "gear/", "systems/"))
+            and p not in used
+            and p not in copied
+            and p not in DERIVED_SURFACE_PROPERTIES
+        }
         for k, v in (configuration or {}).items():
             config[str(k)] = float(v)
         self.configuration = config
@@ -188,8 +208,9 @@ class JSBSimAeroSource(SourceModel):
             fdm = jsbsim.FGFDMExec(str(self.root))
             fdm.set_debug_level(0)
             fdm.set_output_path(self._scratch.name)
-            ok = fdm.load_model_with_paths(self.model, str(self.aircraft_dir.parent), str(self.root / "engine"),
-                                           str(self.root / "systems"))
+            ok = fdm.load_model_with_paths(
+                self.model, str(self.aircraft_dir.parent), str(self.root / "engine"), str(self.root / "systems")
+            )
             fdm.disable_output()
         if not ok:
             raise InputError(f"JSBSim could not load {self.aircraft_dir / (self.model + '.xml')}")
@@ -223,9 +244,11 @@ class JSBSimAeroSource(SourceModel):
                 continue
             found = [(p, s) for p, s in cands if p in reads]
             if not found:
-                raise InputError(f"JSBSim {self.model}: its aerodynamics read none of "
-                                 f"{', '.join(p for p, _ in cands)} (nor a copy of them) for {var}; give the "
-                                 f"property explicitly (gflat fit jsbsim --property {var}=PROPERTY)")
+                raise InputError(
+                    f"JSBSim {self.model}: its aerodynamics read none of "
+                    f"{', '.join(p for p, _ in cands)} (nor a copy of them) for {var}; give the "
+                    f"property explicitly (gflat fit jsbsim --property {var}=PROPERTY)"
+                )
             out[var] = found[0]
         unknown = [k for k in override if k not in SURFACE_CANDIDATES]
         if unknown:
@@ -274,8 +297,9 @@ class JSBSimAeroSource(SourceModel):
         return env
 
     # -- evaluation -----------------------------------------------------------------------------
-    def body_forces(self, alpha: float, beta: float, p: float, q: float, r: float,
-                    surfaces: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray, float]:
+    def body_forces(
+        self, alpha: float, beta: float, p: float, q: float, r: float, surfaces: Mapping[str, float]
+    ) -> tuple[np.ndarray, np.ndarray, float]:
         """One JSBSim evaluation: body force [lbf], moment about the CG [lbf ft] without the
         alpha-dot/beta-dot functions, and qbar [psf].  Angles rad, rates rad/s, surfaces as
         the JSBSim properties (rad)."""
@@ -299,8 +323,13 @@ class JSBSimAeroSource(SourceModel):
             a, b = fdm["aero/alpha-rad"], fdm["aero/beta-rad"]
             ca, sa, cb, sb = math.cos(a), math.sin(a), math.cos(b), math.sin(b)
             wind_to_body = np.array([[ca * cb, -ca * sb, -sa], [sb, cb, 0.0], [sa * cb, -sa * sb, ca]])
-            arm = np.array([(self.cg_in[0] - self.rp_in[0]) / 12.0, (self.rp_in[1] - self.cg_in[1]) / 12.0,
-                            (self.cg_in[2] - self.rp_in[2]) / 12.0])
+            arm = np.array(
+                [
+                    (self.cg_in[0] - self.rp_in[0]) / 12.0,
+                    (self.rp_in[1] - self.cg_in[1]) / 12.0,
+                    (self.cg_in[2] - self.rp_in[2]) / 12.0,
+                ]
+            )
             for f in self.removed:
                 v = fdm[f.name]
                 if f.axis in _MOMENT_AXES:
@@ -334,8 +363,7 @@ class JSBSimAeroSource(SourceModel):
                 surf[prop] = sign * val
             for out_prop, in_prop, f, _ in self.copies:
                 surf[out_prop] = f(surf[in_prop])
-            F, M, qbar = self.body_forces(a, b, ph * two_V / self.b, qh * two_V / self.cbar, rh * two_V / self.b,
-                                          surf)
+            F, M, qbar = self.body_forces(a, b, ph * two_V / self.b, qh * two_V / self.cbar, rh * two_V / self.b, surf)
             qS = qbar * self.S
             out[i, :3] = F / qS
             out[i, 3:] = M / (qS * np.array([self.b, self.cbar, self.b]))
@@ -358,29 +386,42 @@ class JSBSimAeroSource(SourceModel):
             eng["max_thrust_source"] = ", ".join(sorted({r[1] for r in ratings}))
         return {
             "mass_slug": fdm["inertia/mass-slugs"],
-            "Ixx_slugft2": fdm["inertia/ixx-slugs_ft2"], "Iyy_slugft2": fdm["inertia/iyy-slugs_ft2"],
-            "Izz_slugft2": fdm["inertia/izz-slugs_ft2"], "Ixz_slugft2": 0.0 - fdm["inertia/ixz-slugs_ft2"],
-            "S_ft2": self.S, "b_ft": self.b, "cbar_ft": self.cbar,
-            "cg_in": tuple(float(x) for x in self.cg_in), "aero_rp_in": tuple(float(x) for x in self.rp_in),
+            "Ixx_slugft2": fdm["inertia/ixx-slugs_ft2"],
+            "Iyy_slugft2": fdm["inertia/iyy-slugs_ft2"],
+            "Izz_slugft2": fdm["inertia/izz-slugs_ft2"],
+            "Ixz_slugft2": 0.0 - fdm["inertia/ixz-slugs_ft2"],
+            "S_ft2": self.S,
+            "b_ft": self.b,
+            "cbar_ft": self.cbar,
+            "cg_in": tuple(float(x) for x in self.cg_in),
+            "aero_rp_in": tuple(float(x) for x in self.rp_in),
             "engines": eng,
         }
 
     def provenance(self) -> dict[str, str]:
         import jsbsim
+
         removed = ", ".join(f.name for f in self.removed) or "none"
         cfg = ", ".join(f"{k} = {v:g}" for k, v in self.configuration.items()) or "none"
-        surf = ", ".join(f"{var} = {'-' if s < 0 else ''}{p}" if abs(s) == 1.0 else f"{var} = {p} / {s:g}"
-                         for var, (p, s) in self.surface_map.items())
+        surf = ", ".join(
+            f"{var} = {'-' if s < 0 else ''}{p}" if abs(s) == 1.0 else f"{var} = {p} / {s:g}"
+            for var, (p, s) in self.surface_map.items()
+        )
         copies = "".join(f"{o} follows {i} ({kind}); " for o, (i, kind) in self.surface_copies.items())
         bundled = self.aircraft_dir.parent == default_root() / "aircraft"
-        where = (f"{self.aircraft_dir.name}/{self.model}.xml of the jsbsim package" if bundled
-                 else str(self.aircraft_dir / f"{self.model}.xml"))
-        return {"source": f"JSBSim {jsbsim.__version__} aircraft {self.model} ({where})",
-                "source_model": f"aerodynamic forces and moments read from JSBSim (FCS disabled, run_ic per "
-                                f"point) at Mach {self.mach:g}, {self.altitude:g} m (V = {self.V_ref:.6g} m/s); "
-                                f"surfaces: {surf}; {copies}"
-                                f"configuration held: {cfg}; functions removed (alpha-dot/beta-dot): {removed}; "
-                                f"moments about the JSBSim CG"}
+        where = (
+            f"{self.aircraft_dir.name}/{self.model}.xml of the jsbsim package"
+            if bundled
+            else str(self.aircraft_dir / f"{self.model}.xml")
+        )
+        return {
+            "source": f"JSBSim {jsbsim.__version__} aircraft {self.model} ({where})",
+            "source_model": f"aerodynamic forces and moments read from JSBSim (FCS disabled, run_ic per "
+            f"point) at Mach {self.mach:g}, {self.altitude:g} m (V = {self.V_ref:.6g} m/s); "
+            f"surfaces: {surf}; {copies}"
+            f"configuration held: {cfg}; functions removed (alpha-dot/beta-dot): {removed}; "
+            f"moments about the JSBSim CG",
+        }
 
 
 def vehicle_sections(source: JSBSimAeroSource) -> dict[str, dict]:
@@ -405,8 +446,9 @@ def vehicle_sections(source: JSBSimAeroSource) -> dict[str, dict]:
         raise InputError(f"{where} has {len(thr)} engines; the project's aircraft model has 1 or 2")
     if len(thr) == 1 and abs(thr[0].y) > 1e-9:
         raise InputError(f"{where}: its single engine is off the symmetry plane (y = {thr[0].y} in)")
-    if len(thr) == 2 and (abs(thr[0].y + thr[1].y) > 1e-6 or abs(thr[0].x - thr[1].x) > 1e-6
-                          or abs(thr[0].z - thr[1].z) > 1e-6):
+    if len(thr) == 2 and (
+        abs(thr[0].y + thr[1].y) > 1e-6 or abs(thr[0].x - thr[1].x) > 1e-6 or abs(thr[0].z - thr[1].z) > 1e-6
+    ):
         raise InputError(f"{where}: its two engines are not symmetric about the symmetry plane")
     cg_x, _, cg_z = v["cg_in"]
     rp_x = v["aero_rp_in"][0]
@@ -416,21 +458,33 @@ def vehicle_sections(source: JSBSimAeroSource) -> dict[str, dict]:
     if "max_thrust_lbf" in v["engines"]:
         eng["max_thrust_lbf"] = v["engines"]["max_thrust_lbf"]
     yaw = ", ".join(f"{math.degrees(t.yaw):g}" for t in thr)
-    eng["source"] = (f"{where}: thrusters at y = {', '.join(f'{t.y:g}' for t in thr)} in, pitch "
-                     f"{', '.join(f'{math.degrees(t.pitch):g}' for t in thr)} deg, yaw {yaw} deg; the thrust line "
-                     f"is {abs(dz_ft):.3g} ft {'above' if dz_ft > 0 else 'below'} the CG (its pitching moment is "
-                     f"not represented); max thrust: sum of "
-                     f"{v['engines'].get('max_thrust_source', 'unknown (not a turbine engine file)')}")
+    eng["source"] = (
+        f"{where}: thrusters at y = {', '.join(f'{t.y:g}' for t in thr)} in, pitch "
+        f"{', '.join(f'{math.degrees(t.pitch):g}' for t in thr)} deg, yaw {yaw} deg; the thrust line "
+        f"is {abs(dz_ft):.3g} ft {'above' if dz_ft > 0 else 'below'} the CG (its pitching moment is "
+        f"not represented); max thrust: sum of "
+        f"{v['engines'].get('max_thrust_source', 'unknown (not a turbine engine file)')}"
+    )
     return {
-        "mass": {"mass_slug": v["mass_slug"], "Ixx_slugft2": v["Ixx_slugft2"], "Iyy_slugft2": v["Iyy_slugft2"],
-                 "Izz_slugft2": v["Izz_slugft2"], "Ixz_slugft2": v["Ixz_slugft2"],
-                 "source": f"{where} as loaded with its default fuel and point masses, read after run_ic "
-                           f"(inertia/*); Ixz = -inertia/ixz-slugs_ft2 (flight-dynamics sign)"},
-        "geometry": {"S_ft2": v["S_ft2"], "b_ft": v["b_ft"], "cbar_ft": v["cbar_ft"],
-                     "x_cg_in": cg_x - rp_x, "x_ref_in": cg_x - rp_x,
-                     "source": f"{where} metrics; x positions aft of the JSBSim AERORP (no MAC leading edge in the "
-                               f"file); CG at x = {cg_x:.6g} in (structural), AERORP at {rp_x:.6g} in; the "
-                               f"coefficients are about the CG, so x_ref = x_cg"},
+        "mass": {
+            "mass_slug": v["mass_slug"],
+            "Ixx_slugft2": v["Ixx_slugft2"],
+            "Iyy_slugft2": v["Iyy_slugft2"],
+            "Izz_slugft2": v["Izz_slugft2"],
+            "Ixz_slugft2": v["Ixz_slugft2"],
+            "source": f"{where} as loaded with its default fuel and point masses, read after run_ic "
+            f"(inertia/*); Ixz = -inertia/ixz-slugs_ft2 (flight-dynamics sign)",
+        },
+        "geometry": {
+            "S_ft2": v["S_ft2"],
+            "b_ft": v["b_ft"],
+            "cbar_ft": v["cbar_ft"],
+            "x_cg_in": cg_x - rp_x,
+            "x_ref_in": cg_x - rp_x,
+            "source": f"{where} metrics; x positions aft of the JSBSim AERORP (no MAC leading edge in the "
+            f"file); CG at x = {cg_x:.6g} in (structural), AERORP at {rp_x:.6g} in; the "
+            f"coefficients are about the CG, so x_ref = x_cg",
+        },
         "engines": eng,
     }
 
@@ -481,19 +535,22 @@ def fitted_source(provenance: Mapping[str, str], name: str = "aircraft") -> Fitt
     """
     m = _PROV_SOURCE.search(str(provenance.get("source", "")))
     if m is None:
-        raise InputError(f"{name} was not fitted from a JSBSim aircraft (provenance source: "
-                         f"{provenance.get('source', 'none')!r})")
+        raise InputError(
+            f"{name} was not fitted from a JSBSim aircraft (provenance source: {provenance.get('source', 'none')!r})"
+        )
     where = m.group(2)
     model = where if where.endswith(".xml") and not where.endswith("of the jsbsim package") else m.group(1)
     text = str(provenance.get("source_model", ""))
     sm = _PROV_SURFACES.search(text)
     surfaces = {}
-    for item in (sm.group(1).split(",") if sm else []):
+    for item in sm.group(1).split(",") if sm else []:
         var, _, prop = (s.strip() for s in item.partition("="))
         surfaces[var] = (prop.lstrip("-").strip(), -1.0 if prop.startswith("-") else 1.0)
     if set(surfaces) != {"dl", "dm", "dn"}:
-        raise InputError(f"{name}: the provenance source_model gives no complete surface mapping "
-                         f"('surfaces: dm = <property>, dl = ..., dn = ...'); got {sm.group(1) if sm else 'none'!r}")
+        raise InputError(
+            f"{name}: the provenance source_model gives no complete surface mapping "
+            f"('surfaces: dm = <property>, dl = ..., dn = ...'); got {sm.group(1) if sm else 'none'!r}"
+        )
     config = {}
     cm = _PROV_CONFIG.search(text)
     if cm is not None and cm.group(1).strip() != "none":

@@ -88,8 +88,14 @@ def aero_functions(aero: ET.Element) -> list[AeroFunction]:
         out.append(AeroFunction(fn.get("name", ""), None, None, frozenset(_texts(fn))))
     for ax in aero.findall("axis"):
         for fn in ax.findall("function"):
-            out.append(AeroFunction(fn.get("name", ""), ax.get("name", "").upper(),
-                                    (ax.get("frame") or "").upper() or None, frozenset(_texts(fn))))
+            out.append(
+                AeroFunction(
+                    fn.get("name", ""),
+                    ax.get("name", "").upper(),
+                    (ax.get("frame") or "").upper() or None,
+                    frozenset(_texts(fn)),
+                )
+            )
     return out
 
 
@@ -127,8 +133,9 @@ def table_ranges(aero: ET.Element, exclude: frozenset[str] = frozenset()) -> dic
         lo, hi = min(values), max(values)
         if prop in out:
             plo, phi, pwhere = out[prop]
-            where = pwhere if (lo <= plo and hi >= phi) else (owner if (lo >= plo and hi <= phi)
-                                                                  else f"{pwhere}, {owner}")
+            where = (
+                pwhere if (lo <= plo and hi >= phi) else (owner if (lo >= plo and hi <= phi) else f"{pwhere}, {owner}")
+            )
             lo, hi = max(lo, plo), min(hi, phi)
         else:
             where = owner
@@ -171,8 +178,12 @@ def _system_files(root: ET.Element, aircraft_dir: Path, jsbsim_root: Path) -> li
         if not ref:
             out.append(e)
             continue
-        for cand in (aircraft_dir / "Systems" / f"{ref}.xml", aircraft_dir / f"{ref}.xml",
-                     jsbsim_root / "systems" / f"{ref}.xml", aircraft_dir / "Systems" / ref):
+        for cand in (
+            aircraft_dir / "Systems" / f"{ref}.xml",
+            aircraft_dir / f"{ref}.xml",
+            jsbsim_root / "systems" / f"{ref}.xml",
+            aircraft_dir / "Systems" / ref,
+        ):
             if cand.is_file():
                 out.append(parse(cand))
                 break
@@ -215,11 +226,13 @@ def _copy_function(comp: ET.Element, negate: bool):
     gain; ``pure_gain``: the gain; ``summer``: plus the bias; ``actuator``
     and ``lag_filter``: the input (steady state).  ``<clipto>`` applies last.
     """
+
     def num(path, default):
         text = comp.findtext(path)
         if text is None:
             return default
         return float(text)  # a property name raises ValueError: not a constant map
+
     try:
         kind = comp.tag
         gain = num("gain", 1.0)
@@ -231,13 +244,14 @@ def _copy_function(comp: ET.Element, negate: bool):
             rmin, rmax = num("range/min", None), num("range/max", None)
             if rmin is None or rmax is None:
                 return None
-            centred = (comp.findtext("zero_centered", "true").strip().lower() not in ("false", "0"))
+            centred = comp.findtext("zero_centered", "true").strip().lower() not in ("false", "0")
 
             def base(x):
                 if centred:
                     return 0.0 if x == 0 else (x / dmax * rmax if x > 0 else x / dmin * rmin)
                 return rmin + (x - dmin) * (rmax - rmin) / (dmax - dmin)
         elif kind == "pure_gain":
+
             def base(x):
                 return x
         elif kind == "summer":
@@ -258,8 +272,9 @@ def _copy_function(comp: ET.Element, negate: bool):
     return lambda x: min(max(gain * base(sign * x), lo_c), hi_c)
 
 
-def surface_copies(root: ET.Element, aircraft_dir: Path, jsbsim_root: Path,
-                   sources) -> list[tuple[str, str, object, str]]:
+def surface_copies(
+    root: ET.Element, aircraft_dir: Path, jsbsim_root: Path, sources
+) -> list[tuple[str, str, object, str]]:
     """The flight-control outputs computed from the surface properties alone (normalised copies, scalings).
 
     With the flight-control system switched off these properties keep their
@@ -285,8 +300,12 @@ def surface_copies(root: ET.Element, aircraft_dir: Path, jsbsim_root: Path,
         ``function(input value) -> output value``.
     """
     known = set(sources)
-    comps = [c for sysroot in _system_files(root, aircraft_dir, jsbsim_root) for c in sysroot.iter()
-             if c.tag in COPY_COMPONENTS]
+    comps = [
+        c
+        for sysroot in _system_files(root, aircraft_dir, jsbsim_root)
+        for c in sysroot.iter()
+        if c.tag in COPY_COMPONENTS
+    ]
     out, done = [], set()
     changed = True
     while changed:

@@ -27,23 +27,33 @@ from __future__ import annotations
 
 import csv
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 
-from .base import SourceModel, broadcast_state, stability_from_body
 from ...aero import AERO_VARIABLES, AeroState, Coefficients
 from ...errors import InputError
+from .base import SourceModel, broadcast_state, stability_from_body
 
 #: Body-axis coefficients a linear model may define.
 BODY_COEFFICIENTS: tuple[str, ...] = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
 
 #: Derivative suffix -> exponents over :data:`gna.aero.AERO_VARIABLES`.
 SUFFIXES: dict[str, dict[str, int]] = {
-    "o": {}, "a": {"alpha": 1}, "a2": {"alpha": 2}, "a3": {"alpha": 3}, "beta": {"beta": 1}, "b": {"beta": 1},
-    "p": {"phat": 1}, "q": {"qhat": 1}, "r": {"rhat": 1}, "de": {"dm": 1}, "da": {"dl": 1}, "dr": {"dn": 1},
+    "o": {},
+    "a": {"alpha": 1},
+    "a2": {"alpha": 2},
+    "a3": {"alpha": 3},
+    "beta": {"beta": 1},
+    "b": {"beta": 1},
+    "p": {"phat": 1},
+    "q": {"qhat": 1},
+    "r": {"rhat": 1},
+    "de": {"dm": 1},
+    "da": {"dl": 1},
+    "dr": {"dn": 1},
 }
 
 _NAME = re.compile(r"^(CX|CY|CZ|Cl|Cm|Cn)(?:(o)|_([A-Za-z0-9]+))$")
@@ -90,8 +100,13 @@ class LinearDerivativeModel(SourceModel):
         Where the derivatives come from (the ``source`` of the fitted file; default ``name``).
     """
 
-    def __init__(self, derivatives, envelope: Mapping[str, tuple[float, float]], name: str = "linear model",
-                 citation: str | None = None):
+    def __init__(
+        self,
+        derivatives,
+        envelope: Mapping[str, tuple[float, float]],
+        name: str = "linear model",
+        citation: str | None = None,
+    ):
         self.derivatives = tuple(derivatives)
         if not self.derivatives:
             raise InputError(f"{name}: no derivatives")
@@ -106,19 +121,27 @@ class LinearDerivativeModel(SourceModel):
         self.citation = citation or name
 
     @classmethod
-    def from_csv(cls, path: str | Path, envelope: Mapping[str, tuple[float, float]],
-                 name: str | None = None, citation: str | None = None) -> "LinearDerivativeModel":
+    def from_csv(
+        cls,
+        path: str | Path,
+        envelope: Mapping[str, tuple[float, float]],
+        name: str | None = None,
+        citation: str | None = None,
+    ) -> LinearDerivativeModel:
         """Read the derivative rows of a ``group,name,value,unit,note`` CSV file."""
         rows = read_rows(path)
         ders = [d for d in (parse_derivative(r["name"], r["value"]) for r in rows) if d is not None]
-        return cls(ders, envelope, name or f"linear derivative model {Path(path).name}",
-                   citation or f"derivatives of {path}")
+        return cls(
+            ders, envelope, name or f"linear derivative model {Path(path).name}", citation or f"derivatives of {path}"
+        )
 
     def provenance(self) -> dict[str, str]:
         terms = ", ".join(d.name for d in self.derivatives)
-        return {"source": self.citation,
-                "source_model": f"gna.fit.sources.linear: body-axis derivative model ({terms}), CX and CZ "
-                                f"rotated to stability-axis CD, CL; unlisted derivatives zero"}
+        return {
+            "source": self.citation,
+            "source_model": f"gna.fit.sources.linear: body-axis derivative model ({terms}), CX and CZ "
+            f"rotated to stability-axis CD, CL; unlisted derivatives zero",
+        }
 
     def body_coefficients(self, state: AeroState) -> dict[str, np.ndarray]:
         """CX, CY, CZ, Cl, Cm, Cn (body axes, about the CG)."""
@@ -128,7 +151,7 @@ class LinearDerivativeModel(SourceModel):
             m = np.ones(shape)
             for v, e in zip(st, d.exponents):
                 if e:
-                    m = m * v ** e
+                    m = m * v**e
             out[d.coefficient] = out[d.coefficient] + d.value * m
         return out
 
@@ -159,5 +182,8 @@ def read_rows(path: str | Path) -> list[dict[str, str]]:
 
 def vehicle_values(path: str | Path) -> dict[str, tuple[float, str]]:
     """Non-derivative rows: name -> (value, unit)."""
-    return {r["name"]: (float(r["value"]), r.get("unit", "")) for r in read_rows(path)
-            if parse_derivative(r["name"], r["value"]) is None}
+    return {
+        r["name"]: (float(r["value"]), r.get("unit", ""))
+        for r in read_rows(path)
+        if parse_derivative(r["name"], r["value"]) is None
+    }

@@ -13,8 +13,14 @@ Rooms:
 """
 
 from .engine import CONTROLLER_SCHEME, JSBSimEngine
-from .fdm import (INTEGRATOR_CODES, JSBSIM_DEFAULT_INTEGRATORS, Integrators, initial_condition_properties,
-                  load_fdm)
+from .fdm import INTEGRATOR_CODES, JSBSIM_DEFAULT_INTEGRATORS, Integrators, initial_condition_properties, load_fdm
 
-__all__ = ["JSBSimEngine", "CONTROLLER_SCHEME", "Integrators", "INTEGRATOR_CODES", "JSBSIM_DEFAULT_INTEGRATORS",
-           "initial_condition_properties", "load_fdm"]
+__all__ = [
+    "JSBSimEngine",
+    "CONTROLLER_SCHEME",
+    "Integrators",
+    "INTEGRATOR_CODES",
+    "JSBSIM_DEFAULT_INTEGRATORS",
+    "initial_condition_properties",
+    "load_fdm",
+]

@@ -120,12 +120,25 @@ class JSBSimEngine:
         str
             The JSBSim aircraft file.
         """
-        planet = (jx.FlatPlanet(g=env.g, h_ref=-float(x0[2]), radius_ft=self.planet_radius_ft)
-                  if self.earth == "flat" else None)
+        planet = (
+            jx.FlatPlanet(g=env.g, h_ref=-float(x0[2]), radius_ft=self.planet_radius_ft)
+            if self.earth == "flat"
+            else None
+        )
         return jx.aircraft_xml(aircraft, planet, ground_effect=env.ground_effect)
 
-    def simulate(self, aircraft: Aircraft, controls, t_span, x0=None, *, env: Environment | None = None,
-                 controller=None, dt_out: float = 0.02, t_eval: np.ndarray | None = None) -> SimulationResult:
+    def simulate(
+        self,
+        aircraft: Aircraft,
+        controls,
+        t_span,
+        x0=None,
+        *,
+        env: Environment | None = None,
+        controller=None,
+        dt_out: float = 0.02,
+        t_eval: np.ndarray | None = None,
+    ) -> SimulationResult:
         """Fly ``aircraft`` in JSBSim from ``x0`` with the control source ``controls``.
 
         Parameters
@@ -167,8 +180,9 @@ class JSBSimEngine:
         EngineError
             JSBSim refused the file or an initial condition.
         """
-        return _ExportRun.fly(self, aircraft, controls, t_span, x0, env=env, controller=controller, dt_out=dt_out,
-                              t_eval=t_eval)
+        return _ExportRun.fly(
+            self, aircraft, controls, t_span, x0, env=env, controller=controller, dt_out=dt_out, t_eval=t_eval
+        )
 
 
 class _ExportRun(JSBSimRun):
@@ -186,8 +200,17 @@ class _ExportRun(JSBSimRun):
 
     def _configure(self) -> None:
         e = self.engine
-        prepare(self.fdm, e.integrators, self.dt, self.env, self.x0, wgs84=self.geo is not None,
-                latitude=e.latitude, longitude=e.longitude, planet_radius_ft=e.planet_radius_ft)
+        prepare(
+            self.fdm,
+            e.integrators,
+            self.dt,
+            self.env,
+            self.x0,
+            wgs84=self.geo is not None,
+            latitude=e.latitude,
+            longitude=e.longitude,
+            planet_radius_ft=e.planet_radius_ft,
+        )
         props = (*jx.THRUST_PROPERTIES, *jx.CONTROL_PROPERTIES.values())
         self.writers = [self._node(p).set_double_value for p in props]
 
@@ -210,14 +233,30 @@ class _ExportRun(JSBSimRun):
         w0, w1, w2, w3, w4 = self.writers
 
         def write_step(k):
-            w0(F1[k]); w1(F2[k]); w2(DL[k]); w3(DM[k]); w4(DN[k])  # noqa: E702
+            w0(F1[k])
+            w1(F2[k])
+            w2(DL[k])
+            w3(DM[k])
+            w4(DN[k])  # noqa: E702
+
         return write_step
 
     def _describe(self):
         e, env, h_ref = self.engine, self.env, -float(self.x0[2])
-        planet = ({"radius_ft": e.planet_radius_ft, "h_ref_m": h_ref, "rotation_rad_s": 0.0, "J2": 0.0,
-                   "GM_ft3_s2": jx.FlatPlanet(env.g, h_ref, e.planet_radius_ft).GM, "gravity_model": 0}
-                  if self.geo is None else {"model": "JSBSim default WGS84, rotating, J2 gravity",
-                                            "latitude_rad": e.latitude, "longitude_rad": e.longitude})
-        return (env.describe() + " (written into the aircraft file)",
-                {"earth": e.earth, "planet": planet})
+        planet = (
+            {
+                "radius_ft": e.planet_radius_ft,
+                "h_ref_m": h_ref,
+                "rotation_rad_s": 0.0,
+                "J2": 0.0,
+                "GM_ft3_s2": jx.FlatPlanet(env.g, h_ref, e.planet_radius_ft).GM,
+                "gravity_model": 0,
+            }
+            if self.geo is None
+            else {
+                "model": "JSBSim default WGS84, rotating, J2 gravity",
+                "latitude_rad": e.latitude,
+                "longitude_rad": e.longitude,
+            }
+        )
+        return (env.describe() + " (written into the aircraft file)", {"earth": e.earth, "planet": planet})

@@ -30,8 +30,18 @@ WGS84_B_FT = 20855486.5951
 
 
 #: JSBSim integrator codes (``simulation/integrator/...``).
-INTEGRATOR_CODES: dict[str, int] = {"none": 0, "Euler": 1, "trapezoidal": 2, "AB2": 3, "AB3": 4, "AB4": 5,
-                                    "Buss1": 6, "Buss2": 7, "local-linearization": 8, "AB5": 9}
+INTEGRATOR_CODES: dict[str, int] = {
+    "none": 0,
+    "Euler": 1,
+    "trapezoidal": 2,
+    "AB2": 3,
+    "AB3": 4,
+    "AB4": 5,
+    "Buss1": 6,
+    "Buss2": 7,
+    "local-linearization": 8,
+    "AB5": 9,
+}
 _QUATERNION_ONLY = ("Buss1", "Buss2", "local-linearization")
 
 
@@ -74,9 +84,12 @@ class Integrators:
             ``rotational_rate``, ``translational_rate``, ``rotational_position``,
             ``translational_position`` -> integrator name.
         """
-        return {"rotational_rate": self.rotational_rate, "translational_rate": self.translational_rate,
-                "rotational_position": self.rotational_position,
-                "translational_position": self.translational_position}
+        return {
+            "rotational_rate": self.rotational_rate,
+            "translational_rate": self.translational_rate,
+            "rotational_position": self.rotational_position,
+            "translational_position": self.translational_position,
+        }
 
     def properties(self) -> dict[str, int]:
         """The JSBSim property writes selecting these integrators.
@@ -86,14 +99,17 @@ class Integrators:
         dict of str to int
             ``simulation/integrator/...`` property -> integrator code (:data:`INTEGRATOR_CODES`).
         """
-        return {"simulation/integrator/rate/rotational": INTEGRATOR_CODES[self.rotational_rate],
-                "simulation/integrator/rate/translational": INTEGRATOR_CODES[self.translational_rate],
-                "simulation/integrator/position/rotational": INTEGRATOR_CODES[self.rotational_position],
-                "simulation/integrator/position/translational": INTEGRATOR_CODES[self.translational_position]}
+        return {
+            "simulation/integrator/rate/rotational": INTEGRATOR_CODES[self.rotational_rate],
+            "simulation/integrator/rate/translational": INTEGRATOR_CODES[self.translational_rate],
+            "simulation/integrator/position/rotational": INTEGRATOR_CODES[self.rotational_position],
+            "simulation/integrator/position/translational": INTEGRATOR_CODES[self.translational_position],
+        }
 
 
 #: JSBSim's default integrators (Euler, AB2, Euler, AB3), for comparisons.
 JSBSIM_DEFAULT_INTEGRATORS = Integrators("Euler", "AB2", "Euler", "AB3")
+
 
 class LogCapture:
     """A JSBSim logger keeping the records (level, text) instead of printing them."""
@@ -205,11 +221,15 @@ def load_fdm(xml_text: str, aircraft_id: str):
         try:
             ok = fdm.load_model(aircraft_id)
         except Exception as exc:  # JSBSim raises its own exception types
-            raise EngineError(f"JSBSim could not load aircraft {aircraft_id!r}: {exc}; "
-                              f"messages: {' | '.join(capture.problems()) or 'none'}") from None
+            raise EngineError(
+                f"JSBSim could not load aircraft {aircraft_id!r}: {exc}; "
+                f"messages: {' | '.join(capture.problems()) or 'none'}"
+            ) from None
     if not ok:
-        raise EngineError(f"JSBSim could not load aircraft {aircraft_id!r}: "
-                          f"{' | '.join(capture.problems()) or 'load_model returned False'}")
+        raise EngineError(
+            f"JSBSim could not load aircraft {aircraft_id!r}: "
+            f"{' | '.join(capture.problems()) or 'load_model returned False'}"
+        )
     return fdm, capture.problems(), capture
 
 
@@ -236,12 +256,15 @@ def density_settings(env: Environment) -> dict[str, float]:
         return {jx.DENSITY_MODEL_PROPERTY: 1.0, jx.DENSITY_CONSTANT_PROPERTY: atm.rho / units.SLUG_FT3}
     if isinstance(atm, ISA):
         return {jx.DENSITY_MODEL_PROPERTY: 0.0}
-    raise InputError(f"the JSBSim engine has no counterpart of the atmosphere model {type(atm).__name__}; "
-                     f"use gna.atmosphere.ISA or ConstantDensity")
+    raise InputError(
+        f"the JSBSim engine has no counterpart of the atmosphere model {type(atm).__name__}; "
+        f"use gna.atmosphere.ISA or ConstantDensity"
+    )
 
 
-def initial_condition_properties(x0: np.ndarray, latitude: float = 0.0, longitude: float = 0.0,
-                                 geodetic_altitude: bool = False) -> list[tuple[str, float]]:
+def initial_condition_properties(
+    x0: np.ndarray, latitude: float = 0.0, longitude: float = 0.0, geodetic_altitude: bool = False
+) -> list[tuple[str, float]]:
     """The ``ic/*`` writes (in order) that put JSBSim exactly at the wind-frame state ``x0``.
 
     Position at (``latitude``, ``longitude``) and altitude ``-z``; attitude
@@ -269,12 +292,20 @@ def initial_condition_properties(x0: np.ndarray, latitude: float = 0.0, longitud
     x, y, z, V, gamma, chi, alpha, beta, mu, p, q, r = (float(v) for v in x0)
     phi, theta, psi = euler_from_wind(gamma, chi, mu, alpha, beta)
     Vf = V / units.FT
-    return [("ic/lat-geod-rad", latitude), ("ic/long-gc-rad", longitude),
-            ("ic/h-agl-ft" if geodetic_altitude else "ic/h-sl-ft", -z / units.FT),
-            ("ic/phi-rad", phi), ("ic/theta-rad", theta), ("ic/psi-true-rad", psi),
-            ("ic/u-fps", Vf * math.cos(alpha) * math.cos(beta)), ("ic/v-fps", Vf * math.sin(beta)),
-            ("ic/w-fps", Vf * math.sin(alpha) * math.cos(beta)),
-            ("ic/p-rad_sec", p), ("ic/q-rad_sec", q), ("ic/r-rad_sec", r)]
+    return [
+        ("ic/lat-geod-rad", latitude),
+        ("ic/long-gc-rad", longitude),
+        ("ic/h-agl-ft" if geodetic_altitude else "ic/h-sl-ft", -z / units.FT),
+        ("ic/phi-rad", phi),
+        ("ic/theta-rad", theta),
+        ("ic/psi-true-rad", psi),
+        ("ic/u-fps", Vf * math.cos(alpha) * math.cos(beta)),
+        ("ic/v-fps", Vf * math.sin(beta)),
+        ("ic/w-fps", Vf * math.sin(alpha) * math.cos(beta)),
+        ("ic/p-rad_sec", p),
+        ("ic/q-rad_sec", q),
+        ("ic/r-rad_sec", r),
+    ]
 
 
 def set_stepping(fdm, integrators: Integrators, dt: float, *, flat: bool) -> None:
@@ -299,8 +330,18 @@ def set_stepping(fdm, integrators: Integrators, dt: float, *, flat: bool) -> Non
     fdm.set_dt(dt)
 
 
-def prepare(fdm, integrators: Integrators, dt: float, env: Environment, x0: np.ndarray, *, wgs84: bool = False,
-            latitude: float = 0.0, longitude: float = 0.0, planet_radius_ft: float = jx.PLANET_RADIUS_FT) -> None:
+def prepare(
+    fdm,
+    integrators: Integrators,
+    dt: float,
+    env: Environment,
+    x0: np.ndarray,
+    *,
+    wgs84: bool = False,
+    latitude: float = 0.0,
+    longitude: float = 0.0,
+    planet_radius_ft: float = jx.PLANET_RADIUS_FT,
+) -> None:
     """Set gravity model, integrators, step, density model and the exact initial condition; verify them.
 
     Parameters

@@ -6,8 +6,8 @@ bundled aircraft with :func:`harness.engines.jsbsim.export.aircraft_xml`.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable
 
 from gna.aircraft import Aircraft, list_aircraft, load_aircraft
 from gna.schema import check_name
@@ -48,8 +48,11 @@ def xml_path(root: str | Path, aircraft_id: str) -> Path:
     return Path(root) / aircraft_id / f"{aircraft_id}.xml"
 
 
-def export_aircraft(aircraft: Aircraft, root: str | Path | None = None,
-                    planet: FlatPlanet | None = FlatPlanet()) -> Path:
+def export_aircraft(
+    aircraft: Aircraft,
+    root: str | Path | None = None,
+    planet: FlatPlanet | None = FlatPlanet(),  # noqa: B008
+) -> Path:
     """Write ``root/<id>/<id>.xml``.
 
     Parameters

@@ -21,8 +21,9 @@ from gna.trajectory import ANGLES, check_span
 from gna.trajectory import output_grid as checked_output_times
 
 
-def output_grid(t0: float, t1: float, dt_max: float, dt_out: float, t_eval) -> tuple[int, float, np.ndarray,
-                                                                                     np.ndarray]:
+def output_grid(
+    t0: float, t1: float, dt_max: float, dt_out: float, t_eval
+) -> tuple[int, float, np.ndarray, np.ndarray]:
     """The step grid (from the span and the largest step only), the output times and the steps to record.
 
     Parameters
@@ -60,7 +61,7 @@ def output_grid(t0: float, t1: float, dt_max: float, dt_out: float, t_eval) -> t
         raise InputError(f"JSBSim step dt must be positive, got {dt_max}")
     n = max(int(math.ceil(span / dt_max - 1e-9)), 1)
     dt = span / n
-    out = np.clip(checked_output_times(t0, t1, dt_out, t_eval), t0, t1)   # the in-house engine's checks
+    out = np.clip(checked_output_times(t0, t1, dt_out, t_eval), t0, t1)  # the in-house engine's checks
     s = (out - t0) / dt
     k = np.rint(s).astype(int)
     on = np.abs(s - k) <= 1e-6
@@ -111,7 +112,7 @@ def resample(frame: pd.DataFrame, out_times: np.ndarray, t0: float, dt: float) -
         kf = int(math.floor(s))
         ks = [kk for kk in (kf - 1, kf, kf + 1, kf + 2) if kk in pos]
         if kf not in pos or kf + 1 not in pos:
-            continue                                   # beyond the end of a run stopped early
+            continue  # beyond the end of a run stopped early
         V = values[[pos[kk] for kk in ks]]
         if angle_cols:
             V = V.copy()
@@ -124,8 +125,11 @@ def resample(frame: pd.DataFrame, out_times: np.ndarray, t0: float, dt: float) -
                     w[a] *= (s - x[b]) / (x[a] - x[b])
         rows.append(w @ V)
         times.append(float(tau))
-    out = pd.DataFrame(np.array(rows, dtype=float).reshape(len(rows), values.shape[1]),
-                       index=pd.Index(times, name=frame.index.name), columns=frame.columns)
+    out = pd.DataFrame(
+        np.array(rows, dtype=float).reshape(len(rows), values.shape[1]),
+        index=pd.Index(times, name=frame.index.name),
+        columns=frame.columns,
+    )
     return out
 
 

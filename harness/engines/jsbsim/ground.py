@@ -73,12 +73,23 @@ def ground_effect_functions(w: XMLWriter, aircraft: Aircraft, ge: GroundEffect, 
         "phi": ("quotient", x2, ("sum", 1.0, x2)),
         "k_L": ("quotient", 1.0 + K, ("sum", 1.0, ("product", K, P["phi"]))),
         "CL": ("product", P["k_L"], cl),
-        "CD": ("sum", cd, ("product", 1.0 / (math.pi * ge.oswald * A), cl, cl,
-                           ("difference", ("product", P["phi"], P["k_L"], P["k_L"]), 1.0))),
+        "CD": (
+            "sum",
+            cd,
+            (
+                "product",
+                1.0 / (math.pi * ge.oswald * A),
+                cl,
+                cl,
+                ("difference", ("product", P["phi"], P["k_L"], P["k_L"]), 1.0),
+            ),
+        ),
     }
-    w.line(f"<!-- {comment_text(ge.describe())}: h/b = {JSBSIM_H_OVER_B_PROPERTY} - elevation/b (JSBSim's terrain "
-           f"at 0); phi = (16 h/b)^2/(1 + (16 h/b)^2); k_L = (1 + K)/(1 + K phi), K = a0/(pi e A) = "
-           f"{number_text(K)}, A = {number_text(A)}; CL_g = k_L CL; CD_g = CD + (phi k_L^2 - 1) CL^2/(pi e A) -->")
+    w.line(
+        f"<!-- {comment_text(ge.describe())}: h/b = {JSBSIM_H_OVER_B_PROPERTY} - elevation/b (JSBSim's terrain "
+        f"at 0); phi = (16 h/b)^2/(1 + (16 h/b)^2); k_L = (1 + K)/(1 + K phi), K = a0/(pi e A) = "
+        f"{number_text(K)}, A = {number_text(A)}; CL_g = k_L CL; CD_g = CD + (phi k_L^2 - 1) CL^2/(pi e A) -->"
+    )
     for key, tree in functions.items():
         w.open("function", f'name="{P[key]}"')
         _tree(w, tree)

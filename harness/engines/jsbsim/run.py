@@ -15,30 +15,47 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from contextlib import ExitStack
-from typing import Callable
 
 import numpy as np
 
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
-from gna.controller import (Controller, as_controller, at_sample_times, checked_initial_state, evaluate,
-                            state_names)
+from gna.controller import Controller, as_controller, at_sample_times, checked_initial_state, evaluate, state_names
 from gna.eom import CONTROL_NAMES
 from gna.errors import InputError
 from gna.simulate import envelope_warnings
-from gna.trajectory import (RunSettings, SimulationResult, check_span, control_function, controller_frames,
-                            controls_on_grid, domain_bounds, environment_of, initial_state)
+from gna.trajectory import (
+    RunSettings,
+    SimulationResult,
+    check_span,
+    control_function,
+    controller_frames,
+    controls_on_grid,
+    domain_bounds,
+    environment_of,
+    initial_state,
+)
 
 from ..base import EngineError
 from .fdm import import_jsbsim
 from .grid import output_grid, resample_result
-from .states import DERIVED_NODES, STATE_NODES, STATE_NODES_FLAT, STATE_NODES_WGS84, TRACK_NODES, StateConverter, \
-    trajectory_frame
+from .states import (
+    DERIVED_NODES,
+    STATE_NODES,
+    STATE_NODES_FLAT,
+    STATE_NODES_WGS84,
+    TRACK_NODES,
+    StateConverter,
+    trajectory_frame,
+)
 
 #: How the JSBSim engines advance a controller's states (recorded in the result's settings).
-CONTROLLER_SCHEME = ("AB2 (two-step Adams-Bashforth, Euler first step) on the sampled aircraft states, "
-                     "second order in the controller step")
+CONTROLLER_SCHEME = (
+    "AB2 (two-step Adams-Bashforth, Euler first step) on the sampled aircraft states, "
+    "second order in the controller step"
+)
 
 
 def check_steps(dt: float, controller_dt: float | None) -> None:
@@ -140,8 +157,18 @@ class JSBSimRun:
     #: Called as ``_stepped(k, u)`` once step ``k`` is complete with the applied controls ``u``; None: nothing.
     _stepped: Callable[[int, list], None] | None = None
 
-    def __init__(self, engine, aircraft: Aircraft, env: Environment, x0: np.ndarray, times: np.ndarray,
-                 out_steps: np.ndarray, U: np.ndarray, controller: Controller | None, every: int):
+    def __init__(
+        self,
+        engine,
+        aircraft: Aircraft,
+        env: Environment,
+        x0: np.ndarray,
+        times: np.ndarray,
+        out_steps: np.ndarray,
+        U: np.ndarray,
+        controller: Controller | None,
+        every: int,
+    ):
         self.engine, self.aircraft, self.env, self.x0 = engine, aircraft, env, x0
         self.times, self.U, self.n = times, U, times.size - 1
         self.dt = float(times[1] - times[0])
@@ -158,8 +185,19 @@ class JSBSimRun:
         self.load_problems: list[str] = []
 
     @classmethod
-    def fly(cls, engine, aircraft: Aircraft, controls, t_span, x0=None, *, env: Environment | None = None,
-            controller=None, dt_out: float = 0.02, t_eval: np.ndarray | None = None) -> SimulationResult:
+    def fly(
+        cls,
+        engine,
+        aircraft: Aircraft,
+        controls,
+        t_span,
+        x0=None,
+        *,
+        env: Environment | None = None,
+        controller=None,
+        dt_out: float = 0.02,
+        t_eval: np.ndarray | None = None,
+    ) -> SimulationResult:
         """Set the problem on the step grid of ``engine`` and fly it: the body of the engines' ``simulate``.
 
         Parameters
@@ -260,7 +298,7 @@ class JSBSimRun:
         self._configure()
         self.state_readers = [self._node(p).get_double_value for p in self.pos_nodes + STATE_NODES]
         self.derived_readers = [self._node(p).get_double_value for p in self.derived_nodes]
-        bounds = domain_bounds(self.env)    # with ground effect the CG's altitude is tested too (no ground contact)
+        bounds = domain_bounds(self.env)  # with ground effect the CG's altitude is tested too (no ground contact)
         track = TRACK_NODES + (self.pos_nodes[2:] if bounds.ground is not None else ())
         self.track_readers = [self._node(p).get_double_value for p in track]
         self.to_state = StateConverter(self.x0, self.fdm["inertial/sea-level-radius_ft"], self.geo, bounds)
@@ -310,13 +348,18 @@ class JSBSimRun:
                 self._closed_loop()
         except StepStop as stop:
             t_end = float(times[self.index[-1]]) if self.index else float(times[0])
-            message = (stop.text.format(t=f"{times[stop.k]:.6g} s")
-                       + f"; partial result kept up to t = {t_end:.6g} s")
+            message = stop.text.format(t=f"{times[stop.k]:.6g} s") + f"; partial result kept up to t = {t_end:.6g} s"
             return "domain", message, t_end
         except import_jsbsim().BaseError as exc:  # JSBSim's own exceptions (e.g. geographic errors on divergence)
             t_end = float(times[self.index[-1]]) if self.index else float(times[0])
-            return "domain", (f"JSBSim stopped at t = {times[self.k]:.6g} s with {type(exc).__name__}: {exc}; "
-                              f"partial result kept up to t = {t_end:.6g} s"), t_end
+            return (
+                "domain",
+                (
+                    f"JSBSim stopped at t = {times[self.k]:.6g} s with {type(exc).__name__}: {exc}; "
+                    f"partial result kept up to t = {t_end:.6g} s"
+                ),
+                t_end,
+            )
         return "completed", "", float(times[-1])
 
     def _check_run(self, ok: bool, k: int) -> None:
@@ -412,8 +455,10 @@ class JSBSimRun:
         t_post = time.perf_counter()
         e, env, aircraft = self.engine, self.env, self.aircraft
         idx = np.asarray(self.index, dtype=int)
-        S = self.to_state.vector(np.array(self.raw_states, dtype=float).T.reshape(
-            len(self.pos_nodes) + len(STATE_NODES), -1), np.array(self.turns, dtype=float).T.reshape(2, -1))
+        S = self.to_state.vector(
+            np.array(self.raw_states, dtype=float).T.reshape(len(self.pos_nodes) + len(STATE_NODES), -1),
+            np.array(self.turns, dtype=float).T.reshape(2, -1),
+        )
         D = self._derived(np.array(self.raw_derived, dtype=float).T.reshape(len(self.derived_nodes), -1), S)
         dU = np.array(self.fb, dtype=float).T.reshape(5, -1)
         applied = self.U[:, idx] + dU if self.controller is not None else self.U[:, idx]
@@ -422,28 +467,40 @@ class JSBSimRun:
         warnings = envelope_warnings(aircraft, df) + [f"JSBSim: {p}" for p in self._problems()]
         near = np.abs(df["gamma"].to_numpy()) > 0.5 * math.pi - 1e-3
         if near.any():
-            warnings.append(f"the flight path came within 1e-3 rad of vertical at t = {df.index[near.argmax()]:.4g} s: "
-                            f"the wind-frame chart is singular there (chi and mu are ill-defined; the in-house "
-                            f"engine stops)")
+            warnings.append(
+                f"the flight path came within 1e-3 rad of vertical at t = {df.index[near.argmax()]:.4g} s: "
+                f"the wind-frame chart is singular there (chi and mu are ill-defined; the in-house "
+                f"engine stops)"
+            )
         ctrl, dt = self.controller, self.dt
         if ctrl is None:
             how = None
         elif self.every == 1:
             how = "sampled every step at the propagated state"
         else:
-            how = (f"sampled every {self.every} steps ({self.every * dt:.6g} s) at the propagated state, "
-                   f"held in between")
+            how = f"sampled every {self.every} steps ({self.every * dt:.6g} s) at the propagated state, held in between"
         environment, extra = self._describe()
         settings = RunSettings(
-            engine=e.name, model="full", environment=environment, g=env.g, dt=dt,
-            integrators=e.integrators.as_dict(), controller=how, controller_states=len(self.names),
+            engine=e.name,
+            model="full",
+            environment=environment,
+            g=env.g,
+            dt=dt,
+            integrators=e.integrators.as_dict(),
+            controller=how,
+            controller_states=len(self.names),
             controller_scheme=None if ctrl is None else (CONTROLLER_SCHEME if self.names else "no states"),
             controller_dt=None if ctrl is None else self.every * dt,
-            extra={"jsbsim_version": import_jsbsim().__version__, "dt_max": e.dt, "steps": self.n, **extra,
-                   "control_timing": "u(t_k) written before the run() reaching t_k; u(t0) before run_ic()",
-                   "wall_time_s": {**wall, "conversion": time.perf_counter() - t_post}})
-        res = SimulationResult(df=df, status=status, message=message, warnings=warnings, settings=settings,
-                               t_end=t_end)
+            extra={
+                "jsbsim_version": import_jsbsim().__version__,
+                "dt_max": e.dt,
+                "steps": self.n,
+                **extra,
+                "control_timing": "u(t_k) written before the run() reaching t_k; u(t0) before run_ic()",
+                "wall_time_s": {**wall, "conversion": time.perf_counter() - t_post},
+            },
+        )
+        res = SimulationResult(df=df, status=status, message=message, warnings=warnings, settings=settings, t_end=t_end)
         if ctrl is not None:
             Xc = np.array(self.xcs, dtype=float).reshape(idx.size, len(self.names)).T
             res.controller_states, res.feedback = controller_frames(t, self.names, Xc, dU)

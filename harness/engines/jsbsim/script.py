@@ -35,22 +35,23 @@ from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.errors import InputError
-from gna.schema import check_name
 from gna.frames import euler_from_wind
+from gna.schema import check_name
 from gna.trajectory import check_span, control_function, controls_on_grid, environment_of, initial_state
 
-from . import export as jx
-from .engine import JSBSimEngine
 from ...outdir import OutputDir
 from ..base import EngineError
+from . import export as jx
+from .engine import JSBSimEngine
 from .fdm import LogCapture, density_settings, import_jsbsim
 from .grid import output_grid, resample
 from .states import STATE_NODES, STATE_NODES_FLAT, StateConverter
 from .xmlwriter import XMLWriter, comment_text, number_text
 
 #: Properties of the CSV output, in column order (after JSBSim's ``Time``).
-OUTPUT_PROPERTIES: tuple[str, ...] = (STATE_NODES_FLAT + STATE_NODES + jx.THRUST_PROPERTIES
-                                      + tuple(jx.CONTROL_PROPERTIES.values()))
+OUTPUT_PROPERTIES: tuple[str, ...] = (
+    STATE_NODES_FLAT + STATE_NODES + jx.THRUST_PROPERTIES + tuple(jx.CONTROL_PROPERTIES.values())
+)
 
 
 @dataclass(frozen=True)
@@ -113,8 +114,9 @@ def initialization_xml(x0: np.ndarray, name: str) -> str:
     w = XMLWriter()
     w.line('<?xml version="1.0" encoding="utf-8"?>')
     w.open("initialize", f'name="{name}" version="2.0"')
-    note = comment_text(f"Written by gflat export-jsbsim-script: the initial state (NED origin at x = {x:g} m, "
-                        f"y = {y:g} m).")
+    note = comment_text(
+        f"Written by gflat export-jsbsim-script: the initial state (NED origin at x = {x:g} m, y = {y:g} m)."
+    )
     w.line(f"<!-- {note} -->")
     w.open("position", 'frame="ECEF"')
     w.leaf("latitude", 0.0, 'unit="DEG" type="geodetic"')
@@ -126,8 +128,11 @@ def initialization_xml(x0: np.ndarray, name: str) -> str:
         w.leaf(tag, math.degrees(v))
     w.close("orientation")
     w.open("velocity", 'unit="FT/SEC" frame="BODY"')
-    for tag, v in (("x", vf * math.cos(alpha) * math.cos(beta)), ("y", vf * math.sin(beta)),
-                   ("z", vf * math.sin(alpha) * math.cos(beta))):
+    for tag, v in (
+        ("x", vf * math.cos(alpha) * math.cos(beta)),
+        ("y", vf * math.sin(beta)),
+        ("z", vf * math.sin(alpha) * math.cos(beta)),
+    ):
         w.leaf(tag, v)
     w.close("velocity")
     w.open("attitude_rate", 'unit="DEG/SEC" frame="BODY"')
@@ -168,9 +173,18 @@ def control_rows(controls, times: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
-def script_xml(name: str, aircraft_id: str, init_name: str, t_span: tuple[float, float], dt: float,
-               settings: dict[str, float], tables: dict[str, np.ndarray], t_table: np.ndarray, output: str,
-               output_rate_hz: float) -> str:
+def script_xml(
+    name: str,
+    aircraft_id: str,
+    init_name: str,
+    t_span: tuple[float, float],
+    dt: float,
+    settings: dict[str, float],
+    tables: dict[str, np.ndarray],
+    t_table: np.ndarray,
+    output: str,
+    output_rate_hz: float,
+) -> str:
     """The JSBSim script text.
 
     Parameters
@@ -202,8 +216,12 @@ def script_xml(name: str, aircraft_id: str, init_name: str, t_span: tuple[float,
     w.line('<?xml version="1.0" encoding="utf-8"?>')
     w.open("runscript", f'name="{name}"')
     w.open("description")
-    w.line(comment_text(f"gflat plan {name} replayed open loop: controls tabulated at {t_table.size} times "
-                        "(linear interpolation), settings of the gflat JSBSim engine."))
+    w.line(
+        comment_text(
+            f"gflat plan {name} replayed open loop: controls tabulated at {t_table.size} times "
+            "(linear interpolation), settings of the gflat JSBSim engine."
+        )
+    )
     w.close("description")
     w.line(f'<use aircraft="{aircraft_id}" initialize="{init_name}"/>')
     w.open("output", f'name="{output}" type="CSV" rate="{number_text(output_rate_hz)}"')
@@ -263,18 +281,32 @@ def steps_of(value: float, dt: float, what: str) -> int:
         raise InputError(f"{what} must be positive, got {value}")
     k = round(value / dt)
     if k < 1 or abs(value / dt - k) > 1e-6 * max(k, 1):
+
         def n(k):
             return f"{k} step" + ("s" if k != 1 else "")
+
         near = f"{k * dt:.10g} ({n(k)}) or " if k >= 1 else ""
         ratio = f"{value / dt:.4g} of a step" if value < dt else f"{value / dt:.4g} steps"
-        raise InputError(f"{what} = {value:g} s is not a whole number of JSBSim steps of {dt:.10g} s "
-                         f"({ratio}): give e.g. {near}{(k + 1) * dt:.10g} ({n(k + 1)})")
+        raise InputError(
+            f"{what} = {value:g} s is not a whole number of JSBSim steps of {dt:.10g} s "
+            f"({ratio}): give e.g. {near}{(k + 1) * dt:.10g} ({n(k + 1)})"
+        )
     return int(k)
 
 
-def export_script(out: str | Path | OutputDir, name: str, aircraft: Aircraft, controls, t_span=None, x0=None, *,
-                  env: Environment | None = None, engine: JSBSimEngine | None = None, dt_out: float = 0.025,
-                  table_dt: float | None = None) -> ScriptBundle:
+def export_script(
+    out: str | Path | OutputDir,
+    name: str,
+    aircraft: Aircraft,
+    controls,
+    t_span=None,
+    x0=None,
+    *,
+    env: Environment | None = None,
+    engine: JSBSimEngine | None = None,
+    dt_out: float = 0.025,
+    table_dt: float | None = None,
+) -> ScriptBundle:
     """Write the files stock JSBSim needs to replay ``controls`` open loop from ``x0``.
 
     Parameters
@@ -322,7 +354,7 @@ def export_script(out: str | Path | OutputDir, name: str, aircraft: Aircraft, co
     check_name(name, "script name", "export-jsbsim-script")
     check_name(aircraft.id, "aircraft id", "export-jsbsim-script")
     own = not isinstance(out, OutputDir)
-    folder = OutputDir(out, clean=False) if own else out   # checked before any work; every file written atomically
+    folder = OutputDir(out, clean=False) if own else out  # checked before any work; every file written atomically
     root = folder.root
     if t_span is None:
         t_span = (getattr(controls, "t0", None), getattr(controls, "t1", None))
@@ -331,7 +363,7 @@ def export_script(out: str | Path | OutputDir, name: str, aircraft: Aircraft, co
     t0, t1 = check_span(t_span)
     env = environment_of(controls, env)
     y0 = initial_state(controls, x0)
-    n, dt, _, _ = output_grid(t0, t1, engine.dt, dt_out, None)     # the engine's own step grid
+    n, dt, _, _ = output_grid(t0, t1, engine.dt, dt_out, None)  # the engine's own step grid
     steps_of(dt_out, dt, "dt_out")
     every = 1
     if table_dt is not None:
@@ -339,8 +371,10 @@ def export_script(out: str | Path | OutputDir, name: str, aircraft: Aircraft, co
         nodes = np.asarray(getattr(controls, "t_nodes", ()), dtype=float)
         node_step = float(np.max(np.diff(nodes))) if nodes.size > 1 else math.inf
         if every * dt > node_step * (1 + 1e-9):
-            raise InputError(f"table_dt = {table_dt:g} s is longer than the plan's node step {node_step:g} s: "
-                             f"the tables' straight lines would replace the plan's controls between its nodes")
+            raise InputError(
+                f"table_dt = {table_dt:g} s is longer than the plan's node step {node_step:g} s: "
+                f"the tables' straight lines would replace the plan's controls between its nodes"
+            )
     k = np.arange(0, n + 1, every)
     if k[-1] != n:
         k = np.append(k, n)
@@ -351,18 +385,34 @@ def export_script(out: str | Path | OutputDir, name: str, aircraft: Aircraft, co
     settings.update(density_settings(env))
     settings.update({p: float(v[0]) for p, v in tables.items()})
     init_name = f"{name}-init"
-    rel = {"aircraft": f"aircraft/{aircraft.id}/{aircraft.id}.xml",
-           "initialization": f"aircraft/{aircraft.id}/{init_name}.xml", "script": f"scripts/{name}.xml"}
-    texts = {"aircraft": engine.xml(aircraft, env, y0), "initialization": initialization_xml(y0, init_name),
-             "script": script_xml(name, aircraft.id, init_name, (t0, t1), dt, settings, tables, t_table,
-                                  f"{name}.csv", 1.0 / dt_out)}
+    rel = {
+        "aircraft": f"aircraft/{aircraft.id}/{aircraft.id}.xml",
+        "initialization": f"aircraft/{aircraft.id}/{init_name}.xml",
+        "script": f"scripts/{name}.xml",
+    }
+    texts = {
+        "aircraft": engine.xml(aircraft, env, y0),
+        "initialization": initialization_xml(y0, init_name),
+        "script": script_xml(
+            name, aircraft.id, init_name, (t0, t1), dt, settings, tables, t_table, f"{name}.csv", 1.0 / dt_out
+        ),
+    }
     for key, r in rel.items():
         folder.write_text(*r.split("/"), text=texts[key])
     if own:
         folder.finish()
-    return ScriptBundle(root=root, aircraft=rel["aircraft"], initialization=rel["initialization"],
-                        script=rel["script"], output=f"{name}.csv", dt=dt, t_span=(t0, t1), rows=int(t_table.size),
-                        x0=tuple(float(v) for v in y0), dt_out=float(dt_out))
+    return ScriptBundle(
+        root=root,
+        aircraft=rel["aircraft"],
+        initialization=rel["initialization"],
+        script=rel["script"],
+        output=f"{name}.csv",
+        dt=dt,
+        t_span=(t0, t1),
+        rows=int(t_table.size),
+        x0=tuple(float(v) for v in y0),
+        dt_out=float(dt_out),
+    )
 
 
 def output_states(csv: str | Path, x0, radius_ft: float = jx.PLANET_RADIUS_FT) -> pd.DataFrame:
@@ -430,8 +480,10 @@ def replay(bundle: ScriptBundle) -> pd.DataFrame:
         finally:
             del fdm  # closes the CSV
     if not ok:
-        raise EngineError(f"JSBSim could not load the script {bundle.script}: "
-                          f"{' | '.join(capture.problems()) or 'load_script or run_ic returned False'}")
+        raise EngineError(
+            f"JSBSim could not load the script {bundle.script}: "
+            f"{' | '.join(capture.problems()) or 'load_script or run_ic returned False'}"
+        )
     states = output_states(Path(bundle.root) / bundle.output, bundle.x0)
     t0, t1 = bundle.t_span
     _, dt, out_times, _ = output_grid(t0, t1, bundle.dt, bundle.dt_out, None)

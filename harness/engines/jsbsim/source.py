@@ -49,17 +49,36 @@ from gna.trajectory import SimulationResult, environment_of
 
 from ..base import EngineError
 from . import export as jx
-from .fdm import (Integrators, LogCapture, check_initial_condition, import_jsbsim, initial_condition_properties,
-                  set_stepping)
+from .fdm import (
+    Integrators,
+    LogCapture,
+    check_initial_condition,
+    import_jsbsim,
+    initial_condition_properties,
+    set_stepping,
+)
 from .run import JSBSimRun, check_steps
 
 #: Raw outputs for :meth:`_SourceRun._derived`: JSBSim's aero loads instead of the exported file's coefficients.
-_DERIVED = ("aero/qbar-psf", "atmosphere/rho-slugs_ft3",
-            "forces/fbx-aero-lbs", "forces/fby-aero-lbs", "forces/fbz-aero-lbs",
-            "moments/l-aero-lbsft", "moments/m-aero-lbsft", "moments/n-aero-lbsft",
-            "forces/fbx-total-lbs", "forces/fby-total-lbs", "forces/fbz-total-lbs",
-            "forces/fbx-weight-lbs", "forces/fby-weight-lbs", "forces/fbz-weight-lbs",
-            "moments/l-total-lbsft", "moments/m-total-lbsft", "moments/n-total-lbsft")
+_DERIVED = (
+    "aero/qbar-psf",
+    "atmosphere/rho-slugs_ft3",
+    "forces/fbx-aero-lbs",
+    "forces/fby-aero-lbs",
+    "forces/fbz-aero-lbs",
+    "moments/l-aero-lbsft",
+    "moments/m-aero-lbsft",
+    "moments/n-aero-lbsft",
+    "forces/fbx-total-lbs",
+    "forces/fby-total-lbs",
+    "forces/fbz-total-lbs",
+    "forces/fbx-weight-lbs",
+    "forces/fby-weight-lbs",
+    "forces/fbz-weight-lbs",
+    "moments/l-total-lbsft",
+    "moments/m-total-lbsft",
+    "moments/n-total-lbsft",
+)
 
 
 def source_model(aircraft: Aircraft) -> FittedSource:
@@ -81,8 +100,10 @@ def source_model(aircraft: Aircraft) -> FittedSource:
     try:
         return fitted_source(aircraft.provenance, repr(aircraft.id))
     except InputError as exc:
-        raise InputError(f"engine jsbsim-source flies the JSBSim aircraft a GNA set was fitted from: {exc}; "
-                         f"fly {aircraft.id!r} on 'inhouse' or 'jsbsim'") from None
+        raise InputError(
+            f"engine jsbsim-source flies the JSBSim aircraft a GNA set was fitted from: {exc}; "
+            f"fly {aircraft.id!r} on 'inhouse' or 'jsbsim'"
+        ) from None
 
 
 class _ThrottleLoop:
@@ -142,8 +163,18 @@ class JSBSimSourceEngine:
         if not (math.isfinite(self.throttle_tau) and self.throttle_tau >= 2 * self.dt):
             raise InputError(f"throttle_tau must be at least two steps ({2 * self.dt:g} s), got {self.throttle_tau}")
 
-    def simulate(self, aircraft: Aircraft, controls, t_span, x0=None, *, env: Environment | None = None,
-                 controller=None, dt_out: float = 0.02, t_eval: np.ndarray | None = None) -> SimulationResult:
+    def simulate(
+        self,
+        aircraft: Aircraft,
+        controls,
+        t_span,
+        x0=None,
+        *,
+        env: Environment | None = None,
+        controller=None,
+        dt_out: float = 0.02,
+        t_eval: np.ndarray | None = None,
+    ) -> SimulationResult:
         """Fly the JSBSim aircraft ``aircraft`` was fitted from, from ``x0`` with ``controls``.
 
         Parameters
@@ -190,13 +221,18 @@ class JSBSimSourceEngine:
         source_model(aircraft)
         atmosphere = environment_of(controls, env).atmosphere
         if not isinstance(atmosphere, ISA):
-            raise InputError(f"jsbsim-source flies in JSBSim's own ISA atmosphere; got "
-                             f"{type(atmosphere).__name__} (use density = 'isa')")
+            raise InputError(
+                f"jsbsim-source flies in JSBSim's own ISA atmosphere; got "
+                f"{type(atmosphere).__name__} (use density = 'isa')"
+            )
         if environment_of(controls, env).ground_effect is not None:
-            raise InputError("jsbsim-source flies JSBSim's own aerodynamics: gflat's ground effect cannot be "
-                             "applied to it (fly without ground effect, or use the 'jsbsim' engine)")
-        return _SourceRun.fly(self, aircraft, controls, t_span, x0, env=env, controller=controller, dt_out=dt_out,
-                              t_eval=t_eval)
+            raise InputError(
+                "jsbsim-source flies JSBSim's own aerodynamics: gflat's ground effect cannot be "
+                "applied to it (fly without ground effect, or use the 'jsbsim' engine)"
+            )
+        return _SourceRun.fly(
+            self, aircraft, controls, t_span, x0, env=env, controller=controller, dt_out=dt_out, t_eval=t_eval
+        )
 
 
 class _SourceRun(JSBSimRun):
@@ -218,10 +254,13 @@ class _SourceRun(JSBSimRun):
         loaded_model = fdm.load_model_with_paths(name, str(acdir.parent), str(root / "engine"), str(root / "systems"))
         fdm.disable_output()
         if not loaded_model:
-            raise EngineError(f"JSBSim could not load {self.xml_path}: "
-                              f"{' | '.join(capture.problems()) or 'load_model returned False'}")
-        self.planet = planet = jx.FlatPlanet(g=self.env.g, h_ref=-float(self.x0[2]),
-                                             radius_ft=self.engine.planet_radius_ft)
+            raise EngineError(
+                f"JSBSim could not load {self.xml_path}: "
+                f"{' | '.join(capture.problems()) or 'load_model returned False'}"
+            )
+        self.planet = planet = jx.FlatPlanet(
+            g=self.env.g, h_ref=-float(self.x0[2]), radius_ft=self.engine.planet_radius_ft
+        )
         with tempfile.TemporaryDirectory(prefix="gflat-planet-") as tmp:  # JSBSim reads the file at once
             path = Path(tmp) / "planet.xml"
             path.write_text(jx.planet_xml(planet), encoding="utf-8")
@@ -246,8 +285,7 @@ class _SourceRun(JSBSimRun):
         order = sorted(range(n_eng), key=lambda i: fdm[f"propulsion/engine[{i}]/y-position"])
         self.th_w = [self._node(f"fcs/throttle-pos-norm[{i}]").set_double_value for i in order]
         self.T_r = [self._node(f"propulsion/engine[{i}]/thrust-lbs").get_double_value for i in order]
-        self.surf = [(self._node(src.surfaces[v][0]).set_double_value, src.surfaces[v][1])
-                     for v in ("dl", "dm", "dn")]
+        self.surf = [(self._node(src.surfaces[v][0]).set_double_value, src.surfaces[v][1]) for v in ("dl", "dm", "dn")]
 
     def _split(self, F: float, eta: float) -> list:
         """Per-engine thrust command [lbf]."""
@@ -310,16 +348,20 @@ class _SourceRun(JSBSimRun):
         loops = [_ThrottleLoop(grid, table[i], self.engine.throttle_tau, dt) for i in range(len(th_w))]
         for lp, F in zip(loops, F0_lbf):
             if not lp.T[0] <= F <= lp.T[-1]:
-                raise InputError(f"initial thrust {F * units.LBF:.6g} N outside what the engine delivers at the "
-                                 f"initial condition ({lp.T[0] * units.LBF:.6g} .. {lp.T[-1] * units.LBF:.6g} N)")
+                raise InputError(
+                    f"initial thrust {F * units.LBF:.6g} N outside what the engine delivers at the "
+                    f"initial condition ({lp.T[0] * units.LBF:.6g} .. {lp.T[-1] * units.LBF:.6g} N)"
+                )
         ths = [lp.throttle(F) for lp, F in zip(loops, F0_lbf)]
         for _ in range(30):  # secant refinement on the exact steady thrust
             T = steady(ths)
             e = [F - Ti for F, Ti in zip(F0_lbf, T)]
             if max(abs(x) for x in e) < 1e-6 * max(1.0, max(abs(F) for F in F0_lbf)):
                 break
-            ths = [min(max(th + ei / float(np.interp(th, lp.th, lp.slope)), lp.th[0]), lp.th[-1])
-                   for th, ei, lp in zip(ths, e, loops)]
+            ths = [
+                min(max(th + ei / float(np.interp(th, lp.th, lp.slope)), lp.th[0]), lp.th[-1])
+                for th, ei, lp in zip(ths, e, loops)
+            ]
         for lp, th, F in zip(loops, ths, F0_lbf):
             lp.integral = th - float(np.interp(F, lp.T, lp.th))
         steady(ths)
@@ -334,8 +376,14 @@ class _SourceRun(JSBSimRun):
         with np.errstate(divide="ignore", invalid="ignore"):
             cx, cy, cz = R[2] / qs, R[3] / qs, R[4] / qs
             ca, sa = np.cos(S[6]), np.sin(S[6])
-            coef = [-(cx * ca + cz * sa), cy, cx * sa - cz * ca, R[5] / (qs * b_ft), R[6] / (qs * c_ft),
-                    R[7] / (qs * b_ft)]
+            coef = [
+                -(cx * ca + cz * sa),
+                cy,
+                cx * sa - cz * ca,
+                R[5] / (qs * b_ft),
+                R[6] / (qs * c_ft),
+                R[7] / (qs * b_ft),
+            ]
         return np.vstack([R[0:2], np.array(coef), R[8:17]])
 
     def _columns(self, applied: np.ndarray, idx: np.ndarray) -> np.ndarray:
@@ -352,20 +400,31 @@ class _SourceRun(JSBSimRun):
         err = (self.cmd - self.thrust)[:, : last + 1] * units.LBF
         settle = self.times[: last + 1] >= self.times[0] + 10 * e.throttle_tau
         return "JSBSim standard atmosphere (ISA 1976)", {
-            "aircraft_file": str(self.xml_path), "jsbsim_model": src.model,
+            "aircraft_file": str(self.xml_path),
+            "jsbsim_model": src.model,
             "surfaces": {k: f"{'-' if s < 0 else ''}{p}" for k, (p, s) in src.surfaces.items()},
             "configuration": {"simulation/models/FGFCS/enabled": 0, **src.configuration},
-            "thrust": {"method": "the aircraft's own engines; throttle = steady thrust table at the initial "
-                                 "condition inverted at the command + integral correction on the measured thrust",
-                       "throttle_tau_s": e.throttle_tau, "table_points": e.throttle_points,
-                       "spin_up": f"engine steady state at the initial thrust before t0 ({self.t_spin:.3g} s of setup)",
-                       "max_abs_error_N": float(np.nanmax(np.abs(err))) if err.size else 0.0,
-                       "max_abs_error_after_settle_N": float(np.nanmax(np.abs(err[:, settle])))
-                       if settle.any() else None,
-                       "columns": "F and eta are the delivered thrust and asymmetry"},
+            "thrust": {
+                "method": "the aircraft's own engines; throttle = steady thrust table at the initial "
+                "condition inverted at the command + integral correction on the measured thrust",
+                "throttle_tau_s": e.throttle_tau,
+                "table_points": e.throttle_points,
+                "spin_up": f"engine steady state at the initial thrust before t0 ({self.t_spin:.3g} s of setup)",
+                "max_abs_error_N": float(np.nanmax(np.abs(err))) if err.size else 0.0,
+                "max_abs_error_after_settle_N": float(np.nanmax(np.abs(err[:, settle]))) if settle.any() else None,
+                "columns": "F and eta are the delivered thrust and asymmetry",
+            },
             "mass": "the JSBSim aircraft's own (default fuel and point masses, fuel burning)",
-            "planet": {"radius_ft": planet.radius_ft, "GM_ft3_s2": planet.GM, "h_ref_m": planet.h_ref,
-                       "rotation_rad_s": 0.0, "J2": 0.0, "gravity_model": 0, "loaded_with": "FGFDMExec.load_planet"}}
+            "planet": {
+                "radius_ft": planet.radius_ft,
+                "GM_ft3_s2": planet.GM,
+                "h_ref_m": planet.h_ref,
+                "rotation_rad_s": 0.0,
+                "J2": 0.0,
+                "gravity_model": 0,
+                "loaded_with": "FGFDMExec.load_planet",
+            },
+        }
 
     def _problems(self) -> list[str]:
         return self.capture.problems()

@@ -9,7 +9,7 @@ point (spherical arcs, so that level flight on the huge sphere is level in NED).
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
@@ -27,16 +27,44 @@ from .fdm import WGS84_A_FT, WGS84_B_FT
 # Raw outputs read at each output time (their order is the order of the raw arrays).
 STATE_NODES_FLAT = ("position/lat-gc-rad", "position/long-gc-rad", "position/h-sl-ft")
 STATE_NODES_WGS84 = ("position/lat-geod-rad", "position/long-gc-rad", "position/geod-alt-ft")
-STATE_NODES = ("velocities/vt-fps", "flight-path/gamma-rad", "flight-path/psi-gt-rad", "aero/alpha-rad",
-               "aero/beta-rad", "attitude/phi-rad", "attitude/theta-rad", "attitude/psi-rad",
-               "velocities/p-rad_sec", "velocities/q-rad_sec", "velocities/r-rad_sec")
+STATE_NODES = (
+    "velocities/vt-fps",
+    "flight-path/gamma-rad",
+    "flight-path/psi-gt-rad",
+    "aero/alpha-rad",
+    "aero/beta-rad",
+    "attitude/phi-rad",
+    "attitude/theta-rad",
+    "attitude/psi-rad",
+    "velocities/p-rad_sec",
+    "velocities/q-rad_sec",
+    "velocities/r-rad_sec",
+)
 #: Raw outputs read at every step to continue chi and mu and test the domain (order of :meth:`StateConverter.track`).
-TRACK_NODES = ("velocities/vt-fps", "flight-path/gamma-rad", "flight-path/psi-gt-rad", "aero/alpha-rad",
-               "aero/beta-rad", "attitude/phi-rad", "attitude/theta-rad")
-DERIVED_NODES = (jx.QBAR_PROPERTY, jx.RHO_PROPERTY) + tuple(jx.COEFFICIENT_PROPERTIES.values()) + (
-    "forces/fbx-total-lbs", "forces/fby-total-lbs", "forces/fbz-total-lbs",
-    "forces/fbx-weight-lbs", "forces/fby-weight-lbs", "forces/fbz-weight-lbs",
-    "moments/l-total-lbsft", "moments/m-total-lbsft", "moments/n-total-lbsft")
+TRACK_NODES = (
+    "velocities/vt-fps",
+    "flight-path/gamma-rad",
+    "flight-path/psi-gt-rad",
+    "aero/alpha-rad",
+    "aero/beta-rad",
+    "attitude/phi-rad",
+    "attitude/theta-rad",
+)
+DERIVED_NODES = (
+    (jx.QBAR_PROPERTY, jx.RHO_PROPERTY)
+    + tuple(jx.COEFFICIENT_PROPERTIES.values())
+    + (
+        "forces/fbx-total-lbs",
+        "forces/fby-total-lbs",
+        "forces/fbz-total-lbs",
+        "forces/fbx-weight-lbs",
+        "forces/fby-weight-lbs",
+        "forces/fbz-weight-lbs",
+        "moments/l-total-lbsft",
+        "moments/m-total-lbsft",
+        "moments/n-total-lbsft",
+    )
+)
 
 
 def align(angle: np.ndarray, reference: float) -> np.ndarray:
@@ -74,8 +102,9 @@ class StateConverter:
         The domain :meth:`check` tests (:func:`gna.trajectory.domain_bounds` of the run's environment).
     """
 
-    def __init__(self, x0: np.ndarray, radius_ft: float, wgs84: tuple[float, float] | None,
-                 bounds: DomainBounds = DOMAIN):
+    def __init__(
+        self, x0: np.ndarray, radius_ft: float, wgs84: tuple[float, float] | None, bounds: DomainBounds = DOMAIN
+    ):
         self.x0 = np.asarray(x0, dtype=float)
         self.bounds = bounds
         self.wgs84 = wgs84
@@ -87,8 +116,8 @@ class StateConverter:
             a, b = WGS84_A_FT, WGS84_B_FT
             e2 = 1.0 - (b / a) ** 2
             w = 1.0 - e2 * math.sin(lat0) ** 2
-            self.rn = a / math.sqrt(w)                  # normal (prime vertical) radius
-            self.rm = a * (1.0 - e2) / w ** 1.5          # meridian radius
+            self.rn = a / math.sqrt(w)  # normal (prime vertical) radius
+            self.rm = a * (1.0 - e2) / w**1.5  # meridian radius
             self.lat0, self.lon0 = lat0, lon0
         self._chi, self._mu = float(self.x0[5]), float(self.x0[8])
 
@@ -97,8 +126,20 @@ class StateConverter:
         ft = units.FT
         x = self.x0[0] + ft * (self.rm + h) * (lat - self.lat0)
         y = self.x0[1] + ft * (self.rn + h) * cos(lat if self.wgs84 is None else self.lat0) * (lon - self.lon0)
-        return [x, y, -ft * h, vt * ft, gamma, psi_gt, alpha, beta, bank_from_euler(alpha, beta, phi, theta, sin, cos, atan2),
-                p, q, r]
+        return [
+            x,
+            y,
+            -ft * h,
+            vt * ft,
+            gamma,
+            psi_gt,
+            alpha,
+            beta,
+            bank_from_euler(alpha, beta, phi, theta, sin, cos, atan2),
+            p,
+            q,
+            r,
+        ]
 
     @property
     def chi(self) -> float:
@@ -138,8 +179,9 @@ class StateConverter:
             s[row] = s[row] + two_pi * np.round((ref - s[row]) / two_pi)
         return s
 
-    def track(self, vt: float, gamma: float, psi_gt: float, alpha: float, beta: float, phi: float,
-              theta: float) -> tuple[float, ...]:
+    def track(
+        self, vt: float, gamma: float, psi_gt: float, alpha: float, beta: float, phi: float, theta: float
+    ) -> tuple[float, ...]:
         """One integration step: chi and mu continued, and the states the domain tests need.
 
         Called at every step, so that chi and mu stay continuous whatever the
@@ -217,8 +259,9 @@ class StateConverter:
         return np.array(s)
 
 
-def trajectory_frame(aircraft: Aircraft, env: Environment, t: np.ndarray, S: np.ndarray, U: np.ndarray,
-                     D: np.ndarray) -> pd.DataFrame:
+def trajectory_frame(
+    aircraft: Aircraft, env: Environment, t: np.ndarray, S: np.ndarray, U: np.ndarray, D: np.ndarray
+) -> pd.DataFrame:
     """The common DataFrame (:data:`gna.trajectory.COLUMNS`) from JSBSim's states and its own derived outputs.
 
     Parameters
@@ -242,25 +285,26 @@ def trajectory_frame(aircraft: Aircraft, env: Environment, t: np.ndarray, S: np.
     """
     qbar, rho = D[0] * (units.LBF / units.FT2), D[1] * units.SLUG_FT3
     coeffs = D[2:8]
-    fb = D[8:11] * units.LBF          # aerodynamic + thrust, body axes
-    wb = D[11:14] * units.LBF         # weight, body axes
+    fb = D[8:11] * units.LBF  # aerodynamic + thrust, body axes
+    wb = D[11:14] * units.LBF  # weight, body axes
     mom = D[14:17] * (units.LBF * units.FT)
     alpha, beta = S[6], S[7]
     ca, sa, cb, sb = np.cos(alpha), np.sin(alpha), np.cos(beta), np.sin(beta)
     tot = fb + wb
 
     def to_wind(v):
-        return (ca * cb * v[0] + sb * v[1] + sa * cb * v[2],
-                -ca * sb * v[0] + cb * v[1] - sa * sb * v[2],
-                -sa * v[0] + ca * v[2])
+        return (
+            ca * cb * v[0] + sb * v[1] + sa * cb * v[2],
+            -ca * sb * v[0] + cb * v[1] - sa * sb * v[2],
+            -sa * v[0] + ca * v[2],
+        )
 
     X, Y, Z = to_wind(tot)
     mg = aircraft.mass.mass * env.g
     data = {n: S[i] for i, n in enumerate(STATE_NAMES)}
     data.update({n: U[i] for i, n in enumerate(CONTROL_NAMES)})
-    data.update(qbar=qbar, rho=rho, nx=fb[0] / mg, ny=fb[1] / mg, nz=-fb[2] / mg, X=X, Y=Y, Z=Z,
-                L=mom[0], M=mom[1], N=mom[2])
+    data.update(
+        qbar=qbar, rho=rho, nx=fb[0] / mg, ny=fb[1] / mg, nz=-fb[2] / mg, X=X, Y=Y, Z=Z, L=mom[0], M=mom[1], N=mom[2]
+    )
     data.update({n: coeffs[i] for i, n in enumerate(("CD", "CY", "CL", "Cl", "Cm", "Cn"))})
     return pd.DataFrame({k: np.asarray(data[k], dtype=float) for k in COLUMNS}, index=pd.Index(t, name="t"))
-
-

@@ -13,8 +13,25 @@ CSV = str(resources.files("gna") / "data" / "sources" / "twin_otter" / "aircraft
 
 def test_fit_linear_model_to_file(tmp_path, capsys):
     out = tmp_path / "to.toml"
-    rc = main(["fit", "linear", CSV, "--speed", "72", "--engines", "2", "--engine-offset", "2.8",
-               "--samples", "300", "--test", "100", "--out", str(out)])
+    rc = main(
+        [
+            "fit",
+            "linear",
+            CSV,
+            "--speed",
+            "72",
+            "--engines",
+            "2",
+            "--engine-offset",
+            "2.8",
+            "--samples",
+            "300",
+            "--test",
+            "100",
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     text = capsys.readouterr().out
     assert "held-out statistics" in text and "level trim" in text

@@ -13,8 +13,16 @@ from gna.fit.design import Block, SamplingDesign, elevator_schedule, standard_de
 from gna.fit.sources.linear import LinearDerivativeModel, parse_derivative
 
 D = math.radians
-RANGES = {"alpha": (D(-5), D(15)), "beta": (D(-10), D(10)), "phat": (-0.1, 0.1), "qhat": (-0.02, 0.02),
-          "rhat": (-0.05, 0.05), "dl": (D(-20), D(20)), "dm": (D(-25), D(15)), "dn": (D(-30), D(30))}
+RANGES = {
+    "alpha": (D(-5), D(15)),
+    "beta": (D(-10), D(10)),
+    "phat": (-0.1, 0.1),
+    "qhat": (-0.02, 0.02),
+    "rhat": (-0.05, 0.05),
+    "dl": (D(-20), D(20)),
+    "dm": (D(-25), D(15)),
+    "dn": (D(-30), D(30)),
+}
 
 
 def test_same_seed_same_points_other_seed_other_points():
@@ -60,11 +68,14 @@ def test_dm_band_points_stay_near_the_schedule():
         design.draw()
 
 
-@pytest.mark.parametrize("change, message", [
-    ({"alpha": (0.3, 0.1)}, "range of alpha is empty"),
-    ({"beta": (0.0, float("nan"))}, "not finite"),
-    ({"dl": "x"}, "must be two numbers"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"alpha": (0.3, 0.1)}, "range of alpha is empty"),
+        ({"beta": (0.0, float("nan"))}, "not finite"),
+        ({"dl": "x"}, "must be two numbers"),
+    ],
+)
 def test_bad_ranges_are_refused(change, message):
     with pytest.raises(InputError, match=message):
         Block("b", ("CD",), {**RANGES, **change}, 10, 5)

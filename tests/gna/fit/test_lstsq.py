@@ -24,12 +24,15 @@ def _samples_of(model, state):
 def test_recovers_the_parameters_of_a_model_in_the_structure():
     truth = gna45_structure().with_values(np.random.default_rng(1).normal(size=45))
     smp = _samples_of(truth, _states(400, seed=2))
-    res = fit_table(gna45_structure(), {c: smp for c in ("CD", "CY", "CL", "Cl", "Cm", "Cn")},
-                    {c: {"test": _samples_of(truth, _states(100, seed=3))} for c in ("CD", "CL")})
+    res = fit_table(
+        gna45_structure(),
+        {c: smp for c in ("CD", "CY", "CL", "Cl", "Cm", "Cn")},
+        {c: {"test": _samples_of(truth, _states(100, seed=3))} for c in ("CD", "CL")},
+    )
     got = np.array([t.value for t in res.table.terms])
     want = np.array([t.value for t in truth.terms])
     assert np.max(np.abs(got - want)) < 1e-9
-    for c, s in res.stats.items():
+    for c, s in res.stats.items():  # noqa: B007
         assert s["fit"].rms < 1e-10 and s["fit"].r2 > 1 - 1e-12
     assert res.stats["CD"]["test"].n == 100 and res.stats["CD"]["test"].rms < 1e-10
     assert all(se < 1e-8 for se in res.std_errors().values())
@@ -47,9 +50,13 @@ def test_statistics_against_hand_computed_values():
 
 def test_standard_errors_match_the_textbook_formula():
     rng = np.random.default_rng(7)
-    table = TermTable.from_records([{"coef": "Cm", "monomial": "1", "value": 0},
-                                    {"coef": "Cm", "monomial": "alpha", "value": 0},
-                                    {"coef": "Cm", "monomial": "dm", "value": 0}])
+    table = TermTable.from_records(
+        [
+            {"coef": "Cm", "monomial": "1", "value": 0},
+            {"coef": "Cm", "monomial": "alpha", "value": 0},
+            {"coef": "Cm", "monomial": "dm", "value": 0},
+        ]
+    )
     n = 200
     st = _states(n, seed=8)
     y = 0.1 - 0.8 * st.alpha - 1.2 * st.dm + 0.01 * rng.normal(size=n)
@@ -76,8 +83,12 @@ def test_constant_regressor_is_refused_and_named():
 
 
 def test_dependent_regressors_are_refused_and_named():
-    table = TermTable.from_records([{"theta": 1, "coef": "CL", "monomial": "alpha", "value": 0},
-                                    {"theta": 2, "coef": "CL", "monomial": "alpha", "value": 0}])
+    table = TermTable.from_records(
+        [
+            {"theta": 1, "coef": "CL", "monomial": "alpha", "value": 0},
+            {"theta": 2, "coef": "CL", "monomial": "alpha", "value": 0},
+        ]
+    )
     with pytest.raises(SingularFitError, match="linearly dependent.*theta1.*theta2|linearly dependent.*theta2.*theta1"):
         fit_coefficient(table, "CL", _samples_of(table, _states(50)))
 

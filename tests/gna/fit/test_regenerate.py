@@ -62,7 +62,7 @@ def test_a_stale_file_is_detected(tmp_path):
     committed.mkdir()
     lines = Path(load_aircraft("twin-otter").path).read_text().splitlines()
     i = next(k for k, line in enumerate(lines) if 'coef = "CD", monomial = "alpha",' in line)
-    lines[i] = lines[i].replace("value = ", "value = 1", 1)   # 0.137 -> 10.137
+    lines[i] = lines[i].replace("value = ", "value = 1", 1)  # 0.137 -> 10.137
     (committed / "twin-otter.toml").write_text("\n".join(lines) + "\n")
     report = regenerate(tmp_path / "out", ["twin-otter"], check=True, committed_dir=committed)
     assert report["twin-otter"] and report["twin-otter"][0].startswith("aero.terms[1].value")

@@ -12,8 +12,16 @@ from gna.fit.writer import Inline, aircraft_document, differences, table, value
 
 
 def test_values_round_trip_through_tomllib():
-    data = {"s": 'a "quoted" \\ string', "f": 0.1 + 0.2, "i": 3, "b": True, "inf": math.inf, "nan": math.nan,
-            "l": [1.0, -2.5e-300], "t": Inline({"x": 1.0, "y key": "z"})}
+    data = {
+        "s": 'a "quoted" \\ string',
+        "f": 0.1 + 0.2,
+        "i": 3,
+        "b": True,
+        "inf": math.inf,
+        "nan": math.nan,
+        "l": [1.0, -2.5e-300],
+        "t": Inline({"x": 1.0, "y key": "z"}),
+    }
     text = "\n".join(table("", data)) + "\n"
     back = tomllib.loads(text)
     assert back["s"] == data["s"] and back["f"] == data["f"] and back["l"] == data["l"]
@@ -23,11 +31,14 @@ def test_values_round_trip_through_tomllib():
 
 
 def _doc():
-    return {"id": "x", "name": "X", "provenance": {"source": "test", "date": "2026-01-01"},
-            "mass": {"mass_kg": 100.0, "Ixx_kgm2": 10.0, "Iyy_kgm2": 20.0, "Izz_kgm2": 25.0},
-            "geometry": {"S_m2": 2.0, "b_m": 3.0, "cbar_m": 0.7},
-            "aero": {"structure": "custom", "terms": [{"theta": 1, "coef": "CL", "monomial": "alpha",
-                                                      "value": 5.0}]}}
+    return {
+        "id": "x",
+        "name": "X",
+        "provenance": {"source": "test", "date": "2026-01-01"},
+        "mass": {"mass_kg": 100.0, "Ixx_kgm2": 10.0, "Iyy_kgm2": 20.0, "Izz_kgm2": 25.0},
+        "geometry": {"S_m2": 2.0, "b_m": 3.0, "cbar_m": 0.7},
+        "aero": {"structure": "custom", "terms": [{"theta": 1, "coef": "CL", "monomial": "alpha", "value": 5.0}]},
+    }
 
 
 def test_document_parses_and_loads():

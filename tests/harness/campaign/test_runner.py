@@ -45,8 +45,11 @@ def _check_folder(folder, n: int) -> None:
     cases = Path(folder) / "cases"
     assert sorted(p.name for p in cases.iterdir()) == sorted(r[0] for r in rows)
     for cid, _, files in rows:
-        assert sorted(p.name for p in (cases / cid).iterdir()) == json.loads(files) == ["inhouse.parquet",
-                                                                                      "jsbsim.parquet"]
+        assert (
+            sorted(p.name for p in (cases / cid).iterdir())
+            == json.loads(files)
+            == ["inhouse.parquet", "jsbsim.parquet"]
+        )
 
 
 @pytest.fixture(scope="module")
@@ -61,13 +64,18 @@ def test_run_status_resume_and_one_case_again(inline, capsys):
     _check_folder(inline, 3)
     assert main(["campaign", "status", str(inline), "--json"]) == 0
     status = json.loads(capsys.readouterr().out)
-    assert {k: status[k] for k in ("cases", "done", "failed", "pending")} == {"cases": 3, "done": 3, "failed": 0,
-                                                                            "pending": 0}
+    assert {k: status[k] for k in ("cases", "done", "failed", "pending")} == {
+        "cases": 3,
+        "done": 3,
+        "failed": 0,
+        "pending": 0,
+    }
     assert main(["campaign", "run", str(TINY), "--out", str(inline), "--quiet"]) == 0
     assert "0 computed" in capsys.readouterr().err
     again = rerun_case(inline, "level.fit.0001")
     assert again["same_as_stored"] is True
     import pandas as pd
+
     df = pd.read_parquet(inline / "cases" / "level.fit.0001" / "inhouse.parquet")
     assert {"x", "V", "I1"} <= set(df.columns) and df.index.name == "t"
 
@@ -94,8 +102,7 @@ def test_failed_cases_retried_only_when_asked(tmp_path, capsys):
     res = run_campaign(tmp_path / "bad.toml", tmp_path / "out", samples=1, workers=1, quiet=True)
     assert (res["failed"], res["pending"]) == (1, 0)
     assert run_campaign(tmp_path / "bad.toml", tmp_path / "out", samples=1, workers=1, quiet=True)["computed"] == 0
-    again = run_campaign(tmp_path / "bad.toml", tmp_path / "out", samples=1, workers=1, quiet=True,
-                         retry_failed=True)
+    again = run_campaign(tmp_path / "bad.toml", tmp_path / "out", samples=1, workers=1, quiet=True, retry_failed=True)
     assert again["computed"] == 1
     st = CampaignStore(tmp_path / "out")
     row = st.rows()[0]
@@ -108,8 +115,25 @@ def test_a_campaign_with_cases_pending_is_marked_interrupted_not_complete(tmp_pa
     # As every command marks a run cut short: the in-progress record naming the command, no completion marker
     # (which says "complete": true), until a run leaves no case pending.
     out = tmp_path / "c"
-    assert main(["campaign", "run", str(TINY), "--out", str(out), "--samples", "2", "--workers", "1", "--quiet",
-                 "--only", "level.fit.0000"]) == 1
+    assert (
+        main(
+            [
+                "campaign",
+                "run",
+                str(TINY),
+                "--out",
+                str(out),
+                "--samples",
+                "2",
+                "--workers",
+                "1",
+                "--quiet",
+                "--only",
+                "level.fit.0000",
+            ]
+        )
+        == 1
+    )
     assert not (out / ".gflat-complete.json").exists()
     record = (out / ".gflat-incomplete").read_text().splitlines()
     assert [json.loads(line) for line in record] == [{"command": "campaign"}, "campaign.sqlite"]
@@ -118,8 +142,7 @@ def test_a_campaign_with_cases_pending_is_marked_interrupted_not_complete(tmp_pa
     assert json.loads(capsys.readouterr().out)["pending"] == 1
     assert main(["plan", "gtm-aileron-roll", "--out", str(out)]) == 2
     assert "holds an interrupted run of 'gflat campaign'" in capsys.readouterr().err
-    assert main(["campaign", "run", str(TINY), "--out", str(out), "--samples", "2", "--workers", "1",
-                 "--quiet"]) == 0
+    assert main(["campaign", "run", str(TINY), "--out", str(out), "--samples", "2", "--workers", "1", "--quiet"]) == 0
     marker = json.loads((out / ".gflat-complete.json").read_text())
     assert marker["complete"] is True and marker["command"] == "campaign" and not (out / ".gflat-incomplete").exists()
 
@@ -127,17 +150,34 @@ def test_a_campaign_with_cases_pending_is_marked_interrupted_not_complete(tmp_pa
 @pytest.fixture(scope="module")
 def cluster():
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cl, distributed.Client(cl) as client:
-        client.run(lambda: __import__("harness.campaign.execute"))      # gflat imported before the clock starts
+    with (
+        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl,
+        distributed.Client(cl) as client,
+    ):
+        client.run(lambda: __import__("harness.campaign.execute"))  # gflat imported before the clock starts
         yield cl, client
 
 
 def test_process_pool_and_dask_give_the_same_metrics_bit_for_bit(inline, cluster, tmp_path):
     run_campaign(TINY, tmp_path / "pool", workers=2, quiet=True)
     assert _metrics(tmp_path / "pool") == _metrics(inline)
-    assert main(["campaign", "run", str(TINY), "--out", str(tmp_path / "dask"), "--quiet",
-                 "--dask", cluster[0].scheduler_address, "--dask-timeout", "10"]) == 0
+    assert (
+        main(
+            [
+                "campaign",
+                "run",
+                str(TINY),
+                "--out",
+                str(tmp_path / "dask"),
+                "--quiet",
+                "--dask",
+                cluster[0].scheduler_address,
+                "--dask-timeout",
+                "10",
+            ]
+        )
+        == 0
+    )
     assert _metrics(tmp_path / "dask") == _metrics(inline)
     _check_folder(tmp_path / "dask", 3)
 
@@ -147,13 +187,14 @@ def test_dask_worker_killed_mid_campaign(inline, cluster, tmp_path):
     pids = list(client.run(os.getpid).values())
     out = tmp_path / "killed"
     result = {}
-    runner = threading.Thread(target=lambda: result.update(
-        run_campaign(TINY, out, samples=5, dask=cl.scheduler_address, quiet=True)))
+    runner = threading.Thread(
+        target=lambda: result.update(run_campaign(TINY, out, samples=5, dask=cl.scheduler_address, quiet=True))
+    )
     runner.start()
     deadline = time.time() + 60
     while time.time() < deadline and not (out / "campaign.sqlite").exists():
         time.sleep(0.05)
-    time.sleep(0.3)                                                    # both workers busy on a case
+    time.sleep(0.3)  # both workers busy on a case
     os.kill(pids[0], signal.SIGKILL)
     runner.join(120)
     assert result["done"] == 5 and result["pending"] == 0 and result["failed"] == 0
@@ -179,6 +220,7 @@ def test_dask_option_parsing():
 def _free_port() -> int:
     """A TCP port nothing listens on (bound, then released)."""
     import socket
+
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
@@ -194,9 +236,25 @@ def test_bad_dask_address_or_scheduler_refused_before_the_folder_exists(tmp_path
     assert not out.exists()
     address = f"tcp://127.0.0.1:{_free_port()}"
     t0 = time.perf_counter()
-    assert main(["campaign", "run", str(TINY), "--out", str(out), "--samples", "1", "--dask", address,
-                 "--dask-timeout", "0.5"]) == 2
-    assert time.perf_counter() - t0 < 15                                # the timeout asked for, not 20 s
+    assert (
+        main(
+            [
+                "campaign",
+                "run",
+                str(TINY),
+                "--out",
+                str(out),
+                "--samples",
+                "1",
+                "--dask",
+                address,
+                "--dask-timeout",
+                "0.5",
+            ]
+        )
+        == 2
+    )
+    assert time.perf_counter() - t0 < 15  # the timeout asked for, not 20 s
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"gflat campaign: error: cannot connect to the Dask scheduler at {address}: ")
     assert len(err.splitlines()) == 1 and "cannot write" not in err
@@ -207,10 +265,22 @@ def test_bad_dask_address_or_scheduler_refused_before_the_folder_exists(tmp_path
 
 def test_runner_killed_with_sigkill_then_resumed(inline, tmp_path):
     out = tmp_path / "sigkill"
-    cmd = [sys.executable, "-m", "harness.cli", "campaign", "run", str(TINY), "--out", str(out), "--samples", "5",
-           "--workers", "1", "--quiet"]
-    proc = subprocess.Popen(cmd, cwd=ROOT, start_new_session=True, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
+    cmd = [
+        sys.executable,
+        "-m",
+        "harness.cli",
+        "campaign",
+        "run",
+        str(TINY),
+        "--out",
+        str(out),
+        "--samples",
+        "5",
+        "--workers",
+        "1",
+        "--quiet",
+    ]
+    proc = subprocess.Popen(cmd, cwd=ROOT, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.time() + 60
         done = 0
@@ -252,14 +322,16 @@ def test_the_campaign_folder_is_guarded_like_every_output_folder(inline, tmp_pat
     paper = tmp_path / "paper"
     paper.mkdir()
     (paper / "summary.json").write_text("{}")
-    (paper / ".gflat-complete.json").write_text(json.dumps({"tool": "gflat", "command": "paper", "complete": True,
-                                                            "files": [{"path": "summary.json"}]}))
+    (paper / ".gflat-complete.json").write_text(
+        json.dumps({"tool": "gflat", "command": "paper", "complete": True, "files": [{"path": "summary.json"}]})
+    )
     with pytest.raises(InputError, match="holds a complete run of 'gflat paper'"):
         run_campaign(TINY, paper, workers=1, quiet=True)
     assert sorted(p.name for p in paper.iterdir()) == [".gflat-complete.json", "summary.json"]
     with pytest.raises(InputError, match="file-system root"):
         run_campaign(TINY, "/", workers=1, quiet=True)
     from harness.folderlock import FolderLock
+
     held = FolderLock(inline)
     try:
         with pytest.raises(InputError, match="in use by another gflat run"):
@@ -274,6 +346,7 @@ def test_an_address_where_no_dask_scheduler_answers_is_one_line(tmp_path, capsys
     import socket
 
     import harness.campaign.runner as runner
+
     pytest.importorskip("distributed")
     monkeypatch.setattr(runner, "CONNECT_MARGIN_S", 0.5)
     srv = socket.socket()
@@ -296,8 +369,20 @@ def test_an_address_where_no_dask_scheduler_answers_is_one_line(tmp_path, capsys
     threading.Thread(target=serve, daemon=True).start()
     try:
         port = srv.getsockname()[1]
-        code = main(["campaign", "run", str(TINY), "--out", str(tmp_path / "c"), "--quiet",
-                     "--dask", f"tcp://127.0.0.1:{port}", "--dask-timeout", "1"])
+        code = main(
+            [
+                "campaign",
+                "run",
+                str(TINY),
+                "--out",
+                str(tmp_path / "c"),
+                "--quiet",
+                "--dask",
+                f"tcp://127.0.0.1:{port}",
+                "--dask-timeout",
+                "1",
+            ]
+        )
     finally:
         srv.close()
         for c in held:
@@ -312,17 +397,31 @@ def test_ctrl_c_in_a_process_pool_ends_at_once_and_the_run_resumes(tmp_path):
     # Ctrl-C while the pool's workers run cases: exit 130 within seconds (the running workers are ended, the
     # queued cases dropped, not waited for), cases committed before stay; a rerun computes the rest.
     out = tmp_path / "ctrlc"
-    cmd = [sys.executable, "-m", "harness.cli", "campaign", "run", "paper-dispersions", "--out", str(out),
-           "--samples", "3", "--workers", "2", "--quiet"]
-    proc = subprocess.Popen(cmd, cwd=ROOT, start_new_session=True, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, text=True)
+    cmd = [
+        sys.executable,
+        "-m",
+        "harness.cli",
+        "campaign",
+        "run",
+        "paper-dispersions",
+        "--out",
+        str(out),
+        "--samples",
+        "3",
+        "--workers",
+        "2",
+        "--quiet",
+    ]
+    proc = subprocess.Popen(
+        cmd, cwd=ROOT, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True
+    )
     try:
         deadline = time.time() + 60
         while time.time() < deadline and not (out / "campaign.sqlite").exists():
             time.sleep(0.05)
-        time.sleep(1.5)                                   # the workers are inside their first cases
+        time.sleep(1.5)  # the workers are inside their first cases
         sent = time.time()
-        proc.send_signal(signal.SIGINT)                   # to gflat alone (`timeout -s INT`, `kill -INT`): the
+        proc.send_signal(signal.SIGINT)  # to gflat alone (`timeout -s INT`, `kill -INT`): the
         #                                                   workers go on unless gflat ends them
         code = proc.wait(30)
         took = time.time() - sent
@@ -338,8 +437,8 @@ def test_ctrl_c_in_a_process_pool_ends_at_once_and_the_run_resumes(tmp_path):
         statuses = [r[0] for r in con.execute("SELECT status FROM cases")]
     finally:
         con.close()
-    assert len(statuses) == 9 and "pending" in statuses            # what a rerun computes
-    assert not (out / ".gflat-complete.json").exists()             # interrupted: not marked complete
+    assert len(statuses) == 9 and "pending" in statuses  # what a rerun computes
+    assert not (out / ".gflat-complete.json").exists()  # interrupted: not marked complete
     assert json.loads((out / ".gflat-incomplete").read_text().splitlines()[0]) == {"command": "campaign"}
 
 
@@ -350,10 +449,17 @@ def test_a_campaign_into_a_run_of_an_earlier_gflat_keeps_that_runs_files_listed(
     (old / "sub").mkdir(parents=True)
     (old / "summary.json").write_text("{}")
     (old / "sub" / "a.txt").write_text("a")
-    (old / ".gflat-complete.json").write_text(json.dumps({"tool": "gflat", "complete": True, "files": [
-        {"path": "summary.json"}, {"path": "sub/a.txt"}, {"path": "gone.txt"}]}))
+    (old / ".gflat-complete.json").write_text(
+        json.dumps(
+            {
+                "tool": "gflat",
+                "complete": True,
+                "files": [{"path": "summary.json"}, {"path": "sub/a.txt"}, {"path": "gone.txt"}],
+            }
+        )
+    )
     cmd = ["campaign", "run", str(TINY), "--out", str(old), "--samples", "1", "--workers", "1", "--quiet"]
-    for _ in range(2):                                                  # a run, then its rerun
+    for _ in range(2):  # a run, then its rerun
         assert main(cmd) == 0
         marker = json.loads((old / ".gflat-complete.json").read_text())
         assert marker["command"] == "campaign"
@@ -364,44 +470,76 @@ def test_a_campaign_into_a_run_of_an_earlier_gflat_keeps_that_runs_files_listed(
     assert f"output folder {old} holds a complete run of 'gflat campaign' (3 files)" in capsys.readouterr().err
 
 
-_CAMPAIGN_HOLDER = r'''
+_CAMPAIGN_HOLDER = r"""
 import sys
 from harness.folderlock import FolderLock
 from pathlib import Path
 lock = FolderLock(Path(sys.argv[1]))
 print("holding", flush=True)
 sys.stdin.readline()
-'''
+"""
 
 
 def test_the_report_of_a_campaign_being_written_is_refused(inline, tmp_path):
     """``gflat campaign report K`` while ``gflat campaign run --out K`` runs: one line, exit 2, nothing written."""
     import shutil
+
     folder = tmp_path / "K"
     shutil.copytree(inline, folder)
     before = sorted(p for p in folder.rglob("*"))
-    holder = subprocess.Popen([sys.executable, "-c", _CAMPAIGN_HOLDER, str(folder)], cwd=ROOT, stdin=subprocess.PIPE,
-                              stdout=subprocess.PIPE, text=True)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", _CAMPAIGN_HOLDER, str(folder)],
+        cwd=ROOT,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     try:
         assert holder.stdout.readline() == "holding\n"
-        out = subprocess.run([sys.executable, "-m", "harness.cli", "campaign", "report", str(folder), "--no-pdf"],
-                             cwd=ROOT, capture_output=True, text=True, timeout=120)
+        out = subprocess.run(
+            [sys.executable, "-m", "harness.cli", "campaign", "report", str(folder), "--no-pdf"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
     finally:
         holder.communicate("\n", timeout=60)
     assert out.returncode == 2, out.stderr
-    assert out.stderr == (f"gflat campaign: error: output folder {folder} is in use by another gflat run (it holds "
-                          f"the folder until it ends): wait for it to end\n")
+    assert out.stderr == (
+        f"gflat campaign: error: output folder {folder} is in use by another gflat run (it holds "
+        f"the folder until it ends): wait for it to end\n"
+    )
     assert sorted(p for p in folder.rglob("*")) == before
 
 
 def test_a_local_dask_cluster_keeps_its_scratch_files_in_the_campaign_folder(tmp_path):
     pytest.importorskip("distributed")
-    tmp = tmp_path / "tmp"                                 # Dask's default scratch folder: $TMPDIR/dask-scratch-space
+    tmp = tmp_path / "tmp"  # Dask's default scratch folder: $TMPDIR/dask-scratch-space
     tmp.mkdir()
     out = tmp_path / "camp"
-    res = subprocess.run([sys.executable, "-m", "harness.cli", "campaign", "run", str(TINY), "--out", str(out),
-                          "--samples", "1", "--dask", "local:1", "--quiet"], cwd=ROOT, capture_output=True, text=True,
-                         timeout=300, env={**os.environ, "TMPDIR": str(tmp)})
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "harness.cli",
+            "campaign",
+            "run",
+            str(TINY),
+            "--out",
+            str(out),
+            "--samples",
+            "1",
+            "--dask",
+            "local:1",
+            "--quiet",
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "TMPDIR": str(tmp)},
+    )
     assert res.returncode == 0, res.stderr
-    assert list(tmp.iterdir()) == []                       # nothing outside the campaign folder
-    assert not (out / ".dask-scratch").exists()            # removed when the cluster ended
+    assert list(tmp.iterdir()) == []  # nothing outside the campaign folder
+    assert not (out / ".dask-scratch").exists()  # removed when the cluster ended

@@ -17,17 +17,20 @@ from harness.cli import main
 BASE = {"seed": 3, "cases": [{"scenario": "twin-otter-single-engine", "loop": "closed"}]}
 
 
-@pytest.mark.parametrize("data, message", [
-    ({**BASE, "samles": 4}, "unknown key 'samles' (did you mean 'samples'?)"),
-    ({**BASE, "cases": [{"scenario": "twin-otter-single-engine", "lop": "open"}]}, "(did you mean 'loop'?)"),
-    ({**BASE, "dispersions": {"d": {"mas": 0.1}}}, "(did you mean 'mass'?)"),
-    ({**BASE, "dispersions": {"d": {"aero": "wild"}}}, "aero must be one of"),
-    ({**BASE, "dispersions": {"d": {"mass": -0.1}}}, "mass must be >= 0"),
-    ({**BASE, "seed": -1}, "seed must be a non-negative whole number"),
-    ({"seed": 1}, "needs at least one [[cases]]"),
-    ({**BASE, "cases": BASE["cases"] * 2}, "duplicate case labels"),
-    ({**BASE, "dispersions": {"a/b": {"mass": 0.1}}}, "c.toml [dispersions.a/b]: name = 'a/b' is not a safe"),
-])
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        ({**BASE, "samles": 4}, "unknown key 'samles' (did you mean 'samples'?)"),
+        ({**BASE, "cases": [{"scenario": "twin-otter-single-engine", "lop": "open"}]}, "(did you mean 'loop'?)"),
+        ({**BASE, "dispersions": {"d": {"mas": 0.1}}}, "(did you mean 'mass'?)"),
+        ({**BASE, "dispersions": {"d": {"aero": "wild"}}}, "aero must be one of"),
+        ({**BASE, "dispersions": {"d": {"mass": -0.1}}}, "mass must be >= 0"),
+        ({**BASE, "seed": -1}, "seed must be a non-negative whole number"),
+        ({"seed": 1}, "needs at least one [[cases]]"),
+        ({**BASE, "cases": BASE["cases"] * 2}, "duplicate case labels"),
+        ({**BASE, "dispersions": {"a/b": {"mass": 0.1}}}, "c.toml [dispersions.a/b]: name = 'a/b' is not a safe"),
+    ],
+)
 def test_bad_campaign_files_give_one_line(data, message):
     with pytest.raises(InputError) as exc:
         campaign_from_dict(data, where="c.toml")
@@ -38,23 +41,29 @@ def _case(**kw) -> dict:
     return {"seed": 3, "cases": [{"id": "to", "scenario": "twin-otter-single-engine", **kw}]}
 
 
-@pytest.mark.parametrize("data, message", [
-    (_case(scenario="twin-otter"), "c.toml [[cases]] #1 (case to): scenario = 'twin-otter' is not a bundled "
-                                   "scenario (did you mean 'twin-otter-single-engine'?)"),
-    (_case(scenario="gtm-aileron-rol"), "(did you mean 'gtm-aileron-roll'?)"),
-    (_case(scenario=["gtm-aileron-roll", "nope"]), "(case to-nope): scenario = 'nope' is not a bundled scenario"),
-    (_case(scenario="missing/roll.toml"), "(case to): scenario = 'missing/roll.toml': scenario file"),
-    (_case(J=[1, 99]), "c.toml [[cases]] #1 (case to-J99): J must be between 0 and 30, got 99"),
-    (_case(J=31), "(case to): J must be between 0 and 30, got 31"),
-    (_case(J=-1), "c.toml [[cases]] #1 (case to): J must be between 0 and 30, got -1"),
-    (_case(J=True), "(case to): J must be a whole number, got True"),
-    (_case(J="autoo"), "c.toml [[cases]] #1: J must be an integer >= 0, 'auto' or None, got 'autoo'"),
-    (_case(dt_out=0.7), "(case to): dt_out = 0.7 s does not divide the span"),
-    (_case(loop="clsed"), "c.toml [[cases]] #1: loop must be one of open, closed, got 'clsed'"),
-    (_case(engines=["inhouse", "jsbsm"]), "c.toml [[cases]] #1: engines: at least 2 distinct"),
-    (_case(tolerances={"postion": 1.0}), "c.toml [[cases]] #1: "),
-    (_case(id="../up"), "c.toml [[cases]] #1: id = '../up' is not a safe identifier"),
-])
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        (
+            _case(scenario="twin-otter"),
+            "c.toml [[cases]] #1 (case to): scenario = 'twin-otter' is not a bundled "
+            "scenario (did you mean 'twin-otter-single-engine'?)",
+        ),
+        (_case(scenario="gtm-aileron-rol"), "(did you mean 'gtm-aileron-roll'?)"),
+        (_case(scenario=["gtm-aileron-roll", "nope"]), "(case to-nope): scenario = 'nope' is not a bundled scenario"),
+        (_case(scenario="missing/roll.toml"), "(case to): scenario = 'missing/roll.toml': scenario file"),
+        (_case(J=[1, 99]), "c.toml [[cases]] #1 (case to-J99): J must be between 0 and 30, got 99"),
+        (_case(J=31), "(case to): J must be between 0 and 30, got 31"),
+        (_case(J=-1), "c.toml [[cases]] #1 (case to): J must be between 0 and 30, got -1"),
+        (_case(J=True), "(case to): J must be a whole number, got True"),
+        (_case(J="autoo"), "c.toml [[cases]] #1: J must be an integer >= 0, 'auto' or None, got 'autoo'"),
+        (_case(dt_out=0.7), "(case to): dt_out = 0.7 s does not divide the span"),
+        (_case(loop="clsed"), "c.toml [[cases]] #1: loop must be one of open, closed, got 'clsed'"),
+        (_case(engines=["inhouse", "jsbsm"]), "c.toml [[cases]] #1: engines: at least 2 distinct"),
+        (_case(tolerances={"postion": 1.0}), "c.toml [[cases]] #1: "),
+        (_case(id="../up"), "c.toml [[cases]] #1: id = '../up' is not a safe identifier"),
+    ],
+)
 def test_bad_case_values_refused_when_the_file_is_read(data, message):
     """Every expanded case is checked before anything runs: one line naming the file, the case, key and value."""
     with pytest.raises(InputError) as exc:
@@ -88,9 +97,13 @@ def test_scenario_compare_table_checked_with_the_case(tmp_path):
 
 
 def test_product_of_cases_and_dispersions():
-    camp = campaign_from_dict({**BASE, "cases": [{"id": "to", "scenario": "twin-otter-single-engine",
-                                                  "loop": ["open", "closed"], "J": [0, 4]}],
-                               "dispersions": {"a": {"mass": 0.01}, "b": {"aero": "none"}}})
+    camp = campaign_from_dict(
+        {
+            **BASE,
+            "cases": [{"id": "to", "scenario": "twin-otter-single-engine", "loop": ["open", "closed"], "J": [0, 4]}],
+            "dispersions": {"a": {"mass": 0.01}, "b": {"aero": "none"}},
+        }
+    )
     assert [c.label for c in camp.cases] == ["to-J0-open", "to-J0-closed", "to-J4-open", "to-J4-closed"]
     tasks = camp.tasks(2)
     assert len(tasks) == 4 * 2 * 2 and len({t.case_id for t in tasks}) == 16
@@ -104,7 +117,7 @@ def test_seeds_are_stable_and_independent_of_the_count():
     assert all(by_id[t.case_id] == t.seed for t in few)
     assert len(set(by_id.values())) == len(by_id)
     assert sample_seed(1, "a.b", 0) == sample_seed(1, "a.b", 0) != sample_seed(2, "a.b", 0)
-    assert 0 <= sample_seed(1, "a.b", 0) < 2 ** 63
+    assert 0 <= sample_seed(1, "a.b", 0) < 2**63
 
 
 def test_draws_are_reproducible_and_follow_the_standard_errors():
@@ -141,6 +154,9 @@ def test_campaign_file_paths_are_checked_like_scenario_files(tmp_path):
 
 def test_a_shortened_name_is_suggested_by_the_shared_did_you_mean():
     from gna.schema import did_you_mean
-    assert did_you_mean("twin-otter", ["twin-otter-single-engine", "gtm-aileron-roll"]) == \
-        " (did you mean 'twin-otter-single-engine'?)"
-    assert did_you_mean("gtm", ["gtm-aileron-roll", "gtm-forward-slip"]) == ""     # two names start so: no guess
+
+    assert (
+        did_you_mean("twin-otter", ["twin-otter-single-engine", "gtm-aileron-roll"])
+        == " (did you mean 'twin-otter-single-engine'?)"
+    )
+    assert did_you_mean("gtm", ["gtm-aileron-roll", "gtm-forward-slip"]) == ""  # two names start so: no guess

@@ -18,8 +18,8 @@ from gna.aircraft import load_aircraft
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.trajectory import COLUMNS, UNITS, RunSettings
 from gna.trim import trim_level
-from harness.metrics import difference_table
 from harness.engines import Engine, JSBSimEngine, engine_names, get_engine
+from harness.metrics import difference_table
 
 ENGINES = engine_names()
 ANGLES = ("gamma", "chi", "alpha", "beta", "mu")
@@ -91,7 +91,7 @@ class AltitudeHold:
 
 def _perturbed(x0):
     x1 = x0.copy()
-    x1[2] += 5.0            # 5 m below the reference altitude
+    x1[2] += 5.0  # 5 m below the reference altitude
     return x1
 
 
@@ -111,7 +111,7 @@ def test_schema(name, craft):
     assert r.df.index.name == "t" and np.allclose(r.df.index, np.linspace(0.0, 1.0, 11), atol=1e-12, rtol=0)
     assert set(COLUMNS) <= set(UNITS)
     assert np.all(np.isfinite(r.df.to_numpy()))
-    assert r.controller_states is None and r.feedback is None          # open loop
+    assert r.controller_states is None and r.feedback is None  # open loop
 
 
 @pytest.mark.parametrize("name", ENGINES)
@@ -120,8 +120,13 @@ def test_trim_hold(name, craft):
     r = get_engine(name).simulate(a, u0, (0.0, 3.0), x0, dt_out=0.05)
     assert r.completed
     df, t = r.df, r.df.index.to_numpy()
-    pos_tol, v_tol, ang_tol = (TRIM_HOLD_ROTATING_EARTH if name == "jsbsim-wgs84" else
-                               TRIM_HOLD_OTHER_PHYSICS if name in SOURCE_ENGINES else TRIM_HOLD)
+    pos_tol, v_tol, ang_tol = (
+        TRIM_HOLD_ROTATING_EARTH
+        if name == "jsbsim-wgs84"
+        else TRIM_HOLD_OTHER_PHYSICS
+        if name in SOURCE_ENGINES
+        else TRIM_HOLD
+    )
     straight = np.array([x0[0] + x0[3] * t * math.cos(x0[5]), x0[1] + x0[3] * t * math.sin(x0[5]), x0[2] + 0 * t])
     assert np.max(np.linalg.norm(df[["x", "y", "z"]].to_numpy().T - straight, axis=0)) <= pos_tol
     assert np.max(np.abs(df["V"] - x0[3])) <= v_tol
@@ -145,11 +150,11 @@ def test_controller_with_an_integral_state(name, craft):
     # Applied controls = reference + feedback, feedback columns are the controls'.
     assert list(r.feedback.columns) == list(CONTROL_NAMES)
     np.testing.assert_allclose(r.df["dm"], u0[3] + r.feedback["dm"], rtol=0, atol=1e-12)
-    if name not in SOURCE_ENGINES:   # F is the thrust the source's engine delivers, not the command
+    if name not in SOURCE_ENGINES:  # F is the thrust the source's engine delivers, not the command
         np.testing.assert_allclose(r.df["F"], u0[0] + r.feedback["F"], rtol=1e-15, atol=1e-9)
-    assert abs(r.feedback["dm"].iloc[0]) > 1e-3                 # the feedback acted
+    assert abs(r.feedback["dm"].iloc[0]) > 1e-3  # the feedback acted
     if name in SOURCE_ENGINES:
-        return   # other physics: the hold's gains were chosen for the f16c; its return is not asserted
+        return  # other physics: the hold's gains were chosen for the f16c; its return is not asserted
     # The hold brings the aircraft back to the reference altitude (measured: crosses it at 4.25 s,
     # overshoots to -5.1 m at 8.2 s, -3.9 m at 10 s: a slow, bounded integral loop, enough for a conformance check).
     assert np.any(err[t < 5.0] < 0.0) and np.max(np.abs(err)) < 6.0
@@ -181,7 +186,7 @@ def test_recorded_settings(name, craft):
     for r in (opened, closed):
         s = r.settings
         assert isinstance(s, RunSettings) and s.engine == name == s["engine"]
-        assert s.method is not None or s.dt is not None                 # a named integrator or a fixed step
+        assert s.method is not None or s.dt is not None  # a named integrator or a fixed step
         assert s.environment and s.g == pytest.approx(9.80665)
         assert dict(s)["engine"] == name and s.as_dict() == dict(s)
     assert opened.settings.controller is None and opened.settings.controller_scheme is None
@@ -198,7 +203,7 @@ def test_one_state_controller_agrees_across_engines_as_open_loop(f16):
     # Measured: 6.5e-5 m, 2.3e-6 m/s, 9e-8 rad.
     assert t.row("position").max_abs <= 1e-3 and max(t.row(v).max_abs for v in ANGLES) <= 1e-6
     dI = runs["jsbsim"].controller_states["I_z"] - runs["inhouse"].controller_states["I_z"]
-    assert np.max(np.abs(dI)) <= 1e-3                              # measured 1.1e-4 m s (I_z ~ 7 m s)
+    assert np.max(np.abs(dI)) <= 1e-3  # measured 1.1e-4 m s (I_z ~ 7 m s)
     assert "AB2" in runs["jsbsim"].settings.controller_scheme
     assert "DOP853" in runs["inhouse"].settings.controller_scheme
 
@@ -216,4 +221,4 @@ def test_a_coarser_controller_rate_is_held_and_recorded(f16):
     # but the feedback is piecewise constant on the step grid (first order in the controller step).
     assert np.all(np.isfinite(fb))
     t = difference_table(ref, r)
-    assert t.row("position").max_abs <= 1e-2, t.format()    # measured 4.6e-3 m (ZOH: first order)
+    assert t.row("position").max_abs <= 1e-2, t.format()  # measured 4.6e-3 m (ZOH: first order)

@@ -13,9 +13,17 @@ from gna.atmosphere import ISA, ConstantDensity, Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.errors import InputError
 from gna.trim import trim_level
+from harness.engines import (
+    COLUMNS,
+    InHouseEngine,
+    Integrators,
+    JSBSimEngine,
+    controls_on_grid,
+    fly,
+    get_engine,
+    initial_state,
+)
 from harness.metrics import difference_table
-from harness.engines import (COLUMNS, InHouseEngine, Integrators, JSBSimEngine, controls_on_grid, fly,
-                             get_engine, initial_state)
 
 ANGLES = ("gamma", "chi", "alpha", "beta", "mu")
 
@@ -33,10 +41,14 @@ def _smooth(u0, amp=(0.1, 0.0, 0.02, 0.02, 0.01)):
 
     def u(t):
         t = np.asarray(t, dtype=float)
-        return [u0[0] + k[0] * np.sin(0.5 * t), u0[1] + k[1] * np.sin(0.7 * t),
-                u0[2] + k[2] * np.sin(1.3 * t) * (1 - np.cos(0.8 * t)),
-                u0[3] + k[3] * np.sin(0.9 * t) * (1 - np.cos(0.7 * t)),
-                u0[4] + k[4] * np.sin(1.1 * t) * (1 - np.cos(0.6 * t))]
+        return [
+            u0[0] + k[0] * np.sin(0.5 * t),
+            u0[1] + k[1] * np.sin(0.7 * t),
+            u0[2] + k[2] * np.sin(1.3 * t) * (1 - np.cos(0.8 * t)),
+            u0[3] + k[3] * np.sin(0.9 * t) * (1 - np.cos(0.7 * t)),
+            u0[4] + k[4] * np.sin(1.1 * t) * (1 - np.cos(0.6 * t)),
+        ]
+
     return u
 
 
@@ -49,12 +61,17 @@ def test_initial_state_is_exact(f16):
         x0[0:2] = rng.uniform(-1e3, 1e3, 2)
         x0[2] = -rng.uniform(100.0, 12e3)
         x0[3] = rng.uniform(60.0, 250.0)
-        x0[4:9] = [rng.uniform(-0.5, 0.5), rng.uniform(-math.pi, math.pi), rng.uniform(-0.1, 0.4),
-                   rng.uniform(-0.3, 0.3), rng.uniform(-1.2, 1.2)]
+        x0[4:9] = [
+            rng.uniform(-0.5, 0.5),
+            rng.uniform(-math.pi, math.pi),
+            rng.uniform(-0.1, 0.4),
+            rng.uniform(-0.3, 0.3),
+            rng.uniform(-1.2, 1.2),
+        ]
         x0[9:12] = rng.uniform(-1.0, 1.0, 3)
         r = eng.simulate(a, u0, (0.0, eng.dt), x0, dt_out=eng.dt)
         got = r.df.iloc[0][list(STATE_NAMES)].to_numpy()
-        assert np.max(np.abs(got[:3] - x0[:3])) <= 1e-5            # ECEF quantisation of the 1e11 ft sphere
+        assert np.max(np.abs(got[:3] - x0[:3])) <= 1e-5  # ECEF quantisation of the 1e11 ft sphere
         assert abs(got[3] - x0[3]) <= 1e-12 * x0[3]
         assert np.max(np.abs(got[4:9] - x0[4:9])) <= 1e-12
         assert np.max(np.abs(got[9:] - x0[9:])) <= 1e-15
@@ -93,7 +110,7 @@ def test_control_timing_is_second_order_and_one_step_shift_is_detected(f16):
     e120, e480 = angle_error(1 / 120, u), angle_error(1 / 480, u)
     shifted = angle_error(1 / 120, lambda t: u(np.asarray(t) - 1 / 120))
     assert e120 <= 1e-5
-    assert e120 / e480 >= 8.0            # second order (16 ideal; 11 measured)
+    assert e120 / e480 >= 8.0  # second order (16 ideal; 11 measured)
     assert shifted >= 100 * e120
 
 
@@ -101,8 +118,10 @@ def test_smooth_manoeuvres_agree_on_single_and_twin_engine_aircraft(f16):
     """Goal of issue 5: <= 1e-2 m in position and <= 1e-4 rad in angles over 10 s with smooth controls."""
     a, x0, u0 = f16
     twin = dataclasses.replace(a, propulsion=Propulsion(count=2, y_p=1.8, epsilon=math.radians(3.0)))
-    for craft, env, amp in ((a, Environment(ISA()), (0.1, 0.0, 0.02, 0.02, 0.01)),
-                            (twin, Environment(ConstantDensity(0.9)), (0.1, 0.3, 0.02, 0.02, 0.01))):
+    for craft, env, amp in (
+        (a, Environment(ISA()), (0.1, 0.0, 0.02, 0.02, 0.01)),
+        (twin, Environment(ConstantDensity(0.9)), (0.1, 0.3, 0.02, 0.02, 0.01)),
+    ):
         tr = trim_level(craft, 150.0, 3000.0, env=env)
         x, uu = np.array(tr.state, dtype=float), np.array(tr.controls, dtype=float)
         r = fly(["inhouse", "jsbsim"], craft, x, _smooth(uu, amp), (0.0, 10.0), env=env)
@@ -140,10 +159,14 @@ def test_controller_sampled_every_step_without_delay(f16):
     x1[8] = 0.3
     x1[9] = 0.1
     r = fly(["inhouse", "jsbsim"], a, x1, u0, (0.0, 8.0), controller=controller)
-    t = difference_table(r["inhouse"], r["jsbsim"], {"position": 1e-2, "mu": 1e-4, "dm": 1e-4, "dl": 1e-4},
-                         variables=("position", "mu", "dm", "dl"))
+    t = difference_table(
+        r["inhouse"],
+        r["jsbsim"],
+        {"position": 1e-2, "mu": 1e-4, "dm": 1e-4, "dl": 1e-4},
+        variables=("position", "mu", "dm", "dl"),
+    )
     assert t.passed, t.format()
-    assert abs(r["jsbsim"].df["dm"].iloc[0] - u0[3]) > 1e-3       # the feedback acted
+    assert abs(r["jsbsim"].df["dm"].iloc[0] - u0[3]) > 1e-3  # the feedback acted
     assert r["jsbsim"].settings["controller"] == "sampled every step at the propagated state"
 
 
@@ -154,8 +177,12 @@ def test_common_schema_and_recorded_settings(f16):
     assert np.allclose(r["jsbsim"].df.index, r["inhouse"].df.index, atol=1e-12, rtol=0)
     s = r["jsbsim"].settings
     assert s["engine"] == "jsbsim" and s["earth"] == "flat" and s["jsbsim_version"]
-    assert s["integrators"] == {"rotational_rate": "AB4", "translational_rate": "AB4",
-                                "rotational_position": "Buss2", "translational_position": "AB4"}
+    assert s["integrators"] == {
+        "rotational_rate": "AB4",
+        "translational_rate": "AB4",
+        "rotational_position": "Buss2",
+        "translational_position": "AB4",
+    }
     assert 0.1 / s["dt"] == pytest.approx(round(0.1 / s["dt"])) and s["dt"] <= JSBSimEngine().dt
     assert s["planet"]["h_ref_m"] == pytest.approx(-x0[2]) and s["planet"]["rotation_rad_s"] == 0.0
     assert r["inhouse"].settings["engine"] == "inhouse" and r["inhouse"].settings["method"] == "DOP853"
@@ -167,11 +194,16 @@ def test_common_schema_and_recorded_settings(f16):
 
 def test_rotating_wgs84_earth_shows_the_cost_of_the_flat_earth(f16):
     a, x0, u0 = f16
-    r = fly({"flat": JSBSimEngine(), "wgs84": JSBSimEngine(earth="wgs84", latitude=math.radians(45.0))},
-            a, x0, u0, (0.0, 10.0))
+    r = fly(
+        {"flat": JSBSimEngine(), "wgs84": JSBSimEngine(earth="wgs84", latitude=math.radians(45.0))},
+        a,
+        x0,
+        u0,
+        (0.0, 10.0),
+    )
     t = difference_table(r["flat"], r["wgs84"])
     assert r["wgs84"].settings["earth"] == "wgs84"
-    assert t.row("position").max_abs > 0.1        # metre-level: Earth rotation and J2 gravity
+    assert t.row("position").max_abs > 0.1  # metre-level: Earth rotation and J2 gravity
     assert t.row("position").max_abs < 20.0
 
 
@@ -185,8 +217,11 @@ def test_a_plan_like_source_provides_controls_initial_state_and_environment(f16)
             self.env = env
 
         def controls(self, t):
-            return np.asarray(tr.controls, dtype=float) if np.ndim(t) == 0 else \
-                np.array(tr.controls, dtype=float)[:, None] * np.ones_like(t)
+            return (
+                np.asarray(tr.controls, dtype=float)
+                if np.ndim(t) == 0
+                else np.array(tr.controls, dtype=float)[:, None] * np.ones_like(t)
+            )
 
         def initial_state(self):
             return np.array(tr.state, dtype=float)

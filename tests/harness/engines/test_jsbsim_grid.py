@@ -19,8 +19,14 @@ def manoeuvre():
 
     def u(t):
         t = np.asarray(t, dtype=float)
-        return [u0[0] * (1 + 0.1 * np.sin(0.5 * t)), u0[1] + 0 * t, u0[2] + 0.02 * np.sin(1.3 * t),
-                u0[3] + 0.02 * np.sin(0.9 * t) * (1 - np.cos(0.7 * t)), u0[4] + 0 * t]
+        return [
+            u0[0] * (1 + 0.1 * np.sin(0.5 * t)),
+            u0[1] + 0 * t,
+            u0[2] + 0.02 * np.sin(1.3 * t),
+            u0[3] + 0.02 * np.sin(0.9 * t) * (1 - np.cos(0.7 * t)),
+            u0[4] + 0 * t,
+        ]
+
     return a, x0, u
 
 
@@ -34,10 +40,10 @@ def test_step_grid_ignores_the_output_interval():
 def test_changing_only_dt_out_leaves_jsbsim_unchanged_at_common_times(manoeuvre):
     a, x0, u = manoeuvre
     eng = JSBSimEngine()
-    coarse = eng.simulate(a, u, (0.0, 6.0), x0, dt_out=0.05).df       # on the step grid
-    fine = eng.simulate(a, u, (0.0, 6.0), x0, dt_out=0.02).df         # mostly between steps: interpolated
+    coarse = eng.simulate(a, u, (0.0, 6.0), x0, dt_out=0.05).df  # on the step grid
+    fine = eng.simulate(a, u, (0.0, 6.0), x0, dt_out=0.02).df  # mostly between steps: interpolated
     common = coarse.index.intersection(fine.index)
-    assert len(common) == 61                                          # every 0.1 s
+    assert len(common) == 61  # every 0.1 s
     cols = ["x", "y", "z", "V", "gamma", "chi", "alpha", "beta", "mu", "p", "q", "r"]
     d = (fine.loc[common, cols] - coarse.loc[common, cols]).abs().max()
     assert d[["x", "y", "z"]].max() < 1e-9 and d.drop(["x", "y", "z"]).max() < 1e-10, d

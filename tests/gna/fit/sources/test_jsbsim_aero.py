@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
+from gna import units
 from gna.aero import AeroState
 from gna.errors import InputError, UnknownAircraftError
 from gna.fit.sources.jsbsim_aero import JSBSimAeroSource, vehicle_sections
-from gna import units
 
 
 @pytest.fixture(scope="module")
@@ -30,8 +30,11 @@ def test_unknown_aircraft_names_the_available_ones():
 
 
 def test_configuration_surfaces_and_removed_terms(f4n):
-    assert f4n.surface_map == {"dm": ("fcs/elevator-pos-rad", 1.0), "dl": ("fcs/left-aileron-pos-rad", -1.0),
-                               "dn": ("fcs/rudder-pos-rad", 1.0)}
+    assert f4n.surface_map == {
+        "dm": ("fcs/elevator-pos-rad", 1.0),
+        "dl": ("fcs/left-aileron-pos-rad", -1.0),
+        "dn": ("fcs/rudder-pos-rad", 1.0),
+    }
     assert f4n.configuration["gear/gear-pos-norm"] == 0.0 and "systems/BLC/active" in f4n.configuration
     assert [f.name for f in f4n.removed] == ["aero/coefficient/Cmadot"]
     assert f4n.V_ref == pytest.approx(0.6 * 1077.40 * units.FT, rel=1e-4)
@@ -56,7 +59,7 @@ def test_derivatives_of_the_xml_model(f4n):
     assert dq == pytest.approx(-18.0, rel=2e-3)
     de = (float(f4n.coefficients(_state(dm=h)).Cm) - float(f4n.coefficients(_state(dm=-h)).Cm)) / (2 * h)
     assert de == pytest.approx(-0.55, rel=3e-2)
-    assert float(f4n.coefficients(_state(dl=0.05)).Cl - c0.Cl) < 0   # project: +dl rolls left
+    assert float(f4n.coefficients(_state(dl=0.05)).Cl - c0.Cl) < 0  # project: +dl rolls left
     assert float(f4n.coefficients(_state(dn=0.05)).Cn - c0.Cn) < 0
 
 
@@ -76,8 +79,10 @@ def test_lift_axis_alpha_dot_term_is_removed_with_its_moment():
     st = _state(alpha=math.radians(3.0), qhat=0.01)
     c = src.coefficients(st)
     fdm = src._fdm
-    lift = sum(fdm[n] for n in ("aero/coefficient/CLwbh", "aero/coefficient/CLq", "aero/coefficient/CLDe",
-                                "aero/coefficient/CLDf"))
+    lift = sum(
+        fdm[n]
+        for n in ("aero/coefficient/CLwbh", "aero/coefficient/CLq", "aero/coefficient/CLDe", "aero/coefficient/CLDf")
+    )
     assert float(c.CL) == pytest.approx(lift / (fdm["aero/qbar-psf"] * src.S), rel=1e-9)
 
 
@@ -109,6 +114,10 @@ def test_bad_reference_condition(tmp_path):
 def test_f16_surfaces_are_detected():
     src = JSBSimAeroSource("f16", mach=0.6, altitude=10000 * units.FT)
     assert src.surface_map["dl"] == ("fcs/aileron-pos-rad", -1.0)
-    assert src.configuration == {"fcs/flaperon-mix-rad": 0.0, "fcs/lef-pos-rad": 0.0,
-                                 "fcs/speedbrake-pos-rad": 0.0, "gear/gear-pos-norm": 0.0}
+    assert src.configuration == {
+        "fcs/flaperon-mix-rad": 0.0,
+        "fcs/lef-pos-rad": 0.0,
+        "fcs/speedbrake-pos-rad": 0.0,
+        "gear/gear-pos-norm": 0.0,
+    }
     assert src.removed == []

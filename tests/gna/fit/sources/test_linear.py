@@ -25,10 +25,12 @@ def test_twin_otter_coefficients_by_hand():
     assert float(c.CL) == pytest.approx(CX * math.sin(a) - CZ * math.cos(a), rel=1e-14)
     assert float(c.Cm) == pytest.approx(0.040 - 1.310 * a - 34.2 * q - 1.740 * de, rel=1e-14)
     assert float(c.CY) == pytest.approx(-0.6 * 0.02 - 0.2 * 0.03 + 0.4 * -0.01 + 0.15 * -0.04, rel=1e-14)
-    assert float(c.Cl) == pytest.approx(-0.08 * 0.02 - 0.5 * 0.03 + 0.06 * -0.01 - 0.15 * 0.05 + 0.015 * -0.04,
-                                        rel=1e-14)
-    assert float(c.Cn) == pytest.approx(0.1 * 0.02 - 0.06 * 0.03 - 0.18 * -0.01 - 0.001 * 0.05 - 0.125 * -0.04,
-                                        rel=1e-14)
+    assert float(c.Cl) == pytest.approx(
+        -0.08 * 0.02 - 0.5 * 0.03 + 0.06 * -0.01 - 0.15 * 0.05 + 0.015 * -0.04, rel=1e-14
+    )
+    assert float(c.Cn) == pytest.approx(
+        0.1 * 0.02 - 0.06 * 0.03 - 0.18 * -0.01 - 0.001 * 0.05 - 0.125 * -0.04, rel=1e-14
+    )
 
 
 def test_vectorised_over_arrays():
