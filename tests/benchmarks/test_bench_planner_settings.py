@@ -28,7 +28,7 @@ def test_a_setting_gives_the_plan_of_that_setting(bps):
 
 
 def test_a_setting_that_cannot_be_planned_is_a_row_with_its_reason(bps, capsys):
-    # J = 30 on the roll: the iteration diverges past its floor (docs/collocation.md, Planner settings)
+    # J = 30 on the roll: the iteration diverges past its floor (docs/performance.md, Planner settings)
     bps.main(["gtm-aileron-roll", "--J", "30", "--repeat", "1"])
     out = capsys.readouterr().out
     assert "cannot be planned" in out
