@@ -125,7 +125,8 @@ def compile_expression(
         :data:`MAX_TEXT` or a tree beyond :data:`MAX_NODES` / :data:`MAX_DEPTH`, a syntax error, an unknown
         name or function, a wrong argument count, a forbidden construct (attribute access, subscripts,
         comprehensions, ...), or a constant expression that cannot be evaluated; each naming ``where``.
-        A negative number to a fractional power raises it when the expression is called.
+        A negative number to a fractional power raises it when the expression is evaluated (here already
+        for an expression without ``t``).
     """
     if isinstance(text, (int, float)) and not isinstance(text, bool):
         value = float(text)
