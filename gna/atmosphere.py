@@ -69,7 +69,18 @@ class ConstantDensity:
             raise InputError(f"air density must be positive and finite, got {self.rho}")
 
     def density(self, h):
-        """Density [kg/m^3] at altitude ``h`` [m] (ignored)."""
+        """Density, the same at every altitude.
+
+        Parameters
+        ----------
+        h : float, ndarray or Series
+            Altitude [m] (used only for the result's type and shape).
+
+        Returns
+        -------
+        float, ndarray or Series
+            ``rho`` [kg/m^3], shaped like ``h``.
+        """
         return self.rho + 0.0 * h
 
     def check_altitude(self, h, where: str = "") -> None:
@@ -90,6 +101,13 @@ class ConstantDensity:
         _check_range(h, (-np.inf, np.inf), where, self.describe())
 
     def describe(self) -> str:
+        """One line naming the model and its density (run settings, reports).
+
+        Returns
+        -------
+        str
+            E.g. ``"constant density 1.225 kg/m^3"``.
+        """
         return f"constant density {self.rho:.6g} kg/m^3"
 
 
@@ -103,7 +121,21 @@ class ISA:
     """
 
     def density(self, h):
-        """Density [kg/m^3] at altitude ``h`` [m]."""
+        """Density of the ISA troposphere (h <= 11 km) or isothermal lower stratosphere (ISO 2533).
+
+        The range is not checked here (:meth:`check_altitude` does). A float or array takes each
+        altitude's layer; a series takes each node's layer from its constant term.
+
+        Parameters
+        ----------
+        h : float, ndarray or Series
+            Geometric altitude [m], used as geopotential altitude.
+
+        Returns
+        -------
+        float, ndarray or Series
+            Density [kg/m^3], shaped like ``h``.
+        """
         h0 = _constant_term(h)
         if np.all(h0 <= H_TROPO):
             return RHO0 * (1.0 - LAPSE * h / T0) ** _EXP_TROPO
@@ -143,6 +175,13 @@ class ISA:
         _check_range(h, self.altitude_range, where, "the ISA model (ISO 2533, troposphere and isothermal layer)")
 
     def describe(self) -> str:
+        """One line naming the model (run settings, reports).
+
+        Returns
+        -------
+        str
+            The model and its altitude approximation.
+        """
         return "ISA (ISO 2533) density, geometric altitude as geopotential"
 
 
@@ -191,12 +230,29 @@ class Environment:
             )
 
     def describe(self) -> str:
-        """The atmosphere's description, and the ground effect's when there is one (run settings)."""
+        """The atmosphere's description, and the ground effect's when there is one (run settings).
+
+        Returns
+        -------
+        str
+            One line, the two descriptions joined by ``"; "``.
+        """
         d = self.atmosphere.describe()
         return d if self.ground_effect is None else f"{d}; {self.ground_effect.describe()}"
 
     def density(self, z):
-        """Density at NED coordinate ``z`` (altitude ``-z``)."""
+        """Air density at a NED down coordinate.
+
+        Parameters
+        ----------
+        z : float, ndarray or Series
+            NED down position [m]; the altitude is ``-z``.
+
+        Returns
+        -------
+        float, ndarray or Series
+            Density [kg/m^3] of the atmosphere model at altitude ``-z``, shaped like ``z``.
+        """
         return self.atmosphere.density(-z)
 
     def check_altitude(self, h, where: str = "", times=None) -> None:
@@ -229,6 +285,26 @@ class Environment:
 
     @classmethod
     def constant(cls, altitude: float = 0.0, g: float = G0) -> Environment:
-        """Constant density equal to the ISA density at ``altitude`` [m] (within :data:`ISA_RANGE`)."""
+        """An environment of constant density equal to the ISA density at ``altitude``.
+
+        Parameters
+        ----------
+        altitude : float
+            Altitude [m] whose ISA density is used, within :data:`ISA_RANGE`.
+        g : float
+            Gravity acceleration [m/s^2].
+
+        Returns
+        -------
+        Environment
+            With :class:`ConstantDensity` atmosphere and no ground effect.
+
+        Raises
+        ------
+        DomainError
+            ``altitude`` outside :data:`ISA_RANGE` or not finite (from :meth:`check_altitude`).
+        InputError
+            ``g`` not positive and finite.
+        """
         cls().check_altitude(altitude, "constant-density environment")
         return cls(ConstantDensity(float(ISA().density(float(altitude)))), g)

@@ -21,7 +21,20 @@ from .frames import C_body_ned, dcm_from_quaternion, quaternion_from_dcm, wind_a
 
 
 def from_wind_state(s) -> np.ndarray:
-    """13-vector of the body formulation equal to a wind-frame state ``s`` (12 floats)."""
+    """The body-axis state equal to a wind-frame state.
+
+    Parameters
+    ----------
+    s : sequence of 12 float
+        Wind-frame state ``x, y, z, V, gamma, chi, alpha, beta, mu, p, q, r`` (:class:`gna.eom.State` order):
+        NED position [m], airspeed [m/s], angles [rad], body rates [rad/s].
+
+    Returns
+    -------
+    ndarray, shape (13,)
+        NED position [m], body velocity ``u, v, w`` [m/s], unit attitude quaternion of ``C_bn`` (scalar
+        first, :func:`gna.frames.quaternion_from_dcm`), body rates ``p, q, r`` [rad/s].
+    """
     x, y, z, V, gamma, chi, alpha, beta, mu, p, q, r = (float(v) for v in s)
     C = C_body_ned(gamma, chi, mu, alpha, beta)
     uvw = V * np.array([np.cos(alpha) * np.cos(beta), np.sin(beta), np.sin(alpha) * np.cos(beta)])
@@ -29,14 +42,51 @@ def from_wind_state(s) -> np.ndarray:
 
 
 def to_wind_state(X: np.ndarray) -> np.ndarray:
-    """Wind-frame states (12, ...) from body states (13, ...)."""
+    """Wind-frame states from body-axis states (inverse of :func:`from_wind_state`; no wind).
+
+    Parameters
+    ----------
+    X : ndarray, shape (13,) or (13, ...)
+        Body-axis states (:func:`from_wind_state` layout); trailing axes are many states at once. The
+        quaternion need not be of unit norm.
+
+    Returns
+    -------
+    ndarray, shape (12,) or (12, ...)
+        Wind-frame states ``x, y, z, V, gamma, chi, alpha, beta, mu, p, q, r`` (SI, rad).
+    """
     C = dcm_from_quaternion(X[6:10])
     V, gamma, chi, alpha, beta, mu = wind_angles_from_body(X[3:6], C)
     return np.array([X[0], X[1], X[2], V, gamma, chi, alpha, beta, mu, X[10], X[11], X[12]])
 
 
 def derivative(aircraft: Aircraft, env: Environment, X: np.ndarray, controls) -> np.ndarray:
-    """Time derivative of the 13-state body formulation (controls: F, eta, dl, dm, dn)."""
+    """Time derivative of the 13-state body-axis formulation (flat, non-rotating Earth, no wind).
+
+    Body-axis force and moment equations ``u' = F/m - w x u``, ``I w' = M - w x I w``, position
+    ``C_bn^T u`` and quaternion kinematics ``q' = Omega(w) q / 2`` (Stevens, Lewis & Johnson, *Aircraft
+    Control and Simulation*, 3rd ed., ch. 1). The stability-axis aerodynamic force is rotated through
+    alpha into body axes, the moments are transferred from ``x_ref`` to the CG, and each engine's thrust
+    moment is ``r x F`` (engine 1 at ``y = -y_p`` takes ``F (1 + eta)/2``).
+
+    Parameters
+    ----------
+    aircraft : Aircraft
+        Geometry, mass, inertia, propulsion and aerodynamic coefficient table.
+    env : Environment
+        Atmosphere (density at altitude ``-z``) and gravity.
+    X : ndarray, shape (13,)
+        Body-axis state (:func:`from_wind_state` layout).
+    controls : sequence of 5 float
+        ``F`` total thrust [N], ``eta = (F1 - F2)/(F1 + F2)``, ``dl, dm, dn`` aileron, elevator, rudder [rad]
+        (:class:`gna.eom.Controls` order).
+
+    Returns
+    -------
+    ndarray, shape (13,)
+        ``dX/dt``: NED velocity [m/s], body acceleration [m/s^2], quaternion rate [1/s], angular
+        acceleration [rad/s^2].
+    """
     F, eta, dl, dm, dn = controls
     pos, uvw, quat, w = X[0:3], X[3:6], X[6:10], X[10:13]
     u, v, ww = uvw

@@ -229,7 +229,13 @@ class GroundEffect:
             )
 
     def describe(self) -> str:
-        """One line for run settings: the model, its source and its parameters."""
+        """One line for run settings: the model, its source and its parameters.
+
+        Returns
+        -------
+        str
+            The ground elevation [m], the model (McCormick 1995), Oswald factor and section lift slope.
+        """
         return (
             f"ground effect over a flat ground at {self.elevation:g} m (McCormick 1995 phi(h/b) on induced "
             f"drag, lifting-line lift factor; e = {self.oswald:g}, a0 = {self.section_lift_slope:.6g} /rad; "

@@ -102,11 +102,31 @@ def compile_expression(
 ) -> Expression:
     """Parse ``text`` into an :class:`Expression`.
 
+    Parameters
+    ----------
+    text : str, float or int
+        An expression of ``t`` [s] (numbers, ``t``, constants, ``+ - * / **``, :data:`FUNCTIONS`), or a
+        number (a constant expression).
+    constants : mapping of str to float, optional
+        Named constants added to (and overriding) :data:`CONSTANTS`, e.g. a scenario file's ``[constants]``.
+    where : str
+        What the expression is, for the messages (e.g. ``"outputs.x"``).
+
+    Returns
+    -------
+    Expression
+        The compiled expression; ``depends_on_t`` is False when ``t`` does not occur (it is then evaluated
+        once, and its value broadcast to the shape of ``t``).
+
     Raises
     ------
     InputError
-        Syntax error, unknown name or function, or a forbidden construct
-        (attribute access, subscripts, comprehensions, ...), naming ``where``.
+        A non-finite number, a value that is neither a number nor a string, a text longer than
+        :data:`MAX_TEXT` or a tree beyond :data:`MAX_NODES` / :data:`MAX_DEPTH`, a syntax error, an unknown
+        name or function, a wrong argument count, a forbidden construct (attribute access, subscripts,
+        comprehensions, ...), or a constant expression that cannot be evaluated; each naming ``where``.
+        A negative number to a fractional power raises it when the expression is evaluated (here already
+        for an expression without ``t``).
     """
     if isinstance(text, (int, float)) and not isinstance(text, bool):
         value = float(text)

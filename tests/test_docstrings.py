@@ -1,8 +1,9 @@
 """Numpydoc docstrings of the public API, checked (after python-control's ``docstrings_test.py``).
 
-For every public function of the modules in :data:`MODULES`, and every public method of their
-public classes (properties, dunder methods and the methods a dataclass or NamedTuple generates are
-skipped), the docstring must have
+For every public function of the modules in :data:`MODULES` (every module of the packages in
+:data:`PACKAGES` whose dotted name has no part starting with ``_``; one that fails to import fails its
+test), and every public method of their public classes (properties, dunder methods and the methods a
+dataclass or NamedTuple generates are skipped), the docstring must have
 
 * a summary line;
 * a ``Parameters`` (or ``Other Parameters``) entry for every parameter of the signature except
@@ -17,7 +18,9 @@ from __future__ import annotations
 
 import ast
 import importlib
+import importlib.util
 import inspect
+import pkgutil
 import textwrap
 import warnings
 
@@ -25,65 +28,35 @@ import pytest
 
 docscrape = pytest.importorskip("numpydoc.docscrape")
 
+#: Top-level packages whose public modules are checked (``gflat`` when it exists).
+PACKAGES = ("gflat", "gna", "planners", "harness", "reports")
+
+
+def public_modules() -> list[str]:
+    """Dotted names of the packages in :data:`PACKAGES` and of every module under them, except those with a
+    part starting with ``_``. Found on disk without importing them, so a module that fails to import fails
+    its test rather than dropping out of the list."""
+    names = []
+
+    def walk(name, paths):
+        names.append(name)
+        for info in pkgutil.iter_modules(paths):
+            if not info.name.startswith("_"):
+                sub = f"{name}.{info.name}"
+                if info.ispkg:
+                    walk(sub, [f"{path}/{info.name}" for path in paths])
+                else:
+                    names.append(sub)
+
+    for package in PACKAGES:
+        spec = importlib.util.find_spec(package)
+        if spec is not None and spec.submodule_search_locations is not None:
+            walk(package, list(spec.submodule_search_locations))
+    return sorted(names)
+
+
 #: Modules whose public functions and classes are checked.
-MODULES = [
-    "gna.eom",
-    "gna.solve",
-    "gna.controller",
-    "gna.trim",
-    "planners.flat",
-    "planners.plan",
-    "planners.generalized",
-    "planners.generalized_newton",
-    "planners.flatness_test",
-    "planners.chained",
-    "planners.systems.first_order_lag",
-    "planners.systems.car_trailers",
-    "planners.systems.demos",
-    "planners.systems.aircraft",
-    "planners.systems.scenario",
-    "planners.newton",
-    "planners.singularity",
-    "planners.tracking",
-    "gna.simulate",
-    "gna.tape",
-    "gna.trajectory",
-    "harness.engines.base",
-    "harness.engines.registry",
-    "harness.engines.inhouse",
-    "harness.engines.fly",
-    "harness.engines.jsbsim.engine",
-    "harness.engines.jsbsim.fdm",
-    "harness.engines.jsbsim.states",
-    "harness.engines.jsbsim.source",
-    "harness.engines.jsbsim.script",
-    "harness.testing",
-    "harness.pytest_plugin",
-    "harness.metrics.tables",
-    "harness.metrics.scales",
-    "harness.metrics.runs",
-    "harness.validation.case",
-    "harness.validation.run",
-    "harness.outdir",
-    "harness.fileio",
-    "harness.artefacts",
-    "harness.validation.tolerances",
-    "harness.validation.result",
-    "harness.engines.jsbsim.grid",
-    "reports.model",
-    "reports.html",
-    "reports.pdf",
-    "reports.report_figures",
-    "harness.campaign.spec",
-    "harness.campaign.sampling",
-    "harness.campaign.execute",
-    "harness.campaign.store",
-    "harness.campaign.runner",
-    "harness.campaign.batch",
-    "harness.campaign.integrators",
-    "harness.campaign.montecarlo",
-    "harness.campaign.report",
-]
+MODULES = public_modules()
 
 
 def _own_nodes(fn_node):
@@ -345,3 +318,13 @@ def test_checker_fails_on_a_real_function_with_a_parameter_doc_removed():
     assert problems == [
         f"gna.eom.force_equations: parameter '{p}' is not documented in Parameters" for p in ("X", "Y", "Z")
     ]
+
+
+def test_discovery_finds_every_public_module_and_no_private_one():
+    """Modules are found on disk: a module of a package is listed, one under a ``_`` name is not."""
+    assert {"gna", "gna.aero", "gna.fit.sources.gtm", "planners.series", "harness.engines.jsbsim.engine"} <= set(
+        MODULES
+    )
+    assert "planners._series_compiled" not in MODULES
+    assert not [m for m in MODULES if any(part.startswith("_") for part in m.split("."))]
+    assert not [m for m in MODULES if m.split(".")[0] not in PACKAGES]

@@ -44,11 +44,38 @@ def _clean(x: float) -> float:
 
 
 def format_value(var: str, value: float) -> str:
-    """``value`` of ``var`` in the unit people read it in (deg for angles)."""
+    """``value`` of ``var`` in the unit people read it in (deg for angles), for messages.
+
+    Parameters
+    ----------
+    var : str
+        A name of :data:`gna.aero.AERO_VARIABLES`.
+    value : float
+        Its value [rad for :data:`ANGLE_VARIABLES`, nondimensional otherwise].
+
+    Returns
+    -------
+    str
+        Four significant digits, with ``" deg"`` for an angle.
+    """
     return f"{math.degrees(value):.4g} deg" if var in ANGLE_VARIABLES else f"{value:.4g}"
 
 
 def format_range(var: str, lo: float, hi: float) -> str:
+    """An interval of ``var`` in the unit people read it in (deg for angles), for messages.
+
+    Parameters
+    ----------
+    var : str
+        A name of :data:`gna.aero.AERO_VARIABLES`.
+    lo, hi : float
+        Its bounds [rad for :data:`ANGLE_VARIABLES`, nondimensional otherwise].
+
+    Returns
+    -------
+    str
+        ``"[lo, hi]"`` to four significant digits, with ``" deg"`` for an angle.
+    """
     if var in ANGLE_VARIABLES:
         return f"[{math.degrees(lo):.4g}, {math.degrees(hi):.4g}] deg"
     return f"[{lo:.4g}, {hi:.4g}]"
@@ -61,7 +88,9 @@ class Block:
     Parameters
     ----------
     name : str
+        Block name, unique in its design.
     coefficients : tuple of str
+        Names of :data:`gna.aero.COEFFICIENTS` fitted on this block.
     ranges : mapping
         Every name of :data:`gna.aero.AERO_VARIABLES` -> ``(lo, hi)`` in rad or
         nondimensional; ``lo == hi`` holds the variable fixed.
@@ -72,6 +101,13 @@ class Block:
         ``[dm0(alpha) - dm_band, dm0(alpha) + dm_band]`` intersected with its
         range, where ``dm0(alpha)`` is the source's pitch-trim schedule
         (:func:`elevator_schedule`); 0 draws ``dm`` over its whole range.
+
+    Raises
+    ------
+    InputError
+        An unknown coefficient, ranges not naming exactly the eight variables, a range that is not two
+        finite numbers with ``lo <= hi``, ``n_fit`` or ``n_test`` not a positive integer, a negative
+        ``dm_band``, or a positive one while alpha or dm is held fixed.
     """
 
     name: str
@@ -127,15 +163,44 @@ class Block:
         return tuple(v for v in AERO_VARIABLES if self.ranges[v][1] > self.ranges[v][0])
 
     def contains(self, other: Block) -> bool:
-        """True when ``other``'s box lies inside this one."""
+        """Whether ``other``'s box lies inside this one (its held-out points then also validate this block's fit).
+
+        Parameters
+        ----------
+        other : Block
+            Another block.
+
+        Returns
+        -------
+        bool
+            True when every range of ``other`` lies inside the same variable's range here.
+        """
         return all(
             self.ranges[v][0] <= other.ranges[v][0] and other.ranges[v][1] <= self.ranges[v][1] for v in AERO_VARIABLES
         )
 
     def draw(self, rng: np.random.Generator, schedule=None) -> tuple[AeroState, AeroState]:
-        """Uniform independent points: (fit, test) states.
+        """Independent uniform points of the box: ``n_fit`` to fit, ``n_test`` held out.
 
-        ``schedule`` is ``(alpha_grid, dm0)`` when :attr:`dm_band` is positive.
+        With a positive :attr:`dm_band`, ``dm`` is drawn in the band around the schedule's ``dm0(alpha)``
+        (linear interpolation), clipped to its range.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The random source (one ``rng.random((n_fit + n_test, 8))`` draw).
+        schedule : tuple of two ndarray, optional
+            ``(alpha_grid, dm0)`` [rad] from :func:`elevator_schedule`; needed when :attr:`dm_band` is positive.
+
+        Returns
+        -------
+        fit, test : AeroState
+            The points, each field an array of shape ``(n_fit,)`` resp. ``(n_test,)`` [rad / nondimensional].
+
+        Raises
+        ------
+        InputError
+            A positive :attr:`dm_band` without a ``schedule``.
         """
         n = self.n_fit + self.n_test
         u = rng.random((n, len(AERO_VARIABLES)))
@@ -159,6 +224,14 @@ class Block:
         return fit, test
 
     def to_dict(self) -> dict:
+        """The block as plain data for an aircraft file's provenance (angles in degrees).
+
+        Returns
+        -------
+        dict
+            ``coefficients``, ``n_fit``, ``n_test``, ``ranges`` (``<angle>_deg`` keys in deg, the rates
+            nondimensional), and with a dm band ``dm_band_deg`` and ``dm_schedule`` (its description).
+        """
         rng = {}
         for v in AERO_VARIABLES:
             lo, hi = self.ranges[v]
@@ -185,6 +258,20 @@ class SamplingDesign:
     Every coefficient appears in exactly one block (it is fitted on that
     block's fit points and validated on its held-out points, and also on the
     held-out points of any block whose box contains it).
+
+    Parameters
+    ----------
+    blocks : sequence of Block
+        At least one; unique names; each coefficient in at most one block.
+    seed : int
+        Non-negative; block ``k`` draws from ``numpy.random.default_rng([seed, k])``.
+    description : str
+        One line for provenance and reports (not compared).
+
+    Raises
+    ------
+    InputError
+        No block, duplicate block names, a coefficient in two blocks, or a negative or non-integer seed.
     """
 
     blocks: tuple[Block, ...]
@@ -208,13 +295,47 @@ class SamplingDesign:
             raise InputError(f"design seed must be a non-negative integer, got {self.seed!r}")
 
     def block_of(self, coefficient: str) -> Block:
+        """The block that fits ``coefficient``.
+
+        Parameters
+        ----------
+        coefficient : str
+            A name of :data:`gna.aero.COEFFICIENTS`.
+
+        Returns
+        -------
+        Block
+            The block listing it.
+
+        Raises
+        ------
+        InputError
+            No block fits it.
+        """
         for b in self.blocks:
             if coefficient in b.coefficients:
                 return b
         raise InputError(f"the sampling design fits no block for {coefficient}")
 
     def draw(self, source=None) -> dict[str, tuple[AeroState, AeroState]]:
-        """Block name -> (fit states, held-out states); ``source`` is needed by blocks with a dm band."""
+        """The points of every block, reproducibly from :attr:`seed`.
+
+        Parameters
+        ----------
+        source : object, optional
+            The source model (``coefficients(AeroState)``), needed by blocks with a dm band to compute
+            their :func:`elevator_schedule`.
+
+        Returns
+        -------
+        dict of str to (AeroState, AeroState)
+            Block name -> (fit states, held-out states) (:meth:`Block.draw`).
+
+        Raises
+        ------
+        InputError
+            A block with a dm band and no ``source`` (from :func:`elevator_schedule`).
+        """
         out = {}
         for k, b in enumerate(self.blocks):
             sched = elevator_schedule(source, b.ranges["alpha"], b.ranges["dm"]) if b.dm_band > 0 else None
@@ -222,6 +343,13 @@ class SamplingDesign:
         return out
 
     def to_dict(self) -> dict:
+        """The design as plain data for an aircraft file's provenance.
+
+        Returns
+        -------
+        dict
+            ``method``, ``seed``, ``description`` and ``blocks`` (name -> :meth:`Block.to_dict`).
+        """
         return {
             "method": "independent uniform points per block, numpy.random.default_rng([seed, block index])",
             "seed": int(self.seed),
@@ -249,6 +377,29 @@ def elevator_schedule(
     ``Cm(alpha, 0, 0, 0, 0, 0, dm0, 0) = 0`` by bisection, all grid points at
     once; where Cm does not change sign over ``dm_range`` the end with the
     smaller ``|Cm|`` is taken.
+
+    Parameters
+    ----------
+    source : object
+        The source model: ``source.coefficients(AeroState)`` gives the coefficients (its ``Cm`` is used).
+    alpha_range : tuple of float
+        ``(lo, hi)`` angle of attack [rad].
+    dm_range : tuple of float
+        ``(lo, hi)`` elevator deflection [rad] searched.
+    step : float
+        Largest grid spacing in alpha [rad] (default 0.5 deg; at least two points).
+    iterations : int
+        Bisection steps.
+
+    Returns
+    -------
+    alpha, dm0 : ndarray, shape (n,)
+        The alpha grid and the trim elevator at each point [rad].
+
+    Raises
+    ------
+    InputError
+        ``source`` is None.
     """
     if source is None:
         raise InputError("a dm band around the trim schedule needs the source model")
@@ -296,6 +447,8 @@ def standard_design(
         Variable -> (lo, hi), rad / nondimensional, for all eight variables.
     n_fit, n_test : int
         Points of the box block.
+    seed : int
+        Seed of the design (:class:`SamplingDesign`).
     longitudinal_plane : bool
         Fit CD, CL, Cm on the plane beta = phat = rhat = dl = dn = 0 (those
         ranges must contain 0); otherwise on the box.
@@ -304,6 +457,17 @@ def standard_design(
     dm_band : float
         Half-width [rad] of the dm band around the trim schedule on the plane
         (0: dm over its whole range).
+
+    Returns
+    -------
+    SamplingDesign
+        Blocks ``box`` (CY, Cl, Cn; all six coefficients without the plane) and ``longitudinal`` (CD, CL, Cm).
+
+    Raises
+    ------
+    InputError
+        With the plane, a range of beta, phat, rhat, dl or dn that excludes 0; or an invalid block
+        (:class:`Block`).
     """
     box = Block("box", ("CY", "Cl", "Cn") if longitudinal_plane else COEFFICIENTS, ranges, n_fit, n_test)
     if not longitudinal_plane:

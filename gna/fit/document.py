@@ -30,7 +30,23 @@ def _deg(x: float) -> float:
 
 
 def envelope_section(design: SamplingDesign, limits_deg: Mapping[str, float], limits_source: str) -> dict:
-    """Validity of the fit (the design's alpha and beta ranges) and the surface limits."""
+    """The ``[envelope]`` table of a fitted aircraft: the fit's validity and the surface limits.
+
+    Parameters
+    ----------
+    design : SamplingDesign
+        The fit's design; its blocks' alpha range and largest ``|beta|`` bound where the fit holds.
+    limits_deg : mapping of str to float
+        Surface deflection limits ``{"dl": ..., "dm": ..., "dn": ...}`` [deg] (any subset).
+    limits_source : str
+        Where the surface limits come from (provenance text).
+
+    Returns
+    -------
+    dict
+        ``alpha_min_deg``, ``alpha_max_deg``, ``beta_max_deg``, ``<surface>_max_deg`` and ``source``
+        (degrees, as the aircraft files are written).
+    """
     a_lo = min(b.ranges["alpha"][0] for b in design.blocks)
     a_hi = max(b.ranges["alpha"][1] for b in design.blocks)
     b_max = max(max(abs(b.ranges["beta"][0]), abs(b.ranges["beta"][1])) for b in design.blocks)
@@ -45,11 +61,11 @@ def envelope_section(design: SamplingDesign, limits_deg: Mapping[str, float], li
     return out
 
 
-def statistics_summary(result: FitResult, set_name: str = "test") -> str:
+def _statistics_summary(result: FitResult, set_name: str = "test") -> str:
     return ", ".join(f"{c} {s[set_name].r2:.4f} ({s[set_name].rms:.5f})" for c, s in result.stats.items())
 
 
-def trim_summary(trim: Mapping, reference: ReferenceCondition) -> str:
+def _trim_summary(trim: Mapping, reference: ReferenceCondition) -> str:
     g, s = trim["gna"], trim["source"]
     return (
         f"level flight at {reference.label}: GNA fit alpha {g['alpha_deg']:.3f} deg, dm {g['dm_deg']:.3f} deg, "
@@ -73,7 +89,43 @@ def fitted_document(
     date: str,
     command: str,
 ) -> dict:
-    """The aircraft document (a dict ready for :func:`gna.fit.writer.aircraft_document`)."""
+    """The aircraft document of a fit (a dict ready for :func:`gna.fit.writer.aircraft_document`).
+
+    All parameters are keywords.
+
+    Parameters
+    ----------
+    ident : str
+        Aircraft id (the file's stem).
+    name : str
+        Human-readable aircraft name.
+    source_provenance : mapping of str to str
+        The source model's ``provenance()``: ``"source"``, and ``"source_model"`` when it has one.
+    sections : mapping of str to dict
+        The vehicle tables ``mass``, ``geometry``, ``engines`` in the aircraft-file layout (source units).
+    envelope : dict
+        The ``[envelope]`` table (:func:`envelope_section`).
+    design : SamplingDesign
+        The sampling design of the fit.
+    result : FitResult
+        The fitted table, per-coefficient statistics and condition numbers (:func:`gna.fit.lstsq.fit_table`).
+    reference : ReferenceCondition
+        The trim-check condition.
+    trim : mapping or None
+        :func:`gna.fit.quality.trim_comparison` at ``reference``, or None when not computed.
+    notes : str
+        Known limits of the fit (provenance text).
+    date : str
+        ISO date written into the provenance.
+    command : str
+        The command that regenerates the file.
+
+    Returns
+    -------
+    dict
+        ``id``, ``name``, ``[provenance]``, the vehicle sections, ``[envelope]``, the machine-readable
+        ``[fit]`` record and ``[aero]`` (one term a row, with its standard error).
+    """
     prov = {"source": source_provenance["source"]}
     if "source_model" in source_provenance:
         prov["source_model"] = source_provenance["source_model"]
@@ -87,8 +139,8 @@ def fitted_document(
                 f"(details in [fit.design])"
             ),
             "reference_condition": f"{reference.label}: V = {reference.V:.6g} m/s, altitude {reference.altitude:.6g} m",
-            "statistics": "held-out R2 (RMS) per coefficient: " + statistics_summary(result),
-            "trim_check": trim_summary(trim, reference) if trim else "not computed",
+            "statistics": "held-out R2 (RMS) per coefficient: " + _statistics_summary(result),
+            "trim_check": _trim_summary(trim, reference) if trim else "not computed",
             "regenerate": command,
             "notes": notes,
         }
@@ -140,7 +192,33 @@ def _design_tables(design: SamplingDesign) -> dict:
 
 
 def fitted_aircraft(ident: str, name: str, sections: Mapping[str, dict], envelope: dict, table, source_name: str):
-    """The :class:`~gna.aircraft.Aircraft` of a fit (to trim it), with errors naming the source of the data."""
+    """The :class:`~gna.aircraft.Aircraft` of a fit (to trim it), with errors naming the source of the data.
+
+    Parameters
+    ----------
+    ident : str
+        Aircraft id.
+    name : str
+        Human-readable aircraft name.
+    sections : mapping of str to dict
+        The vehicle tables ``mass``, ``geometry``, ``engines`` in the aircraft-file layout.
+    envelope : dict
+        The ``[envelope]`` table (:func:`envelope_section`).
+    table : TermTable
+        The fitted aerodynamic term table.
+    source_name : str
+        The source model's name (for the message).
+
+    Returns
+    -------
+    Aircraft
+        Loaded by :func:`gna.aircraft.aircraft_from_dict` (SI units).
+
+    Raises
+    ------
+    InputError
+        The vehicle data do not load as an aircraft; the message names ``source_name``.
+    """
     from ..aircraft import aircraft_from_dict
     from ..errors import InputError
 
@@ -158,5 +236,21 @@ def fitted_aircraft(ident: str, name: str, sections: Mapping[str, dict], envelop
 
 
 def render(doc: Mapping, title: str, command: str) -> str:
+    """The TOML text of a fitted aircraft document, under a header naming the generating command.
+
+    Parameters
+    ----------
+    doc : mapping
+        The document (:func:`fitted_document`).
+    title : str
+        First header line.
+    command : str
+        The command that regenerates the file.
+
+    Returns
+    -------
+    str
+        The file's text (:func:`gna.fit.writer.aircraft_document`: checked to parse and to load).
+    """
     header = f"{title}\nGenerated by {command} (gna.fit); do not edit by hand."
     return aircraft_document(doc, header)

@@ -43,7 +43,20 @@ class SingularFitError(InputError):
 
 @dataclass(frozen=True)
 class Samples:
-    """Evaluations of a source model: states and the six coefficients, 1-D arrays of equal length."""
+    """Evaluations of a source model: states and the six coefficients, 1-D arrays of equal length.
+
+    Parameters
+    ----------
+    state : AeroState
+        The eight aerodynamic variables, arrays of shape (n,) [rad / nondimensional].
+    coefficients : Coefficients
+        The six coefficients at those states, arrays of shape (n,).
+
+    Raises
+    ------
+    InputError
+        Fields not all 1-D of one length, or a non-finite coefficient (the message names the sample).
+    """
 
     state: AeroState
     coefficients: Coefficients
@@ -63,7 +76,18 @@ class Samples:
         return int(np.shape(self.state.alpha)[0])
 
     def take(self, index) -> Samples:
-        """The samples at ``index`` (slice or integer array)."""
+        """A subset of the samples.
+
+        Parameters
+        ----------
+        index : slice or array_like of int or bool
+            Which samples (numpy indexing of the 1-D arrays).
+
+        Returns
+        -------
+        Samples
+            The selected states and coefficients.
+        """
         return Samples(
             AeroState(*(np.asarray(v)[index] for v in self.state)),
             Coefficients(*(np.asarray(v)[index] for v in self.coefficients)),
@@ -71,7 +95,25 @@ class Samples:
 
     @classmethod
     def from_source(cls, source, state: AeroState) -> Samples:
-        """Evaluate ``source.coefficients`` on 1-D state arrays."""
+        """Evaluate a source model at states.
+
+        Parameters
+        ----------
+        source : object
+            The source model: ``source.coefficients(AeroState)`` returns the six coefficients.
+        state : AeroState
+            The states (fields broadcast together, then flattened to shape (n,)).
+
+        Returns
+        -------
+        Samples
+            The flattened states and the source's coefficients, broadcast to shape (n,).
+
+        Raises
+        ------
+        InputError
+            A non-finite coefficient from the source (:class:`Samples`).
+        """
         arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in state))
         st = AeroState(*(np.ravel(a).copy() for a in arrays))
         c = source.coefficients(st)
@@ -81,7 +123,21 @@ class Samples:
 
 @dataclass(frozen=True)
 class CoefficientStats:
-    """Agreement of a fitted coefficient with the source on one sample set."""
+    """Agreement of a fitted coefficient with the source on one sample set.
+
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    rms : float
+        Root-mean-square error (model minus source).
+    max_abs : float
+        Largest absolute error.
+    r2 : float
+        Coefficient of determination ``1 - SS_res / SS_tot``.
+    range : float
+        Peak-to-peak range of the source values.
+    """
 
     n: int
     rms: float
@@ -90,11 +146,32 @@ class CoefficientStats:
     range: float
 
     def to_dict(self) -> dict:
+        """The statistics as plain data (the ``[fit.statistics]`` tables of an aircraft file).
+
+        Returns
+        -------
+        dict
+            ``n``, ``rms``, ``max_abs``, ``r2``, ``range``.
+        """
         return {"n": self.n, "rms": self.rms, "max_abs": self.max_abs, "r2": self.r2, "range": self.range}
 
 
 def statistics(model: np.ndarray, source: np.ndarray) -> CoefficientStats:
-    """RMS, max abs error, R^2 and range of ``source`` for the predictions ``model``."""
+    """RMS, max abs error, R^2 and range of ``source`` for the predictions ``model``.
+
+    Parameters
+    ----------
+    model : ndarray, shape (n,)
+        Predicted coefficient values (the fitted table).
+    source : ndarray, shape (n,)
+        The source model's values at the same states, n >= 1.
+
+    Returns
+    -------
+    CoefficientStats
+        ``R^2 = 1 - SS_res / SS_tot`` about the mean of ``source``; when the source is constant, 1 for an
+        exact model and ``-inf`` otherwise.
+    """
     y = np.asarray(source, dtype=float)
     e = np.asarray(model, dtype=float) - y
     ss_res = float(np.sum(e * e))
@@ -117,10 +194,27 @@ class CoefficientFit:
 
 
 def fit_coefficient(structure: TermTable, coefficient: str, samples: Samples) -> CoefficientFit:
-    """Fit the terms of ``coefficient`` to ``samples``.
+    """Fit the terms of ``coefficient`` to ``samples`` by ordinary least squares (SVD of unit-RMS columns).
+
+    Parameters
+    ----------
+    structure : TermTable
+        Terms to fit (their values are ignored).
+    coefficient : str
+        One of :data:`gna.aero.COEFFICIENTS`.
+    samples : Samples
+        States and source coefficients.
+
+    Returns
+    -------
+    CoefficientFit
+        Values and standard errors of the coefficient's terms (in table order), the condition number of
+        the column-scaled regressor matrix and the number of samples.
 
     Raises
     ------
+    InputError
+        The structure has no term for ``coefficient``.
     SingularFitError
         Too few samples, a constant non-intercept regressor, or a rank-deficient
         regressor matrix; the message names the terms involved.
@@ -186,7 +280,13 @@ class FitResult:
     stats: Mapping[str, Mapping[str, CoefficientStats]]
 
     def std_errors(self) -> dict[int, float]:
-        """Standard error of each term's value, by term index."""
+        """Standard error of each term's value, by term index.
+
+        Returns
+        -------
+        dict of int to float
+            Term index (theta number) -> standard error ``sqrt(s^2 (X^T X)^-1_jj)``.
+        """
         out = {}
         for coef, f in self.fits.items():
             for t, se in zip(self.table.terms_of(coef), f.std_errors):
@@ -214,6 +314,18 @@ def fit_table(
         fitted coefficient is evaluated, besides its own fit set (``"fit"``).
     source : str
         Text stored as each fitted term's ``source``.
+
+    Returns
+    -------
+    FitResult
+        The fitted table, the per-coefficient fits and their statistics on ``"fit"`` and each validation set.
+
+    Raises
+    ------
+    InputError
+        A coefficient of ``structure`` without a fit set.
+    SingularFitError
+        A coefficient's least-squares problem has no unique solution (:func:`fit_coefficient`).
     """
     coefs = [c for c in COEFFICIENTS if structure.terms_of(c)]
     missing = [c for c in coefs if c not in fit_sets]

@@ -20,7 +20,18 @@ from .lstsq import FitResult, Samples, fit_table
 
 
 def gna45_structure() -> TermTable:
-    """The 45-term Grauer--Morelli structure: the terms of the bundled ``f16c`` file, values zeroed."""
+    """The 45-term Grauer--Morelli structure (paper eq. (GNA)): the terms of the bundled ``f16c`` file, values zeroed.
+
+    Returns
+    -------
+    TermTable
+        The 45 terms (coefficient and monomial), values 0 and no source, structure ``"gna45"``.
+
+    Raises
+    ------
+    InputError
+        The bundled ``f16c.toml`` does not declare the ``gna45`` structure.
+    """
     table = load_aircraft("f16c").aero
     if table.structure != "gna45":
         raise InputError(f"f16c.toml declares structure {table.structure!r}, expected 'gna45'")
@@ -28,7 +39,23 @@ def gna45_structure() -> TermTable:
 
 
 def structure_from_file(path: str) -> TermTable:
-    """The term structure of an aircraft TOML file (values zeroed)."""
+    """The term structure of an aircraft TOML file (values zeroed), to fit another structure than GNA's.
+
+    Parameters
+    ----------
+    path : str
+        A bundled aircraft id or a path to an aircraft ``.toml`` file (:func:`gna.aircraft.load_aircraft`).
+
+    Returns
+    -------
+    TermTable
+        The file's terms, values 0 and no source, with its structure name.
+
+    Raises
+    ------
+    InputError
+        The file cannot be loaded as an aircraft (from :func:`gna.aircraft.load_aircraft`).
+    """
     table = load_aircraft(path).aero
     return TermTable(tuple(replace(t, value=0.0, source="") for t in table.terms), table.structure)
 
@@ -44,8 +71,25 @@ def fit_source(
     (``"test_<block>"``, e.g. CD fitted on the longitudinal plane is also
     scored on the 8-D box).
 
-    ``check_envelope=False`` samples beyond the source's data (JSBSim holds
-    table end values there; the GTM database extrapolates linearly).
+    Parameters
+    ----------
+    source : object
+        The source model: ``coefficients(AeroState)`` gives the six coefficients; optional ``name`` (for
+        the terms' source text) and ``check_design(design)`` (refuses a design beyond its data).
+    structure : TermTable
+        Terms to fit (values ignored), e.g. :func:`gna45_structure`.
+    design : SamplingDesign
+        Where the source is sampled.
+    term_source : str, optional
+        Text stored as each fitted term's ``source`` (default: ``"least-squares fit to <source name>"``).
+    check_envelope : bool
+        Refuse a design beyond the source's data; False samples beyond it (JSBSim holds
+        table end values there; the GTM database extrapolates linearly).
+
+    Returns
+    -------
+    FitResult
+        The fitted table and its statistics on the ``"fit"``, ``"test"`` and ``"test_<block>"`` sets.
 
     Raises
     ------

@@ -29,6 +29,11 @@ class ReferenceCondition:
         Altitude [m] (ISA density).
     label : str
         How the condition was stated (e.g. ``"75 kt EAS at sea level"``).
+
+    Raises
+    ------
+    InputError
+        A speed that is not positive and finite, or a non-finite altitude.
     """
 
     V: float
@@ -42,11 +47,30 @@ class ReferenceCondition:
             raise InputError(f"reference altitude must be finite, got {self.altitude} m")
 
     def to_dict(self) -> dict:
+        """The condition as plain data (``[fit.reference]`` of an aircraft file).
+
+        Returns
+        -------
+        dict
+            ``V_ms`` [m/s], ``altitude_m`` [m] and ``label``.
+        """
         return {"V_ms": self.V, "altitude_m": self.altitude, "label": self.label}
 
 
 def trim_record(t: TrimResult) -> dict:
-    """The quantities the quality table compares, in degrees and newtons."""
+    """The quantities the quality table compares, in degrees and newtons.
+
+    Parameters
+    ----------
+    t : TrimResult
+        A level trim (:func:`gna.trim.trim_level`).
+
+    Returns
+    -------
+    dict
+        ``alpha_deg``, ``dm_deg``, ``dl_deg``, ``dn_deg``, ``mu_deg`` [deg], ``thrust_N`` [N] and the
+        trim's ``max_residual``.
+    """
     v = t.values
     return {
         "alpha_deg": math.degrees(v["alpha"]),
@@ -62,12 +86,26 @@ def trim_record(t: TrimResult) -> dict:
 def trim_comparison(aircraft: Aircraft, source, reference: ReferenceCondition) -> dict:
     """Level trim of the fitted aircraft and of its source model at ``reference``.
 
+    Parameters
+    ----------
+    aircraft : Aircraft
+        The fitted aircraft (:func:`gna.fit.document.fitted_aircraft`).
+    source : object
+        The source model, put in place of ``aircraft.aero`` (``coefficients(AeroState)``).
+    reference : ReferenceCondition
+        Speed and altitude of the straight, level, wings-level trim.
+
     Returns
     -------
     dict
         ``{"gna": {...}, "source": {...}, "difference": {...}}`` with
         :func:`trim_record` entries; differences are GNA minus source
-        (thrust as a fraction of the source's).
+        (thrust as a fraction of the source's; ``inf`` when the source's thrust is 0).
+
+    Raises
+    ------
+    ConvergenceError, DomainError
+        Either model cannot be trimmed there, e.g. outside its envelope (from :func:`gna.trim.trim_level`).
     """
     fitted = trim_level(aircraft, reference.V, reference.altitude)
     src = trim_level(dataclasses.replace(aircraft, aero=source), reference.V, reference.altitude)

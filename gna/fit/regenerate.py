@@ -305,7 +305,22 @@ SPECS: dict[str, FitSpec] = {
 
 
 def build(spec: FitSpec, date: str) -> tuple[dict, str]:
-    """Fit ``spec`` and return ``(document, TOML text)`` dated ``date``."""
+    """Fit one aircraft from its source: design, least squares, envelope, trim check, document.
+
+    Parameters
+    ----------
+    spec : FitSpec
+        The aircraft to build (:data:`SPECS`).
+    date : str
+        ISO date written into the provenance.
+
+    Returns
+    -------
+    document : dict
+        The aircraft document (:func:`gna.fit.document.fitted_document`).
+    text : str
+        Its TOML text (:func:`gna.fit.document.render`).
+    """
     src = spec.make_source()
     design = spec.design(src)
     result = fit_source(src, gna45_structure(), design)
@@ -332,7 +347,7 @@ def build(spec: FitSpec, date: str) -> tuple[dict, str]:
     return doc, render(doc, spec.title or spec.name, COMMAND)
 
 
-def aircraft_dir() -> Path:
+def _aircraft_dir() -> Path:
     return _data_dir("aircraft")
 
 
@@ -363,12 +378,17 @@ def regenerate(
     -------
     dict
         id -> list of differences from the committed file (empty when current).
+
+    Raises
+    ------
+    GflatError
+        An id not in :data:`SPECS`.
     """
     unknown = [i for i in (ids or []) if i not in SPECS]
     if unknown:
         raise GflatError(f"unknown fitted aircraft {', '.join(unknown)}; known: {', '.join(SPECS)}")
     today = today or datetime.date.today().isoformat()
-    committed_dir = Path(committed_dir) if committed_dir is not None else aircraft_dir()
+    committed_dir = Path(committed_dir) if committed_dir is not None else _aircraft_dir()
     target_dir = Path(out_dir) if out_dir is not None else committed_dir
     report = {}
     for ident in ids or list(SPECS):
@@ -390,6 +410,19 @@ def regenerate(
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python -m gna.fit.regenerate [IDS...] [--check] [--out DIR] [--docs FILE]``.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Command-line arguments (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        Exit status: 0 done, 1 with ``--check`` when a file is not current, 2 on an error (one line on
+        stderr).
+    """
     p = argparse.ArgumentParser(prog="python -m gna.fit.regenerate", description=__doc__.split("\n\n")[0])
     p.add_argument("ids", nargs="*", help=f"subset of {', '.join(SPECS)}")
     p.add_argument("--check", action="store_true", help="compare with the committed files, write nothing")
@@ -404,7 +437,29 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def run(ids: list[str] | None, check: bool, out: Path | None, docs: Path | None) -> int:
-    """Regenerate (or check) and print one line per file; the exit status of the command."""
+    """Regenerate (or check) and print one line per file, and its first differences.
+
+    Parameters
+    ----------
+    ids : list of str or None
+        Subset of :data:`SPECS` (None: all).
+    check : bool
+        Compare with the committed files instead of writing.
+    out : Path or None
+        Output directory (None: the package's ``gna/data/aircraft``).
+    docs : Path or None
+        Also rewrite (or check) the generated block of this ``docs/fit_quality.md``.
+
+    Returns
+    -------
+    int
+        The command's exit status: 1 with ``check`` when something is not current, else 0.
+
+    Raises
+    ------
+    GflatError
+        An unknown id (from :func:`regenerate`).
+    """
     from .report import update_docs
 
     report = regenerate(out, ids, check)

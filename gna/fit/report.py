@@ -28,7 +28,22 @@ TARGET_DM_DEG = 1.0
 
 
 def num(x: float, digits: int, sign: bool = False) -> str:
-    """``x`` with ``digits`` decimals, never "-0.000" (round-off must not change the text)."""
+    """``x`` with ``digits`` decimals, never "-0.000" (round-off must not change the text).
+
+    Parameters
+    ----------
+    x : float
+        The number.
+    digits : int
+        Decimals.
+    sign : bool
+        Always print the sign (``+0.000`` for zero).
+
+    Returns
+    -------
+    str
+        The fixed-point text.
+    """
     text = f"{x:+.{digits}f}" if sign else f"{x:.{digits}f}"
     if float(text) == 0.0:
         text = f"{0.0:+.{digits}f}" if sign else f"{0.0:.{digits}f}"
@@ -36,7 +51,23 @@ def num(x: float, digits: int, sign: bool = False) -> str:
 
 
 def record(ident: str) -> dict:
-    """The parsed aircraft file of ``ident`` (with its ``[fit]`` record)."""
+    """The parsed aircraft file of ``ident`` (with its ``[fit]`` record).
+
+    Parameters
+    ----------
+    ident : str
+        A bundled aircraft id or an aircraft file path (:func:`gna.aircraft.load_aircraft`).
+
+    Returns
+    -------
+    dict
+        The file's TOML as read (source units, ``[fit]`` included).
+
+    Raises
+    ------
+    InputError
+        The file has no ``[fit]`` record (not a fitted aircraft), or cannot be loaded as an aircraft.
+    """
     path = load_aircraft(ident).path
     with open(path, "rb") as fh:
         doc = tomllib.load(fh)
@@ -46,6 +77,24 @@ def record(ident: str) -> dict:
 
 
 def statistics_table(ids=FITTED) -> str:
+    """The held-out statistics of each fitted coefficient, as a Markdown table.
+
+    Parameters
+    ----------
+    ids : sequence of str
+        Fitted aircraft ids (default :data:`FITTED`), read from their ``[fit]`` records (:func:`record`).
+
+    Returns
+    -------
+    str
+        One row per aircraft and coefficient: R², RMS and max abs error on the block's held-out points,
+        the range of the source values and R² on the 8-D box's held-out points.
+
+    Raises
+    ------
+    InputError
+        An aircraft without a ``[fit]`` record.
+    """
     rows = [
         "| aircraft | coef | R² held-out | RMS held-out | max abs held-out | range of source | R² on 8-D box |",
         "|---|---|---|---|---|---|---|",
@@ -63,6 +112,24 @@ def statistics_table(ids=FITTED) -> str:
 
 
 def trim_table(ids=FITTED) -> str:
+    """The level-trim check of each fitted aircraft against its source model, as a Markdown table.
+
+    Parameters
+    ----------
+    ids : sequence of str
+        Fitted aircraft ids (default :data:`FITTED`), read from their ``[fit]`` records (:func:`record`).
+
+    Returns
+    -------
+    str
+        One row per aircraft: alpha, dm and thrust of both models and their differences, and whether the
+        targets (:data:`TARGET_ALPHA_DEG`, :data:`TARGET_DM_DEG`) are met.
+
+    Raises
+    ------
+    InputError
+        An aircraft without a ``[fit]`` record.
+    """
     rows = [
         "| aircraft | reference condition | α GNA / source [deg] | Δα [deg] | δm GNA / source [deg] "
         "| Δδm [deg] | thrust GNA / source [N] | Δthrust | target (0.5°, 1°) |",
@@ -84,6 +151,23 @@ def trim_table(ids=FITTED) -> str:
 
 
 def lateral_trim_table(ids=FITTED) -> str:
+    """The lateral trim variables (dl, dn, mu) of both models of each fitted aircraft, as a Markdown table.
+
+    Parameters
+    ----------
+    ids : sequence of str
+        Fitted aircraft ids (default :data:`FITTED`), read from their ``[fit]`` records (:func:`record`).
+
+    Returns
+    -------
+    str
+        One row per aircraft, degrees.
+
+    Raises
+    ------
+    InputError
+        An aircraft without a ``[fit]`` record.
+    """
     rows = ["| aircraft | δl GNA / source [deg] | δn GNA / source [deg] | μ GNA / source [deg] |", "|---|---|---|---|"]
     for ident in ids:
         t = record(ident)["fit"]["trim"]
@@ -97,7 +181,24 @@ def lateral_trim_table(ids=FITTED) -> str:
 
 
 def f16_comparison() -> str:
-    """All 45 parameters of f16c and f16-jsbsim side by side, and their level trims."""
+    """All 45 parameters of f16c and f16-jsbsim side by side, and their level trims.
+
+    f16c (Grauer--Morelli's parameter set) is trimmed here at f16-jsbsim's reference condition; the two
+    f16-jsbsim trims are read from its ``[fit]`` record.
+
+    Returns
+    -------
+    str
+        Markdown: the parameter table (with the fit's standard errors), then the trim table and the two
+        aircraft's masses.
+
+    Raises
+    ------
+    InputError
+        The two files' term structures differ.
+    ConvergenceError, DomainError
+        f16c cannot be trimmed at the reference condition (from :func:`gna.trim.trim_level`).
+    """
     a, b = load_aircraft("f16c"), load_aircraft("f16-jsbsim")
     rec = record("f16-jsbsim")
     se = {t["theta"]: t.get("std_error") for t in rec["aero"]["terms"]}
@@ -129,7 +230,14 @@ def f16_comparison() -> str:
 
 
 def generated_block() -> str:
-    """The generated part of ``docs/fit_quality.md`` (between the markers)."""
+    """The generated part of ``docs/fit_quality.md``.
+
+    Returns
+    -------
+    str
+        Markdown from :data:`BEGIN` to :data:`END` inclusive: the statistics, trim, lateral trim and F-16
+        tables with their headings.
+    """
     parts = [
         BEGIN,
         "",
@@ -161,7 +269,25 @@ def generated_block() -> str:
 
 
 def update_docs(path: str | Path, check: bool = False) -> bool:
-    """Rewrite (or, with ``check``, compare) the generated block of ``path``; True when it was current."""
+    """Rewrite (or, with ``check``, compare) the generated block of a documentation file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The Markdown file, holding the :data:`BEGIN` and :data:`END` markers.
+    check : bool
+        Compare only; write nothing.
+
+    Returns
+    -------
+    bool
+        True when the block was current (nothing written).
+
+    Raises
+    ------
+    InputError
+        The file does not exist or lacks the markers.
+    """
     path = Path(path)
     if not path.is_file():
         raise InputError(f"documentation file not found: {path}")

@@ -54,7 +54,26 @@ def _require(path: Path) -> Path:
 
 
 def vendor_gtm(src: Path, out: Path) -> dict[str, str]:
-    """Write the GTM nominal tables, vehicle data and reference points; return sha256 of each output."""
+    """Write the GTM nominal tables, vehicle data and reference points.
+
+    Parameters
+    ----------
+    src : Path
+        Folder holding ``gtm_aero_db.json``, ``vehicle.json`` and ``reference_points.csv``.
+    out : Path
+        Output folder (created): ``gtm_t2_aero_nominal.json.gz`` (the :data:`GTM_NOMINAL_TABLES` and the
+        linear derivatives, gzip with mtime 0) and the two files copied unchanged.
+
+    Returns
+    -------
+    dict of str to str
+        Output file name -> sha256 hex digest.
+
+    Raises
+    ------
+    InputError
+        A missing source file, or a database lacking one of :data:`GTM_NOMINAL_TABLES`.
+    """
     db = json.loads(_require(src / "gtm_aero_db.json").read_text())
     missing = [t for t in GTM_NOMINAL_TABLES if t not in db["tables"]]
     if missing:
@@ -84,7 +103,25 @@ def vendor_gtm(src: Path, out: Path) -> dict[str, str]:
 
 
 def vendor_twin_otter(src: Path, out: Path) -> dict[str, str]:
-    """Copy the Twin Otter clean linear model; return its sha256."""
+    """Copy the Twin Otter clean linear model.
+
+    Parameters
+    ----------
+    src : Path
+        Folder holding ``aircraft_dat_clean.csv``.
+    out : Path
+        Output folder (created).
+
+    Returns
+    -------
+    dict of str to str
+        ``{"aircraft_dat_clean.csv": sha256 hex digest}``.
+
+    Raises
+    ------
+    InputError
+        The source file is missing.
+    """
     out.mkdir(parents=True, exist_ok=True)
     target = out / "aircraft_dat_clean.csv"
     shutil.copyfile(_require(src / "aircraft_dat_clean.csv"), target)
@@ -92,6 +129,23 @@ def vendor_twin_otter(src: Path, out: Path) -> dict[str, str]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python -m gna.fit.vendor SHARED_DATA_DIR [OUT_DIR]``: vendor both sources, print their sha256.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Command-line arguments (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        Exit status: 0, or 2 (with the usage printed) without arguments.
+
+    Raises
+    ------
+    InputError
+        A missing source file (from :func:`vendor_gtm`, :func:`vendor_twin_otter`).
+    """
     argv = sys.argv[1:] if argv is None else argv
     if not argv:
         print(__doc__)

@@ -29,7 +29,24 @@ def _key(k: str) -> str:
 
 
 def value(v: Any) -> str:
-    """A TOML value (strings, bools, ints, floats incl. inf/nan, lists, inline tables)."""
+    """The TOML text of one value.
+
+    Parameters
+    ----------
+    v : object
+        A str, bool, int, float (inf and nan included), numpy scalar, list or tuple, or mapping (written
+        as an inline table), nested freely.
+
+    Returns
+    -------
+    str
+        TOML text: strings as basic strings, floats by ``repr`` (shortest round-trip form).
+
+    Raises
+    ------
+    InputError
+        A value of another type.
+    """
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, int):
@@ -62,7 +79,27 @@ class Inline(dict):
 
 
 def table(path: str, body: Mapping[str, Any]) -> list[str]:
-    """Lines of ``[path]`` with its scalar keys, then its sub-tables."""
+    """Lines of ``[path]`` with its scalar keys, then its sub-tables.
+
+    A list under the key ``terms`` is written one inline table a line (the ``[aero]`` terms).
+
+    Parameters
+    ----------
+    path : str
+        Dotted table name (keys quoted where needed); empty for the top level (no header line).
+    body : mapping
+        Keys -> values; a mapping that is not :class:`Inline` becomes a sub-table ``[path.key]``.
+
+    Returns
+    -------
+    list of str
+        The lines, sub-tables separated by an empty line.
+
+    Raises
+    ------
+    InputError
+        A value that cannot be written (:func:`value`).
+    """
     lines = [f"[{path}]"] if path else []
     for k, v in body.items():
         if not _is_table(v):
@@ -80,7 +117,28 @@ def table(path: str, body: Mapping[str, Any]) -> list[str]:
 
 
 def aircraft_document(doc: Mapping[str, Any], header: str) -> str:
-    """TOML text of an aircraft document; checked to parse and to load as an aircraft."""
+    """TOML text of an aircraft document; checked to parse and to load as an aircraft.
+
+    Parameters
+    ----------
+    doc : mapping
+        The document: top-level keys (``id``, ``name``) and tables (:func:`gna.fit.document.fitted_document`).
+    header : str
+        Comment lines written first (each prefixed ``#``).
+
+    Returns
+    -------
+    str
+        The file's text.
+
+    Raises
+    ------
+    RuntimeError
+        The text does not parse as TOML (a bug of this writer, not of the input).
+    InputError
+        The document does not load as an aircraft (:func:`gna.aircraft.aircraft_from_dict`), or holds a value
+        that cannot be written.
+    """
     lines = [f"# {line}" if line else "#" for line in header.splitlines()]
     top = {k: v for k, v in doc.items() if not _is_table(v)}
     lines.extend(table("", top))
@@ -100,7 +158,24 @@ def aircraft_document(doc: Mapping[str, Any], header: str) -> str:
 def differences(
     a: Any, b: Any, *, rtol: float = 1e-8, atol: float = 1e-10, ignore: tuple[str, ...] = (), path: str = ""
 ) -> list[str]:
-    """Where two parsed documents differ: floats beyond ``atol + rtol*max(|a|,|b|)``, anything else exactly."""
+    """Where two parsed documents differ: floats beyond ``atol + rtol*max(|a|,|b|)``, anything else exactly.
+
+    Parameters
+    ----------
+    a, b : object
+        Parsed TOML values (mappings and lists compared recursively).
+    rtol, atol : float
+        Relative and absolute tolerance on numbers when either side is a float.
+    ignore : tuple of str
+        Dotted paths not compared (e.g. ``"provenance.date"``).
+    path : str
+        Dotted path of ``a`` and ``b`` in their documents (prefix of the messages).
+
+    Returns
+    -------
+    list of str
+        One line a difference (``"path: a vs b"``, ``"path: only in first"``, ...); empty when equal.
+    """
     if path in ignore:
         return []
     if isinstance(a, Mapping) and isinstance(b, Mapping):

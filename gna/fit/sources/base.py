@@ -24,14 +24,40 @@ from ..design import SamplingDesign, format_range, format_value
 def stability_from_body(alpha, CX, CZ):
     """Stability-axis ``(CD, CL)`` from body-axis ``CX`` (forward) and ``CZ`` (down).
 
-    ``CD = -(CX cos a + CZ sin a)``, ``CL = CX sin a - CZ cos a``.
+    ``CD = -(CX cos a + CZ sin a)``, ``CL = CX sin a - CZ cos a``: the body force rotated through alpha
+    about y into stability axes, drag along ``-x_s`` and lift along ``-z_s`` (docs/conventions.md).
+
+    Parameters
+    ----------
+    alpha : float or ndarray
+        Angle of attack [rad].
+    CX, CZ : float or ndarray
+        Body-axis force coefficients along x (forward) and z (down), broadcast with ``alpha``.
+
+    Returns
+    -------
+    CD, CL : float or ndarray
+        Stability-axis drag and lift coefficients.
     """
     ca, sa = np.cos(alpha), np.sin(alpha)
     return -(CX * ca + CZ * sa), CX * sa - CZ * ca
 
 
 def broadcast_state(state: AeroState) -> tuple[AeroState, tuple[int, ...]]:
-    """Float arrays of the state broadcast together, and their common shape."""
+    """Float arrays of the state broadcast together, and their common shape.
+
+    Parameters
+    ----------
+    state : AeroState
+        The eight aerodynamic variables (floats or arrays) [rad / nondimensional].
+
+    Returns
+    -------
+    state : AeroState
+        The same variables as float arrays of one shape (read-only broadcast views).
+    shape : tuple of int
+        Their common shape.
+    """
     arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in state))
     return AeroState(*arrays), arrays[0].shape
 
@@ -56,14 +82,37 @@ class SourceModel(abc.ABC):
 
     @abc.abstractmethod
     def coefficients(self, state: AeroState) -> Coefficients:
-        """The six coefficients at ``state`` (arrays broadcast together)."""
+        """The six coefficients in the project's conventions.
+
+        Parameters
+        ----------
+        state : AeroState
+            The eight aerodynamic variables (floats or arrays, broadcast together) [rad / nondimensional].
+
+        Returns
+        -------
+        Coefficients
+            Stability-axis CD, CL; body-axis CY, Cl, Cm, Cn about the moment reference; arrays of the
+            broadcast shape.
+        """
 
     def provenance(self) -> dict[str, str]:
-        """Source description for the fitted aircraft file."""
+        """Source description for the fitted aircraft file.
+
+        Returns
+        -------
+        dict of str to str
+            ``{"source": name}``; subclasses add ``"source_model"`` (how the model is evaluated).
+        """
         return {"source": self.name}
 
     def check_design(self, design: SamplingDesign) -> None:
         """Refuse a design that samples outside :attr:`envelope`.
+
+        Parameters
+        ----------
+        design : SamplingDesign
+            Its blocks' ranges are compared with the envelope (relative tolerance 1e-9).
 
         Raises
         ------

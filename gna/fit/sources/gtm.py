@@ -126,6 +126,27 @@ class Table:
 
     @classmethod
     def from_json(cls, name: str, t: Mapping) -> Table:
+        """A table from its JSON form in the vendored database.
+
+        Parameters
+        ----------
+        name : str
+            Table name (e.g. ``"C6_bas"``), for messages.
+        t : mapping
+            ``dims`` (each with ``kind`` ``"breakpoint"`` or an index kind, and ``values``), ``shape`` and
+            the nested-list ``data``.
+
+        Returns
+        -------
+        Table
+            With float breakpoints and data.
+
+        Raises
+        ------
+        InputError
+            Data of another shape than declared, or breakpoints not strictly increasing or not matching
+            their axis length.
+        """
         bps = tuple(np.asarray(d["values"], dtype=float) for d in t["dims"] if d["kind"] == "breakpoint")
         data = np.asarray(t["data"], dtype=float)
         if tuple(data.shape) != tuple(t["shape"]):
@@ -147,7 +168,8 @@ class Table:
 
         Returns
         -------
-        ndarray, shape ``S + remaining axes`` (the coefficients).
+        ndarray
+            Shape ``S + remaining axes`` (the coefficients).
         """
         u = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in inputs))
         kf = []
@@ -178,10 +200,19 @@ def kalviste(alpha_deg, beta_deg, p, q, r):
     ``Omega = 0``.  Exact zeros of ``p``, ``r``, ``cos a cos b``,
     ``sin a cos b`` skip a case.
 
+    Parameters
+    ----------
+    alpha_deg, beta_deg : array_like
+        Angle of attack and sideslip [deg].
+    p, q, r : array_like
+        Body rates [rad/s], broadcast with the angles.
+
     Returns
     -------
-    omega, p_osc, q_osc, r_osc : arrays [rad/s]
-    case : int array (1, 2 or 3)
+    omega, p_osc, q_osc, r_osc : ndarray
+        Rotation rate about the velocity vector and the oscillatory body rates [rad/s].
+    case : ndarray of int
+        The case taken at each point (1, 2 or 3).
     """
     a = np.radians(alpha_deg)
     b = np.radians(beta_deg)
@@ -212,8 +243,13 @@ class GTMAeroDatabase:
         Name -> :class:`Table` (the nominal tables of the database).
     flaps : dict
         Flap panel -> 6-vector of derivatives per deg.
-    S, b, cbar : float
-        Reference area [ft^2], span and chord [ft] (used in the rate normalisation).
+    b, cbar : float
+        Span and mean chord [ft] (used in the rate normalisation).
+
+    Raises
+    ------
+    InputError
+        One of :attr:`NEEDED` tables is missing.
     """
 
     NEEDED = (
@@ -241,7 +277,18 @@ class GTMAeroDatabase:
 
     @classmethod
     def load(cls) -> GTMAeroDatabase:
-        """The vendored database (``gna/data/sources/gtm``)."""
+        """The vendored database (``gna/data/sources/gtm``).
+
+        Returns
+        -------
+        GTMAeroDatabase
+            The nominal tables, the four flap panels' derivatives and the span and chord of ``vehicle.json``.
+
+        Raises
+        ------
+        InputError
+            A malformed or missing table (:meth:`Table.from_json`).
+        """
         with _data_file("gtm_t2_aero_nominal.json.gz").open("rb") as fh:
             db = json.loads(gzip.decompress(fh.read()))
         veh = load_vehicle()
@@ -251,12 +298,37 @@ class GTMAeroDatabase:
         return cls(tables, flaps, veh["geometry"]["b_ft"], veh["geometry"]["cbar_ft"])
 
     def breakpoint_range(self, table: str, axis: int) -> tuple[float, float]:
+        """First and last breakpoint of one axis of a table (the data's range on that axis).
+
+        Parameters
+        ----------
+        table : str
+            Table name.
+        axis : int
+            Breakpoint axis.
+
+        Returns
+        -------
+        tuple of float
+            ``(lo, hi)`` in the table's units (deg, or nondimensional rate).
+        """
         bp = self.tables[table].breakpoints[axis]
         return float(bp[0]), float(bp[-1])
 
     # -- the three parts of the build-up ---------------------------------------------------------
     def basic(self, alpha, beta) -> np.ndarray:
-        """Basic airframe ``C6_bas`` plus the (all-zero) symmetrisation increment on CY, Cl, Cn."""
+        """Basic airframe ``C6_bas`` plus the (all-zero) symmetrisation increment on CY, Cl, Cn.
+
+        Parameters
+        ----------
+        alpha, beta : array_like
+            Angle of attack and sideslip [deg].
+
+        Returns
+        -------
+        ndarray, shape (..., 6)
+            Body-axis ``[CX, CY, CZ, Cl, Cm, Cn]``.
+        """
         c = self.tables["C6_bas"].interpolate((alpha, beta))
         sym = self.tables["dC3_sym"].interpolate((alpha, beta))
         out = c.copy()
@@ -264,7 +336,20 @@ class GTMAeroDatabase:
         return out
 
     def surfaces(self, alpha, beta, s: Mapping[str, np.ndarray]) -> np.ndarray:
-        """Sum of the 18 surface contributions (deflections in deg)."""
+        """Sum of the 18 surface contributions, in the simulation's summing order (:data:`MUX_ORDER`).
+
+        Parameters
+        ----------
+        alpha, beta : array_like
+            Angle of attack and sideslip [deg].
+        s : mapping of str to array_like
+            Deflection of every one of :data:`SURFACES` [deg] (GEAR 0 up / 1 down).
+
+        Returns
+        -------
+        ndarray, shape (..., 6)
+            Body-axis ``[CX, CY, CZ, Cl, Cm, Cn]`` increments.
+        """
         T = self.tables
         shape = np.broadcast(np.asarray(alpha), np.asarray(beta), *(np.asarray(v) for v in s.values())).shape
         zeros6 = np.zeros(shape + (6,))
@@ -311,7 +396,22 @@ class GTMAeroDatabase:
         return total
 
     def dynamic(self, alpha, beta, p, q, r, V_fps) -> np.ndarray:
-        """Rotary-balance plus forced-oscillation increments (rates rad/s, V ft/s)."""
+        """Rotary-balance plus forced-oscillation increments (:func:`kalviste` splits the rates).
+
+        Parameters
+        ----------
+        alpha, beta : array_like
+            Angle of attack and sideslip [deg].
+        p, q, r : array_like
+            Body rates [rad/s].
+        V_fps : array_like
+            True airspeed [ft/s] (clipped to 1..10000 kt for the normalisation).
+
+        Returns
+        -------
+        ndarray, shape (..., 6)
+            Body-axis ``[CX, CY, CZ, Cl, Cm, Cn]`` increments.
+        """
         T = self.tables
         tas = np.clip(np.asarray(V_fps, dtype=float) * FPS_TO_KT, 1.0, 10000.0)
         omega, p_osc, q_osc, r_osc, _ = kalviste(alpha, beta, p, q, r)
@@ -345,6 +445,16 @@ class GTMAeroDatabase:
             True airspeed [ft/s].
         surfaces : mapping, optional
             Deflections of any of :data:`SURFACES` [deg] (GEAR 0/1); others 0.
+
+        Returns
+        -------
+        ndarray, shape (..., 6)
+            The coefficients, inputs broadcast together.
+
+        Raises
+        ------
+        InputError
+            A surface name not in :data:`SURFACES`.
         """
         s = {k: 0.0 for k in SURFACES}
         for k, v in (surfaces or {}).items():
@@ -360,15 +470,33 @@ class GTMAeroDatabase:
 
 
 def load_vehicle() -> dict:
-    """The vendored GTM vehicle data (``vehicle.json``, every value with its source)."""
+    """The vendored GTM vehicle data (``vehicle.json``, every value with its source).
+
+    Returns
+    -------
+    dict
+        The parsed JSON: mass, inertia, geometry, reference points, engines (source units: lb, slug ft^2, ft).
+    """
     with _data_file("vehicle.json").open("r") as fh:
         return json.load(fh)
 
 
 def grouped_surfaces(elevator=0.0, aileron=0.0, rudder=0.0) -> dict:
-    """The simulation's trim-mode grouping (deg): all elevator panels together,
-    ``AILL = -aileron``, ``AILR = +aileron`` (positive: right trailing edge down),
-    both rudder panels together; stabilizer, flaps, spoilers 0, gear up."""
+    """The simulation's trim-mode grouping of the surfaces.
+
+    All elevator panels together, ``AILL = -aileron``, ``AILR = +aileron`` (positive: right trailing edge
+    down), both rudder panels together; stabilizer, flaps, spoilers 0, gear up.
+
+    Parameters
+    ----------
+    elevator, aileron, rudder : float or array_like
+        Grouped deflections [deg].
+
+    Returns
+    -------
+    dict of str to float or ndarray
+        Deflection of every one of :data:`SURFACES` [deg].
+    """
     s = {k: 0.0 for k in SURFACES}
     for k in ("ELLOB", "ELLIB", "ELRIB", "ELROB"):
         s[k] = elevator
@@ -396,6 +524,11 @@ class GTMSource(SourceModel):
         Default: the vendored one.
     V_ref : float
         Airspeed [m/s] used to turn the nondimensional rates into rad/s.
+
+    Raises
+    ------
+    InputError
+        ``V_ref`` not finite or not above 1 kt.
     """
 
     def __init__(self, database: GTMAeroDatabase | None = None, V_ref: float = 75.0 * units.KT):
@@ -433,6 +566,19 @@ class GTMSource(SourceModel):
         }
 
     def body_coefficients(self, state: AeroState) -> np.ndarray:
+        """The database's body-axis coefficients at states in the project's variables.
+
+        Parameters
+        ----------
+        state : AeroState
+            The eight aerodynamic variables (broadcast together) [rad / nondimensional]; the rates are
+            made dimensional with :attr:`V_ref`.
+
+        Returns
+        -------
+        ndarray, shape (..., 6)
+            ``[CX, CY, CZ, Cl, Cm, Cn]`` about the 25 % MAC reference point.
+        """
         st, _ = broadcast_state(state)
         V = self.V_ref / units.FT
         p = st.phat * 2.0 * V / self.db.b
@@ -466,6 +612,16 @@ def vehicle_sections() -> dict[str, dict]:
     is dropped (the project's model is symmetric).  Thrust line: the mean of
     the two engines' pitch angles; their toe angles (2.22 and -1.18 deg) and
     the thrust line's 0.33 ft offset below the CG are not represented.
+
+    Returns
+    -------
+    dict of str to dict
+        ``mass``, ``geometry``, ``engines`` in the aircraft-file layout, each with its ``source``.
+
+    Raises
+    ------
+    InputError
+        The two engines are not symmetric about the plane of symmetry.
     """
     veh = load_vehicle()
     inertia = veh["inertia"]["as_used_by_sim_at_fuel_used_0"]

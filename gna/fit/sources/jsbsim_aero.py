@@ -87,13 +87,31 @@ def _quiet():
 
 
 def default_root() -> Path:
+    """The JSBSim root folder of the installed jsbsim package (``aircraft/``, ``engine/``, ``systems/``).
+
+    Returns
+    -------
+    Path
+        ``jsbsim.get_default_root_dir()``.
+    """
     import jsbsim
 
     return Path(jsbsim.get_default_root_dir())
 
 
 def available_aircraft(root: Path) -> list[str]:
-    """Aircraft under ``root/aircraft`` (folders holding ``<name>/<name>.xml``)."""
+    """Aircraft under ``root/aircraft`` (folders holding ``<name>/<name>.xml``).
+
+    Parameters
+    ----------
+    root : Path
+        A JSBSim root folder.
+
+    Returns
+    -------
+    list of str
+        The aircraft names, sorted; empty when ``root/aircraft`` is not a folder.
+    """
     d = root / "aircraft"
     if not d.is_dir():
         return []
@@ -101,12 +119,30 @@ def available_aircraft(root: Path) -> list[str]:
 
 
 def resolve(model: str, root: str | Path | None = None) -> tuple[str, Path, Path]:
-    """``(name, aircraft_dir, jsbsim_root)`` for a bundled name, a name under ``root``, or a path
-    ``.../<name>/<name>.xml``.
+    """Where a JSBSim aircraft's files are.
+
+    Parameters
+    ----------
+    model : str
+        A bundled aircraft name (``"F4N"``), a name under ``root``, or a path ``.../<name>/<name>.xml``.
+    root : str or Path, optional
+        JSBSim root folder (default :func:`default_root`).
+
+    Returns
+    -------
+    name : str
+        The aircraft's name.
+    aircraft_dir : Path
+        Its folder.
+    jsbsim_root : Path
+        The JSBSim root folder (engines and systems are looked for there).
 
     Raises
     ------
     UnknownJSBSimAircraftError
+        No such aircraft (the message lists those available).
+    InputError
+        A path to an ``.xml`` file not laid out as ``<name>/<name>.xml``.
     """
     base = Path(root) if root is not None else default_root()
     p = Path(model)
@@ -143,6 +179,15 @@ class JSBSimAeroSource(SourceModel):
         position reaching 1 at 0.35 rad).
     configuration : mapping, optional
         Property -> value overriding the default 0 of the configuration properties.
+
+    Raises
+    ------
+    InputError
+        Mach outside (0, 5) or altitude outside [-500, 30000] m; an aircraft whose files cannot be read or
+        that JSBSim cannot load; no surface property found for dl, dm or dn (and none given); an
+        alpha-dot/beta-dot function in an unsupported axis.
+    UnknownJSBSimAircraftError
+        No such aircraft (:func:`resolve`).
     """
 
     def __init__(
@@ -300,9 +345,30 @@ class JSBSimAeroSource(SourceModel):
     def body_forces(
         self, alpha: float, beta: float, p: float, q: float, r: float, surfaces: Mapping[str, float]
     ) -> tuple[np.ndarray, np.ndarray, float]:
-        """One JSBSim evaluation: body force [lbf], moment about the CG [lbf ft] without the
-        alpha-dot/beta-dot functions, and qbar [psf].  Angles rad, rates rad/s, surfaces as
-        the JSBSim properties (rad)."""
+        """One JSBSim evaluation (``run_ic``) at the reference Mach and altitude.
+
+        The attitude is ``(0, alpha, 0)`` and the body velocity ``V (cos a cos b, sin b, sin a cos b)``;
+        the forces and moments of the removed alpha-dot/beta-dot functions are subtracted (force terms
+        rotated from wind to body axes, with their moment about the CG).
+
+        Parameters
+        ----------
+        alpha, beta : float
+            Angle of attack and sideslip [rad].
+        p, q, r : float
+            Body rates [rad/s].
+        surfaces : mapping of str to float
+            JSBSim property -> value, the surface positions (rad) and their copies.
+
+        Returns
+        -------
+        F : ndarray, shape (3,)
+            Aerodynamic body-axis force [lbf].
+        M : ndarray, shape (3,)
+            Aerodynamic moment about the CG, body axes [lbf ft].
+        qbar : float
+            Dynamic pressure [psf].
+        """
         fdm = self._fdm
         V = self.V_fps
         fdm["ic/phi-rad"] = 0.0
@@ -344,7 +410,19 @@ class JSBSimAeroSource(SourceModel):
         return F, M, fdm["aero/qbar-psf"]
 
     def body_coefficients(self, state: AeroState) -> np.ndarray:
-        """Body-axis ``[CX, CY, CZ, Cl, Cm, Cn]`` about the JSBSim CG (last axis)."""
+        """Body-axis coefficients about the JSBSim CG, one :meth:`body_forces` evaluation a point.
+
+        Parameters
+        ----------
+        state : AeroState
+            The eight aerodynamic variables (broadcast together) [rad / nondimensional]; the rates are
+            made dimensional with the reference speed, the surfaces mapped to JSBSim properties.
+
+        Returns
+        -------
+        ndarray, shape (..., 6)
+            ``[CX, CY, CZ, Cl, Cm, Cn]`` (forces over ``qbar S``, moments over ``qbar S b`` or ``qbar S cbar``).
+        """
         st, shape = broadcast_state(state)
         flat = [np.ravel(v) for v in st]
         n = flat[0].size
@@ -376,7 +454,20 @@ class JSBSimAeroSource(SourceModel):
 
     # -- vehicle data -------------------------------------------------------------------------
     def vehicle(self) -> dict:
-        """Mass, inertia, geometry and engines as the JSBSim definition gives them (English units)."""
+        """Mass, inertia, geometry and engines as the JSBSim definition gives them (English units).
+
+        Returns
+        -------
+        dict
+            ``mass_slug``, ``I..._slugft2`` (``Ixz`` in the flight-dynamics sign), ``S_ft2``, ``b_ft``,
+            ``cbar_ft``, ``cg_in`` and ``aero_rp_in`` (structural frame [in]) and ``engines`` (``count``,
+            ``thrusters`` and, for turbine engines, ``max_thrust_lbf`` with its source).
+
+        Raises
+        ------
+        InputError
+            An engine without a location or an unreadable engine file (:mod:`.jsbsim_xml`).
+        """
         fdm = self._fdm
         thr = jx.engines(self._xml)
         eng: dict = {"count": len(thr), "thrusters": thr}
@@ -431,10 +522,21 @@ def vehicle_sections(source: JSBSimAeroSource) -> dict[str, dict]:
     (JSBSim files give no MAC leading edge); the coefficients are sampled
     about the CG, so ``x_ref = x_cg``.
 
+    Parameters
+    ----------
+    source : JSBSimAeroSource
+        The loaded aircraft.
+
+    Returns
+    -------
+    dict of str to dict
+        ``mass``, ``geometry``, ``engines`` in the aircraft-file layout (English units), each with its
+        ``source``.
+
     Raises
     ------
     InputError
-        More than two engines, or an engine layout the project's model cannot
+        No engine, more than two engines, or an engine layout the project's model cannot
         represent (one engine off the symmetry plane, two not symmetric).
     """
     v = source.vehicle()

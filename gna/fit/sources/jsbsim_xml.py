@@ -57,6 +57,23 @@ class Thruster:
 
 
 def parse(path: Path) -> ET.Element:
+    """The root element of a JSBSim XML file.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+
+    Returns
+    -------
+    xml.etree.ElementTree.Element
+        Its root.
+
+    Raises
+    ------
+    InputError
+        The file cannot be read or is not well-formed XML.
+    """
     try:
         return ET.parse(path).getroot()
     except (ET.ParseError, OSError) as exc:
@@ -68,7 +85,25 @@ def _texts(elem: ET.Element) -> set[str]:
 
 
 def aerodynamics_element(root: ET.Element, aircraft_dir: Path) -> ET.Element:
-    """The ``<aerodynamics>`` element (following a ``file=`` reference)."""
+    """The ``<aerodynamics>`` element (following a ``file=`` reference).
+
+    Parameters
+    ----------
+    root : xml.etree.ElementTree.Element
+        The aircraft file's root.
+    aircraft_dir : Path
+        The aircraft's folder (where a referenced file is looked for, with or without ``.xml``).
+
+    Returns
+    -------
+    xml.etree.ElementTree.Element
+        The section, or the root of the file it references.
+
+    Raises
+    ------
+    InputError
+        No ``<aerodynamics>`` section, or its referenced file is not found (or unreadable).
+    """
     aero = root.find("aerodynamics")
     if aero is None:
         raise InputError(f"the JSBSim aircraft in {aircraft_dir} has no <aerodynamics> section")
@@ -82,7 +117,19 @@ def aerodynamics_element(root: ET.Element, aircraft_dir: Path) -> ET.Element:
 
 
 def aero_functions(aero: ET.Element) -> list[AeroFunction]:
-    """Every named function of the aerodynamics section (pre-functions have ``axis=None``)."""
+    """Every function of the aerodynamics section (pre-functions have ``axis=None``).
+
+    Parameters
+    ----------
+    aero : xml.etree.ElementTree.Element
+        The ``<aerodynamics>`` element (:func:`aerodynamics_element`).
+
+    Returns
+    -------
+    list of AeroFunction
+        Pre-functions first, then each axis's functions in file order, with the axis name and frame
+        upper-cased and the properties each reads.
+    """
     out = []
     for fn in aero.findall("function"):
         out.append(AeroFunction(fn.get("name", ""), None, None, frozenset(_texts(fn))))
@@ -100,7 +147,18 @@ def aero_functions(aero: ET.Element) -> list[AeroFunction]:
 
 
 def angle_rate_functions(functions: list[AeroFunction]) -> list[AeroFunction]:
-    """Axis functions that depend, directly or through pre-functions, on alpha-dot or beta-dot."""
+    """Axis functions that depend, directly or through pre-functions, on alpha-dot or beta-dot.
+
+    Parameters
+    ----------
+    functions : list of AeroFunction
+        The section's functions (:func:`aero_functions`).
+
+    Returns
+    -------
+    list of AeroFunction
+        The axis functions reading :data:`RATE_OF_ANGLE`, or a function that does, at any depth.
+    """
     tainted: set[str] = set()
     changed = True
     while changed:
@@ -122,9 +180,28 @@ def _numbers(text: str) -> list[list[float]]:
 
 
 def table_ranges(aero: ET.Element, exclude: frozenset[str] = frozenset()) -> dict[str, tuple[float, float, str]]:
-    """Property -> (min, max, where) of the breakpoints of the tables indexed by it: the
-    intersection over the tables, ``where`` naming the functions that set the bounds.
-    Tables inside the functions named in ``exclude`` are ignored."""
+    """The range of the breakpoints of the tables over each property they are indexed by.
+
+    The ranges of a property's tables are intersected: the domain where every table has data.
+
+    Parameters
+    ----------
+    aero : xml.etree.ElementTree.Element
+        The ``<aerodynamics>`` element.
+    exclude : frozenset of str
+        Names of functions whose tables are ignored (e.g. the alpha-dot terms removed from the fit).
+
+    Returns
+    -------
+    dict of str to (float, float, str)
+        Property -> ``(min, max, where)`` in the table's units, ``where`` naming the functions that set the
+        bounds.
+
+    Raises
+    ------
+    InputError
+        A table whose breakpoints cannot be read as numbers (naming its function and variables).
+    """
     out: dict[str, tuple[float, float, str]] = {}
 
     def add(prop: str, values: list[float], owner: str):
@@ -191,8 +268,25 @@ def _system_files(root: ET.Element, aircraft_dir: Path, jsbsim_root: Path) -> li
 
 
 def surface_limit(root: ET.Element, aircraft_dir: Path, jsbsim_root: Path, prop: str) -> tuple[float, float] | None:
-    """Output range of the flight-control component that writes ``prop`` (its ``<range>`` times its
-    ``<gain>`` for an ``aerosurface_scale``, or its ``<clipto>``)."""
+    """Output range of the flight-control component that writes ``prop``.
+
+    Its ``<range>`` (times its ``<gain>`` for an ``aerosurface_scale``), else its ``<clipto>``; the first
+    component found in the flight-control, autopilot and system files.
+
+    Parameters
+    ----------
+    root : xml.etree.ElementTree.Element
+        The aircraft file's root.
+    aircraft_dir, jsbsim_root : Path
+        The aircraft's folder and JSBSim's root folder (to find the system files).
+    prop : str
+        The property written, e.g. ``"fcs/elevator-pos-rad"``.
+
+    Returns
+    -------
+    tuple of float or None
+        ``(lo, hi)`` in the property's units, or None when no component with a constant range writes it.
+    """
     for sysroot in _system_files(root, aircraft_dir, jsbsim_root):
         for comp in sysroot.iter():
             out = comp.find("output")
@@ -341,7 +435,24 @@ def _location(elem: ET.Element | None, what: str) -> tuple[float, float, float]:
 
 
 def engines(root: ET.Element) -> list[Thruster]:
-    """Thrusters of the propulsion section, in order."""
+    """Thrusters of the propulsion section, in order.
+
+    Parameters
+    ----------
+    root : xml.etree.ElementTree.Element
+        The aircraft file's root.
+
+    Returns
+    -------
+    list of Thruster
+        Each engine's thruster location (structural frame [in]; the engine's own location when the
+        thruster has none) and orientation [rad]; empty without a propulsion section.
+
+    Raises
+    ------
+    InputError
+        An engine without a location, or a location in an unsupported length unit.
+    """
     out = []
     prop = root.find("propulsion")
     if prop is None:
@@ -362,8 +473,26 @@ def engines(root: ET.Element) -> list[Thruster]:
 
 
 def turbine_static_thrust(engine_file: str, aircraft_dir: Path, jsbsim_root: Path) -> tuple[float, str] | None:
-    """Sea-level static thrust [lbf] of a turbine engine file (``maxthrust`` if augmented, else
-    ``milthrust``) and which one it is; None for other engine types."""
+    """Sea-level static thrust of a turbine engine file (``maxthrust`` if augmented, else ``milthrust``).
+
+    Parameters
+    ----------
+    engine_file : str
+        The engine's file name without ``.xml``.
+    aircraft_dir, jsbsim_root : Path
+        Where the file is looked for: ``<aircraft_dir>/Engines``, then ``<jsbsim_root>/engine``.
+
+    Returns
+    -------
+    tuple of (float, str) or None
+        Thrust [lbf] and which element it is (``"<file> <maxthrust>"``); None for a missing file, another
+        engine type or a missing rating.
+
+    Raises
+    ------
+    InputError
+        The engine file cannot be read (:func:`parse`).
+    """
     for cand in (aircraft_dir / "Engines" / f"{engine_file}.xml", jsbsim_root / "engine" / f"{engine_file}.xml"):
         if cand.is_file():
             eng = parse(cand)

@@ -70,7 +70,26 @@ class Derivative:
 
 
 def parse_derivative(name: str, value: float) -> Derivative | None:
-    """A :class:`Derivative` from a name like ``CZ_de``; None if the name is not a derivative."""
+    """A :class:`Derivative` from a name like ``CZ_de``; None if the name is not a derivative.
+
+    Parameters
+    ----------
+    name : str
+        A CSV row's name: ``<coef>o`` or ``<coef>_<suffix>`` (:data:`SUFFIXES`) with ``<coef>`` in
+        :data:`BODY_COEFFICIENTS` for a derivative.
+    value : float or str
+        Its value [per rad, or per unit nondimensional rate].
+
+    Returns
+    -------
+    Derivative or None
+        The term, or None for a vehicle-data row.
+
+    Raises
+    ------
+    InputError
+        A derivative name with an unknown suffix, or a non-finite value.
+    """
     m = _NAME.match(name.strip())
     if not m:
         return None
@@ -92,12 +111,19 @@ class LinearDerivativeModel(SourceModel):
     Parameters
     ----------
     derivatives : sequence of Derivative
+        The terms; at least one, no two of the same coefficient and monomial.
     envelope : mapping
         Variable -> (lo, hi): the domain where the model is taken as valid (a
         linear model states no data range; the caller declares it).
     name : str
+        Short description (messages, the fitted terms' source).
     citation : str, optional
         Where the derivatives come from (the ``source`` of the fitted file; default ``name``).
+
+    Raises
+    ------
+    InputError
+        No derivatives, or one given twice.
     """
 
     def __init__(
@@ -128,14 +154,44 @@ class LinearDerivativeModel(SourceModel):
         name: str | None = None,
         citation: str | None = None,
     ) -> LinearDerivativeModel:
-        """Read the derivative rows of a ``group,name,value,unit,note`` CSV file."""
-        rows = read_rows(path)
+        """Read the derivative rows of a ``group,name,value,unit,note`` CSV file.
+
+        Parameters
+        ----------
+        path : str or Path
+            The CSV file (the format of ``gna/data/sources/twin_otter``).
+        envelope : mapping
+            Variable -> (lo, hi) [rad / nondimensional] declared valid.
+        name : str, optional
+            Short description (default ``"linear derivative model <file name>"``).
+        citation : str, optional
+            Where the derivatives come from (default ``"derivatives of <path>"``).
+
+        Returns
+        -------
+        LinearDerivativeModel
+            The model of the file's derivative rows.
+
+        Raises
+        ------
+        InputError
+            A missing or malformed file, a non-numeric value, an unknown derivative suffix, or a derivative
+            given twice.
+        """
+        rows = _read_rows(path)
         ders = [d for d in (parse_derivative(r["name"], r["value"]) for r in rows) if d is not None]
         return cls(
             ders, envelope, name or f"linear derivative model {Path(path).name}", citation or f"derivatives of {path}"
         )
 
     def provenance(self) -> dict[str, str]:
+        """Source description for the fitted aircraft file.
+
+        Returns
+        -------
+        dict of str to str
+            ``source`` (the citation) and ``source_model`` (the derivatives used and the axis rotation).
+        """
         terms = ", ".join(d.name for d in self.derivatives)
         return {
             "source": self.citation,
@@ -144,7 +200,18 @@ class LinearDerivativeModel(SourceModel):
         }
 
     def body_coefficients(self, state: AeroState) -> dict[str, np.ndarray]:
-        """CX, CY, CZ, Cl, Cm, Cn (body axes, about the CG)."""
+        """The body-axis coefficients, sums of the derivative terms.
+
+        Parameters
+        ----------
+        state : AeroState
+            The eight aerodynamic variables (broadcast together) [rad / nondimensional].
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``CX, CY, CZ, Cl, Cm, Cn`` (body axes, about the CG), arrays of the broadcast shape.
+        """
         st, shape = broadcast_state(state)
         out = {c: np.zeros(shape) for c in BODY_COEFFICIENTS}
         for d in self.derivatives:
@@ -156,14 +223,32 @@ class LinearDerivativeModel(SourceModel):
         return out
 
     def coefficients(self, state: AeroState) -> Coefficients:
+        """The six coefficients, CX and CZ rotated to stability-axis CD, CL (:func:`.base.stability_from_body`).
+
+        Parameters
+        ----------
+        state : AeroState
+            The eight aerodynamic variables (broadcast together) [rad / nondimensional].
+
+        Returns
+        -------
+        Coefficients
+            CD, CY, CL, Cl, Cm, Cn, arrays of the broadcast shape.
+        """
         st, _ = broadcast_state(state)
         b = self.body_coefficients(st)
         CD, CL = stability_from_body(st.alpha, b["CX"], b["CZ"])
         return Coefficients(CD, b["CY"], CL, b["Cl"], b["Cm"], b["Cn"])
 
 
-def read_rows(path: str | Path) -> list[dict[str, str]]:
-    """Rows of a ``group,name,value,unit,note`` CSV file (clear error if malformed)."""
+def _read_rows(path: str | Path) -> list[dict[str, str]]:
+    """Rows of a ``group,name,value,unit,note`` CSV file (clear error if malformed).
+
+    Raises
+    ------
+    InputError
+        A missing file, missing columns, or a non-numeric value (naming the line).
+    """
     path = Path(path)
     if not path.is_file():
         raise InputError(f"linear model file not found: {path}")
@@ -181,9 +266,25 @@ def read_rows(path: str | Path) -> list[dict[str, str]]:
 
 
 def vehicle_values(path: str | Path) -> dict[str, tuple[float, str]]:
-    """Non-derivative rows: name -> (value, unit)."""
+    """The vehicle data of a linear-model CSV file: its non-derivative rows.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+
+    Returns
+    -------
+    dict of str to (float, str)
+        Row name -> (value, unit) as written (source units).
+
+    Raises
+    ------
+    InputError
+        A missing or malformed file, or a derivative row with an unknown suffix.
+    """
     return {
         r["name"]: (float(r["value"]), r.get("unit", ""))
-        for r in read_rows(path)
+        for r in _read_rows(path)
         if parse_derivative(r["name"], r["value"]) is None
     }
