@@ -28,14 +28,8 @@ t0 in the least-squares sense, which fixes the initial state where the equations
 integral over the span of the squared control rates (each control over its scale: F over m g,
 surfaces and eta as they are; exact on the piecewise cubics by the Radau quadrature), which picks
 the smooth member of the fast modes.  The constraints hold to IPOPT's tolerance whatever the
-weights; the objective only chooses among their solutions.  (Measured alternatives: without the t0
-term the open-loop error is 2 to 3000 times larger, the initial state being chosen by smoothness
-alone; with the rate term's weight 1e-3 or 1e-6 the roll needs 17 to 39 IPOPT iterations on the
-finer grids instead of 3.  A t0 term of weight 1e3 or 1e6, nearly the equations at t0 as constraints
-(defect 3e-8 or 3e-11 instead of 4e-6 to 1e-5), moves the forward slip's open-loop error from 1.2 mm,
-0.44 mm, 45 um, 16 um, 0.61 um (1x to 0.0625x) to 0.56 mm, 24 um, 11 um, 18 um, 0.90 um, at 5-61
-IPOPT iterations instead of 4-5, and the roll's from 0.39 mm, 63 um, 4.8 um (1x to 0.25x) to 0.45 mm,
-21-28 um, 1.1-4.5 um at 7-27 iterations instead of 3: no uniform gain, more iterations, so weight 1.)
+weights; the objective only chooses among their solutions (the weights measured against others:
+docs/collocation.md, "Collocation scheme").
 
 Initial guess, a setting (``--guess``, both by default, reported side by side):
 
@@ -56,25 +50,10 @@ Accuracy of both: the planned controls flown open loop on the full model from th
 state (``gna.simulate.simulate``, DOP853, rtol = atol = 1e-10, the settings of :mod:`planners.verify`),
 the integrator restarted at every break of the controls (collocation: every interval end; planner:
 every node), largest distance of ``(x, y, z)`` to the exact flat outputs on an output grid of a tenth
-of the scenario's node step (at most 0.01 s): :func:`open_loop_error_of` for both.  Why the restarts:
-the collocation controls are piecewise cubics that are only continuous at the interval ends (their
-derivative jumps there), and DOP853 flown over such a kink in one piece accepts a step whose error is
-near its tolerance (rtol |x| = 3.5e-7 m at 3.5 km), once per kink, so on fine grids the flight measured
-its own error: Twin Otter at step 1 s, e = 2, intervals 0.25x of it (240 kinks): 5.6 um in one piece,
-0.13 um at rtol = atol = 1e-12, 3.5 nm at 1e-13 and 3.5 nm piece by piece at 1e-10, 1e-12 and 1e-13;
-forward slip at 0.0625x (320 kinks): 265 um in one piece, 0.61 um piece by piece (the same at 1e-12 and
-1e-13).  Restarting at an input's discontinuities is the standard treatment (an adaptive integrator's
-error estimate assumes a smooth right-hand side); the planner's controls (degree 5, continuous
-derivatives at the nodes) fly to the same figure either way (2.81e-7 m and 3.06e-3 m on those two
-cases, at 1e-10 and 1e-12, in one piece and by pieces; 24.71 against 24.80 um on the bundled Twin Otter), which the results keep alongside as
-``accuracy_one_piece_m`` (for collocation the one-piece figure is kept too, for the record).
-With the restarts the collocation's open-loop error falls steadily with the interval (Twin Otter at
-step 1 s: 0.64 um, 47 nm, 3.5 nm, 3.0 nm, 6.1 nm from 1x to 0.0625x; forward slip: 1.2 mm, 0.44 mm, 45 um, 16 um,
-0.61 um from 1x to 0.0625x).  What is left on the forward slip is the ends: the control-rate objective
-leaves a boundary layer in the controls over the last intervals (third derivative 1e-2 rad/s^3 in the
-last interval at 0.125x, 3e-5 mid-span), resolved by refinement, and the t0 term's weight (above).
-The open loop is sensitive to the initial state, physically: the planner's own flight moved by 1e-8 rad
-in mu at t0 ends 0.13 mm (forward slip, 120 s) and 0.12 mm (Twin Otter, 60 s) away.
+of the scenario's node step (at most 0.01 s): :func:`open_loop_error_of` for both.  The restarts: the
+collocation controls are piecewise cubics whose derivative jumps at the interval ends, and an adaptive
+integrator's error estimate assumes a smooth right-hand side (measured in docs/collocation.md, "Accuracy and
+timing"); the one-piece figure is kept alongside in the results (``accuracy_one_piece_m``).
 
 Timing: interleaved repetitions, per repetition the planner (``plan_scenario`` at the bundled
 settings), then per guess, grid and CasADi graph (MX: the model an SX function mapped over the points,
@@ -86,12 +65,7 @@ cheapest successful grid whose accuracy is at least the planner's and the quicke
 re-solve and built-from-scratch.  Finer grids than ``--factors`` are tried only while the finest grid
 so far converged and flew.  IPOPT: MUMPS, exact Hessian, ``tol = 1e-8``, ``constr_viol_tol = 1e-10``
 (:data:`CONSTR_VIOL_TOL`), ``print_level = 0``, other options at their defaults, the same for every
-scenario and guess.  With the default ``constr_viol_tol`` (1e-4) IPOPT declared success on the Twin
-Otter from the trim guess after 2 iterations with the collocation equations met to 2e-8 only: the
-same objective to 7 digits as the plan-j0 solution, but 4.0 um in the open loop on every grid of the
-step-1 s plan (1x to 0.0625x) where the plan-j0 solution (equations met to 1e-13) gives 0.64 um to
-3.0 nm; with 1e-10 one more iteration (3) meets them to 1e-13 and the two guesses give the same
-accuracies.  The plan-j0 runs and the roll from the trim already met 1e-11 or better: unchanged.
+scenario and guess.  (Why ``constr_viol_tol`` is tightened from IPOPT's 1e-4: docs/collocation.md.)
 
 Usage::
 

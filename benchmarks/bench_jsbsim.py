@@ -1,4 +1,4 @@
-"""Speed of the coupled JSBSim engine against bare ``fdm.run()``, and its accuracy (no assertions).
+"""Speed of the coupled JSBSim engine against bare ``fdm.run()`` (no assertions).
 
 Speed (default).  The coupled run is :meth:`harness.engines.JSBSimEngine.simulate`: control
 writes every step, divergence check, output reads, conversion to the 12
@@ -14,14 +14,8 @@ at ``controller_dt = 1/60 s`` (medians), and of the in-house engine open and
 closed loop; then the same for a paper scenario (``--scenario``) flown with the
 tracking feedback of :mod:`planners.tracking`, against the plan flown open loop.
 
-Accuracy (``--accuracy``): largest differences JSBSim - in-house (DOP853 at
-1e-10) over 10 s of a smooth manoeuvre from trim (f16c, 150 m/s, 3000 m), for
-four integrator sets and five steps (the convergence study of
-``docs/jsbsim.md``), the same with the controls shifted by one step, then every
-bundled aircraft (trim at 1.6 V_stall, 1000 m, 12 s manoeuvre; trimmed flight
-10 s) and the cost of JSBSim's rotating WGS84 Earth::
-
-    python benchmarks/bench_jsbsim.py --accuracy
+The accuracy study (JSBSim against the in-house engine by integrator and step) is
+``research/jsbsim_accuracy.py``.
 """
 
 from __future__ import annotations
@@ -32,18 +26,14 @@ import time
 
 import numpy as np
 
-from gna.aircraft import list_aircraft, load_aircraft
+from gna.aircraft import load_aircraft
 from gna.atmosphere import ISA, Environment
-from gna.trim import stall_speed, trim_level
-from harness.engines import JSBSIM_DEFAULT_INTEGRATORS, InHouseEngine, Integrators, JSBSimEngine, fly, load_fdm
+from gna.trim import trim_level
+from harness.engines import InHouseEngine, JSBSimEngine, load_fdm
 from harness.engines.jsbsim.fdm import prepare
-from harness.metrics import difference_table
-from harness.testing import smooth_inputs
 from planners.generalized import plan_scenario
 from planners.scenario import load_scenario
 from planners.tracking import tracking_controller
-
-ANGLES = ("gamma", "chi", "alpha", "beta", "mu")
 
 
 def bare_steps_per_second(engine: JSBSimEngine, aircraft, env, x0, u0, steps: int) -> float:
@@ -159,85 +149,18 @@ def tracking(name: str, repeats: int, controller_dt: float = 1.0 / 60.0) -> None
         print(f"  {label:<56} {m:12.1f} {100 * m / ref:12.0f}%")
 
 
-def _summary(table) -> str:
-    ang = max(table.row(v).max_abs for v in ANGLES)
-    rates = max(table.row(v).max_abs for v in ("p", "q", "r"))
-    return f"{table.row('position').max_abs:9.1e} {table.row('V').max_abs:9.1e} {ang:9.1e} {rates:9.1e}"
-
-
-def accuracy() -> None:
-    """Print the convergence study and the per-aircraft cross-engine differences."""
-    a = load_aircraft("f16c")
-    tr = trim_level(a, 150.0, 3000.0)
-    x0, u0 = np.array(tr.state, dtype=float), np.array(tr.controls, dtype=float)
-    u = smooth_inputs(u0, False)
-    ref = InHouseEngine().simulate(a, u, (0.0, 10.0), x0)
-    head = f"{'pos [m]':>9} {'V [m/s]':>9} {'ang [rad]':>9} {'pqr[r/s]':>9}"
-    print("Convergence: f16c, smooth manoeuvre from trim (150 m/s, 3000 m), 10 s; max |JSBSim - in-house|")
-    sets = {
-        "JSBSim default (Euler, AB2, Euler, AB3)": JSBSIM_DEFAULT_INTEGRATORS,
-        "AB2 everywhere": Integrators("AB2", "AB2", "AB2", "AB2"),
-        "AB4 + Buss1 quaternion": Integrators("AB4", "AB4", "Buss1", "AB4"),
-        "AB4 + Buss2 quaternion (gflat default)": Integrators(),
-    }
-    for name, ig in sets.items():
-        print(f"  {name}")
-        print(f"    {'dt [s]':<8} {head}")
-        for hz in (60, 120, 240, 480, 960):
-            r = JSBSimEngine(dt=1.0 / hz, integrators=ig).simulate(a, u, (0.0, 10.0), x0)
-            print(f"    1/{hz:<6} {_summary(difference_table(ref, r))}")
-    print("  AB4 + Buss2 with the controls shifted by one step (wrong timing)")
-    for hz in (120, 480):
-        r = JSBSimEngine(dt=1.0 / hz).simulate(a, lambda t, h=hz: u(np.asarray(t) - 1.0 / h), (0.0, 10.0), x0)
-        print(f"    1/{hz:<6} {_summary(difference_table(ref, r))}")
-
-    print("Every aircraft, gflat default (AB4 + Buss2, dt = 1/480 s): max |JSBSim - in-house|")
-    print(f"  {'aircraft':<11} {'case':<24} {head}")
-    for name in list_aircraft():
-        craft = load_aircraft(name)
-        V = 1.6 * stall_speed(craft, 1000.0).V_stall
-        t = trim_level(craft, V, 1000.0)
-        x, uu = np.array(t.state, dtype=float), np.array(t.controls, dtype=float)
-        r = fly(["inhouse", "jsbsim"], craft, x, uu, (0.0, 10.0))
-        print(f"  {name:<11} {'trim 10 s':<24} {_summary(difference_table(r['inhouse'], r['jsbsim']))}")
-        r = fly(["inhouse", "jsbsim"], craft, x, smooth_inputs(uu, craft.propulsion.count == 2), (0.0, 12.0))
-        tab = difference_table(r["inhouse"], r["jsbsim"])
-        print(f"  {'':<11} {'manoeuvre 12 s':<24} {_summary(tab)}")
-    print("Long span: f16c, 120 s, max |JSBSim - in-house| (flat-earth sphere curvature and ECEF round-off)")
-    print(f"  {'case':<36} {head}")
-    for name, src in (("trim", u0), ("manoeuvre", u)):
-        r = fly(["inhouse", "jsbsim"], a, x0, src, (0.0, 120.0))
-        print(f"  {name + ' 120 s':<36} {_summary(difference_table(r['inhouse'], r['jsbsim']))}")
-    print("Cost of the flat earth: f16c trim, 10 s, |JSBSim rotating WGS84 Earth - JSBSim flat|")
-    print(f"  {'initial latitude':<36} {head}")
-    for lat in (0.0, 45.0):
-        r = fly(
-            {"flat": JSBSimEngine(), "wgs84": JSBSimEngine(earth="wgs84", latitude=np.radians(lat))},
-            a,
-            x0,
-            u0,
-            (0.0, 10.0),
-        )
-        print(f"  {lat:<36.0f} {_summary(difference_table(r['flat'], r['wgs84']))}")
-
-
 def main() -> None:
     """Run the benchmark and print a table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--aircraft", default="f16c")
     parser.add_argument("--seconds", type=float, default=20.0, help="simulated time per run [s]")
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--accuracy", action="store_true", help="print the accuracy study instead of the speed")
     parser.add_argument(
         "--scenario",
         default="twin-otter-single-engine",
         help="paper scenario flown with the tracking feedback in the last table",
     )
     args = parser.parse_args()
-    if args.accuracy:
-        accuracy()
-        return
-
     a = load_aircraft(args.aircraft)
     env = Environment(ISA())
     tr = trim_level(a, 150.0, 3000.0, env=env)

@@ -9,13 +9,6 @@ swapped between timing runs; the library itself reads its backend once, from
 
     python benchmarks/bench_series.py [--nodes 81] [--orders 5 13 23]
 
-With ``--tape``: one stage-residual evaluation of the roll plan (gtm-aileron-roll, 17 nodes, its
-first generalized-flatness iterate), eager against the replay of its traced program
-(:mod:`planners.series_tape`) and against the trace itself, at working orders 2, 10, 18 (stage 4 at
-most 16, its order in that plan), real unknowns ``(nodes,)`` and the complex-step batch
-``(n, nodes)``, with both kernel sets::
-
-    python benchmarks/bench_series.py --tape [--orders 2 10 18]
 """
 
 from __future__ import annotations
@@ -94,109 +87,14 @@ def interleaved(make: Callable[[], Callable[[], object]], repeats: int) -> dict:
     return {name: float(np.median(v)) for name, v in times.items()}
 
 
-def _roll_residuals() -> dict:
-    """The stage-2 and stage-4 residuals of the roll plan's first iterate, with their solutions."""
-    import importlib
-
-    from planners.generalized import plan_scenario
-    from planners.scenario import load_scenario
-
-    flat = importlib.import_module("planners.flat")
-    original = flat.newton_series
-    captured = []
-
-    def capture(residual, u0, order, **kw):
-        u, rep = original(residual, u0, order, **kw)
-        captured.append((residual, u, order))
-        return u, rep
-
-    flat.newton_series = capture
-    try:
-        plan_scenario(load_scenario("gtm-aileron-roll"))
-    finally:
-        flat.newton_series = original
-    return {"stage 2": captured[0], "stage 4": captured[1]}
-
-
-def _unknowns(u: list, k: int, kind: str) -> list:
-    """The unknowns at order ``k``: real ``(nodes,)``, or the complex-step batch of planners.newton."""
-    stacked = np.stack([np.real(x.truncate(min(k, x.order)).coeffs) for x in u])
-    if kind == "real":
-        return [Series(stacked[j]) for j in range(len(u))]
-    n = len(u)
-    pert = np.broadcast_to(stacked, (n,) + stacked.shape).astype(complex)
-    for j in range(n):
-        pert[j, j, ..., 0] += 1e-30j
-    return [Series(pert[:, j]) for j in range(n)]
-
-
-def tape_table(orders: list, repeats: int) -> None:
-    """Print eager / trace / replay times of the roll's stage residuals (microseconds per evaluation).
-
-    Parameters
-    ----------
-    orders : list of int
-        Working orders (stage 4 capped at its order in the plan).
-    repeats : int
-        Interleaved timing runs per kernel set and mode.
-    """
-    from planners.series_tape import TapedResidual, trace
-
-    saved = S._K
-    residuals = _roll_residuals()
-    print(
-        f"stage residuals of gtm-aileron-roll (17 nodes, first iterate): microseconds per evaluation, median "
-        f"of {repeats} interleaved runs; trace = the traced evaluation (the first one of a Newton call)"
-    )
-    print(
-        f"{'residual':<10}{'k':>4}{'unknowns':>12}{'kernels':>10}{'eager':>9}{'trace':>9}{'replay':>9}"
-        f"{'eager/replay':>14}{'trace/eager':>13}"
-    )
-    for label, (residual, u, top) in residuals.items():
-        for k in orders:
-            k = min(k, top)
-            for kind in ("real", "complex"):
-                x = _unknowns(u, k, kind)
-                for kname, kern in KERNELS.items():
-                    S._K = kern
-                    tr = TapedResidual(residual, "first")
-                    tr(x, k)
-                    tape = tr.tapes[k]
-                    ins = [v._c for v in x]
-                    # fresh series objects per evaluation, as Newton makes them (a series memoises its sin/cos)
-                    modes = {
-                        "eager": lambda: residual([Series._wrap(c) for c in ins], k),  # noqa: B023
-                        "trace": lambda: trace(residual, [Series._wrap(c) for c in ins], k),  # noqa: B023
-                        "replay": lambda: tape.run(ins),  # noqa: B023
-                    }
-                    loops = {m: max(1, int(3e3 / max(1.0, time_us(f, 3)))) for m, f in modes.items()}
-                    t = {m: [] for m in modes}
-                    for _ in range(repeats):
-                        for m, f in modes.items():
-                            t[m].append(time_us(f, loops[m]))
-                    med = {m: float(np.median(v)) for m, v in t.items()}
-                    shape = "(n, nodes)" if kind == "complex" else "(nodes,)"
-                    print(
-                        f"{label:<10}{k:>4}{shape:>12}{kname:>10}{med['eager']:>9.0f}{med['trace']:>9.0f}"
-                        f"{med['replay']:>9.0f}{med['eager'] / med['replay']:>14.2f}"
-                        f"{med['trace'] / med['eager']:>13.2f}"
-                    )
-    S._K = saved
-
-
 def main() -> None:
     """Run the benchmark and print a table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--nodes", type=int, default=81)
-    parser.add_argument("--orders", type=int, nargs="+", default=None)
+    parser.add_argument("--orders", type=int, nargs="+", default=[5, 13, 23])
     parser.add_argument("--repeats", type=int, default=7)
-    parser.add_argument("--tape", action="store_true", help="stage residuals: eager, traced, replayed")
     args = parser.parse_args()
     S._CompiledKernels.mul(np.ones((2, 1)), np.ones((2, 1)))  # load the compiled kernels before timing
-    if args.tape:
-        tape_table(args.orders or [2, 10, 18], args.repeats)
-        return
-    args.orders = args.orders or [5, 13, 23]
     saved = S._K
     rng = np.random.default_rng(0)
     ops: dict[str, Callable[[Series, Series], Callable[[], object]]] = {

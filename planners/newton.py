@@ -16,7 +16,6 @@ import numpy as np
 from gna.solve import COMPLEX_STEP, NewtonResult, batched_solve, jacobian, newton
 
 from . import series as _series_kernels
-from .series_tape import TapedResidual
 
 __all__ = [
     "PAPER_TOL",
@@ -499,7 +498,6 @@ def newton_series(
     from .series import Series
 
     n = len(u0)
-    residual = TapedResidual(residual)  # traced once per working order, replayed on the following evaluations
     base = [u if isinstance(u, Series) else Series.constant(np.asarray(u, dtype=float), 0) for u in u0]
     batch = base[0].batch_shape
     t_nodes = np.arange(int(np.prod(batch))) if t_nodes is None else np.asarray(t_nodes)

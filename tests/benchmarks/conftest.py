@@ -2,23 +2,8 @@
 
 from __future__ import annotations
 
-import contextlib
-import importlib.util
-import sys
-from pathlib import Path
+import functools
 
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
+from tests.script_loader import script_module
 
-
-@contextlib.contextmanager
-def benchmark_module(name: str, as_name: str | None = None):
-    """The module of ``benchmarks/<name>.py``, registered under ``as_name`` while in use (dataclasses look
-    their module up)."""
-    spec = importlib.util.spec_from_file_location(as_name or name, BENCHMARKS / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod
-    try:
-        spec.loader.exec_module(mod)
-        yield mod
-    finally:
-        sys.modules.pop(spec.name, None)
+benchmark_module = functools.partial(script_module, "benchmarks")

@@ -56,7 +56,7 @@ def test_8c_open_loop_follows_generalized_plan(paper_plan):
 
 
 #: (position [m], angle [rad]) bounds of test 8(c), about 3x the measured deviations at the bundled
-#: settings (``python scripts/planning_report.py``; docs/planning.md explains them): 25 um / 1.3e-6 rad
+#: settings (``python research/planning_report.py``; docs/planning.md explains them): 25 um / 1.3e-6 rad
 #: (Twin Otter, J = 6), 3.1 mm / 3.4e-6 rad (forward slip, J = 6: its full-model residual 3e-6 m/s^2
 #: integrated over 120 s), 0.34 mm / 8.3e-6 rad (roll, J = 7); controls between nodes by Hermite
 #: interpolation of the series, so the residual left by J dominates.

@@ -195,7 +195,7 @@ def test_twin_otter_absorbs_the_perturbation_within_10s():
     strict=True,
     reason=(
         "the paper's lambda = 0.5 loop departs (seed 1: t = 2.2 s without saturation; with it, the plan's dl = -28 deg "
-        "is clipped at the GTM's 20 deg and it departs at 0.9 s). Measured causes (python scripts/tracking_robustness.py "
+        "is clipped at the GTM's 20 deg and it departs at 0.9 s). Measured causes (python research/tracking_robustness.py "
         "--analysis; docs/tracking.md, Robustness): the same flat outputs cannot be planned on 12 of 20 perturbed models, "
         "seed 1 among them (a glider's only drag control is the slip, already at beta = 0.40); the frozen-time loop is "
         "strongly non-normal (max ||exp(Mt)|| = 284, distance to instability 3.3e-4) and the seed-1 aerodynamics move its "

@@ -4,10 +4,15 @@ A dispersed Twin Otter and aileron roll (aero terms x U[0.95, 1.05] seed 3, mass
 flown closed loop with saturation on the in-house engine and on JSBSim with the feedback sampled at every step,
 240, 120 and 60 Hz; prints the largest position difference between the engines::
 
-    python scripts/controller_sampling.py
+    python research/controller_sampling.py
 """
 
 from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's packages, not an installed copy
 
 import math
 

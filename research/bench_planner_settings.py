@@ -12,8 +12,8 @@ kernels are the process's (``GFLAT_SERIES_BACKEND=compiled`` for the compiled on
 
 Usage::
 
-    python benchmarks/bench_planner_settings.py gtm-forward-slip --e 2,3 --J 8,9,10
-    python benchmarks/bench_planner_settings.py twin-otter-single-engine --step 1,2 --e 2 --J 8,9,10 --repeat 5
+    python research/bench_planner_settings.py gtm-forward-slip --e 2,3 --J 8,9,10
+    python research/bench_planner_settings.py twin-otter-single-engine --step 1,2 --e 2 --J 8,9,10 --repeat 5
 """
 
 from __future__ import annotations

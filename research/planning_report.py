@@ -5,10 +5,15 @@ for every iterate j (and its ratio between iterates), and the maximum
 deviation of the full model flown open loop from the planned initial state
 with the controls of iterate j = 0 and j = J.
 
-Usage: ``python scripts/planning_report.py``
+Usage: ``python research/planning_report.py``
 """
 
 from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's packages, not an installed copy
 
 import numpy as np
 

@@ -3,15 +3,17 @@
 Every call of a stage residual handed to :func:`planners.newton.newton_series` is counted, by kind:
 ``J`` on series with the complex-step Jacobian (a batch of one complex step per unknown), ``R`` on
 series, real (chord steps, checks), ``P`` pointwise on plain arrays (order 0: the pointwise Newton and
-the constant term of a carried Jacobian; far cheaper than the series ones).  Tracing
-(:mod:`planners.series_tape`) is off while counting -- every evaluation runs the residual, eagerly: the
-tape changes what an evaluation costs (a replay instead of the model code), not how many there are.
-Usage: ``python scripts/count_evaluations.py`` (from a worktree: ``PYTHONPATH=. python scripts/count_evaluations.py``).
+the constant term of a carried Jacobian; far cheaper than the series ones).
+Usage: ``python research/count_evaluations.py``.
 """
 
 from __future__ import annotations
 
-import functools
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's packages, not an installed copy
+
 import importlib
 
 import numpy as np
@@ -45,8 +47,6 @@ def main() -> None:
         return original(counted, *args, **kw)
 
     flat.newton_series = counting
-    taped = newton.TapedResidual
-    newton.TapedResidual = functools.partial(taped, when="never")
     try:
         for name in SCENARIOS:
             sc = load_scenario(name)
@@ -60,26 +60,6 @@ def main() -> None:
             )
     finally:
         flat.newton_series = original
-        newton.TapedResidual = taped
-    # The same plans with the tape: how the series evaluations were done (traced, replayed, eager).
-    tapes = []
-
-    def recording(residual, *a, **kw):
-        tapes.append(taped(residual, *a, **kw))
-        return tapes[-1]
-
-    newton.TapedResidual = recording
-    try:
-        for name in SCENARIOS:
-            tapes.clear()
-            plan_scenario(load_scenario(name))
-            total = {k: sum(t.counts[k] for t in tapes) for k in ("trace", "replay", "eager")}
-            print(
-                f"{name:<26} with the tape: {total['trace']} traced, {total['replay']} replayed, "
-                f"{total['eager']} eager (pointwise and untraced orders)"
-            )
-    finally:
-        newton.TapedResidual = taped
 
 
 if __name__ == "__main__":

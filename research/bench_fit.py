@@ -4,10 +4,15 @@ Source evaluation per point (GTM database vectorised, JSBSim through ``run_ic``,
 linear model), the least-squares fit of the 45 terms, and the regeneration of
 each bundled fitted aircraft (sampling + fit + trim check)::
 
-    python benchmarks/bench_fit.py [--points 5000] [--repeats 3]
+    python research/bench_fit.py [--points 5000] [--repeats 3]
 """
 
 from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's packages, not an installed copy
 
 import argparse
 import statistics

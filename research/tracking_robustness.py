@@ -4,12 +4,12 @@ Each paper scenario is planned on the nominal model and flown closed loop on the
 perturbation (every aerodynamic term x a seeded factor in [1 - s, 1 + s], mass scale, initial offset of
 position / speed / angles), saturation on and off; one factor at a time for the forward slip.
 
-    python scripts/tracking_robustness.py [--seed 1]
+    python research/tracking_robustness.py [--seed 1]
 
 Prints, per run: status, end time, the time after which |(x, y, z) - flat outputs| stays below 1 m, and the
 largest error after 10 s and after 40 s.
 
-    python scripts/tracking_robustness.py --analysis [--seeds 20]
+    python research/tracking_robustness.py --analysis [--seeds 20]
 
 Why the forward slip does not absorb the full perturbation (docs/tracking.md, "Robustness"): for each
 seed, whether the same flat outputs can be planned on the perturbed model at all; the frozen-time closed
@@ -18,6 +18,11 @@ slowest pole nominal and with the seed-1 aerodynamics); faster lambda lists flow
 """
 
 from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's packages, not an installed copy
 
 import argparse
 import dataclasses

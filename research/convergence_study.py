@@ -16,17 +16,21 @@ contributions are larger, lower speed), writes ``docs/generalized.md``:
   exact derivatives), which the node residual does not see;
 * the controls at the report time per iterate for both methods (the paper's aileron-roll table).
 
-Usage: ``python scripts/convergence_study.py [--jmax 10] [--repeat 3] [--out docs/generalized.md]``
+Usage: ``python research/convergence_study.py [--jmax 10] [--repeat 3] [--out docs/generalized.md]``
 (about 5 minutes on one core; ``--quick`` runs the three paper scenarios only, with jmax 8).
 """
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's packages, not an installed copy
+
 import argparse
 import copy
 import time
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 
@@ -174,7 +178,7 @@ def report(results: list[dict], descriptions: dict, jmax: int, repeat: int, roll
     L = []
     L.append("# Generalized flatness: the fixed point and Newton's method\n")
     L.append(
-        "Written by `python scripts/convergence_study.py` "
+        "Written by `python research/convergence_study.py` "
         f"(jmax = {jmax}, medians of {repeat} runs); do not edit by hand.\n"
     )
     L.append(INTRO)

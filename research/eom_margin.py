@@ -1,7 +1,7 @@
 """Worst relative difference, per variable, between the wind-frame model and the body-axis 6-DoF
 over the 24 random cases of ``tests/gna/test_eom.py`` (the test asserts <= 1e-7).
 
-Usage: ``python scripts/eom_margin.py`` (from the repository root).
+Usage: ``python research/eom_margin.py`` (from the repository root).
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ of every iterate's node series, coefficient k weighted by step^k (its contributi
 interval) and relative to the largest weighted coefficient of that variable (absolute for a variable
 that is zero to rounding, below 1e-12)::
 
-    python benchmarks/compare_plans.py --ref /work/main [--backend numpy|compiled]
+    python research/compare_plans.py --ref /work/main [--backend numpy|compiled]
 
 Exit status 1 when a difference exceeds ``--tol`` (default 1e-10).
 """

@@ -6,7 +6,7 @@ its CSV output with ``harness.engines.fly(["jsbsim"], ...)`` of the same plan: p
 position and angle differences over the first 10 s and the whole span, for control tables at every
 JSBSim step and every 5 steps (1/96 s), and draws them in ``reports/out/jsbsim-script/<scenario>.png``.
 
-Usage: ``python scripts/jsbsim_script_replay.py [SCENARIO ...]`` (from the repository root; default
+Usage: ``python research/jsbsim_script_replay.py [SCENARIO ...]`` (from the repository root; default
 twin-otter-single-engine gtm-aileron-roll).
 """
 

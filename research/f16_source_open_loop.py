@@ -1,6 +1,6 @@
 """The f16-s-turn plan flown open loop on inhouse, jsbsim and jsbsim-source; and a trim hold on jsbsim-source.
 
-Run from the repository root: ``python scripts/f16_source_open_loop.py``.  Prints
+Run from the repository root: ``python research/f16_source_open_loop.py``.  Prints
 
 * the plan's feasibility (Newton failures, bank, surfaces and thrust against the limits);
 * per engine, the largest distance between the flown position and the planned flat outputs (x, y, z)
@@ -10,6 +10,11 @@ Run from the repository root: ``python scripts/f16_source_open_loop.py``.  Print
 """
 
 from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's packages, not an installed copy
 
 import math
 import time

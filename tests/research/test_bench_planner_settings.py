@@ -1,4 +1,4 @@
-"""benchmarks/bench_planner_settings.py: a row per setting, the plan's own figures, bad settings refused."""
+"""research/bench_planner_settings.py: a row per setting, the plan's own figures, bad settings refused."""
 
 from __future__ import annotations
 
@@ -10,12 +10,12 @@ from planners.generalized import plan_scenario
 from planners.scenario import load_scenario
 from planners.verify import open_loop_error
 
-from .conftest import benchmark_module
+from .conftest import research_module
 
 
 @pytest.fixture(scope="module")
 def bps():
-    with benchmark_module("bench_planner_settings", "bench_planner_settings") as mod:
+    with research_module("bench_planner_settings", "bench_planner_settings") as mod:
         yield mod
 
 

@@ -8,7 +8,7 @@ table in docs/planning.md ("Accuracy between nodes, output order e, and J").
 
 Usage::
 
-    python scripts/accuracy_study.py [--repeat N] roll,7,2,0.5 to,6,1,2 fs,6,2,6 ...
+    python research/accuracy_study.py [--repeat N] roll,7,2,0.5 to,6,1,2 fs,6,2,6 ...
 
 (``roll``, ``to``, ``fs``: the three paper scenarios; with no setting, the bundled ones.)
 """

@@ -1,0 +1,9 @@
+"""Loading a research script (``research/*.py``, not a package) as a module for its tests."""
+
+from __future__ import annotations
+
+import functools
+
+from tests.script_loader import script_module
+
+research_module = functools.partial(script_module, "research")
