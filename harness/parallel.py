@@ -60,6 +60,50 @@ def default_jobs() -> int:
         return max(os.cpu_count() or 1, 1)
 
 
+#: Most worker processes per CPU a command starts (``--workers``, ``--jobs``, ``--dask local:N``): more only
+#: adds memory and context switches (a case is CPU-bound).
+WORKERS_PER_CPU = 4
+
+
+def max_workers() -> int:
+    """The most worker processes a command may start: :data:`WORKERS_PER_CPU` x the CPUs of :func:`default_jobs`.
+
+    Returns
+    -------
+    int
+    """
+    return WORKERS_PER_CPU * default_jobs()
+
+
+def check_workers(n: int, what: str) -> int:
+    """Refuse more worker processes than :func:`max_workers`.
+
+    Parameters
+    ----------
+    n : int
+        The count asked for.
+    what : str
+        The flag, for the message (``--workers``).
+
+    Returns
+    -------
+    int
+        ``n``.
+
+    Raises
+    ------
+    InputError
+        One line naming the flag, the value and the bound.
+    """
+    bound = max_workers()
+    if n > bound:
+        raise InputError(
+            f"{what} {n}: above the bound of {bound} worker processes "
+            f"({WORKERS_PER_CPU} x the {default_jobs()} CPU(s) this process may use)"
+        )
+    return n
+
+
 class RemoteTraceback(Exception):
     """The traceback of an error raised in a worker process (attached as the cause of the error raised again)."""
 
