@@ -41,7 +41,7 @@ from multiprocessing.connection import wait as wait_connections
 from pathlib import Path
 from typing import Any
 
-from gna.errors import GflatError, InputError
+from gna.errors import GflatError, InputError, describe
 
 from .outdir import OutputDir
 
@@ -127,7 +127,7 @@ def _portable(exc: BaseException) -> BaseException:
             return copy
         except Exception:
             continue
-    return RuntimeError(f"{type(exc).__name__}: {exc}")
+    return RuntimeError(f"{type(exc).__name__}: {describe(exc)}")
 
 
 class _CtrlCWaits:
@@ -201,7 +201,7 @@ def _child(conn, fn: Callable[[], Any], tmp: str | None = None) -> None:
             conn.send(
                 (
                     "err",
-                    RuntimeError(f"a worker's result could not be sent back: {exc}"),
+                    RuntimeError(f"a worker's result could not be sent back: {describe(exc)}"),
                     traceback.format_exc(),
                     0.0,
                     0.0,

@@ -233,3 +233,35 @@ def test_k4_a_case_past_its_budget_ends_as_a_timeout_and_the_campaign_goes_on(tm
     finally:
         st.close()
     assert json.loads(json.dumps(camp.tasks()[0].parameters())) == camp.tasks()[0].parameters()
+
+
+# --------------------------------------------------------------------------- messages never end in an empty clause
+
+
+def test_messages_built_from_an_exception_never_end_empty(tmp_path, capsys, monkeypatch):
+    from gna.errors import GflatError, InputError, describe
+
+    assert str(InputError("")) == "InputError (without a message)"
+    assert describe(OSError()) == "OSError (without a message)"
+    try:
+        try:
+            raise ValueError("the real cause")
+        except ValueError as inner:
+            raise OSError() from inner
+    except OSError as exc:
+        assert describe(exc) == "OSError (ValueError: the real cause)"
+    assert describe(OSError(28, "No space left on device")) == "No space left on device"
+
+    def empty_oserror(args):
+        raise OSError()
+
+    from harness.cli import build_parser
+
+    parser = build_parser()  # a command whose work raises an OSError without a message
+    args = parser.parse_args(["trim", "f16c", "--speed", "150"])
+    args.func = empty_oserror
+    monkeypatch.setattr(type(parser), "parse_args", lambda self, argv=None: args)
+    assert main(["trim", "f16c", "--speed", "150"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "gflat trim: error: cannot write the output: OSError (without a message)"
+    assert not err.endswith(": ") and issubclass(InputError, GflatError)

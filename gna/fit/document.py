@@ -142,7 +142,7 @@ def _design_tables(design: SamplingDesign) -> dict:
 def fitted_aircraft(ident: str, name: str, sections: Mapping[str, dict], envelope: dict, table, source_name: str):
     """The :class:`~gna.aircraft.Aircraft` of a fit (to trim it), with errors naming the source of the data."""
     from ..aircraft import aircraft_from_dict
-    from ..errors import InputError
+    from ..errors import InputError, describe
 
     base = {
         "id": ident,
@@ -154,7 +154,7 @@ def fitted_aircraft(ident: str, name: str, sections: Mapping[str, dict], envelop
     try:
         return aircraft_from_dict(base, where=f"{ident} (fitted)")
     except InputError as exc:
-        raise InputError(f"vehicle data of {source_name}: {exc}") from None
+        raise InputError(f"vehicle data of {source_name}: {describe(exc)}") from None
 
 
 def render(doc: Mapping, title: str, command: str) -> str:

@@ -24,7 +24,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from gna.errors import GflatError
+from gna.errors import GflatError, describe
 
 from ..engines import fly, get_engine
 from ..metrics import engine_tables, max_position_error
@@ -245,6 +245,6 @@ def run_sample(task: SampleTask) -> dict:
     except GflatError as exc:
         out["error"] = f"{type(exc).__name__}: {exc}"
     except Exception as exc:  # a bug, kept with its traceback in the store
-        out["error"] = f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=8)}"
+        out["error"] = f"{type(exc).__name__}: {describe(exc)}\n{traceback.format_exc(limit=8)}"
     out["timings"]["total_s"] = time.perf_counter() - t_start
     return out

@@ -28,7 +28,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
-from gna.errors import InputError
+from gna.errors import InputError, describe
 
 from ..fileio import replacing
 from ..folderlock import FolderLock
@@ -239,7 +239,7 @@ def _dask(tasks, where, commit, client=None, timeout: float = DASK_TIMEOUT_S, sc
                         "status": "failed",
                         "metrics": None,
                         "draw": None,
-                        "error": f"{type(exc).__name__}: {exc}",
+                        "error": f"{type(exc).__name__}: {describe(exc)}",
                         "timings": {},
                         "files": {},
                     }

@@ -24,7 +24,7 @@ from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.controller import Controller, as_controller, at_sample_times, checked_initial_state, evaluate, state_names
 from gna.eom import CONTROL_NAMES
-from gna.errors import InputError
+from gna.errors import InputError, describe
 from gna.simulate import envelope_warnings
 from gna.trajectory import (
     RunSettings,
@@ -285,7 +285,7 @@ class JSBSimRun:
         try:
             ok = self.fdm.run_ic()
         except Exception as exc:  # JSBSim raises its own exception types
-            raise EngineError(f"JSBSim run_ic failed for {self.aircraft.id}: {exc}") from None
+            raise EngineError(f"JSBSim run_ic failed for {self.aircraft.id}: {describe(exc)}") from None
         if not ok:
             raise EngineError(f"JSBSim run_ic failed for {self.aircraft.id}: {' | '.join(self.capture.problems())}")
 
@@ -357,7 +357,7 @@ class JSBSimRun:
             return (
                 "domain",
                 (
-                    f"JSBSim stopped at t = {times[self.k]:.6g} s with {type(exc).__name__}: {exc}; "
+                    f"JSBSim stopped at t = {times[self.k]:.6g} s with {type(exc).__name__}: {describe(exc)}; "
                     f"partial result kept up to t = {t_end:.6g} s"
                 ),
                 t_end,
