@@ -53,7 +53,7 @@ class UnknownAircraftError(GflatError, KeyError):
         super().__init__(name)
 
     def __str__(self) -> str:
-        return f"unknown aircraft {self.name!r}; known aircraft: {', '.join(self.known)}"
+        return f"unknown aircraft {self.name!r}; known aircraft: {', '.join(self.known) or 'none'}"
 
 
 class DomainError(GflatError):

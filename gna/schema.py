@@ -200,6 +200,7 @@ def check_shape(data: Any, where: str, max_depth: int = MAX_DEPTH, max_items: in
         value, depth, key = stack.pop()
         if not isinstance(value, (dict, list)):
             continue
+        key = key if len(key) <= 80 else key[:60] + "..."  # a deep path, shortened
         if depth > max_depth:
             raise InputError(
                 f"{where}: {key or 'the document'} is nested {depth} levels deep, above the bound of {max_depth}"

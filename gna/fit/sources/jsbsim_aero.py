@@ -68,7 +68,7 @@ class UnknownJSBSimAircraftError(UnknownAircraftError):
     def __str__(self) -> str:
         return (
             f"unknown JSBSim aircraft {self.name!r} (no aircraft/{self.name}/{self.name}.xml under {self.root}); "
-            f"available: {', '.join(self.known)}"
+            f"available: {', '.join(self.known) or 'none there'}"
         )
 
 
