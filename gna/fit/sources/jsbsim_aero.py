@@ -61,15 +61,15 @@ _MOMENT_AXES = {"ROLL": 0, "PITCH": 1, "YAW": 2}
 class UnknownJSBSimAircraftError(UnknownAircraftError):
     """A JSBSim aircraft name or path that does not exist."""
 
-    def __init__(self, name: str, known: list[str], root: str):
-        self.root = root
+    def __init__(self, name: str, known: list[str], root: str, file: str | None = None):
+        self.root, self.file = root, file
         super().__init__(name, known)
 
     def __str__(self) -> str:
-        return (
-            f"unknown JSBSim aircraft {self.name!r} (no aircraft/{self.name}/{self.name}.xml under {self.root}); "
-            f"available: {', '.join(self.known) or 'none there'}"
+        missing = (
+            f"no such file {self.file}" if self.file else f"no aircraft/{self.name}/{self.name}.xml under {self.root}"
         )
+        return f"unknown JSBSim aircraft {self.name!r} ({missing}); available: {', '.join(self.known) or 'none there'}"
 
 
 @contextlib.contextmanager
@@ -281,7 +281,7 @@ def resolve(model: str, root: str | Path | None = None) -> tuple[str, Path, Path
     if p.suffix == ".xml":
         p = p.resolve()
         if not p.is_file():
-            raise UnknownJSBSimAircraftError(str(model), available_aircraft(base), str(p.parent))
+            raise UnknownJSBSimAircraftError(str(model), available_aircraft(base), str(base), file=str(p))
         if p.parent.name != p.stem:
             raise InputError(f"JSBSim expects an aircraft file as <dir>/<name>/<name>.xml; got {p}")
         return p.stem, p.parent, base
@@ -377,7 +377,7 @@ class JSBSimAeroSource(SourceModel):
             {
                 **{p: "configuration" for p in (configuration or {})},
                 **{
-                    str(surfaces[v][0]): f"surface {v} (--property {v}=...)"
+                    str(surfaces[v][0]): f"surface {v}, --property {v}=..."
                     for v in (surfaces or {})
                     if v in SURFACE_CANDIDATES
                 },
