@@ -1,6 +1,6 @@
 """``gflat campaign run|status|report``: validation campaigns (Monte Carlo over dispersed aircraft).
 
-``gflat campaign run NAME_OR_FILE --out DIR [--samples N] [--workers N] [--dask ADDRESS|local:N]
+``gflat campaign run NAME_OR_FILE --out DIR [--samples N] [--workers N] [--case-budget S] [--dask ADDRESS|local:N]
 [--dask-timeout S] [--retry-failed] [--only CASE_ID] [-q/--quiet]`` runs or resumes a campaign (done cases are
 skipped, failed ones rerun only with ``--retry-failed``); the campaign file, every case, ``--dask`` and the
 scheduler at its address are checked before the folder is created or touched; ``gflat campaign status DIR [--json]`` counts the cases;
