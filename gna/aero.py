@@ -50,6 +50,10 @@ COEFFICIENTS: tuple[str, ...] = ("CD", "CY", "CL", "Cl", "Cm", "Cn")
 #: typo, and its powers would overflow the series arithmetic long before they mattered).
 MAX_EXPONENT = 12
 
+#: Most terms of an aerodynamic table (the paper's structure has 45; every term is a monomial evaluated at
+#: every step and node, so thousands are a mistake, not a model).
+MAX_TERMS = 1000
+
 #: Named structures a model file may declare: name -> number of terms, indexed theta = 1 .. n
 #: (``gna45``: the paper's 45-term model of the GNA aircraft, the structure of every bundled aircraft).
 STRUCTURES: dict[str, int] = {"gna45": 45}

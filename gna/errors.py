@@ -8,8 +8,36 @@ traceback.
 from __future__ import annotations
 
 
+def describe(exc: BaseException) -> str:
+    """The text naming an exception's cause, never empty (messages end in a cause, not an empty clause).
+
+    The exception's own text (an OS error's ``strerror``), else that of the exception it was raised from
+    (its ``__cause__`` or ``__context__``), else its type's name.
+
+    Parameters
+    ----------
+    exc : BaseException
+
+    Returns
+    -------
+    str
+    """
+    seen, e = set(), exc
+    while e is not None and id(e) not in seen:
+        seen.add(id(e))
+        text = (e.strerror if isinstance(e, OSError) and e.strerror else str(e)).strip()
+        if text:
+            return text if e is exc else f"{type(exc).__name__} ({type(e).__name__}: {text})"
+        e = e.__cause__ or e.__context__
+    return f"{type(exc).__name__} (without a message)"
+
+
 class GflatError(Exception):
-    """Base class of every error gflat raises on purpose."""
+    """Base class of every error gflat raises on purpose (its text is never empty: :func:`describe`)."""
+
+    def __str__(self) -> str:
+        text = super().__str__()
+        return text if text.strip() else f"{type(self).__name__} (without a message)"
 
 
 class InputError(GflatError, ValueError):
@@ -25,7 +53,7 @@ class UnknownAircraftError(GflatError, KeyError):
         super().__init__(name)
 
     def __str__(self) -> str:
-        return f"unknown aircraft {self.name!r}; known aircraft: {', '.join(self.known)}"
+        return f"unknown aircraft {self.name!r}; known aircraft: {', '.join(self.known) or 'none'}"
 
 
 class DomainError(GflatError):

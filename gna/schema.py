@@ -30,6 +30,15 @@ from .errors import InputError
 #: Pattern of identifiers used as file names (aircraft ``id``, scenario ``name``).
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
 
+#: Largest input file read [bytes]: every bundled file is below 100 kB; a bigger one is a mistake or an attack.
+MAX_FILE_BYTES = 16 * 1024 * 1024
+
+#: Deepest nesting of tables and lists in a TOML file (the schemas nest at most 5 levels).
+MAX_DEPTH = 32
+
+#: Most items of one list or keys of one table in a TOML file (tighter bounds are in the schemas).
+MAX_ITEMS = 10000
+
 #: Words of the JSON Schema types, for messages.
 _TYPE_WORDS = {
     "object": "a table",
@@ -124,7 +133,7 @@ def find_file(
 
 
 def read_toml(path: str | Path) -> dict:
-    """Read a TOML file (UTF-8, a leading byte-order mark accepted).
+    """Read a TOML file (UTF-8, a leading byte-order mark accepted), its size and shape bounded.
 
     Parameters
     ----------
@@ -139,13 +148,18 @@ def read_toml(path: str | Path) -> dict:
     Raises
     ------
     InputError
-        The file cannot be read, is not UTF-8, or is not valid TOML.
+        The file cannot be read, is larger than :data:`MAX_FILE_BYTES`, is not UTF-8, is not valid TOML,
+        nests tables and lists deeper than :data:`MAX_DEPTH` or has a list or table of more than
+        :data:`MAX_ITEMS` items (:func:`check_shape`): one line naming the file, the value and the bound.
     """
     path = Path(path)
     try:
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise InputError(f"{path}: {size} bytes, above the bound of {MAX_FILE_BYTES} bytes for an input file")
         raw = path.read_bytes()
     except OSError as exc:
-        raise InputError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+        raise InputError(f"{path}: cannot read the file ({exc.strerror or type(exc).__name__})") from None
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
@@ -153,9 +167,54 @@ def read_toml(path: str | Path) -> dict:
             f"{path}: not UTF-8 text (byte {raw[exc.start]:#04x} at offset {exc.start}); save the file as UTF-8"
         ) from None
     try:
-        return tomllib.loads(text)
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path.name}: not valid TOML ({exc})") from None
+    except RecursionError:  # tomllib parses nested inline tables and lists recursively
+        raise InputError(f"{path.name}: tables or lists nested deeper than the bound of {MAX_DEPTH} levels") from None
+    check_shape(data, path.name)
+    return data
+
+
+def check_shape(data: Any, where: str, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS) -> None:
+    """Refuse a parsed document nested too deep or with too long a list or table (iteratively: no recursion).
+
+    Parameters
+    ----------
+    data : object
+        The parsed document (tables, lists, values).
+    where : str
+        The file's name, for the message.
+    max_depth : int
+        Deepest nesting of tables and lists.
+    max_items : int
+        Most items of one list or keys of one table.
+
+    Raises
+    ------
+    InputError
+        One line naming the file, the key path, the depth or the count, and the bound.
+    """
+    stack = [(data, 0, "")]
+    while stack:
+        value, depth, key = stack.pop()
+        if not isinstance(value, (dict, list)):
+            continue
+        key = key if len(key) <= 80 else key[:60] + "..."  # a deep path, shortened
+        if depth > max_depth:
+            raise InputError(
+                f"{where}: {key or 'the document'} is nested {depth} levels deep, above the bound of {max_depth}"
+            )
+        if len(value) > max_items:
+            what = "keys" if isinstance(value, dict) else "items"
+            raise InputError(
+                f"{where}: {key or 'the document'} has {len(value)} {what}, above the bound of {max_items}"
+            )
+        items = value.items() if isinstance(value, dict) else enumerate(value)
+        for k, v in items:
+            if isinstance(v, (dict, list)):
+                sub = f"{key}[{k}]" if isinstance(k, int) else (f"{key}.{k}" if key else str(k))
+                stack.append((v, depth + 1, sub))
 
 
 def load_schema(package: str, *parts: str) -> dict:
@@ -349,6 +408,11 @@ def _message(error, where: str) -> str:
         "minLength": "at least",
         "maxLength": "at most",
     }
+    if kind in ("maxItems", "maxLength"):
+        unit = "items" if kind == "maxItems" else "characters"
+        return f"{loc}: {name} has {len(value)} {unit}, above the bound of {error.validator_value}"
+    if kind == "uniqueItems":
+        return f"{loc}: {name} = {_short(value)} repeats an item; give each once"
     if kind in bounds:
         unit = " items" if "Items" in kind else (" characters" if "Length" in kind else "")
         return f"{loc}: {name} must be {bounds[kind]} {error.validator_value}{unit}, got {_short(value)}"

@@ -38,6 +38,7 @@ from .trajectory import (
     ControlFunction,
     RunSettings,
     SimulationResult,
+    check_initial_domain,
     check_span,
     control_function,
     controller_frames,
@@ -63,8 +64,8 @@ _SOLVERS = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau}
 
 
 class _NonFinite(Exception):
-    def __init__(self, t, names):
-        self.t, self.names = t, names
+    def __init__(self, t, names, control=False):
+        self.t, self.names, self.control = t, names, control
 
 
 def _domain_functions(bounds):
@@ -170,9 +171,7 @@ def simulate(
         bad = [f"{n} = {v}" for n, v in zip(CONTROL_NAMES, u0) if not math.isfinite(v)]
         raise InputError(f"controls at t0 = {t0:g} s are not finite ({', '.join(bad)})")
     bounds = domain_bounds(env)  # with ground effect: a CG at or below the ground too (no ground contact)
-    start = domain_violation(t0, y0, bounds)
-    if start is not None:
-        raise InputError(f"the initial state is outside the physical domain: {start}")
+    check_initial_domain(t0, y0, bounds)  # as every engine: altitude (atmosphere model), V, beta, gamma, alpha
     ctrl = as_controller(controller)
     nc = 0 if ctrl is None else int(ctrl.n_states)
     names = state_names(ctrl)
@@ -191,6 +190,8 @@ def simulate(
         u = ufun(t)
         if type(u) is not np.ndarray or u.dtype != np.float64:
             u = np.asarray(u, dtype=float)
+        if not isfinite(u.sum()):  # a non-finite control stops the run, as on JSBSim (even one the model ignores)
+            raise _NonFinite(t, [f"{n} = {v}" for n, v in zip(CONTROL_NAMES, u.tolist()) if not isfinite(v)], True)
         if ctrl is not None:
             du, dc = evaluate(ctrl, t, y[:12], y[12:])  # output and integrands from one evaluation
             u = u + du
@@ -243,10 +244,16 @@ def simulate(
                     exc = again
             status = "domain"
             t_end = t_prev
-            message = (
-                f"non-finite derivative ({', '.join(exc.names)}) at t = {exc.t:.6g} s; "
-                f"integration stopped, partial result kept up to t = {t_prev:.6g} s"
-            )
+            if exc.control:  # JSBSim's words (harness.engines.jsbsim.run.StepStop.control)
+                message = (
+                    f"non-finite control at t = {exc.t:.6g} s ({', '.join(exc.names)}); "
+                    f"partial result kept up to t = {t_prev:.6g} s"
+                )
+            else:
+                message = (
+                    f"non-finite derivative ({', '.join(exc.names)}) at t = {exc.t:.6g} s; "
+                    f"integration stopped, partial result kept up to t = {t_prev:.6g} s"
+                )
             break
         if solver.status == "failed":
             status, t_end = "failed", t_prev

@@ -278,7 +278,9 @@ class DomainBounds:
     """Where a trajectory of the wind-frame model still means something; engines stop outside.
 
     These are not the aerodynamic envelope (an excursion there is a warning):
-    they mark a run that has diverged or reached a singular chart.
+    they mark a run that has diverged, reached a singular chart or left the
+    atmosphere model.  The one definition trim, the planners' checks and both
+    engines use: :func:`domain_bounds` makes it for an environment.
 
     Parameters
     ----------
@@ -302,6 +304,14 @@ class DomainBounds:
         ground effect (:func:`domain_bounds`): a CG height ``h = -z - ground``
         at or below 0 has reached the ground, and neither engine models ground
         contact.  None (default, free air): no height test.
+    h_min, h_max : float
+        Altitudes ``-z`` [m] the atmosphere model holds between
+        (:func:`domain_bounds`: the ISA's ``altitude_range``, -2 to 20 km, the
+        range :meth:`gna.atmosphere.Environment.check_altitude` refuses outside
+        for trim and plan nodes); infinite (default, and a constant density):
+        no altitude test.
+    atmosphere : str
+        The model the altitude range belongs to, for the messages.
     """
 
     V_min: float = 1.0
@@ -309,9 +319,12 @@ class DomainBounds:
     cos_min: float = 1e-6
     alpha_max: float = 0.5 * math.pi
     ground: float | None = None
+    h_min: float = -math.inf
+    h_max: float = math.inf
+    atmosphere: str = ""
 
 
-#: The bounds both engines apply at every step.
+#: The bounds of the wind-frame chart alone (no atmosphere, no ground): :func:`domain_bounds` adds those.
 DOMAIN = DomainBounds()
 
 #: Domain tests: (state name, what its margin measures); margins are positive inside the domain.
@@ -322,6 +335,8 @@ DOMAIN_TESTS: tuple[tuple[str, str], ...] = (
     ("gamma", "cos(gamma) below {cos_min:g} (vertical flight path: the wind-frame chart is singular)"),
     ("alpha", "|alpha| above the domain's {alpha_max_deg:g} deg"),
     ("z", "height above the ground at or below 0 (ground at {ground:g} m altitude; no ground contact is modelled)"),
+    ("z", "altitude below {h_min:g} m, the lower end of {atmosphere}"),
+    ("z", "altitude above {h_max:g} m, the upper end of {atmosphere}"),
 )
 
 #: Index of the height test (ground effect only) in :data:`DOMAIN_TESTS`.
@@ -329,20 +344,52 @@ GROUND_TEST = 5
 
 
 def domain_bounds(env: Environment | None) -> DomainBounds:
-    """The domain of a run in ``env``: :data:`DOMAIN`, with the ground's height test when it has ground effect.
+    """The domain of a run in ``env``: :data:`DOMAIN` with the atmosphere's altitude range and the ground's height.
 
     Parameters
     ----------
     env : Environment or None
-        The run's environment (None: free air).
+        The run's environment (None: the default, ISA in free air).
 
     Returns
     -------
     DomainBounds
-        :data:`DOMAIN` itself in free air; else the same bounds with ``ground`` at the ground elevation [m].
+        :data:`DOMAIN` with ``h_min``, ``h_max`` the atmosphere model's ``altitude_range`` (the ISA's -2 to
+        20 km; none for a constant density) and, with ground effect, ``ground`` at the ground elevation [m].
     """
+    env = env if env is not None else Environment()
     ge = getattr(env, "ground_effect", None)
-    return DOMAIN if ge is None else replace(DOMAIN, ground=float(ge.elevation))
+    lo, hi = getattr(env.atmosphere, "altitude_range", (-math.inf, math.inf))
+    return replace(
+        DOMAIN,
+        ground=None if ge is None else float(ge.elevation),
+        h_min=float(lo),
+        h_max=float(hi),
+        atmosphere=f"the {type(env.atmosphere).__name__} atmosphere model",
+    )
+
+
+def check_initial_domain(t0: float, y0, bounds: DomainBounds) -> None:
+    """Refuse an initial state outside the domain (every engine, before it flies).
+
+    Parameters
+    ----------
+    t0 : float
+        Start time [s].
+    y0 : sequence of float, shape (12,)
+        Initial wind-frame state.
+    bounds : DomainBounds
+        The run's domain (:func:`domain_bounds`).
+
+    Raises
+    ------
+    InputError
+        ``the initial state is outside the physical domain: left the physical domain at t = t0 s: ...``
+        naming the variable and its value.
+    """
+    start = domain_violation(t0, y0, bounds)
+    if start is not None:
+        raise InputError(f"the initial state is outside the physical domain: {start}")
 
 
 def ground_violation(t: float, z: float, bounds: DomainBounds = DOMAIN) -> str | None:
@@ -398,6 +445,8 @@ def _margins(z, V, gamma, alpha, beta, bounds: DomainBounds, cos, absolute) -> l
         cos(gamma) - bounds.cos_min,
         bounds.alpha_max - absolute(alpha),
         math.inf if bounds.ground is None else -z - bounds.ground,
+        math.inf if bounds.h_min == -math.inf else -z - bounds.h_min,
+        math.inf if bounds.h_max == math.inf else bounds.h_max + z,
     ]
 
 
@@ -452,12 +501,17 @@ def domain_text(t: float, test: int, value: float, bounds: DomainBounds = DOMAIN
         cos_min=bounds.cos_min,
         alpha_max_deg=math.degrees(bounds.alpha_max),
         ground=math.nan if bounds.ground is None else bounds.ground,
+        h_min=bounds.h_min,
+        h_max=bounds.h_max,
+        atmosphere=bounds.atmosphere or "the atmosphere model",
     )
-    if name == "z":  # the height test: the height above the ground, then z itself
+    if test == GROUND_TEST:  # the height test: the height above the ground, then z itself
         return (
             f"left the physical domain at t = {t:.6g} s: {text} "
             f"(h = {-value - (bounds.ground or 0.0):.6g} m, z = {value:.6g} m)"
         )
+    if name == "z":  # the altitude tests
+        return f"left the physical domain at t = {t:.6g} s: {text} (altitude = {-value:.6g} m, z = {value:.6g} m)"
     shown = f"{value:.6g} {UNITS[name]}" if name == "V" else f"{value:.6g} rad = {math.degrees(value):.4g} deg"
     return f"left the physical domain at t = {t:.6g} s: {text} ({name} = {shown})"
 

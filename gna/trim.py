@@ -25,7 +25,7 @@ from .eom import Controls, HValues, State, derivatives
 from .errors import ConvergenceError, DomainError, InputError
 from .simulate import engine_thrust_warnings
 from .solve import newton
-from .trajectory import DOMAIN, UNITS, domain_violation
+from .trajectory import DOMAIN, UNITS, domain_bounds, domain_violation
 from .units import G0
 
 TRIM_VARIABLES: tuple[str, ...] = ("V", "gamma", "chi_dot", "F", "alpha", "beta", "mu", "p", "q", "r", "dl", "dm", "dn")
@@ -329,7 +329,7 @@ def trim(
             residual=float(res.residual),
             iterations=res.iterations,
         )
-    outside = domain_violation(0.0, s)
+    outside = domain_violation(0.0, s, domain_bounds(env))  # the engines' domain, the atmosphere's range included
     if outside is not None:  # a free speed or angle solved outside the domain
         fx = ", ".join(f"{k} = {v:.6g}" for k, v in fixed.items())
         raise DomainError(

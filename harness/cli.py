@@ -22,7 +22,7 @@ import re
 import sys
 import time
 
-from gna.errors import GflatError
+from gna.errors import GflatError, describe
 
 #: Exit statuses of ``gflat``, documented in ``gflat --help`` and the README.
 EXIT_CODES: dict[int, str] = {
@@ -186,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except OSError as exc:  # an output that cannot be written (missing or read-only folder, a file in the way)
         print(
-            f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {exc.strerror or exc}",
+            f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {describe(exc)}",
             file=sys.stderr,
         )
         return 2

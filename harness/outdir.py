@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gna.errors import InputError
+from gna.errors import InputError, describe
 
 from .fileio import json_safe, remove_empty_folders, replacing
 from .folderlock import FolderLock
@@ -122,7 +122,7 @@ class OutputDir:
         try:
             path = path.resolve()
         except (OSError, RuntimeError) as exc:
-            raise InputError(f"output folder {root}: cannot resolve the path ({exc})") from None
+            raise InputError(f"output folder {root}: cannot resolve the path ({describe(exc)})") from None
         self.root = path
         self.clean = clean and marker
         if _record is not None:
@@ -183,7 +183,7 @@ class OutputDir:
         try:
             resolved = candidate.resolve()
         except (OSError, RuntimeError) as exc:
-            raise InputError(f"output path {candidate}: cannot resolve it ({exc})") from None
+            raise InputError(f"output path {candidate}: cannot resolve it ({describe(exc)})") from None
         top = self._record.root
         if resolved == top or not (resolved.is_relative_to(self.root) and resolved.is_relative_to(top)):
             raise InputError(f"output path {'/'.join(map(str, parts))!r} leaves the output folder {self.root}")
@@ -349,7 +349,7 @@ class OutputDir:
         try:
             text = json.dumps(obj, indent=2, sort_keys=False, allow_nan=False, default=default)
         except (ValueError, TypeError) as exc:
-            raise InputError(f"cannot write {self.root.joinpath(*parts)} as JSON: {exc}") from None
+            raise InputError(f"cannot write {self.root.joinpath(*parts)} as JSON: {describe(exc)}") from None
         return self.write_text(*parts, text=text + "\n")
 
     # ---- completion ------------------------------------------------------------------------------

@@ -36,7 +36,7 @@ import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gna.errors import InputError
+from gna.errors import InputError, describe
 
 from .folderlock import is_held
 
@@ -58,7 +58,7 @@ def _cause(exc: OSError) -> str:
         folder = Path(os.path.abspath(name)).parent
         if folder.is_dir():
             return f"{folder} exists, but its file system creates no new files or folders there"
-    return exc.strerror or str(exc) or type(exc).__name__
+    return describe(exc)
 
 
 def _write_probe(folder: Path) -> None:

@@ -41,7 +41,7 @@ from multiprocessing.connection import wait as wait_connections
 from pathlib import Path
 from typing import Any
 
-from gna.errors import GflatError, InputError
+from gna.errors import GflatError, InputError, describe
 
 from .outdir import OutputDir
 
@@ -58,6 +58,50 @@ def default_jobs() -> int:
         return max(len(os.sched_getaffinity(0)), 1)
     except (AttributeError, OSError):
         return max(os.cpu_count() or 1, 1)
+
+
+#: Most worker processes per CPU a command starts (``--workers``, ``--jobs``, ``--dask local:N``): more only
+#: adds memory and context switches (a case is CPU-bound).
+WORKERS_PER_CPU = 4
+
+
+def max_workers() -> int:
+    """The most worker processes a command may start: :data:`WORKERS_PER_CPU` x the CPUs of :func:`default_jobs`.
+
+    Returns
+    -------
+    int
+    """
+    return WORKERS_PER_CPU * default_jobs()
+
+
+def check_workers(n: int, what: str) -> int:
+    """Refuse more worker processes than :func:`max_workers`.
+
+    Parameters
+    ----------
+    n : int
+        The count asked for.
+    what : str
+        The flag, for the message (``--workers``).
+
+    Returns
+    -------
+    int
+        ``n``.
+
+    Raises
+    ------
+    InputError
+        One line naming the flag, the value and the bound.
+    """
+    bound = max_workers()
+    if n > bound:
+        raise InputError(
+            f"{what} {n}: above the bound of {bound} worker processes "
+            f"({WORKERS_PER_CPU} x the {default_jobs()} CPU(s) this process may use)"
+        )
+    return n
 
 
 class RemoteTraceback(Exception):
@@ -83,7 +127,7 @@ def _portable(exc: BaseException) -> BaseException:
             return copy
         except Exception:
             continue
-    return RuntimeError(f"{type(exc).__name__}: {exc}")
+    return RuntimeError(f"{type(exc).__name__}: {describe(exc)}")
 
 
 class _CtrlCWaits:
@@ -157,7 +201,7 @@ def _child(conn, fn: Callable[[], Any], tmp: str | None = None) -> None:
             conn.send(
                 (
                     "err",
-                    RuntimeError(f"a worker's result could not be sent back: {exc}"),
+                    RuntimeError(f"a worker's result could not be sent back: {describe(exc)}"),
                     traceback.format_exc(),
                     0.0,
                     0.0,

@@ -78,31 +78,80 @@ def golden_path(test_file: str | Path, test_name: str) -> Path:
     return test_file.parent / GOLDEN_DIR / test_file.stem / f"{stem}.csv"
 
 
-def read_golden(path: Path) -> pd.DataFrame:
-    """A golden trajectory: ``path`` (CSV, first column the time ``t`` [s]) or its ``.parquet`` sibling.
+class GoldenError(Exception):
+    """A golden trajectory that cannot be used: the message names the file, the cause and the way out."""
+
+
+def _bad_golden(path: Path, cause: str) -> GoldenError:
+    return GoldenError(
+        f"golden trajectory {path} is unusable: {cause}; regenerate it with 'pytest {REGEN_OPTION}' on this "
+        f"test, review it and commit it"
+    )
+
+
+def read_golden(path: Path, columns: Sequence[str] = ()) -> pd.DataFrame:
+    """A golden trajectory: ``path`` (CSV, first column the time ``t`` [s]) or its ``.parquet`` sibling, checked.
 
     Parameters
     ----------
     path : pathlib.Path
         The CSV path (:func:`golden_path`).
+    columns : sequence of str
+        Columns the comparison needs (each must be present).
 
     Returns
     -------
     pandas.DataFrame
-        Indexed by ``t`` [s].
+        Indexed by ``t`` [s]: at least two rows, times finite and increasing, every value finite.
 
     Raises
     ------
     FileNotFoundError
         When neither file exists.
+    GoldenError
+        An empty, truncated, corrupt or undecodable file, or one without the needed columns: one line
+        naming the file and the cause and saying to run ``pytest --gflat-regen``.
     """
+    import numpy as np
     import pandas as pd
 
     parquet = path.with_suffix(".parquet")
-    if not path.is_file() and parquet.is_file():
-        df = pd.read_parquet(parquet)
-        return df.set_index("t") if "t" in df.columns else df
-    return pd.read_csv(path, index_col=0)
+    source = parquet if not path.is_file() and parquet.is_file() else path
+    if not source.is_file():
+        raise FileNotFoundError(str(path))
+    if source.stat().st_size == 0:
+        raise _bad_golden(source, "the file is empty")
+    try:
+        if source is parquet:
+            df = pd.read_parquet(parquet)
+            df = df.set_index("t") if "t" in df.columns else df
+        else:
+            df = pd.read_csv(path, index_col=0)
+    except Exception as exc:  # pandas, pyarrow and the codecs raise many types for a damaged file
+        cause = str(exc).strip().splitlines()[0] if str(exc).strip() else "no detail"
+        raise _bad_golden(source, f"it cannot be read ({type(exc).__name__}: {cause})") from None
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        raise _bad_golden(
+            source, f"no column {', '.join(map(repr, missing))} (it has {', '.join(map(str, df.columns))})"
+        )
+    if len(df) < 2:
+        raise _bad_golden(source, f"{len(df)} row(s), a trajectory needs at least two")
+    try:
+        t = np.asarray(df.index, dtype=float)
+        values = df.to_numpy(dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise _bad_golden(source, f"a value is not a number ({exc})") from None
+    if not np.all(np.isfinite(t)) or not np.all(np.diff(t) > 0):
+        raise _bad_golden(source, "the times (first column) are not finite and increasing")
+    bad = ~np.isfinite(values)
+    if bad.any():
+        i, j = (int(k[0]) for k in np.nonzero(bad))
+        raise _bad_golden(
+            source, f"row {i + 1} (t = {t[i]:g} s) has {df.columns[j]} = {values[i, j]} (a truncated line?)"
+        )
+    df.index = pd.Index(t, name="t")
+    return df
 
 
 def write_golden(path: Path, result) -> None:
@@ -201,7 +250,7 @@ class GflatFlight:
         """
         __tracebackhide__ = True  # failures point at the user's test line, not at this method
         from gna.errors import InputError
-        from gna.trajectory import COLUMNS, STATE_NAMES
+        from gna.trajectory import COLUMNS, CONTROL_NAMES, STATE_NAMES
         from planners.generalized import plan_scenario
         from planners.scenario import load_scenario, scenario_from_dict
 
@@ -243,13 +292,21 @@ class GflatFlight:
         if self.regen:
             write_golden(self.golden, runs[engines[0]])
             return runs
-        golden = read_golden(self.golden) if self.has_golden() else None
+        try:
+            needed = [c for c in cols if c in STATE_NAMES + CONTROL_NAMES]  # the columns write_golden writes
+            golden = read_golden(self.golden, needed) if self.has_golden() else None
+        except GoldenError as exc:
+            pytest.fail(f"gflat_flight({sc.name!r}): {exc}", pytrace=False)
         if golden is None:
             pytest.fail(
                 f"golden trajectory {self.golden} is missing; create it from the {engines[0]!r} run with "
                 f"'pytest {REGEN_OPTION}' on this test, review it and commit it",
                 pytrace=False,
             )
+        g0, g1 = float(golden.index[0]), float(golden.index[-1])
+        if g0 > t0 + 1e-9 or g1 < t1 - 1e-9:
+            cause = f"it covers t = {g0:g} .. {g1:g} s, the run {t0:g} .. {t1:g} s (truncated, or for another duration)"
+            pytest.fail(f"gflat_flight({sc.name!r}): {_bad_golden(self.golden, cause)}", pytrace=False)
         failures = []
         for name, r in runs.items():
             try:

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gna.errors import InputError
+from gna.errors import InputError, describe
 from gna.units import DEG, G0, KT
 
 FUNCTIONS: dict[str, Callable] = {
@@ -217,7 +217,7 @@ def compile_expression(
         except InputError:
             raise
         except (ArithmeticError, ValueError, FloatingPointError, OverflowError) as exc:
-            raise InputError(f"{where}: {text!r} cannot be evaluated ({exc})") from None
+            raise InputError(f"{where}: {text!r} cannot be evaluated ({describe(exc)})") from None
         fn0 = fn
         fn = lambda t, c=const: c + 0.0 * t  # noqa: E731  keep the shape/type of t
         del fn0

@@ -102,6 +102,9 @@ from .plan import DEFAULT_INTERPOLATION, check_interpolation
 MAX_NODES = 20000
 
 
+#: Most times of the ``[report] times`` table (each is a row of the plan report, evaluated on every iterate).
+MAX_REPORT_TIMES = 1000
+
 #: Largest |time| of a scenario [s] (about 30 years: beyond it a grid step loses its meaning in float64).
 MAX_TIME = 1e9
 

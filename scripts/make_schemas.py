@@ -19,7 +19,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from gna.aero import COEFFICIENTS, MAX_EXPONENT  # noqa: E402
+from gna.aero import COEFFICIENTS, MAX_EXPONENT, MAX_TERMS  # noqa: E402
 from gna.aircraft import UNIT_FACTORS  # noqa: E402
 from gna.perturbation import PERTURBATION_KEYS  # noqa: E402
 from gna.trim import TRIM_VARIABLES  # noqa: E402
@@ -27,7 +27,7 @@ from planners.expressions import CONSTANTS, FUNCTIONS  # noqa: E402
 from planners.flat import FLAT_KINDS  # noqa: E402
 from planners.generalized import AUTO_J, AUTO_J_MAX, AUTO_J_TOL, MAX_E, METHODS  # noqa: E402
 from planners.plan import DEFAULT_INTERPOLATION, INTERPOLATIONS, PLAN_VARIABLES  # noqa: E402
-from planners.scenario import COMPARE_KEYS, MAX_NODES, TRACKING_KEYS  # noqa: E402
+from planners.scenario import COMPARE_KEYS, MAX_NODES, MAX_REPORT_TIMES, TRACKING_KEYS  # noqa: E402
 
 AIRCRAFT_SCHEMA = ROOT / "gna" / "data" / "schemas" / "aircraft.schema.json"
 SCENARIO_SCHEMA = ROOT / "planners" / "schemas" / "scenario.schema.json"
@@ -210,11 +210,14 @@ def aircraft_schema() -> dict:
             "terms": {
                 "type": "array",
                 "minItems": 1,
+                "maxItems": MAX_TERMS,
                 "items": term,
-                "description": "The terms (required, at least one; a coefficient/monomial pair at most once)",
+                "description": f"The terms (required, 1 to {MAX_TERMS}; a coefficient/monomial pair at most once)",
             },
             "absent_coefficients": {
                 "type": "array",
+                "maxItems": len(COEFFICIENTS),
+                "uniqueItems": True,
                 "items": {"enum": list(COEFFICIENTS)},
                 "description": "Coefficients a fit could not identify (written by gflat fit)",
             },
@@ -523,13 +526,16 @@ def scenario_schema() -> dict:
                 {
                     "times": {
                         "type": "array",
+                        "maxItems": MAX_REPORT_TIMES,
                         "items": num,
-                        "description": "Times within [t0, t1] tabulated",
+                        "description": f"Times within [t0, t1] tabulated (at most {MAX_REPORT_TIMES})",
                         "x-unit": "s",
                         "x-default": "[]",
                     },
                     "variables": {
                         "type": "array",
+                        "maxItems": len(PLAN_VARIABLES),
+                        "uniqueItems": True,
                         "items": {"enum": list(PLAN_VARIABLES)},
                         "description": "Plan variables tabulated",
                         "x-default": '["F", "dl", "dm", "dn"]',

@@ -220,7 +220,7 @@ def fitted_aircraft(ident: str, name: str, sections: Mapping[str, dict], envelop
         The vehicle data do not load as an aircraft; the message names ``source_name``.
     """
     from ..aircraft import aircraft_from_dict
-    from ..errors import InputError
+    from ..errors import InputError, describe
 
     base = {
         "id": ident,
@@ -232,7 +232,7 @@ def fitted_aircraft(ident: str, name: str, sections: Mapping[str, dict], envelop
     try:
         return aircraft_from_dict(base, where=f"{ident} (fitted)")
     except InputError as exc:
-        raise InputError(f"vehicle data of {source_name}: {exc}") from None
+        raise InputError(f"vehicle data of {source_name}: {describe(exc)}") from None
 
 
 def render(doc: Mapping, title: str, command: str) -> str:

@@ -11,11 +11,11 @@ checks it is current.
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
 from ..aircraft import load_aircraft
 from ..errors import InputError
+from ..schema import read_toml
 from ..trim import trim_level
 from .quality import trim_record
 
@@ -69,8 +69,7 @@ def record(ident: str) -> dict:
         The file has no ``[fit]`` record (not a fitted aircraft), or cannot be loaded as an aircraft.
     """
     path = load_aircraft(ident).path
-    with open(path, "rb") as fh:
-        doc = tomllib.load(fh)
+    doc = read_toml(path)  # the bounded reader of every input file
     if "fit" not in doc:
         raise InputError(f"{ident}: {path} has no [fit] record (not a fitted aircraft)")
     return doc

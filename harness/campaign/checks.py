@@ -21,6 +21,7 @@ from planners.flat import check_iterations
 from planners.scenario import list_scenarios, load_scenario
 
 from ..validation import ValidationCase, case_settings
+from ..validation.work import MAX_STEPS, check_steps
 
 __all__ = ["MAX_CASES", "check_case", "check_samples", "closest_name"]
 
@@ -76,7 +77,9 @@ def check_case(case: ValidationCase, where: str, loaded: dict | None = None) -> 
         neither bundled (with the closest bundled name) nor a loadable file, J
         outside the planner's bounds (:func:`planners.flat.check_iterations`),
         a scenario that refuses this J (e.g. its tracking feedforward iterate),
-        a bad ``[compare]`` value of the scenario, or an output grid ``dt_out``
+        a bad ``[compare]`` value of the scenario, flights of more than
+        :data:`harness.validation.work.MAX_STEPS` engine steps and output samples
+        (:func:`harness.validation.work.check_steps`), or an output grid ``dt_out``
         that does not divide the scenario's span (:func:`gna.trajectory.output_grid`).
     """
     loaded = {} if loaded is None else loaded
@@ -103,6 +106,9 @@ def check_case(case: ValidationCase, where: str, loaded: dict | None = None) -> 
         settings = case_settings(case, sc)
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
+    check_steps(  # the work of the case's flights bounded before its grids are built
+        [(case, sc, settings)], MAX_STEPS, where, ("jsbsim_dt", "dt_out"), None
+    )
     try:
         output_grid(sc.t0, sc.t1, settings.dt_out)
     except InputError as exc:

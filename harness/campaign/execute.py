@@ -12,16 +12,19 @@ dispersion.
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import functools
 import io
 import math
+import threading
 import time
 import traceback
 from dataclasses import replace
 
 import numpy as np
 
-from gna.errors import GflatError
+from gna.errors import GflatError, describe
 
 from ..engines import fly, get_engine
 from ..metrics import engine_tables, max_position_error
@@ -31,10 +34,60 @@ from ..validation.run import with_step
 from .sampling import dispersed_aircraft, draw_sample
 from .spec import SampleTask
 
-__all__ = ["run_sample", "frame_to_parquet", "SAMPLE_STATUSES"]
+__all__ = ["run_sample", "frame_to_parquet", "SAMPLE_STATUSES", "CaseTimeout", "time_budget"]
 
-#: Outcome of a sample: ``done`` (metrics recorded, whatever the runs did) or ``failed`` (an error).
+#: Outcome of a sample: ``done`` (metrics recorded, whatever the runs did) or ``failed`` (an error, or a
+#: timeout: the error then starts with ``timeout:`` and names the time taken and the budget).
 SAMPLE_STATUSES: tuple[str, ...] = ("done", "failed")
+
+
+class CaseTimeout(BaseException):
+    """A case ran past its wall-time budget (a BaseException: no ``except Exception`` of the work swallows it)."""
+
+
+@contextlib.contextmanager
+def time_budget(seconds: float):
+    """Raise :class:`CaseTimeout` in the calling thread once ``seconds`` of wall time have passed.
+
+    A timer thread injects the exception into the thread running the work (``PyThreadState_SetAsyncExc``),
+    so the budget holds in this process, in a pool's worker process and in a Dask worker's thread alike; it
+    lands between two Python bytecodes (a long call into C, one JSBSim step, finishes first).  Leaving the
+    block cancels the timer and withdraws an exception not yet delivered.
+
+    Parameters
+    ----------
+    seconds : float
+        The budget [s]; ``inf`` for none.
+
+    Raises
+    ------
+    CaseTimeout
+        The budget was exhausted inside the block.
+    """
+    if not math.isfinite(seconds):
+        yield
+        return
+    tid = ctypes.c_ulong(threading.get_ident())
+    lock = threading.Lock()
+    state = {"done": False, "fired": False}
+
+    def fire():
+        with lock:
+            if not state["done"]:
+                state["fired"] = True
+                ctypes.pythonapi.PyThreadState_SetAsyncExc(tid, ctypes.py_object(CaseTimeout))
+
+    timer = threading.Timer(seconds, fire)
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()
+        with lock:
+            state["done"] = True
+            if state["fired"]:  # fired as the block ended: withdraw it if still pending
+                ctypes.pythonapi.PyThreadState_SetAsyncExc(tid, None)
 
 
 def frame_to_parquet(df) -> bytes:
@@ -150,7 +203,9 @@ def run_sample(task: SampleTask) -> dict:
         ``saturated_s`` [s]; ``differences``: engine -> ``max_position_m``,
         ``max_angle_rad``, ``pass``, ``failing`` (variables beyond their
         tolerance, with the window); ``pass``), ``draw`` (the dispersed
-        parameters by name), ``error`` (message of a failed sample),
+        parameters by name), ``error`` (message of a failed sample; a sample
+        past its wall-time budget ``task.budget_s`` is stopped and fails with
+        ``timeout: ...`` naming its time and the budget),
         ``timings`` (``plan_s``, ``fly_s``, ``total_s``) and ``files``
         (file name -> bytes: ``<engine>.parquet`` trajectories).  Runs that
         leave the flight domain are data (``done``, ``pass`` false); only an
@@ -167,21 +222,29 @@ def run_sample(task: SampleTask) -> dict:
         "files": {},
     }
     try:
-        plan, draw, runs, ctl, j, plan_s, settings = _fly(task)
-        t_fly = time.perf_counter()
-        out["metrics"] = _metrics(plan, runs, ctl, j, settings)
-        out["draw"] = draw.parameters()
-        if task.trajectories:
-            for label, res in runs.items():
-                df = res.df
-                if res.controller_states is not None:
-                    df = df.join(res.controller_states)
-                out["files"][f"{label}.parquet"] = frame_to_parquet(df)
-        out["status"] = "done"
+        with time_budget(task.budget_s):
+            plan, draw, runs, ctl, j, plan_s, settings = _fly(task)
+            t_fly = time.perf_counter()
+            metrics = _metrics(plan, runs, ctl, j, settings)
+            files = {}
+            if task.trajectories:
+                for label, res in runs.items():
+                    df = res.df
+                    if res.controller_states is not None:
+                        df = df.join(res.controller_states)
+                    files[f"{label}.parquet"] = frame_to_parquet(df)
+        out.update(metrics=metrics, draw=draw.parameters(), files=files, status="done")
         out["timings"] = {"plan_s": plan_s, "fly_s": t_fly - t_start}
+    except CaseTimeout:
+        took = time.perf_counter() - t_start
+        out["error"] = (
+            f"timeout: the case ran {took:.1f} s, over its budget of {task.budget_s:g} s "
+            f"(case_budget_s in the campaign file, --case-budget S); stopped, the campaign goes on"
+        )
+        out["timings"] = {"budget_s": task.budget_s}
     except GflatError as exc:
         out["error"] = f"{type(exc).__name__}: {exc}"
     except Exception as exc:  # a bug, kept with its traceback in the store
-        out["error"] = f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=8)}"
+        out["error"] = f"{type(exc).__name__}: {describe(exc)}\n{traceback.format_exc(limit=8)}"
     out["timings"]["total_s"] = time.perf_counter() - t_start
     return out

@@ -28,12 +28,13 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
-from gna.errors import InputError
+from gna.errors import InputError, describe
 
 from ..fileio import replacing
 from ..folderlock import FolderLock
 from ..marker import earlier_files, file_entry, write_marker
 from ..outguard import INCOMPLETE, MARKER, check_destination, check_previous, make_folder, previous_run
+from ..parallel import check_workers
 from ..validation import provenance
 from .execute import run_sample
 from .spec import Campaign, load_campaign
@@ -87,7 +88,7 @@ def parse_dask(spec: str | None):
         _, _, n = spec.partition(":")
         if not n.isdigit() or int(n) < 1:
             raise InputError(f"--dask local:N needs a positive number of workers, got {spec!r}")
-        return ("local", int(n))
+        return ("local", check_workers(int(n), "--dask local:N with N ="))
     m = _ADDRESS.match(spec)
     if m is None or (m["scheme"] or "tcp") not in DASK_SCHEMES or not 1 <= int(m["port"]) <= 65535:
         raise InputError(f"--dask {spec!r}: expected {forms}")
@@ -238,7 +239,7 @@ def _dask(tasks, where, commit, client=None, timeout: float = DASK_TIMEOUT_S, sc
                         "status": "failed",
                         "metrics": None,
                         "draw": None,
-                        "error": f"{type(exc).__name__}: {exc}",
+                        "error": f"{type(exc).__name__}: {describe(exc)}",
                         "timings": {},
                         "files": {},
                     }

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import functools
 import math
-import tomllib
 import zlib
 from dataclasses import dataclass, replace
 
@@ -21,6 +20,7 @@ import numpy as np
 
 from gna.eom import STATE_NAMES
 from gna.errors import InputError
+from gna.schema import read_toml
 
 from .spec import Dispersion
 
@@ -53,8 +53,7 @@ def sample_seed(campaign_seed: int, key: str, sample: int) -> int:
 
 @functools.lru_cache(maxsize=16)
 def _std_errors_of_file(path: str) -> dict:
-    with open(path, "rb") as fh:
-        data = tomllib.load(fh)
+    data = read_toml(path)  # the bounded reader of every input file
     return {
         int(t.get("theta", i + 1)): float(t["std_error"])
         for i, t in enumerate(data.get("aero", {}).get("terms", []))

@@ -5,6 +5,7 @@ A campaign file (TOML)::
     name = "my-campaign"
     seed = 12345                  # campaign seed: every sample's seed derives from it
     samples = 16                  # per case and dispersion (``--samples`` overrides)
+    case_budget_s = 600           # wall-time budget of one case [s] (``--case-budget`` overrides; inf: none)
 
     [[cases]]                     # one or more; a list in scenario, J or loop expands into a product
     id = "to"                     # optional label (default the scenario's stem)
@@ -64,12 +65,26 @@ __all__ = [
     "campaign_from_dict",
     "bundled_campaigns",
     "AERO_MODES",
+    "CASE_BUDGET_S",
+    "MAX_CASE_SPECS",
+    "MAX_DISPERSIONS",
 ]
+
+#: Most expanded cases of a campaign file (each [[cases]] table's products of scenario, J and loop lists): every
+#: one is checked when the file is read (its scenario loaded with its J); the bundled campaign has 3.
+MAX_CASE_SPECS = 1000
+
+#: Most dispersion sets of a campaign file (each multiplies the cases).
+MAX_DISPERSIONS = 100
+
+#: Default per-case time budget [s] (``case_budget_s``, ``gflat campaign run --case-budget``): a bundled sample
+#: takes 7-11 s on a 2-core machine; a case beyond the budget ends as a timeout and the campaign goes on.
+CASE_BUDGET_S = 600.0
 
 #: How the aerodynamic terms are dispersed.
 AERO_MODES: tuple[str, ...] = ("std_error", "relative", "none")
 
-_TOP_KEYS = ("name", "description", "seed", "samples", "cases", "dispersions", "output")
+_TOP_KEYS = ("name", "description", "seed", "samples", "case_budget_s", "cases", "dispersions", "output")
 _CASE_KEYS = ("id", "scenario", "J", "loop", "engines", "tolerances", "rtol", "dt_out", "jsbsim_dt", "windows")
 _EXPANDED = ("scenario", "J", "loop")
 _DISP_KEYS = (
@@ -224,6 +239,8 @@ class SampleTask:
         The sample's seed (:func:`harness.campaign.sampling.sample_seed`).
     trajectories : bool
         Return the trajectories for the store.
+    budget_s : float
+        Wall-time budget of the case [s] (``inf``: none; :func:`harness.campaign.execute.run_sample`).
     """
 
     case_id: str
@@ -232,6 +249,7 @@ class SampleTask:
     sample: int
     seed: int
     trajectories: bool = True
+    budget_s: float = CASE_BUDGET_S
 
     def parameters(self) -> dict:
         """The task's parameters as JSON-able data (the store's ``params`` column).
@@ -270,6 +288,8 @@ class Campaign:
     description : str
     trajectories : bool
         Write each case's trajectories.
+    case_budget_s : float
+        Wall-time budget of one case [s] (``inf``: none); a case beyond it ends as a timeout.
     source : str
         The file read (or the bundled name).
     raw : dict
@@ -283,6 +303,7 @@ class Campaign:
     dispersions: tuple
     description: str = ""
     trajectories: bool = True
+    case_budget_s: float = CASE_BUDGET_S
     source: str = ""
     raw: dict = field(default_factory=dict, repr=False, compare=False)
 
@@ -315,9 +336,8 @@ class Campaign:
             for disp in self.dispersions:
                 key = f"{spec.label}.{disp.name}"
                 for k in range(n):
-                    out.append(
-                        SampleTask(f"{key}.{k:04d}", spec, disp, k, sample_seed(self.seed, key, k), self.trajectories)
-                    )
+                    seed = sample_seed(self.seed, key, k)
+                    out.append(SampleTask(f"{key}.{k:04d}", spec, disp, k, seed, self.trajectories, self.case_budget_s))
         return out
 
 
@@ -378,6 +398,19 @@ def campaign_from_dict(data: Mapping[str, Any], where: str = "campaign", base: P
     cases_raw = data.get("cases")
     if not isinstance(cases_raw, list) or not cases_raw:
         raise InputError(f"{where}: needs at least one [[cases]] table")
+    expanded = sum(
+        math.prod(len(v) for k, v in entry.items() if k in _EXPANDED and isinstance(v, list))
+        for entry in cases_raw
+        if isinstance(entry, Mapping)
+    )
+    if expanded > MAX_CASE_SPECS:
+        raise InputError(
+            f"{where}: the [[cases]] tables expand to {expanded} cases (products of their scenario, J and loop "
+            f"lists), above the bound of {MAX_CASE_SPECS}"
+        )
+    budget = data.get("case_budget_s", CASE_BUDGET_S)
+    if isinstance(budget, bool) or not isinstance(budget, (int, float)) or not budget > 0:
+        raise InputError(f"{where}: case_budget_s must be a positive number of seconds (or inf), got {budget!r}")
     cases: list[CaseSpec] = []
     loaded: dict = {}  # scenarios by (name, J), loaded once
     for i, entry in enumerate(cases_raw):
@@ -389,6 +422,8 @@ def campaign_from_dict(data: Mapping[str, Any], where: str = "campaign", base: P
     disp_raw = data.get("dispersions", {"nominal": {"aero": "none"}})
     if not isinstance(disp_raw, Mapping) or not disp_raw:
         raise InputError(f"{where}: [dispersions.NAME] tables expected, got {disp_raw!r}")
+    if len(disp_raw) > MAX_DISPERSIONS:
+        raise InputError(f"{where}: {len(disp_raw)} dispersion sets, above the bound of {MAX_DISPERSIONS}")
     disps = tuple(
         Dispersion.from_dict(check_name(n, "name", f"{where} [dispersions.{n}]"), t, f"{where} [dispersions.{n}]")
         for n, t in disp_raw.items()
@@ -406,6 +441,7 @@ def campaign_from_dict(data: Mapping[str, Any], where: str = "campaign", base: P
         dispersions=disps,
         description=str(data.get("description", "")),
         trajectories=traj,
+        case_budget_s=float(budget),
         source=where,
         raw=dict(data),
     )

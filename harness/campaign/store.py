@@ -24,7 +24,7 @@ import sqlite3
 import time
 from pathlib import Path
 
-from gna.errors import InputError
+from gna.errors import InputError, describe
 
 __all__ = ["CampaignStore", "STATUSES", "DB_NAME"]
 
@@ -87,7 +87,7 @@ class CampaignStore:
             self.db.execute("PRAGMA synchronous=FULL")
             self.db.executescript(_SCHEMA)
         except sqlite3.DatabaseError as exc:
-            raise InputError(f"cannot open the campaign index {self.root / DB_NAME}: {exc}") from None
+            raise InputError(f"cannot open the campaign index {self.root / DB_NAME}: {describe(exc)}") from None
 
     # ------------------------------------------------------------------ campaign-level
 

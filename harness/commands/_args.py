@@ -6,6 +6,7 @@ import argparse
 import math
 from pathlib import Path
 
+from gna.errors import InputError
 from planners.flat import MAX_J
 
 
@@ -55,6 +56,30 @@ def nonnegative_int(text: str) -> int:
 def positive_int(text: str) -> int:
     """A count that must be at least 1 (``--jobs``, ``--samples``, ``--workers``)."""
     return _int_at_least(text, 1)
+
+
+def worker_count(text: str) -> int:
+    """``--workers`` / ``--jobs``: a count of worker processes, 1 to :func:`harness.parallel.max_workers`."""
+    from ..parallel import check_workers
+
+    v = positive_int(text)
+    try:
+        return check_workers(v, "")
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc).strip()) from None
+
+
+def bounded_count(upper: int, lowest: int = 0):
+    """An argument type: a whole number in ``lowest..upper`` (a count a flag sets, e.g. ``gflat fit --samples``)."""
+
+    def parse(text: str) -> int:
+        v = _int_at_least(text, lowest)
+        if v > upper:
+            raise argparse.ArgumentTypeError(f"{v} is above the bound of {upper}")
+        return v
+
+    parse.__name__ = f"count {lowest}..{upper}"
+    return parse
 
 
 def iterations(text: str) -> int | str:

@@ -7,25 +7,17 @@ defaults (:mod:`harness.validation.tolerances`).
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
 from gna.errors import InputError
 
 from ..outdir import OutputDir
 from ..validation.tolerances import QUANTITIES
+from ..validation.work import MAX_STEPS, SAMPLE_COST, check_steps, flight_steps  # noqa: F401 (re-exported)
 from ._args import cost_bound, finite_float, positive_float
 
 #: Unit of each tolerance quantity, for the help texts.
 _UNITS = {"position": "m", "velocity": "m/s", "angle": "rad", "rate": "rad/s"}
-
-#: Default bound on a command's work (``--max-steps``): engine steps plus SAMPLE_COST x output samples of all
-#: its flights.  Measured on gtm-aileron-roll: a JSBSim step takes about 330 bytes and 10 us, an output sample
-#: (two engines, tables, figures, files) about 3.7 kB and 0.25 ms; 1e7 is about 3.5 GB, and the bundled
-#: scenarios need less than 1e6.
-MAX_STEPS = 1.0e7
-#: Steps an output sample counts for.
-SAMPLE_COST = 10
 
 #: Where the command line writes when no ``--out`` is given.
 DEFAULT_ROOT = Path("reports") / "out"
@@ -107,55 +99,6 @@ def add_compare_arguments(p: argparse.ArgumentParser) -> None:
         f"'inf' for none)",
     )
     p.add_argument("--csv", action="store_true", help="write every trajectory as CSV too (Parquet always)")
-
-
-def flight_steps(case, scenario, settings) -> tuple[int, int]:
-    """Engine steps and output samples of a case's flights over its scenario's span, before any work.
-
-    Every engine flies the span once (closed loop: the reference engine also flies the open loop and the flat
-    plan's feedforward); a JSBSim engine takes ``ceil(span / jsbsim_dt)`` steps (and twice as many again with
-    ``self_convergence``); every flight records ``span / dt_out + 1`` samples.  The in-house engine's adaptive
-    steps are not counted.
-    """
-    span = scenario.t1 - scenario.t0
-    samples = int(span / settings.dt_out + 1e-9) + 1
-    steps = max(math.ceil(span / settings.jsbsim_dt - 1e-9), 1)
-    engines = list(case.engines) + ([case.engines[0]] * 2 if case.loop == "closed" else [])
-    jsbsim = [e for e in engines if str(e).startswith("jsbsim")]
-    if settings.self_convergence:
-        jsbsim += [e for e in case.engines if str(e).startswith("jsbsim")] * 2  # a flight at dt / 2
-        engines += [e for e in case.engines if str(e).startswith("jsbsim")]
-    return steps * len(jsbsim), samples * len(engines)
-
-
-#: Engine steps + SAMPLE_COST x output samples beyond which a run is refused whatever ``--max-steps`` says
-#: (about 2**53: the arrays alone would take petabytes).
-COMPUTABLE_STEPS = 9e15
-
-
-def check_steps(planned, bound: float, command: str) -> None:
-    """Refuse a command whose flights would take more than ``bound`` engine steps plus SAMPLE_COST x output samples.
-
-    ``planned`` is a list of ``(case, scenario, settings)``; the refusal names the step and output interval,
-    the span, the counts and the bound (one line, :class:`gna.errors.InputError`), before anything is planned.
-    """
-    steps = samples = 0
-    for case, scenario, settings in planned:
-        st, sa = flight_steps(case, scenario, settings)
-        steps, samples = steps + st, samples + sa
-    cost = steps + SAMPLE_COST * samples
-    if cost > min(bound, COMPUTABLE_STEPS):
-        if cost > COMPUTABLE_STEPS:  # whatever the bound: no machine holds the arrays (2**53 samples)
-            bound, how = COMPUTABLE_STEPS, "no machine holds the arrays of such a run, whatever --max-steps says"
-        else:
-            how = "--max-steps N to raise it, inf for none"
-        names = ", ".join(dict.fromkeys(f"{sc.name} ({sc.t1 - sc.t0:g} s)" for _, sc, _ in planned))
-        s = max(planned, key=lambda p: sum(flight_steps(*p)))[2]
-        raise InputError(
-            f"{command}: --jsbsim-dt {s.jsbsim_dt:g} s and --dt-out {s.dt_out:g} s over {names} "
-            f"make {steps:.3g} engine steps + {SAMPLE_COST} x {samples:.3g} output samples = "
-            f"{cost:.3g}, above the bound {bound:.3g} ({how})"
-        )
 
 
 def compare_overrides(args) -> dict:

@@ -1,6 +1,6 @@
 """``gflat campaign run|status|report``: validation campaigns (Monte Carlo over dispersed aircraft).
 
-``gflat campaign run NAME_OR_FILE --out DIR [--samples N] [--workers N] [--dask ADDRESS|local:N]
+``gflat campaign run NAME_OR_FILE --out DIR [--samples N] [--workers N] [--case-budget S] [--dask ADDRESS|local:N]
 [--dask-timeout S] [--retry-failed] [--only CASE_ID] [-q/--quiet]`` runs or resumes a campaign (done cases are
 skipped, failed ones rerun only with ``--retry-failed``); the campaign file, every case, ``--dask`` and the
 scheduler at its address are checked before the folder is created or touched; ``gflat campaign status DIR [--json]`` counts the cases;
@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from gna.errors import InputError
 
 from ..campaign.checks import MAX_CASES
-from ._args import cost_bound, positive_float, positive_int
+from ._args import cost_bound, positive_float, positive_int, worker_count
 
 
 def register(sub) -> None:
@@ -43,9 +44,17 @@ def register(sub) -> None:
     )
     r.add_argument(
         "--workers",
-        type=positive_int,
+        type=worker_count,
         default=None,
-        help="local worker processes (default: the number of CPUs; 1: in this process)",
+        help="local worker processes (default: the number of CPUs; 1: in this process; at most 4 per CPU)",
+    )
+    r.add_argument(
+        "--case-budget",
+        type=cost_bound,
+        default=None,
+        metavar="S",
+        help="wall-time budget of one case [s]: a case beyond it ends as a timeout and the campaign goes on "
+        "(default the campaign file's case_budget_s, else 600; 'inf' for none)",
     )
     r.add_argument(
         "--dask",
@@ -96,6 +105,8 @@ def run(args) -> int:
 
     parse_dask(args.dask)  # a bad --dask refused first, whatever runs
     camp = load_campaign(args.campaign)
+    if args.case_budget is not None:
+        camp = replace(camp, case_budget_s=args.case_budget)
     check_samples(camp, args.samples, args.max_cases)  # the work bounded before any case is expanded
     if args.only:
         from harness.campaign.store import DB_NAME

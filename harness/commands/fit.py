@@ -27,7 +27,11 @@ from gna.errors import InputError
 
 from ..fileio import replacing
 from ..outguard import _cause, check_output_file
-from ._args import finite_float, nonnegative_int, out_path, positive_float
+from ._args import bounded_count, finite_float, nonnegative_int, out_path, positive_float
+
+#: Most sample points per block of a fit (``--samples``, ``--test``): a JSBSim point is one run_ic (about 1 ms),
+#: and the design matrix holds 45 regressors per point.
+MAX_FIT_POINTS = 200_000
 
 
 def _out_file(text: str) -> Path:
@@ -186,8 +190,12 @@ def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band) -> None:
             metavar=("LO", "HI"),
             help=f"{name} range (default {hint})",
         )
-    d.add_argument("--samples", type=nonnegative_int, default=4000, help="fit points per block (default 4000)")
-    d.add_argument("--test", type=nonnegative_int, default=1000, help="held-out points per block (default 1000)")
+    d.add_argument(
+        "--samples", type=bounded_count(MAX_FIT_POINTS), default=4000, help="fit points per block (default 4000)"
+    )
+    d.add_argument(
+        "--test", type=bounded_count(MAX_FIT_POINTS), default=1000, help="held-out points per block (default 1000)"
+    )
     d.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (default 0)")
     d.add_argument(
         "--dm-band",

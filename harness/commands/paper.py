@@ -34,7 +34,7 @@ from ..outdir import OutputDir
 from ..parallel import ForkPool, MemoryOutputDir, default_jobs, replay
 from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
-from ._args import iterations, out_path, positive_int
+from ._args import iterations, out_path, worker_count
 from ._compare_args import add_compare_arguments, check_steps, compare_overrides
 from .plan import write_plan
 
@@ -60,7 +60,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--jobs",
-        type=positive_int,
+        type=worker_count,
         default=None,
         metavar="N",
         help="worker processes flying the cases and drawing their figures concurrently (default: the "

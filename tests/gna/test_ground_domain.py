@@ -23,12 +23,15 @@ GE = Environment(ISA(), ground_effect=GroundEffect(elevation=-5.0))
 STATE = [0.0, 0.0, 4.0, 50.0, 0.0, 0.0, 0.05, 0.0, 0.0, 0.0, 0.0, 0.0]  # 1 m above a ground at -5 m
 
 
-def test_free_air_bounds_are_the_domain_and_have_no_height_test():
-    assert domain_bounds(None) is DOMAIN and domain_bounds(Environment(ISA())) is DOMAIN
+def test_free_air_bounds_have_no_height_test_but_the_atmosphere_range():
+    free = domain_bounds(None)
+    assert free == domain_bounds(Environment(ISA())) and free.ground is None
+    assert (free.h_min, free.h_max) == (-2000.0, 20000.0)  # the ISA's validity (kind 5 of issue 24)
     assert DOMAIN.ground is None and DOMAIN_TESTS[GROUND_TEST][0] == "z"
-    deep = STATE[:2] + [1e4] + STATE[3:]  # 10 km below sea level: no ground, no test
-    assert domain_margins(deep)[GROUND_TEST] == math.inf
-    assert domain_violation(1.0, deep) is None and ground_violation(1.0, 1e4) is None
+    deep = STATE[:2] + [1e4] + STATE[3:]  # 10 km below sea level: no ground test, but outside the ISA
+    assert domain_margins(deep, free)[GROUND_TEST] == math.inf
+    assert domain_violation(1.0, deep) is None and ground_violation(1.0, 1e4) is None  # the chart alone
+    assert "altitude below -2000 m" in domain_violation(1.0, deep, free)
 
 
 def test_height_test_with_ground_effect():

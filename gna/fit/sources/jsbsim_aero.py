@@ -61,15 +61,15 @@ _MOMENT_AXES = {"ROLL": 0, "PITCH": 1, "YAW": 2}
 class UnknownJSBSimAircraftError(UnknownAircraftError):
     """A JSBSim aircraft name or path that does not exist."""
 
-    def __init__(self, name: str, known: list[str], root: str):
-        self.root = root
+    def __init__(self, name: str, known: list[str], root: str, file: str | None = None):
+        self.root, self.file = root, file
         super().__init__(name, known)
 
     def __str__(self) -> str:
-        return (
-            f"unknown JSBSim aircraft {self.name!r} (no aircraft/{self.name}/{self.name}.xml under {self.root}); "
-            f"available: {', '.join(self.known)}"
+        missing = (
+            f"no such file {self.file}" if self.file else f"no aircraft/{self.name}/{self.name}.xml under {self.root}"
         )
+        return f"unknown JSBSim aircraft {self.name!r} ({missing}); available: {', '.join(self.known) or 'none there'}"
 
 
 @contextlib.contextmanager
@@ -84,6 +84,172 @@ def _quiet():
         yield
     finally:
         base.debug_lvl = level
+
+
+#: Direct children of ``<fdm_config>`` that make JSBSim open files or network sockets (``<output>``: data logs,
+#: FlightGear or socket streams; ``<input>``: telnet and socket inputs): left out of every model gflat loads.
+IO_ELEMENTS = ("input", "output")
+
+
+@contextlib.contextmanager
+def _console_captured(records: list[str]):
+    """JSBSim's console output (C++ streams on file descriptors 1 and 2) kept in ``records``, not printed."""
+    import os
+    import sys
+
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    saved = []
+    with tempfile.TemporaryFile() as sink:
+        try:
+            for fd in (1, 2):
+                saved.append((fd, os.dup(fd)))
+                os.dup2(sink.fileno(), fd)
+        except OSError:  # no such descriptors (an embedded interpreter): nothing to capture
+            pass
+        try:
+            yield records
+        finally:
+            for fd, copy in saved:
+                os.dup2(copy, fd)
+                os.close(copy)
+            sink.seek(0)
+            records.extend(line for line in sink.read().decode("utf-8", "replace").splitlines() if line.strip())
+            del records[:-1000]  # the latest lines: enough to name a failure
+
+
+@contextlib.contextmanager
+def loadable_model(name: str, aircraft_dir: Path):
+    """The aircraft folder to load ``name`` from: the file itself, or a copy without its input/output directives.
+
+    An aircraft whose ``<fdm_config>`` has ``<output>`` or ``<input>`` children (:data:`IO_ELEMENTS`) is
+    loaded from a temporary folder holding the file without them and links to everything else of its folder
+    (the systems, engines and tables it references), removed as soon as JSBSim has read it: JSBSim then
+    writes no file, binds no socket and prints nothing about them.
+
+    Parameters
+    ----------
+    name : str
+        The aircraft's name (``<name>/<name>.xml``).
+    aircraft_dir : pathlib.Path
+        Its folder.
+
+    Yields
+    ------
+    pathlib.Path
+        The folder whose parent to pass to JSBSim as the aircraft path.
+    """
+    xml = aircraft_dir / f"{name}.xml"
+    root = jx.parse(xml)
+    io = [child for child in root if child.tag in IO_ELEMENTS]
+    if not io:
+        yield aircraft_dir
+        return
+    import xml.etree.ElementTree as ET
+
+    for child in io:
+        root.remove(child)
+    with tempfile.TemporaryDirectory(prefix="gflat-jsbsim-model-") as tmp:
+        folder = Path(tmp) / name
+        folder.mkdir()
+        for entry in aircraft_dir.iterdir():
+            if entry.name != xml.name:
+                (folder / entry.name).symlink_to(entry.resolve(), target_is_directory=entry.is_dir())
+        ET.ElementTree(root).write(folder / xml.name, encoding="utf-8", xml_declaration=True)
+        yield folder
+
+
+def load_model(name: str, aircraft_dir: Path, root: Path):
+    """A new ``jsbsim.FGFDMExec`` with the aircraft loaded, quietly (:func:`loadable_model`, console captured).
+
+    Parameters
+    ----------
+    name : str
+        The aircraft's name.
+    aircraft_dir : pathlib.Path
+        Its folder (absolute).
+    root : pathlib.Path
+        The JSBSim root (absolute; ``engine/`` and ``systems/`` under it).
+
+    Returns
+    -------
+    fdm : jsbsim.FGFDMExec
+    console : list of str
+        What JSBSim printed while loading.
+
+    Raises
+    ------
+    InputError
+        JSBSim could not load the aircraft (its messages named).
+    """
+    import os
+
+    import jsbsim
+
+    console: list[str] = []
+    previous = os.environ.get("JSBSIM_DEBUG")
+    os.environ["JSBSIM_DEBUG"] = "0"  # the constructor's banner, before set_debug_level can act
+    try:
+        with _quiet(), _console_captured(console), loadable_model(name, aircraft_dir) as folder:
+            fdm = jsbsim.FGFDMExec(str(root))
+            fdm.set_debug_level(0)
+            ok = fdm.load_model_with_paths(name, str(folder.parent), str(root / "engine"), str(root / "systems"))
+            fdm.disable_output()
+    finally:
+        if previous is None:
+            os.environ.pop("JSBSIM_DEBUG", None)
+        else:
+            os.environ["JSBSIM_DEBUG"] = previous
+    if not ok:
+        said = " | ".join(console[-5:]) or "load_model returned False"
+        raise InputError(f"JSBSim could not load {aircraft_dir / (name + '.xml')}: {said}")
+    return fdm, console
+
+
+def property_names(fdm) -> list[str]:
+    """Every property of a loaded model (``FGFDMExec.query_property_catalog``), without the access flags.
+
+    Parameters
+    ----------
+    fdm : jsbsim.FGFDMExec
+
+    Returns
+    -------
+    list of str
+    """
+    return [line.rsplit(" (", 1)[0].strip() for line in fdm.query_property_catalog("").splitlines() if line.strip()]
+
+
+def check_properties(fdm, named: Mapping[str, str], where: str, also=()) -> None:
+    """Refuse property names the loaded model does not have, with the closest one (difflib).
+
+    Parameters
+    ----------
+    fdm : jsbsim.FGFDMExec
+        The loaded model.
+    named : mapping of str to str
+        Property -> what names it, for the message (``"surface dm"``, ``"configuration"``).
+    where : str
+        The model, for the message.
+    also : iterable of str
+        Further accepted names (properties the aerodynamics read, created when written).
+
+    Raises
+    ------
+    InputError
+        One line naming the property, what gave it and the closest property of the model.
+    """
+    import difflib
+
+    pm = fdm.get_property_manager()
+    also = set(also)
+    for prop, what in named.items():
+        if prop in also or pm.hasNode(prop):
+            continue
+        close = difflib.get_close_matches(prop, property_names(fdm) + sorted(also), n=1, cutoff=0.6)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise InputError(f"{where}: {prop!r} ({what}) is not a property of the loaded model{hint}")
 
 
 def default_root() -> Path:
@@ -144,11 +310,14 @@ def resolve(model: str, root: str | Path | None = None) -> tuple[str, Path, Path
     InputError
         A path to an ``.xml`` file not laid out as ``<name>/<name>.xml``.
     """
-    base = Path(root) if root is not None else default_root()
-    p = Path(model)
+    base = Path(root).expanduser().resolve() if root is not None else default_root()  # JSBSim joins relative ones
+    if root is not None and not base.is_dir():
+        raise InputError(f"JSBSim root {str(root)!r}: {base} is not a folder")
+    p = Path(model).expanduser()
     if p.suffix == ".xml":
+        p = p.resolve()
         if not p.is_file():
-            raise UnknownJSBSimAircraftError(str(model), available_aircraft(base), str(p.parent))
+            raise UnknownJSBSimAircraftError(str(model), available_aircraft(base), str(base), file=str(p))
         if p.parent.name != p.stem:
             raise InputError(f"JSBSim expects an aircraft file as <dir>/<name>/<name>.xml; got {p}")
         return p.stem, p.parent, base
@@ -200,7 +369,6 @@ class JSBSimAeroSource(SourceModel):
         surfaces: Mapping[str, tuple[str, float]] | None = None,
         configuration: Mapping[str, float] | None = None,
     ):
-        import jsbsim
 
         if not (math.isfinite(mach) and 0 < mach < 5):
             raise InputError(f"reference Mach must be in (0, 5), got {mach}")
@@ -245,20 +413,23 @@ class JSBSimAeroSource(SourceModel):
         #: The copies the aerodynamics read: output -> (input, component kind).
         self.surface_copies = {o: (i, kind) for o, i, _, kind in self.copies if o in reads}
 
-        # Sampling must not run the aircraft's <output> directives (they would write files into the JSBSim
-        # root): output is disabled, and the files JSBSim still opens go to a scratch folder that lives (and
-        # is deleted) with this source.
-        self._scratch = tempfile.TemporaryDirectory(prefix="gflat-jsbsim-out-")
-        with _quiet():
-            fdm = jsbsim.FGFDMExec(str(self.root))
-            fdm.set_debug_level(0)
-            fdm.set_output_path(self._scratch.name)
-            ok = fdm.load_model_with_paths(
-                self.model, str(self.aircraft_dir.parent), str(self.root / "engine"), str(self.root / "systems")
-            )
-            fdm.disable_output()
-        if not ok:
-            raise InputError(f"JSBSim could not load {self.aircraft_dir / (self.model + '.xml')}")
+        # Sampling must not run the aircraft's <output> or <input> directives (files written into the JSBSim
+        # root, sockets bound): the model is loaded without them, JSBSim's console output captured.
+        fdm, self.console = load_model(self.model, self.aircraft_dir, self.root)
+        where = f"JSBSim {self.model}"
+        check_properties(
+            fdm,
+            {
+                **{p: "configuration" for p in (configuration or {})},
+                **{
+                    str(surfaces[v][0]): f"surface {v}, --property {v}=..."
+                    for v in (surfaces or {})
+                    if v in SURFACE_CANDIDATES
+                },
+            },
+            where,
+            also=reads,
+        )
         self._fdm = fdm
         fdm["simulation/models/FGFCS/enabled"] = 0
         for k, v in self.configuration.items():
@@ -267,7 +438,7 @@ class JSBSimAeroSource(SourceModel):
         fdm["ic/long-gc-rad"] = 0.0
         fdm["ic/h-sl-ft"] = self.altitude / units.FT
         fdm["ic/mach"] = self.mach
-        with _quiet():
+        with _quiet(), _console_captured(self.console):
             fdm.run_ic()
         self.V_fps = self.mach * fdm["atmosphere/a-fps"]
         self.V_ref = self.V_fps * units.FT
@@ -428,7 +599,7 @@ class JSBSimAeroSource(SourceModel):
         n = flat[0].size
         out = np.empty((n, 6))
         two_V = 2.0 * self.V_fps
-        with _quiet():
+        with _quiet(), _console_captured(self.console):
             self._evaluate(flat, out, two_V)
         return out.reshape(shape + (6,))
 

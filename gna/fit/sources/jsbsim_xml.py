@@ -25,7 +25,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...errors import InputError
+from ...errors import InputError, describe
 
 #: Properties whose use in a function marks it as an alpha-dot or beta-dot term.
 RATE_OF_ANGLE = re.compile(r"aero/(alphadot|betadot)-(rad|deg)_sec")
@@ -77,7 +77,7 @@ def parse(path: Path) -> ET.Element:
     try:
         return ET.parse(path).getroot()
     except (ET.ParseError, OSError) as exc:
-        raise InputError(f"cannot read JSBSim file {path}: {exc}") from None
+        raise InputError(f"cannot read JSBSim file {path}: {describe(exc)}") from None
 
 
 def _texts(elem: ET.Element) -> set[str]:

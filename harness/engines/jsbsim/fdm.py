@@ -17,7 +17,7 @@ import numpy as np
 
 from gna import units
 from gna.atmosphere import ISA, ConstantDensity, Environment
-from gna.errors import InputError
+from gna.errors import InputError, describe
 from gna.frames import euler_from_wind
 from gna.schema import check_name
 
@@ -222,7 +222,7 @@ def load_fdm(xml_text: str, aircraft_id: str):
             ok = fdm.load_model(aircraft_id)
         except Exception as exc:  # JSBSim raises its own exception types
             raise EngineError(
-                f"JSBSim could not load aircraft {aircraft_id!r}: {exc}; "
+                f"JSBSim could not load aircraft {aircraft_id!r}: {describe(exc)}; "
                 f"messages: {' | '.join(capture.problems()) or 'none'}"
             ) from None
     if not ok:

@@ -24,11 +24,12 @@ from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.controller import Controller, as_controller, at_sample_times, checked_initial_state, evaluate, state_names
 from gna.eom import CONTROL_NAMES
-from gna.errors import InputError
+from gna.errors import InputError, describe
 from gna.simulate import envelope_warnings
 from gna.trajectory import (
     RunSettings,
     SimulationResult,
+    check_initial_domain,
     check_span,
     control_function,
     controller_frames,
@@ -214,6 +215,7 @@ class JSBSimRun:
         env = environment_of(controls, env)
         y0 = initial_state(controls, x0)
         t0, t1 = check_span(t_span)
+        check_initial_domain(t0, y0, domain_bounds(env))  # as the in-house engine: refused before JSBSim loads
         ufun = control_function(controls)
         ctrl = as_controller(controller)
         n, dt, out_times, record = output_grid(t0, t1, engine.dt, dt_out, t_eval)  # the step ignores dt_out
@@ -283,7 +285,7 @@ class JSBSimRun:
         try:
             ok = self.fdm.run_ic()
         except Exception as exc:  # JSBSim raises its own exception types
-            raise EngineError(f"JSBSim run_ic failed for {self.aircraft.id}: {exc}") from None
+            raise EngineError(f"JSBSim run_ic failed for {self.aircraft.id}: {describe(exc)}") from None
         if not ok:
             raise EngineError(f"JSBSim run_ic failed for {self.aircraft.id}: {' | '.join(self.capture.problems())}")
 
@@ -298,8 +300,8 @@ class JSBSimRun:
         self._configure()
         self.state_readers = [self._node(p).get_double_value for p in self.pos_nodes + STATE_NODES]
         self.derived_readers = [self._node(p).get_double_value for p in self.derived_nodes]
-        bounds = domain_bounds(self.env)  # with ground effect the CG's altitude is tested too (no ground contact)
-        track = TRACK_NODES + (self.pos_nodes[2:] if bounds.ground is not None else ())
+        bounds = domain_bounds(self.env)  # the atmosphere's altitude range, and with ground effect the ground
+        track = TRACK_NODES + self.pos_nodes[2:]  # the CG's altitude: every domain test at every step
         self.track_readers = [self._node(p).get_double_value for p in track]
         self.to_state = StateConverter(self.x0, self.fdm["inertial/sea-level-radius_ft"], self.geo, bounds)
         t0, u0 = float(self.times[0]), self.U[:, 0]
@@ -355,7 +357,7 @@ class JSBSimRun:
             return (
                 "domain",
                 (
-                    f"JSBSim stopped at t = {times[self.k]:.6g} s with {type(exc).__name__}: {exc}; "
+                    f"JSBSim stopped at t = {times[self.k]:.6g} s with {type(exc).__name__}: {describe(exc)}; "
                     f"partial result kept up to t = {t_end:.6g} s"
                 ),
                 t_end,

@@ -34,7 +34,7 @@ from gna import units
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES
-from gna.errors import InputError
+from gna.errors import InputError, describe
 from gna.frames import euler_from_wind
 from gna.schema import check_name
 from gna.trajectory import check_span, control_function, controls_on_grid, environment_of, initial_state
@@ -476,7 +476,7 @@ def replay(bundle: ScriptBundle) -> pd.DataFrame:
             while ok and fdm.run():
                 pass
         except jsbsim.BaseError as exc:
-            raise EngineError(f"JSBSim stopped the script {bundle.script}: {exc}") from None
+            raise EngineError(f"JSBSim stopped the script {bundle.script}: {describe(exc)}") from None
         finally:
             del fdm  # closes the CSV
     if not ok:

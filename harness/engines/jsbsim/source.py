@@ -44,7 +44,7 @@ from gna import units
 from gna.aircraft import Aircraft
 from gna.atmosphere import ISA, Environment
 from gna.errors import InputError
-from gna.fit.sources.jsbsim_aero import FittedSource, fitted_source, resolve
+from gna.fit.sources.jsbsim_aero import FittedSource, check_properties, fitted_source, load_model, resolve
 from gna.trajectory import SimulationResult, environment_of
 
 from ..base import EngineError
@@ -245,19 +245,19 @@ class _SourceRun(JSBSimRun):
         jsbsim = import_jsbsim()
         name, acdir, root = resolve(self.src.model, self.engine.root)
         capture = stack.enter_context(LogCapture(jsbsim))
-        fdm = jsbsim.FGFDMExec(str(root))
-        fdm.set_debug_level(0)
         self.xml_path = acdir / f"{name}.xml"
-        # The aircraft's own <output> directives would write files into the JSBSim root: scratch folder, disabled.
-        scratch = stack.enter_context(tempfile.TemporaryDirectory(prefix="gflat-jsbsim-out-"))
-        fdm.set_output_path(scratch)
-        loaded_model = fdm.load_model_with_paths(name, str(acdir.parent), str(root / "engine"), str(root / "systems"))
-        fdm.disable_output()
-        if not loaded_model:
-            raise EngineError(
-                f"JSBSim could not load {self.xml_path}: "
-                f"{' | '.join(capture.problems()) or 'load_model returned False'}"
-            )
+        try:  # without its <output>/<input> directives (no file written, no socket bound), console captured
+            fdm, self.console = load_model(name, acdir, root)
+        except InputError as exc:
+            raise EngineError(f"{exc}{' | ' + ' | '.join(capture.problems()) if capture.problems() else ''}") from None
+        check_properties(  # a hand-edited provenance must not fly with a surface that moves nothing
+            fdm,
+            {
+                **{p: f"surface {v} in the provenance" for v, (p, _) in self.src.surfaces.items()},
+                **{p: "configuration in the provenance" for p in self.src.configuration},
+            },
+            f"JSBSim {name} ({self.aircraft.id})",
+        )
         self.planet = planet = jx.FlatPlanet(
             g=self.env.g, h_ref=-float(self.x0[2]), radius_ft=self.engine.planet_radius_ft
         )

@@ -19,7 +19,7 @@ from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.frames import bank_from_euler
-from gna.trajectory import COLUMNS, DOMAIN, DomainBounds, domain_margins, domain_violation, ground_violation
+from gna.trajectory import COLUMNS, DOMAIN, DomainBounds, domain_margins, domain_violation
 
 from . import export as jx
 from .fdm import WGS84_A_FT, WGS84_B_FT
@@ -222,23 +222,26 @@ class StateConverter:
         t : float
             Time of the step [s].
         raw : sequence of 7 or 8 float
-            Values of :data:`TRACK_NODES`, then with a ground (``bounds.ground``) the altitude of the CG [ft].
+            Values of :data:`TRACK_NODES`, then the altitude of the CG [ft] (the ground's and the
+            atmosphere's tests of ``bounds``).
 
         Returns
         -------
         str or None
-            None inside the physical domain, else :func:`gna.trajectory.domain_violation`'s message (or
-            :func:`gna.trajectory.ground_violation`'s: the CG at or below the ground).
+            None inside the physical domain, else :func:`gna.trajectory.domain_violation`'s message (with
+            ``bounds``: the CG at or below the ground, or outside the atmosphere model's altitudes, too).
         """
         try:
-            x = self.track(*raw[:7])
+            x = list(self.track(*raw[:7]))
         except (ValueError, OverflowError):  # math functions of non-finite outputs
             x = [math.nan] * 12
             x[3] = raw[0] * units.FT
-        for m in domain_margins(x):
+        if len(raw) > 7:
+            x[2] = -units.FT * raw[7]  # z from the altitude: the ground and the atmosphere's range tested too
+        for m in domain_margins(x, self.bounds):
             if not m > 0:
-                return domain_violation(t, x) or f"left the physical domain at t = {t:.6g} s"
-        return ground_violation(t, -units.FT * raw[7], self.bounds) if len(raw) > 7 else None
+                return domain_violation(t, x, self.bounds) or f"left the physical domain at t = {t:.6g} s"
+        return None
 
     def scalar(self, raw: Sequence[float]) -> np.ndarray:
         """One step (pure-Python arithmetic), chi and mu continued from the previous call.
