@@ -358,7 +358,8 @@ NOTES = """\
 
 def chained_section() -> str:
     """The generic almost chained system API on the paper's x' = y + eps y' (planners.chained)."""
-    from planners.chained import ChainedSystem, Stage, generalized_parametrization, newton_parametrization
+    from planners.chained import ChainedSystem, Stage, generalized_parametrization
+    from planners.generalized_newton import newton_parametrization
     from planners.systems import first_order_lag, lag_reference
 
     eps, w = 0.1, 1.0
@@ -403,7 +404,8 @@ def chained_section() -> str:
 
 def car_section() -> str:
     """The car with two off-axle trailers: open-loop error of the exact model per iterate."""
-    from planners.chained import generalized_parametrization, newton_parametrization
+    from planners.chained import generalized_parametrization
+    from planners.generalized_newton import newton_parametrization
     from planners.systems import CarTrailers, car_two_trailers, simulate_car_two_trailers
 
     g = CarTrailers()

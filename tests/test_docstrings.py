@@ -40,7 +40,6 @@ MODULES = [
     "planners.systems.first_order_lag",
     "planners.systems.car_trailers",
     "planners.systems.demos",
-    "planners.systems.aircraft",
     "planners.systems.scenario",
     "planners.newton",
     "planners.singularity",

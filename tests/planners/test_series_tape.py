@@ -22,7 +22,7 @@ from planners.newton import newton_series
 from planners.series import Series
 from planners.series_tape import TapedResidual, TraceError, trace
 
-flat = importlib.import_module("planners.flat")
+flat = importlib.import_module("planners.chained")  # the module whose stages call newton_series
 
 PAPER = ("gtm-aileron-roll", "twin-otter-single-engine", "gtm-forward-slip")
 H = 1e-30  # the complex step of planners.newton
