@@ -89,7 +89,7 @@ class Stage:
 @dataclass(frozen=True)
 class StateSpaceModel:
     """Explicit form ``x' = f(x, u)`` of a chained system, for the tracking feedback
-    (paper section "Design of the feed-back"; :func:`planners.tracking.design_chained`).
+    (paper section "Design of the feed-back"; :func:`planners.tracking.design`).
 
     Attributes
     ----------
@@ -109,7 +109,9 @@ class StateSpaceModel:
     degrees : tuple of int
         Relative degree of each integral with respect to its inputs in the design model.
     stages : tuple
-        Sequential decoupling: ``((integral indices), (control indices))`` per stage.
+        Sequential decoupling: ``((integral indices), (input indices))`` per stage.
+    inputs : tuple of str, optional
+        The controls the feedback acts on (default: all; the others stay at their planned values).
     """
 
     states: tuple
@@ -118,6 +120,7 @@ class StateSpaceModel:
     integrands: Callable
     degrees: tuple
     stages: tuple
+    inputs: tuple | None = None
 
 
 @dataclass(frozen=True)

@@ -444,11 +444,11 @@ def car_section() -> str:
         "`planners.systems.scenario`: `system`, `[parameters]`, `[constants]`, `[time]`, `[flat_outputs]`, "
         "`[generalized]` J, e, method; `planners.systems.demos`: the plan, its check against the exact "
         "reference, `plan.csv` and `summary.json`).  Python API: "
-        "`planners.chained.generalized_parametrization` / `newton_parametrization` with "
-        "`planners.systems.SYSTEMS`.  The aircraft is the instance `planners.systems.aircraft_system(problem)` "
-        "(r = 4, Z_1 = {x, y, z}, Z_3 = {zeta}, H = H_2(p, q, r, dl, dm, dn)), on which the generic planner "
-        "reproduces `planners.generalized.plan_motion` to the last bit; the tracking feedback runs on a "
-        "chained system's explicit model (`planners.tracking.chained_tracking`, docs/tracking.md).\n"
+        "`planners.chained.generalized_parametrization` / `planners.generalized_newton.newton_parametrization` "
+        "with `planners.systems.SYSTEMS`.  The aircraft is the instance `planners.flat.aircraft_system(problem)` "
+        "(r = 4, Z_1 = {x, y, z}, Z_3 = {zeta}, H = H_2(p, q, r, dl, dm, dn)): `planners.generalized.plan_motion` "
+        "is the generic planner run on it; the tracking feedback (`planners.tracking.tracking_controller`) runs "
+        "on a chained system's explicit model as on the aircraft's (docs/tracking.md).\n"
     )
     return "\n".join(L) + "\n"
 
