@@ -562,33 +562,19 @@ class ChainedPlan:
         InputError
             An unknown variable or a time outside the plan.
         """
-        from .plan import _taylor_derivative
+        from .plan import _horner, interval_coefficients
 
         s = self.iterates[j].get(name)
         if s is None:
             raise InputError(f"unknown variable {name!r}; known: {', '.join(self.iterates[j])}")
-        c = np.real(np.asarray(s.coeffs))[None]  # (1, nodes, K)
-        t_arr = np.atleast_1d(np.asarray(t, dtype=float))
         tn = self.t_nodes
+        c = np.broadcast_to(np.real(np.asarray(s.coeffs)), (len(tn), s.order + 1))[:, None, :]
+        t_arr = np.atleast_1d(np.asarray(t, dtype=float))
         if np.any(t_arr < tn[0] - 1e-12) or np.any(t_arr > tn[-1] + 1e-12):
             raise InputError(f"time outside the plan [{tn[0]:g}, {tn[-1]:g}]")
+        poly = interval_coefficients(c[:-1], c[1:], np.diff(tn), "paper")  # (intervals, 1, K + 2)
         i = np.clip(np.searchsorted(tn, t_arr, side="right") - 1, 0, len(tn) - 2)
-        ti, tj = tn[i], tn[i + 1]
-        dt = tj - ti
-        w = (t_arr - ti) / dt
-        out = (1 - w) * _taylor_derivative(c[:, i], t_arr - ti, derivative) + w * _taylor_derivative(
-            c[:, i + 1], t_arr - tj, derivative
-        )
-        if derivative > 0:
-            out = (
-                out
-                + derivative
-                * (
-                    _taylor_derivative(c[:, i + 1], t_arr - tj, derivative - 1)
-                    - _taylor_derivative(c[:, i], t_arr - ti, derivative - 1)
-                )
-                / dt
-            )
+        out = _horner(poly[i], t_arr - tn[i], derivative)
         return out[0] if np.ndim(t) else float(out[0][0])
 
 

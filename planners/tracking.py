@@ -87,7 +87,7 @@ from gna.eom import CONTROL_NAMES, H_NAMES, STATE_NAMES, Controls, HValues, Stat
 from gna.errors import DomainError, InputError
 
 from .chained import StateSpaceModel
-from .plan import Plan
+from .plan import Plan, interval_coefficients
 from .series import Series
 
 #: The four integrals, in order (I4 absent with the thrust flat output).
@@ -632,24 +632,16 @@ def closed_loop_matrix(plan, des: TrackingDesign, model: str = "full") -> np.nda
 
 
 def _two_sided(coeffs: np.ndarray, t_nodes: np.ndarray) -> np.ndarray:
-    """Per-interval polynomial (in ``tau = t - t_i``) of the paper's two-sided formula.
+    """Per-interval polynomial (in ``tau = t - t_i``) of the paper's two-sided formula
+    (:func:`planners.plan.interval_coefficients` ``"paper"``).
 
     ``coeffs`` (N, ..., K): series at the nodes.  Returns (N - 1, ..., K + 1) with
     ``P_i(tau) = [(h - tau) s_i(tau) + tau s_{i+1}(tau - h)] / h``.
     """
     N, K = coeffs.shape[0], coeffs.shape[-1]
-    h = np.diff(t_nodes).reshape((N - 1,) + (1,) * (coeffs.ndim - 1))
-    si, sj = coeffs[:-1], coeffs[1:]
-    # s_{i+1}(tau - h) re-expanded in powers of tau: b_m = sum_{k >= m} C(k, m) c_k (-h)^(k - m).
-    sj_shift = np.zeros_like(sj)
-    for m in range(K):
-        for k in range(m, K):
-            sj_shift[..., m] += math.comb(k, m) * sj[..., k] * (-h[..., 0]) ** (k - m)
-    out = np.zeros(si.shape[:-1] + (K + 1,))
-    out[..., :K] += si  # h s_i / h
-    out[..., 1:] -= si / h  # -tau s_i / h
-    out[..., 1:] += sj_shift / h  # tau s_j(tau - h) / h
-    return out
+    flat = coeffs.reshape(N, -1, K)
+    out = interval_coefficients(flat[:-1], flat[1:], np.diff(np.asarray(t_nodes, dtype=float)), "paper")
+    return out.reshape((N - 1,) + coeffs.shape[1:-1] + (K + 1,))
 
 
 # --------------------------------------------------------------------------------------------
