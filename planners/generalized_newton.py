@@ -39,10 +39,9 @@ from gna.errors import InputError
 
 from .chained import ChainedPlan, ChainedSystem, _at_order, check_grid, flat_parametrization
 from .flat import FlatProblem
+from .newton import series_jacobian
 from .series import Series
 
-#: Complex step (the derivative is exact to rounding: no subtraction).
-_STEP = 1e-30
 #: Step halvings per Newton step where a node's residual does not decrease.
 HALVINGS = 5
 
@@ -160,32 +159,6 @@ def _coeffs(values, nodes: int, order: int) -> np.ndarray:
     return out
 
 
-def _cs_jacobian(fun, inputs: list, order: int, coefficient: int = 0) -> np.ndarray:
-    """Complex-step partial derivatives of ``fun(inputs) -> list`` along ``inputs[j] + i h t^coefficient``.
-
-    Returns (n_out, n_in, nodes, order + 1): the series of ``d fun_i`` for the direction ``t^c`` on
-    input j (for ``c = 0``: the partial derivative series; all inputs in one batched call).
-    """
-    n = len(inputs)
-    nodes = inputs[0].batch_shape[0]
-    base = np.stack(
-        [np.broadcast_to(np.asarray(u.truncate(order).coeffs, dtype=complex), (nodes, order + 1)) for u in inputs]
-    )  # (n, nodes, K)
-    pert = np.broadcast_to(base, (n,) + base.shape).copy()  # (n dirs, n, nodes, K)
-    for j in range(n):
-        pert[j, j, :, coefficient] += 1j * _STEP
-    outs = fun([Series(pert[:, j]) for j in range(n)])
-    jac = []
-    for o in outs:
-        c = o.coeffs if isinstance(o, Series) else np.asarray(o)[..., None]
-        c = np.broadcast_to(c, (n, nodes, c.shape[-1]))
-        full = np.zeros((n, nodes, order + 1))
-        m = min(order + 1, c.shape[-1])
-        full[..., :m] = np.imag(c[..., :m]) / _STEP
-        jac.append(full)
-    return np.stack(jac)
-
-
 def _hat_orders(system: ChainedSystem, order: int) -> dict:
     """Order of each neglected variable where it is first used: ``kappa - h`` for stage h."""
     out = {}
@@ -258,7 +231,8 @@ def hat_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapping) 
             v.update(zip(pnames, vals))
             return stage.residual(v)
 
-        jac = _cs_jacobian(fun, base, k)  # (n_eq, n_in, nodes, k+1)
+        stacked = np.stack([np.broadcast_to(np.real(b.coeffs), (nodes, k + 1)) for b in base])
+        jac = series_jacobian(lambda us, kk: fun(us), stacked, k)  # (n_eq, n_in, nodes, k+1)
         nu = len(stage.unknowns)
         rhs = 0.0
         for i, p in enumerate(inputs):

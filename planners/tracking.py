@@ -87,6 +87,7 @@ from gna.eom import CONTROL_NAMES, H_NAMES, STATE_NAMES, Controls, HValues, Stat
 from gna.errors import DomainError, InputError
 
 from .chained import StateSpaceModel
+from .newton import series_jacobian
 from .plan import Plan, interval_coefficients
 from .series import Series
 
@@ -312,7 +313,7 @@ def linearize(plan, j: int = -1, *, model: str = "full", order: int = 1) -> Line
 
     base = np.stack([coeffs(n) for n in names])
     hat = {n: Series(coeffs(n)) for n in _neglected(plan)} if model == "design" else None
-    jac = series_jacobian(lambda v: ssm.rhs(v[:n_x], v[n_x:], hat), base)  # (N, n_x, n_x + n_u, K)
+    jac = np.moveaxis(series_jacobian(lambda v, k: ssm.rhs(v[:n_x], v[n_x:], hat), base, K - 1), 2, 0)
     return Linearization(
         np.asarray(plan.t_nodes, dtype=float),
         np.ascontiguousarray(jac[:, :, :n_x]),
@@ -320,38 +321,6 @@ def linearize(plan, j: int = -1, *, model: str = "full", order: int = 1) -> Line
         model,
         j % len(plan.iterates),
     )
-
-
-def series_jacobian(f, base: np.ndarray) -> np.ndarray:
-    """Jacobian series of ``f`` at series values: one batched complex step on the series.
-
-    Parameters
-    ----------
-    f : callable
-        ``f(list of Series) -> list`` of outputs (Series, arrays or floats), pointwise in t (no time
-        derivatives inside), on Series of batch shape ``(n_in + 1, N)``.
-    base : ndarray, shape (n_in, N, K)
-        Taylor coefficients of the inputs at the N nodes.
-
-    Returns
-    -------
-    ndarray, shape (N, n_out, n_in, K)
-        ``[i, a, b, k]``: k-th coefficient at node i of ``d f_a / d input_b`` (exact to rounding).
-    """
-    nv, n_nodes, K = base.shape
-    h = 1e-30
-    pert = np.broadcast_to(base, (nv + 1,) + base.shape).astype(complex)  # (n_in + 1, n_in, N, K)
-    for v in range(nv):
-        pert[v + 1, v, :, 0] += 1j * h
-    out = f([Series(pert[:, v]) for v in range(nv)])
-    R = np.stack(
-        [
-            np.broadcast_to(fa.coeffs if isinstance(fa, Series) else np.asarray(fa)[..., None], (nv + 1, n_nodes, K))
-            for fa in out
-        ]
-    )  # (n_out, n_in + 1, N, K)
-    jac = np.imag(R[:, 1:]) / h  # (n_out, n_in, N, K)
-    return np.moveaxis(jac, 2, 0)
 
 
 # --------------------------------------------------------------------------------------------
