@@ -82,24 +82,6 @@ def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("nij,njk->nik", a, b)
 
 
-def _derivative_matrix(n: int, k_in: int) -> np.ndarray:
-    """``d/dt`` of n series of order ``k_in`` (to order ``k_in - 1``), on coefficients."""
-    D = np.zeros((n, k_in, n, k_in + 1))
-    for i in range(n):
-        for k in range(k_in):
-            D[i, k, i, k + 1] = k + 1
-    return D.reshape(n * k_in, n * (k_in + 1))
-
-
-def _resize_matrix(n: int, k_in: int, k_out: int) -> np.ndarray:
-    """Truncation (``k_out < k_in``) or zero padding (``k_out > k_in``) of n series, on coefficients."""
-    R = np.zeros((n, k_out + 1, n, k_in + 1))
-    for i in range(n):
-        for k in range(min(k_in, k_out) + 1):
-            R[i, k, i, k] = 1.0
-    return R.reshape(n * (k_out + 1), n * (k_in + 1))
-
-
 def _series_inverse(A: np.ndarray) -> np.ndarray:
     """Inverse of a matrix of series ``A`` (n, n, nodes, K + 1), exactly lower triangular in the coefficients.
 
@@ -196,31 +178,30 @@ def hat_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapping) 
         offsets[n] = size
         size += horders[n] + 1
     nodes = next(iter(sol.values())).batch_shape[0]
-    sens = {}  # variable -> (nodes, K + 1, size): d variable / d hat
+    sens = {}  # variable -> (nodes, K + 1, size): d variable / d hat, for the variables depending on hat
     orders = {}
-    for z in system.flat_outputs:
-        orders[z] = sol[z].order
+    # the data independent of the neglected terms: flat outputs, inputs, derived series, and the unknowns
+    # of the stages none of whose inputs depends on them (for the aircraft, stage 1)
+    given = list(system.flat_outputs) + list(system.inputs)
+    fixed = {z: sol[z] for z in given}
+    fixed.update({z + "'": sol[z].derivative() for z in given if sol[z].order >= 1})
+    if system.derived is not None:
+        fixed.update(system.derived(dict(sol), order))
     for h, stage in enumerate(system.stages, start=1):
         k = order - h
-        earlier = [n for n in sens]  # unknowns of earlier stages
         inputs = {}
-        for n in earlier:
-            inputs[n] = (sol[n], _mm(_resize_matrix(1, orders[n], k), sens[n]))
-            if orders[n] >= 1:
-                inputs[n + "'"] = (
-                    sol[n].derivative(),
-                    _mm(_resize_matrix(1, orders[n] - 1, k), _mm(_derivative_matrix(1, orders[n]), sens[n])),
-                )
-        for n in stage.neglected:
-            sel = np.zeros((horders[n] + 1, size))
-            sel[:, offsets[n] : offsets[n] + horders[n] + 1] = np.eye(horders[n] + 1)
-            v = hat[n]
-            inputs[n] = (v, _resize_matrix(1, horders[n], k) @ sel)
-        given = list(system.flat_outputs) + list(system.inputs)  # independent of the neglected terms
-        fixed = {z: sol[z] for z in given}
-        fixed.update({z + "'": sol[z].derivative() for z in given if sol[z].order >= 1})
-        if system.derived is not None:
-            fixed.update(system.derived(dict(sol), order))
+        for n in sens:
+            inputs[n] = (sol[n], _rows(sens[n], k))
+            if orders[n] >= 1:  # d/dt on the coefficients: row m is (m + 1) times row m + 1
+                d = sens[n][:, 1:] * np.arange(1.0, orders[n] + 1)[:, None]
+                inputs[n + "'"] = (sol[n].derivative(), _rows(d, k))
+        upstream = len(inputs)
+        for n in stage.neglected:  # d hat_n / d hat: a selection of columns (placed below, no product)
+            inputs[n] = (hat[n], None)
+        if not inputs:  # nothing upstream depends on the neglected terms
+            fixed.update({u: sol[u] for u in stage.unknowns})
+            fixed.update({u + "'": sol[u].derivative() for u in stage.unknowns if sol[u].order >= 1})
+            continue
         pnames = list(stage.unknowns) + list(inputs)
         base = [sol[u] for u in stage.unknowns] + [inputs[p][0] for p in inputs]
         base = [b.truncate(k) if b.order >= k else b.pad(k) for b in base]
@@ -234,21 +215,32 @@ def hat_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapping) 
         stacked = np.stack([np.broadcast_to(np.real(b.coeffs), (nodes, k + 1)) for b in base])
         jac = series_jacobian(lambda us, kk: fun(us), stacked, k)  # (n_eq, n_in, nodes, k+1)
         nu = len(stage.unknowns)
-        rhs = 0.0
-        for i, p in enumerate(inputs):
-            rhs = rhs + _mm(_block_toeplitz(jac[:, nu + i : nu + i + 1], k, k), inputs[p][1])
-        if np.ndim(rhs):
-            S = -_mm(_block_toeplitz(_series_inverse(jac[:, :nu]), k, k), rhs)
-        else:  # nothing upstream depends on the neglected terms
-            S = np.zeros((nodes, nu * (k + 1), size))
+        # d residual / d hat: through the upstream unknowns (a product), and directly (columns placed)
+        rhs = np.zeros((nodes, jac.shape[0] * (k + 1), size))
+        if upstream:
+            dinputs = np.concatenate([d for _, d in list(inputs.values())[:upstream]], axis=1)
+            rhs += _mm(_block_toeplitz(jac[:, nu : nu + upstream], k, k), dinputs)
+        for i, n in enumerate(list(inputs)[upstream:]):
+            m = min(k, horders[n]) + 1
+            rhs[:, :, offsets[n] : offsets[n] + m] += _block_toeplitz(
+                jac[:, nu + upstream + i : nu + upstream + i + 1], k, k
+            )[:, :, :m]
+        S = -_mm(_block_toeplitz(_series_inverse(jac[:, :nu]), k, k), rhs)
         for i, u in enumerate(stage.unknowns):
             sens[u] = S[:, i * (k + 1) : (i + 1) * (k + 1)]
             orders[u] = k
     dG = np.zeros((nodes, size, size))
     for n in names:
         if n in sens:  # a prescribed input does not depend on them
-            dG[:, offsets[n] : offsets[n] + horders[n] + 1] = _mm(_resize_matrix(1, orders[n], horders[n]), sens[n])
+            dG[:, offsets[n] : offsets[n] + horders[n] + 1] = _rows(sens[n], horders[n])
     return dG
+
+
+def _rows(S: np.ndarray, k: int) -> np.ndarray:
+    """Sensitivities ``S`` (nodes, rows, size) of a series truncated or zero-padded to order k: (nodes, k + 1, size)."""
+    if S.shape[1] >= k + 1:
+        return S[:, : k + 1]
+    return np.concatenate([S, np.zeros((S.shape[0], k + 1 - S.shape[1], S.shape[2]))], axis=1)
 
 
 def _hat_vector(system, order, values: Mapping, nodes: int) -> np.ndarray:
