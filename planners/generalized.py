@@ -183,7 +183,7 @@ def plan_motion(
         ``"fixed-point"``: the paper's ``GeneralizedFlatParametrization`` (iterate j uses the H
         values of iterate j - 1).  ``"newton"``: Newton's method on ``H = G(H)`` at the same starting
         order ``kappa = e + 4 + 2 J`` (J is then the depth, not the number of iterations), iterates
-        truncated to the orders of the fixed point's iterate J (:func:`planners.generalized_newton.plan_newton`).
+        truncated to the orders of the fixed point's iterate J (:func:`planners.generalized_newton.newton_parametrization`).
     newton_tol : float
         ``"newton"`` only: stop when ``max |H - G(H)|`` is below this [rad/s, rad].
     newton_maxiter : int
