@@ -17,9 +17,15 @@ truncated power series, batched over the nodes), solved by Newton's method on se
 (:func:`planners.newton.newton_series`), or in closed form when the stage gives one
 (:attr:`Stage.solve`).  Prescribed functions of time that are neither flat outputs nor unknowns
 (the aircraft's thrust asymmetry ``eta(t)`` or fixed rudder ``dn(t)``) are the system's
-:attr:`ChainedSystem.inputs`.  The aircraft (:mod:`planners.flat`) is the instance
-:func:`planners.systems.aircraft.aircraft_system` with r = 4, Z_1 = {x, y, z}, Z_3 = {zeta} and
-H = H_2(p, q, r, dl, dm, dn); :mod:`planners.systems` bundles others.
+:attr:`ChainedSystem.inputs`.  The aircraft is the instance :func:`planners.flat.aircraft_system`
+(r = 4, Z_1 = {x, y, z}, Z_3 = {zeta}, H = H_2(p, q, r, dl, dm, dn)): :func:`planners.generalized.plan_motion`
+is :func:`generalized_parametrization` on it; :mod:`planners.systems` bundles others; Newton's method on
+the fixed point is :mod:`planners.generalized_newton`.
+
+The speed of a plan comes from reuse between iterates: iterate j starts each Newton stage from iterate
+j - 1 at the full working order (chord steps on its Jacobians), and truncates the series that do not
+depend on the neglected terms (flat outputs, prescribed inputs, the stages before the first with
+neglected terms, :attr:`ChainedSystem.derived`) instead of recomputing them.
 """
 
 from __future__ import annotations
@@ -32,7 +38,6 @@ import numpy as np
 
 from gna.errors import InputError
 
-from .flat import check_grid
 from .newton import newton_series
 from .series import Series
 
@@ -66,6 +71,9 @@ class Stage:
     post : callable, optional
         ``post(list of Series) -> list of Series`` applied to the stage's solution (e.g. angles made
         continuous along the nodes).
+    warm : bool
+        Newton at the full working order from the start even without a previous iterate (equations
+        affine in the unknowns: one step solves them; :func:`planners.newton.newton_series` ``warm``).
     """
 
     unknowns: tuple
@@ -75,12 +83,13 @@ class Stage:
     solve: Callable | None = None
     start: Callable | None = None
     post: Callable | None = None
+    warm: bool = False
 
 
 @dataclass(frozen=True)
 class StateSpaceModel:
     """Explicit form ``x' = f(x, u)`` of a chained system, for the tracking feedback
-    (paper section "Design of the feed-back"; :func:`planners.tracking.design_chained`).
+    (paper section "Design of the feed-back"; :func:`planners.tracking.design`).
 
     Attributes
     ----------
@@ -100,7 +109,9 @@ class StateSpaceModel:
     degrees : tuple of int
         Relative degree of each integral with respect to its inputs in the design model.
     stages : tuple
-        Sequential decoupling: ``((integral indices), (control indices))`` per stage.
+        Sequential decoupling: ``((integral indices), (input indices))`` per stage.
+    inputs : tuple of str, optional
+        The controls the feedback acts on (default: all; the others stay at their planned values).
     """
 
     states: tuple
@@ -109,6 +120,7 @@ class StateSpaceModel:
     integrands: Callable
     degrees: tuple
     stages: tuple
+    inputs: tuple | None = None
 
 
 @dataclass(frozen=True)
@@ -139,6 +151,11 @@ class ChainedSystem:
         Tolerance of the pointwise Newton of the stages (units of the residuals).
     model : StateSpaceModel, optional
         The explicit model, for tracking.
+    derived : callable, optional
+        ``derived(v, order) -> dict`` of Series that depend only on the flat outputs, the inputs and
+        the stages before the first with neglected terms (``v``, for flat outputs at ``order``):
+        computed once per plan and truncated in later iterates by the orders they lose; every stage
+        sees them (e.g. the aircraft's dynamic pressure).
     """
 
     name: str
@@ -151,6 +168,7 @@ class ChainedSystem:
     neglected_values: Mapping | None = None
     newton_tol: float = 1e-13
     model: StateSpaceModel | None = None
+    derived: Callable | None = None
 
     @property
     def r(self) -> int:
@@ -220,6 +238,78 @@ class ChainedSystem:
         raise InputError(f"{self.name}: unknown variable {name!r}; known: {', '.join(self.variables)}")
 
 
+def check_grid(t_nodes) -> np.ndarray:
+    """The planning grid as a float array: at least two increasing nodes.
+
+    Parameters
+    ----------
+    t_nodes : array_like, shape (N,)
+        Node times [s].
+
+    Returns
+    -------
+    ndarray, shape (N,)
+
+    Raises
+    ------
+    InputError
+        Not a 1-D sequence of at least two increasing times.
+    """
+    t = np.asarray(t_nodes, dtype=float)
+    if t.ndim != 1 or len(t) < 2 or np.any(np.diff(t) <= 0):
+        raise InputError("the planning grid needs at least two increasing nodes")
+    return t
+
+
+@dataclass
+class NodeSolution(Mapping):
+    """Series of every variable at every node, for one iterate (a mapping name -> Series).
+
+    Attributes
+    ----------
+    series : dict of str -> Series
+        Batch shape (nodes,); the order of each depends on its stage.
+    order : int
+        Order kappa of the flat outputs of stage 1 for this iterate.
+    reports : dict of str -> SeriesNewtonReport
+        Newton diagnostics of the stages solved by Newton (``"stage2"``, ``"stage4"`` ...).
+    """
+
+    series: dict
+    order: int
+    reports: dict = field(default_factory=dict)
+    # The series that do not depend on the neglected terms (flat outputs, prescribed inputs and the
+    # stages before the first with neglected terms), at the highest order computed so far: a later
+    # iterate (lower order) truncates them (a coefficient depends only on the coefficients below it).
+    _inputs: dict | None = field(default=None, repr=False, compare=False)
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_inputs"] = None
+        return state
+
+    def __getitem__(self, name: str) -> Series:
+        return self.series[name]
+
+    def __iter__(self):
+        return iter(self.series)
+
+    def __len__(self) -> int:
+        return len(self.series)
+
+    def h_values(self):
+        """The aircraft's rates and surfaces of this iterate, as H values for the next one.
+
+        Returns
+        -------
+        gna.eom.HValues
+            Series of ``p, q, r`` [rad/s] and ``dl, dm, dn`` [rad].
+        """
+        from gna.eom import H_NAMES, HValues
+
+        return HValues(*(self.series[n] for n in H_NAMES))
+
+
 def _at_order(data: Mapping, k: int) -> dict:
     """Every Series of ``data`` truncated (or padded) to order k; constant-term arrays at k = 0."""
     out = {}
@@ -253,6 +343,62 @@ def _flat_outputs(system: ChainedSystem, zeta: Mapping | None) -> Mapping:
     return zeta
 
 
+def _first_neglecting_stage(system: ChainedSystem) -> int:
+    """Index h (1-based) of the first stage with neglected terms (r + 1 when none has any)."""
+    return next((h for h, s in enumerate(system.stages, start=1) if s.neglected), system.r + 1)
+
+
+def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, tol, carry):
+    """Stage h at order ``order - h``: its unknowns (list of Series) and its Newton report (or None)."""
+    nodes = len(t_nodes)
+    k = order - h
+    data = dict(known)
+    data.update(derivs)
+    for name in stage.neglected:
+        v = (hat or {}).get(name, system.neglected_start(name))
+        data[name] = _as_series(v, nodes, k)
+    rep = None
+    if stage.solve is not None:
+        v = {n: s.truncate(min(s.order, k + 1)) for n, s in data.items()}
+        u = [_as_series(s, nodes, k) for s in stage.solve(v, t_nodes)]
+        u = [s.truncate(k) if s.order > k else s for s in u]
+    else:
+        cache: dict[int, dict] = {}
+
+        def residual(u, kk):
+            if kk not in cache:
+                cache[kk] = _at_order(data, kk)
+            v = dict(cache[kk])
+            v.update(zip(stage.unknowns, u))
+            return stage.residual(v)
+
+        jac = None
+        if guess is not None and all(n in guess for n in stage.unknowns):
+            u0, warm = [guess[n] for n in stage.unknowns], True
+            if carry and isinstance(guess, NodeSolution):  # the previous iterate's Jacobian, for chord steps
+                jac = getattr(guess.reports.get(f"stage{h}"), "jacobian", None)
+        elif stage.start is not None:
+            u0 = [
+                Series.constant(np.broadcast_to(np.asarray(c, dtype=float), (nodes,)), 0)
+                for c in stage.start(_at_order(data, 0), t_nodes)
+            ]
+            warm = stage.warm
+        else:
+            u0 = [Series.constant(np.full(nodes, float(system.guess.get(n, 0.0))), 0) for n in stage.unknowns]
+            warm = stage.warm
+        u, rep = newton_series(residual, u0, k, tol=tol, names=stage.unknowns, t_nodes=t_nodes, warm=warm, jacobian=jac)
+    if stage.post is not None:
+        u = list(stage.post(list(u)))
+    return u, rep
+
+
+def _add_known(known: dict, derivs: dict, names, values) -> None:
+    for name, v in zip(names, values):
+        known[name] = v
+        if v.order >= 1:
+            derivs[name + "'"] = v.derivative()
+
+
 def flat_parametrization(
     system: ChainedSystem,
     t_nodes,
@@ -261,7 +407,8 @@ def flat_parametrization(
     hat: Mapping | None = None,
     guess: Mapping | None = None,
     newton_tol: float | None = None,
-) -> tuple[dict, dict]:
+    carry: bool = True,
+) -> NodeSolution:
     """``FlatParametrization(t0, kappa, zeta, X^)`` of the paper at every node.
 
     Parameters
@@ -278,17 +425,23 @@ def flat_parametrization(
         :attr:`ChainedSystem.outputs`.
     hat : mapping of str -> Series or float, optional
         Values of the neglected variables (default: :meth:`ChainedSystem.neglected_start`).
-    guess : mapping of str -> Series, optional
-        Starting values of the Newton iterations (a previous iterate).
+    guess : mapping of str -> Series, or NodeSolution, optional
+        A nearby solution (the previous iterate): the Newton stages start from it at the full working
+        order (:func:`planners.newton.newton_series` ``warm``).  A :class:`NodeSolution` of the same
+        system, grid and flat outputs at an order at least ``order`` also lends the series that do not
+        depend on the neglected terms (truncated) and, with ``carry``, its stages' last Jacobians
+        for chord steps.
     newton_tol : float, optional
         Tolerance of the pointwise Newton (units of the residuals); default the system's.
+    carry : bool
+        Use the Jacobians of ``guess`` (a caller differentiating the solution with respect to ``hat``
+        sets False: the last Newton step then starts from a residual at most the tolerance).
 
     Returns
     -------
-    series : dict of str -> Series
-        Every variable, batch shape (nodes,).
-    reports : dict of int -> SeriesNewtonReport
-        Newton diagnostics per stage solved by Newton.
+    NodeSolution
+        Every variable, batch shape (nodes,), and the Newton reports per stage solved by Newton
+        (keys ``"stage<h>"``).
 
     Raises
     ------
@@ -299,55 +452,52 @@ def flat_parametrization(
     tol = system.newton_tol if newton_tol is None else newton_tol
     if order < system.r:
         raise InputError(f"{system.name}: order {order} below the number of stages {system.r}")
-    zeta = _flat_outputs(system, zeta)
-    missing = [z for z in system.flat_outputs if z not in zeta]
-    if missing:
-        raise InputError(f"{system.name}: no function given for the flat output(s) {', '.join(missing)}")
     nodes = len(t_nodes)
-    known = {}
-    for z, h in system.flat_outputs.items():
-        k = order - int(h) + 1
-        known[z] = _as_series(zeta[z](Series.variable(t_nodes, k)), nodes, k)
-    for name, f in system.inputs.items():
-        known[name] = _as_series(f(Series.variable(t_nodes, order)), nodes, order)
-    reports = {}
-    for h, stage in enumerate(system.stages, start=1):
-        k = order - h
-        data = dict(known)
-        for name, v in known.items():
-            if v.order >= 1:
-                data[name + "'"] = v.derivative()
-        for name in stage.neglected:
-            v = (hat or {}).get(name, system.neglected_start(name))
-            data[name] = _as_series(v, nodes, k)
-        if stage.solve is not None:
-            v = {n: s.truncate(min(s.order, k + 1)) for n, s in data.items()}
-            u = [_as_series(s, nodes, k) for s in stage.solve(v, t_nodes)]
-            u = [s.truncate(k) if s.order > k else s for s in u]
-        else:
-            cache: dict[int, dict] = {}
-
-            def residual(u, kk, stage=stage, data=data, cache=cache):
-                if kk not in cache:
-                    cache[kk] = _at_order(data, kk)
-                v = dict(cache[kk])
-                v.update(zip(stage.unknowns, u))
-                return stage.residual(v)
-
-            if guess is not None and all(n in guess for n in stage.unknowns):
-                u0 = [guess[n] for n in stage.unknowns]
-            elif stage.start is not None:
-                u0 = [
-                    Series.constant(np.broadcast_to(np.asarray(c, dtype=float), (nodes,)), 0)
-                    for c in stage.start(_at_order(data, 0), t_nodes)
-                ]
-            else:
-                u0 = [Series.constant(np.full(nodes, float(system.guess.get(n, 0.0))), 0) for n in stage.unknowns]
-            u, reports[h] = newton_series(residual, u0, k, tol=tol, names=stage.unknowns, t_nodes=t_nodes)
-        if stage.post is not None:
-            u = list(stage.post(list(u)))
-        known.update(zip(stage.unknowns, u))
-    return known, reports
+    h0 = _first_neglecting_stage(system)
+    cached = guess._inputs if isinstance(guess, NodeSolution) else None
+    if not (
+        cached is not None
+        and cached["system"] is system
+        and cached["zeta"] is zeta
+        and cached["order"] >= order
+        and np.array_equal(cached["t_nodes"], t_nodes)
+    ):
+        funcs = _flat_outputs(system, zeta)
+        missing = [z for z in system.flat_outputs if z not in funcs]
+        if missing:
+            raise InputError(f"{system.name}: no function given for the flat output(s) {', '.join(missing)}")
+        known, derivs, reports = {}, {}, {}
+        for z, h in system.flat_outputs.items():
+            k = order - int(h) + 1
+            _add_known(known, derivs, [z], [_as_series(funcs[z](Series.variable(t_nodes, k)), nodes, k)])
+        for name, f in system.inputs.items():
+            _add_known(known, derivs, [name], [_as_series(f(Series.variable(t_nodes, order)), nodes, order)])
+        for h, stage in enumerate(system.stages[: h0 - 1], start=1):
+            u, rep = _solve_stage(system, h, stage, known, derivs, None, None, t_nodes, order, tol, carry)
+            _add_known(known, derivs, stage.unknowns, u)
+            if rep is not None:
+                reports[f"stage{h}"] = rep
+        if system.derived is not None:  # data of the stages, not variables of the solution
+            derivs.update(system.derived(dict(known), order))
+        cached = {
+            "system": system,
+            "zeta": zeta,
+            "order": order,
+            "t_nodes": t_nodes.copy(),
+            "known": known,
+            "derivs": derivs,
+            "reports": reports,
+        }
+    loss = cached["order"] - order  # every reused series loses the order the flat outputs lose
+    known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
+    derivs = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["derivs"].items()}
+    reports = dict(cached["reports"])
+    for h, stage in enumerate(system.stages[h0 - 1 :], start=h0):
+        u, rep = _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, tol, carry)
+        _add_known(known, derivs, stage.unknowns, u)
+        if rep is not None:
+            reports[f"stage{h}"] = rep
+    return NodeSolution(known, order, reports, cached)
 
 
 @dataclass
@@ -360,27 +510,33 @@ class ChainedPlan:
         The system planned.
     t_nodes : ndarray, shape (nodes,)
         Node times.
-    iterates : list of dict
+    iterates : list of NodeSolution
         Series of every variable, per iterate j = 0..J.
-    reports : list of dict
-        Newton reports per iterate and stage.
     timings : dict
         Wall time [s] per iterate.
     residuals : list of float
         Newton only: ``max |X^ - G~(X^)|`` per iterate.
+    info : dict
+        Newton only: ``"status"`` (``"converged"``, ``"stagnated"``, ``"diverged"``, ``"maxiter"``),
+        ``"damping"`` (smallest step factor of each step) and ``"order"`` (kappa).
     """
 
     system: ChainedSystem
     t_nodes: np.ndarray
     iterates: list
-    reports: list = field(default_factory=list)
     timings: dict = field(default_factory=dict)
     residuals: list = field(default_factory=list)
+    info: dict = field(default_factory=dict)
 
     @property
     def J(self) -> int:
         """Index of the last iterate."""
         return len(self.iterates) - 1
+
+    @property
+    def reports(self) -> list:
+        """Newton reports per iterate (dict ``"stage<h>"`` -> report)."""
+        return [it.reports for it in self.iterates]
 
     def evaluate(self, name: str, t, j: int = -1, derivative: int = 0) -> np.ndarray:
         """A variable (or its derivative) at times ``t`` by the two-sided interpolation of the node series.
@@ -406,33 +562,19 @@ class ChainedPlan:
         InputError
             An unknown variable or a time outside the plan.
         """
-        from .plan import _taylor_derivative
+        from .plan import _horner, interval_coefficients
 
         s = self.iterates[j].get(name)
         if s is None:
             raise InputError(f"unknown variable {name!r}; known: {', '.join(self.iterates[j])}")
-        c = np.real(np.asarray(s.coeffs))[None]  # (1, nodes, K)
-        t_arr = np.atleast_1d(np.asarray(t, dtype=float))
         tn = self.t_nodes
+        c = np.broadcast_to(np.real(np.asarray(s.coeffs)), (len(tn), s.order + 1))[:, None, :]
+        t_arr = np.atleast_1d(np.asarray(t, dtype=float))
         if np.any(t_arr < tn[0] - 1e-12) or np.any(t_arr > tn[-1] + 1e-12):
             raise InputError(f"time outside the plan [{tn[0]:g}, {tn[-1]:g}]")
+        poly = interval_coefficients(c[:-1], c[1:], np.diff(tn), "paper")  # (intervals, 1, K + 2)
         i = np.clip(np.searchsorted(tn, t_arr, side="right") - 1, 0, len(tn) - 2)
-        ti, tj = tn[i], tn[i + 1]
-        dt = tj - ti
-        w = (t_arr - ti) / dt
-        out = (1 - w) * _taylor_derivative(c[:, i], t_arr - ti, derivative) + w * _taylor_derivative(
-            c[:, i + 1], t_arr - tj, derivative
-        )
-        if derivative > 0:
-            out = (
-                out
-                + derivative
-                * (
-                    _taylor_derivative(c[:, i + 1], t_arr - tj, derivative - 1)
-                    - _taylor_derivative(c[:, i], t_arr - ti, derivative - 1)
-                )
-                / dt
-            )
+        out = _horner(poly[i], t_arr - tn[i], derivative)
         return out[0] if np.ndim(t) else float(out[0][0])
 
 
@@ -444,8 +586,13 @@ def generalized_parametrization(
     e: int = 1,
     v: Mapping | None = None,
     newton_tol: float | None = None,
+    guesses: list | None = None,
+    progress: Callable | None = None,
 ) -> ChainedPlan:
     """``GeneralizedFlatParametrization(v, zeta, J, e)`` of the paper for a chained system.
+
+    Iterate j starts its Newton iterations from iterate j - 1 (and truncates its series that do not
+    depend on the neglected terms, and carries its Jacobians: :func:`flat_parametrization`).
 
     Parameters
     ----------
@@ -464,6 +611,11 @@ def generalized_parametrization(
         :meth:`ChainedSystem.neglected_start`).
     newton_tol : float, optional
         Tolerance of the stages' pointwise Newton (default: the system's).
+    guesses : list of NodeSolution, optional
+        Starting points of the iterates (``guesses[j]`` for iterate j, e.g. a plan with a smaller J:
+        the same iterate at a lower order) instead of the previous iterate.
+    progress : callable, optional
+        ``progress(j, kappa, seconds)`` after each iterate.
 
     Returns
     -------
@@ -479,204 +631,17 @@ def generalized_parametrization(
     if J < 0:
         raise InputError(f"J must be >= 0, got {J}")
     kappa = e + system.r + J * system.L
-    iterates, reports, timings = [], [], {}
-    hat, guess = dict(v or {}), None
+    iterates, timings = [], {}
+    hat, prev = dict(v or {}), None
     for j in range(J + 1):
         t0 = time.perf_counter()
-        sol, rep = flat_parametrization(system, t_nodes, kappa, zeta, hat=hat, guess=guess, newton_tol=newton_tol)
+        guess = guesses[j] if guesses is not None and j < len(guesses) else prev
+        sol = flat_parametrization(system, t_nodes, kappa, zeta, hat=hat, guess=guess, newton_tol=newton_tol)
         timings[j] = time.perf_counter() - t0
+        if progress is not None:
+            progress(j, kappa, timings[j])
         iterates.append(sol)
-        reports.append(rep)
         hat = {n: sol[n] for n in system.neglected}
-        guess = sol
+        prev = sol
         kappa -= system.L
-    return ChainedPlan(system, t_nodes, iterates, reports, timings)
-
-
-# ----------------------------------------------------------------------------- Newton on the fixed point
-
-
-def _hat_orders(system: ChainedSystem, order: int) -> dict:
-    """Order of each neglected variable where it is first used: ``kappa - h`` for stage h."""
-    out = {}
-    for h, s in enumerate(system.stages, start=1):
-        for n in s.neglected:
-            out.setdefault(n, order - h)
-    return out
-
-
-def _chained_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapping) -> np.ndarray:
-    """Exact ``dG~/d hat`` on the coefficients (nodes, size, size), stages composed as in
-    :func:`planners.generalized_newton.h_jacobian` (complex-step partials, constant directions)."""
-    from .generalized_newton import (
-        _block_toeplitz,
-        _cs_jacobian,
-        _derivative_matrix,
-        _mm,
-        _resize_matrix,
-        _series_inverse,
-    )
-
-    horders = _hat_orders(system, order)
-    names = list(horders)
-    offsets, size = {}, 0
-    for n in names:
-        offsets[n] = size
-        size += horders[n] + 1
-    nodes = next(iter(sol.values())).batch_shape[0]
-    sens = {}  # variable -> (nodes, K + 1, size): d variable / d hat
-    orders = {}
-    for z in system.flat_outputs:
-        orders[z] = sol[z].order
-    for h, stage in enumerate(system.stages, start=1):
-        k = order - h
-        earlier = [n for n in sens]  # unknowns of earlier stages
-        inputs = {}
-        for n in earlier:
-            inputs[n] = (sol[n], _mm(_resize_matrix(1, orders[n], k), sens[n]))
-            if orders[n] >= 1:
-                inputs[n + "'"] = (
-                    sol[n].derivative(),
-                    _mm(_resize_matrix(1, orders[n] - 1, k), _mm(_derivative_matrix(1, orders[n]), sens[n])),
-                )
-        for n in stage.neglected:
-            sel = np.zeros((horders[n] + 1, size))
-            sel[:, offsets[n] : offsets[n] + horders[n] + 1] = np.eye(horders[n] + 1)
-            v = hat[n]
-            inputs[n] = (v, _resize_matrix(1, horders[n], k) @ sel)
-        given = list(system.flat_outputs) + list(system.inputs)  # independent of the neglected terms
-        fixed = {z: sol[z] for z in given}
-        fixed.update({z + "'": sol[z].derivative() for z in given if sol[z].order >= 1})
-        pnames = list(stage.unknowns) + list(inputs)
-        base = [sol[u] for u in stage.unknowns] + [inputs[p][0] for p in inputs]
-        base = [b.truncate(k) if b.order >= k else b.pad(k) for b in base]
-        fixed_k = _at_order(fixed, k)
-
-        def fun(vals, pnames=pnames, fixed_k=fixed_k, stage=stage):
-            v = dict(fixed_k)
-            v.update(zip(pnames, vals))
-            return stage.residual(v)
-
-        jac = _cs_jacobian(fun, base, k)  # (n_eq, n_in, nodes, k+1)
-        nu = len(stage.unknowns)
-        rhs = 0.0
-        for i, p in enumerate(inputs):
-            rhs = rhs + _mm(_block_toeplitz(jac[:, nu + i : nu + i + 1], k, k), inputs[p][1])
-        if np.ndim(rhs):
-            S = -_mm(_block_toeplitz(_series_inverse(jac[:, :nu]), k, k), rhs)
-        else:  # nothing upstream depends on the neglected terms
-            S = np.zeros((nodes, nu * (k + 1), size))
-        for i, u in enumerate(stage.unknowns):
-            sens[u] = S[:, i * (k + 1) : (i + 1) * (k + 1)]
-            orders[u] = k
-    dG = np.zeros((nodes, size, size))
-    for n in names:
-        if n in sens:  # a prescribed input does not depend on them
-            dG[:, offsets[n] : offsets[n] + horders[n] + 1] = _mm(_resize_matrix(1, orders[n], horders[n]), sens[n])
-    return dG
-
-
-def _hat_vector(system, order, values: Mapping, nodes: int) -> np.ndarray:
-    """(nodes, size) coefficients of the neglected variables (series or constants), zero-padded."""
-    from .generalized_newton import _coeffs
-
-    horders = _hat_orders(system, order)
-    parts = [_coeffs(values.get(n, system.neglected_start(n)), nodes, horders[n]) for n in horders]
-    return np.concatenate(parts, axis=1)
-
-
-def _hat_dict(system, order, vec: np.ndarray) -> dict:
-    out, i = {}, 0
-    for n, K in _hat_orders(system, order).items():
-        out[n] = Series(vec[:, i : i + K + 1])
-        i += K + 1
-    return out
-
-
-def newton_parametrization(
-    system: ChainedSystem,
-    t_nodes,
-    zeta: Mapping[str, Callable] | None = None,
-    J: int = 0,
-    e: int = 1,
-    v: Mapping | None = None,
-    tol: float = 1e-13,
-    maxiter: int = 8,
-) -> ChainedPlan:
-    """Newton's method on the fixed point of :func:`generalized_parametrization` (same starting order).
-
-    The neglected variables ``X^`` are the unknowns of ``F(X^) = X^ - G~(X^)``, ``G~`` the flat
-    parametrization's values of those variables zero-padded to the order they are used at; the
-    Jacobian is exact (complex-step partials of each stage's residual, composed on the Taylor
-    coefficients), as for the aircraft (:mod:`planners.generalized_newton`).
-
-    Parameters
-    ----------
-    system : ChainedSystem
-        The system.
-    t_nodes : array, shape (nodes,)
-        Increasing node times.
-    zeta : mapping of str -> callable, optional
-        The flat outputs as functions of t (default: the system's :attr:`ChainedSystem.outputs`).
-    J : int
-        Depth: the starting order ``kappa = e + r + J L`` of the fixed point with J iterations.
-    e : int
-        Order of the last stage's unknowns in the returned iterates.
-    v : mapping, optional
-        Starting values of the neglected variables (default: the system's guesses).
-    tol : float
-        Stop when ``max |X^ - G~(X^)|`` is below this.
-    maxiter : int
-        Newton steps at most.
-
-    Returns
-    -------
-    ChainedPlan
-        Iterate 0 (the flat parametrization at ``kappa``), then one per Newton step truncated to the
-        fixed point's last-iterate orders; ``timings`` per iterate; the residuals
-        ``max |X^ - G~(X^)|`` in ``plan.residuals``.
-
-    Raises
-    ------
-    InputError
-        Fewer than two increasing nodes or a negative J.
-    """
-    t_nodes = check_grid(t_nodes)
-    if J < 0:
-        raise InputError(f"J must be >= 0, got {J}")
-    from .generalized_newton import _gauss_solve
-
-    kappa = e + system.r + J * system.L
-    nodes = len(t_nodes)
-    t0 = time.perf_counter()
-    x = _hat_vector(system, kappa, dict(v or {}), nodes)
-    sol, rep = flat_parametrization(system, t_nodes, kappa, zeta, hat=_hat_dict(system, kappa, x))
-    iterates, reports, timings = [sol], [rep], {0: time.perf_counter() - t0}
-
-    def residual(sol):
-        return x - _hat_vector(system, kappa, {n: sol[n] for n in _hat_orders(system, kappa)}, nodes)
-
-    F = residual(sol)
-    res = [float(np.max(np.abs(F)))]
-    for n in range(1, maxiter + 1):
-        if not res[-1] > tol:
-            break
-        t0 = time.perf_counter()
-        dG = _chained_jacobian(system, kappa, sol, _hat_dict(system, kappa, x))
-        x = x - _gauss_solve(np.eye(x.shape[1])[None] - dG, F)
-        sol, rep = flat_parametrization(system, t_nodes, kappa, zeta, hat=_hat_dict(system, kappa, x), guess=sol)
-        F = residual(sol)
-        res.append(float(np.max(np.abs(F))))
-        iterates.append(sol)
-        reports.append(rep)
-        timings[n] = time.perf_counter() - t0
-        if not res[-1] < res[-2]:
-            break
-    k_last = e + system.r
-    out = [iterates[0]] + [
-        {name: s.truncate(min(s.order, k_last - system.stage_of(name) + 1)) for name, s in it.items()}
-        for it in iterates[1:]
-    ]
-    plan = ChainedPlan(system, t_nodes, out, reports, timings)
-    plan.residuals = res
-    return plan
+    return ChainedPlan(system, t_nodes, iterates, timings)

@@ -1,4 +1,4 @@
-"""Flat parametrization of the aircraft at the nodes of a time grid.
+"""The aircraft as an almost chained system: its equations, stages and flat parametrization.
 
 Paper section "The shape of the equations": with flat outputs ``x, y, z``
 and a fourth output ``zeta`` (beta, mu, F, or ``f1(t) beta + f2(t) mu``),
@@ -13,7 +13,8 @@ and a fourth output ``zeta`` (beta, mu, F, or ``f1(t) beta + f2(t) mu``),
   rudder failure, differential thrust as fourth control) from ``p', q', r'``
   -- Newton on series of the moment equations.
 
-Every stage works on truncated power series batched over all nodes at once.
+Every stage works on truncated power series batched over all nodes at once: the stages are those
+of :func:`aircraft_system`, solved by the generic machinery of :mod:`planners.chained`.
 Stage 2 uses the force coefficients with the neglected rate and surface
 terms H evaluated at given values (zero, calibration constants, or the
 previous iterate of generalized flatness), i.e. ``gna.eom`` with
@@ -24,13 +25,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.eom import (
+    H_NAMES,
     Controls,
     HValues,
     State,
@@ -38,16 +40,20 @@ from gna.eom import (
     aero_state,
     body_moments,
     force_equations,
+    kinematics,
     rotational_dynamics,
+    wind_angle_rates,
     wind_forces,
 )
 from gna.errors import DomainError, InputError
 from gna.ground_effect import ground_effect_coefficients
 
 from . import series as _series
+from .chained import ChainedSystem, NodeSolution, Stage, check_grid, flat_parametrization
 from .expressions import Expression
-from .newton import newton_series
 from .series import Series
+
+__all__ = ["NodeSolution", "check_grid"]  # re-exported: the aircraft's callers import them from here
 
 FLAT_KINDS = ("beta", "mu", "F", "mix")
 
@@ -115,51 +121,7 @@ def check_whole(value, what: str, upper: int, where: str) -> int:
     return int(value)
 
 
-def check_grid(t_nodes) -> np.ndarray:
-    """The planning grid as a float array: at least two increasing nodes.
-
-    Parameters
-    ----------
-    t_nodes : array_like, shape (N,)
-        Node times [s].
-
-    Returns
-    -------
-    ndarray, shape (N,)
-
-    Raises
-    ------
-    InputError
-        Not a 1-D sequence of at least two increasing times.
-    """
-    t = np.asarray(t_nodes, dtype=float)
-    if t.ndim != 1 or len(t) < 2 or np.any(np.diff(t) <= 0):
-        raise InputError("the planning grid needs at least two increasing nodes")
-    return t
-
-
 STAGE2_UNKNOWNS = ("alpha", "beta", "mu", "F")
-
-#: Order lost at each stage relative to the flat outputs x, y, z.
-STAGE_OF = {
-    "x": 0,
-    "y": 0,
-    "z": 0,
-    "V": 1,
-    "gamma": 1,
-    "chi": 1,
-    "alpha": 2,
-    "beta": 2,
-    "mu": 2,
-    "F": 2,
-    "p": 3,
-    "q": 3,
-    "r": 3,
-    "dl": 4,
-    "dm": 4,
-    "dn": 4,
-    "eta": 4,
-}
 
 
 @dataclass(frozen=True)
@@ -223,70 +185,10 @@ class FlatProblem:
                 "the fourth control), not both or neither"
             )
 
-
-@dataclass
-class NodeSolution:
-    """Series of every state and control at every node, for one iterate.
-
-    Attributes
-    ----------
-    series : dict of str -> Series
-        Batch shape (nodes,); the order of each depends on its stage.
-    order : int
-        Order kappa of the flat outputs for this iterate.
-    reports : dict of str -> SeriesNewtonReport
-        Newton diagnostics of stages 2 and 4.
-    """
-
-    series: dict
-    order: int
-    reports: dict = field(default_factory=dict)
-    # The series that depend only on the problem, the grid and the order (flat outputs, prescribed inputs,
-    # stage 1), at the highest order computed so far: a later iterate (lower order) truncates them.
-    _inputs: dict | None = field(default=None, repr=False, compare=False)
-
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
-        state["_inputs"] = None
+        state.pop("_system", None)  # aircraft_system's closures: rebuilt on demand
         return state
-
-    def __getitem__(self, name: str) -> Series:
-        return self.series[name]
-
-    def h_values(self) -> HValues:
-        """The rates and surfaces of this iterate, as H values for the next one.
-
-        Returns
-        -------
-        HValues
-            Series of ``p, q, r`` [rad/s] and ``dl, dm, dn`` [rad].
-        """
-        s = self.series
-        return HValues(s["p"], s["q"], s["r"], s["dl"], s["dm"], s["dn"])
-
-
-class _OrderCache:
-    """Given series truncated to each working order; order 0 gives plain constant arrays.
-
-    Newton on series evaluates its residual at increasing orders; the
-    constant-term iterations run on plain numpy arrays, much faster than
-    order-0 series.
-    """
-
-    def __init__(self, data: dict):
-        self._data = data
-        self._cache: dict[int, dict] = {}
-
-    def __getitem__(self, k: int) -> dict:
-        if k not in self._cache:
-            out = {}
-            for name, v in self._data.items():
-                if isinstance(v, Series):
-                    out[name] = np.asarray(v.constant_term) if k == 0 else v.truncate(min(k, v.order))
-                else:
-                    out[name] = v
-            self._cache[k] = out
-        return self._cache[k]
 
 
 def _unwrap_constant(angle: Series) -> Series:
@@ -520,6 +422,184 @@ def force_residuals(
     return r1, r2, r3
 
 
+#: Unknowns of stages 1-3 (stage 4: ``dl, dm, dn``, or ``dl, dm, eta`` with a fixed rudder).
+STAGE_UNKNOWNS = (("V", "gamma", "chi"), STAGE2_UNKNOWNS, ("p", "q", "r"))
+
+
+def aircraft_system(problem: FlatProblem) -> ChainedSystem:
+    """The aircraft of a flat problem as an almost chained system (paper eq. chained-sys).
+
+    The paper's four groups, r = 4, with Z_1 = {x, y, z}, Z_3 = {zeta} and one neglected group
+    H = H_2(p, q, r, dl, dm, dn) (l_2 = 3: L = 2):
+
+    * stage 1: ``(x', y', z') = G_1(V, gamma, chi)`` (:func:`gna.eom.kinematics`), closed form
+      :func:`stage1`;
+    * stage 2: the force equations ``(V', gamma', chi') = G_2 + H_2`` (:func:`force_residuals`, the
+      force coefficients with the neglected terms at ``X^``) and the fourth flat output, Newton on
+      series from the kinematic starting values of :func:`_stage2_guess`;
+    * stage 3: ``(alpha', beta', mu') = G_3(..., p, q, r)`` (:func:`gna.eom.wind_angle_rates` with the
+      wind-axis forces of the force equations), closed form :func:`stage3`;
+    * stage 4: ``(p', q', r') = G_4(..., dl, dm, dn)`` (full moments, :func:`gna.eom.body_moments`,
+      :func:`gna.eom.rotational_dynamics`), Newton on series at the working order from the start
+      (the moments are affine in the surfaces in the bundled models: one step solves them); with a
+      fixed rudder ``dn(t)`` the fourth control is ``eta``.
+
+    The thrust asymmetry ``eta(t)`` (or the fixed rudder ``dn(t)``) and the weights ``f1, f2`` of a
+    mixed flat output are the system's prescribed inputs.
+
+    Parameters
+    ----------
+    problem : FlatProblem
+        Aircraft, environment, flat outputs ``x, y, z`` [m] and ``zeta``, the prescribed ``eta(t)``
+        or fixed rudder ``dn(t)`` [rad], the neglected terms' values ``h`` of iterate 0 (rates
+        [rad/s], surfaces [rad]) and the stage-2 starting values ``start``.
+
+    Returns
+    -------
+    ChainedSystem
+        Flat outputs ``x, y, z`` (stage 1) and ``zeta`` (stage 3); prescribed inputs ``eta`` or
+        ``dn`` (and ``f1, f2`` for a mixed output); default flat-output functions and iterate-0
+        neglected values from ``problem``; Newton tolerance 1e-12; the explicit model for tracking
+        (:func:`planners.tracking.aircraft_model`).
+    """
+    cache = problem.__dict__.get("_system")
+    if cache is not None:
+        return cache
+    ac, env = problem.aircraft, problem.env
+    m, g = ac.mass.mass, env.g
+    kind = problem.zeta.kind
+    rudder_control = problem.eta is not None
+    inputs = {"eta": problem.eta} if rudder_control else {"dn": problem.dn}
+    if kind == "mix":
+        inputs.update(f1=problem.zeta.f1, f2=problem.zeta.f2)
+    controls4 = ("dl", "dm", "dn") if rudder_control else ("dl", "dm", "eta")
+
+    def state(v, rates=True):
+        pqr = (v["p"], v["q"], v["r"]) if rates else (0.0, 0.0, 0.0)
+        return State(
+            0.0,
+            0.0,
+            v["z"],
+            v["V"],
+            v["gamma"],
+            v["chi"],
+            v.get("alpha", 0.0),
+            v.get("beta", 0.0),
+            v.get("mu", 0.0),
+            *pqr,
+        )
+
+    def residual1(v):
+        xd, yd, zd = kinematics(state(v, rates=False))
+        return [v["x'"] - xd, v["y'"] - yd, v["z'"] - zd]
+
+    def solve1(v, t_nodes):
+        names = ("x", "y", "z", "zeta", "f1", "f2", "eta", "dn")
+        _check_inputs(t_nodes, {n: v.get(n) for n in names})
+        return list(stage1(v["x"], v["y"], v["z"]))
+
+    def residual2(v):
+        h = HValues(*(v[n] for n in H_NAMES))
+        eta = v["eta"] if rudder_control else 0.0
+        r1, r2, r3 = force_residuals(
+            ac, env, v["z"], v["V"], v["gamma"], v["chi"], v["V'"], v["gamma'"], v["chi'"], eta, h,
+            v["alpha"], v["beta"], v["mu"], v["F"],
+        )  # fmt: skip
+        if kind == "beta":
+            r4 = v["beta"] - v["zeta"]
+        elif kind == "mu":
+            r4 = v["mu"] - v["zeta"]
+        elif kind == "F":
+            r4 = (v["F"] - v["zeta"]) / (m * g)
+        else:
+            r4 = v["f1"] * v["beta"] + v["f2"] * v["mu"] - v["zeta"]
+        return [r1, r2, r3, r4]
+
+    def start2(v, t_nodes):
+        d = {"z": v["z"], "V": v["V"], "gamma": v["gamma"], "Vd": v["V'"], "gd": v["gamma'"], "chid": v["chi'"]}
+        d.update(zv=v["zeta"], f1=v.get("f1"), f2=v.get("f2"))
+        return [np.real(s.constant_term) for s in _stage2_guess(problem, t_nodes, d, [v[n] for n in H_NAMES])]
+
+    def post2(u):
+        alpha, beta, mu, F = u
+        return [alpha, beta, _unwrap_constant(mu), F]  # neighbouring nodes on the same bank branch
+
+    def residual3(v):
+        s = state(v)
+        # the wind-axis forces Y, Z for which the force equations give gamma', chi' (linear in Y, Z)
+        _, gy, cy = force_equations(ac, s, 0.0, 1.0, 0.0)
+        _, gz, cz = force_equations(ac, s, 0.0, 0.0, 1.0)
+        det = gy * cz - gz * cy
+        Y = (v["gamma'"] * cz - gz * v["chi'"]) / det
+        Z = (gy * v["chi'"] - cy * v["gamma'"]) / det
+        ad, bd, mud = wind_angle_rates(ac, s, Y, Z, v["chi'"])
+        return [v["alpha'"] - ad, v["beta'"] - bd, v["mu'"] - mud]
+
+    def solve3(v, t_nodes):
+        return list(_stage3(v["alpha"], v["beta"], v["mu"], {n: v[n] for n in _PATH_TERMS}))
+
+    def residual4(v):
+        st = state(v)
+        ctl = Controls(v["F"], v["eta"], v["dl"], v["dm"], v["dn"])
+        full = ground_effect_coefficients(ac, env, st.z, aero_coefficients(ac, st, ctl))
+        L, M, N = body_moments(ac, st, ctl, full, v["qbar"])
+        a_p, a_q, a_r = rotational_dynamics(ac, st.p, st.q, st.r, L, M, N)
+        return [a_p - v["p'"], a_q - v["q'"], a_r - v["r'"]]
+
+    def derived(v, order):
+        # the flight-path terms of stage 3 and the dynamic pressure of stage 4: flight path only
+        z4, V4 = v["z"].truncate(order - 4), v["V"].truncate(order - 4)
+        return {
+            **_path_terms(v["gamma"].truncate(order - 2), v["chi"].truncate(order - 2)),
+            "qbar": _dynamic_pressure(env, z4, V4),
+        }
+
+    system = ChainedSystem(
+        name="aircraft",
+        flat_outputs={"x": 1, "y": 1, "z": 1, "zeta": 3},
+        stages=(
+            Stage(STAGE_UNKNOWNS[0], residual1, solve=solve1),
+            Stage(STAGE_UNKNOWNS[1], residual2, neglected=H_NAMES, ell=3, start=start2, post=post2),
+            Stage(STAGE_UNKNOWNS[2], residual3, solve=solve3),
+            Stage(controls4, residual4, warm=True),
+        ),
+        description=f"{ac.id}: wind-frame model, flat outputs x, y, z and {kind}"
+        + ("" if rudder_control else ", rudder fixed (eta the fourth control)"),
+        inputs=inputs,
+        outputs={"x": problem.x, "y": problem.y, "z": problem.z, "zeta": problem.zeta.value},
+        neglected_values=dict(zip(H_NAMES, problem.h)),
+        newton_tol=1e-12,
+        derived=derived,
+    )
+    problem.__dict__["_system"] = system  # one system per problem: iterates reuse each other's series
+    return system
+
+
+def plan_iterate(sol: NodeSolution) -> NodeSolution:
+    """An iterate of :func:`aircraft_system` as a plan's: the 12 states and 5 controls only, the
+    prescribed input (``eta`` or ``dn``) at the order of the surfaces.
+
+    Parameters
+    ----------
+    sol : NodeSolution
+        :func:`planners.chained.flat_parametrization` of the aircraft system.
+
+    Returns
+    -------
+    NodeSolution
+        Same order, reports and reusable series; series of :data:`planners.plan.PLAN_VARIABLES`.
+    """
+    k = sol["dl"].order
+    out = {n: sol[n] for n in _PLAN_NAMES}
+    for n in ("eta", "dn"):
+        if out[n].order > k:
+            out[n] = out[n].truncate(k)
+    return NodeSolution(out, sol.order, sol.reports, sol._inputs)
+
+
+_PLAN_NAMES = ("x", "y", "z", "V", "gamma", "chi", "alpha", "beta", "mu", "F", "p", "q", "r", "dl", "dm", "dn", "eta")
+
+
 def parametrize(
     problem: FlatProblem,
     t_nodes: np.ndarray,
@@ -528,7 +608,9 @@ def parametrize(
     guess: Mapping[str, Series] | NodeSolution | None = None,
     newton_tol: float = 1e-12,
 ) -> NodeSolution:
-    """Flat parametrization at all nodes, flat outputs at ``order`` (kappa).
+    """Flat parametrization of the aircraft at all nodes, flat outputs at ``order`` (kappa).
+
+    :func:`planners.chained.flat_parametrization` of :func:`aircraft_system`.
 
     Parameters
     ----------
@@ -541,7 +623,8 @@ def parametrize(
     guess : mapping or NodeSolution, optional
         Previous solution (series) used as the starting point of the Newton iterations; a
         :class:`NodeSolution` of the same problem and grid at an order at least ``order`` (the
-        previous generalized-flatness iterate) also lends its flat outputs and stage 1, truncated.
+        previous generalized-flatness iterate) also lends its flat outputs and stage 1, truncated,
+        and its Jacobians.
     newton_tol : float
         Tolerance of the pointwise Newton on the constant terms (stage 2: over g; stage 4: rad/s^2).
 
@@ -559,257 +642,14 @@ def parametrize(
     """
     if order < 4:
         raise InputError(f"the flat parametrization needs order >= 4 to reach the controls, got {order}")
-    ac, env = problem.aircraft, problem.env
-    m, g = ac.mass.mass, env.g
-    hv = h if h is not None else problem.h
-    k2 = order - 2
-    zeta = problem.zeta
-    inputs = _flat_inputs(problem, t_nodes, order, guess)
-    x, y, z, zv, f1, f2, eta_pres, dn_fixed, V, gamma, chi, Vd, gd, chid = (
-        None if inputs[k] is None else inputs[k].truncate(min(inputs[k].order, order - _INPUT_NAMES[k]))
-        for k in _INPUT_NAMES
-    )
-    z2, V2, gamma2, chi2 = z.truncate(k2), V.truncate(k2), gamma.truncate(k2), chi.truncate(k2)
-    eta2 = eta_pres.truncate(k2) if eta_pres is not None else 0.0
-
-    d2 = _OrderCache(
-        dict(
-            z=z2,
-            V=V2,
-            gamma=gamma2,
-            chi=chi2,
-            Vd=Vd,
-            gd=gd,
-            chid=chid,
-            eta=eta2,
-            zv=zv,
-            f1=f1,
-            f2=f2,
-            hp=hv.p,
-            hq=hv.q,
-            hr=hv.r,
-            hdl=hv.dl,
-            hdm=hv.dm,
-            hdn=hv.dn,
-        )
-    )
-
-    def stage2_residual(u, k):
-        alpha, beta, mu, F = u
-        d = d2[k]
-        h_k = HValues(d["hp"], d["hq"], d["hr"], d["hdl"], d["hdm"], d["hdn"])
-        r1, r2, r3 = force_residuals(
-            ac,
-            env,
-            d["z"],
-            d["V"],
-            d["gamma"],
-            d["chi"],
-            d["Vd"],
-            d["gd"],
-            d["chid"],
-            d["eta"],
-            h_k,
-            alpha,
-            beta,
-            mu,
-            F,
-        )
-        if zeta.kind == "beta":
-            r4 = beta - d["zv"]
-        elif zeta.kind == "mu":
-            r4 = mu - d["zv"]
-        elif zeta.kind == "F":
-            r4 = (F - d["zv"]) / (m * g)
-        else:
-            r4 = d["f1"] * beta + d["f2"] * mu - d["zv"]
-        return [r1, r2, r3, r4]
-
-    if guess is not None:
-        u0 = [guess[k] for k in STAGE2_UNKNOWNS]
-    else:
-        u0 = _stage2_guess(problem, t_nodes, d2[0], hv)
-    u2, rep2 = newton_series(
-        stage2_residual,
-        u0,
-        k2,
-        tol=newton_tol,
-        names=STAGE2_UNKNOWNS,
-        t_nodes=t_nodes,
-        warm=guess is not None,
-        jacobian=_previous_jacobian(guess, "stage2"),
-    )
-    alpha, beta, mu, F = u2
-    mu = _unwrap_constant(mu)  # bank angles of neighbouring nodes on the same branch (no 2 pi jumps)
-
-    # Stage 3: rates.
-    p, q, r = _stage3(alpha, beta, mu, inputs["path"])
-    k4 = order - 4
-    pd, qd, rd = p.derivative(), q.derivative(), r.derivative()
-    s4 = State(
-        0.0,
-        0.0,
-        z.truncate(k4),
-        V.truncate(k4),
-        gamma.truncate(k4),
-        chi.truncate(k4),
-        alpha.truncate(k4),
-        beta.truncate(k4),
-        mu.truncate(k4),
-        p.truncate(k4),
-        q.truncate(k4),
-        r.truncate(k4),
-    )
-    F4 = F.truncate(k4)
-    qbar4 = inputs["qbar4"].truncate(k4)
-
-    d4 = _OrderCache(
-        dict(
-            z=s4.z,
-            V=s4.V,
-            gamma=s4.gamma,
-            chi=s4.chi,
-            alpha=s4.alpha,
-            beta=s4.beta,
-            mu=s4.mu,
-            p=s4.p,
-            q=s4.q,
-            r=s4.r,
-            pd=pd,
-            qd=qd,
-            rd=rd,
-            F=F4,
-            qbar=qbar4,
-            eta=eta_pres.truncate(k4) if problem.eta is not None else None,
-            dn=dn_fixed.truncate(k4) if problem.dn is not None else None,
-        )
-    )
-    names4 = ("dl", "dm", "dn") if problem.eta is not None else ("dl", "dm", "eta")
-
-    def controls_of(u, d):
-        if problem.eta is not None:
-            return Controls(d["F"], d["eta"], u[0], u[1], u[2])
-        return Controls(d["F"], u[2], u[0], u[1], d["dn"])
-
-    def stage4_residual(u, k):
-        d = d4[k]
-        st = State(
-            0.0, 0.0, d["z"], d["V"], d["gamma"], d["chi"], d["alpha"], d["beta"], d["mu"], d["p"], d["q"], d["r"]
-        )
-        ctl = controls_of(u, d)
-        full = ground_effect_coefficients(ac, env, st.z, aero_coefficients(ac, st, ctl))
-        L, M, N = body_moments(ac, st, ctl, full, d["qbar"])
-        a_p, a_q, a_r = rotational_dynamics(ac, st.p, st.q, st.r, L, M, N)
-        return [a_p - d["pd"], a_q - d["qd"], a_r - d["rd"]]
-
-    if guess is not None:
-        v0 = [guess[n] for n in names4]
-    else:
-        v0 = [Series.constant(np.zeros(len(t_nodes)), 0) for _ in names4]
-    # Newton at the working order from the start, even from zero deflections: the moments are affine in
-    # the controls in the bundled models (one step solves them; the full scheme takes over otherwise).
-    u4, rep4 = newton_series(
-        stage4_residual,
-        v0,
-        k4,
-        tol=newton_tol,
-        names=names4,
-        t_nodes=t_nodes,
-        warm=True,
-        jacobian=_previous_jacobian(guess, "stage4"),
-    )
-    ctl = controls_of(u4, d4[k4])
-    out = {
-        "x": x,
-        "y": y,
-        "z": z,
-        "V": V,
-        "gamma": gamma,
-        "chi": chi,
-        "alpha": alpha,
-        "beta": beta,
-        "mu": mu,
-        "F": F,
-        "p": p,
-        "q": q,
-        "r": r,
-        "dl": ctl.dl,
-        "dm": ctl.dm,
-        "dn": ctl.dn,
-        "eta": ctl.eta,
-    }
-    for k, v in out.items():
-        if not isinstance(v, Series):
-            out[k] = Series.constant(np.broadcast_to(np.asarray(v, dtype=float), (len(t_nodes),)), k4)
-    return NodeSolution(out, order, {"stage2": rep2, "stage4": rep4}, inputs)
-
-
-def _previous_jacobian(guess, stage: str):
-    """The Jacobian series of a stage's last Newton step in ``guess`` (a NodeSolution: the previous
-    generalized-flatness iterate), for the chord steps of the same stage; None for other guesses."""
-    rep = guess.reports.get(stage) if isinstance(guess, NodeSolution) else None
-    return getattr(rep, "jacobian", None)
-
-
-#: The series :func:`_flat_inputs` gives, with the orders they lose relative to the flat outputs.
-_INPUT_NAMES = {
-    "x": 0,
-    "y": 0,
-    "z": 0,
-    "zv": 2,
-    "f1": 2,
-    "f2": 2,
-    "eta": 0,
-    "dn": 0,
-    "V": 1,
-    "gamma": 1,
-    "chi": 1,
-    "Vd": 2,
-    "gd": 2,
-    "chid": 2,
-}
-
-
-def _flat_inputs(problem: FlatProblem, t_nodes: np.ndarray, order: int, guess) -> dict:
-    """Flat outputs (order ``order``), zeta and its weights (``order - 2``), prescribed eta or dn (``order``)
-    and stage 1 with its derivatives, checked; truncated from ``guess`` (a NodeSolution of the same
-    problem and grid at an order at least ``order``) when it has them: truncating a series of a
-    higher order gives the same coefficients as computing at the lower one."""
-    cached = getattr(guess, "_inputs", None) if isinstance(guess, NodeSolution) else None
-    if (
-        cached is not None
-        and cached["problem"] is problem
-        and cached["order"] >= order
-        and np.array_equal(cached["t_nodes"], t_nodes)
-    ):
-        return cached
-    t = Series.variable(np.asarray(t_nodes, dtype=float), order)
-    x, y, z = problem.x(t), problem.y(t), problem.z(t)
-    k2 = order - 2
-    zeta = problem.zeta
-    zv = zeta.value(Series.variable(t_nodes, k2))
-    f1 = zeta.f1(Series.variable(t_nodes, k2)) if zeta.kind == "mix" else None
-    f2 = zeta.f2(Series.variable(t_nodes, k2)) if zeta.kind == "mix" else None
-    eta_pres = problem.eta(Series.variable(t_nodes, order)) if problem.eta is not None else None
-    dn_fixed = problem.dn(Series.variable(t_nodes, order)) if problem.dn is not None else None
-    _check_inputs(t_nodes, {"x": x, "y": y, "z": z, "zeta": zv, "f1": f1, "f2": f2, "eta": eta_pres, "dn": dn_fixed})
-    V, gamma, chi = stage1(x, y, z)
-    Vd, gd, chid = V.derivative(), gamma.derivative(), chi.derivative()
-    values = (x, y, z, zv, f1, f2, eta_pres, dn_fixed, V, gamma, chi, Vd, gd, chid)
-    return {
-        **dict(zip(_INPUT_NAMES, values)),
-        "problem": problem,
-        "t_nodes": np.array(t_nodes, dtype=float),
-        "order": order,
-        "path": _path_terms(gamma.truncate(order - 2), chi.truncate(order - 2)),
-        "qbar4": _dynamic_pressure(problem.env, z.truncate(order - 4), V.truncate(order - 4)),
-    }
+    hat = None if h is None else dict(zip(H_NAMES, h))
+    sol = flat_parametrization(aircraft_system(problem), t_nodes, order, hat=hat, guess=guess, newton_tol=newton_tol)
+    return plan_iterate(sol)
 
 
 def _dynamic_pressure(env: Environment, z, V):
     """``qbar = rho(z) V^2 / 2`` [Pa] of stage 4 (depends on the flight path only: computed once per plan)."""
-    rho = env.density(z)
-    return 0.5 * rho * V * V
+    return 0.5 * env.density(z) * V * V
 
 
 def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:

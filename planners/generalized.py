@@ -17,7 +17,6 @@ its Newton iterations from iterate j - 1.
 from __future__ import annotations
 
 import logging
-import time
 
 import numpy as np
 
@@ -25,7 +24,9 @@ from gna.eom import STATE_NAMES
 from gna.errors import InputError
 from gna.trajectory import domain_bounds, first_domain_violation, ground_violation, inside_domain
 
-from .flat import FlatProblem, check_grid, check_iterations, check_whole, parametrize
+from .chained import generalized_parametrization
+from .flat import FlatProblem, aircraft_system, check_grid, check_iterations, check_whole, plan_iterate
+from .generalized_newton import newton_parametrization, truncate_solution
 from .plan import DEFAULT_INTERPOLATION, Plan, check_interpolation
 from .singularity import monitor
 
@@ -182,7 +183,7 @@ def plan_motion(
         ``"fixed-point"``: the paper's ``GeneralizedFlatParametrization`` (iterate j uses the H
         values of iterate j - 1).  ``"newton"``: Newton's method on ``H = G(H)`` at the same starting
         order ``kappa = e + 4 + 2 J`` (J is then the depth, not the number of iterations), iterates
-        truncated to the orders of the fixed point's iterate J (:func:`planners.generalized_newton.plan_newton`).
+        truncated to the orders of the fixed point's iterate J (:func:`planners.generalized_newton.newton_parametrization`).
     newton_tol : float
         ``"newton"`` only: stop when ``max |H - G(H)|`` is below this [rad/s, rad].
     newton_maxiter : int
@@ -237,10 +238,12 @@ def plan_motion(
     limit = MAX_PLAN_COST if max_cost is None else float(max_cost)
     _check_cost(name, len(t_nodes), J, e, limit)
     if method == "newton":
-        from .generalized_newton import plan_newton
-
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            iterates, info = plan_newton(problem, t_nodes, J, e, tol=newton_tol, maxiter=newton_maxiter)
+            cp = newton_parametrization(
+                aircraft_system(problem), t_nodes, None, J, e, tol=newton_tol, maxiter=newton_maxiter
+            )
+        iterates = [plan_iterate(it) for it in cp.iterates]
+        info = {"residual": cp.residuals, "timings": cp.timings, **cp.info}
         plan = Plan(problem, t_nodes, iterates, [], name, info["timings"], interpolation=interpolation, e=e)
         plan.generalized = {"method": method, "depth": J, "J_rule": "given", **info}
         if info["status"] != "converged":
@@ -286,30 +289,23 @@ def _duration(seconds: float) -> str:
 def _fixed_point(
     problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str, guesses: list | None = None
 ) -> tuple[list, dict]:
-    """The paper's J iterations: iterates 0..J (orders ``e + 4 + 2 (J - j)``) and their wall times.
+    """The paper's J iterations (:func:`planners.chained.generalized_parametrization` of
+    :func:`planners.flat.aircraft_system`): iterates 0..J (orders ``e + 4 + 2 (J - j)``) and their
+    wall times.
 
     Iterate j starts its Newton iterations from ``guesses[j]`` when given (a lower-order solution of
     the same iterate), else from iterate j - 1.
     """
     cost = plan_cost(len(t_nodes), J, e)
-    verbose = cost > PROGRESS_COST
-    if verbose:
+    progress = None
+    if cost > PROGRESS_COST:
         _log.info(
             "plan %s: J = %d on %d nodes, cost %.3g units (about %.0f s)", name, J, len(t_nodes), cost, 6e-6 * cost
         )
-    kappa = e + STAGES + J * ORDER_LOSS
-    iterates, timings = [], {}
-    prev = None
-    for j in range(J + 1):
-        t_start = time.perf_counter()
-        h = None if prev is None else prev.h_values()
-        guess = guesses[j] if guesses is not None and j < len(guesses) else prev
-        # Near a singularity Newton may overflow: reported through the Newton and monitor warnings.
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            sol = parametrize(problem, t_nodes, kappa, h=h, guess=guess)
-        timings[j] = time.perf_counter() - t_start
-        if verbose:
-            done = sum(timings.values())
+        done = []
+
+        def progress(j, kappa, seconds):
+            done.append(seconds)
             share = plan_cost(len(t_nodes), j, e + ORDER_LOSS * (J - j)) / cost
             _log.info(
                 "plan %s: iterate j = %d of %d (order %d) in %.1f s; %.1f s so far, about %.0f s left",
@@ -317,14 +313,17 @@ def _fixed_point(
                 j,
                 J,
                 kappa,
-                timings[j],
-                done,
-                done * (1.0 / max(share, 1e-12) - 1.0),
+                seconds,
+                sum(done),
+                sum(done) * (1.0 / max(share, 1e-12) - 1.0),
             )
-        iterates.append(sol)
-        prev = sol
-        kappa -= ORDER_LOSS
-    return iterates, timings
+
+    # Near a singularity Newton may overflow: reported through the Newton and monitor warnings.
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        cp = generalized_parametrization(
+            aircraft_system(problem), t_nodes, None, J, e, guesses=guesses, progress=progress
+        )
+    return [plan_iterate(it) for it in cp.iterates], cp.timings
 
 
 def _more_iterations(res: list, tol: float) -> int:
@@ -343,8 +342,7 @@ def _auto_J(
 ) -> tuple[list, dict, dict]:
     """``J = "auto"``: plans with J, then with the J :func:`_more_iterations` predicts, until :func:`choose_J`
     stops (or J_max, or the cost bound); the chosen iterates, truncated to the orders of a plan with that J."""
-    from .generalized_newton import truncate_solution
-
+    system = aircraft_system(problem)
     attempts, total, guesses = [], 0.0, None
     while True:
         iterates, timings = _fixed_point(problem, t_nodes, J, e, name, guesses)
@@ -364,7 +362,8 @@ def _auto_J(
             chosen = int(np.argmin([r if np.isfinite(r) else np.inf for r in res]))
         break
     kept = [
-        truncate_solution(it, e + STAGES + ORDER_LOSS * (chosen - j)) for j, it in enumerate(iterates[: chosen + 1])
+        plan_iterate(truncate_solution(system, it, e + STAGES + ORDER_LOSS * (chosen - j)))
+        for j, it in enumerate(iterates[: chosen + 1])
     ]
     rule = (
         f"auto: the first iterate with full-model residual <= {tol:g}, or at a ratio to the previous "

@@ -1,49 +1,47 @@
 """Newton's method on the fixed point of generalized flatness (the question of the paper's conclusion).
 
 The J iterations of ``GeneralizedFlatParametrization`` (paper section "From calibration to time
-varying controls") are a fixed-point iteration ``H := G(H)`` on the neglected terms
-``H = (p, q, r, dl, dm, dn)``: ``G`` runs the flat parametrization (:func:`planners.flat.parametrize`)
-with the force coefficients evaluated at ``H`` and returns the rates and surfaces it finds.
+varying controls") are a fixed-point iteration ``X^ := G(X^)`` on the neglected variables ``X^`` of an
+almost chained system (:mod:`planners.chained`; for the aircraft ``H = (p, q, r, dl, dm, dn)``):
+``G`` runs the flat parametrization (:func:`planners.chained.flat_parametrization`) with the
+neglected terms at ``X^`` and returns the values of those variables it finds.
 
-At a node, with the flat outputs at order ``kappa`` and ``H`` at the stage-2 order ``N = kappa - 2``,
-``G`` returns ``p, q, r`` at order ``N - 1`` and ``dl, dm, dn`` at ``N - 2`` (the paper's order loss
-L = 2).  ``G~`` pads these with zero coefficients up to ``N``; the paper's iterate ``j`` agrees with
-the j-th iterate of ``H := G~(H)`` on every coefficient it keeps (the padded coefficients reach the
-kept ones only after more than J iterations), so the fixed point of ``G~`` is the limit of the
-paper's iteration at that starting order.  This module solves ``F(H) = H - G~(H) = 0`` by Newton's
-method, node by node, on the coefficient vectors of the six series.
+Each neglected variable is used at the order of the stage that first uses it (``kappa - h``; the
+aircraft's H at ``N = kappa - 2``); ``G`` returns it ``L`` orders lower and ``G~`` pads it with zero
+coefficients up to that order.  The paper's iterate ``j`` agrees with the j-th iterate of
+``X^ := G~(X^)`` on every coefficient it keeps (the padded coefficients reach the kept ones only
+after more than J iterations), so the fixed point of ``G~`` is the limit of the paper's iteration at
+that starting order.  This module solves ``F(X^) = X^ - G~(X^) = 0`` by Newton's method, node by
+node, on the coefficient vectors of the neglected variables.
 
-**The exact series Jacobian.**  ``dG`` is a linear differential operator of order 2 with series
-coefficients: stage 2 is algebraic in ``H`` (implicit function theorem on the force equations:
-``du = -R_u^-1 R_H dH``), stage 3 differentiates ``alpha, beta, mu`` once and stage 4 differentiates
-``p, q, r`` once more.  Each stage's partial derivatives are series obtained exactly by a complex
-step on the series (as in :func:`planners.newton.newton_series`), with constant directions, and a
-direction ``t - t_i`` for the one derivative stage 3 takes; the stages are composed as matrices on
-the truncated coefficients (multiplication by a series: a lower-triangular Toeplitz block;
-``d/dt``: a shift).  The Newton matrix ``I - dG~`` has size ``6 (N + 1)`` per node.
+**The exact series Jacobian.**  ``dG`` is a linear differential operator with series coefficients:
+each stage is solved for its unknowns (implicit function theorem on its equations, ``du = -R_u^-1
+(R_in d in)``), its inputs being the earlier unknowns, their first derivatives and the neglected
+variables.  The partial derivatives of a stage's residual are series obtained exactly by a complex
+step on the series (as in :func:`planners.newton.newton_series`), with constant directions; the
+stages are composed as matrices on the truncated coefficients (multiplication by a series: a
+lower-triangular Toeplitz block; ``d/dt``: a shift).
 
-The plan keeps the iterates: iterate 0 is the flat plan at order ``kappa`` (identical to the
-fixed-point method's iterate 0); iterate ``n >= 1`` is the flat parametrization at the n-th Newton
-iterate of ``H``, truncated to the orders of the fixed-point method's iterate J (controls at
-order ``e``): the same output orders.
+The plan keeps the iterates: iterate 0 is the flat parametrization at order ``kappa`` (identical to
+the fixed-point method's iterate 0); iterate ``n >= 1`` is the flat parametrization at the n-th Newton
+iterate of ``X^``, truncated to the orders of the fixed-point method's iterate J (the last stage's
+unknowns at order ``e``): the same output orders.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from gna.eom import Controls, HValues, State, aero_coefficients, body_moments, rotational_dynamics
-from gna.ground_effect import ground_effect_coefficients
+from gna.errors import InputError
 
-from .flat import STAGE_OF, FlatProblem, NodeSolution, force_residuals, parametrize, stage1, stage3
+from .chained import ChainedPlan, ChainedSystem, _at_order, check_grid, flat_parametrization
+from .flat import FlatProblem
+from .newton import series_jacobian
 from .series import Series
 
-#: The neglected terms H, in the order of :class:`gna.eom.HValues`.
-H_NAMES = ("p", "q", "r", "dl", "dm", "dn")
-#: Complex step (the derivative is exact to rounding: no subtraction).
-_STEP = 1e-30
 #: Step halvings per Newton step where a node's residual does not decrease.
 HALVINGS = 5
 
@@ -84,24 +82,6 @@ def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("nij,njk->nik", a, b)
 
 
-def _derivative_matrix(n: int, k_in: int) -> np.ndarray:
-    """``d/dt`` of n series of order ``k_in`` (to order ``k_in - 1``), on coefficients."""
-    D = np.zeros((n, k_in, n, k_in + 1))
-    for i in range(n):
-        for k in range(k_in):
-            D[i, k, i, k + 1] = k + 1
-    return D.reshape(n * k_in, n * (k_in + 1))
-
-
-def _resize_matrix(n: int, k_in: int, k_out: int) -> np.ndarray:
-    """Truncation (``k_out < k_in``) or zero padding (``k_out > k_in``) of n series, on coefficients."""
-    R = np.zeros((n, k_out + 1, n, k_in + 1))
-    for i in range(n):
-        for k in range(min(k_in, k_out) + 1):
-            R[i, k, i, k] = 1.0
-    return R.reshape(n * (k_out + 1), n * (k_in + 1))
-
-
 def _series_inverse(A: np.ndarray) -> np.ndarray:
     """Inverse of a matrix of series ``A`` (n, n, nodes, K + 1), exactly lower triangular in the coefficients.
 
@@ -115,15 +95,6 @@ def _series_inverse(A: np.ndarray) -> np.ndarray:
         acc = np.einsum("blij,bljk->bik", Ab[:, 1 : m + 1], W[:, m - 1 :: -1][:, :m])
         W[:, m] = -W[:, 0] @ acc
     return np.moveaxis(W, (-2, -1), (0, 1))
-
-
-def _series_matmul(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """Product of matrices of series (n, p, nodes, K + 1) x (p, q, nodes, K + 1), truncated."""
-    K = min(A.shape[-1], B.shape[-1])
-    out = np.zeros(A.shape[:1] + B.shape[1:2] + A.shape[2:3] + (K,))
-    for m in range(K):
-        out[..., m] = np.einsum("ipbl,pqbl->iqb", A[..., : m + 1], B[..., m::-1])
-    return out
 
 
 def _gauss_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -153,8 +124,8 @@ def _gauss_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _node_residual(F: np.ndarray) -> np.ndarray:
-    """max |F| per node of (6, nodes, K) coefficients; non-finite -> inf."""
-    r = np.max(np.abs(F), axis=(0, 2))
+    """max |F| per node of (nodes, size) coefficients; non-finite -> inf."""
+    r = np.max(np.abs(F), axis=1)
     return np.where(np.isfinite(r), r, np.inf)
 
 
@@ -170,284 +141,248 @@ def _coeffs(values, nodes: int, order: int) -> np.ndarray:
     return out
 
 
-def _cs_jacobian(fun, inputs: list, order: int, coefficient: int = 0) -> np.ndarray:
-    """Complex-step partial derivatives of ``fun(inputs) -> list`` along ``inputs[j] + i h t^coefficient``.
-
-    Returns (n_out, n_in, nodes, order + 1): the series of ``d fun_i`` for the direction ``t^c`` on
-    input j (for ``c = 0``: the partial derivative series; all inputs in one batched call).
-    """
-    n = len(inputs)
-    nodes = inputs[0].batch_shape[0]
-    base = np.stack(
-        [np.broadcast_to(np.asarray(u.truncate(order).coeffs, dtype=complex), (nodes, order + 1)) for u in inputs]
-    )  # (n, nodes, K)
-    pert = np.broadcast_to(base, (n,) + base.shape).copy()  # (n dirs, n, nodes, K)
-    for j in range(n):
-        pert[j, j, :, coefficient] += 1j * _STEP
-    outs = fun([Series(pert[:, j]) for j in range(n)])
-    jac = []
-    for o in outs:
-        c = o.coeffs if isinstance(o, Series) else np.asarray(o)[..., None]
-        c = np.broadcast_to(c, (n, nodes, c.shape[-1]))
-        full = np.zeros((n, nodes, order + 1))
-        m = min(order + 1, c.shape[-1])
-        full[..., :m] = np.imag(c[..., :m]) / _STEP
-        jac.append(full)
-    return np.stack(jac)
+def _hat_orders(system: ChainedSystem, order: int) -> dict:
+    """Order of each neglected variable where it is first used: ``kappa - h`` for stage h."""
+    out = {}
+    for h, s in enumerate(system.stages, start=1):
+        for n in s.neglected:
+            out.setdefault(n, order - h)
+    return out
 
 
-# ----------------------------------------------------------------------------- the map G and its Jacobian
-
-
-def pad_h(h: HValues, nodes: int, order: int) -> np.ndarray:
-    """Coefficients (6, nodes, order + 1) of H values (floats or series), zero-padded: ``G~``'s padding.
+def hat_jacobian(system: ChainedSystem, order: int, sol: Mapping, hat: Mapping) -> np.ndarray:
+    """Exact Jacobian ``dG~/dX^`` of the fixed-point map at the neglected values that produced ``sol``.
 
     Parameters
     ----------
-    h : HValues
-        Rates [rad/s] and surfaces [rad]: floats, arrays (nodes,) or series.
-    nodes : int
-        Number of nodes.
+    system : ChainedSystem
+        The system.
     order : int
-        Order of the result (the stage-2 order ``N``).
+        Order kappa of ``sol``'s flat outputs.
+    sol : NodeSolution or mapping of str -> Series
+        :func:`planners.chained.flat_parametrization` at ``order`` with the neglected values ``hat``.
+    hat : mapping of str -> Series
+        The neglected values (:func:`_hat_dict` of a coefficient vector).
 
     Returns
     -------
-    ndarray, shape (6, nodes, order + 1)
-        Taylor coefficients of ``p, q, r, dl, dm, dn``.
+    ndarray, shape (nodes, size, size)
+        Rows and columns: the coefficients of the neglected variables in the order of
+        :func:`_hat_orders` (each at the order of the stage first using it); rows of padded
+        coefficients are zero.
     """
-    return np.stack([_coeffs(v, nodes, order) for v in h])
+    horders = _hat_orders(system, order)
+    names = list(horders)
+    offsets, size = {}, 0
+    for n in names:
+        offsets[n] = size
+        size += horders[n] + 1
+    nodes = next(iter(sol.values())).batch_shape[0]
+    sens = {}  # variable -> (nodes, K + 1, size): d variable / d hat, for the variables depending on hat
+    orders = {}
+    # the data independent of the neglected terms: flat outputs, inputs, derived series, and the unknowns
+    # of the stages none of whose inputs depends on them (for the aircraft, stage 1)
+    given = list(system.flat_outputs) + list(system.inputs)
+    fixed = {z: sol[z] for z in given}
+    fixed.update({z + "'": sol[z].derivative() for z in given if sol[z].order >= 1})
+    if system.derived is not None:
+        fixed.update(system.derived(dict(sol), order))
+    for h, stage in enumerate(system.stages, start=1):
+        k = order - h
+        inputs = {}
+        for n in sens:
+            inputs[n] = (sol[n], _rows(sens[n], k))
+            if orders[n] >= 1:  # d/dt on the coefficients: row m is (m + 1) times row m + 1
+                d = sens[n][:, 1:] * np.arange(1.0, orders[n] + 1)[:, None]
+                inputs[n + "'"] = (sol[n].derivative(), _rows(d, k))
+        upstream = len(inputs)
+        for n in stage.neglected:  # d hat_n / d hat: a selection of columns (placed below, no product)
+            inputs[n] = (hat[n], None)
+        if not inputs:  # nothing upstream depends on the neglected terms
+            fixed.update({u: sol[u] for u in stage.unknowns})
+            fixed.update({u + "'": sol[u].derivative() for u in stage.unknowns if sol[u].order >= 1})
+            continue
+        pnames = list(stage.unknowns) + list(inputs)
+        base = [sol[u] for u in stage.unknowns] + [inputs[p][0] for p in inputs]
+        base = [b.truncate(k) if b.order >= k else b.pad(k) for b in base]
+        fixed_k = _at_order(fixed, k)
+
+        def fun(vals, pnames=pnames, fixed_k=fixed_k, stage=stage):
+            v = dict(fixed_k)
+            v.update(zip(pnames, vals))
+            return stage.residual(v)
+
+        stacked = np.stack([np.broadcast_to(np.real(b.coeffs), (nodes, k + 1)) for b in base])
+        jac = series_jacobian(lambda us, kk: fun(us), stacked, k)  # (n_eq, n_in, nodes, k+1)
+        nu = len(stage.unknowns)
+        # d residual / d hat: through the upstream unknowns (a product), and directly (columns placed)
+        rhs = np.zeros((nodes, jac.shape[0] * (k + 1), size))
+        if upstream:
+            dinputs = np.concatenate([d for _, d in list(inputs.values())[:upstream]], axis=1)
+            rhs += _mm(_block_toeplitz(jac[:, nu : nu + upstream], k, k), dinputs)
+        for i, n in enumerate(list(inputs)[upstream:]):
+            m = min(k, horders[n]) + 1
+            rhs[:, :, offsets[n] : offsets[n] + m] += _block_toeplitz(
+                jac[:, nu + upstream + i : nu + upstream + i + 1], k, k
+            )[:, :, :m]
+        S = -_mm(_block_toeplitz(_series_inverse(jac[:, :nu]), k, k), rhs)
+        for i, u in enumerate(stage.unknowns):
+            sens[u] = S[:, i * (k + 1) : (i + 1) * (k + 1)]
+            orders[u] = k
+    dG = np.zeros((nodes, size, size))
+    for n in names:
+        if n in sens:  # a prescribed input does not depend on them
+            dG[:, offsets[n] : offsets[n] + horders[n] + 1] = _rows(sens[n], horders[n])
+    return dG
 
 
-def _as_h(c: np.ndarray) -> HValues:
-    return HValues(*(Series(ci) for ci in c))
+def _rows(S: np.ndarray, k: int) -> np.ndarray:
+    """Sensitivities ``S`` (nodes, rows, size) of a series truncated or zero-padded to order k: (nodes, k + 1, size)."""
+    if S.shape[1] >= k + 1:
+        return S[:, : k + 1]
+    return np.concatenate([S, np.zeros((S.shape[0], k + 1 - S.shape[1], S.shape[2]))], axis=1)
 
 
-def h_jacobian(problem: FlatProblem, t_nodes: np.ndarray, order: int, sol: NodeSolution, H: np.ndarray) -> np.ndarray:
-    """Exact Jacobian of ``G~`` at the H that produced ``sol``, on the truncated coefficients.
+def _hat_vector(system, order, values: Mapping, nodes: int) -> np.ndarray:
+    """(nodes, size) coefficients of the neglected variables (series or constants), zero-padded."""
+    horders = _hat_orders(system, order)
+    parts = [_coeffs(values.get(n, system.neglected_start(n)), nodes, horders[n]) for n in horders]
+    return np.concatenate(parts, axis=1)
+
+
+def _hat_dict(system, order, vec: np.ndarray) -> dict:
+    out, i = {}, 0
+    for n, K in _hat_orders(system, order).items():
+        out[n] = Series(vec[:, i : i + K + 1])
+        i += K + 1
+    return out
+
+
+def newton_parametrization(
+    system: ChainedSystem,
+    t_nodes,
+    zeta: Mapping[str, Callable] | None = None,
+    J: int = 0,
+    e: int = 1,
+    v: Mapping | None = None,
+    tol: float = 1e-13,
+    maxiter: int = 8,
+) -> ChainedPlan:
+    """Newton's method on the fixed point of :func:`planners.chained.generalized_parametrization`
+    (same starting order ``kappa = e + r + J L``).
+
+    The neglected variables ``X^`` are the unknowns of ``F(X^) = X^ - G~(X^)``; the Jacobian is exact
+    (:func:`hat_jacobian`).  A step that does not decrease a node's residual ``max |F|`` is halved
+    there, at most :data:`HALVINGS` times (the nodes are independent problems).
 
     Parameters
     ----------
-    problem : FlatProblem
-        The flat problem.
-    t_nodes : ndarray, shape (nodes,)
-        Node times [s].
-    order : int
-        Order ``kappa`` of the flat outputs of ``sol`` (H at order ``N = kappa - 2``).
-    sol : NodeSolution
-        :func:`planners.flat.parametrize` at ``order`` with the H values ``H``.
-    H : ndarray, shape (6, nodes, N + 1)
-        Coefficients of ``p, q, r, dl, dm, dn`` [rad/s, rad] at which to linearize.
-
-    Returns
-    -------
-    ndarray, shape (nodes, 6 (N + 1), 6 (N + 1))
-        ``dG~/dH``: row ``i (N + 1) + k`` is coefficient k of output i (``p, q, r, dl, dm, dn``),
-        column ``j (N + 1) + l`` coefficient l of input j.  Rows of padded coefficients are zero.
-    """
-    ac, env = problem.aircraft, problem.env
-    m, g = ac.mass.mass, env.g
-    nodes = len(t_nodes)
-    N = order - 2
-    K4 = order - 4
-    s = sol.series
-    # Stage-2 inputs, as in planners.flat.parametrize.
-    t = Series.variable(np.asarray(t_nodes, dtype=float), order)
-    x, y, z = problem.x(t), problem.y(t), problem.z(t)
-    V, gamma, chi = stage1(x, y, z)
-    Vd, gd, chid = V.derivative(), gamma.derivative(), chi.derivative()
-    z2, V2, gamma2, chi2 = z.truncate(N), V.truncate(N), gamma.truncate(N), chi.truncate(N)
-    zeta = problem.zeta
-    tz = Series.variable(t_nodes, N)
-    zv = zeta.value(tz)
-    f1 = zeta.f1(tz) if zeta.kind == "mix" else None
-    f2 = zeta.f2(tz) if zeta.kind == "mix" else None
-    eta_pres = problem.eta(Series.variable(t_nodes, order)) if problem.eta is not None else None
-    eta2 = eta_pres.truncate(N) if eta_pres is not None else 0.0
-
-    def r2(v):
-        alpha, beta, mu, F = v[:4]
-        h = HValues(*v[4:])
-        out = list(force_residuals(ac, env, z2, V2, gamma2, chi2, Vd, gd, chid, eta2, h, alpha, beta, mu, F))
-        if zeta.kind == "beta":
-            out.append(beta - zv)
-        elif zeta.kind == "mu":
-            out.append(mu - zv)
-        elif zeta.kind == "F":
-            out.append((F - zv) / (m * g))
-        else:
-            out.append(f1 * beta + f2 * mu - zv)
-        return out
-
-    u2 = [s[k].truncate(N) for k in ("alpha", "beta", "mu", "F")]
-    jac2 = _cs_jacobian(r2, u2 + [Series(c) for c in H], N)  # (4, 10, nodes, N+1)
-    S2 = -_block_toeplitz(_series_matmul(_series_inverse(jac2[:, :4]), jac2[:, 4:]), N, N)  # d(a, b, mu, F)/dH
-
-    def r3(v):
-        return list(stage3(v[0], v[1], v[2], gamma2, chi2))
-
-    P0 = _cs_jacobian(r3, u2[:3], N)[..., :N]  # (3, 3, nodes, N): order N-1
-    Pt = _cs_jacobian(r3, u2[:3], N, coefficient=1)[..., :N]
-    P1 = Pt.copy()
-    P1[..., 1:] -= P0[..., :-1]  # direction t: P0 t + P1
-    M3 = _block_toeplitz(P0, N - 1, N) + _mm(_block_toeplitz(P1, N - 1, N - 1), _derivative_matrix(3, N))
-    Spqr = _mm(M3, S2[:, : 3 * (N + 1)])  # (nodes, 3N, 6(N+1))
-
-    # Stage 4: moment equations at order K4 (full model), as in planners.flat.parametrize.
-    p, q, r = s["p"], s["q"], s["r"]
-    pd, qd, rd = p.derivative(), q.derivative(), r.derivative()
-    z4, V4, g4, c4 = z.truncate(K4), V.truncate(K4), gamma.truncate(K4), chi.truncate(K4)
-    qbar4 = 0.5 * env.density(z4) * V4 * V4
-    eta4 = eta_pres.truncate(K4) if eta_pres is not None else None
-    dn4 = problem.dn(Series.variable(t_nodes, order)).truncate(K4) if problem.dn is not None else None
-
-    def r4(v):
-        alpha, beta, mu, F, pp, qq, rr, pdd, qdd, rdd, c1, c2, c3 = v
-        st = State(0.0, 0.0, z4, V4, g4, c4, alpha, beta, mu, pp, qq, rr)
-        ctl = Controls(F, eta4, c1, c2, c3) if problem.eta is not None else Controls(F, c3, c1, c2, dn4)
-        full = ground_effect_coefficients(ac, env, st.z, aero_coefficients(ac, st, ctl))
-        L, M, Nm = body_moments(ac, st, ctl, full, qbar4)
-        a_p, a_q, a_r = rotational_dynamics(ac, st.p, st.q, st.r, L, M, Nm)
-        return [a_p - pdd, a_q - qdd, a_r - rdd]
-
-    names4 = ("dl", "dm", "dn") if problem.eta is not None else ("dl", "dm", "eta")
-    in4 = (
-        [s[k].truncate(K4) for k in ("alpha", "beta", "mu", "F", "p", "q", "r")]
-        + [pd.truncate(K4), qd.truncate(K4), rd.truncate(K4)]
-        + [s[k].truncate(K4) for k in names4]
-    )
-    jac4 = _cs_jacobian(r4, in4, K4)  # (3, 13, nodes, K4+1)
-    rhs = (
-        _mm(_block_toeplitz(jac4[:, :4], K4, K4), _mm(_resize_matrix(4, N, K4), S2))
-        + _mm(_block_toeplitz(jac4[:, 4:7], K4, K4), _mm(_resize_matrix(3, N - 1, K4), Spqr))
-        + _mm(_block_toeplitz(jac4[:, 7:10], K4, K4), _mm(_derivative_matrix(3, N - 1), Spqr))
-    )
-    Sv = -_mm(_block_toeplitz(_series_inverse(jac4[:, 10:]), K4, K4), rhs)  # (nodes, 3(K4+1), 6(N+1))
-
-    n_surf = 3 if problem.eta is not None else 2  # a fixed rudder is not an unknown
-    dG = np.zeros((nodes, 6, N + 1, 6 * (N + 1)))
-    dG[:, :3, :N] = Spqr.reshape(nodes, 3, N, -1)
-    dG[:, 3 : 3 + n_surf, : K4 + 1] = Sv.reshape(nodes, 3, K4 + 1, -1)[:, :n_surf]
-    return dG.reshape(nodes, 6 * (N + 1), 6 * (N + 1))
-
-
-def truncate_solution(sol: NodeSolution, order: int) -> NodeSolution:
-    """A node solution with every series truncated to its stage's order for flat outputs at ``order``.
-
-    Parameters
-    ----------
-    sol : NodeSolution
-        Solution at an order ``>= order``.
-    order : int
-        Order kappa of the flat outputs of the result (controls at ``order - 4``).
-
-    Returns
-    -------
-    NodeSolution
-        Same reports; ``x`` at ``order``, ``V`` at ``order - 1``, ..., the controls at ``order - 4``.
-    """
-    out = {k: v.truncate(min(v.order, order - STAGE_OF.get(k, 4))) for k, v in sol.series.items()}
-    return NodeSolution(out, order, sol.reports)
-
-
-def g_residual(sol: NodeSolution, H: np.ndarray) -> np.ndarray:
-    """``F(H) = H - G~(H)`` on the coefficients, from the solution ``sol = parametrize(..., h=H)``.
-
-    Parameters
-    ----------
-    sol : NodeSolution
-        Flat parametrization computed with the H values ``H``.
-    H : ndarray, shape (6, nodes, N + 1)
-        The coefficients of ``p, q, r, dl, dm, dn`` it was computed with.
-
-    Returns
-    -------
-    ndarray, shape (6, nodes, N + 1)
-        ``H`` minus the zero-padded rates and surfaces of ``sol`` [rad/s, rad].
-    """
-    nodes, N = H.shape[1], H.shape[2] - 1
-    return H - pad_h(sol.h_values(), nodes, N)
-
-
-def plan_newton(problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int = 1, tol: float = 1e-12, maxiter: int = 8):
-    """Iterates of Newton's method on ``H = G~(H)`` at the fixed-point method's starting order.
-
-    Parameters
-    ----------
-    problem : FlatProblem
-        The flat problem (its ``h`` starts the iteration, as for the fixed point).
-    t_nodes : ndarray, shape (nodes,)
-        Node times [s].
+    system : ChainedSystem
+        The system.
+    t_nodes : array, shape (nodes,)
+        Increasing node times.
+    zeta : mapping of str -> callable, optional
+        The flat outputs as functions of t (default: the system's :attr:`ChainedSystem.outputs`).
     J : int
-        Depth: the starting order ``kappa = e + 4 + 2 J`` of the fixed-point method with J iterations.
+        Depth: the starting order ``kappa = e + r + J L`` of the fixed point with J iterations.
     e : int
-        Order of the controls in the returned iterates.
+        Order of the last stage's unknowns in the returned iterates.
+    v : mapping, optional
+        Starting values of the neglected variables (default: :meth:`ChainedSystem.neglected_start`).
     tol : float
-        Stop when ``max |H - G~(H)|`` over nodes and coefficients is below this [rad/s, rad].  A step
-        that does not decrease a node's residual is halved there (at most :data:`HALVINGS` times).
+        Stop when ``max |X^ - G~(X^)|`` over nodes and coefficients is below this.
     maxiter : int
         Newton steps at most.
 
     Returns
     -------
-    iterates : list of NodeSolution
-        Iterate 0 (the flat plan, order ``kappa``), then one per Newton step, truncated to order ``e + 4``.
-    info : dict
-        ``"residual"``: ``max |H - G~(H)|`` of each iterate; ``"timings"``: wall time [s] per iterate;
-        ``"order"``: ``kappa``; ``"status"``: ``"converged"`` (below ``tol``), ``"stagnated"`` (a step
-        that does not decrease the residual even damped), ``"diverged"`` (non-finite) or ``"maxiter"``;
-        ``"damping"``: the smallest step factor of each step (1: full Newton steps).
-    """
-    from .generalized import ORDER_LOSS, STAGES
+    ChainedPlan
+        Iterate 0 (the flat parametrization at ``kappa``), then one per Newton step truncated to the
+        fixed point's last-iterate orders; ``timings`` per iterate; ``residuals``: ``max |X^ - G~(X^)|``
+        per iterate; ``info``: ``"status"`` (``"converged"`` below ``tol``, ``"stagnated"`` a step
+        that does not decrease the residual even damped, ``"diverged"`` non-finite, ``"maxiter"``),
+        ``"damping"`` (the smallest step factor of each step) and ``"order"`` (kappa).
 
-    kappa = e + STAGES + J * ORDER_LOSS
-    N = kappa - 2
+    Raises
+    ------
+    InputError
+        Fewer than two increasing nodes or a negative J.
+    """
+    t_nodes = check_grid(t_nodes)
+    if J < 0:
+        raise InputError(f"J must be >= 0, got {J}")
+    kappa = e + system.r + J * system.L
     nodes = len(t_nodes)
-    t_start = time.perf_counter()
-    H = pad_h(problem.h, nodes, N)
-    sol = parametrize(problem, t_nodes, kappa, h=None)
-    iterates, residuals, timings = [sol], [], {0: time.perf_counter() - t_start}
-    F = g_residual(sol, H)
-    residuals.append(float(np.max(np.abs(F))))
+    names = list(_hat_orders(system, kappa))
+    t0 = time.perf_counter()
+    x = _hat_vector(system, kappa, dict(v or {}), nodes)
+    sol = flat_parametrization(system, t_nodes, kappa, zeta, hat=_hat_dict(system, kappa, x))
+    iterates, timings = [sol], {0: time.perf_counter() - t0}
+
+    def residual(sol, x):
+        return x - _hat_vector(system, kappa, {n: sol[n] for n in names}, nodes)
+
+    F = residual(sol, x)
+    res = [float(np.max(np.abs(F)))]
     status, damping = "converged", []
     for n in range(1, maxiter + 1):
-        if not residuals[-1] > tol:
+        if not res[-1] > tol:
             break
-        t_start = time.perf_counter()
-        dG = h_jacobian(problem, t_nodes, kappa, sol, H)
-        A = np.eye(6 * (N + 1))[None] - dG
-        rhs = np.moveaxis(F, 1, 0).reshape(nodes, -1)
-        step = np.moveaxis(_gauss_solve(A, rhs).reshape(nodes, 6, N + 1), 0, 1)
-        # Damped per node (the nodes are independent problems): halve the step where the node's
-        # residual max |H - G(H)| does not decrease, at most HALVINGS times.
+        t0 = time.perf_counter()
+        dG = hat_jacobian(system, kappa, sol, _hat_dict(system, kappa, x))
+        step = np.nan_to_num(_gauss_solve(np.eye(x.shape[1])[None] - dG, F))
         r_node = _node_residual(F)
         lam = np.ones(nodes)
         for attempt in range(HALVINGS + 1):
-            H_try = H - lam[None, :, None] * np.nan_to_num(step)
-            sol_try = parametrize(problem, t_nodes, kappa, h=_as_h(H_try), guess=sol.series)
-            F_try = g_residual(sol_try, H_try)
+            x_try = x - lam[:, None] * step
+            # carry=False: the last Newton step of each stage starts within the tolerance (dG is exact there)
+            sol_try = flat_parametrization(
+                system, t_nodes, kappa, zeta, hat=_hat_dict(system, kappa, x_try), guess=sol, carry=False
+            )
+            F_try = residual(sol_try, x_try)
             ok = (_node_residual(F_try) < r_node) | (r_node <= tol)
             if np.all(ok) or attempt == HALVINGS:
                 break
             lam = np.where(ok, lam, lam / 2)
         damping.append(float(np.min(lam)))
-        H, sol, F = H_try, sol_try, F_try
-        residuals.append(float(np.max(np.abs(F))))
+        x, sol, F = x_try, sol_try, F_try
+        res.append(float(np.max(np.abs(F))))
         iterates.append(sol)
-        timings[n] = time.perf_counter() - t_start
-        if not np.isfinite(residuals[-1]):
+        timings[n] = time.perf_counter() - t0
+        if not np.isfinite(res[-1]):
             status = "diverged"
             break
-        if not residuals[-1] < residuals[-2]:
+        if not res[-1] < res[-2]:
             status = "stagnated"
             break
-    else:
-        if residuals[-1] > tol:
-            status = "maxiter"
-    if residuals[-1] > tol and status == "converged":
+    if res[-1] > tol and status == "converged":
         status = "maxiter"
-    out = [iterates[0]] + [truncate_solution(s, e + STAGES) for s in iterates[1:]]
-    return out, {"residual": residuals, "timings": timings, "order": kappa, "status": status, "damping": damping}
+    k_last = e + system.r
+    out = [iterates[0]] + [truncate_solution(system, it, k_last) for it in iterates[1:]]
+    return ChainedPlan(system, t_nodes, out, timings, res, {"status": status, "damping": damping, "order": kappa})
+
+
+def truncate_solution(system: ChainedSystem, sol, order: int):
+    """A node solution with every series truncated to its stage's order for flat outputs at ``order``.
+
+    Parameters
+    ----------
+    system : ChainedSystem
+        The system of ``sol``.
+    sol : NodeSolution
+        Solution at an order ``>= order``.
+    order : int
+        Order kappa of the flat outputs of stage 1 in the result.
+
+    Returns
+    -------
+    NodeSolution
+        Same reports; a variable of stage h (:meth:`ChainedSystem.stage_of`) at ``order - h + 1``.
+    """
+    from .chained import NodeSolution
+
+    out = {k: s.truncate(min(s.order, order - system.stage_of(k) + 1)) for k, s in sol.items()}
+    return NodeSolution(out, order, sol.reports)
 
 
 class ModelCounter:

@@ -28,6 +28,7 @@ __all__ = [
     "jacobian",
     "newton",
     "newton_series",
+    "series_jacobian",
 ]
 
 #: The paper's failure rule (section "Newton operator with series"):
@@ -205,6 +206,30 @@ def _series_solve(Jc: np.ndarray, Gc: np.ndarray) -> np.ndarray:
     Gr = Gc.reshape(n, B, K).transpose(1, 0, 2)  # (B, n, K), a view
     D = _series_kernels._K.series_solve(Jr, J0inv, Gr)
     return D.transpose(1, 0, 2).reshape((n,) + batch + (K,))
+
+
+def series_jacobian(residual: Callable, stacked: np.ndarray, k: int) -> np.ndarray:
+    """Jacobian series ``(neq, n, *batch, K)`` of ``residual(list of Series, k) -> list`` at the coefficients
+    ``stacked`` (n, *batch, K) of its n inputs (working order ``k = K - 1``): one batched complex step on
+    the series, exact to rounding (:func:`_residual_and_jacobian`; the stages' partials of
+    :mod:`planners.generalized_newton`, the tracking linearization).
+
+    Parameters
+    ----------
+    residual : callable
+        ``residual(us, k)`` on Series of batch shape ``(n, *batch)`` (pointwise in t: no time
+        derivatives inside), outputs Series of order k, arrays or floats.
+    stacked : ndarray, shape (n, *batch, K)
+        Taylor coefficients of the inputs.
+    k : int
+        Working order.
+
+    Returns
+    -------
+    ndarray, shape (neq, n, *batch, K)
+        ``[a, b, ..., m]``: coefficient m of ``d residual_a / d input_b``.
+    """
+    return _residual_and_jacobian(residual, stacked, k)[1]
 
 
 def _residual_and_jacobian(residual: Callable, stacked: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:

@@ -44,22 +44,6 @@ from .singularity import SingularityReport
 PLAN_VARIABLES = STATE_NAMES + CONTROL_NAMES
 
 
-def _taylor_derivative(coeffs: np.ndarray, dt: np.ndarray, k: int) -> np.ndarray:
-    """k-th derivative at offsets ``dt`` (N,) of polynomials with coefficients ``coeffs`` (..., N, K)."""
-    K = coeffs.shape[-1]
-    if k >= K:
-        return np.zeros(coeffs.shape[:-2] + dt.shape)
-    m = np.arange(k, K)
-    fall = np.ones(K - k)
-    for j in range(k):
-        fall = fall * (m - j)
-    c = np.real(coeffs[..., k:]) * fall
-    out = c[..., -1].copy()
-    for i in range(c.shape[-1] - 2, -1, -1):
-        out = out * dt + c[..., i]
-    return out
-
-
 #: Evaluation between nodes: two-point Hermite interpolation of the node series, or the paper's
 #: two-sided formula (section "Motion planning").
 INTERPOLATIONS = ("hermite", "paper")

@@ -83,10 +83,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from gna.eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, derivatives
+from gna.eom import CONTROL_NAMES, H_NAMES, STATE_NAMES, Controls, HValues, State, derivatives
 from gna.errors import DomainError, InputError
 
-from .plan import Plan
+from .chained import StateSpaceModel
+from .newton import series_jacobian
+from .plan import Plan, interval_coefficients
 from .series import Series
 
 #: The four integrals, in order (I4 absent with the thrust flat output).
@@ -185,94 +187,140 @@ def _check_linearization(plan, model: str, order, j: int) -> None:
         raise InputError(f"iterate j = {j} not in the plan (J = {plan.J})")
 
 
-def linearize(plan: Plan, j: int = -1, *, model: str = "full", order: int = 1) -> Linearization:
-    """Jacobians of :func:`gna.eom.derivatives` along iterate ``j`` of a plan, as series at the nodes.
+def aircraft_model(problem) -> StateSpaceModel:
+    """The aircraft's explicit model for the tracking feedback (paper subsec. "Design of the feed-back").
 
-    One complex step on the plan's series, batched over the 17 variables and
-    all nodes (paper, subsec. "Design of the feed-back": "the state functions
-    replaced at each step i by their power series expansion at t_i").
+    States :data:`gna.eom.STATE_NAMES`, controls :data:`gna.eom.CONTROL_NAMES`; ``rhs`` is
+    :func:`gna.eom.derivatives` (``hat`` given: ``model="simple"`` with H at ``hat``, the design
+    model); the integrals ``I1..I4`` of the module notes; the feedback inputs ``F, dl, dm`` and ``dn``
+    (``eta`` with a fixed rudder), the three surfaces with the thrust output.
 
     Parameters
     ----------
-    plan : Plan
-    j : int
-        Iterate (default: the last).
-    model : {"full", "design"}
-        ``"full"``: the full model.  ``"design"``: the force coefficients take
-        the rates and surfaces as the neglected terms H fixed at the plan's own
-        values (``gna.eom`` ``model="simple"``), the model the plan solves.
-    order : int
-        Requested order of the series (lowered to the lowest order the iterate
-        carries, 1 for the controls of the last iterate).
+    problem : FlatProblem
+        The plan's problem.
 
     Returns
     -------
-    Linearization
+    StateSpaceModel
 
     Raises
     ------
     InputError
-        Unknown model, negative order or iterate not in the plan.
+        A flat output other than beta, mu and F.
     """
-    _check_linearization(plan, model, order, j)
-    sol = plan.iterates[j]
-    names = STATE_NAMES + CONTROL_NAMES
-    order = int(min(order, min(sol.series[n].order for n in names)))
-    K = order + 1
-    n_nodes = len(plan.t_nodes)
-    base = np.stack(
-        [np.broadcast_to(np.real(np.asarray(sol.series[n].coeffs))[..., :K], (n_nodes, K)) for n in names]
-    )  # (17, N, K)
-    if model == "design":
-        hv = HValues(*(Series(base[names.index(n)]) for n in ("p", "q", "r", "dl", "dm", "dn")))
-
-        def f(v):
-            return derivatives(plan.aircraft, plan.env, State(*v[:12]), Controls(*v[12:]), "simple", hv)
+    ac, env = problem.aircraft, problem.env
+    kind = problem.zeta.kind
+    fourth = "eta" if problem.eta is None else "dn"
+    if kind in ("beta", "mu"):
+        inputs, degrees, stages = ("F", "dl", "dm", fourth), (3, 5, 5, 3), (((0,), (0,)), ((1, 2, 3), (1, 2, 3)))
+    elif kind == "F":
+        inputs, degrees, stages = ("dl", "dm", fourth), (5, 5, 5), (((0, 1, 2), (0, 1, 2)),)
     else:
+        raise InputError(
+            f"the tracking feedback supports the flat outputs beta, mu and F (paper, subsec. "
+            f"'Design of the feed-back'), not {kind!r}"
+        )
 
-        def f(v):
-            return derivatives(plan.aircraft, plan.env, State(*v[:12]), Controls(*v[12:]), "full")
+    def rhs(x, u, hat):
+        if hat is None:
+            return derivatives(ac, env, State(*x), Controls(*u), "full")
+        return derivatives(ac, env, State(*x), Controls(*u), "simple", HValues(*(hat[n] for n in H_NAMES)))
 
-    jac = series_jacobian(f, base)  # (N, 12, 17, K)
-    return Linearization(
-        np.asarray(plan.t_nodes, dtype=float),
-        np.ascontiguousarray(jac[:, :, :12]),
-        np.ascontiguousarray(jac[:, :, 12:]),
-        model,
-        j % len(plan.iterates),
-    )
+    def integrands(ref):
+        # I1' = cos(chi~) dx + sin(chi~) dy, I2' = -sin dx + cos dy, I3' = dz, I4' = d(zeta)
+        c, s_ = np.cos(ref["chi"]), np.sin(ref["chi"])
+        rows = [[c, s_] + [0.0] * 10, [-s_, c] + [0.0] * 10, [0.0, 0.0, 1.0] + [0.0] * 9]
+        if kind != "F":
+            rows.append([1.0 if n == kind else 0.0 for n in STATE_NAMES])
+        return rows
+
+    return StateSpaceModel(STATE_NAMES, CONTROL_NAMES, rhs, integrands, degrees, stages, inputs)
 
 
-def series_jacobian(f, base: np.ndarray) -> np.ndarray:
-    """Jacobian series of ``f`` at series values: one batched complex step on the series.
+def plan_model(plan) -> StateSpaceModel:
+    """The explicit model of a plan's system: :func:`aircraft_model` for an aircraft plan, the system's
+    :attr:`~planners.chained.ChainedSystem.model` for a chained-system plan.
 
     Parameters
     ----------
-    f : callable
-        ``f(list of Series) -> list`` of outputs (Series, arrays or floats), pointwise in t (no time
-        derivatives inside), on Series of batch shape ``(n_in + 1, N)``.
-    base : ndarray, shape (n_in, N, K)
-        Taylor coefficients of the inputs at the N nodes.
+    plan : Plan or planners.chained.ChainedPlan
+        A plan.
 
     Returns
     -------
-    ndarray, shape (N, n_out, n_in, K)
-        ``[i, a, b, k]``: k-th coefficient at node i of ``d f_a / d input_b`` (exact to rounding).
+    StateSpaceModel
+
+    Raises
+    ------
+    InputError
+        A system without an explicit model, or an aircraft flat output the feedback does not support.
     """
-    nv, n_nodes, K = base.shape
-    h = 1e-30
-    pert = np.broadcast_to(base, (nv + 1,) + base.shape).astype(complex)  # (n_in + 1, n_in, N, K)
-    for v in range(nv):
-        pert[v + 1, v, :, 0] += 1j * h
-    out = f([Series(pert[:, v]) for v in range(nv)])
-    R = np.stack(
-        [
-            np.broadcast_to(fa.coeffs if isinstance(fa, Series) else np.asarray(fa)[..., None], (nv + 1, n_nodes, K))
-            for fa in out
-        ]
-    )  # (n_out, n_in + 1, N, K)
-    jac = np.imag(R[:, 1:]) / h  # (n_out, n_in, N, K)
-    return np.moveaxis(jac, 2, 0)
+    if isinstance(plan, Plan):
+        return aircraft_model(plan.problem)
+    if plan.system.model is None:
+        raise InputError(
+            f"{plan.system.name}: the system gives no explicit model (ChainedSystem.model) to "
+            f"design a tracking feedback on"
+        )
+    return plan.system.model
+
+
+def _neglected(plan) -> tuple:
+    return H_NAMES if isinstance(plan, Plan) else plan.system.neglected
+
+
+def linearize(plan, j: int = -1, *, model: str = "full", order: int = 1) -> Linearization:
+    """Jacobians of the plan's explicit model (:func:`plan_model`) along iterate ``j``, as series at the nodes.
+
+    One complex step on the plan's series, batched over the states and controls and all nodes
+    (paper, subsec. "Design of the feed-back": "the state functions replaced at each step i by
+    their power series expansion at t_i").
+
+    Parameters
+    ----------
+    plan : Plan or planners.chained.ChainedPlan
+        An aircraft plan, or a plan of a chained system with an explicit model.
+    j : int
+        Iterate (default: the last).
+    model : {"full", "design"}
+        ``"full"``: the exact model.  ``"design"``: the neglected terms frozen at the plan's own
+        values (for the aircraft the force coefficients take the rates and surfaces as H,
+        ``gna.eom`` ``model="simple"``), the model the plan solves.
+    order : int
+        Requested order of the series (lowered to the lowest order the iterate carries, 1 for the
+        controls of the last iterate).
+
+    Returns
+    -------
+    Linearization
+        ``A`` (N, n_x, n_x, K) and ``B`` (N, n_x, n_u, K), in the model's state and control order.
+
+    Raises
+    ------
+    InputError
+        No explicit model, unknown model kind, negative order or iterate not in the plan.
+    """
+    ssm = plan_model(plan)
+    _check_linearization(plan, model, order, j)
+    sol = plan.iterates[j]
+    names = tuple(ssm.states) + tuple(ssm.controls)
+    order = int(min(order, min(sol[n].order for n in names)))
+    K, N, n_x = order + 1, len(plan.t_nodes), len(ssm.states)
+
+    def coeffs(name):
+        return np.broadcast_to(np.real(np.asarray(sol[name].coeffs))[..., :K], (N, K))
+
+    base = np.stack([coeffs(n) for n in names])
+    hat = {n: Series(coeffs(n)) for n in _neglected(plan)} if model == "design" else None
+    jac = np.moveaxis(series_jacobian(lambda v, k: ssm.rhs(v[:n_x], v[n_x:], hat), base, K - 1), 2, 0)
+    return Linearization(
+        np.asarray(plan.t_nodes, dtype=float),
+        np.ascontiguousarray(jac[:, :, :n_x]),
+        np.ascontiguousarray(jac[:, :, n_x:]),
+        model,
+        j % len(plan.iterates),
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -367,22 +415,6 @@ def _check_lambdas(lambdas, degrees: tuple) -> tuple:
     return tuple(lam)
 
 
-def _structure(plan: Plan):
-    """Integrals, their relative degrees, the inputs and the decoupling stages of a plan's flat output."""
-    kind = plan.problem.zeta.kind
-    fourth = "eta" if plan.problem.eta is None else "dn"
-    if kind in ("beta", "mu"):
-        inputs = ("F", "dl", "dm", fourth)
-        return INTEGRAL_NAMES, (3, 5, 5, 3), inputs, (((0,), (0,)), ((1, 2, 3), (1, 2, 3))), kind
-    if kind == "F":
-        inputs = ("dl", "dm", fourth)
-        return INTEGRAL_NAMES[:3], (5, 5, 5), inputs, (((0, 1, 2), (0, 1, 2)),), None
-    raise InputError(
-        f"the tracking feedback supports the flat outputs beta, mu and F (paper, subsec. "
-        f"'Design of the feed-back'), not {kind!r}"
-    )
-
-
 def _place(A: np.ndarray, B: np.ndarray, n_x: int, degrees, polys, stages, t_nodes, check: bool) -> np.ndarray:
     """Sequential decoupling at every node (batched; real or complex arrays).
 
@@ -419,11 +451,11 @@ def _place(A: np.ndarray, B: np.ndarray, n_x: int, degrees, polys, stages, t_nod
                         if np.any(bad):
                             i = int(np.flatnonzero(bad)[0])
                             raise DomainError(
-                                f"integral {INTEGRAL_NAMES[p]}: an input acts on its derivative of "
+                                f"integral I{p + 1}: an input acts on its derivative of "
                                 f"order {k} at t = {t_nodes[i]:.6g} s (relative degree below {r}): "
                                 f"the design model does not have the paper's structure there",
                                 time=float(t_nodes[i]),
-                                variable=INTEGRAL_NAMES[p],
+                                variable=f"I{p + 1}",
                             )
                 if k == r:
                     G[:, row] = np.einsum("Na,Nam->Nm", R, Bs)
@@ -436,7 +468,7 @@ def _place(A: np.ndarray, B: np.ndarray, n_x: int, degrees, polys, stages, t_nod
             if np.any(bad):
                 i = int(np.flatnonzero(bad)[0])
                 raise DomainError(
-                    f"decoupling matrix of {', '.join(INTEGRAL_NAMES[p] for p in outs)} singular at "
+                    f"decoupling matrix of {', '.join(f'I{p + 1}' for p in outs)} singular at "
                     f"t = {t_nodes[i]:.6g} s (condition number {cond[i]:.3g}): these inputs cannot "
                     f"steer these integrals independently there",
                     time=float(t_nodes[i]),
@@ -465,68 +497,87 @@ def _gain_series(A: np.ndarray, B: np.ndarray, n_x: int, degrees, polys, stages,
     return gains
 
 
-def design(plan: Plan, lambdas, *, j: int = -1) -> TrackingDesign:
+def design(plan, lambdas, *, j: int = -1) -> TrackingDesign:
     """Frozen-time gains at every node of a plan, as series of order 1 (see module notes).
+
+    The design model (:func:`linearize` ``model="design"``) is augmented with the integrals of the
+    model's :attr:`~planners.chained.StateSpaceModel.integrands`, and the gains place the poles of
+    each integral at ``-lambda`` by sequential input-output decoupling
+    (:attr:`~planners.chained.StateSpaceModel.stages`), frozen at every node.
 
     Parameters
     ----------
-    plan : Plan
-        Flat output beta, mu or F; the rudder may be fixed (eta is then the fourth input).
+    plan : Plan or planners.chained.ChainedPlan
+        An aircraft plan (flat output beta, mu or F; the rudder may be fixed, eta is then the fourth
+        input), or a plan of a chained system with an explicit model.
     lambdas : list of list of float, or float
-        Positive pole magnitudes, one list per integral: lengths (3, 5, 5, 3),
-        or (5, 5, 5) with the thrust output; one number sets them all [1/s].
+        Positive pole magnitudes, one list per integral, of the lengths of the model's relative
+        degrees: (3, 5, 5, 3), or (5, 5, 5) with the thrust output, for the aircraft; one number sets
+        them all [1/s].
     j : int
         Plan iterate linearized about (and tracked).
 
     Returns
     -------
     TrackingDesign
+        Augmented matrices ``A`` (N, n, n, K), ``B`` (N, n, m, K), gains ``K`` (N, m, n, K) with
+        ``n = n_x + n_I`` and the model's feedback inputs.
 
     Raises
     ------
     InputError
-        Bad lambdas, unsupported flat output, iterate not in the plan.
+        Bad lambdas, no explicit model or an unsupported flat output, iterate not in the plan.
     DomainError
-        A node where the decoupling matrix is singular (time and condition number named).
+        A node where an integral's relative degree is below the model's, or the decoupling matrix is
+        singular (time and condition number named).
     """
-    integrals, degrees, inputs, stages, zeta = _structure(plan)
+    ssm = plan_model(plan)
+    degrees = tuple(ssm.degrees)
     lam = _check_lambdas(lambdas, degrees)
     lin = linearize(plan, j, model="design", order=1)
-    N, K = len(plan.t_nodes), lin.order + 1
-    n_i = len(integrals)
-    n = 12 + n_i
+    N, K, n_x, n_i = len(plan.t_nodes), lin.order + 1, len(ssm.states), len(degrees)
+    n = n_x + n_i
     sol = plan.iterates[lin.iterate]
-    chi = sol.series["chi"].truncate(K - 1)
-    c, s_ = (np.broadcast_to(np.real(np.asarray(v.coeffs)), (N, K)) for v in (np.cos(chi), np.sin(chi)))
+    ref = {name: v.truncate(min(v.order, K - 1)) for name, v in sol.items()}
     A = np.zeros((N, n, n, K))
-    A[:, :12, :12] = lin.A
-    # Integrands: I1' = cos(chi~) dx + sin(chi~) dy, I2' = -sin dx + cos dy, I3' = dz, I4' = d(zeta).
-    A[:, 12, 0], A[:, 12, 1] = c, s_
-    A[:, 13, 0], A[:, 13, 1] = -s_, c
-    A[:, 14, 2, 0] = 1.0
-    if zeta is not None:
-        A[:, 15, STATE_NAMES.index(zeta), 0] = 1.0
-    cols = [CONTROL_NAMES.index(u) for u in inputs]
+    A[:, :n_x, :n_x] = lin.A
+    for p, row in enumerate(ssm.integrands(ref)):
+        for b, c in enumerate(row):
+            if isinstance(c, Series):
+                cf = np.broadcast_to(np.real(np.asarray(c.coeffs)), (N, c.order + 1))[:, :K]
+                A[:, n_x + p, b, : cf.shape[1]] = cf
+            else:
+                A[:, n_x + p, b, 0] = float(np.real(c))
+    inputs = tuple(ssm.controls if ssm.inputs is None else ssm.inputs)
     B = np.zeros((N, n, len(inputs), K))
-    B[:, :12] = lin.B[:, :, cols]
+    B[:, :n_x] = lin.B[:, :, [ssm.controls.index(u) for u in inputs]]
     polys = [np.poly(-np.asarray(row))[::-1].real for row in lam]  # increasing powers, monic
-    t = plan.t_nodes
-    gains = _gain_series(A, B, 12, degrees, polys, stages, t)
+    gains = _gain_series(A, B, n_x, degrees, polys, ssm.stages, plan.t_nodes)
     return TrackingDesign(
-        np.asarray(t, dtype=float), A, B, gains, inputs, integrals, degrees, lam, polys, stages, lin.iterate
+        np.asarray(plan.t_nodes, dtype=float),
+        A,
+        B,
+        gains,
+        inputs,
+        tuple(f"I{p + 1}" for p in range(n_i)),
+        degrees,
+        lam,
+        polys,
+        tuple(ssm.stages),
+        lin.iterate,
     )
 
 
-def closed_loop_matrix(plan: Plan, des: TrackingDesign, model: str = "full") -> np.ndarray:
+def closed_loop_matrix(plan, des: TrackingDesign, model: str = "full") -> np.ndarray:
     """Frozen-time augmented closed loop at the nodes with the design's gains, on either linearization.
 
     Parameters
     ----------
-    plan : Plan
+    plan : Plan or planners.chained.ChainedPlan
     des : TrackingDesign
     model : {"full", "design"}
         ``"design"`` reproduces :meth:`TrackingDesign.closed_loop`; ``"full"``
-        puts the full model's Jacobians in place of the design model's.
+        puts the exact model's Jacobians in place of the design model's.
 
     Returns
     -------
@@ -534,11 +585,13 @@ def closed_loop_matrix(plan: Plan, des: TrackingDesign, model: str = "full") -> 
     """
     if model == "design":
         return des.closed_loop()
+    ssm = plan_model(plan)
+    n_x = len(ssm.states)
     lin = linearize(plan, des.iterate, model="full", order=0)
     A = des.A[..., 0].copy()
-    A[:, :12, :12] = lin.A[..., 0]
+    A[:, :n_x, :n_x] = lin.A[..., 0]
     B = np.zeros_like(des.B[..., 0])
-    B[:, :12] = lin.B[:, :, [CONTROL_NAMES.index(u) for u in des.inputs], 0]
+    B[:, :n_x] = lin.B[:, :, [ssm.controls.index(u) for u in des.inputs], 0]
     return A + np.einsum("Nam,Nmb->Nab", B, des.K[..., 0])
 
 
@@ -548,24 +601,16 @@ def closed_loop_matrix(plan: Plan, des: TrackingDesign, model: str = "full") -> 
 
 
 def _two_sided(coeffs: np.ndarray, t_nodes: np.ndarray) -> np.ndarray:
-    """Per-interval polynomial (in ``tau = t - t_i``) of the paper's two-sided formula.
+    """Per-interval polynomial (in ``tau = t - t_i``) of the paper's two-sided formula
+    (:func:`planners.plan.interval_coefficients` ``"paper"``).
 
     ``coeffs`` (N, ..., K): series at the nodes.  Returns (N - 1, ..., K + 1) with
     ``P_i(tau) = [(h - tau) s_i(tau) + tau s_{i+1}(tau - h)] / h``.
     """
     N, K = coeffs.shape[0], coeffs.shape[-1]
-    h = np.diff(t_nodes).reshape((N - 1,) + (1,) * (coeffs.ndim - 1))
-    si, sj = coeffs[:-1], coeffs[1:]
-    # s_{i+1}(tau - h) re-expanded in powers of tau: b_m = sum_{k >= m} C(k, m) c_k (-h)^(k - m).
-    sj_shift = np.zeros_like(sj)
-    for m in range(K):
-        for k in range(m, K):
-            sj_shift[..., m] += math.comb(k, m) * sj[..., k] * (-h[..., 0]) ** (k - m)
-    out = np.zeros(si.shape[:-1] + (K + 1,))
-    out[..., :K] += si  # h s_i / h
-    out[..., 1:] -= si / h  # -tau s_i / h
-    out[..., 1:] += sj_shift / h  # tau s_j(tau - h) / h
-    return out
+    flat = coeffs.reshape(N, -1, K)
+    out = interval_coefficients(flat[:-1], flat[1:], np.diff(np.asarray(t_nodes, dtype=float)), "paper")
+    return out.reshape((N - 1,) + coeffs.shape[1:-1] + (K + 1,))
 
 
 # --------------------------------------------------------------------------------------------
@@ -575,7 +620,7 @@ def _two_sided(coeffs: np.ndarray, t_nodes: np.ndarray) -> np.ndarray:
 
 @dataclass
 class TrackingController:
-    """The paper's tracking feedback as a :class:`gna.controller.Controller` (picklable, no closures).
+    """The paper's tracking feedback as a :class:`gna.controller.Controller` (an aircraft's: picklable, no closures).
 
     Built by :func:`tracking_controller`.  States: the integrals ``I1..I4``
     (``I1..I3`` with the thrust output).  Output: the correction
@@ -584,25 +629,32 @@ class TrackingController:
     Attributes
     ----------
     t_nodes : ndarray, shape (N,)
-    reference_poly : ndarray, shape (N - 1, 17, Kr)
-        Per-interval polynomials (in ``t - t_i``) of the 12 states and 5 controls of the feedforward iterate.
-    gain_poly : ndarray, shape (N - 1, 5, n, Kg)
-        Per-interval polynomials of the gains mapped onto the 5 controls (zero rows for non-inputs).
+    reference_poly : ndarray, shape (N - 1, n_x + n_u, Kr)
+        Per-interval polynomials (in ``t - t_i``) of the model's states and controls of the feedforward
+        iterate (the aircraft's 12 states and 5 controls).
+    gain_poly : ndarray, shape (N - 1, n_u, n, Kg)
+        Per-interval polynomials of the gains mapped onto the controls (zero rows for non-inputs).
     zeta_index : int
-        State index of zeta (7 for beta, 8 for mu), -1 with the thrust output.
-    lower, upper : ndarray, shape (5,)
+        Aircraft: state index of zeta (7 for beta, 8 for mu), -1 with the thrust output.
+    lower, upper : ndarray, shape (n_u,)
         Limits of the applied controls (``-inf``/``inf`` where none).
     saturate : bool
     state_names : tuple of str
-    windup_mask : ndarray of bool, shape (n_states, 5)
+    windup_mask : ndarray of bool, shape (n_states, n_u)
         ``windup_mask[p, k]``: integral p is frozen while control k is held at a limit
         (the inputs of the integral's decoupling stage).
     anti_windup : bool
-        Conditional integration of the integrals while saturated (only with ``saturate``).
     inputs : tuple of str
     lambdas : tuple
     feedforward_iterate : int
     n_states : int
+    model_states, model_controls : tuple of str
+        The model's variables (default the aircraft's :data:`gna.eom.STATE_NAMES`, :data:`gna.eom.CONTROL_NAMES`).
+    angles : ndarray of int
+        Indices of the states whose differences are wrapped into (-pi, pi] (the aircraft's angles).
+    integrands : callable, optional
+        A chained system's :attr:`~planners.chained.StateSpaceModel.integrands`, evaluated on the
+        reference; None: the aircraft's ``I1..I4`` (module notes), computed inline (picklable).
     """
 
     t_nodes: np.ndarray
@@ -619,9 +671,28 @@ class TrackingController:
     n_states: int = field(default=4)
     windup_mask: np.ndarray = field(default_factory=lambda: np.zeros((4, 5), dtype=bool))
     anti_windup: bool = True
-    #: ``(index of each time, reference (M, 17), gains (M, 5, n))`` precomputed at an engine's sample
-    #: times by :meth:`at_times`; ``None`` evaluates the interpolants at every call.
+    #: ``(index of each time, reference (M, n_x + n_u), gains (M, n_u, n))`` precomputed at an engine's
+    #: sample times by :meth:`at_times`; ``None`` evaluates the interpolants at every call.
     samples: tuple | None = field(default=None, repr=False, compare=False)
+    model_states: tuple = STATE_NAMES
+    model_controls: tuple = CONTROL_NAMES
+    angles: np.ndarray = field(default_factory=lambda: _ANGLE_IDX)
+    integrands: Callable | None = field(default=None, repr=False, compare=False)
+
+    def _rates(self, ref: np.ndarray, e: np.ndarray) -> np.ndarray:
+        """The integrands at the reference ``ref`` (n_x + n_u, ...) for the state errors ``e`` (n_x, ...)."""
+        if self.integrands is not None:
+            rows = self.integrands(dict(zip(self.model_states, ref[: len(self.model_states)])))
+            C = np.array([[np.broadcast_to(np.asarray(c, dtype=float), e.shape[1:]) for c in row] for row in rows])
+            return np.einsum("pb...,b...->p...", C, e)
+        if np.ndim(ref) == 1:
+            c, s = math.cos(ref[_CHI]), math.sin(ref[_CHI])
+        else:
+            c, s = np.cos(ref[_CHI]), np.sin(ref[_CHI])
+        rows = [c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2]]
+        if self.zeta_index >= 0:
+            rows.append(e[self.zeta_index])
+        return np.array(rows)
 
     def _locate(self, t: float):
         t0, t1 = self.t_nodes[0], self.t_nodes[-1]
@@ -670,10 +741,10 @@ class TrackingController:
         ndarray, shape (5,) or (5, N)
         """
         if np.ndim(t) == 0:
-            return self.reference(t)[12:]
+            return self.reference(t)[len(self.model_states) :]
         i, tau = self._locate_many(np.asarray(t, dtype=float))
         pw = tau[:, None] ** np.arange(self.reference_poly.shape[-1])
-        return np.einsum("njk,nk->jn", self.reference_poly[i, 12:], pw)
+        return np.einsum("njk,nk->jn", self.reference_poly[i, len(self.model_states) :], pw)
 
     def initial_state(self, t0: float, x0: np.ndarray) -> np.ndarray:
         """Integrals at the start: zero.
@@ -732,16 +803,20 @@ class TrackingController:
     def _evaluate(self, t: float, x: np.ndarray, xc: np.ndarray):
         """Feedforward, unsaturated feedback, the correction applied and the integrands, from one
         evaluation of the reference and gains."""
-        ref, gain = self._reference_and_gain(t)  # (17,), (5, n)
-        e = np.asarray(x, dtype=float)[:12] - ref[:12]
-        e[_ANGLE_IDX] = (e[_ANGLE_IDX] + math.pi) % _TWO_PI - math.pi
-        du = gain[:, :12] @ e + gain[:, 12:] @ np.asarray(xc, dtype=float)
-        u = ref[12:]
-        c, s = math.cos(ref[_CHI]), math.sin(ref[_CHI])
-        rates = [c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2]]
-        if self.zeta_index >= 0:
-            rates.append(e[self.zeta_index])
-        rates = np.array(rates)
+        n_x = len(self.model_states)
+        ref, gain = self._reference_and_gain(t)  # (n_x + n_u,), (n_u, n)
+        e = np.asarray(x, dtype=float)[:n_x] - ref[:n_x]
+        e[self.angles] = (e[self.angles] + math.pi) % _TWO_PI - math.pi
+        du = gain[:, :n_x] @ e + gain[:, n_x:] @ np.asarray(xc, dtype=float)
+        u = ref[n_x:]
+        if self.integrands is None:  # the aircraft's, inline: the engines call this at every step
+            c, s = math.cos(ref[_CHI]), math.sin(ref[_CHI])
+            rates = [c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2]]
+            if self.zeta_index >= 0:
+                rates.append(e[self.zeta_index])
+            rates = np.array(rates)
+        else:
+            rates = self._rates(ref, e)
         if not self.saturate:
             return u, du, du, rates
         total = u + du
@@ -855,26 +930,23 @@ class TrackingController:
         """
         X = np.asarray(X, dtype=float)
         XC = np.asarray(XC, dtype=float)
+        n_x = len(self.model_states)
         if np.ndim(t) == 0:
             ref, gain = self._reference_and_gain(float(t))
             ref = ref[:, None]
-            e = X[:12] - ref[:12]
-            e[_ANGLE_IDX] = (e[_ANGLE_IDX] + math.pi) % _TWO_PI - math.pi
-            du = gain[:, :12] @ e + gain[:, 12:] @ XC
-            c, s = math.cos(ref[_CHI, 0]), math.sin(ref[_CHI, 0])
+            e = X[:n_x] - ref[:n_x]
+            e[self.angles] = (e[self.angles] + math.pi) % _TWO_PI - math.pi
+            du = gain[:, :n_x] @ e + gain[:, n_x:] @ XC
+            rates = self._rates(ref[:, 0], e) if self.integrands is None else self._rates(ref, e)
         else:
             i, tau = self._locate_many(np.asarray(t, dtype=float))
-            ref = _horner(self.reference_poly[i], tau[:, None]).T  # (17, n)
-            gain = _horner(self.gain_poly[i], tau[:, None, None])  # (n, 5, 12 + n_states)
-            e = X[:12] - ref[:12]
-            e[_ANGLE_IDX] = (e[_ANGLE_IDX] + math.pi) % _TWO_PI - math.pi
+            ref = _horner(self.reference_poly[i], tau[:, None]).T  # (n_x + n_u, n)
+            gain = _horner(self.gain_poly[i], tau[:, None, None])  # (n, n_u, n_x + n_states)
+            e = X[:n_x] - ref[:n_x]
+            e[self.angles] = (e[self.angles] + math.pi) % _TWO_PI - math.pi
             du = (gain @ np.concatenate([e, XC]).T[:, :, None])[:, :, 0].T
-            c, s = np.cos(ref[_CHI]), np.sin(ref[_CHI])
-        u = ref[12:]
-        rows = [c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2]]
-        if self.zeta_index >= 0:
-            rows.append(e[self.zeta_index])
-        rates = np.array(rows)
+            rates = self._rates(ref, e)
+        u = ref[n_x:]
         if self.saturate:
             total = u + du
             held = (total < self.lower[:, None]) | (total > self.upper[:, None])
@@ -917,14 +989,14 @@ class TrackingController:
             controller_states = df[list(self.state_names)].to_numpy(dtype=float)
         xc = np.asarray(controller_states, dtype=float).reshape(len(df), self.n_states)
         t = df.index.to_numpy(dtype=float)
-        X = df[list(STATE_NAMES)].to_numpy(dtype=float)
-        out_of = np.zeros((len(t), 5), dtype=bool)
+        X = df[list(self.model_states)].to_numpy(dtype=float)
+        out_of = np.zeros((len(t), len(self.model_controls)), dtype=bool)
         for k in range(len(t)):
             u, du = self.commanded(t[k], X[k], xc[k])
             tot = u + du
             out_of[k] = (tot < self.lower) | (tot > self.upper)
         dt = np.diff(t, append=t[-1]) if len(t) else t
-        res = {name: float(np.sum(dt[out_of[:, i]])) for i, name in enumerate(CONTROL_NAMES)}
+        res = {name: float(np.sum(dt[out_of[:, i]])) for i, name in enumerate(self.model_controls)}
         res["any"] = float(np.sum(dt[np.any(out_of, axis=1)]))
         return res
 
@@ -943,16 +1015,17 @@ def _horner(coeffs: np.ndarray, tau: np.ndarray) -> np.ndarray:
 
 
 def tracking_controller(
-    plan: Plan, lambdas, *, feedforward_iterate: int = -1, saturate: bool = True, anti_windup: bool = True
+    plan, lambdas, *, feedforward_iterate: int = -1, saturate: bool = True, anti_windup: bool = True
 ) -> TrackingController:
-    """The paper's tracking feedback for a plan.
+    """The paper's tracking feedback for a plan (:func:`design`), ready to fly.
 
     Parameters
     ----------
-    plan : Plan
-        Flat output beta, mu or F; eta as fourth control when the rudder is fixed.
+    plan : Plan or planners.chained.ChainedPlan
+        An aircraft plan (flat output beta, mu or F; eta as fourth control when the rudder is
+        fixed), or a plan of a chained system with an explicit model.
     lambdas : list of list of float, or float
-        Positive pole magnitudes [1/s], one list per integral ``I1..I4``
+        Positive pole magnitudes [1/s], one list per integral: for the aircraft ``I1..I4``
         (lengths 3, 5, 5, 3; or 5, 5, 5 for ``I1..I3`` with the thrust output),
         e.g. :func:`paper_lambdas`.  The closed loop obeys ``prod (d/dt + lambda) I_p = 0``.
     feedforward_iterate : int
@@ -960,9 +1033,10 @@ def tracking_controller(
         reference (default the last; 0 = the flat plan, the paper's dark-blue curve).
         The gains are designed about the same iterate.
     saturate : bool
-        Clip the applied controls at the aircraft's surface limits
+        Aircraft: clip the applied controls at the aircraft's surface limits
         (``aircraft.envelope.control_limits``), the thrust range
-        ``0 .. propulsion.max_thrust`` and ``|eta| <= 1`` for two engines.
+        ``0 .. propulsion.max_thrust`` and ``|eta| <= 1`` for two engines (a chained system's
+        controls have no limits).
     anti_windup : bool
         With ``saturate``: the integrals of a decoupling stage (I1 with F; I2..I4
         with the surfaces) stop integrating while one of that stage's inputs is
@@ -971,41 +1045,55 @@ def tracking_controller(
     Returns
     -------
     TrackingController
+        Reference and feedforward between nodes by the plan's own formula (an aircraft plan's
+        :attr:`~planners.plan.Plan.interpolation`; a chained plan's two-sided formula), gains by the
+        two-sided formula.
 
     Raises
     ------
     InputError
-        Bad lambdas, unsupported flat output, iterate not in the plan.
+        Bad lambdas, no explicit model or an unsupported flat output, iterate not in the plan.
     DomainError
         A node where the decoupling matrix is singular.
     """
+    ssm = plan_model(plan)
     des = design(plan, lambdas, j=feedforward_iterate)
     j = des.iterate
-    names = STATE_NAMES + CONTROL_NAMES
-    N = len(plan.t_nodes)
-    # The feedforward is the plan's own states and controls between nodes (its interpolation formula).
-    reference_poly = plan._coefficients(names, j)
-    n = des.n
-    gains5 = np.zeros((N, 5, n, des.K.shape[-1]))
+    states, controls = tuple(ssm.states), tuple(ssm.controls)
+    names = states + controls
+    N, n_u = len(plan.t_nodes), len(controls)
+    aircraft = isinstance(plan, Plan)
+    if aircraft:  # the feedforward is the plan's own states and controls between nodes (its interpolation formula)
+        reference_poly = plan._coefficients(names, j)
+    else:
+        sol = plan.iterates[j]
+        series = np.zeros((N, len(names), max(sol[n].order for n in names) + 1))
+        for v, n in enumerate(names):
+            c = np.broadcast_to(np.real(np.asarray(sol[n].coeffs)), (N, sol[n].order + 1))
+            series[:, v, : c.shape[1]] = c
+        reference_poly = _two_sided(series, plan.t_nodes)
+    gains = np.zeros((N, n_u, des.n, des.K.shape[-1]))
     for k, u in enumerate(des.inputs):
-        gains5[:, CONTROL_NAMES.index(u)] = des.K[:, k]
-    gain_poly = _two_sided(gains5, plan.t_nodes)
-    ac = plan.aircraft
-    lower, upper = np.full(5, -np.inf), np.full(5, np.inf)
-    for name, lim in ac.envelope.control_limits.items():
-        if name in CONTROL_NAMES:
-            lower[CONTROL_NAMES.index(name)], upper[CONTROL_NAMES.index(name)] = -lim, lim
-    lower[0] = 0.0
-    if ac.propulsion.max_thrust is not None:
-        upper[0] = ac.propulsion.max_thrust
-    if ac.propulsion.count == 2:
-        lower[1], upper[1] = -1.0, 1.0
-    zeta = plan.problem.zeta.kind
-    zeta_index = STATE_NAMES.index(zeta) if zeta in ("beta", "mu") else -1
-    mask = np.zeros((len(des.integrals), 5), dtype=bool)
+        gains[:, controls.index(u)] = des.K[:, k]
+    gain_poly = _two_sided(gains, plan.t_nodes)
+    lower, upper = np.full(n_u, -np.inf), np.full(n_u, np.inf)
+    zeta_index = -1
+    if aircraft:
+        ac = plan.aircraft
+        for name, lim in ac.envelope.control_limits.items():
+            if name in CONTROL_NAMES:
+                lower[CONTROL_NAMES.index(name)], upper[CONTROL_NAMES.index(name)] = -lim, lim
+        lower[0] = 0.0
+        if ac.propulsion.max_thrust is not None:
+            upper[0] = ac.propulsion.max_thrust
+        if ac.propulsion.count == 2:
+            lower[1], upper[1] = -1.0, 1.0
+        zeta = plan.problem.zeta.kind
+        zeta_index = STATE_NAMES.index(zeta) if zeta in ("beta", "mu") else -1
+    mask = np.zeros((len(des.integrals), n_u), dtype=bool)
     for outs, cols in des.stages:
         for p in outs:
-            mask[p, [CONTROL_NAMES.index(des.inputs[k]) for k in cols]] = True
+            mask[p, [controls.index(des.inputs[k]) for k in cols]] = True
     return TrackingController(
         np.asarray(plan.t_nodes, dtype=float),
         reference_poly,
@@ -1013,7 +1101,7 @@ def tracking_controller(
         zeta_index,
         lower,
         upper,
-        bool(saturate),
+        bool(saturate) and aircraft,
         des.integrals,
         des.inputs,
         des.lambdas,
@@ -1021,320 +1109,65 @@ def tracking_controller(
         len(des.integrals),
         mask,
         bool(anti_windup),
+        model_states=states,
+        model_controls=controls,
+        angles=_ANGLE_IDX if aircraft else np.zeros(0, dtype=int),
+        integrands=None if aircraft else ssm.integrands,
     )
 
 
-# --------------------------------------------------------------------------------------------
-# Tracking on a chained system (planners.chained)
-# --------------------------------------------------------------------------------------------
+def simulate_closed_loop(plan, controller: TrackingController, x0, t_eval, rtol: float = 1e-9, atol: float = 1e-9):
+    """Fly a chained system's exact model (``rhs(x, u, None)`` of :func:`plan_model`) in closed loop, DOP853.
 
-
-def _chained_model(plan):
-    model = plan.system.model
-    if model is None:
-        raise InputError(
-            f"{plan.system.name}: the system gives no explicit model (ChainedSystem.model) to "
-            f"design a tracking feedback on"
-        )
-    return model
-
-
-def linearize_chained(plan, j: int = -1, *, model: str = "design", order: int = 1) -> Linearization:
-    """Jacobians of a chained system's explicit model along a plan, as series at the nodes.
-
-    The generic form of :func:`linearize`: one complex step on the plan's series of the states and
-    controls of :attr:`planners.chained.ChainedSystem.model`.
+    The aircraft flies in the engines (:mod:`harness.engines`, ``controller=``); this is the same loop
+    for the other systems: ``x' = f(x, u~(t) + output)``, integrals from 0 with the controller's
+    integrands.
 
     Parameters
     ----------
-    plan : planners.chained.ChainedPlan
-        A plan of a system with an explicit model.
-    j : int
-        Iterate (default: the last).
-    model : {"design", "full"}
-        ``"design"``: the neglected terms H frozen at the plan's own values (the model the plan
-        solves); ``"full"``: the exact model.
-    order : int
-        Requested order of the series (lowered to the lowest order the iterate carries).
+    plan : planners.chained.ChainedPlan or Plan
+        The plan whose model is flown.
+    controller : TrackingController
+        :func:`tracking_controller` of that plan.
+    x0 : array, shape (n_x,)
+        Initial state (e.g. the plan's, perturbed).
+    t_eval : array, shape (M,)
+        Output times [s], increasing, within the plan, the first the initial time.
+    rtol, atol : float
+        Integrator tolerances.
 
     Returns
     -------
-    Linearization
-        ``A`` (N, n_x, n_x, K) and ``B`` (N, n_x, n_u, K), in the model's state and control order.
+    X : ndarray, shape (M, n_x)
+        States.
+    U : ndarray, shape (M, n_u)
+        Applied controls.
 
     Raises
     ------
-    InputError
-        No explicit model, unknown model kind, negative order or iterate not in the plan.
+    ConvergenceError
+        The integrator failed.
     """
-    ssm = _chained_model(plan)
-    _check_linearization(plan, model, order, j)
-    sol = plan.iterates[j]
-    names = tuple(ssm.states) + tuple(ssm.controls)
-    order = int(min(order, min(sol[n].order for n in names)))
-    K, N, n_x = order + 1, len(plan.t_nodes), len(ssm.states)
+    from scipy.integrate import solve_ivp
 
-    def coeffs(name):
-        return np.broadcast_to(np.real(np.asarray(sol[name].coeffs))[..., :K], (N, K))
+    from gna.errors import ConvergenceError
 
-    base = np.stack([coeffs(n) for n in names])
-    hat = {n: Series(coeffs(n)) for n in plan.system.neglected} if model == "design" else None
-    jac = series_jacobian(lambda v: ssm.rhs(v[:n_x], v[n_x:], hat), base)
-    return Linearization(
-        np.asarray(plan.t_nodes, dtype=float),
-        np.ascontiguousarray(jac[:, :, :n_x]),
-        np.ascontiguousarray(jac[:, :, n_x:]),
-        model,
-        j % len(plan.iterates),
-    )
+    rhs = plan_model(plan).rhs
+    t_eval = np.asarray(t_eval, dtype=float)
+    n_x = len(controller.model_states)
 
+    def applied(t, z):
+        du, rates = controller.output_and_derivative(t, z[:n_x], z[n_x:])
+        return controller.controls(t) + du, rates
 
-def design_chained(plan, lambdas, *, j: int = -1) -> TrackingDesign:
-    """The paper's tracking feedback designed on a chained system (frozen-time gains at the nodes).
+    def f(t, z):
+        u, rates = applied(t, z)
+        return np.concatenate([np.asarray(rhs(list(z[:n_x]), list(u), None), dtype=float), rates])
 
-    As :func:`design` for the aircraft: the design model (H frozen along the plan) is augmented with
-    the integrals of the system's :attr:`~planners.chained.StateSpaceModel.integrands`, and the gains
-    place the poles of each integral at ``-lambda`` by sequential input-output decoupling
-    (:attr:`~planners.chained.StateSpaceModel.stages`), frozen at every node, as series of order 1.
-
-    Parameters
-    ----------
-    plan : planners.chained.ChainedPlan
-        A plan of a system with an explicit model.
-    lambdas : list of list of float, or float
-        Positive pole magnitudes [1/s], one list per integral, of the lengths of the model's
-        relative degrees (or one number for all).
-    j : int
-        Iterate linearized about (and tracked).
-
-    Returns
-    -------
-    TrackingDesign
-        Augmented matrices ``A`` (N, n, n, K), ``B``, gains ``K`` (N, m, n, K) with
-        ``n = n_x + n_I``, the model's controls as ``inputs``.
-
-    Raises
-    ------
-    InputError
-        No explicit model, bad lambdas, iterate not in the plan.
-    DomainError
-        A node where an integral's relative degree is below the model's, or the decoupling matrix is
-        singular.
-    """
-    ssm = _chained_model(plan)
-    degrees = tuple(ssm.degrees)
-    lam = _check_lambdas(lambdas, degrees)
-    lin = linearize_chained(plan, j, model="design", order=1)
-    N, K, n_x, n_i = len(plan.t_nodes), lin.order + 1, len(ssm.states), len(degrees)
-    n = n_x + n_i
-    sol = plan.iterates[lin.iterate]
-    ref = {name: s.truncate(min(s.order, K - 1)) for name, s in sol.items()}
-    A = np.zeros((N, n, n, K))
-    A[:, :n_x, :n_x] = lin.A
-    for p, row in enumerate(ssm.integrands(ref)):
-        for b, c in enumerate(row):
-            if isinstance(c, Series):
-                cf = np.broadcast_to(np.real(np.asarray(c.coeffs)), (N, c.order + 1))[:, :K]
-                A[:, n_x + p, b, : cf.shape[1]] = cf
-            else:
-                A[:, n_x + p, b, 0] = float(np.real(c))
-    B = np.zeros((N, n, len(ssm.controls), K))
-    B[:, :n_x] = lin.B
-    polys = [np.poly(-np.asarray(row))[::-1].real for row in lam]
-    gains = _gain_series(A, B, n_x, degrees, polys, ssm.stages, plan.t_nodes)
-    names = tuple(f"I{p + 1}" for p in range(n_i))
-    return TrackingDesign(
-        np.asarray(plan.t_nodes, dtype=float),
-        A,
-        B,
-        gains,
-        tuple(ssm.controls),
-        names,
-        degrees,
-        lam,
-        polys,
-        tuple(ssm.stages),
-        lin.iterate,
-    )
-
-
-@dataclass
-class ChainedTracking:
-    """The tracking feedback of a chained-system plan: ``u = u~(t) + K(t) [x - x~(t); I]``, ``I' = C(t) (x - x~(t))``.
-
-    Built by :func:`chained_tracking`.  Reference, feedforward and gains between the nodes by the
-    plan's two-sided formula (as :class:`TrackingController`).
-
-    Attributes
-    ----------
-    design : TrackingDesign
-        Gains at the nodes.
-    t_nodes : ndarray, shape (N,)
-        Nodes [s].
-    states, controls : tuple of str
-        The model's variables.
-    reference_poly : ndarray, shape (N - 1, n_x + n_u, K + 1)
-        Per-interval polynomials of the reference states and feedforward controls.
-    gain_poly : ndarray, shape (N - 1, n_u, n, K + 1)
-        Per-interval polynomials of the gains.
-    rhs : callable
-        The exact model ``rhs(x, u, None)``.
-    integrands : callable
-        The model's integrands.
-    """
-
-    design: TrackingDesign
-    t_nodes: np.ndarray
-    states: tuple
-    controls: tuple
-    reference_poly: np.ndarray
-    gain_poly: np.ndarray
-    rhs: Callable
-    integrands: Callable
-
-    def _interval(self, t: float):
-        i = min(max(bisect.bisect_right(self.t_nodes, t) - 1, 0), len(self.t_nodes) - 2)
-        return i, t - self.t_nodes[i]
-
-    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Reference states and feedforward controls at ``t``.
-
-        Parameters
-        ----------
-        t : float
-            Time [s].
-
-        Returns
-        -------
-        tuple of ndarray
-            ``(x~(t), u~(t))``, shapes (n_x,) and (n_u,).
-        """
-        i, tau = self._interval(t)
-        v = _horner(self.reference_poly[i], tau)
-        return v[: len(self.states)], v[len(self.states) :]
-
-    def controls_at(self, t: float, x: np.ndarray, integrals: np.ndarray) -> np.ndarray:
-        """The applied controls ``u~(t) + K(t) [x - x~(t); I]``.
-
-        Parameters
-        ----------
-        t : float
-            Time [s].
-        x : ndarray, shape (n_x,)
-            State of the system.
-        integrals : ndarray, shape (n_I,)
-            Integral states.
-
-        Returns
-        -------
-        ndarray, shape (n_u,)
-        """
-        xr, ur = self.reference(t)
-        i, tau = self._interval(t)
-        return ur + _horner(self.gain_poly[i], tau) @ np.concatenate([x - xr, integrals])
-
-    def closed_loop_rhs(self, t: float, z: np.ndarray) -> np.ndarray:
-        """Right-hand side of the exact model in closed loop, state ``z = (x, I)``.
-
-        Parameters
-        ----------
-        t : float
-            Time [s].
-        z : ndarray, shape (n_x + n_I,)
-            States then integrals.
-
-        Returns
-        -------
-        ndarray, shape (n_x + n_I,)
-        """
-        n_x = len(self.states)
-        x, integrals = z[:n_x], z[n_x:]
-        xr, _ = self.reference(t)
-        u = self.controls_at(t, x, integrals)
-        C = np.array(self.integrands(dict(zip(self.states, xr))), dtype=float)
-        return np.concatenate([np.asarray(self.rhs(list(x), list(u), None), dtype=float), C @ (x - xr)])
-
-    def simulate(self, x0, t_eval, rtol: float = 1e-9, atol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
-        """Fly the exact model in closed loop from ``x0`` (integrals starting at 0), DOP853.
-
-        Parameters
-        ----------
-        x0 : array, shape (n_x,)
-            Initial state (e.g. the plan's, perturbed).
-        t_eval : array, shape (M,)
-            Output times [s], increasing, within the plan, the first the initial time.
-        rtol, atol : float
-            Integrator tolerances.
-
-        Returns
-        -------
-        X : ndarray, shape (M, n_x)
-            States.
-        U : ndarray, shape (M, n_u)
-            Applied controls.
-
-        Raises
-        ------
-        ConvergenceError
-            The integrator failed.
-        """
-        from scipy.integrate import solve_ivp
-
-        from gna.errors import ConvergenceError
-
-        t_eval = np.asarray(t_eval, dtype=float)
-        n_x = len(self.states)
-        z0 = np.concatenate([np.asarray(x0, dtype=float), np.zeros(len(self.design.integrals))])
-        sol = solve_ivp(
-            self.closed_loop_rhs, (t_eval[0], t_eval[-1]), z0, t_eval=t_eval, method="DOP853", rtol=rtol, atol=atol
-        )
-        if not sol.success:
-            raise ConvergenceError(f"closed-loop simulation failed at t = {sol.t[-1]:.6g} s: {sol.message}")
-        Z = sol.y.T
-        U = np.array([self.controls_at(t, z[:n_x], z[n_x:]) for t, z in zip(t_eval, Z)])
-        return Z[:, :n_x], U
-
-
-def chained_tracking(plan, lambdas, *, j: int = -1) -> ChainedTracking:
-    """The tracking feedback of a chained-system plan (:func:`design_chained`), ready to simulate.
-
-    Parameters
-    ----------
-    plan : planners.chained.ChainedPlan
-        A plan of a system with an explicit model.
-    lambdas : list of list of float, or float
-        Positive pole magnitudes [1/s] (see :func:`design_chained`).
-    j : int
-        Iterate tracked (its states the reference, its controls the feedforward).
-
-    Returns
-    -------
-    ChainedTracking
-
-    Raises
-    ------
-    InputError
-        No explicit model, bad lambdas, iterate not in the plan.
-    DomainError
-        See :func:`design_chained`.
-    """
-    des = design_chained(plan, lambdas, j=j)
-    ssm = plan.system.model
-    sol = plan.iterates[des.iterate]
-    names = tuple(ssm.states) + tuple(ssm.controls)
-    N = len(plan.t_nodes)
-    Kr = max(sol[n].order for n in names) + 1
-    series = np.zeros((N, len(names), Kr))
-    for v, n in enumerate(names):
-        c = np.broadcast_to(np.real(np.asarray(sol[n].coeffs)), (N, sol[n].order + 1))
-        series[:, v, : c.shape[1]] = c
-    return ChainedTracking(
-        des,
-        np.asarray(plan.t_nodes, dtype=float),
-        tuple(ssm.states),
-        tuple(ssm.controls),
-        _two_sided(series, plan.t_nodes),
-        _two_sided(des.K, plan.t_nodes),
-        ssm.rhs,
-        ssm.integrands,
-    )
+    z0 = np.concatenate([np.asarray(x0, dtype=float), controller.initial_state(t_eval[0], x0)])
+    sol = solve_ivp(f, (t_eval[0], t_eval[-1]), z0, t_eval=t_eval, method="DOP853", rtol=rtol, atol=atol)
+    if not sol.success:
+        raise ConvergenceError(f"closed-loop simulation failed at t = {sol.t[-1]:.6g} s: {sol.message}")
+    Z = sol.y.T
+    U = np.array([applied(t, z)[0] for t, z in zip(t_eval, Z)])
+    return Z[:, :n_x], U

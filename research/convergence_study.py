@@ -362,7 +362,8 @@ NOTES = """\
 
 def chained_section() -> str:
     """The generic almost chained system API on the paper's x' = y + eps y' (planners.chained)."""
-    from planners.chained import ChainedSystem, Stage, generalized_parametrization, newton_parametrization
+    from planners.chained import ChainedSystem, Stage, generalized_parametrization
+    from planners.generalized_newton import newton_parametrization
     from planners.systems import first_order_lag, lag_reference
 
     eps, w = 0.1, 1.0
@@ -407,7 +408,8 @@ def chained_section() -> str:
 
 def car_section() -> str:
     """The car with two off-axle trailers: open-loop error of the exact model per iterate."""
-    from planners.chained import generalized_parametrization, newton_parametrization
+    from planners.chained import generalized_parametrization
+    from planners.generalized_newton import newton_parametrization
     from planners.systems import CarTrailers, car_two_trailers, simulate_car_two_trailers
 
     g = CarTrailers()
@@ -446,11 +448,11 @@ def car_section() -> str:
         "`planners.systems.scenario`: `system`, `[parameters]`, `[constants]`, `[time]`, `[flat_outputs]`, "
         "`[generalized]` J, e, method; `planners.systems.demos`: the plan, its check against the exact "
         "reference, `plan.csv` and `summary.json`).  Python API: "
-        "`planners.chained.generalized_parametrization` / `newton_parametrization` with "
-        "`planners.systems.SYSTEMS`.  The aircraft is the instance `planners.systems.aircraft_system(problem)` "
-        "(r = 4, Z_1 = {x, y, z}, Z_3 = {zeta}, H = H_2(p, q, r, dl, dm, dn)), on which the generic planner "
-        "reproduces `planners.generalized.plan_motion` to the last bit; the tracking feedback runs on a "
-        "chained system's explicit model (`planners.tracking.chained_tracking`, docs/tracking.md).\n"
+        "`planners.chained.generalized_parametrization` / `planners.generalized_newton.newton_parametrization` "
+        "with `planners.systems.SYSTEMS`.  The aircraft is the instance `planners.flat.aircraft_system(problem)` "
+        "(r = 4, Z_1 = {x, y, z}, Z_3 = {zeta}, H = H_2(p, q, r, dl, dm, dn)): `planners.generalized.plan_motion` "
+        "is the generic planner run on it; the tracking feedback (`planners.tracking.tracking_controller`) runs "
+        "on a chained system's explicit model as on the aircraft's (docs/tracking.md).\n"
     )
     return "\n".join(L) + "\n"
 

@@ -7,7 +7,7 @@ their scenario files are read by :mod:`planners.systems.scenario`.
 
 from __future__ import annotations
 
-from .aircraft import aircraft_system
+from ..flat import aircraft_system
 from .car_trailers import CarTrailers, car_two_trailers, simulate_car_two_trailers
 from .first_order_lag import first_order_lag, lag_exact, lag_reference
 

@@ -46,9 +46,10 @@ from gna.catalogue import bundled
 from gna.errors import InputError
 from gna.schema import SAFE_NAME, check_name, did_you_mean, find_file, read_toml, validate
 
-from ..chained import ChainedPlan, ChainedSystem, generalized_parametrization, newton_parametrization
+from ..chained import ChainedPlan, ChainedSystem, generalized_parametrization
 from ..expressions import CONSTANTS, FUNCTIONS, Expression, compile_expression
 from ..flat import check_iterations
+from ..generalized_newton import newton_parametrization
 from ..scenario import _num
 from .car_trailers import CarTrailers, car_two_trailers, open_loop_error
 from .first_order_lag import first_order_lag, lag_exact

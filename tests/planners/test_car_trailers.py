@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planners.chained import generalized_parametrization, newton_parametrization
+from planners.chained import generalized_parametrization
+from planners.generalized_newton import newton_parametrization
 from planners.systems import CarTrailers, car_two_trailers, simulate_car_two_trailers
 
 V, A, W = 5.0, 2.0, 0.5

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 from gna.errors import InputError
-from planners.flat import parametrize
+from planners.chained import flat_parametrization
+from planners.flat import aircraft_system
 from planners.generalized import plan_motion, plan_scenario
-from planners.generalized_newton import _as_h, counted, h_jacobian, pad_h
+from planners.generalized_newton import _hat_dict, _hat_vector, counted, hat_jacobian
 from planners.scenario import load_scenario, scenario_from_dict
 
 from .conftest import WEAVE
@@ -26,23 +27,24 @@ def node_residual(plan, j):
 
 
 def test_series_jacobian_matches_finite_differences(roll):
-    """dG/dH built from the stages' complex-step partials equals central differences of G."""
+    """dG/dH of the aircraft, built from the stages' complex-step partials, equals central differences of G."""
     pb, tn = roll.problem(), roll.t_nodes[::8]
+    system = aircraft_system(pb)
     kappa, nodes = 9, len(tn)
     N = kappa - 2
-    H = pad_h(parametrize(pb, tn, kappa).h_values(), nodes, N)
-    sol = parametrize(pb, tn, kappa, h=_as_h(H))
-    dG = h_jacobian(pb, tn, kappa, sol, H)
-    d = np.random.default_rng(1).standard_normal(H.shape) * 1e-3 / (1 + np.arange(N + 1)) ** 2
+    H = _hat_vector(system, kappa, dict(flat_parametrization(system, tn, kappa)), nodes)  # (nodes, 6 (N + 1))
+    sol = flat_parametrization(system, tn, kappa, hat=_hat_dict(system, kappa, H))
+    dG = hat_jacobian(system, kappa, sol, _hat_dict(system, kappa, H))
+    d = np.random.default_rng(1).standard_normal((nodes, 6, N + 1)) * 1e-3 / (1 + np.arange(N + 1)) ** 2
+    d = d.reshape(nodes, -1)
     eps = 1e-3
-    g = [
-        pad_h(parametrize(pb, tn, kappa, h=_as_h(H + s * eps * d), guess=sol.series).h_values(), nodes, N)
-        for s in (1, -1)
-    ]
-    fd = (g[0] - g[1]) / (2 * eps)
-    lin = np.moveaxis(
-        np.einsum("nij,nj->ni", dG, np.moveaxis(d, 1, 0).reshape(nodes, -1)).reshape(nodes, 6, N + 1), 0, 1
-    )
+
+    def G(x):
+        s = flat_parametrization(system, tn, kappa, hat=_hat_dict(system, kappa, x), guess=sol, carry=False)
+        return _hat_vector(system, kappa, dict(s), nodes)
+
+    fd = (G(H + eps * d) - G(H - eps * d)) / (2 * eps)
+    lin = np.einsum("nij,nj->ni", dG, d)
     assert np.max(np.abs(fd)) > 1e-5
     assert np.max(np.abs(fd - lin)) < 1e-9 * max(1.0, np.max(np.abs(fd)))
     # causality of the order loss: output coefficient k depends on input coefficients <= k + 2 only

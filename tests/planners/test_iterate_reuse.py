@@ -7,7 +7,7 @@ import pickle
 
 import numpy as np
 
-from planners.flat import NodeSolution, parametrize
+from planners.flat import NodeSolution, aircraft_system, parametrize
 from planners.generalized import plan_scenario
 from planners.scenario import load_scenario
 
@@ -53,15 +53,15 @@ def test_later_iterates_reuse_the_previous_jacobian(monkeypatch):
     plan is the one of fresh Jacobians within the Newton tolerance."""
     import importlib
 
-    generalized = importlib.import_module("planners.generalized")
+    chained = importlib.import_module("planners.chained")
     log = _kinds(monkeypatch)
-    original = generalized.parametrize
+    original = chained.flat_parametrization
 
     def marked(*args, **kw):
         log.append(("iterate",))
         return original(*args, **kw)
 
-    monkeypatch.setattr(generalized, "parametrize", marked)
+    monkeypatch.setattr(chained, "flat_parametrization", marked)
     plan = plan_scenario(load_scenario("gtm-aileron-roll"))
     starts = [i for i, e in enumerate(log) if e == ("iterate",)]
     assert len(starts) == plan.J + 1 == 8
@@ -94,4 +94,4 @@ def test_inputs_of_another_problem_are_not_borrowed():
     other = load_scenario("twin-otter-single-engine").problem()
     first = parametrize(sc.problem(), sc.t_nodes, 10)
     sol = parametrize(other, sc.t_nodes, 8, h=first.h_values(), guess=first)
-    assert sol._inputs is not first._inputs and sol._inputs["problem"] is other
+    assert sol._inputs is not first._inputs and sol._inputs["system"] is aircraft_system(other)
