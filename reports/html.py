@@ -1,6 +1,7 @@
 """HTML validation reports rendered with jinja2 from saved case models (``report.json``).
 
-:func:`render_run` renders a run folder: ``index.html`` (a PASS/FAIL table of
+:func:`render_run` renders a run folder (a plain folder: a command renders into its staging folder,
+:class:`harness.rundir.RunDir`, before the run is put in place): ``index.html`` (a PASS/FAIL table of
 every case with links), one ``report.html`` per case folder, optionally a
 self-contained ``report.html`` at the top (every case, images embedded as data
 URIs: one file to mail) and ``report.pdf`` (:mod:`reports.pdf`).  The models
@@ -19,21 +20,14 @@ import os
 from pathlib import Path
 
 from gna.errors import InputError
-from harness.fileio import remove_empty_folders
-from harness.marker import record_in_marker, run_folder
-from harness.outdir import MARKER
-from harness.outguard import previous_run
 
-from .model import REPORT_JSON, load_case_models, read_json_object, run_files, write_text_atomic
+from .model import REPORT_JSON, load_case_models, read_json_object, write_text
 
 #: Page of each case, in its case folder; the run's index and single-file report at the top.
 CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE = "case.html", "index.html", "report.html", "report.pdf"
 
 #: What rendering writes (never listed among a case's data files: a re-rendering must give the same page).
 RENDERED = frozenset((CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE))
-
-#: Mark of the pages rendered here (a page without it is never removed).
-GENERATOR = '<meta name="generator" content="gflat report">'
 
 #: Column headings of the difference tables (others print as named).
 HEADERS = {
@@ -106,28 +100,6 @@ def cell(value, column: str, spec: str | None = None) -> str:
     ):
         return "\u2013"
     return fmt(value, spec)
-
-
-def incomplete_notice(run_dir: str | Path) -> str | None:
-    """What the pages say when the run folder has no completion marker (an interrupted or running run).
-
-    Parameters
-    ----------
-    run_dir : str or Path
-        A run folder, or a case folder inside one (the marker is looked for there and above).
-
-    Returns
-    -------
-    str or None
-        The notice, or None when the run completed.
-    """
-    root = Path(run_dir).resolve()
-    if any((d / MARKER).is_file() for d in (root, *root.parents)):
-        return None
-    return (
-        f"no completion marker {MARKER} in {root}: the run was interrupted (or is still running); "
-        f"cases may be missing or come from an earlier run"
-    )
 
 
 def _environment():
@@ -221,7 +193,7 @@ def render_date() -> str:
 
 
 def _run_context(root: Path, date: str | None):
-    """The run's case models in run order and what every page shows: date, manifest, counts, notice."""
+    """The run's case models in run order and what every page shows: date, manifest, counts."""
     cases = load_case_models(root)
     if not cases:
         raise InputError(
@@ -235,7 +207,7 @@ def _run_context(root: Path, date: str | None):
         "manifest": manifest,
         "n_pass": sum(m["passed"] for _, m in cases),
         "n": len(cases),
-        "incomplete": incomplete_notice(root),
+        "incomplete": None,
     }
 
 
@@ -389,31 +361,14 @@ def document_parts(run_dir: str | Path, parts: int, *, date: str | None = None) 
     ]
 
 
-def _orphan_pages(root: Path) -> list[Path]:
-    """The case pages of an earlier rendering whose case is gone (a rerun flew fewer cases): only pages the run's
-    marker or in-progress record lists (this rendering's or the run's own), never a page the user keeps."""
-    top = run_folder(root.resolve())
-    pages = []
-    for rel in previous_run(top).files:
-        page = top / rel
-        if page.name != CASE_PAGE or not page.resolve().is_relative_to(root.resolve()) or not page.is_file():
-            continue
-        if (
-            not (page.parent / REPORT_JSON).exists()
-            and GENERATOR in page.read_text(encoding="utf-8", errors="replace")[:2000]
-        ):
-            pages.append(page)
-    return pages
-
-
-def _older_than_models(pdf: Path, root: Path) -> bool:
-    """Whether ``pdf`` was printed before some case's saved model (``report.json``) was last written."""
-    stamp = pdf.stat().st_mtime
-    return any(m.stat().st_mtime > stamp for m in run_files(root, REPORT_JSON))
-
-
 def render_run(
-    run_dir: str | Path, *, self_contained: bool = False, pdf: bool = True, date: str | None = None, jobs: int = 1
+    run_dir: str | Path,
+    *,
+    self_contained: bool = False,
+    pdf: bool = True,
+    date: str | None = None,
+    jobs: int = 1,
+    run_all=None,
 ) -> dict[str, Path]:
     """Render a run folder's reports: ``index.html``, a page per case, optionally the single file and the PDF.
 
@@ -428,15 +383,16 @@ def render_run(
     date : str, optional
         Render date printed on every page (default now, UTC).
     jobs : int
-        Worker processes printing the PDF in parts (:func:`document_parts`,
+        Parts the PDF is printed in, concurrently through ``run_all`` (:func:`document_parts`,
         :func:`reports.pdf.write_pdf`); 1 prints it in one piece.
+    run_all : callable, optional
+        ``run_all(callables, jobs)`` -> their results in order (a command gives
+        :func:`harness.parallel.run_all`); default: one after the other here.
 
     Returns
     -------
     dict
-        ``"index"``, ``"pages"`` (list), and ``"single"``/``"pdf"`` when written -> Path;
-        ``"removed_pdf"`` when, without ``pdf``, an earlier ``report.pdf`` older than the saved
-        results (``report.json`` files) was removed as stale; a PDF of the same results is kept.
+        ``"index"``, ``"pages"`` (list), and ``"single"``/``"pdf"`` when written -> Path.
 
     Raises
     ------
@@ -446,12 +402,8 @@ def render_run(
     root = Path(run_dir)
     date = date or render_date()
     docs = render_documents(root, date=date, embed=self_contained)
-    orphans = _orphan_pages(root)
-    for page in orphans:
-        page.unlink()
-        remove_empty_folders(page.parent, root)  # the case folder it leaves empty goes too
     for path, text in docs.items():
-        write_text_atomic(path, text)
+        write_text(path, text)
     out = {"index": root / INDEX_PAGE, "pages": [p for p in docs if p.name == CASE_PAGE]}
     if self_contained:
         out["single"] = root / SINGLE_PAGE
@@ -459,14 +411,5 @@ def render_run(
         from .pdf import can_merge, write_pdf
 
         parts = jobs if jobs > 1 and can_merge() else 1
-        out["pdf"] = write_pdf(document_parts(root, parts, date=date), root, root / PDF_FILE, jobs=parts)
-    elif (root / PDF_FILE).is_file() and _older_than_models(root / PDF_FILE, root):
-        (root / PDF_FILE).unlink()  # printed from results that have been replaced since
-        out["removed_pdf"] = root / PDF_FILE
-    # the pages join the run's files (its marker or in-progress record): the run's command, run again there,
-    # replaces or removes them as its own, and a later rendering removes only pages listed there
-    written = [*docs, *([out["pdf"]] if "pdf" in out else [])]
-    record_in_marker(
-        run_folder(root.resolve()), written, removed=[*orphans, *([out["removed_pdf"]] if "removed_pdf" in out else [])]
-    )
+        out["pdf"] = write_pdf(document_parts(root, parts, date=date), root, root / PDF_FILE, run_all=run_all)
     return out
