@@ -57,6 +57,13 @@ _AT_FDCWD = -100
 
 
 def _cause(exc: OSError) -> str:
+    """The OS error's meaning: "No such file or directory" creating a name in a folder that exists (procfs)
+    means the file system creates nothing there."""
+    name = exc.filename if isinstance(exc.filename, (str, Path)) else None
+    if exc.errno == errno.ENOENT and name is not None and not os.path.islink(name):
+        folder = Path(os.path.abspath(name)).parent
+        if folder.is_dir():
+            return f"{folder} exists, but its file system creates no new files or folders there"
     return exc.strerror or str(exc) or type(exc).__name__
 
 
@@ -423,9 +430,9 @@ class RunDir:
             for f in _files(self.root)
             if f != MANIFEST
         ]
-        now = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
-        record = {"tool": "gflat", "command": self.command, "run_id": uuid.uuid4().hex, "date_utc": now}
+        record = {"tool": "gflat", "command": self.command, "run_id": uuid.uuid4().hex}
         record.update({k: v for k, v in (manifest or {}).items() if k not in ("tool", "command", "run_id", "files")})
+        record.setdefault("date_utc", datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"))
         record["files"] = files
         try:
             (self.root / MANIFEST).write_text(json_text(record, self.out / MANIFEST), encoding="utf-8")
@@ -486,7 +493,7 @@ def check_output_file(path: str | Path) -> Path:
     InputError
         ``cannot write <path>: <cause>`` (one line): anything there but a regular file (a device, a pipe, a
         folder, a link to one), a path inside a gflat run's folder (runs are never changed once written), a
-        folder missing or taking no files.
+        folder missing or taking no files (a probe file made and removed there).
     """
     path = Path(path)
     try:
@@ -511,11 +518,12 @@ def check_output_file(path: str | Path) -> Path:
             f"cannot write {path}: {run} is the folder of a gflat run, never changed once written: give a path "
             f"outside it"
         )
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise InputError(f"cannot write {path}: its folder {folder} does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise InputError(f"cannot write {path}: its folder {folder} takes no files (permission denied)")
+    probe = path.with_name(f".{path.name}.gflat-probe-{secrets.token_hex(6)}.tmp")
+    try:  # a file made and removed beside it: what would refuse the file later refuses it now
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        os.unlink(probe)
+    except OSError as exc:
+        raise InputError(f"cannot write {path}: {_cause(exc)}") from None
     return path
 
 

@@ -161,14 +161,21 @@ def _case_view(root: Path, folder: Path, model: dict, page_dir: Path, embed: boo
     }
 
 
-def _manifest(root: Path):
+#: Keys of a run's manifest the pages leave out: the folder's own bookkeeping (its files' checksums include the
+#: pages), so that a page rendered before the run's commit and one rendered again later are the same.
+UNSHOWN = ("tool", "command", "run_id", "files", "rendered_utc")
+
+
+def _manifest(root: Path, given: dict | None):
+    """What the pages show of the run's manifest: ``given``, else ``root/manifest.json`` (when there)."""
     p = root / "manifest.json"
-    if not p.is_file():
-        return None
-    manifest = read_json_object(p, "a gflat run manifest")
-    if not isinstance(manifest.get("cases", []), list):
+    if given is None:
+        if not p.is_file():
+            return None
+        given = read_json_object(p, "a gflat run manifest")
+    if not isinstance(given.get("cases", []), list):
         raise InputError(f"{p}: not a gflat run manifest ('cases' is not a list)")
-    return manifest
+    return {k: v for k, v in given.items() if k not in UNSHOWN}
 
 
 def _run_order(cases: list, manifest) -> list:
@@ -192,7 +199,7 @@ def render_date() -> str:
     return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
 
 
-def _run_context(root: Path, date: str | None):
+def _run_context(root: Path, date: str | None, manifest: dict | None = None):
     """The run's case models in run order and what every page shows: date, manifest, counts."""
     cases = load_case_models(root)
     if not cases:
@@ -200,7 +207,7 @@ def _run_context(root: Path, date: str | None):
             f"no {REPORT_JSON} under {root}: not the output folder of a gflat run "
             f"(gflat paper --out DIR, gflat compare --out DIR)"
         )
-    manifest = _manifest(root)
+    manifest = _manifest(root, manifest)
     cases = _run_order(cases, manifest)
     return cases, {
         "date": date or render_date(),
@@ -211,7 +218,9 @@ def _run_context(root: Path, date: str | None):
     }
 
 
-def render_documents(run_dir: str | Path, *, date: str | None = None, embed: bool = False) -> dict[Path, str]:
+def render_documents(
+    run_dir: str | Path, *, date: str | None = None, embed: bool = False, manifest: dict | None = None
+) -> dict[Path, str]:
     """The HTML documents of a run folder, as text (nothing written).
 
     Parameters
@@ -222,6 +231,9 @@ def render_documents(run_dir: str | Path, *, date: str | None = None, embed: boo
         Render date printed on every page (default now, UTC).
     embed : bool
         Also render the single-file report (every case, images as data URIs).
+    manifest : dict, optional
+        The run's manifest the pages show (default ``run_dir/manifest.json``, when there; its
+        :data:`UNSHOWN` keys are left out).
 
     Returns
     -------
@@ -235,7 +247,7 @@ def render_documents(run_dir: str | Path, *, date: str | None = None, embed: boo
         No ``report.json`` under ``run_dir``.
     """
     root = Path(run_dir)
-    cases, common = _run_context(root, date)
+    cases, common = _run_context(root, date, manifest)
     env = _environment()
     docs = {}
     index_views = [_case_view(root, f, m, root, False) for f, m in cases]
@@ -302,7 +314,9 @@ def _split(costs: list[float], parts: int) -> list[int]:
     return best[1]
 
 
-def document_parts(run_dir: str | Path, parts: int, *, date: str | None = None) -> list[str]:
+def document_parts(
+    run_dir: str | Path, parts: int, *, date: str | None = None, manifest: dict | None = None
+) -> list[str]:
     """:func:`single_document` cut at case boundaries into documents of about equal work, to print separately.
 
     The first part holds the front matter (summary table of every case,
@@ -321,6 +335,8 @@ def document_parts(run_dir: str | Path, parts: int, *, date: str | None = None) 
         Number of documents wanted (fewer when the run has fewer cases).
     date : str, optional
         Render date (default now, UTC).
+    manifest : dict, optional
+        As :func:`render_documents`.
 
     Returns
     -------
@@ -333,7 +349,7 @@ def document_parts(run_dir: str | Path, parts: int, *, date: str | None = None) 
         No ``report.json`` under ``run_dir``.
     """
     root = Path(run_dir)
-    cases, common = _run_context(root, date)
+    cases, common = _run_context(root, date, manifest)
     views = [_case_view(root, f, m, root, False) for f, m in cases]
     template = _environment().get_template("single.html")
     if parts <= 1 or len(views) <= 1:
@@ -369,6 +385,7 @@ def render_run(
     date: str | None = None,
     jobs: int = 1,
     run_all=None,
+    manifest: dict | None = None,
 ) -> dict[str, Path]:
     """Render a run folder's reports: ``index.html``, a page per case, optionally the single file and the PDF.
 
@@ -388,6 +405,9 @@ def render_run(
     run_all : callable, optional
         ``run_all(callables, jobs)`` -> their results in order (a command gives
         :func:`harness.parallel.run_all`); default: one after the other here.
+    manifest : dict, optional
+        The run's manifest the pages show (:func:`render_documents`; a command renders before its commit writes
+        ``manifest.json``).
 
     Returns
     -------
@@ -401,7 +421,7 @@ def render_run(
     """
     root = Path(run_dir)
     date = date or render_date()
-    docs = render_documents(root, date=date, embed=self_contained)
+    docs = render_documents(root, date=date, embed=self_contained, manifest=manifest)
     for path, text in docs.items():
         write_text(path, text)
     out = {"index": root / INDEX_PAGE, "pages": [p for p in docs if p.name == CASE_PAGE]}
@@ -411,5 +431,7 @@ def render_run(
         from .pdf import can_merge, write_pdf
 
         parts = jobs if jobs > 1 and can_merge() else 1
-        out["pdf"] = write_pdf(document_parts(root, parts, date=date), root, root / PDF_FILE, run_all=run_all)
+        out["pdf"] = write_pdf(
+            document_parts(root, parts, date=date, manifest=manifest), root, root / PDF_FILE, run_all=run_all
+        )
     return out

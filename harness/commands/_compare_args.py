@@ -195,4 +195,4 @@ def run_dir(args, *default: str, command: str) -> RunDir:
     :func:`default_out` of ``default``."""
     if args.out is None:
         return default_out(*default, command=command)
-    return RunDir(args.out, command=command, replace=args.replace)
+    return RunDir(args.out, command=command, replace=getattr(args, "replace", False))

@@ -77,8 +77,9 @@ def run(args) -> int:
     with run_dir(args, scenario.name, args.loop, command="compare") as out:
         result = run_case(case, scenario=scenario)
         write_case(result, out.root, csv=args.csv, manifest=False)
-        render_run(out.root, pdf=False)  # the case page and an index of one
-        out.commit(run_manifest([result], command_line=getattr(args, "command_line", None)))
+        record = run_manifest([result], command_line=getattr(args, "command_line", None))
+        render_run(out.root, pdf=False, manifest=record)  # the case page and an index of one
+        out.commit(record)
     verdict = result.verdict()
     if args.json:
         print(json.dumps(json_safe(verdict), indent=2))

@@ -50,6 +50,8 @@ def run(args) -> int:
         raise InputError("give aircraft identifiers or --all, not both")
     if not args.all and not args.aircraft:
         raise InputError("name the aircraft to export, or use --all")
+    if getattr(args, "replace", False) and args.out is None:
+        raise InputError("--replace replaces an --out folder; the repository's aircraft_xml/ is updated file by file")
     crafts = [load_aircraft(n) for n in (list_aircraft() if args.all else args.aircraft)]
     root = args.out if args.out is not None else jf.default_root()
     if args.check:
@@ -67,7 +69,9 @@ def run(args) -> int:
             path.parent.mkdir(parents=True, exist_ok=True)
             print(f"{a.id}: {write_file(path, aircraft_xml(a))}")
         return 0
-    with RunDir(root, command="export-jsbsim", replace=args.replace) as out:  # checked before any export
+    with RunDir(
+        root, command="export-jsbsim", replace=getattr(args, "replace", False)
+    ) as out:  # checked before any export
         for a in crafts:
             out.write_text(a.id, f"{a.id}.xml", text=aircraft_xml(a))  # an id leaving the folder is refused
         out.commit()

@@ -63,7 +63,9 @@ def run(args) -> int:
                 f"--table-dt {args.table_dt:g} s is longer than the plan's node step {sc.step:g} s: "
                 f"the tables' straight lines would replace the plan's controls between its nodes"
             )
-    with RunDir(args.out, command="export-jsbsim-script", replace=args.replace) as out:  # checked before planning
+    with RunDir(
+        args.out, command="export-jsbsim-script", replace=getattr(args, "replace", False)
+    ) as out:  # checked before planning
         plan = plan_scenario(sc)
         if not plan.feasible:
             why = (

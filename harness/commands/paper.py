@@ -282,19 +282,13 @@ def run(args) -> int:
         jobs, log = pool.jobs, pool.log
         pool.close()
         how = "cases flown and written by forked worker processes" if jobs > 1 else "in one process"
-        report = render_run(out.root, jobs=jobs, run_all=run_all)  # HTML and PDF from the saved report.json files
-        out.commit(
-            run_manifest(
-                results,
-                command_line=getattr(args, "command_line", None),
-                execution={
-                    "jobs": jobs,
-                    "how": how,
-                    "planning_s": {sc.name: sc.t_plan for sc in scenarios},
-                    "tasks": log,
-                },
-            )
+        record = run_manifest(
+            results,
+            command_line=getattr(args, "command_line", None),
+            execution={"jobs": jobs, "how": how, "planning_s": {sc.name: sc.t_plan for sc in scenarios}, "tasks": log},
         )
+        report = render_run(out.root, jobs=jobs, run_all=run_all, manifest=record)  # from the saved report.json files
+        out.commit(record)
     print(f"\nmanifest, plans, trajectories, figures, tables and report written to {out.out}/")
     failed = [c.scenario for c, ok in zip(cases, passed) if not ok]
     if rows:

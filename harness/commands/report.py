@@ -10,8 +10,8 @@ render date.
 DIR is a gflat run's folder (or a folder inside one: the enclosing run is
 rendered); a folder that is no gflat run's is refused.  A run is never changed
 in place: its files (only those its manifest lists) are copied into a staging
-folder beside it, the pages rendered there, the manifest rewritten (files and
-sha256), and the copy swapped in place of the run in one rename
+folder beside it (each checked against its sha256), the pages rendered there,
+the manifest rewritten (files and sha256), and the copy swapped in place of the run in one rename
 (:class:`harness.rundir.RunDir`).  A rendering killed or failed at any moment
 leaves the run as it was.
 """
@@ -19,12 +19,13 @@ leaves the run as it was.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import shutil
 import time
 from pathlib import Path
 
 from gna.errors import InputError
-from reports.html import render_run
+from reports.html import render_date, render_run
 
 from ..parallel import default_jobs, run_all
 from ..rundir import RunDir, read_manifest
@@ -79,9 +80,33 @@ def run_folder(folder: str | Path) -> tuple[Path, dict]:
     )
 
 
-def run(args) -> int:
-    t0 = time.perf_counter()
-    top, old = run_folder(args.dir)
+def render_again(
+    folder: str | Path, *, self_contained: bool = False, pdf: bool = True, date: str | None = None
+) -> dict[str, Path]:
+    """Render the pages of the run ``folder`` is (or lies in) again, in a copy swapped in place of the run.
+
+    Parameters
+    ----------
+    folder : str or Path
+        A run's folder, or a folder inside one (:func:`run_folder`).
+    self_contained, pdf : bool
+        As :func:`reports.html.render_run`.
+    date : str, optional
+        Render date printed on every page (default now, UTC).
+
+    Returns
+    -------
+    dict
+        :func:`reports.html.render_run`'s paths, in the run's folder.
+
+    Raises
+    ------
+    InputError
+        No gflat run there; the run's folder holds a file its manifest does not list (never removed), or a
+        listed file is missing or differs from its sha256 (the run was changed since it was written); a page
+        cannot be rendered.  The run is left as it was.
+    """
+    top, old = run_folder(folder)
     with RunDir(top, command=str(old.get("command")), replace=True) as out:  # refused if top holds a foreign file
         for f in old.get("files", []):
             src = top / f["path"]
@@ -89,14 +114,29 @@ def run(args) -> int:
                 raise InputError(f"{top}: {f['path']}, listed in its manifest, is missing or not a regular file")
             dst = out.path(*Path(f["path"]).parts)
             dst.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(src, dst)
+            shutil.copyfile(src, dst)
+            if hashlib.sha256(dst.read_bytes()).hexdigest() != f.get("sha256"):
+                raise InputError(f"{src} differs from the run's manifest (sha256): the run was changed since it ran")
         pages = render_run(
-            out.root, self_contained=args.self_contained, pdf=args.pdf, jobs=default_jobs(), run_all=run_all
+            out.root,
+            self_contained=self_contained,
+            pdf=pdf,
+            date=date,
+            jobs=default_jobs(),
+            run_all=run_all,
+            manifest=old,
         )
-        out.commit({**old, "rendered_utc": time.strftime("%Y-%m-%dT%H:%M:%S+00:00", time.gmtime())})
-    print(f"report: {top / pages['index'].name} ({len(pages['pages'])} case page(s))")
+        out.commit({**old, "rendered_utc": render_date() if date is None else date})
+    moved = lambda p: top / p.relative_to(out.root)  # noqa: E731
+    return {k: [moved(p) for p in v] if isinstance(v, list) else moved(v) for k, v in pages.items()}
+
+
+def run(args) -> int:
+    t0 = time.perf_counter()
+    pages = render_again(args.dir, self_contained=args.self_contained, pdf=args.pdf)
+    print(f"report: {pages['index']} ({len(pages['pages'])} case page(s))")
     for key in ("single", "pdf"):
         if key in pages:
-            print(f"{key}: {top / pages[key].name}")
+            print(f"{key}: {pages[key]}")
     print(f"rendered in {time.perf_counter() - t0:.2f} s")
     return 0

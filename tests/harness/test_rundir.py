@@ -196,7 +196,7 @@ def test_single_files(tmp_path):
         run.commit()
     with pytest.raises(InputError, match="folder of a gflat run"):
         check_output_file(tmp_path / "D" / "a.toml")
-    with pytest.raises(InputError, match="does not exist"):
+    with pytest.raises(InputError, match="No such file or directory"):
         check_output_file(tmp_path / "none" / "a.toml")
 
 
