@@ -98,7 +98,7 @@ def _exchange(a: Path, b: Path) -> None:
     """Swap the folders ``a`` and ``b`` atomically (elsewhere: two renames)."""
     if _renameat2(a, b, RENAME_EXCHANGE):
         return
-    aside = a.with_name(a.name + ".old")
+    aside = a.with_name(a.name.removesuffix(".tmp") + "-old.tmp")  # a stale staging name, should this end here
     os.rename(b, aside)
     os.rename(a, b)
     os.rename(aside, a)
@@ -307,7 +307,7 @@ class RunDir:
         """
         rel = Path(*map(os.fspath, parts)) if parts and all(str(p) for p in parts) else None
         if rel is None or rel.is_absolute() or ".." in rel.parts or not rel.parts:
-            raise InputError(f"output path {'/'.join(map(str, parts))!r}: outputs stay inside {self.out}")
+            raise InputError(f"output path {'/'.join(map(str, parts))!r} leaves the output folder {self.out}")
         if rel.as_posix() == MANIFEST:
             raise InputError(f"output path {MANIFEST!r} of {self.out} is written by the run's commit")
         return self.root / rel
@@ -441,7 +441,7 @@ class RunDir:
             else:
                 try:
                     _rename_new(self.root, self.out)
-                except (FileExistsError, OSError):
+                except OSError:
                     if not os.path.lexists(self.out):
                         raise
                     raise InputError(
