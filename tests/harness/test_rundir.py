@@ -194,6 +194,23 @@ def test_of_two_replacing_runs_the_first_to_finish_wins(tmp_path, renames):
     _matches_manifest(tmp_path / "D")
 
 
+def test_default_folders_are_replaced_only_when_they_are_gflat_runs(tmp_path, monkeypatch):
+    from harness.commands import _compare_args
+
+    monkeypatch.setattr(_compare_args, "DEFAULT_ROOT", tmp_path / "reports" / "out")
+    for text in ("first", "second"):  # no --replace needed: the tool owns its default folders
+        with _compare_args.default_out("s", "plan", command="plan") as run:
+            run.write_text("x.txt", text=text)
+            run.commit()
+    folder = tmp_path / "reports" / "out" / "s" / "plan"
+    assert (folder / "x.txt").read_text() == "second"
+    (folder / "mine.txt").write_text("the user's")
+    with pytest.raises(InputError, match="holds mine.txt"):
+        _compare_args.default_out("s", "plan", command="plan")
+    with pytest.raises(InputError, match="leaves"):
+        _compare_args.default_out("..", "..", command="plan")
+
+
 def test_single_files(tmp_path):
     p = write_file(tmp_path / "a.toml", "x = 1\n")
     assert p.read_text() == "x = 1\n" and sorted(os.listdir(tmp_path)) == ["a.toml"]
@@ -367,3 +384,15 @@ def test_replace_of_a_folder_holding_a_users_file_is_refused(old_run, tmp_path):
     assert _tree(d) == before and _staging(d.parent) == []
     rc, err = _run(tmp_path, ["report", d, "--no-pdf"])  # nor is it re-rendered
     assert rc == 2 and "plan/my-notes.txt" in err and _tree(d) == before
+
+
+def test_ctrl_c_removes_the_staging_folder(tmp_path):
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    proc = _start(tmp_path, ["compare", SCENARIO, "--out", runs / "D"], *MOMENTS["while its files are written"])
+    _stopped(proc)
+    assert len(_staging(runs)) == 1
+    proc.send_signal(signal.SIGINT)  # delivered when it runs again
+    proc.send_signal(signal.SIGCONT)
+    assert proc.wait() == 130
+    assert list(runs.iterdir()) == []  # no D, no staging folder
