@@ -1,9 +1,9 @@
 """Artefacts of a run: trajectories as Parquet (CSV on request), plans, ``manifest.json``, ``summary.json``.
 
 What a validation run leaves for pandas, MATLAB or a third simulator, and for
-the reports.  Every file goes through :class:`harness.outdir.OutputDir`
-(atomic, under the output root).  Layout of a case folder
-(:func:`write_artefacts`)::
+the reports.  Every writer takes a plain folder (a command's
+:class:`harness.rundir.RunDir` staging folder: the run appears whole or not at
+all).  Layout of a case folder (:func:`write_artefacts`)::
 
     trajectory-<engine>.parquet            every engine's run (the reference first)
     trajectory-<engine>-half-step.parquet  self-convergence: JSBSim at half its step
@@ -23,10 +23,13 @@ metadata the whole table (key ``gflat.units``, JSON).
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import hashlib
 import importlib.metadata
 import json
+import math
+import os
 import platform
 import subprocess
 import sys
@@ -36,11 +39,155 @@ import numpy as np
 import pandas as pd
 
 from gna.atmosphere import H_TROPO, LAPSE, R_AIR, T0
+from gna.errors import InputError
 from gna.frames import C_body_ned, euler_from_dcm
 from gna.trajectory import UNITS
 
-from .fileio import json_safe
-from .outdir import OutputDir
+
+def json_safe(obj, nonfinite: str = "null"):
+    """A copy of ``obj`` that :func:`json.dumps` takes with ``allow_nan=False``.
+
+    NumPy scalars and arrays become Python numbers and lists, paths strings,
+    tuples and sets lists, dataclasses dicts, other objects their ``str``.
+
+    Parameters
+    ----------
+    obj : object
+        Nested dicts, lists, numbers, strings, paths, NumPy values, dataclasses.
+    nonfinite : {"null", "text"}
+        How a NaN or infinite float is written (JSON has none): ``None``, or
+        the strings ``"nan"``, ``"inf"``, ``"-inf"`` (which keep NaN and
+        infinity apart, as a report shows them).
+
+    Returns
+    -------
+    object
+        The same structure with JSON types only.
+    """
+    if isinstance(obj, dict):
+        return {str(k): json_safe(v, nonfinite) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple, set)):
+        return [json_safe(v, nonfinite) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return json_safe(obj.tolist(), nonfinite)
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        v = float(obj)
+        return v if math.isfinite(v) else (str(v) if nonfinite == "text" else None)
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return json_safe(dataclasses.asdict(obj), nonfinite)
+    if obj is None or isinstance(obj, str):
+        return obj
+    return str(obj)
+
+
+def json_text(obj, where: str | Path = "JSON") -> str:
+    """``obj`` as JSON text (indent 2, keys in their order, a final newline).
+
+    NumPy numbers, arrays and paths are converted; NaN and infinities are
+    refused (JSON has none): pass the object through :func:`json_safe` to
+    write them as ``null``.
+
+    Parameters
+    ----------
+    obj : object
+        JSON-serialisable structure.
+    where : str or Path
+        The file it is for (named by the error).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InputError
+        A NaN, an infinity or an object JSON cannot represent, naming ``where``.
+    """
+
+    def default(o):
+        if isinstance(o, (np.generic, np.ndarray, os.PathLike, set, tuple)):
+            return json_safe(o) if not isinstance(o, np.floating) else float(o)
+        raise TypeError(f"{type(o).__name__} is not JSON serialisable")
+
+    try:
+        return json.dumps(obj, indent=2, sort_keys=False, allow_nan=False, default=default) + "\n"
+    except (ValueError, TypeError) as exc:
+        raise InputError(f"cannot write {where} as JSON: {exc}") from None
+
+
+def write_json(path: str | Path, obj) -> Path:
+    """Write ``obj`` as JSON (:func:`json_text`) to ``path``, its folder made.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    obj : object
+        JSON-serialisable structure.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    InputError
+        As :func:`json_text`.
+    """
+    path = Path(path)
+    text = json_text(obj, path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+#: A run's record: versions, inputs, settings and every file with its sha256 (:meth:`harness.rundir.RunDir.commit`).
+MANIFEST = "manifest.json"
+
+
+def read_manifest(folder: str | Path) -> dict | None:
+    """The manifest of the gflat run in ``folder``, or None when ``folder`` holds none.
+
+    Parameters
+    ----------
+    folder : str or Path
+        A folder.
+
+    Returns
+    -------
+    dict or None
+        ``manifest.json`` when it is a readable JSON object with ``"tool": "gflat"``.
+    """
+    p = Path(folder) / MANIFEST
+    try:
+        if p.is_symlink() or not p.is_file():
+            return None
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) and data.get("tool") == "gflat" else None
+
+
+def enclosing_run(path: str | Path) -> Path | None:
+    """The nearest of ``path``'s parent folders that is a gflat run's (:func:`read_manifest`).
+
+    Parameters
+    ----------
+    path : str or Path
+        An absolute path (existing or not); only its parents are looked at.
+
+    Returns
+    -------
+    Path or None
+    """
+    return next((d for d in Path(path).parents if read_manifest(d) is not None), None)
+
 
 #: Units of the columns added to every trajectory written.
 EXTRA_UNITS: dict[str, str] = {
@@ -161,14 +308,14 @@ def trajectory_table(df: pd.DataFrame, metadata: dict | None = None):
 
 
 def write_trajectory(
-    out: OutputDir, name: str, df: pd.DataFrame, *, csv: bool = False, metadata: dict | None = None
+    out: str | Path, name: str, df: pd.DataFrame, *, csv: bool = False, metadata: dict | None = None
 ) -> list[Path]:
     """Write ``<name>.parquet`` (and ``<name>.csv``) of a trajectory, with the added columns.
 
     Parameters
     ----------
-    out : OutputDir
-        Folder.
+    out : str or Path
+        Folder (made when missing).
     name : str
         File name without suffix, e.g. ``"trajectory-jsbsim"``.
     df : DataFrame
@@ -185,17 +332,17 @@ def write_trajectory(
     """
     import pyarrow.parquet as pq
 
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
     full = augmented(df)
     table = trajectory_table(full, metadata)
-    with out.atomic(f"{name}.parquet") as tmp:
-        pq.write_table(table, tmp)
-    paths = [out.path(f"{name}.parquet")]
+    pq.write_table(table, out / f"{name}.parquet")
+    paths = [out / f"{name}.parquet"]
     if csv:
-        with out.atomic(f"{name}.csv") as tmp:
-            full.reset_index().rename(columns=lambda c: "t" if c in ("index", full.index.name) else c).to_csv(
-                tmp, index=False, float_format="%.12g"
-            )
-        paths.append(out.path(f"{name}.csv"))
+        full.reset_index().rename(columns=lambda c: "t" if c in ("index", full.index.name) else c).to_csv(
+            out / f"{name}.csv", index=False, float_format="%.12g"
+        )
+        paths.append(out / f"{name}.csv")
     return paths
 
 
@@ -337,15 +484,11 @@ def case_record(result) -> dict:
     }
 
 
-def write_manifest(
-    out: OutputDir, results=(), *, command_line: list | None = None, execution: dict | None = None
-) -> Path:
-    """Write ``manifest.json`` for the case results of a run.
+def run_manifest(results=(), *, command_line: list | None = None, execution: dict | None = None) -> dict:
+    """The manifest of a run's case results (what :meth:`harness.rundir.RunDir.commit` records).
 
     Parameters
     ----------
-    out : OutputDir
-        Folder.
     results : iterable of CaseResult
         The cases run.
     command_line : list of str, optional
@@ -355,8 +498,8 @@ def write_manifest(
 
     Returns
     -------
-    Path
-        The file written.
+    dict
+        :func:`manifest` of the cases' inputs and settings, with ``execution``.
     """
     inputs, cases = {}, []
     for r in results:
@@ -365,15 +508,15 @@ def write_manifest(
     record = manifest(inputs=inputs, cases=cases, command_line=command_line)
     if execution is not None:
         record["execution"] = json_safe(execution)
-    return out.write_json("manifest.json", obj=record)
+    return record
 
 
-def write_plan_iterates(out: OutputDir, plan, times, *, csv: bool = False) -> list[Path]:
+def write_plan_iterates(out: str | Path, plan, times, *, csv: bool = False) -> list[Path]:
     """Write the plan of every iterate, ``plan-j<k>.parquet`` (and CSV), on the given times.
 
     Parameters
     ----------
-    out : OutputDir
+    out : str or Path
         Folder (e.g. ``<scenario>/plan``).
     plan : planners.plan.Plan
         The plan.
@@ -405,7 +548,7 @@ def _run_meta(res) -> dict:
 
 def write_artefacts(
     result,
-    out: OutputDir | str | Path,
+    out: str | Path,
     *,
     csv: bool = False,
     plan: bool = True,
@@ -420,15 +563,15 @@ def write_artefacts(
     ----------
     result : harness.validation.CaseResult
         A case's result (:func:`harness.validation.run_case`).
-    out : OutputDir or str or Path
-        The case folder; a path is opened as an :class:`OutputDir` (parents
-        created) and finished (completion marker) here.
+    out : str or Path
+        The case folder (made when missing).
     csv : bool
         Also write every trajectory as CSV.
     plan : bool
         Write the plan of every iterate under ``plan/``.
     manifest : bool
-        Write ``manifest.json`` in the folder.
+        Write ``manifest.json`` in the folder (:func:`run_manifest`; a command's run records it through
+        :meth:`harness.rundir.RunDir.commit` instead).
     figures : sequence of path
         Figures already written, listed in ``summary.json``.
     extra : dict, optional
@@ -442,8 +585,8 @@ def write_artefacts(
         ``"trajectories"``, ``"plan"`` -> list of Path; ``"differences"``,
         ``"summary"``, ``"manifest"`` -> [Path].
     """
-    own = not isinstance(out, OutputDir)
-    od = OutputDir(out, parents=True) if own else out
+    od = Path(out)
+    od.mkdir(parents=True, exist_ok=True)
     files: dict[str, list[Path]] = {"trajectories": [], "plan": []}
     for label, res in result.runs.items():
         files["trajectories"] += write_trajectory(od, f"trajectory-{label}", res.df, csv=csv, metadata=_run_meta(res))
@@ -461,8 +604,9 @@ def write_artefacts(
         )
     if plan:
         times = np.asarray(result.runs[result.reference_engine].df.index, dtype=float)
-        files["plan"] = write_plan_iterates(od.sub("plan"), result.plan, times, csv=csv)
-    files["differences"] = [od.write_text("differences.txt", text=result.report_text() + "\n")]
+        files["plan"] = write_plan_iterates(od / "plan", result.plan, times, csv=csv)
+    (od / "differences.txt").write_text(result.report_text() + "\n", encoding="utf-8")
+    files["differences"] = [od / "differences.txt"]
     summary = dict(
         result.summary(figures),
         provenance=result.provenance,
@@ -474,9 +618,7 @@ def write_artefacts(
     if result.closed_loop is not None:
         summary.update(saturated_s=result.saturated_s(), feedforward_iterate=result.closed_loop.feedforward_iterate)
     summary.update(extra or {})
-    files["summary"] = [od.write_json("summary.json", obj=json_safe(summary))]
+    files["summary"] = [write_json(od / "summary.json", json_safe(summary))]
     if manifest:
-        files["manifest"] = [write_manifest(od, [result], command_line=command_line)]
-    if own:
-        od.finish()
+        files["manifest"] = [write_json(od / "manifest.json", run_manifest([result], command_line=command_line))]
     return files

@@ -1,4 +1,4 @@
-"""Independent pieces of a command run concurrently in forked worker processes, files written by the parent only.
+"""Independent pieces of a command run concurrently in forked worker processes.
 
 :class:`ForkPool` runs zero-argument callables in child processes forked from
 the caller, at most ``jobs`` at a time, highest priority first: a child
@@ -15,16 +15,13 @@ message where it can be rebuilt there (the child's traceback attached as its
 cause).  ``jobs = 1``, or a platform without ``fork``, runs
 every callable in the parent, in the same order of priorities.
 
-:class:`MemoryOutputDir` is the :class:`harness.outdir.OutputDir` a child
-writes to: every file is kept in memory, in the order written, for the parent
-to write through its own ``OutputDir`` (:func:`replay`), so that the output
-folder's record, atomic writes and completion marker stay in one process and
-the files are byte for byte those of a serial run.
+A worker writes its own files directly, into the run's staging folder
+(:class:`harness.rundir.RunDir`: the forked child inherits its path); the
+parent alone commits the run.
 """
 
 from __future__ import annotations
 
-import contextlib
 import gc
 import heapq
 import multiprocessing
@@ -36,14 +33,11 @@ import sys
 import tempfile
 import time
 import traceback
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from multiprocessing.connection import wait as wait_connections
-from pathlib import Path
 from typing import Any
 
 from gna.errors import GflatError, InputError, describe
-
-from .outdir import OutputDir
 
 
 def default_jobs() -> int:
@@ -371,129 +365,28 @@ class ForkPool:
                 self._tmp = None
 
 
-class _MemoryRecord:
-    """The files a :class:`MemoryOutputDir` tree wrote: (path relative to the top folder, bytes), in order."""
-
-    def __init__(self, root: Path):
-        self.root = root
-        self.files: list[tuple[Path, bytes]] = []
-        self.written: list[Path] = []
-
-
-class MemoryOutputDir(OutputDir):
-    """An :class:`harness.outdir.OutputDir` of a worker process: files kept in memory for the parent to write.
+def run_all(fns, jobs: int, what: str = "") -> list:
+    """Run zero-argument callables in a :class:`ForkPool` of ``jobs`` workers; their results in order.
 
     Parameters
     ----------
-    root : str or Path
-        The folder of the real output (top folder of the paths recorded); nothing is written there.
-    sub : str or Path, optional
-        This folder relative to ``root``.
-
-    Attributes
-    ----------
-    files : list of (Path, bytes)
-        Every file written under the tree (path relative to ``root``), in order.
-    """
-
-    def __init__(self, root: str | Path, sub: str | Path = "", *, _record: _MemoryRecord | None = None):
-        top = Path(root)
-        self._record = _record or _MemoryRecord(top)
-        self.root = self._record.root / sub if str(sub) else self._record.root
-        self.clean = False
-
-    @property
-    def files(self) -> list[tuple[Path, bytes]]:
-        """Every file written under the tree, in order."""
-        return list(self._record.files)
-
-    def path(self, *parts: str) -> Path:
-        """The path of ``parts`` under this folder (in the real output).
-
-        Parameters
-        ----------
-        *parts : str
-            Relative path components.
-
-        Returns
-        -------
-        Path
-
-        Raises
-        ------
-        InputError
-            No part, or an absolute part or ``..``.
-        """
-        if not parts or any(not str(p) or Path(p).is_absolute() or ".." in Path(p).parts for p in parts):
-            raise InputError(f"output path under {self.root}: invalid component in {parts!r}")
-        return self.root.joinpath(*parts)
-
-    def sub(self, *parts: str) -> MemoryOutputDir:
-        """A sub-folder sharing this tree's record.
-
-        Parameters
-        ----------
-        *parts : str
-            Relative path of the sub-folder.
-
-        Returns
-        -------
-        MemoryOutputDir
-        """
-        return MemoryOutputDir(
-            self._record.root, self.path(*parts).relative_to(self._record.root), _record=self._record
-        )
-
-    @contextlib.contextmanager
-    def atomic(self, *parts: str) -> Iterator[Path]:
-        """A temporary path (same suffix) whose content is kept as the file ``parts`` when the block ends.
-
-        Parameters
-        ----------
-        *parts : str
-            Relative path of the file.
-
-        Yields
-        ------
-        Path
-        """
-        final = self.path(*parts)
-        rel = final.relative_to(self._record.root)
-        tmpdir = tempfile.mkdtemp(prefix="gflat-worker-")
-        try:
-            tmp = Path(tmpdir) / ("file" + "".join(final.suffixes))
-            yield tmp
-            data = tmp.read_bytes()
-        finally:
-            shutil.rmtree(tmpdir, ignore_errors=True)
-        self._record.files.append((rel, data))
-        if rel not in self._record.written:
-            self._record.written.append(rel)
-
-    def finish(self) -> Path:
-        """Nothing to finish: the parent's output folder writes the marker.
-
-        Returns
-        -------
-        Path
-            This folder.
-        """
-        return self.root
-
-
-def replay(out: OutputDir, files) -> list[Path]:
-    """Write files kept by a :class:`MemoryOutputDir` through the real output folder, in their order.
-
-    Parameters
-    ----------
-    out : OutputDir
-        The run's top output folder (the ``root`` the memory folder was made with).
-    files : iterable of (Path, bytes)
-        :attr:`MemoryOutputDir.files`.
+    fns : sequence of callable
+        Zero-argument callables with picklable results.
+    jobs : int
+        Most worker processes at once (1: in this process).
+    what : str
+        What they do, for the message of a worker that dies (``"printing part 2 of the PDF"``).
 
     Returns
     -------
-    list of Path
-        The files written.
+    list
+        ``[fn() for fn in fns]``.
     """
-    return [out.write_bytes(*Path(rel).parts, data=data) for rel, data in files]
+    results = {}
+    with ForkPool(jobs) as pool:
+        for i, fn in enumerate(fns):
+            pool.submit(i, fn, what=f"{what} ({i + 1} of {len(fns)})" if what else "")
+        while pool.pending:
+            i, value = pool.next_result()
+            results[i] = value
+    return [results[i] for i in range(len(fns))]

@@ -12,8 +12,9 @@ figures
 case_files
     A case's output folder: figures, and through :func:`harness.artefacts.write_artefacts`
     the trajectories (Parquet), ``differences.txt``, ``summary.json``, plan iterates and
-    ``manifest.json`` (:func:`case_files.write_case`), all written atomically through
-    :class:`harness.outdir.OutputDir`.
+    ``manifest.json`` (:func:`case_files.write_case`), into a plain folder (a
+    command's staging folder, :class:`harness.rundir.RunDir`, which the
+    command puts in place whole).
 tracking
     The paper's four-curve figure of a closed-loop case (:func:`tracking.write_tracking_figure`).
 model

@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .html import _environment, render_date
-from .model import write_text_atomic
+from .model import write_text
 
 __all__ = ["render_campaign", "FIGURES"]
 
@@ -27,18 +27,27 @@ FIGURES: tuple[tuple[str, str], ...] = (
 
 
 def render_campaign(
-    folder: str | Path, summary: dict, rows: list, *, pdf: bool = True, date: str | None = None
+    folder: str | Path,
+    summary: dict,
+    rows: list,
+    *,
+    target: str | Path | None = None,
+    pdf: bool = True,
+    date: str | None = None,
 ) -> dict:
     """Render the campaign page, the pages of its worst and failed cases, and the PDF.
 
     Parameters
     ----------
     folder : str or Path
-        The campaign folder (``report/`` holds the figures).
+        The campaign folder.
     summary : dict
         :func:`harness.campaign.report.campaign_summary`.
     rows : list of dict
         The stored cases (:meth:`harness.campaign.store.CampaignStore.rows`).
+    target : str or Path, optional
+        The report folder holding the figures, where the pages go (default ``folder/report``; ``gflat campaign
+        report`` gives its staging folder, put in place of ``report/`` whole); it sits in ``folder``.
     pdf : bool
         Also write ``report.pdf`` (:func:`reports.pdf.write_pdf`).
     date : str, optional
@@ -50,7 +59,7 @@ def render_campaign(
         ``"index"``, ``"pages"`` (list) and ``"pdf"`` when written -> Path.
     """
     folder = Path(folder)
-    out = folder / "report"
+    out = Path(target) if target is not None else folder / "report"
     date = date or render_date()
     env = _environment()
     pending = summary["counts"]["pending"]
@@ -65,7 +74,7 @@ def render_campaign(
         html = env.get_template("campaign_case.html").render(
             c=by_id[cid], group=group, date=date, data_dir=f"../../cases/{cid}", incomplete=incomplete
         )
-        write_text_atomic(page, html)
+        write_text(page, html)
         pages.append(page)
     groups = []
     for key, g in summary["groups"].items():
@@ -88,7 +97,7 @@ def render_campaign(
         figures=[{"src": f, "alt": alt} for f, alt in FIGURES if (out / f).exists()],
     )
     index = out / "index.html"
-    write_text_atomic(index, env.get_template("campaign.html").render(**context))
+    write_text(index, env.get_template("campaign.html").render(**context))
     result = {"index": index, "pages": pages}
     if pdf:
         from .pdf import write_pdf

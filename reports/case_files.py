@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 from harness.artefacts import write_artefacts
-from harness.outdir import OutputDir
 
 from .figures import write_figures
 from .model import write_case_report
@@ -33,7 +32,7 @@ def case_title(result) -> str:
 
 def write_case(
     result,
-    out_dir: str | Path | OutputDir,
+    out_dir: str | Path,
     *,
     csv: bool = False,
     plan: bool = True,
@@ -46,10 +45,8 @@ def write_case(
     ----------
     result : harness.validation.CaseResult
         A case's result (runs, tables, plan, provenance).
-    out_dir : str, Path or OutputDir
-        Folder; a path is opened as an :class:`harness.outdir.OutputDir`
-        (parents created) and finished (completion marker) here, an
-        OutputDir is left for its owner to finish.
+    out_dir : str or Path
+        Folder (made with its parents when missing).
     csv : bool
         Also write the trajectories as CSV.
     plan : bool
@@ -66,8 +63,8 @@ def write_case(
         ``"differences"``, ``"summary"``, ``"report"`` (the report model,
         :func:`reports.model.write_case_report`) and (with ``manifest``) ``"manifest"`` -> Path.
     """
-    own = not isinstance(out_dir, OutputDir)
-    out = OutputDir(out_dir, parents=True) if own else out_dir
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
     tol = result.settings.tolerances if result.settings is not None else result.case.tolerance_spec
     figures = write_figures(
         result.runs, out, reference=result.reference_frame(), title=case_title(result), tolerances=tol
@@ -78,8 +75,6 @@ def write_case(
         result, out, csv=csv, plan=plan, manifest=manifest, figures=[p.name for p in figures], command_line=command_line
     )
     report = write_case_report(result, out, figures=[p.name for p in figures])
-    if own:
-        out.finish()
     written: dict[str, Path | list[Path]] = {
         "figures": figures,
         "trajectories": files["trajectories"],

@@ -79,14 +79,14 @@ def grid_margins(fig) -> None:
 
 
 def save_figure(fig, out, name: str, dpi: int = 110) -> Path:
-    """Save a figure as ``name`` in ``out``: through the OutputDir's atomic write, or into a folder path.
+    """Save a figure as ``name`` in the folder ``out`` (made when missing).
 
     Parameters
     ----------
     fig : matplotlib.figure.Figure
         The figure.
-    out : harness.outdir.OutputDir or str or Path
-        Output folder (a path is created if needed).
+    out : str or Path
+        Output folder.
     name : str
         File name; its suffix sets the format.
     dpi : int
@@ -98,10 +98,6 @@ def save_figure(fig, out, name: str, dpi: int = 110) -> Path:
         The file written.
     """
     fmt = Path(name).suffix.lstrip(".") or None
-    if hasattr(out, "atomic"):
-        with out.atomic(name) as tmp:
-            fig.savefig(tmp, dpi=dpi, format=fmt)
-        return out.path(name)
     path = Path(out) / name
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=dpi, format=fmt)
@@ -117,8 +113,8 @@ def write_figures(
     ----------
     results : mapping label -> SimulationResult
         Runs on a common output grid; the first is the reference engine.
-    out_dir : str, Path or harness.outdir.OutputDir
-        Folder the PNG files are written to (created if needed; atomically through an OutputDir).
+    out_dir : str or Path
+        Folder the PNG files are written to (created if needed).
     reference : DataFrame, optional
         Planned states indexed by ``t`` [s], drawn dotted (e.g. the plan's).
     title : str

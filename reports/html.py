@@ -1,6 +1,7 @@
 """HTML validation reports rendered with jinja2 from saved case models (``report.json``).
 
-:func:`render_run` renders a run folder: ``index.html`` (a PASS/FAIL table of
+:func:`render_run` renders a run folder (a plain folder: a command renders into its staging folder,
+:class:`harness.rundir.RunDir`, before the run is put in place): ``index.html`` (a PASS/FAIL table of
 every case with links), one ``report.html`` per case folder, optionally a
 self-contained ``report.html`` at the top (every case, images embedded as data
 URIs: one file to mail) and ``report.pdf`` (:mod:`reports.pdf`).  The models
@@ -19,21 +20,14 @@ import os
 from pathlib import Path
 
 from gna.errors import InputError
-from harness.fileio import remove_empty_folders
-from harness.marker import record_in_marker, run_folder
-from harness.outdir import MARKER
-from harness.outguard import previous_run
 
-from .model import REPORT_JSON, load_case_models, read_json_object, run_files, write_text_atomic
+from .model import REPORT_JSON, load_case_models, read_json_object, write_text
 
 #: Page of each case, in its case folder; the run's index and single-file report at the top.
 CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE = "case.html", "index.html", "report.html", "report.pdf"
 
 #: What rendering writes (never listed among a case's data files: a re-rendering must give the same page).
 RENDERED = frozenset((CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE))
-
-#: Mark of the pages rendered here (a page without it is never removed).
-GENERATOR = '<meta name="generator" content="gflat report">'
 
 #: Column headings of the difference tables (others print as named).
 HEADERS = {
@@ -108,28 +102,6 @@ def cell(value, column: str, spec: str | None = None) -> str:
     return fmt(value, spec)
 
 
-def incomplete_notice(run_dir: str | Path) -> str | None:
-    """What the pages say when the run folder has no completion marker (an interrupted or running run).
-
-    Parameters
-    ----------
-    run_dir : str or Path
-        A run folder, or a case folder inside one (the marker is looked for there and above).
-
-    Returns
-    -------
-    str or None
-        The notice, or None when the run completed.
-    """
-    root = Path(run_dir).resolve()
-    if any((d / MARKER).is_file() for d in (root, *root.parents)):
-        return None
-    return (
-        f"no completion marker {MARKER} in {root}: the run was interrupted (or is still running); "
-        f"cases may be missing or come from an earlier run"
-    )
-
-
 def _environment():
     import jinja2
 
@@ -189,14 +161,21 @@ def _case_view(root: Path, folder: Path, model: dict, page_dir: Path, embed: boo
     }
 
 
-def _manifest(root: Path):
+#: Keys of a run's manifest the pages leave out: the folder's own bookkeeping (its files' checksums include the
+#: pages), so that a page rendered before the run's commit and one rendered again later are the same.
+UNSHOWN = ("tool", "command", "run_id", "files", "rendered_utc")
+
+
+def _manifest(root: Path, given: dict | None):
+    """What the pages show of the run's manifest: ``given``, else ``root/manifest.json`` (when there)."""
     p = root / "manifest.json"
-    if not p.is_file():
-        return None
-    manifest = read_json_object(p, "a gflat run manifest")
-    if not isinstance(manifest.get("cases", []), list):
+    if given is None:
+        if not p.is_file():
+            return None
+        given = read_json_object(p, "a gflat run manifest")
+    if not isinstance(given.get("cases", []), list):
         raise InputError(f"{p}: not a gflat run manifest ('cases' is not a list)")
-    return manifest
+    return {k: v for k, v in given.items() if k not in UNSHOWN}
 
 
 def _run_order(cases: list, manifest) -> list:
@@ -220,26 +199,28 @@ def render_date() -> str:
     return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
 
 
-def _run_context(root: Path, date: str | None):
-    """The run's case models in run order and what every page shows: date, manifest, counts, notice."""
+def _run_context(root: Path, date: str | None, manifest: dict | None = None):
+    """The run's case models in run order and what every page shows: date, manifest, counts."""
     cases = load_case_models(root)
     if not cases:
         raise InputError(
             f"no {REPORT_JSON} under {root}: not the output folder of a gflat run "
             f"(gflat paper --out DIR, gflat compare --out DIR)"
         )
-    manifest = _manifest(root)
+    manifest = _manifest(root, manifest)
     cases = _run_order(cases, manifest)
     return cases, {
         "date": date or render_date(),
         "manifest": manifest,
         "n_pass": sum(m["passed"] for _, m in cases),
         "n": len(cases),
-        "incomplete": incomplete_notice(root),
+        "incomplete": None,
     }
 
 
-def render_documents(run_dir: str | Path, *, date: str | None = None, embed: bool = False) -> dict[Path, str]:
+def render_documents(
+    run_dir: str | Path, *, date: str | None = None, embed: bool = False, manifest: dict | None = None
+) -> dict[Path, str]:
     """The HTML documents of a run folder, as text (nothing written).
 
     Parameters
@@ -250,6 +231,9 @@ def render_documents(run_dir: str | Path, *, date: str | None = None, embed: boo
         Render date printed on every page (default now, UTC).
     embed : bool
         Also render the single-file report (every case, images as data URIs).
+    manifest : dict, optional
+        The run's manifest the pages show (default ``run_dir/manifest.json``, when there; its
+        :data:`UNSHOWN` keys are left out).
 
     Returns
     -------
@@ -263,7 +247,7 @@ def render_documents(run_dir: str | Path, *, date: str | None = None, embed: boo
         No ``report.json`` under ``run_dir``.
     """
     root = Path(run_dir)
-    cases, common = _run_context(root, date)
+    cases, common = _run_context(root, date, manifest)
     env = _environment()
     docs = {}
     index_views = [_case_view(root, f, m, root, False) for f, m in cases]
@@ -330,7 +314,9 @@ def _split(costs: list[float], parts: int) -> list[int]:
     return best[1]
 
 
-def document_parts(run_dir: str | Path, parts: int, *, date: str | None = None) -> list[str]:
+def document_parts(
+    run_dir: str | Path, parts: int, *, date: str | None = None, manifest: dict | None = None
+) -> list[str]:
     """:func:`single_document` cut at case boundaries into documents of about equal work, to print separately.
 
     The first part holds the front matter (summary table of every case,
@@ -349,6 +335,8 @@ def document_parts(run_dir: str | Path, parts: int, *, date: str | None = None) 
         Number of documents wanted (fewer when the run has fewer cases).
     date : str, optional
         Render date (default now, UTC).
+    manifest : dict, optional
+        As :func:`render_documents`.
 
     Returns
     -------
@@ -361,7 +349,7 @@ def document_parts(run_dir: str | Path, parts: int, *, date: str | None = None) 
         No ``report.json`` under ``run_dir``.
     """
     root = Path(run_dir)
-    cases, common = _run_context(root, date)
+    cases, common = _run_context(root, date, manifest)
     views = [_case_view(root, f, m, root, False) for f, m in cases]
     template = _environment().get_template("single.html")
     if parts <= 1 or len(views) <= 1:
@@ -389,31 +377,15 @@ def document_parts(run_dir: str | Path, parts: int, *, date: str | None = None) 
     ]
 
 
-def _orphan_pages(root: Path) -> list[Path]:
-    """The case pages of an earlier rendering whose case is gone (a rerun flew fewer cases): only pages the run's
-    marker or in-progress record lists (this rendering's or the run's own), never a page the user keeps."""
-    top = run_folder(root.resolve())
-    pages = []
-    for rel in previous_run(top).files:
-        page = top / rel
-        if page.name != CASE_PAGE or not page.resolve().is_relative_to(root.resolve()) or not page.is_file():
-            continue
-        if (
-            not (page.parent / REPORT_JSON).exists()
-            and GENERATOR in page.read_text(encoding="utf-8", errors="replace")[:2000]
-        ):
-            pages.append(page)
-    return pages
-
-
-def _older_than_models(pdf: Path, root: Path) -> bool:
-    """Whether ``pdf`` was printed before some case's saved model (``report.json``) was last written."""
-    stamp = pdf.stat().st_mtime
-    return any(m.stat().st_mtime > stamp for m in run_files(root, REPORT_JSON))
-
-
 def render_run(
-    run_dir: str | Path, *, self_contained: bool = False, pdf: bool = True, date: str | None = None, jobs: int = 1
+    run_dir: str | Path,
+    *,
+    self_contained: bool = False,
+    pdf: bool = True,
+    date: str | None = None,
+    jobs: int = 1,
+    run_all=None,
+    manifest: dict | None = None,
 ) -> dict[str, Path]:
     """Render a run folder's reports: ``index.html``, a page per case, optionally the single file and the PDF.
 
@@ -428,15 +400,19 @@ def render_run(
     date : str, optional
         Render date printed on every page (default now, UTC).
     jobs : int
-        Worker processes printing the PDF in parts (:func:`document_parts`,
+        Parts the PDF is printed in, concurrently through ``run_all`` (:func:`document_parts`,
         :func:`reports.pdf.write_pdf`); 1 prints it in one piece.
+    run_all : callable, optional
+        ``run_all(callables, jobs)`` -> their results in order (a command gives
+        :func:`harness.parallel.run_all`); default: one after the other here.
+    manifest : dict, optional
+        The run's manifest the pages show (:func:`render_documents`; a command renders before its commit writes
+        ``manifest.json``).
 
     Returns
     -------
     dict
-        ``"index"``, ``"pages"`` (list), and ``"single"``/``"pdf"`` when written -> Path;
-        ``"removed_pdf"`` when, without ``pdf``, an earlier ``report.pdf`` older than the saved
-        results (``report.json`` files) was removed as stale; a PDF of the same results is kept.
+        ``"index"``, ``"pages"`` (list), and ``"single"``/``"pdf"`` when written -> Path.
 
     Raises
     ------
@@ -445,13 +421,9 @@ def render_run(
     """
     root = Path(run_dir)
     date = date or render_date()
-    docs = render_documents(root, date=date, embed=self_contained)
-    orphans = _orphan_pages(root)
-    for page in orphans:
-        page.unlink()
-        remove_empty_folders(page.parent, root)  # the case folder it leaves empty goes too
+    docs = render_documents(root, date=date, embed=self_contained, manifest=manifest)
     for path, text in docs.items():
-        write_text_atomic(path, text)
+        write_text(path, text)
     out = {"index": root / INDEX_PAGE, "pages": [p for p in docs if p.name == CASE_PAGE]}
     if self_contained:
         out["single"] = root / SINGLE_PAGE
@@ -459,14 +431,7 @@ def render_run(
         from .pdf import can_merge, write_pdf
 
         parts = jobs if jobs > 1 and can_merge() else 1
-        out["pdf"] = write_pdf(document_parts(root, parts, date=date), root, root / PDF_FILE, jobs=parts)
-    elif (root / PDF_FILE).is_file() and _older_than_models(root / PDF_FILE, root):
-        (root / PDF_FILE).unlink()  # printed from results that have been replaced since
-        out["removed_pdf"] = root / PDF_FILE
-    # the pages join the run's files (its marker or in-progress record): the run's command, run again there,
-    # replaces or removes them as its own, and a later rendering removes only pages listed there
-    written = [*docs, *([out["pdf"]] if "pdf" in out else [])]
-    record_in_marker(
-        run_folder(root.resolve()), written, removed=[*orphans, *([out["removed_pdf"]] if "removed_pdf" in out else [])]
-    )
+        out["pdf"] = write_pdf(
+            document_parts(root, parts, date=date, manifest=manifest), root, root / PDF_FILE, run_all=run_all
+        )
     return out

@@ -13,13 +13,12 @@ case folder, from which :mod:`reports.html` renders, now or later.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 from gna.errors import InputError
-from harness.fileio import json_safe as _json_safe
-from harness.fileio import replacing
-from harness.marker import walk_run
-from harness.outguard import previous_run
+from harness.artefacts import json_safe as _json_safe
+from harness.artefacts import read_manifest
 from planners.scenario import load_scenario
 
 from .report_figures import (
@@ -68,7 +67,7 @@ FIGURES: dict[str, str] = {
 
 
 def json_safe(obj):
-    """A copy of ``obj`` for a report model: :func:`harness.fileio.json_safe` (NaN and infinities as null).
+    """A copy of ``obj`` for a report model: :func:`harness.artefacts.json_safe` (NaN and infinities as null).
 
     Parameters
     ----------
@@ -230,15 +229,15 @@ def case_model(result, figures=(), *, scenario=None) -> dict:
     return json_safe(model)
 
 
-def write_text_atomic(path: str | Path, text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file renamed into place (never half-written).
+def write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` to ``path`` (UTF-8, ``\\n`` line ends), its folder made.
 
     Parameters
     ----------
     path : str or Path
-        Destination; its folder must exist.
+        Destination.
     text : str
-        UTF-8 content.
+        Content.
 
     Returns
     -------
@@ -246,8 +245,8 @@ def write_text_atomic(path: str | Path, text: str) -> Path:
         ``path``.
     """
     path = Path(path)
-    with replacing(path) as tmp:
-        tmp.write_text(text, encoding="utf-8", newline="\n")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8", newline="\n")
     return path
 
 
@@ -258,8 +257,8 @@ def write_case_report(result, out, *, figures=(), scenario=None) -> Path:
     ----------
     result : harness.validation.CaseResult
         The case's result.
-    out : str, Path or harness.outdir.OutputDir
-        The case folder (created if needed; written atomically through an OutputDir).
+    out : str or Path
+        The case folder (created if needed).
     figures : sequence of str
         File names of the figures already in the folder (:func:`reports.case_files.write_case`).
     scenario : planners.scenario.Scenario, optional
@@ -270,8 +269,8 @@ def write_case_report(result, out, *, figures=(), scenario=None) -> Path:
     Path
         The ``report.json`` written.
     """
-    if not hasattr(out, "write_text"):
-        Path(out).mkdir(parents=True, exist_ok=True)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
     drawn = [
         write_singularity_figure(result.plan, out),
         write_controls_limits_figure(result, out),
@@ -279,9 +278,7 @@ def write_case_report(result, out, *, figures=(), scenario=None) -> Path:
     ]
     names = list(map(str, figures)) + [p.name for p in drawn if p is not None]
     text = json.dumps(case_model(result, names, scenario=scenario), indent=1, allow_nan=False) + "\n"
-    if hasattr(out, "write_text"):
-        return out.write_text(REPORT_JSON, text=text)
-    return write_text_atomic(Path(out) / REPORT_JSON, text)
+    return write_text(out / REPORT_JSON, text)
 
 
 def _no_constant(name: str):
@@ -327,22 +324,37 @@ def read_json_object(path: str | Path, what: str) -> dict:
 
 
 def run_files(root: str | Path, name: str) -> list[Path]:
-    """The files called ``name`` under a run folder, not those of another run in a sub-folder (one holding
-    its own completion marker or in-progress record).
+    """The files called ``name`` under a run folder; when its ``manifest.json`` lists the run's files, only those.
 
     Parameters
     ----------
     root : str or Path
-        A run folder.
+        A run folder (or a staging folder being written).
     name : str
         File name (``"report.json"``).
 
     Returns
     -------
     list of Path
-        In a stable order (sorted); symbolic links to folders are not followed.
+        In a stable order (sorted); symbolic links are not followed.
     """
-    return [here / name for here, files, other in walk_run(Path(root)) if not other and name in files]
+    root = Path(root)
+    listed = _listed(root)
+    found = []
+    for here, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if not os.path.islink(os.path.join(here, d)))
+        p = Path(here) / name
+        if name in files and not p.is_symlink() and (listed is None or p.relative_to(root).as_posix() in listed):
+            found.append(p)
+    return found
+
+
+def _listed(root: Path) -> set | None:
+    """The files a gflat run's ``manifest.json`` in ``root`` lists (None: no such manifest)."""
+    data = read_manifest(root)
+    if data is None or not isinstance(data.get("files"), list):
+        return None
+    return {f.get("path") for f in data["files"] if isinstance(f, dict)}
 
 
 def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:
@@ -362,17 +374,12 @@ def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:
     ------
     InputError
         A ``report.json`` that cannot be read, is not a JSON object (:func:`read_json_object`) or lacks a key
-        the pages need (naming the file and the cause).  Those of another run in a sub-folder are not read
-        (:func:`run_files`), nor, when the run's completion marker or in-progress record lists its files,
-        those it does not list.
+        the pages need (naming the file and the cause).  Only the files the run's manifest lists are read
+        (:func:`run_files`).
     """
     root = Path(run_dir)
-    # A run whose marker (or in-progress record) lists its files: only its own cases, not a copy put beside them.
-    listed = set(previous_run(root).files)
     found = []
     for p in run_files(root, REPORT_JSON):
-        if listed and p.relative_to(root).as_posix() not in listed:
-            continue
         model = read_json_object(p, "a gflat report model")
         bad = [k for k, t in MODEL_KEYS.items() if not isinstance(model.get(k), t)]
         if bad:

@@ -15,8 +15,6 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from harness.fileio import replacing
-
 
 def can_merge() -> bool:
     """Whether printed parts can be put together (pypdf is installed).
@@ -83,8 +81,8 @@ def _merge(parts: list[bytes]) -> bytes:
     return buf.getvalue()
 
 
-def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path, *, jobs: int = 1) -> Path:
-    """Print an HTML document (or its parts, end to end) to PDF with weasyprint, through a temporary file.
+def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path, *, run_all=None) -> Path:
+    """Print an HTML document (or its parts, end to end) to PDF with weasyprint.
 
     Parameters
     ----------
@@ -95,30 +93,23 @@ def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path,
         Folder its relative image paths resolve against.
     path : str or Path
         The PDF to write; its folder must exist.
-    jobs : int
-        Worker processes printing the parts concurrently (:class:`harness.parallel.ForkPool`).
+    run_all : callable, optional
+        ``run_all(callables, jobs)`` -> their results in order: prints the parts concurrently (a command gives
+        :func:`harness.parallel.run_all`); default one after the other.
 
     Returns
     -------
     Path
         ``path``.
     """
-    from harness.parallel import ForkPool
-
     path = Path(path)
     docs = [html] if isinstance(html, str) else list(html)
     base_url = str(Path(base_dir).resolve()) + os.sep
     if len(docs) == 1:
         data = _print(docs[0], base_url)
     else:
-        printed = {}
-        with ForkPool(jobs) as pool:
-            for i, doc in enumerate(docs):
-                pool.submit(i, lambda doc=doc: _print(doc, base_url), what=f"printing part {i + 1} of the PDF")
-            while pool.pending:
-                i, data = pool.next_result()
-                printed[i] = data
-        data = _merge([printed[i] for i in range(len(docs))])
-    with replacing(path) as tmp:
-        tmp.write_bytes(data)
+        prints = [lambda doc=doc: _print(doc, base_url) for doc in docs]
+        printed = run_all(prints, len(docs)) if run_all is not None else [p() for p in prints]
+        data = _merge(list(printed))
+    path.write_bytes(data)
     return path

@@ -58,8 +58,8 @@ def write_singularity_figure(plan, out_dir: str | Path) -> Path | None:
     ----------
     plan : planners.plan.Plan
         A plan whose ``singularities`` report is set (paper eqs. cond_beta, stalling_cond, cond_F).
-    out_dir : str, Path or harness.outdir.OutputDir
-        Folder (written atomically through an OutputDir).
+    out_dir : str or Path
+        Folder (made when missing).
 
     Returns
     -------
@@ -93,8 +93,8 @@ def write_controls_limits_figure(result, out_dir: str | Path) -> Path:
     ----------
     result : harness.validation.CaseResult
         The case's runs (reference engine solid, others dashed) and plan.
-    out_dir : str, Path or harness.outdir.OutputDir
-        Folder (written atomically through an OutputDir).
+    out_dir : str or Path
+        Folder (made when missing).
 
     Returns
     -------
@@ -132,8 +132,8 @@ def write_signed_differences_figure(result, out_dir: str | Path) -> Path | None:
     ----------
     result : harness.validation.CaseResult
         The case's runs; the first is the reference.
-    out_dir : str, Path or harness.outdir.OutputDir
-        Folder (written atomically through an OutputDir).
+    out_dir : str or Path
+        Folder (made when missing).
 
     Returns
     -------

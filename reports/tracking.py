@@ -35,8 +35,8 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
     ----------
     result : harness.validation.CaseResult
         A closed-loop case's result (``closed_loop`` and ``open_loop`` set).
-    out_dir : str, Path or harness.outdir.OutputDir
-        Folder (written atomically through an OutputDir).
+    out_dir : str or Path
+        Folder (made when missing).
     name : str
         File name of the PNG.
 

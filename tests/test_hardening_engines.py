@@ -250,7 +250,7 @@ def test_k10_a_huge_plan_is_refused_at_once_with_the_override_named():
 
 
 def test_k10_cli_max_cost(tmp_path, capsys):
-    assert main(["plan", "gtm-aileron-roll", "--J", "1", "--max-cost", "10", "--out", str(tmp_path)]) == 2
+    assert main(["plan", "gtm-aileron-roll", "--J", "1", "--max-cost", "10", "--out", str(tmp_path / "out")]) == 2
     assert "above the bound 10" in capsys.readouterr().err
 
 

@@ -219,13 +219,16 @@ def _figures(folder: Path, summary: dict, rows: list, outdir: Path) -> list[Path
     return paths
 
 
-def write_report(folder: str | Path) -> tuple[dict, list, list[Path]]:
-    """Write ``summary.json`` and the figures into ``DIR/report``.
+def write_report(folder: str | Path, target: str | Path | None = None) -> tuple[dict, list, list[Path]]:
+    """Write ``summary.json`` and the figures into ``DIR/report`` (or ``target``).
 
     Parameters
     ----------
     folder : str or Path
         A campaign folder.
+    target : str or Path, optional
+        The report folder (default ``folder/report``; ``gflat campaign report`` gives its staging folder,
+        :class:`harness.rundir.RunDir`).
 
     Returns
     -------
@@ -233,8 +236,8 @@ def write_report(folder: str | Path) -> tuple[dict, list, list[Path]]:
         The summary (:func:`campaign_summary`), the stored cases, the files written.
     """
     folder = Path(folder)
-    outdir = folder / "report"
-    outdir.mkdir(exist_ok=True)
+    outdir = Path(target) if target is not None else folder / "report"
+    outdir.mkdir(parents=True, exist_ok=True)
     summary = campaign_summary(folder)
     st = CampaignStore(folder)
     try:

@@ -30,15 +30,12 @@ from pathlib import Path
 
 from gna.errors import InputError, describe
 
-from ..fileio import replacing
-from ..folderlock import FolderLock
-from ..marker import earlier_files, file_entry, write_marker
-from ..outguard import INCOMPLETE, MARKER, check_destination, check_previous, make_folder, previous_run
+from ..artefacts import read_manifest
 from ..parallel import check_workers
 from ..validation import provenance
 from .execute import run_sample
 from .spec import Campaign, load_campaign
-from .store import DB_NAME, CampaignStore
+from .store import CampaignStore, locked
 
 __all__ = ["run_campaign", "rerun_case", "parse_dask", "DASK_SCHEMES", "DASK_TIMEOUT_S"]
 
@@ -337,48 +334,29 @@ def run_campaign(
                 client.close()
 
 
-@contextlib.contextmanager
-def _campaign_folder(out):
-    """The campaign folder checked and held for the run, as every gflat output folder is.
-
-    Refused (one line, nothing written): a file-system root or the home folder, a folder that takes no
-    files, a folder holding another command's run (its completion marker). Held: an exclusive lock for the
-    run (a second campaign run into it is refused). Marked: an in-progress record, then (no case pending) a
-    completion marker, naming the command and the campaign index: another command refuses to write over them.
-    """
-    path = Path(out).expanduser().resolve()
-    check_destination(path, parents=True)
-    lock = FolderLock(path, make_folder(path))
+def _campaign_folder(out) -> Path:
+    """The campaign folder checked (one line, nothing written) and made: not a file, not a gflat run's folder nor
+    inside one (runs are never changed once written), its parent takes files."""
+    given = Path(out).expanduser()
+    path = Path(os.path.abspath(given))
+    if path.exists() and not path.is_dir():
+        raise InputError(f"campaign folder {given}: a file of that name exists (not a folder)")
+    for folder in (path, *path.parents):
+        if read_manifest(folder) is not None:
+            where = "is" if folder == path else f"lies inside {folder},"
+            raise InputError(
+                f"campaign folder {path} {where} the folder of a gflat run (runs are never changed once written): "
+                f"give another --out"
+            )
     try:
-        check_previous(path, previous_run(path), "campaign", clean=False)  # read while the folder is held
-        yield path
-    finally:
-        lock.release()
-
-
-def _mark_started(path: Path) -> list[str]:
-    """Mark the folder as a run being written, as every command does: the in-progress record (the command, the
-    earlier run's files, which a campaign never removes (:func:`harness.marker.earlier_files`), the campaign
-    index) in place of the completion marker, which :func:`_mark` writes back once no case is pending."""
-    kept = earlier_files(path, previous_run(path).files, [DB_NAME])
-    lines = [json.dumps({"command": "campaign"}), *(json.dumps(rel) for rel in [*kept, DB_NAME])]
-    try:
-        with replacing(path / INCOMPLETE) as tmp:
-            tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
-        with contextlib.suppress(FileNotFoundError):
-            (path / MARKER).unlink()  # cases pending from here until the run ends
+        path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise InputError(f"cannot write {path / INCOMPLETE}: {exc.strerror or exc}") from None
-    return kept
-
-
-def _mark(path: Path, kept: list[str]) -> None:
-    """Write the completion marker (no case pending): the command, the files ``kept`` and the campaign index."""
-    write_marker(path, "campaign", [*(file_entry(path, rel) for rel in kept), {"path": DB_NAME}])
+        raise InputError(f"campaign folder {path}: cannot create it: {exc.strerror or exc}") from None
+    return path
 
 
 def _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only) -> dict:
-    with _campaign_folder(out) as path:
+    with locked(_campaign_folder(out)) as path:  # a second run (or a report) refused meanwhile
         store = CampaignStore(path)
         try:
             return _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only, store)
@@ -394,7 +372,6 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
             f"{out} holds campaign {meta['campaign']['name']!r} (seed {meta['campaign']['seed']}), "
             f"not {camp.name!r} (seed {camp.seed}): use another folder"
         )
-    kept = _mark_started(store.root)
     store.set_meta(campaign=ident, definition=camp.raw, source=camp.source)
     store.add_cases(tasks)
     store.clean_stale()
@@ -441,8 +418,6 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
         if bar is not None:
             bar.close()
     counts = store.counts()
-    if counts["pending"] == 0:  # else (cases left, Ctrl-C) the record says interrupted
-        _mark(store.root, kept)
     return {
         **counts,
         "computed": tally["done"] + tally["failed"],

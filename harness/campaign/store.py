@@ -12,21 +12,31 @@ is renamed to ``cases/<case_id>``, then one transaction marks the case done
 with its metrics.  A crash before the transaction leaves the case pending (the
 folder, if any, is replaced when the case is run again); the database never
 says ``done`` for a case whose files are incomplete.  One process writes: the
-runner.
+runner.  The store's transactions are the campaign's record (it stays
+resumable in place); :func:`locked`, an ``flock`` on the index file, keeps a
+second ``campaign run`` or ``campaign report`` out while one works.
 """
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import json
 import os
 import shutil
 import sqlite3
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from gna.errors import InputError, describe
 
-__all__ = ["CampaignStore", "STATUSES", "DB_NAME"]
+try:  # POSIX
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: the store is not locked
+    fcntl = None
+
+__all__ = ["CampaignStore", "STATUSES", "DB_NAME", "locked"]
 
 #: Statuses of a case in the store.
 STATUSES: tuple[str, ...] = ("pending", "done", "failed")
@@ -56,6 +66,48 @@ CREATE TABLE IF NOT EXISTS cases (
 );
 CREATE INDEX IF NOT EXISTS cases_status ON cases (status);
 """
+
+
+@contextlib.contextmanager
+def locked(root: str | Path) -> Iterator[Path]:
+    """Hold the campaign folder's store for a ``campaign run`` or ``campaign report``: an exclusive ``flock`` on
+    the index file (made when missing), released when the block ends or the process does, however it ends.
+
+    Open and close every :class:`CampaignStore` of the block inside it: the lock's file descriptor is closed
+    last (closing a descriptor of the file drops SQLite's own POSIX locks of this process).
+
+    Parameters
+    ----------
+    root : str or Path
+        The campaign folder (it must exist).
+
+    Yields
+    ------
+    Path
+        ``root``.
+
+    Raises
+    ------
+    InputError
+        Another process holds the store (one line: wait for it to end), or the index cannot be opened.
+    """
+    root = Path(root)
+    try:
+        fd = os.open(root / DB_NAME, os.O_RDWR | os.O_CREAT, 0o666)
+    except OSError as exc:
+        raise InputError(f"cannot open the campaign index {root / DB_NAME}: {exc.strerror or exc}") from None
+    try:
+        if fcntl is not None:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError as exc:
+                if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                    raise InputError(
+                        f"campaign folder {root} is in use by another gflat campaign run or report: wait for it to end"
+                    ) from None
+        yield root
+    finally:
+        os.close(fd)
 
 
 def _dumps(obj) -> str:

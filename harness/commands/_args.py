@@ -101,3 +101,13 @@ def out_path(text: str) -> Path:
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty path; give a folder, or leave --out out for the default")
     return Path(text)
+
+
+def add_replace(p: argparse.ArgumentParser) -> None:
+    """``--replace``: an existing ``--out`` (a gflat run) is replaced once the new run is complete."""
+    p.add_argument(
+        "--replace",
+        action="store_true",
+        help="replace the existing --out folder (a gflat run's only) once the new run is complete; without it "
+        "an existing folder is refused",
+    )

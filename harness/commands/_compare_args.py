@@ -11,7 +11,7 @@ from pathlib import Path
 
 from gna.errors import InputError
 
-from ..outdir import OutputDir
+from ..rundir import RunDir
 from ..validation.tolerances import QUANTITIES
 from ..validation.work import MAX_STEPS, SAMPLE_COST, check_steps, flight_steps  # noqa: F401 (re-exported)
 from ._args import cost_bound, finite_float, positive_float
@@ -123,10 +123,19 @@ def compare_overrides(args) -> dict:
     return {k: v for k, v in kw.items() if v is not None}
 
 
-def default_out(*parts: str, command: str | None = None) -> OutputDir:
-    """``reports/out/<parts>`` as an output folder (parents created) of ``command``, refusing a name that leaves it."""
+def default_out(*parts: str, command: str) -> RunDir:
+    """``reports/out/<parts>`` as the run folder of ``command``: parents made, an earlier gflat run there replaced
+    (the tool owns its default folders; anything else there is refused), a name that leaves it refused."""
     base = DEFAULT_ROOT.resolve()
     target = base.joinpath(*parts).resolve()
     if not target.is_relative_to(base) or target == base:
         raise InputError(f"output folder {'/'.join(parts)!r} leaves {base}: rename the scenario or give --out")
-    return OutputDir(target, parents=True, command=command)
+    return RunDir(target, command=command, replace=True, parents=True)
+
+
+def run_dir(args, *default: str, command: str) -> RunDir:
+    """The run folder of a command: ``--out`` (an existing one replaced only with ``--replace``), else
+    :func:`default_out` of ``default``."""
+    if args.out is None:
+        return default_out(*default, command=command)
+    return RunDir(args.out, command=command, replace=getattr(args, "replace", False))

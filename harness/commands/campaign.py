@@ -5,7 +5,10 @@
 skipped, failed ones rerun only with ``--retry-failed``); the campaign file, every case, ``--dask`` and the
 scheduler at its address are checked before the folder is created or touched; ``gflat campaign status DIR [--json]`` counts the cases;
 ``gflat campaign report DIR`` writes the campaign report (summary.json, figures, index.html, a page per
-worst or failed case, report.pdf) into ``DIR/report``.
+worst or failed case, report.pdf) into ``DIR/report``, written whole and put in place of the earlier report in
+one rename (:class:`harness.rundir.RunDir`).  The store's own transactions are the campaign's record (resumable
+in place); one lock on the store (:func:`harness.campaign.store.locked`) keeps a second run or report out while
+one works.
 """
 
 from __future__ import annotations
@@ -177,13 +180,18 @@ def status(args) -> int:
 
 def report(args) -> int:
     from harness.campaign.report import write_report
-    from harness.marker import amending
+    from harness.campaign.store import locked
+    from harness.rundir import RunDir
     from reports.campaign import render_campaign
 
     _store(args.dir).close()
-    with amending(args.dir):  # refused while a campaign run writes the folder, and held meanwhile
-        summary, rows, paths = write_report(args.dir)
-        pages = render_campaign(args.dir, summary, rows, pdf=not args.no_pdf)
+    folder = Path(args.dir).expanduser().resolve()
+    with locked(folder):  # refused while a campaign run works there, and held meanwhile
+        # a report/ link is refused (never followed out of DIR); an earlier report/ is replaced once this is whole
+        with RunDir(folder / "report", command="campaign report", replace=True) as out:
+            summary, rows, paths = write_report(folder, out.root)
+            pages = render_campaign(folder, summary, rows, target=out.root, pdf=not args.no_pdf)
+            out.commit()
     paths += [pages["index"], *pages["pages"]] + ([pages["pdf"]] if "pdf" in pages else [])
-    print(f"campaign report: {pages['index']} ({len(paths)} files)")
+    print(f"campaign report: {out.out / 'index.html'} ({len(paths)} files)")
     return 0

@@ -21,12 +21,11 @@ from planners.scenario import list_scenarios, load_scenario
 from reports.case_files import write_case
 from reports.html import render_run
 
+from ..artefacts import json_safe, run_manifest
 from ..engines import engine_names, engines_from_names
-from ..fileio import json_safe
-from ..outdir import OutputDir
 from ..validation import ValidationCase, case_settings, run_case
-from ._args import iterations, out_path
-from ._compare_args import add_compare_arguments, check_steps, compare_overrides, default_out
+from ._args import add_replace, iterations, out_path
+from ._compare_args import add_compare_arguments, check_steps, compare_overrides, run_dir
 
 
 def register(sub) -> None:
@@ -56,8 +55,9 @@ def register(sub) -> None:
         type=out_path,
         default=None,
         metavar="DIR",
-        help="output folder (default reports/out/<scenario>/open, or closed)",
+        help="output folder, created whole once the run is complete (default reports/out/<scenario>/open, or closed)",
     )
+    add_replace(p)
     p.add_argument("--json", action="store_true", help="print one JSON object (the verdict) instead of the tables")
     add_compare_arguments(p)
     p.set_defaults(func=run)
@@ -74,14 +74,12 @@ def run(args) -> int:
     scenario = load_scenario(case.scenario, J=case.J)
     settings = case_settings(case, scenario)  # settings, work and destination checked before planning
     check_steps([(case, scenario, settings)], args.max_steps, "compare")
-    out = (
-        OutputDir(args.out, command="compare") if args.out else default_out(scenario.name, args.loop, command="compare")
-    )
-    result = run_case(case, scenario=scenario)
-    write_case(result, out, csv=args.csv, command_line=getattr(args, "command_line", None))
-    out.finish(release=False)  # the folder stays this run's until its report is written
-    report = render_run(out.root, pdf=False)  # the case page and an index of one
-    out.release()
+    with run_dir(args, scenario.name, args.loop, command="compare") as out:
+        result = run_case(case, scenario=scenario)
+        write_case(result, out.root, csv=args.csv, manifest=False)
+        record = run_manifest([result], command_line=getattr(args, "command_line", None))
+        render_run(out.root, pdf=False, manifest=record)  # the case page and an index of one
+        out.commit(record)
     verdict = result.verdict()
     if args.json:
         print(json.dumps(json_safe(verdict), indent=2))
@@ -94,7 +92,7 @@ def run(args) -> int:
                 f"{label} against the flat outputs: max {r['max_position_error_m']:.3e} m, after 5 s "
                 f"{after}; controls saturated {r['saturated_s']:.2f} s"
             )
-    print(f"figures, trajectories and tables written to {out.root}/, report {report['index']}")
+    print(f"figures, trajectories and tables written to {out.out}/, report {out.out / 'index.html'}")
     if not verdict["pass"]:
         print("gflat compare: the engines disagree beyond the tolerances (or a run ended early): FAIL")
         return 1

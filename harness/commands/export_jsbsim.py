@@ -1,4 +1,9 @@
-"""``gflat export-jsbsim [AIRCRAFT ...|--all] [--out DIR] [--check]``: write the JSBSim aircraft files."""
+"""``gflat export-jsbsim [AIRCRAFT ...|--all] [--out DIR [--replace]] [--check]``: write the JSBSim aircraft files.
+
+With ``--out`` the files are a run, written whole (:class:`harness.rundir.RunDir`); without it the
+repository's tracked ``aircraft_xml/`` is updated in place, each file replaced atomically
+(:func:`harness.rundir.write_file`), no manifest.
+"""
 
 from __future__ import annotations
 
@@ -8,9 +13,9 @@ from gna.aircraft import list_aircraft, load_aircraft
 from gna.errors import InputError
 from harness.engines.jsbsim import files as jf
 from harness.engines.jsbsim.export import aircraft_xml
-from harness.outdir import INCOMPLETE, OutputDir
+from harness.rundir import RunDir, write_file
 
-from ._args import out_path
+from ._args import add_replace, out_path
 
 
 def register(sub) -> None:
@@ -30,8 +35,10 @@ def register(sub) -> None:
         type=out_path,
         default=None,
         metavar="DIR",
-        help="output folder (default: the repository's aircraft_xml/)",
+        help="output folder, created whole once every file is written (default: the repository's aircraft_xml/, "
+        "updated in place)",
     )
+    add_replace(p)
     p.add_argument(
         "--check", action="store_true", help="write nothing; exit 1 if a file is missing or differs from a fresh export"
     )
@@ -43,6 +50,8 @@ def run(args) -> int:
         raise InputError("give aircraft identifiers or --all, not both")
     if not args.all and not args.aircraft:
         raise InputError("name the aircraft to export, or use --all")
+    if getattr(args, "replace", False) and args.out is None:
+        raise InputError("--replace replaces an --out folder; the repository's aircraft_xml/ is updated file by file")
     crafts = [load_aircraft(n) for n in (list_aircraft() if args.all else args.aircraft)]
     root = args.out if args.out is not None else jf.default_root()
     if args.check:
@@ -54,13 +63,18 @@ def run(args) -> int:
             return 1
         print(f"{len(crafts)} JSBSim file(s) current in {root}")
         return 0
-    # checked before any export; never cleaned: other aircraft's files in the folder stay. The repository's
-    # aircraft_xml/ is tracked in git: no marker there (nor the in-progress record earlier versions left)
-    out = OutputDir(root, clean=False, parents=args.out is None, command="export-jsbsim", marker=args.out is not None)
-    if args.out is None:
-        (out.root / INCOMPLETE).unlink(missing_ok=True)
+    if args.out is None:  # the repository's tracked folder: other aircraft's files stay, each file replaced whole
+        for a in crafts:
+            path = jf.xml_path(root, a.id)  # an id leaving the folder is refused
+            path.parent.mkdir(parents=True, exist_ok=True)
+            print(f"{a.id}: {write_file(path, aircraft_xml(a))}")
+        return 0
+    with RunDir(
+        root, command="export-jsbsim", replace=getattr(args, "replace", False)
+    ) as out:  # checked before any export
+        for a in crafts:
+            out.write_text(a.id, f"{a.id}.xml", text=aircraft_xml(a))  # an id leaving the folder is refused
+        out.commit()
     for a in crafts:
-        path = out.write_text(a.id, f"{a.id}.xml", text=aircraft_xml(a))  # an id leaving the folder is refused
-        print(f"{a.id}: {path}")
-    out.finish()
+        print(f"{a.id}: {out.out / a.id / f'{a.id}.xml'}")
     return 0

@@ -9,8 +9,8 @@ from planners.scenario import list_scenarios, load_scenario
 from ..engines.jsbsim.engine import JSBSimEngine
 from ..engines.jsbsim.grid import output_grid
 from ..engines.jsbsim.script import export_script, steps_of
-from ..outdir import OutputDir
-from ._args import iterations, out_path, positive_float
+from ..rundir import RunDir
+from ._args import add_replace, iterations, out_path, positive_float
 
 
 def register(sub) -> None:
@@ -25,7 +25,10 @@ def register(sub) -> None:
         "package's FGFDMExec(DIR).load_script(...). Bundled scenarios: " + ", ".join(list_scenarios()),
     )
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
-    p.add_argument("--out", type=out_path, required=True, metavar="DIR", help="output folder (created)")
+    p.add_argument(
+        "--out", type=out_path, required=True, metavar="DIR", help="output folder, created whole once written"
+    )
+    add_replace(p)
     p.add_argument(
         "--J", type=iterations, default=None, help="generalized-flatness iterations, or auto (default: the scenario's)"
     )
@@ -50,8 +53,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    if args.out.exists() and not args.out.is_dir():
-        raise InputError(f"--out {args.out} exists and is not a folder")
     sc = load_scenario(args.scenario, J=args.J)
     n, dt, _, _ = output_grid(sc.t0, sc.t1, JSBSimEngine().dt, args.dt_out, None)  # intervals checked first
     steps_of(args.dt_out, dt, "--dt-out")
@@ -62,28 +63,29 @@ def run(args) -> int:
                 f"--table-dt {args.table_dt:g} s is longer than the plan's node step {sc.step:g} s: "
                 f"the tables' straight lines would replace the plan's controls between its nodes"
             )
-    # checked and held before planning; files of earlier exports (other scenarios) stay, listed in the marker
-    out = OutputDir(args.out, clean=False, command="export-jsbsim-script")
-    plan = plan_scenario(sc)
-    if not plan.feasible:
-        why = (
-            f"Newton failed: {'; '.join(plan.newton_failures[:3])}"
-            if plan.newton_failures
-            else plan.domain_failures[-1]
+    with RunDir(
+        args.out, command="export-jsbsim-script", replace=getattr(args, "replace", False)
+    ) as out:  # checked before planning
+        plan = plan_scenario(sc)
+        if not plan.feasible:
+            why = (
+                f"Newton failed: {'; '.join(plan.newton_failures[:3])}"
+                if plan.newton_failures
+                else plan.domain_failures[-1]
+            )
+            raise InputError(f"the plan of {sc.name} is not feasible ({why}); nothing written")
+        b = export_script(
+            out.root,
+            sc.name,
+            sc.aircraft,
+            plan,
+            (plan.t0, plan.t1),
+            plan.initial_state(),
+            env=sc.env,
+            dt_out=args.dt_out,
+            table_dt=args.table_dt,
         )
-        raise InputError(f"the plan of {sc.name} is not feasible ({why}); nothing written")
-    b = export_script(
-        out,
-        sc.name,
-        sc.aircraft,
-        plan,
-        (plan.t0, plan.t1),
-        plan.initial_state(),
-        env=sc.env,
-        dt_out=args.dt_out,
-        table_dt=args.table_dt,
-    )
-    out.finish()
+        out.commit()
     print(f"{sc.name}: t = {b.t_span[0]:g} .. {b.t_span[1]:g} s, JSBSim step {b.dt:.6g} s, {b.rows} control-table rows")
     for what in ("aircraft", "initialization", "script"):
         print(f"  {what}: {args.out / getattr(b, what)}")

@@ -11,13 +11,16 @@ Layout of ``--out DIR``: ``DIR/manifest.json``; ``DIR/<scenario>/plan/`` (the
 plan's series, CSV tables, ``plan-j<k>.parquet`` of every iterate,
 ``summary.json``); ``DIR/<scenario>/open/`` and ``DIR/<scenario>/closed/``
 (``trajectory-<engine>.parquet``, figures, ``differences.txt``,
-``summary.json``); ``DIR/.gflat-complete.json`` once everything is written.
+``summary.json``); the report pages (``index.html``, a ``case.html`` per case,
+``report.pdf``).  The folder appears whole once everything is written
+(:class:`harness.rundir.RunDir`: ``manifest.json`` last, with every file's
+sha256).
 
 The plans are made in this process; the flights of the cases and the writing
 of their folders run in forked worker processes (``--jobs``,
-:class:`harness.parallel.ForkPool`), whose files this process writes in the
-order of a one-process run; the closed loop's open-loop curve is the open-loop
-case's reference run (the same flight, flown once).
+:class:`harness.parallel.ForkPool`), each writing its case's files directly
+into the run's staging folder; the closed loop's open-loop curve is the
+open-loop case's reference run (the same flight, flown once).
 """
 
 from __future__ import annotations
@@ -29,12 +32,12 @@ from planners.scenario import load_scenario
 from reports.case_files import write_case
 from reports.html import render_run
 
-from ..artefacts import write_manifest, write_plan_iterates
-from ..outdir import OutputDir
-from ..parallel import ForkPool, MemoryOutputDir, default_jobs, replay
+from ..artefacts import run_manifest, write_plan_iterates
+from ..parallel import ForkPool, default_jobs, run_all
+from ..rundir import RunDir
 from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
-from ._args import iterations, out_path, worker_count
+from ._args import add_replace, iterations, out_path, worker_count
 from ._compare_args import add_compare_arguments, check_steps, compare_overrides
 from .plan import write_plan
 
@@ -49,8 +52,13 @@ def register(sub) -> None:
         description=__doc__.split("\n\n")[1],
     )
     p.add_argument(
-        "--out", type=out_path, default=None, metavar="DIR", help="output folder (default reports/out/paper)"
+        "--out",
+        type=out_path,
+        default=None,
+        metavar="DIR",
+        help="output folder, created whole once the run is complete (default reports/out/paper)",
     )
+    add_replace(p)
     p.add_argument("--J", type=iterations, default=None, help="iterations, or auto (default: each scenario's)")
     p.add_argument(
         "--loop",
@@ -103,14 +111,15 @@ def _timed(fn):
 
 
 def _write_task(result, root, sub: tuple, plan_sub: tuple | None, csv: bool):
-    """A case folder's files (and the plan iterates with ``plan_sub``) written to memory, in the serial order."""
+    """A case folder's files (and the plan iterates with ``plan_sub``) written into the staging folder ``root``."""
 
     def write():
-        mem = MemoryOutputDir(root)
-        write_case(result, mem.sub(*sub), csv=csv, plan=False, manifest=False)
+        write_case(result, root.joinpath(*sub), csv=csv, plan=False, manifest=False)
         if plan_sub is not None:
-            write_plan_iterates(mem.sub(*plan_sub), result.plan, result.runs[result.reference_engine].df.index, csv=csv)
-        return mem.files
+            write_plan_iterates(
+                root.joinpath(*plan_sub), result.plan, result.runs[result.reference_engine].df.index, csv=csv
+            )
+        return True
 
     return write
 
@@ -123,8 +132,8 @@ class _Scenario:
     the same flight (:func:`harness.validation.flights.reusable_open_loop`).
     """
 
-    def __init__(self, case, loops: tuple, root, csv: bool):
-        self.case, self.loops, self.root, self.csv = case, loops, root, csv
+    def __init__(self, case, loops: tuple, root, shown, csv: bool):
+        self.case, self.loops, self.root, self.shown, self.csv = case, loops, root, shown, csv
         self.name = case.scenario
         self.lines = [f"=== {case.scenario}"]
         self.flights, self.runs, self.results, self.files = {}, {}, {}, {}
@@ -133,7 +142,7 @@ class _Scenario:
         self.t_plan = 0.0
 
     def plan(self, pool: ForkPool) -> None:
-        """Plan, write the plan's files to memory, set the cases up and submit their flights."""
+        """Plan, write the plan's files, set the cases up and submit their flights."""
         t0 = time.perf_counter()
         planned = plan_case(self.case)
         self.name = planned.scenario.name
@@ -145,11 +154,9 @@ class _Scenario:
             for name in self.flights[loop].flights:
                 if not (loop == "closed" and name == OPEN_LOOP and "open" in self.loops):
                     self._fly(pool, loop, name)  # the open-loop run waits for the open case's
-        mem = MemoryOutputDir(self.root)
-        self.lines.append(
-            write_plan(planned.scenario, planned.plan, planned.planning_time_s, mem.sub(self.name, "plan"))[0]
-        )
-        self.files["plan"] = mem.files
+        folder = self.root / self.name / "plan"
+        shown = self.shown / self.name / "plan"
+        self.lines.append(write_plan(planned.scenario, planned.plan, planned.planning_time_s, folder, shown=shown)[0])
         self.t_plan = time.perf_counter() - t0
 
     def _fly(self, pool: ForkPool, loop: str, name: str) -> None:
@@ -162,7 +169,7 @@ class _Scenario:
         )
 
     def receive(self, pool: ForkPool, key: tuple, value) -> None:
-        """A worker's result: a run, or a case folder's files; the next steps submitted."""
+        """A worker's result: a run, or a case folder written; the next steps submitted."""
         (out, dt), loop = value, key[2]
         self.elapsed[loop] += dt
         if key[0] == "write":
@@ -191,7 +198,7 @@ class _Scenario:
 
     @property
     def done(self) -> bool:
-        """Every case's files are back."""
+        """Every case's files are written."""
         return all(loop in self.files for loop in self.loops)
 
 
@@ -204,9 +211,10 @@ def run(args) -> int:
         scenario = load_scenario(case.scenario, J=case.J)
         planned += [(replace(case, loop=loop), scenario, case_settings(case, scenario)) for loop in loops]
     check_steps(planned, args.max_steps, "paper")  # and the work of every flight
-    out = OutputDir(args.out or "reports/out/paper", parents=args.out is None, command="paper")
-    with ForkPool(args.jobs or default_jobs()) as pool:
-        scenarios = [_Scenario(case, loops, out.root, args.csv) for case in cases]
+    default = args.out is None  # the tool's own folder: an earlier gflat run there is replaced
+    out = RunDir(args.out or "reports/out/paper", command="paper", replace=default or args.replace, parents=default)
+    with out, ForkPool(args.jobs or default_jobs()) as pool:
+        scenarios = [_Scenario(case, loops, out.root, out.out, args.csv) for case in cases]
         by_name = {}
         for sc in scenarios:
             sc.plan(pool)
@@ -220,8 +228,6 @@ def run(args) -> int:
             sc = scenarios[emitted]  # files written and lines printed in the scenarios' order
             emitted += 1
             name = sc.name
-            for part in ("plan", *loops):
-                replay(out, sc.files[part])
             print("\n".join(sc.lines))
             passed.append(True)
             if "open" in loops:
@@ -248,7 +254,7 @@ def run(args) -> int:
                     f"  in-house vs JSBSim (open loop, J = {J}): first 10 s {pos(first):.2e} m, "
                     f"{ang(first):.2e} rad; whole span {pos(whole):.2e} m, {ang(whole):.2e} rad"
                 )
-                print(f"  figures, trajectories and tables: {out.path(name, 'open')}/")
+                print(f"  figures, trajectories and tables: {out.out / name / 'open'}/")
             if "closed" not in loops:
                 continue
             closed = sc.results["closed"]
@@ -272,21 +278,18 @@ def run(args) -> int:
                 f"{runs['jsbsim']['status']}, {runs['jsbsim']['max_position_error_m']:.2e} m; in-house vs JSBSim "
                 f"{v['differences']['jsbsim']['max_position_m']:.2e} m"
             )
-            print(f"  four-curve figure: {out.path(name, 'closed', 'tracking.png')}")
+            print(f"  four-curve figure: {out.out / name / 'closed' / 'tracking.png'}")
         jobs, log = pool.jobs, pool.log
-    how = (
-        "cases flown and drawn in forked worker processes, files written by the main process in the serial order"
-        if jobs > 1
-        else "in one process"
-    )
-    write_manifest(
-        out,
-        results,
-        command_line=getattr(args, "command_line", None),
-        execution={"jobs": jobs, "how": how, "planning_s": {sc.name: sc.t_plan for sc in scenarios}, "tasks": log},
-    )
-    out.finish(release=False)  # the folder stays this run's until its report is written
-    print(f"\nmanifest, plans, trajectories, figures and tables written to {out.root}/")
+        pool.close()
+        how = "cases flown and written by forked worker processes" if jobs > 1 else "in one process"
+        record = run_manifest(
+            results,
+            command_line=getattr(args, "command_line", None),
+            execution={"jobs": jobs, "how": how, "planning_s": {sc.name: sc.t_plan for sc in scenarios}, "tasks": log},
+        )
+        report = render_run(out.root, jobs=jobs, run_all=run_all, manifest=record)  # from the saved report.json files
+        out.commit(record)
+    print(f"\nmanifest, plans, trajectories, figures, tables and report written to {out.out}/")
     failed = [c.scenario for c, ok in zip(cases, passed) if not ok]
     if rows:
         print("\nsummary: in-house vs JSBSim, open loop with the generalized-flatness controls")
@@ -310,9 +313,7 @@ def run(args) -> int:
             "   [tracking] saturate is on; the forward slip's plan itself needs dl of about -28 deg, beyond the GTM's\n"
             "   20 deg, and is flown unclipped)"
         )
-    report = render_run(out.root, jobs=jobs)  # HTML and PDF from the saved report.json files
-    out.release()
-    print(f"\nreport: {report['index']} (PDF: {report['pdf']})")
+    print(f"\nreport: {out.out / report['index'].name} (PDF: {out.out / report['pdf'].name})")
     if failed:
         print(
             f"gflat paper: engines disagree beyond the tolerances, or a run ended early, for {', '.join(failed)}: FAIL"

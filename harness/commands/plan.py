@@ -27,10 +27,9 @@ from planners.scenario import list_scenarios, load_scenario
 from planners.systems.demos import DEMOS, is_chained_scenario, run_demo
 from planners.verify import open_loop_error
 
-from ..fileio import json_safe
-from ..outdir import OutputDir
-from ._args import cost_bound, iterations, out_path
-from ._compare_args import default_out
+from ..artefacts import file_record, json_safe, manifest, write_json
+from ._args import add_replace, cost_bound, iterations, out_path
+from ._compare_args import default_out, run_dir
 
 
 def register(sub) -> None:
@@ -51,8 +50,13 @@ def register(sub) -> None:
         help="generalized-flatness iterations, or auto (a convergence test; default: the scenario's)",
     )
     p.add_argument(
-        "--out", type=out_path, default=None, metavar="DIR", help="output folder (default reports/out/<scenario>/plan)"
+        "--out",
+        type=out_path,
+        default=None,
+        metavar="DIR",
+        help="output folder, created whole once the run is complete (default reports/out/<scenario>/plan)",
     )
+    add_replace(p)
     p.add_argument(
         "--max-cost",
         type=cost_bound,
@@ -106,10 +110,10 @@ def _singular(plan) -> bool:
     return plan.singularities is not None and bool(plan.singularities.failures)
 
 
-def save_plan_files(plan, out: OutputDir, step: float | None = None) -> dict:
-    """Write a plan's node series (npz), CSV tables of iterates 0 and J and singularity table, atomically.
+def save_plan_files(plan, out: str | Path, step: float | None = None) -> dict:
+    """Write a plan's node series (npz), CSV tables of iterates 0 and J and singularity table into a folder.
 
-    The files of :func:`planners.plan.save_plan`, through the output folder.  A plan whose flat
+    The files of :func:`planners.plan.save_plan`.  A plan whose flat
     parametrization is singular (stage 2) gets only ``plan_j0.csv`` and ``singularities.csv``: its later
     iterates are not solutions of the model (values up to 1e+150 and beyond).
 
@@ -117,16 +121,18 @@ def save_plan_files(plan, out: OutputDir, step: float | None = None) -> dict:
     ----------
     plan : planners.plan.Plan
         The plan.
-    out : OutputDir
-        Folder.
+    out : str or Path
+        Folder (made when missing).
     step : float, optional
         Step [s] of the CSV time grid (default: a quarter of the smallest node spacing).
 
     Returns
     -------
     dict
-        What was written (``"series"``, ``"plan_j0"``, ...) -> its path (str).
+        What was written (``"series"``, ``"plan_j0"``, ...) -> its file name in ``out``.
     """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
     written = {}
     singular = _singular(plan)
     if not singular:
@@ -134,20 +140,17 @@ def save_plan_files(plan, out: OutputDir, step: float | None = None) -> dict:
         for j, it in enumerate(plan.iterates):
             for name, s in it.series.items():
                 arrays[f"j{j}/{name}"] = np.real(np.asarray(s.coeffs))
-        with out.atomic("plan_series.npz") as tmp:
-            with open(tmp, "wb") as fh:  # a file object: numpy adds no suffix
-                np.savez_compressed(fh, **arrays)
-        written["series"] = str(out.path("plan_series.npz"))
+        with open(out / "plan_series.npz", "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+        written["series"] = "plan_series.npz"
     step = step if step is not None else float(np.min(np.diff(plan.t_nodes))) / 4
     for j in sorted({0} if singular else {0, plan.J}):
-        with out.atomic(f"plan_j{j}.csv") as tmp:
-            plan.to_dataframe(step=step, j=j).to_csv(tmp, float_format="%.10g")
-        written[f"plan_j{j}"] = str(out.path(f"plan_j{j}.csv"))
+        plan.to_dataframe(step=step, j=j).to_csv(out / f"plan_j{j}.csv", float_format="%.10g")
+        written[f"plan_j{j}"] = f"plan_j{j}.csv"
     sing = plan.singularities
     if sing is not None:
-        with out.atomic("singularities.csv") as tmp:
-            sing.table.to_csv(tmp, float_format="%.8g")
-        written["singularities"] = str(out.path("singularities.csv"))
+        sing.table.to_csv(out / "singularities.csv", float_format="%.8g")
+        written["singularities"] = "singularities.csv"
     return written
 
 
@@ -229,7 +232,9 @@ def plan_summary(sc, plan, elapsed: float, check=None, not_flown: str | None = N
     return out
 
 
-def write_plan(sc, plan, elapsed: float, out, check=None, not_flown: str | None = None) -> tuple[str, dict]:
+def write_plan(
+    sc, plan, elapsed: float, out, check=None, not_flown: str | None = None, shown: Path | None = None
+) -> tuple[str, dict]:
     """Write a plan's files (series, CSV tables, convergence table, summary) to ``out``.
 
     Parameters
@@ -240,12 +245,15 @@ def write_plan(sc, plan, elapsed: float, out, check=None, not_flown: str | None 
         Its plan.
     elapsed : float
         Planning wall time [s].
-    out : OutputDir or str or Path
-        Folder (a path is opened as an OutputDir, parents created, and finished here).
+    out : str or Path
+        Folder (made when missing).
     check : planners.verify.OpenLoopCheck, optional
         The open-loop verification flight, when made (reported and saved in the summary).
     not_flown : str, optional
         Why the verification flight asked for was not made (:func:`plan_summary`).
+    shown : Path, optional
+        The folder the report names (default ``out``; a command gives its final ``--out``, not the staging
+        folder).
 
     Returns
     -------
@@ -254,8 +262,7 @@ def write_plan(sc, plan, elapsed: float, out, check=None, not_flown: str | None 
     summary : dict
         The contents of ``summary.json`` (:func:`plan_summary` plus the files written).
     """
-    own = not isinstance(out, OutputDir)
-    od = OutputDir(out, parents=True) if own else out
+    od = Path(out)
     written = save_plan_files(plan, od)
     summary = plan_summary(sc, plan, elapsed, check, not_flown)
     tn = plan.t_nodes
@@ -306,12 +313,11 @@ def write_plan(sc, plan, elapsed: float, out, check=None, not_flown: str | None 
             lines.append("    " + table.to_string(float_format=lambda v: f"{v:.6g}").replace("\n", "\n    "))
         buf = io.StringIO()
         table.to_csv(buf, float_format="%.10g")
-        written["convergence"] = str(od.write_text("convergence.csv", text=buf.getvalue()))
+        (od / "convergence.csv").write_text(buf.getvalue(), encoding="utf-8")
+        written["convergence"] = "convergence.csv"
     summary["files"] = written
-    od.write_json("summary.json", obj=json_safe(summary))
-    if own:
-        od.finish()
-    lines.append(f"  written to {od.root}/")
+    write_json(od / "summary.json", json_safe(summary))
+    lines.append(f"  written to {shown or od}/")
     return "\n".join(lines), summary
 
 
@@ -331,27 +337,30 @@ def run(args) -> int:
                 f"{', '.join(refused)}: for aircraft scenarios only; a chained system's plan is always "
                 f"checked against its exact model (summary: checks, feasible) and takes a whole J"
             )
-        out = OutputDir(Path(args.out), command="plan") if args.out else None  # checked before planning
+        out = run_dir(args, command="plan") if args.out else None  # checked before planning
         demo = run_demo(args.scenario, J=args.J)
         out = out if out is not None else default_out(demo.summary["scenario"], "plan", command="plan")
-        out.write_text("plan.csv", text=demo.csv)
-        out.write_json("summary.json", obj=demo.summary)
-        print(json.dumps(json_safe(demo.summary), indent=2) if args.json else demo.text + f"\n  written to {out.root}/")
-        out.finish()
+        with out:
+            out.write_text("plan.csv", text=demo.csv)
+            out.write_json("summary.json", obj=demo.summary)
+            out.commit(manifest(command_line=getattr(args, "command_line", None)))
+        print(json.dumps(json_safe(demo.summary), indent=2) if args.json else demo.text + f"\n  written to {out.out}/")
         if demo.summary["failure"]:
             print(f"gflat plan: the plan is not feasible: {demo.summary['failure']}", file=sys.stderr)
             return 1
         return 0
     sc = load_scenario(args.scenario, J=args.J)
-    out = OutputDir(Path(args.out), command="plan") if args.out else default_out(sc.name, "plan", command="plan")
-    t0 = time.perf_counter()
-    plan = plan_scenario(sc, max_cost=args.max_cost)
-    elapsed = time.perf_counter() - t0
-    reason = infeasible_reason(plan)
-    check = open_loop_error(plan) if args.verify and reason is None else None
-    not_flown = f"not flown: the plan is not feasible: {reason}" if args.verify and reason is not None else None
-    text, summary = write_plan(sc, plan, elapsed, out, check, not_flown)
-    out.finish()
+    with run_dir(args, sc.name, "plan", command="plan") as out:  # checked before planning
+        t0 = time.perf_counter()
+        plan = plan_scenario(sc, max_cost=args.max_cost)
+        elapsed = time.perf_counter() - t0
+        reason = infeasible_reason(plan)
+        check = open_loop_error(plan) if args.verify and reason is None else None
+        not_flown = f"not flown: the plan is not feasible: {reason}" if args.verify and reason is not None else None
+        text, summary = write_plan(sc, plan, elapsed, out.root, check, not_flown, shown=out.out)
+        out.commit(
+            manifest(inputs={"scenario": file_record(sc.path)}, command_line=getattr(args, "command_line", None))
+        )
     print(json.dumps(json_safe(summary), indent=2) if args.json else text)
     if reason is not None:
         if plan.domain_failures or _singular(plan):

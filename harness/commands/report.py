@@ -1,52 +1,34 @@
 """``gflat report DIR [--self-contained] [--pdf/--no-pdf]``: render a run's reports again from its saved results.
 
-Reads the ``report.json`` of every case under DIR (written by ``gflat paper``
-and ``gflat compare``) and writes ``DIR/index.html``, a ``case.html`` per case
-folder, with ``--self-contained`` a single ``DIR/report.html`` with the images
-embedded (one file to mail), and ``DIR/report.pdf``.  Nothing is planned or
-flown again: the pages are the run's, byte for byte apart from the render date.
+Reads the ``report.json`` of every case of the run in DIR (written by ``gflat
+paper`` and ``gflat compare``) and writes ``DIR/index.html``, a ``case.html``
+per case folder, with ``--self-contained`` a single ``DIR/report.html`` with
+the images embedded (one file to mail), and ``DIR/report.pdf``.  Nothing is
+planned or flown again: the pages are the run's, byte for byte apart from the
+render date.
 
-DIR is a run's output folder (or a case folder inside one); a folder that is no
-run's but holds runs in its sub-folders is refused, naming them: each run's
-pages are its own (render each).  A root or the home folder is refused, and
-only the run's files are touched: case pages of an earlier rendering whose
-case is gone are removed only when the run's marker lists them.
-
-DIR is held as a run holds its output folder (the run's top folder too, when
-DIR is a case folder inside a run): a run writing there meanwhile is refused,
-and this refuses while one writes (one line, exit status 2, nothing changed).
-The pages are rendered on behalf of the run that wrote DIR, whatever its
-command: the pages, the single page and the PDF join that run's files in its marker
-(:mod:`harness.marker`), so that the run's command, run again into DIR,
-replaces or removes them as its own.
+DIR is a gflat run's folder (or a folder inside one: the enclosing run is
+rendered); a folder that is no gflat run's is refused.  A run is never changed
+in place: its files (only those its manifest lists) are copied into a staging
+folder beside it (each checked against its sha256), the pages rendered there,
+the manifest rewritten (files and sha256), and the copy swapped in place of the run in one rename
+(:class:`harness.rundir.RunDir`).  A rendering killed or failed at any moment
+leaves the run as it was.
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
+import hashlib
+import shutil
 import time
 from pathlib import Path
 
 from gna.errors import InputError
-from reports.html import incomplete_notice, render_run
+from reports.html import render_date, render_run
 
-from ..marker import amending, is_run, runs_inside
-from ..outguard import _few
-from ..parallel import default_jobs
-
-
-def _one_run(path: Path, top: Path) -> None:
-    """Refuse a folder that is no run's but holds runs in its sub-folders: their pages are each run's own."""
-    if is_run(top):
-        return
-    runs = runs_inside(path)
-    if runs:
-        names = _few([str(r.relative_to(path)) for r in runs], 4)
-        raise InputError(
-            f"{path} is not a run's folder; it holds {len(runs)} separate run(s) ({names}): render "
-            f"each with gflat report {runs[0]} (and so on)"
-        )
+from ..parallel import default_jobs, run_all
+from ..rundir import RunDir, read_manifest
 
 
 def register(sub) -> None:
@@ -67,22 +49,94 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+def run_folder(folder: str | Path) -> tuple[Path, dict]:
+    """The gflat run ``folder`` is (or lies in), and its manifest.
+
+    Parameters
+    ----------
+    folder : str or Path
+        A run's folder, or a folder inside one.
+
+    Returns
+    -------
+    (Path, dict)
+
+    Raises
+    ------
+    InputError
+        ``folder`` is not a folder, or neither it nor a parent holds a gflat run's ``manifest.json``.
+    """
+    path = Path(folder).expanduser()
+    if not path.is_dir():
+        raise InputError(f"{folder} is not a folder")
+    path = path.resolve()
+    for d in (path, *path.parents):
+        data = read_manifest(d)
+        if data is not None:
+            return d, data
+    raise InputError(
+        f"{path} is not the folder of a gflat run (no manifest.json of gflat there or above): give the --out of "
+        f"gflat paper or gflat compare"
+    )
+
+
+def render_again(
+    folder: str | Path, *, self_contained: bool = False, pdf: bool = True, date: str | None = None
+) -> dict[str, Path]:
+    """Render the pages of the run ``folder`` is (or lies in) again, in a copy swapped in place of the run.
+
+    Parameters
+    ----------
+    folder : str or Path
+        A run's folder, or a folder inside one (:func:`run_folder`).
+    self_contained, pdf : bool
+        As :func:`reports.html.render_run`.
+    date : str, optional
+        Render date printed on every page (default now, UTC).
+
+    Returns
+    -------
+    dict
+        :func:`reports.html.render_run`'s paths, in the run's folder.
+
+    Raises
+    ------
+    InputError
+        No gflat run there; the run's folder holds a file its manifest does not list (never removed), or a
+        listed file is missing or differs from its sha256 (the run was changed since it was written); a page
+        cannot be rendered.  The run is left as it was.
+    """
+    top, old = run_folder(folder)
+    with RunDir(top, command=str(old.get("command")), replace=True) as out:  # refused if top holds a foreign file
+        for f in old.get("files", []):
+            src = top / f["path"]
+            if src.is_symlink() or not src.is_file():
+                raise InputError(f"{top}: {f['path']}, listed in its manifest, is missing or not a regular file")
+            dst = out.path(*Path(f["path"]).parts)
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(src, dst)
+            if hashlib.sha256(dst.read_bytes()).hexdigest() != f.get("sha256"):
+                raise InputError(f"{src} differs from the run's manifest (sha256): the run was changed since it ran")
+        pages = render_run(
+            out.root,
+            self_contained=self_contained,
+            pdf=pdf,
+            date=date,
+            jobs=default_jobs(),
+            run_all=run_all,
+            manifest=old,
+        )
+        out.commit({**old, "rendered_utc": render_date() if date is None else date})
+    moved = lambda p: top / p.relative_to(out.root)  # noqa: E731
+    return {k: [moved(p) for p in v] if isinstance(v, list) else moved(v) for k, v in pages.items()}
+
+
 def run(args) -> int:
-    root = Path(args.dir)
     t0 = time.perf_counter()
-    with amending(root) as top:  # refused while a run writes there, and held meanwhile
-        _one_run(root.expanduser().resolve(), top)
-        # the pages, the single page and the PDF join the run's files (render_run): a later run into the folder
-        # replaces or removes them
-        out = render_run(root, self_contained=args.self_contained, pdf=args.pdf, jobs=default_jobs())
-    notice = incomplete_notice(root)
-    if notice:
-        print(f"gflat report: warning: incomplete run: {notice}", file=sys.stderr)
-    print(f"report: {out['index']} ({len(out['pages'])} case page(s))")
-    if "removed_pdf" in out:
-        print(f"removed the stale {out['removed_pdf']} of an earlier rendering (--no-pdf)")
+    pages = render_again(args.dir, self_contained=args.self_contained, pdf=args.pdf)
+    print(f"report: {pages['index']} ({len(pages['pages'])} case page(s))")
     for key in ("single", "pdf"):
-        if key in out:
-            print(f"{key}: {out[key]}")
+        if key in pages:
+            print(f"{key}: {pages[key]}")
     print(f"rendered in {time.perf_counter() - t0:.2f} s")
     return 0

@@ -56,11 +56,11 @@ def test_console_script_installed():
 
 
 def test_plan_command_writes_outputs(tmp_path, capsys):
-    assert main(["plan", "gtm-aileron-roll", "--J", "2", "--out", str(tmp_path)]) == 0
+    assert main(["plan", "gtm-aileron-roll", "--J", "2", "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
     assert "convergence table" in out and "worst Newton residual" in out and "J=2" in out
     for f in ("plan_series.npz", "plan_j0.csv", "plan_j2.csv", "convergence.csv", "summary.json", "singularities.csv"):
-        assert (tmp_path / f).is_file(), f
+        assert (tmp_path / "out" / f).is_file(), f
 
 
 def test_plan_unknown_scenario(capsys):

@@ -41,7 +41,7 @@ def test_roll_closed_loop_agrees_across_engines():
 
 
 def test_compare_json_contract(tmp_path, capsys):
-    code = main(["compare", "twin-otter-single-engine", "--loop", "closed", "--json", "--out", str(tmp_path)])
+    code = main(["compare", "twin-otter-single-engine", "--loop", "closed", "--json", "--out", str(tmp_path / "out")])
     d = json.loads(capsys.readouterr().out)
     assert code == 0 and d["pass"] is True
     assert set(d) == {
@@ -62,11 +62,11 @@ def test_compare_json_contract(tmp_path, capsys):
         "saturated_s",
     }
     assert set(d["differences"]["jsbsim"]) == {"max_position_m", "max_angle_rad", "delta_pct"}
-    assert (tmp_path / "tracking.png").is_file() and (tmp_path / "summary.json").is_file()
+    assert (tmp_path / "out" / "tracking.png").is_file() and (tmp_path / "out" / "summary.json").is_file()
 
 
 def test_open_loop_json_has_the_same_keys(tmp_path, capsys):
-    code = main(["compare", "gtm-aileron-roll", "--json", "--out", str(tmp_path)])
+    code = main(["compare", "gtm-aileron-roll", "--json", "--out", str(tmp_path / "out")])
     d = json.loads(capsys.readouterr().out)
     assert code == 0 and d["loop"] == "open"
     assert all(r["saturated_s"] == 0.0 for r in d["runs"].values())

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 import stat
 from pathlib import Path
@@ -119,30 +118,20 @@ def test_anything_but_a_regular_file_is_refused_and_left_as_it_is(tmp_path, no_f
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link", "pipe"]
 
 
-@pytest.mark.parametrize("record", ["complete", "interrupted", "no command"])
-def test_a_file_into_a_runs_folder_is_refused(tmp_path, no_fit, capsys, record):
-    # fit's file must not go into another command's run (nor a folder inside it): that run's command, run again,
-    # would remove it, and `gflat report` read it as the run's (a manifest.json replaced).
+def test_a_file_into_a_runs_folder_is_refused(tmp_path, no_fit, capsys):
+    # runs are never changed once written: fit's file must not go into a run's folder (nor a folder inside it)
+    from harness.rundir import RunDir
+
+    with RunDir(tmp_path / "run", command="paper") as out:
+        out.write_text("case", "summary.json", text="{}")
+        out.commit()
     run = tmp_path / "run"
-    (run / "case").mkdir(parents=True)
-    (run / "manifest.json").write_text('{"cases": []}')
-    if record == "interrupted":
-        (run / ".gflat-incomplete").write_text('{"command": "paper"}\n"manifest.json"\n')
-    else:
-        marker = {"tool": "gflat", "complete": True, "files": [{"path": "manifest.json"}]}
-        marker.update({"command": "paper"} if record == "complete" else {})
-        (run / ".gflat-complete.json").write_text(json.dumps(marker))
     before = {p: p.read_bytes() for p in run.rglob("*") if p.is_file()}
-    what = {
-        "complete": "a complete run of 'gflat paper'",
-        "no command": "a complete run",
-        "interrupted": "an interrupted (or running) run of 'gflat paper'",
-    }[record]
     for out in (run / "manifest.json", run / "case" / "x.toml"):
         err = _one_line(capsys, main(["fit", "gtm", "--out", str(out)]))
         assert err == (
-            f"gflat fit: error: cannot write {out}: {run} is the folder of {what}, which holds "
-            f"that run's files only: give a path outside it\n"
+            f"gflat fit: error: cannot write {out}: {run} is the folder of a gflat run, never changed once "
+            f"written: give a path outside it\n"
         )
     assert {p: p.read_bytes() for p in run.rglob("*") if p.is_file()} == before
 
@@ -160,6 +149,11 @@ def test_an_empty_out_asks_for_a_file(capsys):
 def test_a_folder_that_exists_but_takes_no_files_is_named_so_by_every_command(capsys):
     # /proc exists: "No such file or directory" (the OS's answer to a create there) would be untrue.
     assert main(["paper", "--out", "/proc/gflat-x"]) == 2
-    assert capsys.readouterr().err.strip().endswith(f"its nearest existing folder /proc takes no files: {_PROC}")
+    assert capsys.readouterr().err.strip() == (
+        f"gflat paper: error: output folder /proc/gflat-x: cannot write in /proc: {_PROC}"
+    )
     assert main(["report", "/proc"]) == 2
-    assert capsys.readouterr().err.strip() == f"gflat report: error: output folder /proc: cannot write there: {_PROC}"
+    assert capsys.readouterr().err.strip() == (
+        "gflat report: error: /proc is not the folder of a gflat run (no manifest.json of gflat there or above): "
+        "give the --out of gflat paper or gflat compare"
+    )

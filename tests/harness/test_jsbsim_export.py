@@ -37,20 +37,20 @@ def test_no_file_for_unknown_aircraft():
 
 
 def test_cli_reproduces_committed_files_byte_for_byte(tmp_path, capsys):
-    assert main(["export-jsbsim", "--all", "--out", str(tmp_path)]) == 0
+    assert main(["export-jsbsim", "--all", "--out", str(tmp_path / "out")]) == 0
     for name in AIRCRAFT:
-        assert jf.xml_path(tmp_path, name).read_bytes() == jf.xml_path(ROOT, name).read_bytes()
+        assert jf.xml_path(tmp_path / "out", name).read_bytes() == jf.xml_path(ROOT, name).read_bytes()
     assert main(["export-jsbsim", "--all", "--check"]) == 0
     assert f"{len(AIRCRAFT)} JSBSim file(s) current" in capsys.readouterr().out
 
 
 def test_cli_check_detects_stale_file_and_errors_are_one_line(tmp_path, capsys):
     name = AIRCRAFT[0]
-    assert main(["export-jsbsim", name, "--out", str(tmp_path)]) == 0
-    path = jf.xml_path(tmp_path, name)
+    assert main(["export-jsbsim", name, "--out", str(tmp_path / "out")]) == 0
+    path = jf.xml_path(tmp_path / "out", name)
     path.write_text(path.read_text().replace("<J2> 0 </J2>", "<J2> 0.001 </J2>"))
     capsys.readouterr()
-    assert main(["export-jsbsim", name, "--out", str(tmp_path), "--check"]) == 1
+    assert main(["export-jsbsim", name, "--out", str(tmp_path / "out"), "--check"]) == 1
     assert "differs from a fresh export" in capsys.readouterr().err
     assert main(["export-jsbsim"]) == 2
     assert main(["export-jsbsim", "concorde"]) == 2

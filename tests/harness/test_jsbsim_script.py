@@ -76,40 +76,47 @@ def test_names_cannot_escape(roll, tmp_path):
     assert not any(tmp_path.iterdir())
 
 
-def test_the_marker_names_the_command_and_its_rerun_keeps_the_earlier_scenario(tmp_path, capsys):
-    from harness.outdir import MARKER
+def test_the_export_is_a_run_and_a_second_export_needs_replace(tmp_path, capsys):
+    from harness.rundir import MANIFEST
 
     from .test_validation import SHORT
 
     out = tmp_path / "x"
     assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", str(out)]) == 0
-    marker = json.loads((out / MARKER).read_text())
-    assert marker["command"] == "export-jsbsim-script"
-    first = [f["path"] for f in marker["files"]]
-    assert main(["plan", "gtm-aileron-roll", "--out", str(out)]) == 2  # another command's run: refused
-    assert (
-        f"output folder {out} holds a complete run of 'gflat export-jsbsim-script' (3 files)" in capsys.readouterr().err
-    )
+    manifest = json.loads((out / MANIFEST).read_text())
+    assert manifest["command"] == "export-jsbsim-script"
+    assert [f["path"] for f in manifest["files"]] == [
+        "aircraft/gtm/gtm-aileron-roll-init.xml",
+        "aircraft/gtm/gtm.xml",
+        "scripts/gtm-aileron-roll.xml",
+    ]
     (tmp_path / "short.toml").write_text(SHORT)
-    assert main(["export-jsbsim-script", str(tmp_path / "short.toml"), "--out", str(out)]) == 0  # its own rerun
-    listed = [f["path"] for f in json.loads((out / MARKER).read_text())["files"]]
-    assert listed == [*first, "aircraft/a7/a7.xml", "aircraft/a7/short-init.xml", "scripts/short.xml"]
-    assert all((out / f).is_file() for f in listed)  # one JSBSim root, both scripts, all listed
+    assert main(["export-jsbsim-script", str(tmp_path / "short.toml"), "--out", str(out)]) == 2
+    assert f"output folder {out} exists: give --replace" in capsys.readouterr().err
+    assert main(["export-jsbsim-script", str(tmp_path / "short.toml"), "--out", str(out), "--replace"]) == 0
+    listed = [f["path"] for f in json.loads((out / MANIFEST).read_text())["files"]]
+    assert listed == ["aircraft/a7/a7.xml", "aircraft/a7/short-init.xml", "scripts/short.xml"]  # the earlier gone
+    assert sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file()) == sorted([*listed, MANIFEST])
 
 
 def test_the_folder_is_checked_before_planning(tmp_path, monkeypatch, capsys):
     from harness.commands import export_script as command
-    from harness.outdir import OutputDir
+    from harness.rundir import RunDir
 
     monkeypatch.setattr(command, "plan_scenario", lambda sc: pytest.fail("planned before checking --out"))
-    paper = OutputDir(tmp_path / "paper", command="paper")
-    paper.write_text("index.html", text="<p>")
-    paper.finish()
+    with RunDir(tmp_path / "paper", command="paper") as paper:
+        paper.write_text("index.html", text="<p>")
+        paper.commit()
     assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", str(tmp_path / "paper")]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "holds a complete run of 'gflat paper'" in err
-    assert sorted(p.name for p in (tmp_path / "paper").iterdir()) == [".gflat-complete.json", "index.html"]
-    assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", "/"]) == 2
+    assert err.count("\n") == 1 and "exists: give --replace" in err
+    (tmp_path / "paper" / "mine.txt").write_text("the user's")
+    assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", str(tmp_path / "paper"), "--replace"]) == 2
+    assert "holds mine.txt" in capsys.readouterr().err
+    assert sorted(p.name for p in (tmp_path / "paper").iterdir()) == ["index.html", "manifest.json", "mine.txt"]
+    assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", str(tmp_path / "paper" / "sub")]) == 2
+    assert "lies inside" in capsys.readouterr().err
+    assert main(["export-jsbsim-script", "gtm-aileron-roll", "--out", "/", "--replace"]) == 2
     assert "file-system root" in capsys.readouterr().err
 
 

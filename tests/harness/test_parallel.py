@@ -12,8 +12,7 @@ import pandas as pd
 import pytest
 
 from gna.errors import DomainError, GflatError, InputError
-from harness.outdir import OutputDir
-from harness.parallel import ForkPool, MemoryOutputDir, replay
+from harness.parallel import ForkPool, run_all
 from harness.validation import ValidationCase, run_case
 
 from .test_validation import short_scenario  # noqa: F401  (fixture)
@@ -63,29 +62,6 @@ def test_errors_that_do_not_pickle_or_a_dying_worker_are_one_clear_error():
         ForkPool(0)
 
 
-def test_memory_folder_replayed_gives_the_files_of_a_direct_write(tmp_path):
-    def write(out):
-        out.write_text("a.txt", text="alpha\n")
-        sub = out.sub("case", "open")
-        sub.write_json("summary.json", obj={"x": 1.5})
-        with sub.atomic("fig.png") as tmp:
-            Path(tmp).write_bytes(b"\x89PNG...")
-        return sub.path("fig.png")
-
-    direct = OutputDir(tmp_path / "direct")
-    p1 = write(direct)
-    mem = MemoryOutputDir(tmp_path / "replayed")
-    p2 = write(mem)
-    assert p2 == tmp_path / "replayed" / "case" / "open" / "fig.png" and not p2.exists()
-    real = OutputDir(tmp_path / "replayed")
-    replay(real, mem.files)
-    assert real.written == direct.written and p1.read_bytes() == p2.read_bytes()
-    for rel in direct.written:
-        assert (tmp_path / "replayed" / rel).read_bytes() == (tmp_path / "direct" / rel).read_bytes()
-    with pytest.raises(InputError, match="invalid component"):
-        mem.path("..", "x")
-
-
 def test_closed_loop_reuses_the_open_cases_run(short_scenario):  # noqa: F811
     open_case = run_case(ValidationCase(str(short_scenario)))
     closed = ValidationCase(str(short_scenario), loop="closed")
@@ -118,7 +94,6 @@ def test_paper_in_workers_writes_the_files_of_one_process(short_scenario, tmp_pa
         "case.html",
         "report.pdf",
         "manifest.json",
-        ".gflat-complete.json",
         "report.json",
         "summary.json",
     }
@@ -128,8 +103,13 @@ def test_paper_in_workers_writes_the_files_of_one_process(short_scenario, tmp_pa
             assert pd.read_parquet(a).equals(pd.read_parquet(b)), rel
         elif rel.name not in volatile:
             assert a.read_bytes() == b.read_bytes(), rel
-    marker = [json.loads((tmp_path / f"jobs{j}" / ".gflat-complete.json").read_text()) for j in (1, 2)]
-    assert [f["path"] for f in marker[0]["files"]] == [f["path"] for f in marker[1]["files"]]
+    listed = [json.loads((tmp_path / f"jobs{j}" / "manifest.json").read_text())["files"] for j in (1, 2)]
+    assert (
+        [f["path"] for f in listed[0]]
+        == [f["path"] for f in listed[1]]
+        == [str(r) for r in files[1] if r.name != "manifest.json"]
+    )
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no staging folder left
     strip = lambda text: [  # noqa: E731
         line
         for line in text.splitlines()
@@ -143,13 +123,14 @@ def test_paper_in_workers_writes_the_files_of_one_process(short_scenario, tmp_pa
 
 _INTERRUPTED_POOLS = r"""
 import os, random, signal, sys, time
-from harness.parallel import ForkPool, MemoryOutputDir
+import tempfile
+from pathlib import Path
+from harness.parallel import ForkPool
 
 def task(i):
     def fn():
-        out = MemoryOutputDir(os.environ["TMPDIR"])
-        with out.atomic(f"f{i}.bin") as tmp:          # a temporary folder the worker must remove when ended
-            tmp.write_bytes(b"x" * 1000)
+        with tempfile.TemporaryDirectory() as tmp:     # a temporary folder the worker must remove when ended
+            (Path(tmp) / f"f{i}.bin").write_bytes(b"x" * 1000)
             time.sleep(random.uniform(0.0, 0.03))
             if i % 3 == 1:
                 raise ValueError(f"task {i} fails")    # the traceback-formatting path
@@ -259,6 +240,11 @@ def test_a_ctrl_c_raised_by_the_blocking_call_leaves_sigint_unblocked(monkeypatc
         with ForkPool(2) as pool:
             pool.submit("a", lambda: 1)
     assert not armed[0] and signal.SIGINT not in real(signal.SIG_BLOCK, ())
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_run_all_returns_the_results_in_order(jobs):
+    assert run_all([lambda i=i: i * i for i in range(5)], jobs, what="squaring") == [0, 1, 4, 9, 16]
 
 
 def test_a_killed_worker_leaves_no_temporary_folder(tmp_path):

@@ -87,7 +87,8 @@ def test_singular_flat_output_is_one_line_exit_1_and_no_absurd_files(tmp_path, c
         assert key in d and d[key] is None
     assert d["open_loop_status"] == "not flown"
     assert d["open_loop_message"].startswith("not flown: the plan is not feasible: stage 2")
-    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+    assert sorted(p.name for p in out.iterdir()) == [
+        "manifest.json",
         "plan_j0.csv",
         "singularities.csv",
         "summary.json",

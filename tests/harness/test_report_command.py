@@ -1,26 +1,18 @@
-"""``gflat report DIR``: holds the run's folder as every run does, and adds its files to that run's own list."""
+"""``gflat report DIR``: renders a copy of the run and swaps it in place; the run is never changed in place."""
 
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
-from gna.errors import InputError
 from harness.cli import main
-from harness.marker import amending
-from harness.outdir import INCOMPLETE, MARKER, OutputDir
-from harness.outguard import previous_run
+from harness.rundir import MANIFEST, RunDir
 
-from .test_outguard import _files
+from .test_rundir import _matches_manifest, _staging, _tree
 from .test_validation import SHORT
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
@@ -38,138 +30,62 @@ def _copy(run: Path, to: Path) -> Path:
     return to
 
 
-def _listed(folder: Path) -> list[str]:
-    return [f["path"] for f in json.loads((folder / MARKER).read_text())["files"]]
+def _manifest(folder: Path) -> dict:
+    return json.loads((folder / MANIFEST).read_text())
 
 
-_HOLDER = r"""
-import sys
-from harness.outdir import OutputDir
-out = OutputDir(sys.argv[1], command="compare")
-print("holding", flush=True)
-sys.stdin.readline()
-"""
-
-
-def test_report_is_refused_while_a_run_writes_the_folder(compared, tmp_path):
+def test_report_renders_a_copy_of_the_run_and_swaps_it_in(compared, tmp_path, capsys):
     run = _copy(compared, tmp_path / "run")
-    before = _files(run)
-    holder = subprocess.Popen(
-        [sys.executable, "-c", _HOLDER, str(run)], cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
-    )
-    try:
-        assert holder.stdout.readline() == "holding\n"  # gflat compare --out DIR is running again
-        second = subprocess.run(
-            [sys.executable, "-m", "harness.cli", "report", str(run), "--no-pdf"],
-            cwd=ROOT,
-            capture_output=True,
-            text=True,
-            timeout=120,
-        )
-    finally:
-        holder.communicate("\n", timeout=60)
-    assert second.returncode == 2, second.stderr
-    assert second.stderr == (
-        f"gflat report: error: output folder {run} is in use by another gflat run (it holds "
-        f"the folder until it ends): wait for it to end\n"
-    )
-    assert _files(run) == before  # nothing changed
-    assert main(["report", str(run), "--no-pdf"]) == 0  # free again
+    before = _manifest(run)
+    assert main(["report", str(run), "--self-contained", "--no-pdf"]) == 0
+    after = _manifest(run)
+    assert after["command"] == "compare" and after["run_id"] != before["run_id"]  # still gflat compare's run
+    assert after["command_line"] == before["command_line"] and after["date_utc"] == before["date_utc"]
+    assert [f["path"] for f in after["files"]] == sorted([f["path"] for f in before["files"]] + ["report.html"])
+    _matches_manifest(run)
+    assert _staging(tmp_path, "run") == [] and sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+    assert f"report: {run / 'index.html'} (1 case page(s))" in capsys.readouterr().out
 
 
-def test_a_run_into_the_folder_is_refused_while_report_writes_it(compared, tmp_path, capsys):
-    run = _copy(compared, tmp_path / "run")
-    before = _files(run)
-    with amending(run):  # what gflat report holds while it renders
-        assert main(["compare", "gtm-aileron-roll", "--J", "0", "--out", str(run)]) == 2
-        assert main(["report", str(run), "--no-pdf"]) == 2
-    err = capsys.readouterr().err.splitlines()
-    assert len(err) == 2 and all(f"output folder {run} is in use by another gflat run" in e for e in err)
-    assert err[0].startswith("gflat compare: error:") and err[1].startswith("gflat report: error:")
-    assert _files(run) == before
-
-
-def test_a_case_folder_inside_a_run_is_held_with_its_run(compared, tmp_path, capsys):
-    # a gflat paper run of one case: the case folder is below the run's top folder, which holds the marker
-    top = tmp_path / "paper"
-    out = OutputDir(top, command="paper")
-    for rel, data in _files(compared).items():
-        if rel != MARKER:
-            out.write_bytes("short", "open", *rel.split("/"), data=data)
-    out.finish()
-    case = top / "short" / "open"
-    with amending(top):
-        assert main(["report", str(case), "--self-contained", "--no-pdf"]) == 2
-    assert "is in use by another gflat run" in capsys.readouterr().err
+def test_a_case_folder_inside_a_run_renders_that_run(compared, tmp_path):
+    # a gflat paper run of one case: the case folder is below the run's top folder, which holds the manifest
+    with RunDir(tmp_path / "paper", command="paper") as out:
+        for rel in _tree(compared):
+            if rel != MANIFEST:
+                out.write_bytes("short", "open", *rel.split("/"), data=(compared / rel).read_bytes())
+        out.commit()
+    case = tmp_path / "paper" / "short" / "open"
     assert main(["report", str(case), "--self-contained", "--no-pdf"]) == 0
-    assert _listed(top)[-1] == "short/open/report.html"  # listed in the run's marker, relative to its top
-    assert json.loads((top / MARKER).read_text())["command"] == "paper"
+    assert (tmp_path / "paper" / "report.html").is_file() and (tmp_path / "paper" / "index.html").is_file()
+    assert _manifest(tmp_path / "paper")["command"] == "paper"
+    _matches_manifest(tmp_path / "paper")
 
 
-def test_report_adds_its_files_to_the_run_of_another_command_and_a_rerun_replaces_them(compared, tmp_path, capsys):
-    run = _copy(compared, tmp_path / "run")
-    listed = _listed(run)
-    assert main(["report", str(run), "--self-contained", "--no-pdf"]) == 0  # a gflat compare run: not refused
-    marker = json.loads((run / MARKER).read_text())
-    assert marker["command"] == "compare"  # still the run of gflat compare
-    assert [f["path"] for f in marker["files"]] == [*listed, "report.html"]  # the run's list kept, the page added
-    assert main(["report", str(run), "--self-contained", "--no-pdf"]) == 0
-    assert _listed(run) == [*listed, "report.html"]  # once
-    capsys.readouterr()
-    # gflat compare run again there: the single page of the earlier results is one of the run's stale files
-    assert main(["compare", str(compared.parent / "short.toml"), "--J", "0", "--out", str(run)]) == 0
-    assert f"{run}: removed 1 file(s) of the folder's earlier run" in capsys.readouterr().err
-    assert not (run / "report.html").exists() and "report.html" not in _listed(run)
-    assert (run / "index.html").is_file() and (run / "case.html").is_file()
-
-
-def test_report_of_an_interrupted_run_lists_its_files_in_the_in_progress_record(compared, tmp_path, capsys):
-    run = _copy(compared, tmp_path / "run")
-    listed = _listed(run)
-    (run / INCOMPLETE).write_text(
-        json.dumps({"command": "compare"}) + "\n" + "".join(json.dumps(f) + "\n" for f in listed) + '"cut sho'
-    )
-    (run / MARKER).unlink()  # interrupted: the record, its last line cut short
-    assert main(["report", str(run), "--self-contained", "--no-pdf"]) == 0
-    assert "warning: incomplete run" in capsys.readouterr().err
-    prev = previous_run(run)
-    assert prev.command == "compare" and not prev.complete and prev.files == [*listed, "report.html"]
-    with pytest.raises(InputError, match="holds an interrupted run of 'gflat compare'"):
-        OutputDir(run, command="plan")  # the page counts as the run's, like its other files
-
-
-def test_report_of_a_run_by_an_earlier_gflat_keeps_its_marker(compared, tmp_path):
-    run = _copy(compared, tmp_path / "run")
-    marker = json.loads((run / MARKER).read_text())
-    del marker["command"]  # an earlier gflat named no command
-    (run / MARKER).write_text(json.dumps(marker))
-    assert main(["report", str(run), "--self-contained", "--no-pdf"]) == 0
-    after = json.loads((run / MARKER).read_text())
-    assert "command" not in after and [f["path"] for f in after["files"]] == [
-        *(f["path"] for f in marker["files"]),
-        "report.html",
-    ]
-
-
-def test_a_stale_pdf_removed_by_report_leaves_the_marker(compared, tmp_path, capsys):
+def test_a_rerun_with_replace_replaces_the_rendered_pages_too(compared, tmp_path):
     run = _copy(compared, tmp_path / "run")
     assert main(["report", str(run), "--self-contained", "--no-pdf"]) == 0
-    pdf = run / "report.pdf"
-    pdf.write_bytes(b"%PDF- printed from earlier results")
-    old = (run / "report.json").stat().st_mtime - 100
-    os.utime(pdf, (old, old))
-    from harness.marker import record_in_marker
-
-    assert record_in_marker(run, [pdf])  # as an earlier gflat report --pdf recorded it
-    assert "report.pdf" in _listed(run)
-    assert main(["report", str(run), "--no-pdf"]) == 0
-    assert "removed the stale" in capsys.readouterr().out and not pdf.exists()
-    assert "report.pdf" not in _listed(run) and "report.html" in _listed(run)
+    assert (run / "report.html").is_file()
+    assert main(["compare", str(compared.parent / "short.toml"), "--J", "0", "--out", str(run), "--replace"]) == 0
+    assert not (run / "report.html").exists() and (run / "index.html").is_file()
+    _matches_manifest(run)
 
 
-def test_report_into_a_folder_that_takes_no_files_is_one_line(tmp_path, capsys):
-    assert main(["report", "/proc/self"]) == 2
+def test_refusals_are_one_line_and_change_nothing(compared, tmp_path, capsys):
+    holder = tmp_path / "runs"
+    run = _copy(compared, holder / "run")
+    assert main(["report", str(holder), "--no-pdf"]) == 2  # a folder holding runs is none
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "cannot write there" in err
+    assert err.count("\n") == 1 and f"{holder} is not the folder of a gflat run" in err
+    (run / "mine.txt").write_text("the user's")
+    before = _tree(run)
+    assert main(["report", str(run), "--no-pdf"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "holds mine.txt, which is not a file of its gflat run" in err
+    assert _tree(run) == before
+    (run / "mine.txt").unlink()
+    (run / "states.png").unlink()  # a file the manifest lists, gone
+    assert main(["report", str(run), "--no-pdf"]) == 2
+    assert "states.png, listed in its manifest, is missing" in capsys.readouterr().err
     assert main(["report", str(tmp_path / "missing")]) == 2
     assert capsys.readouterr().err == f"gflat report: error: {tmp_path / 'missing'} is not a folder\n"
+    assert _staging(holder, "run") == []

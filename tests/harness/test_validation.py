@@ -194,7 +194,8 @@ def test_paper_plans_each_scenario_once(short_scenario, tmp_path, monkeypatch, c
     assert [c["loop"] for c in manifest["cases"]] == ["open", "closed"] and manifest["command_line"]
     assert {"gflat", "jsbsim", "numpy", "scipy", "date_utc", "inputs"} <= set(manifest)
     assert any(k.endswith("scenario") and len(v["sha256"]) == 64 for k, v in manifest["inputs"].items())
-    assert (tmp_path / "paper" / ".gflat-complete.json").is_file()
+    assert manifest["tool"] == "gflat" and manifest["command"] == "paper"
+    assert "short/open/report.json" in [f["path"] for f in manifest["files"]]
 
 
 def test_paper_open_loop_only(short_scenario, tmp_path, monkeypatch, capsys):
@@ -202,11 +203,11 @@ def test_paper_open_loop_only(short_scenario, tmp_path, monkeypatch, capsys):
     from harness.commands import paper
 
     monkeypatch.setattr(paper, "PAPER_SCENARIOS", (str(short_scenario),))
-    assert main(["paper", "--loop", "open", "--out", str(tmp_path)]) == 0
+    assert main(["paper", "--loop", "open", "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
     assert "in-house vs JSBSim (open loop" in out and "closed loop with the tracking feedback" not in out
-    assert (tmp_path / "short" / "open" / "summary.json").is_file()
-    assert not (tmp_path / "short" / "closed").exists()
+    assert (tmp_path / "out" / "short" / "open" / "summary.json").is_file()
+    assert not (tmp_path / "out" / "short" / "closed").exists()
 
 
 def _two_engine_aircraft():

@@ -10,7 +10,7 @@ import pytest
 from gna.errors import InputError
 from harness.artefacts import read_trajectory, write_artefacts
 from harness.cli import main
-from harness.outdir import MARKER
+from harness.rundir import MANIFEST
 from harness.validation import ValidationCase, plan_case, resolve_compare, run_case
 
 SHORT = (
@@ -101,7 +101,7 @@ def test_self_convergence_is_reported_next_to_the_cross_engine_difference(planne
     manifest = json.loads((tmp_path / "case" / "manifest.json").read_text())
     assert manifest["cases"][0]["compare"]["self_convergence"] is True
     assert manifest["cases"][0]["engines"]["jsbsim"]["dt"] == pytest.approx(1 / 240)
-    assert (tmp_path / "case" / "plan" / "plan-j2.parquet").is_file() and (tmp_path / "case" / MARKER).is_file()
+    assert (tmp_path / "case" / "plan" / "plan-j2.parquet").is_file()
 
 
 def test_compare_flags_and_scenario_table_on_the_command_line(tmp_path, capsys):
@@ -113,11 +113,13 @@ def test_compare_flags_and_scenario_table_on_the_command_line(tmp_path, capsys):
     assert v["pass"] is False and v["settings"]["dt_out"] == 0.1 and v["settings"]["tolerances"]["position"] == 1e-9
     assert {"scenario", "loop", "runs", "differences", "pass"} <= set(v)
     assert (out / "trajectory-jsbsim.csv").is_file()
-    assert main(["compare", str(scen), "--json", "--out", str(out), "--tol-position", "1"]) == 0  # the flag wins
+    assert main(["compare", str(scen), "--json", "--out", str(out), "--tol-position", "1"]) == 2  # out exists
+    assert "exists: give --replace" in capsys.readouterr().err
+    assert main(["compare", str(scen), "--json", "--out", str(out), "--tol-position", "1", "--replace"]) == 0
     v = json.loads(capsys.readouterr().out)
     assert v["pass"] is True and v["settings"]["sources"]["tolerances"] == "command line"
-    assert not (out / "trajectory-jsbsim.csv").exists()  # the rerun removed the earlier run's CSV
-    assert (out / MARKER).is_file()
+    assert not (out / "trajectory-jsbsim.csv").exists()  # the new run replaced the earlier one whole
+    assert json.loads((out / MANIFEST).read_text())["command"] == "compare"
 
 
 def test_bad_destination_and_bad_compare_table_stop_before_planning(tmp_path, capsys, monkeypatch):

@@ -12,7 +12,7 @@ import pytest
 
 from harness.cli import main
 from harness.commands import paper
-from reports.html import render_run
+from harness.commands.report import render_again
 
 #: Folder of each loop's case under a scenario's folder (the layout of ``gflat paper --out DIR``).
 CASE_FOLDERS = {"open": "open", "closed": "closed"}
@@ -30,7 +30,7 @@ class Run:
     scenario: object
     paper_pages: dict  # path relative to root -> bytes of each HTML page gflat paper wrote
     paper_output: str  # what gflat paper printed
-    render_s: float  # wall time of render_run (HTML, single file and PDF)
+    render_s: float  # wall time of gflat report DIR --self-contained (HTML, single file and PDF)
     written: dict
 
 
@@ -56,7 +56,7 @@ def report_run(tmp_path_factory) -> Run:
             assert main(["paper", "--out", str(root)]) == 0
     pages = {p.relative_to(root): p.read_bytes() for p in sorted(root.rglob("*.html"))}
     t0 = time.perf_counter()
-    written = render_run(root, self_contained=True, pdf=True, date=DATE)
+    written = render_again(root, self_contained=True, pdf=True, date=DATE)
     return Run(
         root=root,
         results=results,

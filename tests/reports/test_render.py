@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
-import os
+import json
 import re
 import shutil
 from pathlib import Path
 
+import pytest
+
+from gna.errors import InputError
 from harness.cli import main
-from harness.outdir import MARKER
+from harness.rundir import MANIFEST
 from reports.html import cell, fmt, render_documents, render_run
 
 from .conftest import CASE_FOLDERS, DATE, SCENARIO
@@ -61,9 +64,7 @@ def test_gflat_report_reproduces_the_html_of_a_run(report_run, tmp_path, capsys)
     shutil.copytree(report_run.root, copy)
     before = dict(report_run.paper_pages)  # as gflat paper rendered them
     before[Path("report.html")] = (report_run.root / "report.html").read_bytes()
-    for p in copy.rglob("*.html"):
-        p.unlink()
-    (copy / "report.pdf").unlink()
+    pdf = (copy / "report.pdf").read_bytes()
     assert main(["report", str(copy), "--self-contained", "--no-pdf"]) == 0
     out = capsys.readouterr().out
     assert f"report: {copy / 'index.html'} (2 case page(s))" in out
@@ -71,14 +72,17 @@ def test_gflat_report_reproduces_the_html_of_a_run(report_run, tmp_path, capsys)
     assert after.keys() == before.keys()
     for rel in before:
         assert _undated(after[rel]) == _undated(before[rel]), rel
-    assert not (copy / "report.pdf").exists()
+    assert (copy / "report.pdf").read_bytes() == pdf  # --no-pdf: the run's PDF (of the same results) stays
+    assert "report.pdf" in [f["path"] for f in json.loads((copy / MANIFEST).read_text())["files"]]
     assert main(["report", str(copy)]) == 0 and (copy / "report.pdf").stat().st_size > 0
 
 
 def test_report_of_a_folder_without_results_is_one_clear_error(tmp_path, capsys):
     assert main(["report", str(tmp_path)]) == 2
     err = capsys.readouterr().err
-    assert "no report.json under" in err and "Traceback" not in err
+    assert "is not the folder of a gflat run" in err and err.count("\n") == 1
+    with pytest.raises(InputError, match="no report.json under"):
+        render_run(tmp_path)
 
 
 def test_the_self_contained_file_embeds_every_image(report_run):
@@ -89,25 +93,6 @@ def test_the_self_contained_file_embeds_every_image(report_run):
     assert len(srcs) == n_figures - 2  # every figure but the plain controls.png (drawn with limits instead)
     hrefs = re.findall(r'href="([^"]*)"', text)
     assert hrefs and all(h.startswith(("#", "data:")) for h in hrefs)  # one file to mail: no link leaves it
-
-
-def test_a_rerun_with_fewer_cases_leaves_no_page_of_the_missing_case(report_run, tmp_path):
-    copy = tmp_path / "run"
-    shutil.copytree(report_run.root, copy)
-    closed = copy / SCENARIO / CASE_FOLDERS["closed"]
-    for f in closed.iterdir():  # what gflat paper --loop open into the same folder removes
-        if f.name != "case.html":
-            f.unlink()
-    mine = copy / "notes" / "case.html"  # a page gflat did not write stays
-    mine.parent.mkdir()
-    mine.write_text("<p>my notes</p>")
-    assert main(["report", str(copy), "--no-pdf"]) == 0
-    assert not (closed / "case.html").exists() and mine.exists()
-    assert not closed.exists() and closed.parent.exists()  # the emptied case folder goes, its scenario stays
-    index = (copy / "index.html").read_text(encoding="utf-8")
-    assert (
-        f"{SCENARIO}/{CASE_FOLDERS['open']}/case.html" in index and CASE_FOLDERS["closed"] + "/case.html" not in index
-    )
 
 
 def test_a_case_folder_alone_renders_the_same_twice(report_run, tmp_path):
@@ -133,28 +118,13 @@ def test_a_corrupt_or_misshapen_model_is_one_clear_error(report_run, tmp_path, c
     model = copy / SCENARIO / CASE_FOLDERS["open"] / "report.json"
     for text, cause in (("{broken", "invalid JSON"), ("{}", "missing or wrong type"), ("[1]", "not an object")):
         model.write_text(text)
-        assert main(["report", str(copy), "--no-pdf"]) == 2
+        with pytest.raises(InputError, match=cause) as exc:
+            render_run(copy, pdf=False)
+        assert str(model) in str(exc.value) and "\n" not in str(exc.value)
+        assert main(["report", str(copy), "--no-pdf"]) == 2  # the run changed since it ran: refused, untouched
         err = capsys.readouterr().err
-        assert str(model) in err and cause in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
-
-
-def test_an_incomplete_run_is_rendered_with_a_notice_and_a_stale_pdf_goes(report_run, tmp_path, capsys):
-    copy = tmp_path / "run"
-    shutil.copytree(report_run.root, copy)
-    assert main(["report", str(copy), "--no-pdf"]) == 0  # complete: no notice; the PDF of these results stays
-    cap = capsys.readouterr()
-    assert "incomplete" not in cap.err and "removed the stale" not in cap.out and (copy / "report.pdf").is_file()
-    model = copy / SCENARIO / CASE_FOLDERS["open"] / "report.json"
-    later = (copy / "report.pdf").stat().st_mtime + 10
-    os.utime(model, (later, later))  # results saved after the PDF was printed
-    assert main(["report", str(copy), "--no-pdf"]) == 0
-    assert "removed the stale" in capsys.readouterr().out and not (copy / "report.pdf").exists()
-    assert "incomplete run" not in (copy / "index.html").read_text(encoding="utf-8")
-    (copy / MARKER).unlink()  # an interrupted run
-    assert main(["report", str(copy), "--no-pdf"]) == 0
-    assert "warning: incomplete run" in capsys.readouterr().err
-    for page in ("index.html", f"{SCENARIO}/{CASE_FOLDERS['open']}/case.html"):
-        assert "incomplete run: no completion marker" in (copy / page).read_text(encoding="utf-8"), page
+        assert f"{model} differs from the run's manifest (sha256)" in err and len(err.strip().splitlines()) == 1
+        assert model.read_text() == text
 
 
 def test_settings_are_on_off_and_an_undefined_delta_is_a_dash(report_run):

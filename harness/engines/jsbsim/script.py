@@ -39,7 +39,6 @@ from gna.frames import euler_from_wind
 from gna.schema import check_name
 from gna.trajectory import check_span, control_function, controls_on_grid, environment_of, initial_state
 
-from ...outdir import OutputDir
 from ..base import EngineError
 from . import export as jx
 from .engine import JSBSimEngine
@@ -295,7 +294,7 @@ def steps_of(value: float, dt: float, what: str) -> int:
 
 
 def export_script(
-    out: str | Path | OutputDir,
+    out: str | Path,
     name: str,
     aircraft: Aircraft,
     controls,
@@ -311,10 +310,9 @@ def export_script(
 
     Parameters
     ----------
-    out : str or pathlib.Path or harness.outdir.OutputDir
-        Export folder (created; an existing file there is refused), finished here; an
-        :class:`~harness.outdir.OutputDir` (``gflat export-jsbsim-script``: checked before planning) is left for
-        its owner to finish.
+    out : str or pathlib.Path
+        Export folder (made with its parents; ``gflat export-jsbsim-script`` gives its run's staging folder,
+        :class:`harness.rundir.RunDir`).
     name : str
         Script name (file names ``scripts/<name>.xml``, ``<name>-init.xml``, ``<name>.csv``).
     aircraft : Aircraft
@@ -353,9 +351,9 @@ def export_script(
         raise InputError("export-jsbsim-script writes the flat-earth engine only")
     check_name(name, "script name", "export-jsbsim-script")
     check_name(aircraft.id, "aircraft id", "export-jsbsim-script")
-    own = not isinstance(out, OutputDir)
-    folder = OutputDir(out, clean=False) if own else out  # checked before any work; every file written atomically
-    root = folder.root
+    root = Path(out)
+    if root.exists() and not root.is_dir():
+        raise InputError(f"export folder {root} exists and is not a folder")
     if t_span is None:
         t_span = (getattr(controls, "t0", None), getattr(controls, "t1", None))
         if None in t_span:
@@ -398,9 +396,8 @@ def export_script(
         ),
     }
     for key, r in rel.items():
-        folder.write_text(*r.split("/"), text=texts[key])
-    if own:
-        folder.finish()
+        (root / r).parent.mkdir(parents=True, exist_ok=True)
+        (root / r).write_text(texts[key], encoding="utf-8")
     return ScriptBundle(
         root=root,
         aircraft=rel["aircraft"],

@@ -111,40 +111,18 @@ def test_failed_cases_retried_only_when_asked(tmp_path, capsys):
     assert row["error"].startswith("DomainError") and "ISA" in row["error"]
 
 
-def test_a_campaign_with_cases_pending_is_marked_interrupted_not_complete(tmp_path, capsys):
-    # As every command marks a run cut short: the in-progress record naming the command, no completion marker
-    # (which says "complete": true), until a run leaves no case pending.
+def test_a_campaign_with_cases_pending_is_resumed_in_place(tmp_path, capsys):
+    # The store's transactions are the record: a run that leaves cases pending is resumed by the same command.
     out = tmp_path / "c"
-    assert (
-        main(
-            [
-                "campaign",
-                "run",
-                str(TINY),
-                "--out",
-                str(out),
-                "--samples",
-                "2",
-                "--workers",
-                "1",
-                "--quiet",
-                "--only",
-                "level.fit.0000",
-            ]
-        )
-        == 1
-    )
-    assert not (out / ".gflat-complete.json").exists()
-    record = (out / ".gflat-incomplete").read_text().splitlines()
-    assert [json.loads(line) for line in record] == [{"command": "campaign"}, "campaign.sqlite"]
+    cmd = ["campaign", "run", str(TINY), "--out", str(out), "--samples", "2", "--workers", "1", "--quiet"]
+    assert main([*cmd, "--only", "level.fit.0000"]) == 1
     capsys.readouterr()
     assert main(["campaign", "status", str(out), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["pending"] == 1
-    assert main(["plan", "gtm-aileron-roll", "--out", str(out)]) == 2
-    assert "holds an interrupted run of 'gflat campaign'" in capsys.readouterr().err
-    assert main(["campaign", "run", str(TINY), "--out", str(out), "--samples", "2", "--workers", "1", "--quiet"]) == 0
-    marker = json.loads((out / ".gflat-complete.json").read_text())
-    assert marker["complete"] is True and marker["command"] == "campaign" and not (out / ".gflat-incomplete").exists()
+    assert main(cmd) == 0
+    assert main(["campaign", "status", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["pending"] == 0
+    assert sorted(p.name for p in out.iterdir()) == ["campaign.sqlite", "cases"]  # no marker, no record
 
 
 @pytest.fixture(scope="module")
@@ -310,34 +288,64 @@ def test_runner_killed_with_sigkill_then_resumed(inline, tmp_path):
     assert {k: v for k, v in after.items() if k in _metrics(inline)} == _metrics(inline)
 
 
-def test_the_campaign_folder_is_guarded_like_every_output_folder(inline, tmp_path, capsys):
-    # A campaign run marks its folder (command and index): another command refuses to write over it ...
-    marker = json.loads((inline / ".gflat-complete.json").read_text())
-    assert marker["command"] == "campaign" and marker["files"] == [{"path": "campaign.sqlite"}]
+def test_the_campaign_folder_is_guarded(inline, tmp_path, capsys):
+    # Another command never writes over a campaign folder: it exists (no --replace), and it is no gflat run
+    # (--replace removes only those) ...
     before = sorted(p.relative_to(inline) for p in inline.rglob("*"))
     assert main(["plan", "gtm-aileron-roll", "--out", str(inline)]) == 2
-    assert "holds a complete run of 'gflat campaign'" in capsys.readouterr().err
+    assert "exists: give --replace" in capsys.readouterr().err
+    assert main(["plan", "gtm-aileron-roll", "--out", str(inline), "--replace"]) == 2
+    assert "is not the folder of a gflat run" in capsys.readouterr().err
     assert sorted(p.relative_to(inline) for p in inline.rglob("*")) == before
-    # ... a campaign refuses another command's run, a file-system root, and a folder another run holds
-    paper = tmp_path / "paper"
-    paper.mkdir()
-    (paper / "summary.json").write_text("{}")
-    (paper / ".gflat-complete.json").write_text(
-        json.dumps({"tool": "gflat", "command": "paper", "complete": True, "files": [{"path": "summary.json"}]})
-    )
-    with pytest.raises(InputError, match="holds a complete run of 'gflat paper'"):
-        run_campaign(TINY, paper, workers=1, quiet=True)
-    assert sorted(p.name for p in paper.iterdir()) == [".gflat-complete.json", "summary.json"]
-    with pytest.raises(InputError, match="file-system root"):
-        run_campaign(TINY, "/", workers=1, quiet=True)
-    from harness.folderlock import FolderLock
+    # ... a campaign refuses a gflat run's folder or one inside it (runs are never changed), and a file
+    from harness.rundir import RunDir
 
-    held = FolderLock(inline)
-    try:
-        with pytest.raises(InputError, match="in use by another gflat run"):
-            run_campaign(TINY, inline, workers=1, quiet=True)
-    finally:
-        held.release()
+    with RunDir(tmp_path / "paper", command="paper") as paper:
+        paper.write_text("summary.json", text="{}")
+        paper.commit()
+    for where, what in ((tmp_path / "paper", "is the folder"), (tmp_path / "paper" / "c", "lies inside")):
+        with pytest.raises(InputError, match=what):
+            run_campaign(TINY, where, workers=1, quiet=True)
+    assert sorted(p.name for p in (tmp_path / "paper").iterdir()) == ["manifest.json", "summary.json"]
+    with pytest.raises(InputError, match="a file of that name exists"):
+        run_campaign(TINY, tmp_path / "paper" / "summary.json", workers=1, quiet=True)
+    # ... and while another campaign run (or report) holds the store, a second run is refused
+    from harness.campaign.store import locked
+
+    with locked(inline), pytest.raises(InputError, match="in use by another gflat campaign run or report"):
+        run_campaign(TINY, inline, workers=1, quiet=True)
+
+
+def test_a_campaign_keeps_the_users_files_in_its_folder(tmp_path):
+    folder = tmp_path / "c"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("mine")
+    for _ in range(2):  # a run, then its rerun
+        assert run_campaign(TINY, folder, samples=1, workers=1, quiet=True)["pending"] == 0
+    assert (folder / "notes.txt").read_text() == "mine"
+
+
+def test_the_campaign_report_is_written_whole_and_never_follows_a_link(inline, tmp_path, capsys):
+    import shutil
+
+    folder = tmp_path / "K"
+    shutil.copytree(inline, folder)
+    assert main(["campaign", "report", str(folder), "--no-pdf"]) == 0
+    manifest = json.loads((folder / "report" / "manifest.json").read_text())
+    assert manifest["command"] == "campaign report" and "index.html" in [f["path"] for f in manifest["files"]]
+    first = manifest["run_id"]
+    assert main(["campaign", "report", str(folder), "--no-pdf"]) == 0  # the earlier report replaced whole
+    assert json.loads((folder / "report" / "manifest.json").read_text())["run_id"] != first
+    assert not [p for p in folder.iterdir() if p.name.startswith(".report")]  # no staging left
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / "keep.txt").write_text("keep")
+    shutil.rmtree(folder / "report")
+    (folder / "report").symlink_to(elsewhere)
+    capsys.readouterr()
+    assert main(["campaign", "report", str(folder), "--no-pdf"]) == 2
+    assert "is a symbolic link" in capsys.readouterr().err
+    assert sorted(p.name for p in elsewhere.iterdir()) == ["keep.txt"]
 
 
 @pytest.mark.parametrize("answer", ["bytes", "silence"])
@@ -438,45 +446,18 @@ def test_ctrl_c_in_a_process_pool_ends_at_once_and_the_run_resumes(tmp_path):
     finally:
         con.close()
     assert len(statuses) == 9 and "pending" in statuses  # what a rerun computes
-    assert not (out / ".gflat-complete.json").exists()  # interrupted: not marked complete
-    assert json.loads((out / ".gflat-incomplete").read_text().splitlines()[0]) == {"command": "campaign"}
+    from harness.campaign.store import locked
 
-
-def test_a_campaign_into_a_run_of_an_earlier_gflat_keeps_that_runs_files_listed(tmp_path, capsys):
-    """A marker naming no command: a campaign removes nothing, so it may write there (as every command that removes
-    nothing, harness.marker.earlier_files), and its marker lists the earlier files still there next to its own."""
-    old = tmp_path / "old"
-    (old / "sub").mkdir(parents=True)
-    (old / "summary.json").write_text("{}")
-    (old / "sub" / "a.txt").write_text("a")
-    (old / ".gflat-complete.json").write_text(
-        json.dumps(
-            {
-                "tool": "gflat",
-                "complete": True,
-                "files": [{"path": "summary.json"}, {"path": "sub/a.txt"}, {"path": "gone.txt"}],
-            }
-        )
-    )
-    cmd = ["campaign", "run", str(TINY), "--out", str(old), "--samples", "1", "--workers", "1", "--quiet"]
-    for _ in range(2):  # a run, then its rerun
-        assert main(cmd) == 0
-        marker = json.loads((old / ".gflat-complete.json").read_text())
-        assert marker["command"] == "campaign"
-        assert [f["path"] for f in marker["files"]] == ["summary.json", "sub/a.txt", "campaign.sqlite"]
-    assert (old / "summary.json").read_text() == "{}" and (old / "sub" / "a.txt").read_text() == "a"
-    capsys.readouterr()
-    assert main(["plan", "gtm-aileron-roll", "--out", str(old)]) == 2  # never removed by another command either
-    assert f"output folder {old} holds a complete run of 'gflat campaign' (3 files)" in capsys.readouterr().err
+    with locked(out):  # the store is free again: the lock went with the process
+        pass
 
 
 _CAMPAIGN_HOLDER = r"""
 import sys
-from harness.folderlock import FolderLock
-from pathlib import Path
-lock = FolderLock(Path(sys.argv[1]))
-print("holding", flush=True)
-sys.stdin.readline()
+from harness.campaign.store import locked
+with locked(sys.argv[1]):
+    print("holding", flush=True)
+    sys.stdin.readline()
 """
 
 
@@ -507,8 +488,8 @@ def test_the_report_of_a_campaign_being_written_is_refused(inline, tmp_path):
         holder.communicate("\n", timeout=60)
     assert out.returncode == 2, out.stderr
     assert out.stderr == (
-        f"gflat campaign: error: output folder {folder} is in use by another gflat run (it holds "
-        f"the folder until it ends): wait for it to end\n"
+        f"gflat campaign: error: campaign folder {folder} is in use by another gflat campaign run or report: "
+        f"wait for it to end\n"
     )
     assert sorted(p for p in folder.rglob("*")) == before
 
