@@ -69,7 +69,18 @@ class ConstantDensity:
             raise InputError(f"air density must be positive and finite, got {self.rho}")
 
     def density(self, h):
-        """Density [kg/m^3] at altitude ``h`` [m] (ignored)."""
+        """Density at altitude ``h`` (the same at every altitude).
+
+        Parameters
+        ----------
+        h : float, array_like or Series
+            Altitude [m] (ignored but for its shape).
+
+        Returns
+        -------
+        float, ndarray or Series
+            Density [kg/m^3], shaped like ``h``.
+        """
         return self.rho + 0.0 * h
 
     def check_altitude(self, h, where: str = "") -> None:
@@ -90,6 +101,12 @@ class ConstantDensity:
         _check_range(h, (-np.inf, np.inf), where, self.describe())
 
     def describe(self) -> str:
+        """The model's description (run settings).
+
+        Returns
+        -------
+        str
+        """
         return f"constant density {self.rho:.6g} kg/m^3"
 
 
@@ -103,7 +120,18 @@ class ISA:
     """
 
     def density(self, h):
-        """Density [kg/m^3] at altitude ``h`` [m]."""
+        """Density at altitude ``h``, each layer's formula (a series on both sides of the tropopause node-wise).
+
+        Parameters
+        ----------
+        h : float, array_like or Series
+            Geometric altitude [m], used as geopotential.
+
+        Returns
+        -------
+        float, ndarray or Series
+            Density [kg/m^3], shaped like ``h``.
+        """
         h0 = _constant_term(h)
         if np.all(h0 <= H_TROPO):
             return RHO0 * (1.0 - LAPSE * h / T0) ** _EXP_TROPO
@@ -143,6 +171,12 @@ class ISA:
         _check_range(h, self.altitude_range, where, "the ISA model (ISO 2533, troposphere and isothermal layer)")
 
     def describe(self) -> str:
+        """The model's description (run settings).
+
+        Returns
+        -------
+        str
+        """
         return "ISA (ISO 2533) density, geometric altitude as geopotential"
 
 
@@ -191,12 +225,28 @@ class Environment:
             )
 
     def describe(self) -> str:
-        """The atmosphere's description, and the ground effect's when there is one (run settings)."""
+        """The atmosphere's description, and the ground effect's when there is one (run settings).
+
+        Returns
+        -------
+        str
+        """
         d = self.atmosphere.describe()
         return d if self.ground_effect is None else f"{d}; {self.ground_effect.describe()}"
 
     def density(self, z):
-        """Density at NED coordinate ``z`` (altitude ``-z``)."""
+        """Density at NED coordinate ``z`` (altitude ``-z``).
+
+        Parameters
+        ----------
+        z : float, array_like or Series
+            Down coordinate [m].
+
+        Returns
+        -------
+        float, ndarray or Series
+            Density [kg/m^3], shaped like ``z``.
+        """
         return self.atmosphere.density(-z)
 
     def check_altitude(self, h, where: str = "", times=None) -> None:
@@ -229,6 +279,23 @@ class Environment:
 
     @classmethod
     def constant(cls, altitude: float = 0.0, g: float = G0) -> Environment:
-        """Constant density equal to the ISA density at ``altitude`` [m] (within :data:`ISA_RANGE`)."""
+        """Constant density equal to the ISA density at ``altitude`` (within :data:`ISA_RANGE`).
+
+        Parameters
+        ----------
+        altitude : float
+            Altitude [m] whose ISA density is taken.
+        g : float
+            Gravity [m/s^2].
+
+        Returns
+        -------
+        Environment
+
+        Raises
+        ------
+        DomainError
+            ``altitude`` outside :data:`ISA_RANGE`.
+        """
         cls().check_altitude(altitude, "constant-density environment")
         return cls(ConstantDensity(float(ISA().density(float(altitude)))), g)
