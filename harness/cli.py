@@ -2,11 +2,14 @@
 
 Each sub-command lives in a module of :mod:`harness.commands` exposing
 ``register(subparsers)``; the module adds its parser and sets ``func`` to a
-callable ``func(args) -> int``.  A command's module is imported only when that
-command runs (or shows its ``--help``): ``gflat --help`` lists the commands from
-the static table :data:`COMMANDS`, and ``gflat --version`` loads none of them.  Errors gflat raises on purpose
-(:class:`gna.errors.GflatError`) are printed as one line naming the cause, with
-exit status 2; anything else is a bug and keeps its traceback.
+callable ``func(args) -> int``; a new command is its module plus one line of
+:data:`COMMANDS`.  A command's module is imported only when that command runs (or
+shows its ``--help``): ``gflat --help`` lists the commands from the static table
+:data:`COMMANDS`, and ``gflat --version`` loads none of them (nor numpy).
+
+Errors gflat raises on purpose (:class:`gna.errors.GflatError`) are printed as
+one line naming the cause, with exit status 2; anything else is a bug and keeps
+its traceback.
 
 Exit status (:data:`EXIT_CODES`): 0 success; 1 the work ran but its verdict is
 negative (a validation FAIL, an infeasible plan, a trim that does not
