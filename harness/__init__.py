@@ -1,9 +1,7 @@
 """harness: engines, metrics, validation cases and the ``gflat`` command line.
 
-Public face: :func:`fly` (one problem on several engines),
-:class:`ValidationCase` / :func:`run_case` / :class:`CaseResult` (plan, fly,
-compare), :func:`difference_table` (trajectory metrics) and
-:func:`assert_trajectories_close` (for users' tests).
+The public API is :mod:`gflat`; this ``__init__`` imports nothing (the ``gflat`` command line starts
+without the planners and numpy).
 
 Rooms
 -----
@@ -24,30 +22,3 @@ cli, commands
     The ``gflat`` tool: each command parses, calls validation/planners, renders
     (via :mod:`reports`) and writes; no workflow logic.
 """
-
-import importlib
-
-__all__ = ["fly", "run_case", "ValidationCase", "CaseResult", "difference_table", "assert_trajectories_close"]
-
-#: Public name -> the module defining it.  Imported on first use (PEP 562), so that ``harness.cli``
-#: starts without the planners and can report a bad setting read at their import as one line.
-_PUBLIC = {
-    "fly": ".engines",
-    "difference_table": ".metrics",
-    "assert_trajectories_close": ".testing",
-    "run_case": ".validation",
-    "ValidationCase": ".validation",
-    "CaseResult": ".validation",
-}
-
-
-def __getattr__(name: str):
-    if name in _PUBLIC:
-        value = getattr(importlib.import_module(_PUBLIC[name], __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))

@@ -2,9 +2,14 @@
 
 Each sub-command lives in a module of :mod:`harness.commands` exposing
 ``register(subparsers)``; the module adds its parser and sets ``func`` to a
-callable ``func(args) -> int``.  Errors gflat raises on purpose
-(:class:`gna.errors.GflatError`) are printed as one line naming the cause, with
-exit status 2; anything else is a bug and keeps its traceback.
+callable ``func(args) -> int``; a new command is its module plus one line of
+:data:`COMMANDS`.  A command's module is imported only when that command runs (or
+shows its ``--help``): ``gflat --help`` lists the commands from the static table
+:data:`COMMANDS`, and ``gflat --version`` loads none of them (nor numpy).
+
+Errors gflat raises on purpose (:class:`gna.errors.GflatError`) are printed as
+one line naming the cause, with exit status 2; anything else is a bug and keeps
+its traceback.
 
 Exit status (:data:`EXIT_CODES`): 0 success; 1 the work ran but its verdict is
 negative (a validation FAIL, an infeasible plan, a trim that does not
@@ -21,6 +26,7 @@ import logging
 import re
 import sys
 import time
+from collections.abc import Sequence
 
 from gna.errors import GflatError, describe
 
@@ -58,6 +64,17 @@ def _version() -> str:
         return "unknown"
 
 
+class _VersionAction(argparse.Action):
+    """``--version``: print ``gflat <version>`` and exit 0, reading the version only when asked."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"gflat {_version()}")
+        parser.exit()
+
+
 def _add_verbosity(parser: argparse.ArgumentParser, default) -> None:
     group = parser.add_argument_group("messages")
     group.add_argument(
@@ -80,23 +97,59 @@ def _subparsers(parser: argparse.ArgumentParser):
                 yield from _subparsers(p)
 
 
-#: Modules of harness.commands, in the order their commands are listed.
-COMMAND_MODULES: tuple[str, ...] = (
-    "aircraft",
-    "trim",
-    "plan",
-    "compare",
-    "paper",
-    "report",
-    "export_jsbsim",
-    "export_script",
-    "fit",
-    "campaign",
-)
+#: Command name -> (its module, its one-line help), in the order ``gflat --help`` lists them.  The help
+#: lines are the ones each module's ``register`` gives (a test keeps the two in step), so that the list
+#: needs no command module.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "aircraft": ("harness.commands.aircraft", "list the aircraft and their provenance"),
+    "trim": ("harness.commands.trim", "steady flight (trim) of an aircraft"),
+    "plan": ("harness.commands.plan", "plan a manoeuvre (flatness + generalized flatness)"),
+    "compare": ("harness.commands.compare", "fly a plan open loop on several engines and compare them"),
+    "paper": ("harness.commands.paper", "plan the paper's three manoeuvres and fly them on both engines"),
+    "report": ("harness.commands.report", "render a run's HTML and PDF reports again from its saved results"),
+    "export-jsbsim": ("harness.commands.export_jsbsim", "write the JSBSim aircraft files (aircraft_xml/<id>/<id>.xml)"),
+    "export-jsbsim-script": (
+        "harness.commands.export_script",
+        "write a plan as a JSBSim script (aircraft, initialization, control tables, CSV output)",
+    ),
+    "fit": ("harness.commands.fit", "fit GNA aerodynamic parameters to a source model"),
+    "campaign": ("harness.commands.campaign", "validation campaigns: many cases over dispersed aircraft"),
+}
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The ``gflat`` parser with every sub-command.
+def command_word(argv: Sequence[str]) -> str | None:
+    """The sub-command ``argv`` names: its first word that is not an option (the top-level options take no value).
+
+    Parameters
+    ----------
+    argv : sequence of str
+        The command-line words after ``gflat``.
+
+    Returns
+    -------
+    str or None
+        That word (an unknown command too), or None when there is none (``gflat --version``).
+    """
+    words = list(argv)
+    for i, word in enumerate(words):
+        if word == "--":
+            return words[i + 1] if i + 1 < len(words) else None
+        if not word.startswith("-"):
+            return word
+    return None
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The ``gflat`` parser, with the sub-command that ``argv`` names loaded.
+
+    Every command of :data:`COMMANDS` is listed; only the loaded ones have their options (and their
+    modules imported).
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The command-line words: only the command they name is loaded (none for ``--version``,
+        ``--help`` or an unknown command).  Default: every command.
 
     Returns
     -------
@@ -109,12 +162,16 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="exit status:\n" + "\n".join(f"  {k:<4} {v}" for k, v in EXIT_CODES.items()),
     )
-    parser.add_argument("--version", action="version", version=f"gflat {_version()}")
+    parser.add_argument("--version", action=_VersionAction, help="show program's version number and exit")
     _add_verbosity(parser, 0)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for name in COMMAND_MODULES:
-        importlib.import_module(f"harness.commands.{name}").register(sub)
+    wanted = set(COMMANDS) if argv is None else {command_word(argv)}
+    for name, (module, help_line) in COMMANDS.items():
+        if name in wanted:
+            importlib.import_module(module).register(sub)
+        else:
+            sub.add_parser(name, help=help_line)  # listed only: never chosen, since argv names another
     for p in _subparsers(parser):  # -v/-q also after the sub-command (counted there)
         _add_verbosity(p, argparse.SUPPRESS)
     return parser
@@ -167,13 +224,17 @@ def main(argv: list[str] | None = None) -> int:
     int
         The exit status (:data:`EXIT_CODES`).
     """
+    words = sys.argv[1:] if argv is None else list(argv)
     try:
-        parser = build_parser()
+        parser = build_parser(words)
     except GflatError as exc:  # a setting read at import (e.g. GFLAT_SERIES_BACKEND)
         print(f"gflat: error: {exc}", file=sys.stderr)
         return 2
-    args = parser.parse_args(argv)
-    args.command_line = ["gflat", *(sys.argv[1:] if argv is None else argv)]  # recorded in manifests
+    except KeyboardInterrupt:  # while the command's modules load
+        print("gflat: interrupted", file=sys.stderr)
+        return 130
+    args = parser.parse_args(words)
+    args.command_line = ["gflat", *words]  # recorded in manifests
     setup_logging(args.verbose, args.quiet)
     log = logging.getLogger("gflat")
     start = time.perf_counter()

@@ -207,3 +207,68 @@ def test_fit_writes_its_file_atomically_and_refuses_a_folder(tmp_path, capsys):
     assert (tmp_path / "gtm-fit.toml").read_text().startswith("#") and [p.name for p in tmp_path.iterdir()] == [
         "gtm-fit.toml"
     ]  # no temporary file left
+
+
+# --- the lazy command line: a command's modules load only when it runs ---------------------------
+
+
+def test_the_static_command_table_is_what_the_command_modules_register():
+    """``gflat --help`` lists COMMANDS without loading a module: the same text as with every module loaded."""
+    import argparse
+    import importlib
+
+    from harness.cli import COMMANDS, build_parser
+
+    assert build_parser([]).format_help() == build_parser().format_help()
+    for name, (module, _) in COMMANDS.items():
+        sub = argparse.ArgumentParser().add_subparsers()
+        importlib.import_module(module).register(sub)
+        assert list(sub.choices) == [name], module
+
+
+def _loaded_after(code: str) -> list[str]:
+    """Our modules and numpy loaded by a fresh interpreter after running ``code`` (SystemExit caught)."""
+    probe = (
+        "import sys\ntry:\n" + "".join(f"    {line}\n" for line in code.splitlines()) + "except SystemExit:\n    pass\n"
+        "print('\\nloaded:', *sorted(m for m in sys.modules if m.split('.')[0] in "
+        "('numpy', 'gna', 'planners', 'harness', 'reports', 'gflat')))"
+    )
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    last = out.stdout.splitlines()[-1].split()
+    assert last[0] == "loaded:", out.stdout
+    return last[1:]
+
+
+@pytest.mark.parametrize("words", [["--version"], ["--help"], [], ["no-such-command"], ["-v", "-q", "--help"]])
+def test_version_and_help_load_no_command_and_no_numpy(words):
+    loaded = _loaded_after(f"from harness.cli import main\nmain({words!r})")
+    assert "numpy" not in loaded
+    assert not [m for m in loaded if m.startswith(("harness.commands.", "planners", "reports"))], loaded
+
+
+def test_a_command_loads_its_own_module_only():
+    loaded = _loaded_after("from harness.cli import main\nmain(['-q', 'trim', '--help'])")
+    commands = [m for m in loaded if m.startswith("harness.commands.") and not m.startswith("harness.commands._")]
+    assert commands == ["harness.commands.trim"]
+    loaded = _loaded_after("from harness.cli import main\nmain(['aircraft', 'f16c', '--json'])")
+    assert [m for m in loaded if m.startswith("harness.commands.")] == ["harness.commands.aircraft"]
+
+
+@pytest.mark.parametrize(
+    "words, command",
+    [(["trim", "x"], "trim"), (["-v", "-q", "plan", "-v"], "plan"), (["--", "fit"], "fit"), (["-v"], None), ([], None)],
+)
+def test_command_word(words, command):
+    from harness.cli import command_word
+
+    assert command_word(words) == command
+
+
+def test_python_m_gflat_is_the_command_line():
+    r = subprocess.run([sys.executable, "-m", "gflat", "--version"], capture_output=True, text=True)
+    assert r.returncode == 0 and r.stdout.startswith("gflat ")
+    r = subprocess.run(
+        [sys.executable, "-m", "gflat", "trim", "concorde", "--speed", "100"], capture_output=True, text=True
+    )
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and "unknown aircraft 'concorde'" in r.stderr

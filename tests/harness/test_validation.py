@@ -11,7 +11,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import harness
 from gna.aircraft import Propulsion, list_aircraft, load_aircraft
 from gna.eom import STATE_NAMES
 from gna.errors import InputError
@@ -150,11 +149,6 @@ def test_run_case_result_and_summary(short_scenario, tmp_path):
 def test_run_case_refuses_what_is_not_a_case():
     with pytest.raises(InputError, match="needs a ValidationCase"):
         run_case("short")
-
-
-def test_harness_public_face():
-    for name in ("fly", "run_case", "difference_table", "assert_trajectories_close", "ValidationCase", "CaseResult"):
-        assert callable(getattr(harness, name)), name
 
 
 def test_paper_plans_each_scenario_once(short_scenario, tmp_path, monkeypatch, capsys):
