@@ -177,6 +177,25 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+class _StderrHandler(logging.StreamHandler):
+    """A handler writing to whatever ``sys.stderr`` is when a record is emitted.
+
+    ``gflat`` run in-process (tests, notebooks) may see ``sys.stderr`` replaced and the old stream closed; a
+    handler bound to the stream of the first call would then fail on every later message.
+    """
+
+    def __init__(self):
+        super().__init__(sys.stderr)
+
+    @property
+    def stream(self):
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value):  # logging.StreamHandler.__init__ assigns it; the property always reads sys.stderr
+        pass
+
+
 def setup_logging(verbose: int, quiet: int) -> int:
     """Send ``logging`` messages (and Python warnings) to stderr at the level ``-v``/``-q`` choose.
 
@@ -197,7 +216,7 @@ def setup_logging(verbose: int, quiet: int) -> int:
     for h in list(logger.handlers):
         if getattr(h, "gflat", False):
             logger.removeHandler(h)
-    handler = logging.StreamHandler(sys.stderr)
+    handler = _StderrHandler()
     handler.gflat = True
     handler.setFormatter(logging.Formatter("gflat: %(levelname)s: %(message)s"))
     logger.addHandler(handler)
@@ -235,6 +254,7 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     args = parser.parse_args(words)
     args.command_line = ["gflat", *words]  # recorded in manifests
+    restore = _logging_state()
     setup_logging(args.verbose, args.quiet)
     log = logging.getLogger("gflat")
     start = time.perf_counter()
@@ -254,6 +274,25 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("gflat: interrupted", file=sys.stderr)
         return 130
+    finally:
+        restore()  # run in-process (tests, notebooks), gflat leaves logging as it found it
+
+
+def _logging_state():
+    """A function putting back the logging configuration :func:`setup_logging` changes."""
+    root = logging.getLogger()
+    names = ("gna", "planners", "harness", "reports")
+    levels = root.level, {n: logging.getLogger(n).level for n in names}
+
+    def restore():
+        for h in [h for h in root.handlers if getattr(h, "gflat", False)]:
+            root.removeHandler(h)
+        root.setLevel(levels[0])
+        for n, level in levels[1].items():
+            logging.getLogger(n).setLevel(level)
+        logging.captureWarnings(False)
+
+    return restore
 
 
 if __name__ == "__main__":
