@@ -9,6 +9,13 @@ from gna.aircraft import list_aircraft, load_aircraft
 
 
 def register(sub) -> None:
+    """Add the ``gflat aircraft`` parser to the sub-commands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
+    """
     p = sub.add_parser(
         "aircraft",
         help="list the aircraft and their provenance",
@@ -56,6 +63,18 @@ def _describe(a) -> dict:
 
 
 def run(args) -> int:
+    """Run ``gflat aircraft`` with the parsed command line ``args``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of the command (its parser: :func:`register`).
+
+    Returns
+    -------
+    int
+        The exit status (:data:`harness.cli.EXIT_CODES`).
+    """
     if args.name:
         a = load_aircraft(args.name)
         d = _describe(a)

@@ -25,6 +25,13 @@ from ._args import cost_bound, positive_float, positive_int, worker_count
 
 
 def register(sub) -> None:
+    """Add the ``gflat campaign`` parser to the sub-commands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
+    """
     p = sub.add_parser(
         "campaign",
         help="validation campaigns: many cases over dispersed aircraft",
@@ -101,6 +108,18 @@ def _store(folder: str):
 
 
 def run(args) -> int:
+    """Run ``gflat campaign`` with the parsed command line ``args``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of the command (its parser: :func:`register`).
+
+    Returns
+    -------
+    int
+        The exit status (:data:`harness.cli.EXIT_CODES`).
+    """
     from harness.campaign import rerun_case, run_campaign
     from harness.campaign.checks import check_samples
     from harness.campaign.runner import parse_dask
@@ -158,6 +177,18 @@ def run(args) -> int:
 
 
 def status(args) -> int:
+    """Run ``gflat campaign status`` with the parsed command line ``args``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of the command (its parser: :func:`register`).
+
+    Returns
+    -------
+    int
+        The exit status (:data:`harness.cli.EXIT_CODES`).
+    """
     st = _store(args.dir)
     try:
         counts = st.counts()
@@ -179,6 +210,18 @@ def status(args) -> int:
 
 
 def report(args) -> int:
+    """Run ``gflat campaign report`` with the parsed command line ``args``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of the command (its parser: :func:`register`).
+
+    Returns
+    -------
+    int
+        The exit status (:data:`harness.cli.EXIT_CODES`).
+    """
     from harness.campaign.report import write_report
     from harness.campaign.store import locked
     from harness.rundir import RunDir

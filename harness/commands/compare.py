@@ -29,6 +29,13 @@ from ._compare_args import add_compare_arguments, check_steps, compare_overrides
 
 
 def register(sub) -> None:
+    """Add the ``gflat compare`` parser to the sub-commands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
+    """
     p = sub.add_parser(
         "compare",
         help="fly a plan open loop on several engines and compare them",
@@ -64,11 +71,36 @@ def register(sub) -> None:
 
 
 def error_text(value: float, t_end: float) -> str:
-    """A position error for the command output: metres, or why there is none (the run ended before the window)."""
+    """A position error for the command output: metres, or why there is none (the run ended before the window).
+
+    Parameters
+    ----------
+    value : float
+        The error [m]; NaN when the run ended before the window it is measured over.
+    t_end : float
+        The time the run ended [s].
+
+    Returns
+    -------
+    str
+        ``"1.500e-03 m"``, or ``"n/a (run ended at t = 3.25 s)"``.
+    """
     return f"{value:.3e} m" if math.isfinite(value) else f"n/a (run ended at t = {t_end:g} s)"
 
 
 def run(args) -> int:
+    """Run ``gflat compare`` with the parsed command line ``args``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of the command (its parser: :func:`register`).
+
+    Returns
+    -------
+    int
+        The exit status (:data:`harness.cli.EXIT_CODES`).
+    """
     engines = tuple(engines_from_names(args.engines, minimum=2))
     case = ValidationCase(args.scenario, J=args.J, engines=engines, loop=args.loop, **compare_overrides(args))
     scenario = load_scenario(case.scenario, J=case.J)

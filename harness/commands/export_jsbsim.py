@@ -19,6 +19,13 @@ from ._args import add_replace, out_path
 
 
 def register(sub) -> None:
+    """Add the ``gflat export-jsbsim`` parser to the sub-commands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
+    """
     p = sub.add_parser(
         "export-jsbsim",
         help="write the JSBSim aircraft files (aircraft_xml/<id>/<id>.xml)",
@@ -46,6 +53,23 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``gflat export-jsbsim`` with the parsed command line ``args``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of the command (its parser: :func:`register`).
+
+    Returns
+    -------
+    int
+        The exit status (:data:`harness.cli.EXIT_CODES`).
+
+    Raises
+    ------
+    gna.errors.InputError
+        A bad option value, file or output folder (one line; exit status 2).
+    """
     if args.all and args.aircraft:
         raise InputError("give aircraft identifiers or --all, not both")
     if not args.all and not args.aircraft:

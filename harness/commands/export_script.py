@@ -14,6 +14,13 @@ from ._args import add_replace, iterations, out_path, positive_float
 
 
 def register(sub) -> None:
+    """Add the ``gflat export-jsbsim-script`` parser to the sub-commands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
+    """
     p = sub.add_parser(
         "export-jsbsim-script",
         help="write a plan as a JSBSim script (aircraft, initialization, control tables, CSV output)",
@@ -53,6 +60,23 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``gflat export-jsbsim-script`` with the parsed command line ``args``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of the command (its parser: :func:`register`).
+
+    Returns
+    -------
+    int
+        The exit status (:data:`harness.cli.EXIT_CODES`).
+
+    Raises
+    ------
+    gna.errors.InputError
+        A bad option value, file or output folder (one line; exit status 2).
+    """
     sc = load_scenario(args.scenario, J=args.J)
     n, dt, _, _ = output_grid(sc.t0, sc.t1, JSBSimEngine().dt, args.dt_out, None)  # intervals checked first
     steps_of(args.dt_out, dt, "--dt-out")

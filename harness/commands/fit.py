@@ -76,6 +76,13 @@ def _surface_overrides(items) -> dict[str, tuple[str, float]]:
 
 
 def register(sub) -> None:
+    """Add the ``gflat fit`` parser to the sub-commands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
+    """
     p = sub.add_parser(
         "fit",
         help="fit GNA aerodynamic parameters to a source model",
@@ -258,6 +265,18 @@ def _design(args, ranges):
 
 
 def run(args) -> int:
+    """Run ``gflat fit`` with the parsed command line ``args``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of the command (its parser: :func:`register`).
+
+    Returns
+    -------
+    int
+        The exit status (:data:`harness.cli.EXIT_CODES`).
+    """
     if args.source == "regenerate":
         return _regenerate(args)
     if args.source == "compare":

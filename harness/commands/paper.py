@@ -46,6 +46,13 @@ ANGLE_STATES = ("gamma", "chi", "alpha", "beta", "mu")
 
 
 def register(sub) -> None:
+    """Add the ``gflat paper`` parser to the sub-commands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
+    """
     p = sub.add_parser(
         "paper",
         help="plan the paper's three manoeuvres and fly them on both engines",
@@ -203,6 +210,18 @@ class _Scenario:
 
 
 def run(args) -> int:
+    """Run ``gflat paper`` with the parsed command line ``args``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of the command (its parser: :func:`register`).
+
+    Returns
+    -------
+    int
+        The exit status (:data:`harness.cli.EXIT_CODES`).
+    """
     rows, passed, closed_rows, results = [], [], [], []
     cases = paper_cases(args.J, **compare_overrides(args))
     loops = ("open", "closed") if args.loop == "both" else (args.loop,)

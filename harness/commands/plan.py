@@ -33,6 +33,13 @@ from ._compare_args import default_out, run_dir
 
 
 def register(sub) -> None:
+    """Add the ``gflat plan`` parser to the sub-commands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
+    """
     p = sub.add_parser(
         "plan",
         help="plan a manoeuvre (flatness + generalized flatness)",
@@ -322,6 +329,23 @@ def write_plan(
 
 
 def run(args) -> int:
+    """Run ``gflat plan`` with the parsed command line ``args``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of the command (its parser: :func:`register`).
+
+    Returns
+    -------
+    int
+        The exit status (:data:`harness.cli.EXIT_CODES`).
+
+    Raises
+    ------
+    gna.errors.InputError
+        A bad option value, file or output folder (one line; exit status 2).
+    """
     if is_chained_scenario(args.scenario):  # a chained system of planners.systems, not an aircraft scenario
         refused = [
             flag

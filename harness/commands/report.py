@@ -32,6 +32,13 @@ from ..rundir import RunDir, read_manifest
 
 
 def register(sub) -> None:
+    """Add the ``gflat report`` parser to the sub-commands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
+    """
     p = sub.add_parser(
         "report",
         help="render a run's HTML and PDF reports again from its saved results",
@@ -132,6 +139,18 @@ def render_again(
 
 
 def run(args) -> int:
+    """Run ``gflat report`` with the parsed command line ``args``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of the command (its parser: :func:`register`).
+
+    Returns
+    -------
+    int
+        The exit status (:data:`harness.cli.EXIT_CODES`).
+    """
     t0 = time.perf_counter()
     pages = render_again(args.dir, self_contained=args.self_contained, pdf=args.pdf)
     print(f"report: {pages['index']} ({len(pages['pages'])} case page(s))")

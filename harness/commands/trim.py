@@ -18,6 +18,13 @@ from ._args import finite_float, positive_float
 
 
 def register(sub) -> None:
+    """Add the ``gflat trim`` parser to the sub-commands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
+    """
     p = sub.add_parser(
         "trim",
         help="steady flight (trim) of an aircraft",
@@ -39,6 +46,18 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``gflat trim`` with the parsed command line ``args``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of the command (its parser: :func:`register`).
+
+    Returns
+    -------
+    int
+        The exit status (:data:`harness.cli.EXIT_CODES`).
+    """
     a = load_aircraft(args.aircraft)
     try:
         t = trim(
