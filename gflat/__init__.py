@@ -16,7 +16,8 @@ Scenarios
     :func:`load_scenario`, :func:`list_scenarios`, :class:`Scenario`.
 Planning
     :func:`plan_scenario`, :func:`plan_motion`, :class:`Plan`, :func:`save_plan`, :class:`FlatProblem`,
-    :class:`FlatOutput`, :func:`parametrize`.
+    :class:`FlatOutput`, :func:`parametrize`, :func:`open_loop_error` (a plan's controls flown open loop on the
+    full model).
 Tracking (the feedback along a plan)
     :func:`tracking_controller`, :func:`design`, :func:`linearize`, :func:`paper_lambdas`,
     :class:`TrackingController`, :class:`TrackingDesign`.
@@ -63,6 +64,7 @@ _PUBLIC = {
     "FlatProblem": "planners.flat",
     "FlatOutput": "planners.flat",
     "parametrize": "planners.flat",
+    "open_loop_error": "planners.verify",
     "tracking_controller": "planners.tracking",
     "design": "planners.tracking",
     "linearize": "planners.tracking",
