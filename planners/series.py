@@ -633,6 +633,11 @@ class Series:
     :class:`TypeError`.  Operands of different orders are truncated to the
     smaller order.  Comparisons and truth testing raise :class:`TypeError`.
 
+    A series of order ``n`` and batch shape ``S`` stores its coefficients
+    coefficient-first, an array of shape ``(n + 1,) + S``; the shapes given
+    in the methods' docstrings are those of the public :attr:`coeffs`, a
+    transposed view of shape ``S + (n + 1,)``.
+
     Examples
     --------
     >>> t = Series.variable(0.0, 4)
@@ -729,17 +734,45 @@ class Series:
         return cls(d / _factorials(d.shape[-1]))
 
     def zeros_like(self) -> Series:
-        """Zero series with the same order, batch shape and dtype."""
+        """Zero series with the same order, batch shape and dtype.
+
+        Returns
+        -------
+        Series
+            Order ``self.order``, batch shape ``self.batch_shape``, dtype ``self.dtype``: coefficients of
+            shape ``batch_shape + (order + 1,)``, all zero.
+        """
         return Series._wrap(np.zeros_like(self._c))
 
     def ones_like(self) -> Series:
-        """Constant series 1 with the same order, batch shape and dtype."""
+        """Constant series 1 with the same order, batch shape and dtype.
+
+        Returns
+        -------
+        Series
+            Order ``self.order``, batch shape ``self.batch_shape``, dtype ``self.dtype``: coefficients of
+            shape ``batch_shape + (order + 1,)``, ``c_0 = 1`` and ``c_k = 0`` for ``k >= 1``.
+        """
         c = np.zeros_like(self._c)
         c[0] = 1
         return Series._wrap(c)
 
     def astype(self, dtype: Any) -> Series:
-        """Copy with coefficients cast to ``dtype`` (e.g. ``complex`` for a complex step)."""
+        """Copy with coefficients cast to ``dtype`` (e.g. ``complex`` for a complex step).
+
+        Parameters
+        ----------
+        dtype : data-type
+            Target dtype, anything :meth:`numpy.ndarray.astype` accepts; a float or complex dtype for the
+            result to take part in series arithmetic.
+
+        Returns
+        -------
+        Series
+            Same order and batch shape: coefficients of shape ``batch_shape + (order + 1,)`` and dtype
+            ``dtype``, always a copy.  Casting complex coefficients to a real dtype drops their imaginary
+            parts (numpy's ``ComplexWarning``).
+        """
         return Series._wrap(self._c.astype(dtype))
 
     # ------------------------------------------------------------------ properties
@@ -770,7 +803,16 @@ class Series:
         return self._c[0]
 
     def derivatives(self) -> np.ndarray:
-        """Derivatives at the expansion points, ``k! c_k``, shape ``batch_shape + (n + 1,)``."""
+        """Derivatives at the expansion points, ``f^(k)(t0) = k! c_k`` for ``k = 0 .. n``.
+
+        The inverse of :meth:`from_derivatives`.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``batch_shape + (n + 1,)``: ``[..., k]`` is the k-th derivative at each expansion point;
+            real or complex like the coefficients (a new, writable array).
+        """
         return self.coeffs * _factorials(self._c.shape[0])
 
     @property
@@ -820,13 +862,51 @@ class Series:
         return (self[i] for i in range(self.batch_shape[0]))
 
     def reshape(self, *shape: Any) -> Series:
-        """Series with the batch reshaped to ``shape`` (numpy semantics, ``-1`` allowed)."""
+        """Series with the batch reshaped to ``shape`` (numpy semantics, ``-1`` allowed).
+
+        The coefficient axis is kept; only the batch axes are reshaped.
+
+        Parameters
+        ----------
+        *shape : int or tuple of int
+            New batch shape, as separate ints (``s.reshape(2, 3)``) or one tuple or list
+            (``s.reshape((2, 3))``); its size must equal the batch size ``prod(batch_shape)``.
+
+        Returns
+        -------
+        Series
+            Same order and dtype, batch shape ``shape``: coefficients of shape ``shape + (order + 1,)``
+            (a view of the same read-only storage when numpy can reshape without a copy).
+
+        Raises
+        ------
+        ValueError
+            From numpy, when the size of ``shape`` differs from the batch size.
+        """
         if len(shape) == 1 and isinstance(shape[0], (tuple, list)):
             shape = tuple(shape[0])
         return Series._wrap(self._c.reshape((self._c.shape[0],) + tuple(shape)))
 
     def broadcast_to(self, shape: Any) -> Series:
-        """Series with the batch broadcast to ``shape`` (read-only view)."""
+        """Series with the batch broadcast to ``shape`` (read-only view).
+
+        Parameters
+        ----------
+        shape : int or tuple of int
+            Target batch shape; ``batch_shape`` is broadcast to it by numpy's rules (leading axes added,
+            axes of length 1 stretched).
+
+        Returns
+        -------
+        Series
+            Same order and dtype, batch shape ``shape``: coefficients of shape ``shape + (order + 1,)``,
+            a read-only view of ``self``'s storage (no copy).
+
+        Raises
+        ------
+        ValueError
+            From numpy, when ``batch_shape`` cannot be broadcast to ``shape``.
+        """
         shape = (shape,) if isinstance(shape, numbers.Integral) else tuple(shape)
         return Series._wrap(_bcast(self._c, shape))
 
@@ -845,13 +925,26 @@ class Series:
         Parameters
         ----------
         series : iterable of Series
-            Truncated to the smallest order and broadcast to a common batch shape.
+            Series of orders ``n_i`` and batch shapes ``S_i`` (coefficients of shape ``S_i + (n_i + 1,)``),
+            truncated to the smallest order ``n = min(n_i)`` and broadcast to a common batch shape ``S``.
         axis : int, optional
-            Position of the new axis in the result's batch shape.
+            Position of the new axis in the result's batch shape, ``-(len(S) + 1) <= axis <= len(S)``
+            (default 0).
 
         Returns
         -------
         Series
+            Order ``n``, batch shape ``S`` with an axis of length ``len(series)`` inserted at ``axis``:
+            coefficients of shape ``batch_shape + (n + 1,)``; dtype the numpy result type of the inputs.
+
+        Raises
+        ------
+        TypeError
+            When ``series`` is empty or holds anything other than a :class:`Series`.
+        ValueError
+            From numpy, when the batch shapes cannot be broadcast together.
+        numpy.exceptions.AxisError
+            When ``axis`` is out of range for the result's batch.
         """
         parts = Series._common_parts(list(series))
         shape = np.broadcast_shapes(*(p.shape[1:] for p in parts))
@@ -863,7 +956,34 @@ class Series:
 
     @staticmethod
     def concatenate(series: Iterable[Series], axis: int = 0) -> Series:
-        """Concatenate series along an existing batch axis (truncated to the smallest order)."""
+        """Concatenate series along an existing batch axis (truncated to the smallest order).
+
+        Parameters
+        ----------
+        series : iterable of Series
+            Series of orders ``n_i`` and batch shapes ``S_i`` (coefficients of shape ``S_i + (n_i + 1,)``),
+            truncated to the smallest order ``n = min(n_i)``.  The ``S_i`` must have the same number of axes
+            and agree except along ``axis`` (no broadcasting).
+        axis : int, optional
+            Batch axis to join along, ``-d <= axis < d`` with ``d = len(S_0)`` the number of batch axes
+            (default 0).
+
+        Returns
+        -------
+        Series
+            Order ``n``, batch shape ``S_0`` with its ``axis`` entry replaced by the sum of the lengths
+            along ``axis``: coefficients of shape ``batch_shape + (n + 1,)``; dtype the numpy result type of
+            the inputs.
+
+        Raises
+        ------
+        TypeError
+            When ``series`` is empty or holds anything other than a :class:`Series`.
+        numpy.exceptions.AxisError
+            When ``axis`` is out of range for the batch of the first series (always for a 0-d batch).
+        ValueError
+            From numpy, when the batch shapes differ other than along ``axis``.
+        """
         parts = Series._common_parts(list(series))
         nd = parts[0].ndim - 1
         if not -nd <= axis < nd:
@@ -872,7 +992,24 @@ class Series:
         return Series._wrap(np.concatenate(parts, axis=ax))
 
     def truncate(self, order: int) -> Series:
-        """The same series truncated to a lower ``order`` (``0 <= order <= self.order``)."""
+        """The same series truncated to a lower ``order`` (``0 <= order <= self.order``).
+
+        Parameters
+        ----------
+        order : int
+            New truncation order, ``0 <= order <= self.order``.
+
+        Returns
+        -------
+        Series
+            Coefficients ``c_0 .. c_order``, shape ``batch_shape + (order + 1,)``, same batch shape and dtype:
+            a view of ``self``'s storage (no copy).
+
+        Raises
+        ------
+        ValueError
+            When ``order`` is negative or larger than ``self.order``.
+        """
         if not 0 <= order <= self.order:
             raise ValueError(f"cannot truncate a series of order {self.order} to order {order}")
         return Series._wrap(self._c[: order + 1])
@@ -882,6 +1019,22 @@ class Series:
 
         Padding adds no information: the new coefficients are zeros, not the
         true Taylor coefficients of the underlying function.
+
+        Parameters
+        ----------
+        order : int
+            New truncation order, ``order >= self.order``.
+
+        Returns
+        -------
+        Series
+            Same batch shape and dtype: coefficients of shape ``batch_shape + (order + 1,)``, those of
+            ``self`` followed by ``order - self.order`` zeros (a new array).
+
+        Raises
+        ------
+        ValueError
+            When ``order < self.order``.
         """
         if order < self.order:
             raise ValueError(f"cannot pad a series of order {self.order} to order {order}")
@@ -964,7 +1117,19 @@ class Series:
         return Series._wrap(out / fact)
 
     def derivative(self) -> Series:
-        """Derivative ``d/dt`` as a series of order ``n - 1``."""
+        """Derivative ``d/dt`` as a series of order ``n - 1``: coefficients ``(k + 1) c_(k+1)``.
+
+        Returns
+        -------
+        Series
+            Order ``self.order - 1``, same batch shape and dtype: coefficients of shape
+            ``batch_shape + (order,)``, ``[..., k] = (k + 1) c_(k+1)`` for ``k = 0 .. n - 1``.
+
+        Raises
+        ------
+        ValueError
+            When ``self.order < 1`` (an order-0 series carries no derivative information).
+        """
         if self.order < 1:
             raise ValueError("an order-0 series carries no derivative information")
         return Series._wrap(_unflat(_diff_kernel(_flat(self._c)), self.batch_shape))
@@ -975,7 +1140,19 @@ class Series:
         Parameters
         ----------
         c0 : scalar or array_like, optional
-            Constant term, broadcast against the batch shape.
+            Constant term, broadcast against the batch shape (default 0).
+
+        Returns
+        -------
+        Series
+            Order ``n + 1``, batch shape ``broadcast(batch_shape, shape(c0))``: coefficients of shape
+            ``batch_shape + (n + 2,)``, ``r_0 = c0`` and ``r_k = c_(k-1) / k`` for ``k = 1 .. n + 1``;
+            dtype the numpy result type of the coefficients and ``c0``.
+
+        Raises
+        ------
+        ValueError
+            From numpy, when ``shape(c0)`` does not broadcast against the batch shape.
         """
         c0 = np.asarray(c0, dtype=np.result_type(self._c, c0))
         shape = np.broadcast_shapes(self.batch_shape, c0.shape)
@@ -1036,12 +1213,25 @@ class Series:
         Parameters
         ----------
         g : Series
-            Inner series with zero constant term (exactly).
+            Inner series with zero constant term (exactly, at every batch point); its batch shape is
+            broadcast against ``self``'s.
 
         Returns
         -------
         Series
-            Order ``min(self.order, g.order)``, batch shapes broadcast.
+            Order ``m = min(self.order, g.order)``, batch shape ``broadcast(self.batch_shape, g.batch_shape)``:
+            coefficients of shape ``batch_shape + (m + 1,)``.  ``m`` truncated Cauchy products.
+
+        Raises
+        ------
+        TypeError
+            When ``g`` is not a :class:`Series`.
+        ValueError
+            When a constant term of ``g`` is non-zero; from numpy, when the batch shapes do not broadcast.
+
+        References
+        ----------
+        Knuth, *The Art of Computer Programming*, vol. 2, 3rd ed., §4.7 (manipulation of power series).
         """
         if not isinstance(g, Series):
             raise TypeError("compose expects a Series")
@@ -1072,27 +1262,100 @@ class Series:
         return val
 
     def square(self) -> Series:
-        """``self * self``."""
+        """``self * self``, the truncated Cauchy product of the series with itself.
+
+        ``c_k = sum_{j=0}^{k} u_j u_(k-j)`` for ``k = 0 .. n``.
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        Knuth, *The Art of Computer Programming*, vol. 2, 3rd ed., §4.7 (manipulation of power series).
+        """
         u = _flat(self._c)
         return Series._wrap(_unflat(_K.mul(u, u), self.batch_shape))
 
     def reciprocal(self) -> Series:
-        """``1 / self`` (requires a non-zero constant term)."""
+        """``1 / self`` (requires a non-zero constant term).
+
+        By the quotient recurrence ``q_0 = 1 / u_0``, ``q_k = -(sum_{j=1}^{k} u_j q_(k-j)) / u_0``.  Where
+        ``u_0 = 0`` the coefficients are inf or nan (numpy's RuntimeWarning, no exception).
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        Knuth, *The Art of Computer Programming*, vol. 2, 3rd ed., §4.7 (manipulation of power series).
+        """
         u = _flat(self._c)
         one = np.zeros_like(u)
         one[0] = 1.0
         return Series._wrap(_unflat(_K.div(one, u), self.batch_shape))
 
     def sqrt(self) -> Series:
-        """Principal square root (requires a non-zero constant term)."""
+        """Principal square root (requires a non-zero constant term).
+
+        By the power recurrence of ``u c' = p u' c`` with ``p = 1/2``:
+        ``k u_0 c_k = sum_{j=1}^{k} ((p + 1) j - k) u_j c_(k-j)``, ``c_0 = sqrt(u_0)`` (principal branch; nan
+        for a negative real ``u_0``).  Where ``u_0 = 0`` the coefficients of order >= 1 are inf or nan
+        (numpy's RuntimeWarning, no exception).
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        Knuth, *The Art of Computer Programming*, vol. 2, 3rd ed., §4.7 (manipulation of power series).
+        """
         return self._apply(lambda u: _K.pow(u, 0.5, np.sqrt(u[0])))
 
     def exp(self) -> Series:
-        """Exponential."""
+        """Exponential.
+
+        By the recurrence of ``e' = u' e``: ``e_0 = exp(u_0)``, ``k e_k = sum_{j=1}^{k} j u_j e_(k-j)``.
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
         return self._apply(_K.exp)
 
     def expm1(self) -> Series:
-        """``exp(self) - 1`` with an accurate constant term."""
+        """``exp(self) - 1`` with an accurate constant term.
+
+        The coefficients of order >= 1 are those of :meth:`exp` (same recurrence); the constant term is
+        ``expm1(u_0)``, accurate for small ``u_0``.
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
         return self._apply(lambda u: _K.exp(u, np.expm1(u[0])))
 
     def _log_like(self, c0_fun: Callable, shift_one: bool) -> Series:
@@ -1109,15 +1372,59 @@ class Series:
         return self._apply(kernel)
 
     def log(self) -> Series:
-        """Principal natural logarithm, ``log(c0) + integral(u'/u)``."""
+        """Principal natural logarithm, ``log(c0) + integral(u'/u)``.
+
+        ``u'/u`` (order ``n - 1``) is computed by the quotient recurrence and integrated, the constant term
+        being ``numpy.log(u_0)``.  Requires ``u_0 != 0`` (else inf or nan coefficients); a negative real
+        ``u_0`` gives nan (use a complex dtype for the principal branch).  No exception is raised.
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
         return self._log_like(np.log, False)
 
     def log1p(self) -> Series:
-        """``log(1 + self)``, ``log1p(c0) + integral(u'/(1+u))``."""
+        """``log(1 + self)``, ``log1p(c0) + integral(u'/(1+u))``.
+
+        As :meth:`log`, with ``1 + u`` in the denominator and the constant term ``numpy.log1p(u_0)``
+        (accurate for small ``u_0``).  Requires ``u_0 != -1``.
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
         return self._log_like(np.log1p, True)
 
     def sincos(self) -> tuple[Series, Series]:
-        """``(sin(self), cos(self))`` by the coupled recurrence (memoised)."""
+        """``(sin(self), cos(self))`` by the coupled recurrence (memoised).
+
+        ``s_0 = sin(u_0)``, ``c_0 = cos(u_0)``, ``k s_k = sum_{j=1}^{k} j u_j c_(k-j)`` and
+        ``k c_k = -sum_{j=1}^{k} j u_j s_(k-j)`` (from ``s' = u' c``, ``c' = -u' s``).
+
+        Returns
+        -------
+        tuple of (Series, Series)
+            ``(sin(self), cos(self))``, each of the same order, batch shape and dtype as ``self``
+            (coefficients of shape ``batch_shape + (order + 1,)``).  Memoised: every call returns the same
+            two objects.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
 
         def compute() -> tuple[Series, Series]:
             s, c = _K.sincos(_flat(self._c), hyperbolic=False)
@@ -1126,15 +1433,57 @@ class Series:
         return self._memoised("sincos", compute)
 
     def sin(self) -> Series:
-        """Sine."""
+        """Sine.
+
+        The first of :meth:`sincos`: the cosine is computed with it and memoised, so a following
+        ``np.cos(self)`` costs nothing.
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
         return self.sincos()[0]
 
     def cos(self) -> Series:
-        """Cosine."""
+        """Cosine.
+
+        The second of :meth:`sincos`: the sine is computed with it and memoised.
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
         return self.sincos()[1]
 
     def sinhcosh(self) -> tuple[Series, Series]:
-        """``(sinh(self), cosh(self))`` by the coupled recurrence (memoised)."""
+        """``(sinh(self), cosh(self))`` by the coupled recurrence (memoised).
+
+        ``s_0 = sinh(u_0)``, ``c_0 = cosh(u_0)``, ``k s_k = sum_{j=1}^{k} j u_j c_(k-j)`` and
+        ``k c_k = sum_{j=1}^{k} j u_j s_(k-j)`` (from ``s' = u' c``, ``c' = u' s``).
+
+        Returns
+        -------
+        tuple of (Series, Series)
+            ``(sinh(self), cosh(self))``, each of the same order, batch shape and dtype as ``self``
+            (coefficients of shape ``batch_shape + (order + 1,)``).  Memoised: every call returns the same
+            two objects.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
 
         def compute() -> tuple[Series, Series]:
             s, c = _K.sincos(_flat(self._c), hyperbolic=True)
@@ -1143,23 +1492,91 @@ class Series:
         return self._memoised("sinhcosh", compute)
 
     def sinh(self) -> Series:
-        """Hyperbolic sine."""
+        """Hyperbolic sine.
+
+        The first of :meth:`sinhcosh`: the hyperbolic cosine is computed with it and memoised.
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
         return self.sinhcosh()[0]
 
     def cosh(self) -> Series:
-        """Hyperbolic cosine."""
+        """Hyperbolic cosine.
+
+        The second of :meth:`sinhcosh`: the hyperbolic sine is computed with it and memoised.
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
         return self.sinhcosh()[1]
 
     def tan(self) -> Series:
-        """Tangent, by the recurrence of ``t' = (1 + t^2) u'``."""
+        """Tangent, by the recurrence of ``t' = (1 + t^2) u'``.
+
+        ``t_0 = tan(u_0)``, ``k t_k = sum_{j=1}^{k} j u_j w_(k-j)`` with ``w = 1 + t^2``, i.e.
+        ``w_k = [k = 0] + sum_{j=0}^{k} t_j t_(k-j)``, updated order by order.
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
         return self._apply(lambda u: _K.tan(u, hyperbolic=False))
 
     def tanh(self) -> Series:
-        """Hyperbolic tangent, by the recurrence of ``t' = (1 - t^2) u'``."""
+        """Hyperbolic tangent, by the recurrence of ``t' = (1 - t^2) u'``.
+
+        As :meth:`tan` with ``t_0 = tanh(u_0)`` and ``w = 1 - t^2``.
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
         return self._apply(lambda u: _K.tan(u, hyperbolic=True))
 
     def arctan(self) -> Series:
-        """Arc tangent, ``arctan(c0) + integral(u'/(1 + u^2))``."""
+        """Arc tangent, ``arctan(c0) + integral(u'/(1 + u^2))``.
+
+        ``1 + u^2`` by the Cauchy product, ``u'/(1 + u^2)`` (order ``n - 1``) by the quotient recurrence,
+        then integrated with the constant term ``numpy.arctan(u_0)``.  Requires ``1 + u_0^2 != 0`` (for
+        complex ``u_0``: ``u_0 != +-i``).
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        """
 
         def kernel(u: np.ndarray) -> np.ndarray:
             c0 = np.arctan(u[0])
@@ -1188,11 +1605,42 @@ class Series:
         return self._apply(kernel)
 
     def arcsin(self) -> Series:
-        """Arc sine, ``arcsin(c0) + integral(u' (1 - u^2)^(-1/2))``."""
+        """Arc sine, ``arcsin(c0) + integral(u' (1 - u^2)^(-1/2))``.
+
+        ``1 - u^2`` by the Cauchy product, its power ``-1/2`` by the power recurrence (see :meth:`sqrt`),
+        times ``u'`` and integrated with the constant term ``numpy.arcsin(u_0)``.  Requires ``u_0^2 != 1``;
+        a real ``|u_0| > 1`` gives nan coefficients (numpy's RuntimeWarning, no exception).
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        Knuth, *The Art of Computer Programming*, vol. 2, 3rd ed., §4.7 (manipulation of power series).
+        """
         return self._arcsin_like(np.arcsin, 1.0)
 
     def arccos(self) -> Series:
-        """Arc cosine, ``arccos(c0) - integral(u' (1 - u^2)^(-1/2))``."""
+        """Arc cosine, ``arccos(c0) - integral(u' (1 - u^2)^(-1/2))``.
+
+        As :meth:`arcsin` with the sign of the integral flipped and the constant term
+        ``numpy.arccos(u_0)``.
+
+        Returns
+        -------
+        Series
+            Same order, batch shape and dtype as ``self``: coefficients of shape
+            ``batch_shape + (order + 1,)``.
+
+        References
+        ----------
+        Griewank & Walther, *Evaluating Derivatives*, 2nd ed., SIAM 2008, ch. 13 (Taylor coefficient propagation).
+        Knuth, *The Art of Computer Programming*, vol. 2, 3rd ed., §4.7 (manipulation of power series).
+        """
         return self._arcsin_like(np.arccos, -1.0)
 
     # ------------------------------------------------------------------ operators
