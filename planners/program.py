@@ -46,6 +46,41 @@ class TraceError(Exception):
     """The residual did something a program cannot record (the stage then runs on the numpy path)."""
 
 
+def cache_dir() -> str:
+    """Where the compiled evaluator's machine code is kept: ``$XDG_CACHE_HOME/gflat/numba`` (default
+    ``~/.cache/gflat/numba``).  numba keys its files by the kernels' source and its own version (stale
+    files are rebuilt) and writes each through a temporary file renamed into place, so several processes
+    compiling at once are safe.
+
+    Returns
+    -------
+    str
+    """
+    import os
+
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "gflat", "numba")
+
+
+def _kernels():
+    """The compiled evaluator (:mod:`planners._program_kernels`), its cache under :func:`cache_dir`."""
+    import sys
+
+    mod = sys.modules.get("planners._program_kernels")
+    if mod is not None:
+        return mod
+    import importlib
+
+    import numba.core.config as config
+
+    before = config.CACHE_DIR
+    config.CACHE_DIR = cache_dir()  # read when the kernels are decorated (at their import)
+    try:
+        return importlib.import_module("planners._program_kernels")
+    finally:
+        config.CACHE_DIR = before
+
+
 def available() -> bool:
     """Whether the compiled evaluator can be used (numba importable).
 
@@ -439,15 +474,13 @@ class Program:
 
     def residual(self, x: np.ndarray, data: np.ndarray) -> np.ndarray:
         """Residual series ``(neq, M, S)`` at the unknowns ``x`` ``(n, M, S)`` (coefficient first)."""
-        from . import _program_kernels as K
-
-        return K.evaluate(self.code, self.params, x, data, self.n_registers, self.outputs)
+        return _kernels().evaluate(self.code, self.params, x, data, self.n_registers, self.outputs)
 
     def residual_and_jacobian(self, x: np.ndarray, data: np.ndarray) -> tuple:
         """Residual ``(neq, M, S)`` and Jacobian series ``(neq, n, M, S)`` at ``x`` (forward mode)."""
-        from . import _program_kernels as K
-
-        return K.evaluate_tangent(self.code, self.params, x, data, self.n_registers, self.outputs, self.outputs_unk)
+        return _kernels().evaluate_tangent(
+            self.code, self.params, x, data, self.n_registers, self.outputs, self.outputs_unk
+        )
 
 
 def _allocate(rec: _Recorder, outs: list) -> tuple:
@@ -505,7 +538,7 @@ def _allocate(rec: _Recorder, outs: list) -> tuple:
         rb = reg[b] if b >= 0 else b
         unk = 1 if op == INPUT else (1 if ua else 0) + (2 if ub else 0)
         rows.append((op, reg[i], ra, rb, k, unk))
-        for j in operands(i):
+        for j in set(operands(i)):  # an operand used twice (a * a) is freed once
             if last.get(j) == i:
                 free.append(reg[j])
         for j in made:
