@@ -416,8 +416,13 @@ def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, to
 
 
 def compiled_programs() -> bool:
-    """Whether the stages run as compiled programs (:mod:`planners.program`): the series backend is
-    ``"compiled"`` (``GFLAT_SERIES_BACKEND``) and numba is importable."""
+    """Whether the stages run as compiled programs (:mod:`planners.program`).
+
+    Returns
+    -------
+    bool
+        The series backend is ``"compiled"`` (``GFLAT_SERIES_BACKEND``) and numba is importable.
+    """
     from . import series
 
     if series.BACKEND != "compiled":

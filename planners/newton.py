@@ -170,7 +170,21 @@ class SeriesNewtonReport:
 
     @property
     def series_residual(self) -> np.ndarray:
-        """Max abs coefficient of the residual series at the final order, per node."""
+        """Max abs coefficient of the residual series at ``u``, per node.
+
+        Parameters
+        ----------
+        u : list of Series
+            The unknowns at order ``order``.
+        order : int
+            Working order.
+        batch : tuple of int
+            Batch shape of the nodes.
+
+        Returns
+        -------
+        ndarray, shape batch
+        """
         if callable(self._series_residual):
             self._series_residual = self._series_residual()
         return self._series_residual
@@ -430,15 +444,50 @@ class ResidualEvaluator:
         self.residual = residual
 
     def residual_and_jacobian(self, stacked: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """Residual ``(neq, *batch, K)`` and Jacobian series ``(neq, n, *batch, K)`` at ``stacked`` (n, *batch, K)."""
+        """Residual series and Jacobian series at the unknowns' coefficients.
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, *batch, K)
+            Taylor coefficients of the n unknowns (coefficient last).
+        k : int
+            Working order, ``K - 1``.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            ``G`` (neq, *batch, K) and ``Jc`` (neq, n, *batch, K): coefficient m of ``d r_a / d u_b``.
+        """
         return _residual_and_jacobian(self.residual, stacked, k)
 
     def residual_only(self, stacked: np.ndarray, k: int) -> np.ndarray:
-        """Residual series ``(neq, *batch, K)`` at ``stacked`` (n, *batch, K)."""
+        """Residual series at the unknowns' coefficients.
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, *batch, K)
+            Taylor coefficients of the n unknowns (coefficient last).
+        k : int
+            Working order, ``K - 1``.
+
+        Returns
+        -------
+        ndarray, shape (neq, *batch, K)
+        """
         return _residual_only(self.residual, stacked, k)
 
     def const_fun(self, x: np.ndarray) -> np.ndarray:
-        """Constant term of the residual ``(neq, *batch)`` at constant unknowns ``x`` (n, *batch)."""
+        """Constant term of the residual at constant unknowns (the pointwise problem).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, *batch)
+            Values of the unknowns.
+
+        Returns
+        -------
+        ndarray, shape (neq, *batch)
+        """
         from .series import Series
 
         return np.stack(
@@ -449,11 +498,35 @@ class ResidualEvaluator:
         )
 
     def const_jacobian(self, x: np.ndarray) -> np.ndarray:
-        """Jacobian ``(neq, n, *batch)`` of :meth:`const_fun` (batched complex step)."""
+        """Jacobian of :meth:`const_fun`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, *batch)
+            Values of the unknowns.
+
+        Returns
+        -------
+        ndarray, shape (neq, n, *batch)
+        """
         return jacobian(self.const_fun, x, "complex-batched")
 
     def series_residual(self, u: list, order: int, batch: tuple) -> np.ndarray:
-        """Max abs coefficient of the residual series at ``u`` per node."""
+        """Max abs coefficient of the residual series at ``u``, per node.
+
+        Parameters
+        ----------
+        u : list of Series
+            The unknowns at order ``order``.
+        order : int
+            Working order.
+        batch : tuple of int
+            Batch shape of the nodes.
+
+        Returns
+        -------
+        ndarray, shape batch
+        """
         return _series_residual_of(self.residual, u, order, batch)
 
 

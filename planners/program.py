@@ -204,12 +204,12 @@ class Sym:
         if isinstance(other, np.ndarray) and other.dtype.kind in "fi":
             if other.ndim == 0:
                 return float(other)
-            return self.rec_data_array(other)
+            return self._data_array(other)
         if isinstance(other, Series):
             raise TraceError("an untraced Series met a traced one (data not declared)")
         return None
 
-    def rec_data_array(self, arr: np.ndarray) -> Sym:
+    def _data_array(self, arr: np.ndarray) -> Sym:
         """An array of node constants as a constant series of the data (static)."""
         rec = self.rec
         s = Series.constant(np.asarray(arr, dtype=float), 0)
@@ -268,18 +268,18 @@ class Sym:
         if p.is_integer() and abs(p) < 2**31:
             return self._int_power(int(p))
         if p == 0.5:
-            return self.sqrt()
+            return self._f_sqrt()
         rec = self.rec
         return rec.node(POW, self.i, -1, rec.param(p))
 
     def __rpow__(self, other):
         if not _is_number(other) or float(other) <= 0:
             raise TraceError("a power with a series exponent")
-        return (self * math.log(float(other))).exp()
+        return (self * math.log(float(other)))._f_exp()
 
     def _int_power(self, p: int):
         if p < 0:
-            return self._int_power(-p).reciprocal()
+            return self._int_power(-p)._f_reciprocal()
         if p == 0:
             rec = self.rec
             return rec.node(CONST, -1, -1, rec.param(1.0))
@@ -297,25 +297,25 @@ class Sym:
     def _unary(self, op):
         return self.rec.node(op, self.i)
 
-    def sqrt(self):
+    def _f_sqrt(self):
         return self._unary(SQRT)
 
-    def exp(self):
+    def _f_exp(self):
         return self._unary(EXP)
 
-    def log(self):
+    def _f_log(self):
         return self._unary(LOG)
 
-    def arctan(self):
+    def _f_arctan(self):
         return self._unary(ARCTAN)
 
-    def tan(self):
+    def _f_tan(self):
         return self._unary(TAN)
 
-    def square(self):
+    def _f_square(self):
         return self * self
 
-    def reciprocal(self):
+    def _f_reciprocal(self):
         return 1.0 / self
 
     def _pair(self, op):
@@ -332,29 +332,46 @@ class Sym:
             rec.pairs[key] = (first, second)
         return rec.pairs[key]
 
-    def sincos(self):
+    def _f_sincos(self):
         return self._pair(SINCOS)
 
-    def sinhcosh(self):
+    def _f_sinhcosh(self):
         return self._pair(SINHCOSH)
 
-    def sin(self):
-        return self.sincos()[0]
+    def _f_sin(self):
+        return self._f_sincos()[0]
 
-    def cos(self):
-        return self.sincos()[1]
+    def _f_cos(self):
+        return self._f_sincos()[1]
 
-    def sinh(self):
-        return self.sinhcosh()[0]
+    def _f_sinh(self):
+        return self._f_sinhcosh()[0]
 
-    def cosh(self):
-        return self.sinhcosh()[1]
+    def _f_cosh(self):
+        return self._f_sinhcosh()[1]
 
     @staticmethod
     def linear_combinations(weights, items) -> list:
-        """Rows of ``weights`` applied to ``items`` (Syms and numbers), as :meth:`Series.linear_combinations`.
+        """Rows of ``weights`` applied to ``items``, as :meth:`planners.series.Series.linear_combinations`.
 
         Dense: every weight is a parameter (zero weights too), so the program does not depend on them.
+
+        Parameters
+        ----------
+        weights : array_like, shape (p, q)
+            Real weights (parameters of the program).
+        items : sequence of length q
+            Traced series (at least one) and numbers.
+
+        Returns
+        -------
+        list of Sym
+            ``p`` traced series.
+
+        Raises
+        ------
+        TraceError
+            No traced series among ``items``, or an item of another type.
         """
         w = np.asarray(weights, dtype=float)
         syms = [x for x in items if isinstance(x, Sym)]
@@ -403,7 +420,7 @@ def _ufunc_binary(name):
 
 def _ufunc_unary(name):
     def impl(x):
-        return getattr(x, name)()
+        return getattr(x, "_f_" + name)()
 
     return impl
 
@@ -463,7 +480,21 @@ class Program:
     # --------------------------------------------------------------- evaluation
 
     def data_array(self, data: Mapping, k: int, nodes: int) -> np.ndarray:
-        """The data series at working order k as one array ``(D, k + 1, nodes)`` (truncated or zero-padded)."""
+        """The data series at working order k as one array (truncated or zero-padded).
+
+        Parameters
+        ----------
+        data : mapping of str -> Series
+            At least :attr:`data_names`, batch shape (nodes,) or ().
+        k : int
+            Working order.
+        nodes : int
+            Number of nodes.
+
+        Returns
+        -------
+        ndarray, shape (D, k + 1, nodes)
+        """
         series = [data[n] for n in self.data_names] + self.extra
         out = np.zeros((len(series), k + 1, nodes))
         for j, s in enumerate(series):
@@ -473,11 +504,35 @@ class Program:
         return out
 
     def residual(self, x: np.ndarray, data: np.ndarray) -> np.ndarray:
-        """Residual series ``(neq, M, S)`` at the unknowns ``x`` ``(n, M, S)`` (coefficient first)."""
+        """Residual series at the unknowns, by the compiled evaluator.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, M, S)
+            The unknowns' coefficients, coefficient first (M coefficients, S nodes).
+        data : ndarray, shape (D, M, S)
+            :meth:`data_array` at order M - 1.
+
+        Returns
+        -------
+        ndarray, shape (neq, M, S)
+        """
         return _kernels().evaluate(self.code, self.params, x, data, self.n_registers, self.outputs)
 
     def residual_and_jacobian(self, x: np.ndarray, data: np.ndarray) -> tuple:
-        """Residual ``(neq, M, S)`` and Jacobian series ``(neq, n, M, S)`` at ``x`` (forward mode)."""
+        """Residual series and Jacobian series at the unknowns (forward mode on series).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, M, S)
+            The unknowns' coefficients, coefficient first.
+        data : ndarray, shape (D, M, S)
+            :meth:`data_array` at order M - 1.
+
+        Returns
+        -------
+        (ndarray (neq, M, S), ndarray (neq, n, M, S))
+        """
         return _kernels().evaluate_tangent(
             self.code, self.params, x, data, self.n_registers, self.outputs, self.outputs_unk
         )
@@ -636,27 +691,86 @@ class StageEvaluator:
         return self._arrays[k]
 
     def residual_and_jacobian(self, stacked: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """Residual ``(neq, nodes, K)`` and Jacobian series ``(neq, n, nodes, K)`` at ``stacked`` (n, nodes, K)."""
+        """Residual series and Jacobian series at the unknowns' coefficients.
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, *batch, K)
+            Taylor coefficients of the n unknowns (coefficient last).
+        k : int
+            Working order, ``K - 1``.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            ``G`` (neq, *batch, K) and ``Jc`` (neq, n, *batch, K): coefficient m of ``d r_a / d u_b``.
+        """
         x = np.ascontiguousarray(np.swapaxes(stacked, 1, 2), dtype=float)
         G, J = self.program.residual_and_jacobian(x, self._data(k))
         return np.swapaxes(G, 1, 2), np.swapaxes(J, 2, 3)
 
     def residual_only(self, stacked: np.ndarray, k: int) -> np.ndarray:
-        """Residual series ``(neq, nodes, K)`` at ``stacked`` (n, nodes, K)."""
+        """Residual series at the unknowns' coefficients.
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, *batch, K)
+            Taylor coefficients of the n unknowns (coefficient last).
+        k : int
+            Working order, ``K - 1``.
+
+        Returns
+        -------
+        ndarray, shape (neq, *batch, K)
+        """
         x = np.ascontiguousarray(np.swapaxes(stacked, 1, 2), dtype=float)
         return np.swapaxes(self.program.residual(x, self._data(k)), 1, 2)
 
     def const_fun(self, x: np.ndarray) -> np.ndarray:
-        """Constant term of the residual ``(neq, nodes)`` at constant unknowns ``x`` (n, nodes)."""
+        """Constant term of the residual at constant unknowns (the pointwise problem).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, *batch)
+            Values of the unknowns.
+
+        Returns
+        -------
+        ndarray, shape (neq, *batch)
+        """
         xx = np.ascontiguousarray(np.real(x), dtype=float)[:, None, :]
         return self.program.residual(xx, self._data(0))[:, 0, :]
 
     def const_jacobian(self, x: np.ndarray) -> np.ndarray:
-        """Jacobian ``(neq, n, nodes)`` of :meth:`const_fun` (forward mode)."""
+        """Jacobian of :meth:`const_fun`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, *batch)
+            Values of the unknowns.
+
+        Returns
+        -------
+        ndarray, shape (neq, n, *batch)
+        """
         xx = np.ascontiguousarray(np.real(x), dtype=float)[:, None, :]
         return self.program.residual_and_jacobian(xx, self._data(0))[1][:, :, 0, :]
 
     def series_residual(self, u: list, order: int, batch: tuple) -> np.ndarray:
-        """Max abs coefficient of the residual series at ``u`` (Series of order ``order``) per node."""
+        """Max abs coefficient of the residual series at ``u``, per node.
+
+        Parameters
+        ----------
+        u : list of Series
+            The unknowns at order ``order``.
+        order : int
+            Working order.
+        batch : tuple of int
+            Batch shape of the nodes.
+
+        Returns
+        -------
+        ndarray, shape batch
+        """
         stacked = np.stack([np.broadcast_to(np.real(s.coeffs), batch + (order + 1,)) for s in u])
         return np.max(np.abs(self.residual_only(stacked, order)), axis=(0, 2))
