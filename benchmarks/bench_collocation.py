@@ -754,6 +754,69 @@ def _median(pairs):
 GRAPHS = ("MX", "SX")
 
 
+class _numpy_reference:
+    """The planner on its numpy reference path in this process (series kernels and stage residuals on
+    numpy: what ``GFLAT_SERIES_BACKEND=numpy`` selects), restored on exit."""
+
+    def __enter__(self):
+        import planners.chained as chained
+        import planners.series as series
+
+        self._saved = (series._K, chained.compiled_programs)
+        series._K = series._NumpyKernels
+        chained.compiled_programs = lambda: False
+        return self
+
+    def __exit__(self, *exc):
+        import planners.chained as chained
+        import planners.series as series
+
+        series._K, chained.compiled_programs = self._saved
+        return False
+
+
+def floor_estimate(plan, repeat: int = 20) -> float | None:
+    """Time [s] of one compiled Taylor evaluation of each Newton stage residual per iterate, all nodes at once
+    (the plan's own programs, at each iterate's working order, on its solution): the planner's time over this
+    is how many such evaluations a plan costs.  None on the numpy path (no programs)."""
+    total = 0.0
+    found = False
+    for it in plan.iterates:
+        cached = getattr(it, "_inputs", None) or {}
+        programs = cached.get("programs") or {}
+        data = dict(cached.get("known", {}))
+        data.update(cached.get("derivs", {}))
+        for n in it:
+            data[n] = it[n]
+            if it[n].order >= 1:
+                data[n + "'"] = it[n].derivative()
+        for h, (prog, _why) in programs.items():
+            if prog is None or any(n not in data for n in prog.data_names):
+                continue
+            from planners.flat import aircraft_system
+
+            unknowns = aircraft_system(plan.problem).stages[h - 1].unknowns
+            k = it.order - h
+            if any(u not in it for u in unknowns):
+                continue
+            nodes = len(plan.t_nodes)
+            x = np.zeros((len(unknowns), k + 1, nodes))
+            for j, u in enumerate(unknowns):
+                c = it[u]._c
+                m = min(c.shape[0], k + 1)
+                x[j, :m] = c[:m]
+            d = prog.data_array(data, k, nodes)
+            prog.residual(x, d)
+            ts = []
+            for _ in range(repeat):
+                t0 = time.perf_counter()
+                prog.residual(x, d)
+                ts.append(time.perf_counter() - t0)
+            total += min(ts)
+            found = True
+    return total if found else None
+
+
 def bench_scenario(
     name: str,
     factors=DEFAULT_FACTORS,
@@ -911,11 +974,18 @@ def bench_scenario(
     # Each collocation time includes its initial guess (computed afresh: it is part of every new
     # problem's solve): built from scratch = guess + build (guess at the points) + solve, re-solved =
     # guess + the pre-built solver's solve from it.
-    planner_t = []
+    planner_t, numpy_t = [], []
+    floor = floor_estimate(plan)
     for _ in range(repeat):
         start = _clock()
         plan_scenario(sc, J=J)
         planner_t.append(_since(start))
+        if BACKEND != "numpy":
+            with _numpy_reference():
+                plan_scenario(sc, J=J)  # its own warm-up is the first repetition's (numpy has no compile)
+                start = _clock()
+                plan_scenario(sc, J=J)
+                numpy_t.append(_since(start))
         for gname in guesses:
             make_guess = GUESSES[gname]
             for f, g in by_guess[gname]["grids"].items():
@@ -944,6 +1014,9 @@ def bench_scenario(
                     tt["resolve"].append((gt2[0] + resolve[0], gt2[1] + resolve[1]))
     out["planner"]["time_cpu_s"], out["planner"]["time_wall_s"] = _median(planner_t)
     p = out["planner"]
+    if numpy_t:
+        p["numpy_time_cpu_s"], p["numpy_time_wall_s"] = _median(numpy_t)
+    p["floor_s"] = floor
     for gname in guesses:
         grids = by_guess[gname]["grids"]
         rows = []
@@ -1039,6 +1112,17 @@ def format_table(res: dict) -> str:
         f"{p['time_wall_s']:.3f} ({p['time_cpu_s']:.3f}), "
         f"open-loop accuracy {p['accuracy_m']:.3g} m",
     ]
+    if p.get("numpy_time_wall_s") is not None:
+        lines.append(
+            f"  planner on the numpy reference (same run): {p['numpy_time_wall_s']:.3f} ({p['numpy_time_cpu_s']:.3f}), "
+            f"numpy / {p.get('series_backend', '?')} {p['numpy_time_wall_s'] / p['time_wall_s']:.2f} wall "
+            f"({p['numpy_time_cpu_s'] / p['time_cpu_s']:.2f} CPU)"
+        )
+    if p.get("floor_s"):
+        lines.append(
+            f"  floor: one compiled Taylor evaluation of each Newton stage per iterate, all nodes, {p['floor_s'] * 1e3:.3f} ms; "
+            f"plan / floor {p['time_wall_s'] / p['floor_s']:.0f} wall ({p['time_cpu_s'] / p['floor_s']:.0f} CPU)"
+        )
     for gname, gres in res["guesses"].items():
         graphs = list(gres["grids"][0]["times"]) if gres["grids"] else []
         lines += [

@@ -458,12 +458,14 @@ class TermTable:
             CD, CY, CL, Cl, Cm, Cn, of the type of the state's entries.
         """
         mons = self._monomial_values(state, self._unique)
+        # A series class that contracts in its own storage layout (planners.series.Series, the traced
+        # series of planners.program): one tensor contraction instead of 45 scalings and additions.
+        lin = next((type(m) for m in mons if hasattr(type(m), "linear_combinations")), None)
+        if lin is not None:
+            return Coefficients(*lin.linear_combinations(self._theta, mons))
         series = [m for m in mons if hasattr(m, "coeffs") and hasattr(m, "batch_shape")]
         if series:
-            # Truncated power series: one tensor contraction instead of 45 scalings and additions.
             cls = type(series[0])
-            if hasattr(cls, "linear_combinations"):  # the series class contracts in its own storage layout
-                return Coefficients(*cls.linear_combinations(self._theta, mons))
             order = min(m.order for m in series)
             batch = np.broadcast_shapes(
                 *(m.batch_shape for m in series), *(np.shape(m) for m in mons if not hasattr(m, "coeffs"))

@@ -160,8 +160,8 @@ def newton(
         Convergence when the weighted ``max|f| <= tol`` for a problem (units of ``fun``).
     maxiter : int
         Maximum number of Newton iterations.
-    jac : {"complex", "complex-batched", "central"}
-        Jacobian method of :func:`jacobian`.
+    jac : {"complex", "complex-batched", "central"} or callable
+        Jacobian method of :func:`jacobian`, or ``jac(x) -> (n, n, *batch)`` giving it.
     damped : bool
         Backtracking on the residual norm (halving the step up to 10 times).
     scale : ndarray, shape (n,), optional
@@ -188,7 +188,7 @@ def newton(
         it += 1
         if not np.all(np.isfinite(f)):
             break
-        J = jacobian(fun, x, jac)
+        J = jac(x) if callable(jac) else jacobian(fun, x, jac)
         dx = batched_solve(J, -f)
         active = res > tol
         dx = np.where(active, dx, 0.0)

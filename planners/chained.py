@@ -348,8 +348,28 @@ def _first_neglecting_stage(system: ChainedSystem) -> int:
     return next((h for h, s in enumerate(system.stages, start=1) if s.neglected), system.r + 1)
 
 
-def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, tol, carry):
-    """Stage h at order ``order - h``: its unknowns (list of Series) and its Newton report (or None)."""
+def _stage_evaluator(programs, h, stage, data, static, nodes):
+    """The compiled evaluator of stage h for this call (its program traced on first use in the plan), or None."""
+    if programs is None:
+        return None
+    if h not in programs:
+        from .program import trace
+
+        programs[h] = trace(stage.residual, stage.unknowns, data, static)
+    prog, _reason = programs[h]
+    if prog is None or set(prog.data_names) - set(data):
+        return None
+    from .program import StageEvaluator
+
+    return StageEvaluator(prog, data, nodes)
+
+
+def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, tol, carry, programs=None, static=()):
+    """Stage h at order ``order - h``: its unknowns (list of Series) and its Newton report (or None).
+
+    ``programs`` (a dict kept for the plan, or None for the numpy path): the stages' compiled programs
+    (:mod:`planners.program`), traced at their first call; ``static``: the names of the data that do not
+    change during the plan."""
     nodes = len(t_nodes)
     k = order - h
     data = dict(known)
@@ -386,10 +406,30 @@ def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, to
         else:
             u0 = [Series.constant(np.full(nodes, float(system.guess.get(n, 0.0))), 0) for n in stage.unknowns]
             warm = stage.warm
-        u, rep = newton_series(residual, u0, k, tol=tol, names=stage.unknowns, t_nodes=t_nodes, warm=warm, jacobian=jac)
+        ev = _stage_evaluator(programs, h, stage, data, static, nodes)
+        u, rep = newton_series(
+            residual, u0, k, tol=tol, names=stage.unknowns, t_nodes=t_nodes, warm=warm, jacobian=jac, evaluator=ev
+        )
     if stage.post is not None:
         u = list(stage.post(list(u)))
     return u, rep
+
+
+def compiled_programs() -> bool:
+    """Whether the stages run as compiled programs (:mod:`planners.program`).
+
+    Returns
+    -------
+    bool
+        The series backend is ``"compiled"`` (``GFLAT_SERIES_BACKEND``) and numba is importable.
+    """
+    from . import series
+
+    if series.BACKEND != "compiled":
+        return False
+    from .program import available
+
+    return available()
 
 
 def _add_known(known: dict, derivs: dict, names, values) -> None:
@@ -492,8 +532,12 @@ def flat_parametrization(
     known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
     derivs = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["derivs"].items()}
     reports = dict(cached["reports"])
+    programs = cached.setdefault("programs", {}) if compiled_programs() else None
+    static = set(known) | set(derivs)
     for h, stage in enumerate(system.stages[h0 - 1 :], start=h0):
-        u, rep = _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, tol, carry)
+        u, rep = _solve_stage(
+            system, h, stage, known, derivs, hat, guess, t_nodes, order, tol, carry, programs=programs, static=static
+        )
         _add_known(known, derivs, stage.unknowns, u)
         if rep is not None:
             reports[f"stage{h}"] = rep

@@ -22,6 +22,7 @@ __all__ = [
     "PAPER_MAXITER",
     "NewtonResult",
     "NewtonFailure",
+    "ResidualEvaluator",
     "SeriesNewtonReport",
     "batched_solve",
     "doubling_orders",
@@ -169,7 +170,21 @@ class SeriesNewtonReport:
 
     @property
     def series_residual(self) -> np.ndarray:
-        """Max abs coefficient of the residual series at the final order, per node."""
+        """Max abs coefficient of the residual series at ``u``, per node.
+
+        Parameters
+        ----------
+        u : list of Series
+            The unknowns at order ``order``.
+        order : int
+            Working order.
+        batch : tuple of int
+            Batch shape of the nodes.
+
+        Returns
+        -------
+        ndarray, shape batch
+        """
         if callable(self._series_residual):
             self._series_residual = self._series_residual()
         return self._series_residual
@@ -284,7 +299,7 @@ def _warm_newton(
     names: tuple,
     maxsteps: int = WARM_MAXSTEPS,
     carried=None,
-    const_fun=None,
+    evaluator=None,
 ):
     """Newton's iteration on series at the full working order from a close start, or None.
 
@@ -321,6 +336,7 @@ def _warm_newton(
     """
     from .series import Series
 
+    ev = ResidualEvaluator(residual) if evaluator is None else evaluator
     n = len(base)
     batch = base[0].batch_shape
     K = order + 1
@@ -340,22 +356,22 @@ def _warm_newton(
     # used a Jacobian computed at its start.
     Jc = _usable_jacobian(carried, n, n, batch, K)
     proof = Jc is not None
-    if Jc is not None and const_fun is not None:
+    if Jc is not None:
         # The constant term of the carried Jacobian at this start: one pointwise complex-step evaluation
         # on plain arrays (no series); the carried higher terms change less between iterates.
         Jc = Jc.copy()
-        Jc[..., 0] = jacobian(const_fun, stacked[..., 0], "complex-batched")
+        Jc[..., 0] = ev.const_jacobian(stacked[..., 0])
         if not np.all(np.isfinite(Jc[..., 0])):
             Jc = None
     last, theta, before, orders, newton_step = None, 0.0, None, [], False
     for _ in range(maxsteps):
         fresh = Jc is None
         if fresh:
-            G, Jc = _residual_and_jacobian(residual, stacked, order)
+            G, Jc = ev.residual_and_jacobian(stacked, order)
             if not np.all(np.isfinite(Jc)):
                 return None
         else:
-            G = _residual_only(residual, stacked, order)
+            G = ev.residual_only(stacked, order)
         orders.append(order)
         if not np.all(np.isfinite(G)):
             return None
@@ -390,7 +406,7 @@ def _warm_newton(
     cres = bound * np.max(np.abs(G[..., 0]), axis=0)
 
     def series_residual() -> np.ndarray:
-        return _series_residual_of(residual, u, order, batch)
+        return ev.series_residual(u, order, batch)
 
     rep = SeriesNewtonReport(tuple(names), np.asarray(t_nodes), cres, 0, series_residual, orders, jacobian=Jc)
     return u, rep
@@ -410,6 +426,108 @@ def _residual_only(residual: Callable, stacked: np.ndarray, k: int) -> np.ndarra
             for r in rs
         ]
     )
+
+
+class ResidualEvaluator:
+    """The evaluations Newton's method on series needs from a residual, on the numpy path (the reference).
+
+    ``residual(us, k) -> list`` is evaluated on :class:`~planners.series.Series` (complex-step Jacobians);
+    :class:`planners.program.StageEvaluator` provides the same methods by compiled programs.
+
+    Parameters
+    ----------
+    residual : callable
+        ``residual(us, k) -> list``: unknowns as Series of order k (plain arrays at k = 0).
+    """
+
+    def __init__(self, residual: Callable) -> None:
+        self.residual = residual
+
+    def residual_and_jacobian(self, stacked: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Residual series and Jacobian series at the unknowns' coefficients.
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, *batch, K)
+            Taylor coefficients of the n unknowns (coefficient last).
+        k : int
+            Working order, ``K - 1``.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            ``G`` (neq, *batch, K) and ``Jc`` (neq, n, *batch, K): coefficient m of ``d r_a / d u_b``.
+        """
+        return _residual_and_jacobian(self.residual, stacked, k)
+
+    def residual_only(self, stacked: np.ndarray, k: int) -> np.ndarray:
+        """Residual series at the unknowns' coefficients.
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, *batch, K)
+            Taylor coefficients of the n unknowns (coefficient last).
+        k : int
+            Working order, ``K - 1``.
+
+        Returns
+        -------
+        ndarray, shape (neq, *batch, K)
+        """
+        return _residual_only(self.residual, stacked, k)
+
+    def const_fun(self, x: np.ndarray) -> np.ndarray:
+        """Constant term of the residual at constant unknowns (the pointwise problem).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, *batch)
+            Values of the unknowns.
+
+        Returns
+        -------
+        ndarray, shape (neq, *batch)
+        """
+        from .series import Series
+
+        return np.stack(
+            [
+                np.broadcast_to(r.coeffs[..., 0] if isinstance(r, Series) else r, x.shape[1:])
+                for r in self.residual(list(x), 0)
+            ]
+        )
+
+    def const_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`const_fun`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, *batch)
+            Values of the unknowns.
+
+        Returns
+        -------
+        ndarray, shape (neq, n, *batch)
+        """
+        return jacobian(self.const_fun, x, "complex-batched")
+
+    def series_residual(self, u: list, order: int, batch: tuple) -> np.ndarray:
+        """Max abs coefficient of the residual series at ``u``, per node.
+
+        Parameters
+        ----------
+        u : list of Series
+            The unknowns at order ``order``.
+        order : int
+            Working order.
+        batch : tuple of int
+            Batch shape of the nodes.
+
+        Returns
+        -------
+        ndarray, shape batch
+        """
+        return _series_residual_of(self.residual, u, order, batch)
 
 
 def _series_residual_of(residual: Callable, u: list, order: int, batch: tuple) -> np.ndarray:
@@ -473,6 +591,7 @@ def newton_series(
     t_nodes=None,
     warm: bool = False,
     jacobian=None,
+    evaluator=None,
 ):
     """Solve ``residual(u) = 0`` for power series ``u`` (batched over nodes) up to ``order``.
 
@@ -515,6 +634,9 @@ def newton_series(
         generalized-flatness iterate's, :attr:`SeriesNewtonReport.jacobian`), truncated to the working
         order: the warm start begins with chord steps on it (real evaluations, no complex steps) and
         computes a fresh Jacobian only when they contract too slowly.  Ignored when its shape does not fit.
+    evaluator : ResidualEvaluator or planners.program.StageEvaluator, optional
+        How the residual is evaluated (default: ``ResidualEvaluator(residual)``, the numpy path); a
+        compiled :class:`planners.program.StageEvaluator` gives the same values to 1e-12.
 
     Returns
     -------
@@ -527,20 +649,15 @@ def newton_series(
     batch = base[0].batch_shape
     t_nodes = np.arange(int(np.prod(batch))) if t_nodes is None else np.asarray(t_nodes)
 
-    def const_fun(x):
-        return np.stack(
-            [
-                np.broadcast_to(r.coeffs[..., 0] if isinstance(r, Series) else r, x.shape[1:])
-                for r in residual(list(x), 0)
-            ]
-        )
+    ev = ResidualEvaluator(residual) if evaluator is None else evaluator
+    const_fun = ev.const_fun
 
     if warm and order > 0:
-        done = _warm_newton(residual, base, order, t_nodes, tol, names, carried=jacobian, const_fun=const_fun)
+        done = _warm_newton(residual, base, order, t_nodes, tol, names, carried=jacobian, evaluator=ev)
         if done is not None:
             return done
     x0 = np.stack([np.broadcast_to(np.real(u.constant_term), batch) for u in base]).astype(float)
-    res = newton(const_fun, x0, tol=tol, maxiter=maxiter, jac="complex-batched")
+    res = newton(const_fun, x0, tol=tol, maxiter=maxiter, jac=ev.const_jacobian)
     x, cres, its = res.x, res.residual, res.iterations
     # Memory Newton: restart failed nodes from their nearest converged neighbour, sweeping outwards.
     for _ in range(8):
@@ -552,7 +669,7 @@ def newton_series(
         nearest = good_idx[np.argmin(np.abs(bad_idx[:, None] - good_idx[None, :]), axis=1)]
         xs = x.copy()
         xs[:, bad_idx] = x[:, nearest]
-        r2 = newton(const_fun, xs, tol=tol, maxiter=maxiter, jac="complex-batched")
+        r2 = newton(const_fun, xs, tol=tol, maxiter=maxiter, jac=ev.const_jacobian)
         improved = r2.residual < cres
         if not np.any(improved & bad):
             break
@@ -592,7 +709,7 @@ def newton_series(
     for k in orders:
         cur = [ui.truncate(k) for ui in u]
         stacked = np.stack([np.broadcast_to(ci.coeffs, batch + (k + 1,)) for ci in cur])  # (n, *batch, K)
-        G, Jc = _residual_and_jacobian(residual, stacked, k)
+        G, Jc = ev.residual_and_jacobian(stacked, k)
         D = _series_solve(Jc, G)
         u = [Series(stacked[j] - D[j]) for j in range(n)]
         u = [
@@ -603,7 +720,7 @@ def newton_series(
         ]
 
     def series_residual() -> np.ndarray:
-        return _series_residual_of(residual, u, order, batch)
+        return ev.series_residual(u, order, batch)
 
     rep = SeriesNewtonReport(
         tuple(names), t_nodes, cres, its, series_residual, orders, [f.message for f in failures], failures, jacobian=Jc

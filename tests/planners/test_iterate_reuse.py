@@ -27,10 +27,12 @@ def test_later_iterates_start_newton_at_the_full_order():
 
 
 def _kinds(monkeypatch):
-    """Record the series evaluations of newton_series by kind: "J" (with the complex-step Jacobian), "R"."""
+    """Record the series evaluations of newton_series by kind: "J" (with the complex-step Jacobian), "R";
+    on the numpy reference path (the compiled stage programs evaluate through planners.program)."""
     import importlib
 
     newton = importlib.import_module("planners.newton")
+    monkeypatch.setattr(importlib.import_module("planners.chained"), "compiled_programs", lambda: False)
     log = []
     rj, ro = newton._residual_and_jacobian, newton._residual_only
 
