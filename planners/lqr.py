@@ -151,7 +151,13 @@ class TrackingTolerances:
             object.__setattr__(self, k, float(v))
 
     def to_dict(self) -> dict:
-        """The four tolerances by quantity."""
+        """The four tolerances by quantity.
+
+        Returns
+        -------
+        dict
+            ``{"position": m, "velocity": m/s, "angle": rad, "rate": rad/s}``.
+        """
         return {k: getattr(self, k) for k in DEFAULT_TOLERANCES}
 
 
