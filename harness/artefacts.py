@@ -473,7 +473,8 @@ def case_record(result) -> dict:
     Returns
     -------
     dict
-        ``scenario``, ``loop``, ``J``, ``engines`` (name -> run settings), ``compare`` (the settings).
+        ``scenario``, ``loop``, ``J``, ``engines`` (name -> run settings), ``compare`` (the settings),
+        ``tracking`` (closed loop: the design flown, ``"paper"`` or ``"lqr"``; None open loop).
     """
     return {
         "scenario": result.plan.name,
@@ -481,7 +482,23 @@ def case_record(result) -> dict:
         "J": result.plan.J,
         "engines": {k: r.settings.as_dict() for k, r in result.runs.items()},
         "compare": result.settings.to_dict() if result.settings is not None else None,
+        "tracking": tracking_design(result),
     }
+
+
+def tracking_design(result) -> str | None:
+    """The tracking design a case flew (``"paper"`` or ``"lqr"``), None for an open-loop case.
+
+    Parameters
+    ----------
+    result : harness.validation.CaseResult
+
+    Returns
+    -------
+    str or None
+    """
+    closed = getattr(result, "closed_loop", None)
+    return None if closed is None else getattr(closed.controller, "design", "paper")
 
 
 def run_manifest(results=(), *, command_line: list | None = None, execution: dict | None = None) -> dict:
@@ -616,7 +633,11 @@ def write_artefacts(
         trajectories=[p.name for p in files["trajectories"]],
     )
     if result.closed_loop is not None:
-        summary.update(saturated_s=result.saturated_s(), feedforward_iterate=result.closed_loop.feedforward_iterate)
+        summary.update(
+            saturated_s=result.saturated_s(),
+            feedforward_iterate=result.closed_loop.feedforward_iterate,
+            tracking=tracking_design(result),
+        )
     summary.update(extra or {})
     files["summary"] = [write_json(od / "summary.json", json_safe(summary))]
     if manifest:

@@ -32,7 +32,9 @@ Example (the paper's forward slip)::
     F = 0.0
     chi_dot = 0.0
     [tracking]             # the closed loop (planners.tracking.tracking_controller)
+    design = "paper"       # or "lqr" (planners.lqr.lqr_controller)
     lambdas = 0.5          # or a table: I1 = [..], I2 = [..], I3 = [..], I4 = [..]
+    tolerances = { position = 1.0 }   # the LQR's Bryson weights (velocity, angle, rate too)
     feedforward_iterate = -1
     saturate = true
     [tracking.perturbation]   # optional, for robustness runs (gna.perturbation)
@@ -45,6 +47,15 @@ Example (the paper's forward slip)::
 
 The ``[tracking]`` table
 ------------------------
+``design``
+    ``"paper"`` (default: the paper's pole placement, :func:`planners.tracking.tracking_controller`,
+    with ``lambdas``) or ``"lqr"`` (finite-horizon time-varying LQR along the plan,
+    :func:`planners.lqr.lqr_controller`); ``--tracking`` on ``gflat compare``, ``gflat paper`` and
+    ``gflat campaign run`` overrides it.
+``tolerances``
+    Largest acceptable tracking errors, by quantity: ``position`` [m], ``velocity`` [m/s],
+    ``angle`` [rad], ``rate`` [rad/s] (:class:`planners.lqr.TrackingTolerances`, defaults
+    :data:`planners.lqr.DEFAULT_TOLERANCES`); the LQR's weights by Bryson's rule.
 ``lambdas``
     Positive pole magnitudes [1/s] of the tracking feedback: one number for
     every factor, or a table of lists ``I1``, ``I2``, ``I3``, ``I4`` of lengths
@@ -96,6 +107,7 @@ from gna.schema import check_name, find_file, load_schema, read_toml, unknown_ke
 from .expressions import CONSTANTS, FUNCTIONS, Expression, compile_expression
 from .flat import FLAT_KINDS, FlatOutput, FlatProblem, check_iterations
 from .generalized import AUTO_J, AUTO_J_MAX, AUTO_J_TOL, check_output_order
+from .lqr import DEFAULT_TOLERANCES, TrackingTolerances, check_design
 from .plan import DEFAULT_INTERPOLATION, check_interpolation
 
 #: Largest grid accepted (memory: every node carries ~20 series of order up to 5 + 2J).
@@ -109,7 +121,15 @@ MAX_REPORT_TIMES = 1000
 MAX_TIME = 1e9
 
 #: Keys of the ``[tracking]`` table.
-TRACKING_KEYS: tuple[str, ...] = ("lambdas", "feedforward_iterate", "saturate", "controller_dt", "perturbation")
+TRACKING_KEYS: tuple[str, ...] = (
+    "design",
+    "tolerances",
+    "lambdas",
+    "feedforward_iterate",
+    "saturate",
+    "controller_dt",
+    "perturbation",
+)
 
 #: Keys of the ``[compare]`` table (engine comparison settings): the one list, checked here for every command
 #: (the scenario schema is generated from it) and read by :func:`harness.validation.parse_compare`, which
@@ -143,6 +163,10 @@ class Tracking:
         in-house engine evaluates the feedback continuously.
     perturbation : Perturbation or None
         Optional model and initial-state perturbation (:mod:`gna.perturbation`).
+    design : {"paper", "lqr"}
+        The tracking design (:data:`planners.lqr.DESIGNS`).
+    tolerances : planners.lqr.TrackingTolerances
+        Largest acceptable tracking errors (the LQR's Bryson weights).
     """
 
     lambdas: float | tuple = 1.0
@@ -150,6 +174,32 @@ class Tracking:
     saturate: bool = True
     controller_dt: float | None = DEFAULT_CONTROLLER_DT
     perturbation: Perturbation | None = None
+    design: str = "paper"
+    tolerances: TrackingTolerances = field(default_factory=TrackingTolerances)
+
+
+def with_tracking_design(scenario: Scenario, design: str | None) -> Scenario:
+    """The scenario with its ``[tracking] design`` replaced (``--tracking``); itself when ``design`` is None.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    design : {"paper", "lqr"} or None
+
+    Returns
+    -------
+    Scenario
+
+    Raises
+    ------
+    InputError
+        Another design name.
+    """
+    if design is None or design == scenario.tracking.design:
+        return scenario
+    from dataclasses import replace
+
+    return replace(scenario, tracking=replace(scenario.tracking, design=check_design(design, "--tracking")))
 
 
 @dataclass
@@ -488,7 +538,21 @@ def _tracking(table: Mapping[str, Any], kind: str, J: int, where: str) -> Tracki
     pert = table.get("perturbation")
     if pert is not None:
         pert = perturbation_from_dict(pert, f"{where[:-1]}.perturbation]")
+    design = check_design(table.get("design", "paper"), f"{where} design")
+    tol = table.get("tolerances", {})
+    tw = f"{where[:-1]}.tolerances]"
+    if not isinstance(tol, Mapping):
+        raise InputError(f"{tw} must be a table position/velocity/angle/rate -> number, got {tol!r}")
+    for key in tol:
+        if key not in DEFAULT_TOLERANCES:
+            raise InputError(unknown_key_message(key, tuple(DEFAULT_TOLERANCES), tw))
+    try:
+        tolerances = TrackingTolerances(**tol)
+    except InputError as exc:
+        raise InputError(f"{tw}: {exc}") from None
     return Tracking(
+        design=design,
+        tolerances=tolerances,
         lambdas=lam,
         feedforward_iterate=int(it),
         saturate=sat,

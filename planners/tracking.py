@@ -655,6 +655,8 @@ class TrackingController:
     integrands : callable, optional
         A chained system's :attr:`~planners.chained.StateSpaceModel.integrands`, evaluated on the
         reference; None: the aircraft's ``I1..I4`` (module notes), computed inline (picklable).
+    design : str
+        ``"paper"`` (this design; ``"lqr"``: :class:`planners.lqr.LQRController`).
     """
 
     t_nodes: np.ndarray
@@ -678,6 +680,9 @@ class TrackingController:
     model_controls: tuple = CONTROL_NAMES
     angles: np.ndarray = field(default_factory=lambda: _ANGLE_IDX)
     integrands: Callable | None = field(default=None, repr=False, compare=False)
+    #: Which design made the gains (``[tracking] design``): ``"paper"`` here, ``"lqr"`` for
+    #: :class:`planners.lqr.LQRController`.
+    design: str = "paper"
 
     def _rates(self, ref: np.ndarray, e: np.ndarray) -> np.ndarray:
         """The integrands at the reference ``ref`` (n_x + n_u, ...) for the state errors ``e`` (n_x, ...)."""
@@ -1079,15 +1084,7 @@ def tracking_controller(
     lower, upper = np.full(n_u, -np.inf), np.full(n_u, np.inf)
     zeta_index = -1
     if aircraft:
-        ac = plan.aircraft
-        for name, lim in ac.envelope.control_limits.items():
-            if name in CONTROL_NAMES:
-                lower[CONTROL_NAMES.index(name)], upper[CONTROL_NAMES.index(name)] = -lim, lim
-        lower[0] = 0.0
-        if ac.propulsion.max_thrust is not None:
-            upper[0] = ac.propulsion.max_thrust
-        if ac.propulsion.count == 2:
-            lower[1], upper[1] = -1.0, 1.0
+        lower, upper = tracking_limits(plan)
         zeta = plan.problem.zeta.kind
         zeta_index = STATE_NAMES.index(zeta) if zeta in ("beta", "mu") else -1
     mask = np.zeros((len(des.integrals), n_u), dtype=bool)
@@ -1114,6 +1111,37 @@ def tracking_controller(
         angles=_ANGLE_IDX if aircraft else np.zeros(0, dtype=int),
         integrands=None if aircraft else ssm.integrands,
     )
+
+
+def tracking_limits(plan) -> tuple[np.ndarray, np.ndarray]:
+    """Limits of the applied controls of an aircraft plan's tracking feedback.
+
+    The surfaces at the aircraft's deflection limits (``aircraft.envelope.control_limits``), the thrust
+    in ``0 .. propulsion.max_thrust`` (no upper bound for an unrated engine) and ``|eta| <= 1`` for two
+    engines; ``-inf``/``inf`` where there is none.
+
+    Parameters
+    ----------
+    plan : Plan
+        An aircraft plan.
+
+    Returns
+    -------
+    (ndarray, ndarray), shapes (5,) and (5,)
+        Lower and upper limits of ``(F [N], eta, dl, dm, dn [rad])``.
+    """
+    n_u = len(CONTROL_NAMES)
+    lower, upper = np.full(n_u, -np.inf), np.full(n_u, np.inf)
+    ac = plan.aircraft
+    for name, lim in ac.envelope.control_limits.items():
+        if name in CONTROL_NAMES:
+            lower[CONTROL_NAMES.index(name)], upper[CONTROL_NAMES.index(name)] = -lim, lim
+    lower[0] = 0.0
+    if ac.propulsion.max_thrust is not None:
+        upper[0] = ac.propulsion.max_thrust
+    if ac.propulsion.count == 2:
+        lower[1], upper[1] = -1.0, 1.0
+    return lower, upper
 
 
 def simulate_closed_loop(plan, controller: TrackingController, x0, t_eval, rtol: float = 1e-9, atol: float = 1e-9):

@@ -201,6 +201,7 @@ def case_model(result, figures=(), *, scenario=None) -> dict:
     if result.closed_loop is not None:
         ctl = result.closed_loop.controller
         closed = {
+            "design": getattr(ctl, "design", "paper"),
             "feedforward_iterate": result.closed_loop.feedforward_iterate,
             "lambdas": [list(x) for x in getattr(ctl, "lambdas", ())],
             "saturated_s": result.saturated_s(),

@@ -26,6 +26,7 @@ from gna.trim import TRIM_VARIABLES  # noqa: E402
 from planners.expressions import CONSTANTS, FUNCTIONS  # noqa: E402
 from planners.flat import FLAT_KINDS  # noqa: E402
 from planners.generalized import AUTO_J, AUTO_J_MAX, AUTO_J_TOL, MAX_E, METHODS  # noqa: E402
+from planners.lqr import DESIGNS  # noqa: E402
 from planners.plan import DEFAULT_INTERPOLATION, INTERPOLATIONS, PLAN_VARIABLES  # noqa: E402
 from planners.scenario import COMPARE_KEYS, MAX_NODES, MAX_REPORT_TIMES, TRACKING_KEYS  # noqa: E402
 
@@ -342,9 +343,35 @@ COMPARE = {
 def scenario_schema() -> dict:
     """The JSON Schema of scenario files (``planners/scenarios/*.toml``)."""
     num = {"type": "number"}
+    num_pos = {"type": "number", "exclusiveMinimum": 0}
     tracking = _table(
-        "The closed loop (planners.tracking.tracking_controller)",
+        "The closed loop (planners.tracking.tracking_controller, planners.lqr.lqr_controller)",
         {
+            "design": {
+                "enum": list(DESIGNS),
+                "x-type": "string",
+                "description": "Tracking design: 'paper' (the paper's pole placement by sequential decoupling, "
+                "the lambdas) or 'lqr' (finite-horizon time-varying LQR along the plan, Bryson weights from "
+                "the tolerances and the aircraft's limits; docs/tracking.md); gflat --tracking overrides it",
+                "x-default": '"paper"',
+            },
+            "tolerances": {
+                "type": "object",
+                "additionalProperties": False,
+                "description": "Largest acceptable tracking errors, the LQR's Bryson weights Q = 1/error^2 "
+                "(planners.lqr.TrackingTolerances); the paper's design does not use them",
+                "properties": {
+                    "position": {**num_pos, "x-unit": "m", "x-default": "1", "description": "x, y, z"},
+                    "velocity": {**num_pos, "x-unit": "m/s", "x-default": "1", "description": "V"},
+                    "angle": {
+                        **num_pos,
+                        "x-unit": "rad",
+                        "x-default": "0.0174533 (1 deg)",
+                        "description": "gamma, chi, alpha, beta, mu",
+                    },
+                    "rate": {**num_pos, "x-unit": "rad/s", "x-default": "1", "description": "p, q, r"},
+                },
+            },
             "lambdas": {
                 "x-type": "number or table",
                 "description": "Pole magnitudes of the tracking feedback: one positive number for all, or a "

@@ -183,7 +183,10 @@ def _metrics(plan, runs, ctl, j, settings) -> dict:
             }
             passed = passed and diffs[label]["pass"]
     ok = passed and all(r.status == "completed" for r in runs.values())
-    return {"runs": out_runs, "differences": diffs, "pass": bool(ok)}
+    out = {"runs": out_runs, "differences": diffs, "pass": bool(ok)}
+    if ctl is not None:
+        out["tracking"] = getattr(ctl, "design", "paper")  # which design flew
+    return out
 
 
 def run_sample(task: SampleTask) -> dict:

@@ -367,10 +367,17 @@ def _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only) ->
 def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only, store) -> dict:
     meta = store.meta()
     ident = {"name": camp.name, "seed": camp.seed}
+    if camp.tracking is not None:  # --tracking: the design is part of what the folder holds
+        ident["tracking"] = camp.tracking
     if meta.get("campaign") and meta["campaign"] != ident:
+        held = meta["campaign"]
+
+        def design(d):
+            return f", --tracking {d['tracking']}" if "tracking" in d else ""
+
         raise InputError(
-            f"{out} holds campaign {meta['campaign']['name']!r} (seed {meta['campaign']['seed']}), "
-            f"not {camp.name!r} (seed {camp.seed}): use another folder"
+            f"{out} holds campaign {held['name']!r} (seed {held['seed']}{design(held)}), "
+            f"not {camp.name!r} (seed {camp.seed}{design(ident)}): use another folder"
         )
     store.set_meta(campaign=ident, definition=camp.raw, source=camp.source)
     store.add_cases(tasks)
@@ -467,6 +474,7 @@ def rerun_case(out: str | Path, case_id: str, campaign: Campaign | str | Path | 
         src = meta.get("source", "")
         base = Path(src).parent if src.endswith(".toml") and Path(src).is_absolute() else None
         camp = campaign_from_dict(meta["definition"], where=src or "campaign", base=base)
+        camp = camp.with_tracking((meta.get("campaign") or {}).get("tracking"))  # the design the folder flew
     else:
         camp = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
     row = rows[case_id]

@@ -15,6 +15,7 @@ A campaign file (TOML)::
     J = 4                         # optional, or [0, 4]
     tolerances = 1e-2             # optional, as in a validation case
     dt_out = 0.05                 # optional output grid [s]; also rtol, jsbsim_dt, windows (the [compare] keys)
+    tracking = "lqr"              # optional tracking design, over the scenario's [tracking] design
 
     [dispersions.fit]             # one or more named dispersion sets (all zero: the nominal aircraft)
     aero = "std_error"            # "std_error" (fitted sets), "relative" or "none"
@@ -85,7 +86,19 @@ CASE_BUDGET_S = 600.0
 AERO_MODES: tuple[str, ...] = ("std_error", "relative", "none")
 
 _TOP_KEYS = ("name", "description", "seed", "samples", "case_budget_s", "cases", "dispersions", "output")
-_CASE_KEYS = ("id", "scenario", "J", "loop", "engines", "tolerances", "rtol", "dt_out", "jsbsim_dt", "windows")
+_CASE_KEYS = (
+    "id",
+    "scenario",
+    "J",
+    "loop",
+    "engines",
+    "tolerances",
+    "rtol",
+    "dt_out",
+    "jsbsim_dt",
+    "windows",
+    "tracking",
+)
 _EXPANDED = ("scenario", "J", "loop")
 _DISP_KEYS = (
     "aero",
@@ -266,6 +279,7 @@ class SampleTask:
             "loop": c.loop,
             "engines": list(c.engines),
             **c.overrides,
+            **({"tracking": c.tracking} if c.tracking is not None else {}),
             "dispersion": self.dispersion.to_dict(),
             "sample": self.sample,
             "seed": self.seed,
@@ -294,6 +308,9 @@ class Campaign:
         The file read (or the bundled name).
     raw : dict
         The parsed table (stored with the campaign).
+    tracking : {"paper", "lqr"} or None
+        The tracking design set for every case (``gflat campaign run --tracking``,
+        :meth:`with_tracking`); part of the campaign's identity in its folder.
     """
 
     name: str
@@ -306,6 +323,28 @@ class Campaign:
     case_budget_s: float = CASE_BUDGET_S
     source: str = ""
     raw: dict = field(default_factory=dict, repr=False, compare=False)
+    tracking: str | None = None
+
+    def with_tracking(self, design: str | None) -> Campaign:
+        """The campaign with every case flying the tracking design ``design`` (None: unchanged).
+
+        Parameters
+        ----------
+        design : {"paper", "lqr"} or None
+
+        Returns
+        -------
+        Campaign
+
+        Raises
+        ------
+        InputError
+            Another design name.
+        """
+        if design is None:
+            return self
+        cases = tuple(replace(c, case=replace(c.case, tracking=design)) for c in self.cases)
+        return replace(self, cases=cases, tracking=design)
 
     def tasks(self, samples: int | None = None) -> list[SampleTask]:
         """Every sample of the campaign, in a fixed order (case, dispersion, sample).

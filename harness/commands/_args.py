@@ -103,6 +103,19 @@ def out_path(text: str) -> Path:
     return Path(text)
 
 
+def add_tracking(p: argparse.ArgumentParser) -> None:
+    """``--tracking paper|lqr``: the closed loop's tracking design, over the scenario's ``[tracking] design``."""
+    from planners.lqr import DESIGNS
+
+    p.add_argument(
+        "--tracking",
+        choices=DESIGNS,
+        default=None,
+        help="closed loop: the tracking design, the paper's pole placement or the time-varying LQR "
+        "(default: the scenario's [tracking] design, else paper; docs/tracking.md)",
+    )
+
+
 def add_replace(p: argparse.ArgumentParser) -> None:
     """``--replace``: an existing ``--out`` (a gflat run) is replaced once the new run is complete."""
     p.add_argument(

@@ -14,7 +14,7 @@ from gna.errors import InputError
 from ..rundir import RunDir
 from ..validation.tolerances import QUANTITIES
 from ..validation.work import MAX_STEPS, SAMPLE_COST, check_steps, flight_steps  # noqa: F401 (re-exported)
-from ._args import cost_bound, finite_float, positive_float
+from ._args import add_tracking, cost_bound, finite_float, positive_float
 
 #: Unit of each tolerance quantity, for the help texts.
 _UNITS = {"position": "m", "velocity": "m/s", "angle": "rad", "rate": "rad/s"}
@@ -40,6 +40,7 @@ def window(text: str) -> tuple[str, float | None]:
 
 
 def add_compare_arguments(p: argparse.ArgumentParser) -> None:
+    add_tracking(p)
     g = p.add_argument_group(
         "comparison settings",
         "override the scenario's [compare] table, which overrides the "
@@ -119,6 +120,7 @@ def compare_overrides(args) -> dict:
         "jsbsim_dt": args.jsbsim_dt,
         "self_convergence": args.self_convergence,
         "windows": dict(args.window) if args.window else None,
+        "tracking": getattr(args, "tracking", None),
     }
     return {k: v for k, v in kw.items() if v is not None}
 

@@ -21,7 +21,7 @@ from pathlib import Path
 from gna.errors import InputError
 
 from ..campaign.checks import MAX_CASES
-from ._args import cost_bound, positive_float, positive_int, worker_count
+from ._args import add_tracking, cost_bound, positive_float, positive_int, worker_count
 
 
 def register(sub) -> None:
@@ -80,6 +80,7 @@ def register(sub) -> None:
         metavar="S",
         help="seconds to wait for the scheduler at a --dask address (default 20)",
     )
+    add_tracking(r)
     r.add_argument("--retry-failed", action="store_true", help="run the failed cases again")
     r.add_argument(
         "--only",
@@ -126,7 +127,7 @@ def run(args) -> int:
     from harness.campaign.spec import load_campaign
 
     parse_dask(args.dask)  # a bad --dask refused first, whatever runs
-    camp = load_campaign(args.campaign)
+    camp = load_campaign(args.campaign).with_tracking(args.tracking)
     if args.case_budget is not None:
         camp = replace(camp, case_budget_s=args.case_budget)
     check_samples(camp, args.samples, args.max_cases)  # the work bounded before any case is expanded

@@ -32,6 +32,7 @@ from typing import Any
 
 from gna.errors import InputError
 from gna.schema import read_toml
+from planners.lqr import check_design
 
 from ..engines import check_engine_names
 from ..metrics import DEFAULT_WINDOWS
@@ -51,6 +52,7 @@ _CASE_KEYS = (
     "dt_out",
     "jsbsim_dt",
     "self_convergence",
+    "tracking",
 )
 
 
@@ -97,6 +99,9 @@ class ValidationCase:
         JSBSim's step [s], independent of ``dt_out``.
     self_convergence : bool or None
         Also fly JSBSim at half its step and report that difference.
+    tracking : {"paper", "lqr"} or None
+        Closed loop: the tracking design flown (``--tracking``), over the scenario's
+        ``[tracking] design``; None: the scenario's.
     """
 
     scenario: str
@@ -109,6 +114,7 @@ class ValidationCase:
     rtol: Any = None
     jsbsim_dt: float | None = None
     self_convergence: bool | None = None
+    tracking: str | None = None
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -126,6 +132,8 @@ class ValidationCase:
         set_(self, "engines", check_engine_names(self.engines, minimum=2))
         if self.loop not in LOOPS:
             raise InputError(f"loop must be one of {', '.join(LOOPS)}, got {self.loop!r}")
+        if self.tracking is not None:
+            check_design(self.tracking, "tracking")
         for name in ("tolerances", "rtol"):
             tol = getattr(self, name)
             if isinstance(tol, Mapping):

@@ -1,10 +1,12 @@
-"""Closed loop of a validation case: the paper's tracking feedback along the plan.
+"""Closed loop of a validation case: a tracking feedback along the plan.
 
 For ``loop = "closed"`` a case flies the feedforward controls of one plan
 iterate (default the last, the generalized plan; 0 is the flat plan, the
-paper's dark-blue curve) plus the tracking feedback of
-:func:`planners.tracking.tracking_controller`, from the iterate's initial
-state.  The lambda lists, feedforward iterate, saturation and an optional
+paper's dark-blue curve) plus the tracking feedback of the scenario's
+``[tracking] design``: the paper's (:func:`planners.tracking.tracking_controller`,
+the default) or the time-varying LQR (:func:`planners.lqr.lqr_controller`), from
+the iterate's initial state.  The design, lambda lists or tolerances, feedforward
+iterate, saturation and an optional
 perturbation of the flown aircraft and initial state come from the scenario's
 ``[tracking]`` table (:class:`planners.scenario.Tracking`, every setting with a
 default).  The plan itself is always made with the nominal aircraft: a
@@ -19,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from gna.errors import InputError
+from planners.lqr import lqr_controller
 from planners.tracking import tracking_controller
 
 
@@ -29,7 +32,8 @@ class ClosedLoopSetup:
     Attributes
     ----------
     controller : planners.tracking.TrackingController
-        The tracking feedback (integral states ``I1..I4``, or ``I1..I3`` with the thrust output).
+        The tracking feedback (integral states ``I1..I4``, or ``I1..I3`` with the thrust output); a
+        :class:`planners.lqr.LQRController` with ``design = "lqr"``.  Its ``design`` names which.
     aircraft : gna.aircraft.Aircraft
         The aircraft flown (the plan's, or a perturbed copy).
     x0 : ndarray, shape (12,)
@@ -55,8 +59,8 @@ def closed_loop_setup(plan, scenario, *, feedforward_iterate: int | None = None)
     plan : planners.plan.Plan
         A feasible plan (flat output beta, mu or F).
     scenario : planners.scenario.Scenario
-        Its scenario; its ``tracking`` settings (lambdas, feedforward iterate,
-        saturation, perturbation) are used.
+        Its scenario; its ``tracking`` settings (design, lambdas or tolerances,
+        feedforward iterate, saturation, perturbation) are used.
     feedforward_iterate : int, optional
         Overrides the scenario's feedforward iterate.
 
@@ -73,7 +77,10 @@ def closed_loop_setup(plan, scenario, *, feedforward_iterate: int | None = None)
     j = tr.feedforward_iterate if feedforward_iterate is None else feedforward_iterate
     if not -len(plan.iterates) <= j <= plan.J:
         raise InputError(f"feedforward iterate j = {j} not in the plan (J = {plan.J})")
-    controller = tracking_controller(plan, tr.lambdas, feedforward_iterate=j, saturate=tr.saturate)
+    if tr.design == "lqr":
+        controller = lqr_controller(plan, feedforward_iterate=j, saturate=tr.saturate, tolerances=tr.tolerances)
+    else:
+        controller = tracking_controller(plan, tr.lambdas, feedforward_iterate=j, saturate=tr.saturate)
     aircraft, x0 = plan.aircraft, np.asarray(plan.initial_state(j), dtype=float)
     pert = tr.perturbation
     if pert is not None:

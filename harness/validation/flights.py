@@ -21,7 +21,7 @@ import numpy as np
 from gna.errors import DomainError, InputError
 from planners.generalized import plan_scenario
 from planners.plan import Plan
-from planners.scenario import Scenario, load_scenario
+from planners.scenario import Scenario, load_scenario, with_tracking_design
 
 from ..engines import fly, get_engine
 from ..metrics import difference_table, engine_tables
@@ -171,6 +171,7 @@ def case_flights(case: ValidationCase, *, plan=None, scenario=None, open_loop=No
     planning_time = None
     if scenario is None:
         scenario = load_scenario(case.scenario, J=case.J)
+    scenario = with_tracking_design(scenario, case.tracking)  # --tracking over [tracking] design
     settings = case_settings(case, scenario)  # a bad [compare] table is refused before planning
     if plan is None:
         t_start = time.perf_counter()

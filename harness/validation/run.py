@@ -17,7 +17,7 @@ from typing import Any
 
 from gna.errors import InputError
 from planners.generalized import plan_scenario
-from planners.scenario import load_scenario
+from planners.scenario import load_scenario, with_tracking_design
 
 from ..engines import fly
 from ..metrics import DifferenceTable, difference_table, engine_tables, window_span
@@ -172,7 +172,7 @@ def plan_case(case: ValidationCase, max_cost: float | None = None) -> PlannedCas
     Parameters
     ----------
     case : ValidationCase
-        Its ``scenario`` and ``J`` are used.
+        Its ``scenario``, ``J`` and ``tracking`` (the design, over the scenario's) are used.
     max_cost : float, optional
         Bound on the plan's cost (:func:`planners.generalized.plan_cost`; default its ``MAX_PLAN_COST``).
 
@@ -186,7 +186,7 @@ def plan_case(case: ValidationCase, max_cost: float | None = None) -> PlannedCas
     InputError
         Unknown or malformed scenario.
     """
-    sc = load_scenario(case.scenario, J=case.J)
+    sc = with_tracking_design(load_scenario(case.scenario, J=case.J), case.tracking)
     t0 = time.perf_counter()
     plan = plan_scenario(sc, max_cost=max_cost)
     return PlannedCase(scenario=sc, plan=plan, planning_time_s=time.perf_counter() - t0)

@@ -70,3 +70,37 @@ def test_open_loop_json_has_the_same_keys(tmp_path, capsys):
     d = json.loads(capsys.readouterr().out)
     assert code == 0 and d["loop"] == "open"
     assert all(r["saturated_s"] == 0.0 for r in d["runs"].values())
+
+
+def test_compare_tracking_lqr_is_flown_and_recorded(tmp_path, capsys):
+    out = tmp_path / "roll-lqr"
+    code = main(["compare", "gtm-aileron-roll", "--loop", "closed", "--tracking", "lqr", "--json", "--out", str(out)])
+    d = json.loads(capsys.readouterr().out)
+    assert code == 0 and d["pass"] is True, d
+    assert json.loads((out / "summary.json").read_text())["tracking"] == "lqr"
+    assert json.loads((out / "report.json").read_text())["closed_loop"]["design"] == "lqr"
+    assert [c["tracking"] for c in json.loads((out / "manifest.json").read_text())["cases"]] == ["lqr"]
+
+
+def test_tracking_flag_refuses_an_unknown_design(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["compare", "gtm-aileron-roll", "--loop", "closed", "--tracking", "pid", "--out", str(tmp_path / "o")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "argument --tracking: invalid choice: 'pid'" in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_case_and_campaign_carry_the_tracking_design():
+    from gna.errors import InputError
+    from harness.campaign.spec import load_campaign
+
+    assert ValidationCase("gtm-aileron-roll", loop="closed", tracking="lqr").tracking == "lqr"
+    with pytest.raises(InputError, match="tracking: the tracking design must be 'paper' or 'lqr', got 'x'"):
+        ValidationCase("gtm-aileron-roll", loop="closed", tracking="x")
+    camp = load_campaign("paper-dispersions")
+    assert camp.with_tracking(None) is camp and camp.tracking is None
+    lqr = camp.with_tracking("lqr")
+    assert lqr.tracking == "lqr" and {c.case.tracking for c in lqr.cases} == {"lqr"}
+    assert lqr.tasks(1)[0].parameters()["tracking"] == "lqr"
+    assert "tracking" not in camp.tasks(1)[0].parameters()
