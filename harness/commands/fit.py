@@ -314,7 +314,6 @@ def run(args) -> int:
 
     if args.source == "jsbsim":
         from gna.fit.sources.jsbsim_aero import JSBSimAeroSource, vehicle_sections
-        from gna.fit.sources.jsbsim_engines import measure_engines
 
         src = JSBSimAeroSource(
             args.model,
@@ -324,7 +323,7 @@ def run(args) -> int:
             surfaces=_surface_overrides(args.property),
         )
         args.mach, args.altitude = src.mach, src.altitude  # the defaults, written into the regenerating command
-        sections = vehicle_sections(src, measure_engines(src))
+        sections = vehicle_sections(src, measure=True)
         ranges = _ranges(args, src.envelope)
         reference = ReferenceCondition(src.V_ref, args.altitude, f"Mach {args.mach:g} at {args.altitude:g} m")
         limits = {k: math.degrees(max(abs(ranges[k][0]), abs(ranges[k][1]))) for k in ("dl", "dm", "dn")}

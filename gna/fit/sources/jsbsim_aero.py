@@ -103,7 +103,10 @@ IO_ELEMENTS = ("input", "output")
 
 @contextlib.contextmanager
 def _console_captured(records: list[str]):
-    """JSBSim's console output (C++ streams on file descriptors 1 and 2) kept in ``records``, not printed."""
+    """JSBSim's console output kept in ``records``, not printed: the C++ streams on file descriptors 1 and 2,
+    and what the jsbsim module forwards to Python's ``sys.stdout``/``sys.stderr`` when those are not the
+    descriptors (a caller capturing the output)."""
+    import io
     import os
     import sys
 
@@ -111,7 +114,8 @@ def _console_captured(records: list[str]):
         with contextlib.suppress(Exception):
             stream.flush()
     saved = []
-    with tempfile.TemporaryFile() as sink:
+    py = io.StringIO()
+    with tempfile.TemporaryFile() as sink, contextlib.redirect_stdout(py), contextlib.redirect_stderr(py):
         try:
             for fd in (1, 2):
                 saved.append((fd, os.dup(fd)))
@@ -126,6 +130,7 @@ def _console_captured(records: list[str]):
                 os.close(copy)
             sink.seek(0)
             records.extend(line for line in sink.read().decode("utf-8", "replace").splitlines() if line.strip())
+            records.extend(line for line in py.getvalue().splitlines() if line.strip())
             del records[:-1000]  # the latest lines: enough to name a failure
 
 
@@ -863,7 +868,7 @@ class JSBSimAeroSource(SourceModel):
         }
 
 
-def vehicle_sections(source: JSBSimAeroSource, engines=None) -> dict[str, dict]:
+def vehicle_sections(source: JSBSimAeroSource, measure: bool = False) -> dict[str, dict]:
     """``[mass]``, ``[geometry]``, ``[engines]`` of a JSBSim aircraft as loaded (default fuel and payload).
 
     x positions are measured aft of the JSBSim aerodynamic reference point
@@ -874,10 +879,11 @@ def vehicle_sections(source: JSBSimAeroSource, engines=None) -> dict[str, dict]:
     ----------
     source : JSBSimAeroSource
         The loaded aircraft.
-    engines : gna.fit.sources.jsbsim_engines.EngineMeasurement, optional
-        The engines as measured in JSBSim: their rating against speed (non-turbine engines), thrust lag,
-        thrust line offset and torque arm join ``[engines]``; without it the propulsive moments are not
-        represented (the bundled fits).
+    measure : bool
+        Measure the engines in JSBSim (:func:`gna.fit.sources.jsbsim_engines.measure_engines`, once the
+        layout is known to be representable): their rating against speed (non-turbine engines), thrust lag,
+        thrust line offset and torque arm join ``[engines]``; False leaves the propulsive moments
+        unrepresented (the bundled fits).
 
     Returns
     -------
@@ -904,6 +910,12 @@ def vehicle_sections(source: JSBSimAeroSource, engines=None) -> dict[str, dict]:
         abs(thr[0].y + thr[1].y) > 1e-6 or abs(thr[0].x - thr[1].x) > 1e-6 or abs(thr[0].z - thr[1].z) > 1e-6
     ):
         raise InputError(f"{where}: its two engines are not symmetric about the symmetry plane")
+    if measure:
+        from .jsbsim_engines import measure_engines
+
+        engines = measure_engines(source)
+    else:
+        engines = None
     cg_x, _, cg_z = v["cg_in"]
     rp_x = v["aero_rp_in"][0]
     dz_ft = (thr[0].z - cg_z) / 12.0

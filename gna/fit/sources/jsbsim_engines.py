@@ -3,7 +3,8 @@
 The aircraft is loaded as for the aerodynamics (:func:`.jsbsim_aero.load_model`: no ``<input>``/``<output>``,
 console captured), flight-control system off with the fit's configuration, engines running, and held at a
 fixed airspeed (``simulation/models/FGPropagate/enabled = 0``: the state does not move while the engines'
-own dynamics -- spool, propeller speed, manifold pressure -- run with the time step).  Measured:
+own dynamics -- spool, propeller speed, manifold pressure -- run with the time step), fuel frozen
+(``propulsion/fuel_freeze``: the loaded mass and CG).  Measured:
 
 * **thrust rating against speed**: each engine at full throttle (``fcs/throttle-pos-norm = 1``, mixture and
   propeller advance full) brought to its steady state (``FGPropulsion::GetSteadyState``) at
@@ -119,8 +120,7 @@ def measure_engines(source) -> EngineMeasurement:
     """
     fdm, console = load_model(source.model, source.aircraft_dir, source.root)
     source.console.extend(console)
-    prop = fdm.get_propulsion()
-    n = prop.get_num_engines()
+    n = fdm.get_propulsion().get_num_engines()
     if n == 0:
         raise InputError(f"JSBSim {source.model} has no engine")
     pm = fdm.get_property_manager()
@@ -141,6 +141,7 @@ def measure_engines(source) -> EngineMeasurement:
             fdm.run_ic()
             fdm["simulation/models/FGPropagate/enabled"] = 0
             fdm["propulsion/set-running"] = -1
+            fdm["propulsion/fuel_freeze"] = 1  # the loaded mass and CG, whatever the engines burn
 
         def throttle(th):
             for i in range(n):
@@ -149,24 +150,15 @@ def measure_engines(source) -> EngineMeasurement:
                     if pm.hasNode(f"fcs/{extra}[{i}]"):
                         fdm[f"fcs/{extra}[{i}]"] = 1.0
 
-        def steady(th):
-            throttle(th)
-            fdm.suspend_integration()
-            try:
-                fdm.run()
-                prop.get_steady_state()
-                fdm.run()
-            finally:
-                fdm.resume_integration()
-            return [fdm[f"propulsion/engine[{i}]/thrust-lbs"] for i in range(n)]
-
         V_ref = source.V_fps
         curve = []
         for f in RATING_SPEEDS:
             hold(f * V_ref)
-            curve.append(float(np.mean(steady(1.0))) * units.LBF)
+            throttle(1.0)
+            curve.append(_settle(fdm, n) / n * units.LBF)
         hold(V_ref)
-        T_full = sum(steady(1.0))
+        throttle(1.0)
+        T_full = _settle(fdm, n)
         Fx, L, M = fdm["forces/fbx-prop-lbs"], fdm["moments/l-prop-lbsft"], fdm["moments/m-prop-lbsft"]
         if not Fx > 0:
             raise InputError(
