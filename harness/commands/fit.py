@@ -84,6 +84,13 @@ def _surface_overrides(items) -> dict[str, tuple[str, float]]:
 
 
 def register(sub) -> None:
+    """Add the ``fit`` command and its sub-commands (``jsbsim``, ``gtm``, ``linear``, ``compare``, ``regenerate``).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The CLI's sub-command set.
+    """
     p = sub.add_parser(
         "fit",
         help="fit GNA aerodynamic parameters to a source model",
@@ -302,6 +309,23 @@ def _design(args, ranges):
 
 
 def run(args) -> int:
+    """Fit the source named by ``args.source`` and write the aircraft file (or compare, or regenerate).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0 on success.
+
+    Raises
+    ------
+    InputError
+        A source that cannot be read or represented (one line), an output file that cannot be written.
+    """
     if args.source == "regenerate":
         return _regenerate(args)
     if args.source == "compare":
