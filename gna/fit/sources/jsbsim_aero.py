@@ -262,20 +262,32 @@ def flight_control_sweep(source, variables, reads) -> dict:
         fdm.set_dt(1.0 / 120.0)
         fdm["ic/h-sl-ft"] = source.altitude / units.FT
         fdm["ic/mach"] = source.mach
-        fdm.run_ic()
-        fdm["simulation/models/FGPropagate/enabled"] = 0
         steps = round(SWEEP_SECONDS * 120)
-        for var in variables:
-            values = np.empty((len(props), len(grid)))
-            for j, c in enumerate(grid):
-                for cmd in PILOT_COMMANDS.values():
-                    fdm[cmd] = 0.0
-                fdm[PILOT_COMMANDS[var]] = float(c)
-                for _ in range(steps):
-                    fdm.run()
-                values[:, j] = [fdm[p] for p in props]
-            out[var] = (grid, dict(zip(props, values)))
+        try:
+            fdm.run_ic()
+            fdm["simulation/models/FGPropagate/enabled"] = 0
+            _sweep(fdm, variables, props, grid, steps, out)
+        except Exception as exc:  # JSBSim's LogException: the system reads a property no model gives
+            said = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise InputError(
+                f"JSBSim {source.model} is not representable: its flight-control system, run to find the "
+                f"surfaces, fails outside FlightGear ({said})"
+            ) from None
     return out
+
+
+def _sweep(fdm, variables, props, grid, steps, out) -> None:
+    """The command sweep of :func:`flight_control_sweep` (fills ``out``)."""
+    for var in variables:
+        values = np.empty((len(props), len(grid)))
+        for j, c in enumerate(grid):
+            for cmd in PILOT_COMMANDS.values():
+                fdm[cmd] = 0.0
+            fdm[PILOT_COMMANDS[var]] = float(c)
+            for _ in range(steps):
+                fdm.run()
+            values[:, j] = [fdm[p] for p in props]
+        out[var] = (grid, dict(zip(props, values)))
 
 
 def _swept_surface(model: str, var: str, sweep, reads) -> tuple[tuple[str, float], tuple[float, float]]:
@@ -589,6 +601,7 @@ class JSBSimAeroSource(SourceModel):
         raised to the lowest Mach of the tables (below it JSBSim holds their end values)."""
         fdm["ic/h-sl-ft"] = self.altitude / units.FT
         fdm["ic/mach"] = 0.3
+        fdm["simulation/models/FGFCS/enabled"] = 0  # as for sampling: the weight needs no flight control
         with _quiet(), _console_captured(self.console):
             fdm.run_ic()
         W, S = fdm["inertia/weight-lbs"], fdm["metrics/Sw-sqft"]
