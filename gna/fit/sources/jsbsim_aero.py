@@ -249,6 +249,12 @@ def flight_control_sweep(source, variables, reads) -> dict:
     -------
     dict
         Variable -> ``(commands, {property: values})``, arrays of shape ``(SWEEP_POINTS,)``.
+
+    Raises
+    ------
+    InputError
+        JSBSim cannot load the aircraft, or its flight-control system fails when run (a property only
+        FlightGear gives).
     """
     fdm, console = load_model(source.model, source.aircraft_dir, source.root)
     source.console.extend(console)
