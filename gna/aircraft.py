@@ -36,6 +36,7 @@ UNIT_FACTORS: dict[str, dict[str, float]] = {
     "force": {"N": 1.0, "lbf": units.LBF},
     "power": {"W": 1.0, "kW": 1000.0, "shp": units.HP},
     "speed": {"ms": 1.0, "kt": units.KT, "fps": units.FT},
+    "time": {"s": 1.0},
 }
 
 
@@ -58,6 +59,22 @@ def _get(table: Mapping[str, Any], name: str, kind: str, where: str, default: An
         raise InputError(f"{where}: {name!r} given in several units")
     u, factor = found[0]
     return _check(_number(table[f"{name}_{u}"], f"{name}_{u}", where) * factor, f"{name}_{u}", where)
+
+
+def _curve(e: Mapping[str, Any], where: str) -> tuple:
+    """``engine_thrust_curve_speed_ms`` and ``engine_thrust_curve_N``, paired (both or neither)."""
+    V, T = e.get("engine_thrust_curve_speed_ms"), e.get("engine_thrust_curve_N")
+    if V is None and T is None:
+        return ()
+    if V is None or T is None or len(V) != len(T) or len(V) < 2:
+        raise InputError(
+            f"{where}: engine_thrust_curve_speed_ms and engine_thrust_curve_N are two lists of the same length "
+            f"(at least 2)"
+        )
+    return tuple(
+        (_number(v, "engine_thrust_curve_speed_ms", where), _number(t, "engine_thrust_curve_N", where))
+        for v, t in zip(V, T)
+    )
 
 
 def _number(value: Any, key: str, where: str) -> float:
@@ -148,6 +165,12 @@ class Propulsion:
     left, and ``y = +y_p`` for engine 2, right).  The thrust line is tilted by
     ``epsilon`` nose-up from the body x axis: body-axis direction
     ``(cos eps, 0, -sin eps)``.
+
+    Propulsive moments (:func:`gna.eom.body_moments`): the thrust line passes ``thrust_line_offset`` below
+    the centre of gravity (pitching moment ``+thrust_line_offset * F``, nose up) and the propellers' torque
+    gives a rolling moment ``torque_arm * F`` (positive right wing down), both 0 by default.  ``thrust_lag``
+    is the first-order time constant of the thrust response [s] (0: immediate), ``thrust_curve`` the
+    thrust of ONE engine at full throttle against airspeed, ``((V [m/s], T [N]), ...)`` (empty: unrated).
     """
 
     count: int = 1
@@ -161,13 +184,18 @@ class Propulsion:
     propeller_efficiency: float | None = None
     engine_static_thrust: float | None = None
     engine_source: str = ""
+    thrust_line_offset: float = 0.0
+    torque_arm: float = 0.0
+    thrust_lag: float = 0.0
+    thrust_curve: tuple = ()
 
     def engine_thrust_limit(self, V: float) -> float | None:
         """Largest thrust of one engine at airspeed ``V`` from its rating.
 
         A propeller engine is power-limited in flight, ``T <= eff P / V``
         (e.g. Raymer, *Aircraft Design: A Conceptual Approach*, sec. 13.6),
-        and capped by its static thrust.
+        and capped by its static thrust; a measured :attr:`thrust_curve` is interpolated linearly (held at
+        its ends) and caps both.
 
         Parameters
         ----------
@@ -180,6 +208,9 @@ class Propulsion:
             Thrust [N]; None when the engine has no rating.
         """
         lims = []
+        if self.thrust_curve:
+            Vs, Ts = zip(*self.thrust_curve)
+            lims.append(float(np.interp(V, Vs, Ts)))
         if self.engine_static_thrust is not None:
             lims.append(self.engine_static_thrust)
         if self.engine_power is not None and V > 0:
@@ -198,6 +229,15 @@ class Propulsion:
         for k in ("engine_power", "engine_static_thrust"):
             if getattr(self, k) is not None and not getattr(self, k) > 0:
                 raise InputError(f"{k} must be positive, got {getattr(self, k)}")
+        if not (math.isfinite(self.thrust_lag) and self.thrust_lag >= 0):
+            raise InputError(f"thrust_lag must be >= 0 s, got {self.thrust_lag}")
+        for k in ("thrust_line_offset", "torque_arm"):
+            if not math.isfinite(getattr(self, k)):
+                raise InputError(f"{k} must be finite, got {getattr(self, k)}")
+        if self.thrust_curve:
+            Vs = [v for v, _ in self.thrust_curve]
+            if any(b <= a for a, b in zip(Vs, Vs[1:])) or any(not t >= 0 for _, t in self.thrust_curve):
+                raise InputError("thrust curve: speeds must increase and thrusts be >= 0")
         if self.propeller_efficiency is not None and not 0 < self.propeller_efficiency <= 1:
             raise InputError(f"propeller_efficiency must lie in (0, 1], got {self.propeller_efficiency}")
 
@@ -211,8 +251,15 @@ class Envelope:
     beta_max: float = math.radians(20.0)
     control_limits: Mapping[str, float] = field(default_factory=dict)
     source: str = ""
+    #: Mach range of the data the model was fitted on or published from (None: not bounded).
+    mach_min: float | None = None
+    mach_max: float | None = None
 
     def __post_init__(self):
+        if (self.mach_min is None) != (self.mach_max is None) or (
+            self.mach_min is not None and not 0 <= self.mach_min <= self.mach_max
+        ):
+            raise InputError(f"mach_min = {self.mach_min} and mach_max = {self.mach_max}: both, 0 <= min <= max")
         if not self.alpha_min < self.alpha_max:
             raise InputError(
                 f"alpha_min = {math.degrees(self.alpha_min):.6g} deg must be below "
@@ -371,6 +418,10 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
             ),
             engine_static_thrust=_get(e, "engine_static_thrust", "force", w, None),
             engine_source=str(e.get("engine_source", "")),
+            thrust_line_offset=_get(e, "thrust_line_offset", "length", w, 0.0),
+            torque_arm=_get(e, "torque_arm", "length", w, 0.0),
+            thrust_lag=_get(e, "thrust_lag", "time", w, 0.0),
+            thrust_curve=_curve(e, w),
         )
     v = data.get("envelope", {})
     limits = {}
@@ -385,6 +436,8 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
             beta_max=_get(v, "beta_max", "angle", where + " [envelope]", math.radians(20.0)),
             control_limits=limits,
             source=str(v.get("source", "")),
+            mach_min=None if "mach_min" not in v else _number(v["mach_min"], "mach_min", where + " [envelope]"),
+            mach_max=None if "mach_max" not in v else _number(v["mach_max"], "mach_max", where + " [envelope]"),
         )
     a = data["aero"]
     aero = TermTable.from_records(

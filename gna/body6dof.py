@@ -113,13 +113,17 @@ def derivative(aircraft: Aircraft, env: Environment, X: np.ndarray, controls) ->
     # Engines: one on the symmetry plane, or two at y = -y_p (1, left) and +y_p (2, right).
     eps = aircraft.propulsion.epsilon
     d = np.array([np.cos(eps), 0.0, -np.sin(eps)])
+    # The thrust line passes thrust_line_offset below the CG: the engines at (o sin eps, y, o cos eps).
+    o = aircraft.propulsion.thrust_line_offset
+    xo, zo = o * np.sin(eps), o * np.cos(eps)
     if aircraft.propulsion.count == 1:
-        engines = [(np.zeros(3), F)]
+        engines = [(np.array([xo, 0.0, zo]), F)]
     else:
         yp = aircraft.propulsion.y_p
-        engines = [(np.array([0.0, -yp, 0.0]), F * (1 + eta) / 2), (np.array([0.0, yp, 0.0]), F * (1 - eta) / 2)]
+        engines = [(np.array([xo, -yp, zo]), F * (1 + eta) / 2), (np.array([xo, yp, zo]), F * (1 - eta) / 2)]
     Ft = sum(Fi * d for _, Fi in engines)
     Mt = sum(np.cross(ri, Fi * d) for ri, Fi in engines)
+    Mt = Mt + np.array([aircraft.propulsion.torque_arm * F, 0.0, 0.0])  # propeller torque, proportional to F
     Fg = C_bn @ np.array([0.0, 0.0, m * env.g])
     Fb = Fa + Ft + Fg
     Mb = Ma + Mt

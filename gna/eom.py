@@ -41,6 +41,16 @@ given the forces (:func:`wind_forces`) and moments (:func:`body_moments`) of
   gives ``L = +y_p sin(eps) (F1 - F2)`` where the paper prints a minus sign
   (the two differ only when eps != 0).  Aerodynamic moments are transferred
   from the moment reference to the centre of gravity.
+* Propulsive moments, an extension of the paper's eqs. (L), (M) (whose engines
+  sit on the CG's y axis, without torque): a thrust line ``d`` below the
+  CG (:attr:`gna.aircraft.Propulsion.thrust_line_offset`) adds ``M = +d F``
+  (the moment ``r x F`` of the thrust ``F (cos eps, 0, -sin eps)`` applied
+  at ``r = (x_t, +-y_p, z_t)``, ``d = z_t cos eps + x_t sin eps``), and the
+  propellers' reaction torque adds ``L = k F``
+  (:attr:`~gna.aircraft.Propulsion.torque_arm`: torque proportional to
+  thrust, the ratio JSBSim's ``FGPropeller`` gives at the reference
+  condition, :mod:`gna.fit.sources.jsbsim_engines`).  Both are 0 for every
+  aircraft that does not give them, and then no operation is added.
 * Rotational dynamics, paper eq. (aircraft2).
 * G3 (the alpha', beta', mu' equations), derived in :func:`derivatives`'
   notes below and in ``docs/equations.md``.
@@ -229,12 +239,14 @@ def body_moments(aircraft: Aircraft, s: State, u: Controls, full: Coefficients, 
     """Total moment about the CG in body axes (paper eqs. L, M, N, re-derived).
 
     Aerodynamic moments about ``x_ref`` are transferred to ``x_cg`` with the
-    full aerodynamic force; the thrust moments follow from the engine geometry.
+    full aerodynamic force; the thrust moments follow from the engine geometry,
+    the thrust line's offset below the CG and the propeller torque (module notes).
 
     Parameters
     ----------
     aircraft : Aircraft
-        Geometry (``S, b, cbar, x_cg, x_ref``) and propulsion (``y_p``, ``epsilon``).
+        Geometry (``S, b, cbar, x_cg, x_ref``) and propulsion (``y_p``, ``epsilon``,
+        ``thrust_line_offset``, ``torque_arm``).
     s : State
         States (``alpha`` [rad] is used for the moment transfer).
     u : Controls
@@ -267,6 +279,12 @@ def body_moments(aircraft: Aircraft, s: State, u: Controls, full: Coefficients, 
         dF = u.F * u.eta  # F1 - F2
         L = L + yp * np.sin(eps) * dF
         N = N + yp * np.cos(eps) * dF
+    d = aircraft.propulsion.thrust_line_offset  # parameters: the terms exist only when given
+    if d != 0.0:
+        M = M + d * u.F
+    k = aircraft.propulsion.torque_arm
+    if k != 0.0:
+        L = L + k * u.F
     return L, M, N
 
 

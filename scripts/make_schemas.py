@@ -56,6 +56,7 @@ UNIT_WORDS = {
     "W": "W",
     "kW": "kW",
     "shp": "shp (shaft horsepower)",
+    "s": "s",
 }
 
 
@@ -169,12 +170,29 @@ def aircraft_schema() -> dict:
     }
     _quantity(eng, ce, "engine_static_thrust", "force", "Static thrust rating of ONE engine (optional)")
     eng["engine_source"] = _text("Where the per-engine rating comes from")
+    _quantity(eng, ce, "thrust_line_offset", "length", "Thrust line's distance below the CG (nose-up moment)", "0")
+    _quantity(eng, ce, "torque_arm", "length", "Propeller torque: rolling moment over thrust (+ right wing down)", "0")
+    _quantity(eng, ce, "thrust_lag", "time", "First-order time constant of the thrust response", "0")
+    for key, unit, desc in (
+        ("engine_thrust_curve_speed_ms", "m/s", "Airspeeds of the thrust rating (increasing)"),
+        ("engine_thrust_curve_N", "N", "Full-throttle thrust of ONE engine at those speeds"),
+    ):
+        eng[key] = {
+            "type": "array",
+            "items": {"type": "number"},
+            "minItems": 2,
+            "maxItems": 100,
+            "description": desc,
+            "x-unit": unit,
+        }
     env, cv = {}, []
     _quantity(env, cv, "alpha_min", "angle", "Lowest angle of attack of the model's validity domain", "-10 deg")
     _quantity(env, cv, "alpha_max", "angle", "Highest angle of attack (above alpha_min)", "30 deg")
     _quantity(env, cv, "beta_max", "angle", "Largest |sideslip| of the validity domain, in (0, 90] deg", "20 deg")
     for s, word in (("dl", "aileron"), ("dm", "elevator"), ("dn", "rudder")):
         _quantity(env, cv, f"{s}_max", "angle", f"Largest |{word} deflection| (optional)")
+    for key, word in (("mach_min", "Lowest"), ("mach_max", "Highest")):
+        env[key] = {"type": "number", "minimum": 0, "description": f"{word} Mach of the model's data (optional)"}
     env["source"] = _text("Where the numbers come from")
     term = {
         "type": "object",

@@ -343,8 +343,8 @@ def test_k12_surface_properties_can_be_given_explicitly():
     from gna.fit.sources.jsbsim_aero import JSBSimAeroSource
     from harness.commands.fit import _surface_overrides, _surface_property
 
-    with pytest.raises(InputError, match=r"--property dl=PROPERTY"):
-        JSBSimAeroSource("c172x", mach=0.15, altitude=1000.0)
+    found = JSBSimAeroSource("c172x", mach=0.15, altitude=1000.0)  # the property its FCS drives, found
+    assert found.surface_map["dl"] == ("fcs/effective-aileron-pos", -1.0)
     over = _surface_overrides(
         [_surface_property("dl=fcs/effective-aileron-pos"), _surface_property("dm=fcs/elevator-pos-deg")]
     )

@@ -2,8 +2,8 @@
 
 Sub-commands::
 
-    gflat fit jsbsim MODEL --mach M --altitude H [--root DIR] [--property VAR=PROP[:FACTOR]]...
-                     [design options] --out FILE
+    gflat fit jsbsim MODEL [--mach M] [--altitude H] [--root DIR] [--property VAR=PROP[:FACTOR]]...
+                     [design options] [--out FILE]
     gflat fit gtm [design options] --out FILE
     gflat fit linear CSV [design options] --engines N --engine-offset Y --out FILE
     gflat fit compare ID --speed V [--altitude H] [--json]
@@ -14,6 +14,13 @@ Design options (angles in degrees): ``--alpha LO HI``, ``--beta MAX``,
 ``--dn LO HI``, ``--samples N`` (fit points per block), ``--test N``
 (held-out points per block), ``--seed S``, ``--dm-band DEG``, ``--box-only``.
 See :mod:`gna.fit.design` for the sampling design.
+
+``gflat fit jsbsim NAME`` needs no option: the reference condition is level flight at
+C_L = 0.4 at 1000 m (:class:`gna.fit.sources.jsbsim_aero.JSBSimAeroSource`), the surfaces and their ranges
+come from the aircraft's flight-control system, the alpha and beta box is the default one clipped to the
+aerodynamic tables' data (an explicit ``--alpha``/``--beta`` beyond them is refused unless
+``--allow-extrapolation``), and the engines' thrust rating against speed, thrust lag and propulsive moments
+are measured from JSBSim's own engines (:func:`gna.fit.sources.jsbsim_engines.measure_engines`).
 """
 
 from __future__ import annotations
@@ -25,7 +32,8 @@ from pathlib import Path
 
 from gna.errors import InputError
 
-from ..rundir import check_output_file, write_file
+from ..fileio import replacing
+from ..outguard import _cause, check_output_file
 from ._args import bounded_count, finite_float, nonnegative_int, out_path, positive_float
 
 #: Most sample points per block of a fit (``--samples``, ``--test``): a JSBSim point is one run_ic (about 1 ms),
@@ -76,12 +84,12 @@ def _surface_overrides(items) -> dict[str, tuple[str, float]]:
 
 
 def register(sub) -> None:
-    """Add the ``gflat fit`` parser to the sub-commands ``sub``.
+    """Add the ``fit`` command and its sub-commands (``jsbsim``, ``gtm``, ``linear``, ``compare``, ``regenerate``).
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
+        The CLI's sub-command set.
     """
     p = sub.add_parser(
         "fit",
@@ -96,8 +104,13 @@ def register(sub) -> None:
     j = sp.add_parser("jsbsim", help="any JSBSim aircraft, sampled through JSBSim")
     j.add_argument("model", help="bundled JSBSim aircraft name (e.g. F4N) or path to <name>/<name>.xml")
     j.add_argument("--root", help="JSBSim root directory (default: the jsbsim package's)")
-    j.add_argument("--mach", type=positive_float, required=True, help="reference Mach number")
-    j.add_argument("--altitude", type=finite_float, required=True, metavar="H_M", help="reference altitude [m]")
+    j.add_argument(
+        "--mach",
+        type=positive_float,
+        help="reference Mach number (default: level flight at C_L = 0.4 at the reference altitude, at least "
+        "the lowest Mach of the aerodynamic tables)",
+    )
+    j.add_argument("--altitude", type=finite_float, metavar="H_M", help="reference altitude [m] (default 1000)")
     j.add_argument(
         "--property",
         action="append",
@@ -110,7 +123,15 @@ def register(sub) -> None:
         "dl=fcs/effective-aileron-pos, --property dm=fcs/elevator-pos-norm:-2.9 (repeatable)",
     )
     _design_args(
-        j, alpha=(-5.0, 20.0), beta=15.0, phat=0.15, qhat=0.03, rhat=0.06, surfaces=None, band=math.degrees(0.1)
+        j,
+        alpha=None,
+        beta=None,
+        phat=0.15,
+        qhat=0.03,
+        rhat=0.06,
+        surfaces=None,
+        band=math.degrees(0.1),
+        hint="-5 20 and 15 within the aerodynamic tables' data",
     )
     _common(j)
 
@@ -171,7 +192,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band) -> None:
+def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band, hint=None) -> None:
     d = p.add_argument_group("sampling design (angles in degrees)")
     d.add_argument(
         "--alpha",
@@ -179,9 +200,11 @@ def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band) -> None:
         type=finite_float,
         default=alpha,
         metavar=("LO", "HI"),
-        help=f"angle-of-attack range (default {alpha[0]:g} {alpha[1]:g})",
+        help=f"angle-of-attack range (default {hint or f'{alpha[0]:g} {alpha[1]:g}'})",
     )
-    d.add_argument("--beta", type=positive_float, default=beta, metavar="MAX", help=f"|sideslip| (default {beta:g})")
+    d.add_argument(
+        "--beta", type=positive_float, default=beta, metavar="MAX", help=f"|sideslip| (default {hint or beta})"
+    )
     d.add_argument("--phat", type=positive_float, default=phat, metavar="MAX", help=f"|p b/2V| (default {phat:g})")
     d.add_argument("--qhat", type=positive_float, default=qhat, metavar="MAX", help=f"|q c/2V| (default {qhat:g})")
     d.add_argument("--rhat", type=positive_float, default=rhat, metavar="MAX", help=f"|r b/2V| (default {rhat:g})")
@@ -229,11 +252,17 @@ def _common(p) -> None:
     p.add_argument("--no-trim-check", action="store_true", help="skip the level-trim comparison")
 
 
+#: The alpha range [deg] and |beta| [deg] of a JSBSim fit without --alpha/--beta, before the tables clip them.
+JSBSIM_ALPHA = (-5.0, 20.0)
+JSBSIM_BETA = 15.0
+
+
 def _ranges(args, source_envelope=None) -> dict:
     rad = math.radians
+    alpha = args.alpha or JSBSIM_ALPHA
     out = {
-        "alpha": (rad(args.alpha[0]), rad(args.alpha[1])),
-        "beta": (-rad(args.beta), rad(args.beta)),
+        "alpha": (rad(alpha[0]), rad(alpha[1])),
+        "beta": (-rad(args.beta or JSBSIM_BETA), rad(args.beta or JSBSIM_BETA)),
         "phat": (-args.phat, args.phat),
         "qhat": (-args.qhat, args.qhat),
         "rhat": (-args.rhat, args.rhat),
@@ -248,6 +277,21 @@ def _ranges(args, source_envelope=None) -> dict:
             out[k] = source_envelope[k]
         else:
             out[k] = (rad(v[0]), rad(v[1]))
+    env = source_envelope or {}
+    # Unset, the alpha and beta box of a JSBSim fit is the default one within the tables' data.
+    if args.source == "jsbsim" and args.alpha is None and "alpha" in env:
+        lo, hi = max(out["alpha"][0], env["alpha"][0]), min(out["alpha"][1], env["alpha"][1])
+        if not lo < hi:
+            raise InputError(
+                f"the aerodynamic tables cover alpha {math.degrees(env['alpha'][0]):.4g} .. "
+                f"{math.degrees(env['alpha'][1]):.4g} deg only: pass --alpha LO HI"
+            )
+        out["alpha"] = (lo, hi)
+    if args.source == "jsbsim" and args.beta is None and "beta" in env:
+        b = min(out["beta"][1], -env["beta"][0], env["beta"][1])
+        if not b > 0:
+            raise InputError("the aerodynamic tables cover no sideslip but 0: pass --beta MAX")
+        out["beta"] = (-b, b)
     return out
 
 
@@ -265,17 +309,22 @@ def _design(args, ranges):
 
 
 def run(args) -> int:
-    """Run ``gflat fit`` with the parsed command line ``args``.
+    """Fit the source named by ``args.source`` and write the aircraft file (or compare, or regenerate).
 
     Parameters
     ----------
     args : argparse.Namespace
-        The options of the command (its parser: :func:`register`).
+        The parsed command line.
 
     Returns
     -------
     int
-        The exit status (:data:`harness.cli.EXIT_CODES`).
+        0 on success.
+
+    Raises
+    ------
+    InputError
+        A source that cannot be read or represented (one line), an output file that cannot be written.
     """
     if args.source == "regenerate":
         return _regenerate(args)
@@ -297,7 +346,8 @@ def run(args) -> int:
             root=args.root,
             surfaces=_surface_overrides(args.property),
         )
-        sections = vehicle_sections(src)
+        args.mach, args.altitude = src.mach, src.altitude  # the defaults, written into the regenerating command
+        sections = vehicle_sections(src, measure=True)
         ranges = _ranges(args, src.envelope)
         reference = ReferenceCondition(src.V_ref, args.altitude, f"Mach {args.mach:g} at {args.altitude:g} m")
         limits = {k: math.degrees(max(abs(ranges[k][0]), abs(ranges[k][1]))) for k in ("dl", "dm", "dn")}
@@ -325,6 +375,12 @@ def run(args) -> int:
     structure = structure_from_file(args.structure) if args.structure else gna45_structure()
     result = fit_source(src, structure, design, check_envelope=not args.allow_extrapolation)
     envelope = envelope_section(design, limits, limits_source)
+    if args.source == "jsbsim" and src.mach_range is not None:
+        envelope["mach_min"], envelope["mach_max"] = (float(f"{m:.6g}") for m in src.mach_range)
+        envelope["source"] += (
+            f"; Mach: the aerodynamic tables' data (JSBSim holds their end values beyond), the coefficients "
+            f"sampled at Mach {src.mach:g}"
+        )
     name = args.name or f"{ident}, GNA fit to {src.name}"
     craft = fitted_aircraft(ident, name, sections, envelope, result.table, src.name)
     trim = None if args.no_trim_check else trim_comparison(craft, src, reference)
@@ -344,7 +400,11 @@ def run(args) -> int:
         command=command,
     )
     text = render(doc, name, command)
-    write_file(out, text)  # atomic: a reader never sees half a file
+    try:
+        with replacing(out) as tmp:  # atomic: a reader never sees half a file
+            tmp.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"cannot write {out}: {_cause(exc)}") from None
     print(f"wrote {out}")
     print("held-out statistics (R2, RMS, max |error|):")
     for c, s in result.stats.items():

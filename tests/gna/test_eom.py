@@ -110,3 +110,59 @@ def test_vectorised_evaluation_equals_pointwise():
     for j in range(states.shape[1]):
         dj = np.array(derivatives(craft, env, State(*states[:, j]), u), dtype=float)
         np.testing.assert_allclose(d[:, j], dj, rtol=1e-14, atol=1e-14)
+
+
+def test_the_propulsive_moments_are_zero_for_every_bundled_aircraft_and_add_no_operation():
+    # Bit-identical: the moments of every bundled aircraft equal the equations without the propulsive terms.
+    from gna.aircraft import list_aircraft, load_aircraft
+    from gna.atmosphere import Environment
+    from gna.eom import Controls, State, body_moments, loads
+
+    s = State(0.0, 0.0, -1000.0, 60.0, 0.05, 0.2, 0.08, 0.03, 0.2, 0.1, -0.05, 0.02)
+    u = Controls(3000.0, 0.1, 0.02, -0.05, 0.01)
+    for ident in list_aircraft():
+        ac = load_aircraft(ident)
+        assert ac.propulsion.thrust_line_offset == 0.0 and ac.propulsion.torque_arm == 0.0
+        ld = loads(ac, Environment(), s, u)
+        geo = ac.geometry
+        qS = ld.qbar * geo.S
+        full = ld.moment_coeffs
+        L, M, N = qS * geo.b * full.Cl, qS * geo.cbar * full.Cm, qS * geo.b * full.Cn
+        d = geo.x_cg - geo.x_ref
+        if d != 0.0:
+            M = M - d * (-qS * (np.sin(s.alpha) * full.CD + np.cos(s.alpha) * full.CL))
+            N = N + d * qS * full.CY
+        if ac.propulsion.y_p != 0.0:
+            eps = ac.propulsion.epsilon
+            L = L + ac.propulsion.y_p * np.sin(eps) * u.F * u.eta
+            N = N + ac.propulsion.y_p * np.cos(eps) * u.F * u.eta
+        assert body_moments(ac, s, u, full, ld.qbar) == (L, M, N)
+
+
+def test_the_propulsive_moments_by_hand_and_against_the_body_axis_model():
+    from dataclasses import replace as _replace
+
+    from gna.aircraft import load_aircraft
+    from gna.atmosphere import Environment
+    from gna.eom import Controls, State, body_moments, derivatives, loads
+
+    base = load_aircraft("twin-otter")
+    ac = _replace(base, propulsion=_replace(base.propulsion, thrust_line_offset=0.3, torque_arm=-0.2, epsilon=0.05))
+    s = State(0.0, 0.0, -1000.0, 60.0, 0.05, 0.2, 0.08, 0.03, 0.2, 0.1, -0.05, 0.02)
+    u = Controls(3000.0, 0.1, 0.02, -0.05, 0.01)
+    ld = loads(ac, Environment(), s, u)
+    without = _replace(ac, propulsion=_replace(ac.propulsion, thrust_line_offset=0.0, torque_arm=0.0))
+    L0, M0, N0 = body_moments(without, s, u, ld.moment_coeffs, ld.qbar)
+    L, M, N = body_moments(ac, s, u, ld.moment_coeffs, ld.qbar)
+    assert M - M0 == pytest.approx(0.3 * 3000.0, rel=1e-12)  # thrust line 0.3 m below the CG: nose up
+    assert L - L0 == pytest.approx(-0.2 * 3000.0, rel=1e-12)
+    assert N == N0
+    # the independent body-axis model (engines at r = (o sin eps, y, o cos eps), r x F, torque) agrees
+    env = Environment()
+    x0 = np.array(s, dtype=float)
+    d_wind = np.array(derivatives(ac, env, s, u), dtype=float)
+    X = body6dof.from_wind_state(x0)
+    h = 1e-6
+    Xd = body6dof.derivative(ac, env, X, np.array(u, dtype=float))
+    fd = (body6dof.to_wind_state(X + h * Xd) - body6dof.to_wind_state(X - h * Xd)) / (2 * h)
+    np.testing.assert_allclose(d_wind, fd, rtol=1e-6, atol=1e-8)

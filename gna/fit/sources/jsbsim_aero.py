@@ -54,6 +54,16 @@ SURFACE_CANDIDATES: dict[str, tuple[tuple[str, float], ...]] = {
 #: Properties the FCS model derives from the surfaces (not held at 0).
 DERIVED_SURFACE_PROPERTIES = ("fcs/mag-elevator-pos-rad", "fcs/mag-aileron-pos-rad", "fcs/mag-rudder-pos-rad")
 
+#: The pilot's command of each surface (JSBSim's normalised FCS inputs, -1 .. 1).
+PILOT_COMMANDS = {"dl": "fcs/aileron-cmd-norm", "dm": "fcs/elevator-cmd-norm", "dn": "fcs/rudder-cmd-norm"}
+
+#: Reference altitude [m] and level-flight lift coefficient that set the default reference condition.
+DEFAULT_ALTITUDE = 1000.0
+DEFAULT_LIFT_COEFFICIENT = 0.4
+
+_LONGITUDINAL_AXES = frozenset({"LIFT", "DRAG", "PITCH", "X", "Z"})
+_LATERAL_AXES = frozenset({"SIDE", "ROLL", "YAW", "Y"})
+
 _FORCE_AXES = {"DRAG": (-1.0, 0), "SIDE": (1.0, 1), "LIFT": (-1.0, 2)}
 _MOMENT_AXES = {"ROLL": 0, "PITCH": 1, "YAW": 2}
 
@@ -93,7 +103,10 @@ IO_ELEMENTS = ("input", "output")
 
 @contextlib.contextmanager
 def _console_captured(records: list[str]):
-    """JSBSim's console output (C++ streams on file descriptors 1 and 2) kept in ``records``, not printed."""
+    """JSBSim's console output kept in ``records``, not printed: the C++ streams on file descriptors 1 and 2,
+    and what the jsbsim module forwards to Python's ``sys.stdout``/``sys.stderr`` when those are not the
+    descriptors (a caller capturing the output)."""
+    import io
     import os
     import sys
 
@@ -101,7 +114,8 @@ def _console_captured(records: list[str]):
         with contextlib.suppress(Exception):
             stream.flush()
     saved = []
-    with tempfile.TemporaryFile() as sink:
+    py = io.StringIO()
+    with tempfile.TemporaryFile() as sink, contextlib.redirect_stdout(py), contextlib.redirect_stderr(py):
         try:
             for fd in (1, 2):
                 saved.append((fd, os.dup(fd)))
@@ -116,6 +130,7 @@ def _console_captured(records: list[str]):
                 os.close(copy)
             sink.seek(0)
             records.extend(line for line in sink.read().decode("utf-8", "replace").splitlines() if line.strip())
+            records.extend(line for line in py.getvalue().splitlines() if line.strip())
             del records[:-1000]  # the latest lines: enough to name a failure
 
 
@@ -205,6 +220,134 @@ def load_model(name: str, aircraft_dir: Path, root: Path):
         said = " | ".join(console[-5:]) or "load_model returned False"
         raise InputError(f"JSBSim could not load {aircraft_dir / (name + '.xml')}: {said}")
     return fdm, console
+
+
+#: Points of the pilot's command over [-1, 1], and the time [s] the flight-control system runs at each.
+SWEEP_POINTS = 9
+SWEEP_SECONDS = 2.0
+_WORDS = {"dl": "aileron", "dm": "elevator", "dn": "rudder"}
+
+
+def flight_control_sweep(source, variables, reads) -> dict:
+    """The flight-control outputs at steady state for the pilot's surface commands over [-1, 1].
+
+    The aircraft is loaded again with its flight-control system running, held at the reference condition
+    (``simulation/models/FGPropagate/enabled = 0``: the state does not move, rates zero), and each command of
+    :data:`PILOT_COMMANDS` (the others at 0) is set to :data:`SWEEP_POINTS` values; the system runs
+    :data:`SWEEP_SECONDS` at 120 Hz (actuator lags and rate limits settle) before the properties are read.
+
+    Parameters
+    ----------
+    source : JSBSimAeroSource
+        Its model, folders, reference altitude and Mach are used (``console`` collects JSBSim's output).
+    variables : iterable of str
+        ``"dl"``, ``"dm"``, ``"dn"``: the commands to sweep.
+    reads : set of str
+        Properties the aerodynamics read; the ``fcs/`` ones and the candidate surfaces are recorded.
+
+    Returns
+    -------
+    dict
+        Variable -> ``(commands, {property: values})``, arrays of shape ``(SWEEP_POINTS,)``.
+
+    Raises
+    ------
+    InputError
+        JSBSim cannot load the aircraft, or its flight-control system fails when run (a property only
+        FlightGear gives).
+    """
+    fdm, console = load_model(source.model, source.aircraft_dir, source.root)
+    source.console.extend(console)
+    pm = fdm.get_property_manager()
+    cands = [p for cs in SURFACE_CANDIDATES.values() for p, _ in cs]
+    props = sorted({p for p in reads if p.startswith("fcs/")} | {p for p in cands if pm.hasNode(p)})
+    props = [p for p in props if pm.hasNode(p)]
+    grid = np.linspace(-1.0, 1.0, SWEEP_POINTS)
+    out = {}
+    with _quiet(), _console_captured(source.console):
+        fdm.set_dt(1.0 / 120.0)
+        fdm["ic/h-sl-ft"] = source.altitude / units.FT
+        fdm["ic/mach"] = source.mach
+        steps = round(SWEEP_SECONDS * 120)
+        try:
+            fdm.run_ic()
+            fdm["simulation/models/FGPropagate/enabled"] = 0
+            _sweep(fdm, variables, props, grid, steps, out)
+        except Exception as exc:  # JSBSim's LogException: the system reads a property no model gives
+            said = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise InputError(
+                f"JSBSim {source.model} is not representable: its flight-control system, run to find the "
+                f"surfaces, fails outside FlightGear ({said})"
+            ) from None
+    return out
+
+
+def _sweep(fdm, variables, props, grid, steps, out) -> None:
+    """The command sweep of :func:`flight_control_sweep` (fills ``out``)."""
+    for var in variables:
+        values = np.empty((len(props), len(grid)))
+        for j, c in enumerate(grid):
+            for cmd in PILOT_COMMANDS.values():
+                fdm[cmd] = 0.0
+            fdm[PILOT_COMMANDS[var]] = float(c)
+            for _ in range(steps):
+                fdm.run()
+            values[:, j] = [fdm[p] for p in props]
+        out[var] = (grid, dict(zip(props, values)))
+
+
+def _swept_surface(model: str, var: str, sweep, reads) -> tuple[tuple[str, float], tuple[float, float]]:
+    """The one property the aerodynamics read that the command of ``var`` moves, its factor and range.
+
+    ``property = factor * variable``: the factor's sign makes the variable move as JSBSim's own surface
+    property does for the same command (:data:`SURFACE_CANDIDATES`' sign), ``180/pi`` for a ``-deg``
+    property; a normalised property is scaled by the deflection in rad the same command gives (a
+    candidate property linear in it), else the aircraft is refused.
+
+    Raises
+    ------
+    InputError
+        No property, or several, move with the command; a normalised property without a deflection in rad.
+    """
+    grid, values = sweep
+    word, cmd = _WORDS[var], PILOT_COMMANDS[var]
+    cand_props = {p: sgn for p, sgn in SURFACE_CANDIDATES[var]}
+    moved = {p: v for p, v in values.items() if np.ptp(v) > 1e-3}
+    read = [p for p in moved if p not in cand_props and p not in DERIVED_SURFACE_PROPERTIES and p in reads]
+    if not read:
+        raise InputError(
+            f"JSBSim {model} is not representable: its aerodynamics read no {word} property "
+            f"({', '.join(cand_props)}) and none that the {word} command {cmd} moves through its flight-control "
+            f"system (no {word} in the model)"
+        )
+    if len(read) > 1:
+        raise InputError(
+            f"JSBSim {model} is not representable: the {word} command {cmd} moves {len(read)} properties the "
+            f"aerodynamics read ({', '.join(read)}); the project's model has one {word} deflection"
+        )
+    prop = read[0]
+    v = moved[prop]
+    base = SURFACE_CANDIDATES[var][0][1]
+    slope = 1.0 if v[-1] >= v[0] else -1.0
+    if prop.endswith("-norm"):
+        rad = [(p, moved[p]) for p in cand_props if p in moved]
+        if not rad:
+            raise InputError(
+                f"JSBSim {model} is not representable: its aerodynamics read {prop}, a normalised {word} "
+                f"position, and its flight-control system gives no deflection in rad for it"
+            )
+        r = rad[0][1]
+        k, c = np.polyfit(r, v, 1)
+        if np.max(np.abs(k * r + c - v)) > 1e-3 * np.ptp(v) or abs(c) > 1e-3 * np.ptp(v):
+            raise InputError(
+                f"JSBSim {model} is not representable: its aerodynamics read {prop}, a normalised {word} "
+                f"position not proportional to the deflection {rad[0][0]}"
+            )
+        factor = float(k) * cand_props[rad[0][0]]
+    else:
+        factor = slope * base * (180.0 / math.pi if prop.endswith("-deg") else 1.0)
+    x = v / factor
+    return (prop, float(factor)), (float(np.min(x)), float(np.max(x)))
 
 
 def property_names(fdm) -> list[str]:
@@ -363,30 +506,43 @@ class JSBSimAeroSource(SourceModel):
         self,
         model: str,
         *,
-        mach: float,
-        altitude: float,
+        mach: float | None = None,
+        altitude: float | None = None,
         root: str | Path | None = None,
         surfaces: Mapping[str, tuple[str, float]] | None = None,
         configuration: Mapping[str, float] | None = None,
     ):
-
-        if not (math.isfinite(mach) and 0 < mach < 5):
+        altitude = DEFAULT_ALTITUDE if altitude is None else altitude
+        if mach is not None and not (math.isfinite(mach) and 0 < mach < 5):
             raise InputError(f"reference Mach must be in (0, 5), got {mach}")
         if not (math.isfinite(altitude) and -500 <= altitude <= 30000):
             raise InputError(f"reference altitude must be in [-500, 30000] m, got {altitude}")
         self.model, self.aircraft_dir, self.root = resolve(model, root)
-        self.mach, self.altitude = float(mach), float(altitude)
+        self.altitude = float(altitude)
         self._xml = jx.parse(self.aircraft_dir / f"{self.model}.xml")
         aero = jx.aerodynamics_element(self._xml, self.aircraft_dir)
         functions = jx.aero_functions(aero)
         reads = set().union(*(f.reads for f in functions)) if functions else set()
+        # Sampling must not run the aircraft's <output> or <input> directives (files written into the JSBSim
+        # root, sockets bound): the model is loaded without them, JSBSim's console output captured.
+        fdm, self.console = load_model(self.model, self.aircraft_dir, self.root)
+        where = f"JSBSim {self.model}"
+        self.mach = float(mach) if mach is not None else self._default_mach(fdm, aero)
+        self.mach_rule = (
+            "given"
+            if mach is not None
+            else f"the speed of level flight at C_L = {DEFAULT_LIFT_COEFFICIENT:g} at {self.altitude:g} m "
+            f"(W / (qbar S), the loaded weight), raised to the lowest Mach of the aerodynamic tables"
+        )
         # A candidate surface counts when the aerodynamics read it or one of the aircraft's copies of it.
         cands = {p for cs in SURFACE_CANDIDATES.values() for p, _ in cs}
         origin = {}
         for o, i, _, _ in jx.surface_copies(self._xml, self.aircraft_dir, self.root, cands):
             origin[o] = origin.get(i, i)
         seen = set(reads) | {origin[o] for o in reads if o in origin}
-        self.surface_map = self._surfaces(seen, surfaces or {})
+        #: Variable -> (lo, hi) [rad] of the surfaces found by the flight-control sweep.
+        self.swept_ranges: dict[str, tuple[float, float]] = {}
+        self.surface_map = self._surfaces(seen, surfaces or {}, reads)
         self.removed = jx.angle_rate_functions(functions)
         for f in self.removed:
             if f.axis not in _FORCE_AXES and f.axis not in _MOMENT_AXES:
@@ -413,10 +569,6 @@ class JSBSimAeroSource(SourceModel):
         #: The copies the aerodynamics read: output -> (input, component kind).
         self.surface_copies = {o: (i, kind) for o, i, _, kind in self.copies if o in reads}
 
-        # Sampling must not run the aircraft's <output> or <input> directives (files written into the JSBSim
-        # root, sockets bound): the model is loaded without them, JSBSim's console output captured.
-        fdm, self.console = load_model(self.model, self.aircraft_dir, self.root)
-        where = f"JSBSim {self.model}"
         check_properties(
             fdm,
             {
@@ -448,36 +600,82 @@ class JSBSimAeroSource(SourceModel):
         self.cg_in = np.array([fdm["inertia/cg-x-in"], fdm["inertia/cg-y-in"], fdm["inertia/cg-z-in"]])
         self.rp_in = np.array([fdm["metrics/aero-rp-x-in"], fdm["metrics/aero-rp-y-in"], fdm["metrics/aero-rp-z-in"]])
         self.name = f"JSBSim {self.model} at Mach {self.mach:g}, {self.altitude:g} m"
-        self.envelope = self._envelope(aero)
+        self.envelope = self._envelope(aero, functions)
+
+    def _default_mach(self, fdm, aero) -> float:
+        """Mach of level flight at :data:`DEFAULT_LIFT_COEFFICIENT` at the reference altitude, the loaded weight,
+        raised to the lowest Mach of the tables (below it JSBSim holds their end values)."""
+        fdm["ic/h-sl-ft"] = self.altitude / units.FT
+        fdm["ic/mach"] = 0.3
+        fdm["simulation/models/FGFCS/enabled"] = 0  # as for sampling: the weight needs no flight control
+        with _quiet(), _console_captured(self.console):
+            fdm.run_ic()
+        W, S = fdm["inertia/weight-lbs"], fdm["metrics/Sw-sqft"]
+        if not (W > 0 and S > 0):
+            raise InputError(
+                f"JSBSim {self.model}: weight {W:g} lbf, wing area {S:g} ft^2: no level-flight speed to "
+                f"take as the reference (give --mach)"
+            )
+        V = math.sqrt(2.0 * W / (fdm["atmosphere/rho-slugs_ft3"] * S * DEFAULT_LIFT_COEFFICIENT))
+        mach = V / fdm["atmosphere/a-fps"]
+        tables = jx.table_ranges(aero).get("velocities/mach")
+        if tables is not None and tables[0] < 5:
+            mach = max(mach, tables[0])
+        if not 0 < mach < 5:
+            raise InputError(
+                f"JSBSim {self.model}: level flight at C_L = {DEFAULT_LIFT_COEFFICIENT:g} needs Mach {mach:.3g} "
+                f"(weight {W:g} lbf on {S:g} ft^2): outside (0, 5); give --mach"
+            )
+        return float(f"{mach:.3g}")
 
     # -- set-up helpers -------------------------------------------------------------------------
-    def _surfaces(self, reads: set[str], override: Mapping[str, tuple[str, float]]) -> dict[str, tuple[str, float]]:
+    def _surfaces(
+        self, seen: set[str], override: Mapping[str, tuple[str, float]], reads: set[str]
+    ) -> dict[str, tuple[str, float]]:
+        """Each surface's property and factor: the override, a candidate the aerodynamics read, else the one
+        property the aerodynamics read that the pilot's command moves (:func:`flight_control_sweep`)."""
+        unknown = [k for k in override if k not in SURFACE_CANDIDATES]
+        if unknown:
+            raise InputError(f"unknown surface variable(s) {', '.join(unknown)}; use dl, dm, dn")
         out = {}
+        missing = []
         for var, cands in SURFACE_CANDIDATES.items():
             if var in override:
                 prop, sign = override[var]
                 out[var] = (str(prop), float(sign))
                 continue
-            found = [(p, s) for p, s in cands if p in reads]
-            if not found:
-                raise InputError(
-                    f"JSBSim {self.model}: its aerodynamics read none of "
-                    f"{', '.join(p for p, _ in cands)} (nor a copy of them) for {var}; give the "
-                    f"property explicitly (gflat fit jsbsim --property {var}=PROPERTY)"
-                )
-            out[var] = found[0]
-        unknown = [k for k in override if k not in SURFACE_CANDIDATES]
-        if unknown:
-            raise InputError(f"unknown surface variable(s) {', '.join(unknown)}; use dl, dm, dn")
+            found = [(p, s) for p, s in cands if p in seen]
+            if found:
+                out[var] = found[0]
+            else:
+                missing.append(var)
+        if missing:
+            sweep = flight_control_sweep(self, missing, reads)
+            for var in missing:
+                out[var], self.swept_ranges[var] = _swept_surface(self.model, var, sweep[var], reads)
         return out
 
-    def _envelope(self, aero) -> dict[str, tuple[float, float]]:
+    def _envelope(self, aero, functions) -> dict[str, tuple[float, float]]:
         """Domain covered by the tables (JSBSim holds end values beyond) and the FCS surface ranges;
         the tables of the removed alpha-dot/beta-dot functions do not count.
 
-        Also sets :attr:`envelope_origin`: variable -> what limits it.
+        alpha is bounded by the tables of the lift, drag and pitching-moment axes (``LIFT``, ``DRAG``,
+        ``PITCH``, body ``X``, ``Z``), beta by those of the side-force, rolling and yawing axes: a lateral
+        derivative tabulated over a narrower alpha range (JSBSim holds its end values) does not bound the
+        longitudinal data.  The surfaces are bounded by every table and by the flight-control output range.
+        Also sets :attr:`envelope_origin` (variable -> what limits it) and :attr:`mach_range` (the Mach range
+        of the tables, None when no table depends on Mach).
         """
-        ranges = jx.table_ranges(aero, frozenset(f.name for f in self.removed))
+        excluded = frozenset(f.name for f in self.removed)
+        ranges = jx.table_ranges(aero, excluded)
+        longitudinal = frozenset(f.name for f in functions if f.axis in _LONGITUDINAL_AXES)
+        lateral = frozenset(f.name for f in functions if f.axis in _LATERAL_AXES)
+        by_axes = {
+            "alpha": jx.table_ranges(aero, excluded, include=longitudinal),
+            "beta": jx.table_ranges(aero, excluded, include=lateral),
+        }
+        mach = ranges.get("velocities/mach")
+        self.mach_range = (mach[0], mach[1]) if mach is not None else None
         env: dict[str, tuple[float, float]] = {}
         origin: dict[str, str] = {}
 
@@ -491,20 +689,23 @@ class JSBSimAeroSource(SourceModel):
             env[var] = (lo, hi)
 
         deg = math.pi / 180.0
-        for prop, (lo, hi, where) in ranges.items():
-            f = deg if prop.endswith("deg") else 1.0
-            why = f"tables of {where} over {prop}"
-            if prop in ("aero/alpha-rad", "aero/alpha-deg"):
-                meet("alpha", lo * f, hi * f, why)
-            elif prop in ("aero/beta-rad", "aero/beta-deg"):
-                meet("beta", lo * f, hi * f, why)
-            elif prop in ("aero/mag-beta-rad", "aero/mag-beta-deg"):
-                meet("beta", -hi * f, hi * f, why)
+        for var, axis_ranges in by_axes.items():
+            for prop, (lo, hi, where) in axis_ranges.items():
+                f = deg if prop.endswith("deg") else 1.0
+                why = f"tables of {where} over {prop}"
+                if var == "alpha" and prop in ("aero/alpha-rad", "aero/alpha-deg"):
+                    meet("alpha", lo * f, hi * f, why)
+                elif var == "beta" and prop in ("aero/beta-rad", "aero/beta-deg"):
+                    meet("beta", lo * f, hi * f, why)
+                elif var == "beta" and prop in ("aero/mag-beta-rad", "aero/mag-beta-deg"):
+                    meet("beta", -hi * f, hi * f, why)
         for var, (prop, sign) in self.surface_map.items():
             if prop in ranges:
                 lo, hi, where = ranges[prop]
                 a, b = sorted((lo / sign, hi / sign))
                 meet(var, a, b, f"tables of {where} over {prop}")
+            if var in self.swept_ranges:
+                meet(var, *self.swept_ranges[var], f"flight-control sweep of {PILOT_COMMANDS[var]} over [-1, 1]")
             lim = jx.surface_limit(self._xml, self.aircraft_dir, self.root, prop)
             if lim is not None:
                 a, b = sorted((lim[0] / sign, lim[1] / sign))
@@ -686,7 +887,7 @@ class JSBSimAeroSource(SourceModel):
         }
 
 
-def vehicle_sections(source: JSBSimAeroSource) -> dict[str, dict]:
+def vehicle_sections(source: JSBSimAeroSource, measure: bool = False) -> dict[str, dict]:
     """``[mass]``, ``[geometry]``, ``[engines]`` of a JSBSim aircraft as loaded (default fuel and payload).
 
     x positions are measured aft of the JSBSim aerodynamic reference point
@@ -697,12 +898,17 @@ def vehicle_sections(source: JSBSimAeroSource) -> dict[str, dict]:
     ----------
     source : JSBSimAeroSource
         The loaded aircraft.
+    measure : bool
+        Measure the engines in JSBSim (:func:`gna.fit.sources.jsbsim_engines.measure_engines`, once the
+        layout is known to be representable): their rating against speed (non-turbine engines), thrust lag,
+        thrust line offset and torque arm join ``[engines]``; False leaves the propulsive moments
+        unrepresented (the bundled fits).
 
     Returns
     -------
     dict of str to dict
-        ``mass``, ``geometry``, ``engines`` in the aircraft-file layout (English units), each with its
-        ``source``.
+        ``mass``, ``geometry``, ``engines`` in the aircraft-file layout (English units, the measured
+        engine keys in SI), each with its ``source``.
 
     Raises
     ------
@@ -723,6 +929,12 @@ def vehicle_sections(source: JSBSimAeroSource) -> dict[str, dict]:
         abs(thr[0].y + thr[1].y) > 1e-6 or abs(thr[0].x - thr[1].x) > 1e-6 or abs(thr[0].z - thr[1].z) > 1e-6
     ):
         raise InputError(f"{where}: its two engines are not symmetric about the symmetry plane")
+    if measure:
+        from .jsbsim_engines import measure_engines
+
+        engines = measure_engines(source)
+    else:
+        engines = None
     cg_x, _, cg_z = v["cg_in"]
     rp_x = v["aero_rp_in"][0]
     dz_ft = (thr[0].z - cg_z) / 12.0
@@ -731,13 +943,23 @@ def vehicle_sections(source: JSBSimAeroSource) -> dict[str, dict]:
     if "max_thrust_lbf" in v["engines"]:
         eng["max_thrust_lbf"] = v["engines"]["max_thrust_lbf"]
     yaw = ", ".join(f"{math.degrees(t.yaw):g}" for t in thr)
+    moment = "its pitching moment is not represented" if engines is None else "thrust_line_offset, measured"
     eng["source"] = (
         f"{where}: thrusters at y = {', '.join(f'{t.y:g}' for t in thr)} in, pitch "
         f"{', '.join(f'{math.degrees(t.pitch):g}' for t in thr)} deg, yaw {yaw} deg; the thrust line "
-        f"is {abs(dz_ft):.3g} ft {'above' if dz_ft > 0 else 'below'} the CG (its pitching moment is "
-        f"not represented); max thrust: sum of "
-        f"{v['engines'].get('max_thrust_source', 'unknown (not a turbine engine file)')}"
+        f"is {abs(dz_ft):.3g} ft {'above' if dz_ft > 0 else 'below'} the CG ({moment}); max thrust: "
+        + (
+            f"sum of {v['engines']['max_thrust_source']}"
+            if "max_thrust_lbf" in eng
+            else (
+                "the largest of the measured rating times the engine count"
+                if engines is not None
+                else "unknown (not a turbine engine file)"
+            )
+        )
     )
+    if engines is not None:
+        eng.update(engines.section())
     return {
         "mass": {
             "mass_slug": v["mass_slug"],

@@ -179,7 +179,9 @@ def _numbers(text: str) -> list[list[float]]:
     return rows
 
 
-def table_ranges(aero: ET.Element, exclude: frozenset[str] = frozenset()) -> dict[str, tuple[float, float, str]]:
+def table_ranges(
+    aero: ET.Element, exclude: frozenset[str] = frozenset(), include: frozenset[str] | None = None
+) -> dict[str, tuple[float, float, str]]:
     """The range of the breakpoints of the tables over each property they are indexed by.
 
     The ranges of a property's tables are intersected: the domain where every table has data.
@@ -190,6 +192,8 @@ def table_ranges(aero: ET.Element, exclude: frozenset[str] = frozenset()) -> dic
         The ``<aerodynamics>`` element.
     exclude : frozenset of str
         Names of functions whose tables are ignored (e.g. the alpha-dot terms removed from the fit).
+    include : frozenset of str, optional
+        Only the tables of these functions count (default: every function's).
 
     Returns
     -------
@@ -224,7 +228,7 @@ def table_ranges(aero: ET.Element, exclude: frozenset[str] = frozenset()) -> dic
             owners.setdefault(id(table), fn.get("name", "?"))
     for table in aero.iter("table"):
         owner = owners.get(id(table), table.get("name", "?"))
-        if owner in exclude:
+        if owner in exclude or (include is not None and owner not in include):
             continue
         ivars = {}
         for iv in table.findall("independentVar"):
@@ -505,3 +509,33 @@ def turbine_static_thrust(engine_file: str, aircraft_dir: Path, jsbsim_root: Pat
                 return None
             return float(t.findtext(key)), f"{cand.name} <{key}>"
     return None
+
+
+def engine_kind(engine_file: str, aircraft_dir: Path, jsbsim_root: Path) -> str:
+    """The element name of an engine file's root (``piston_engine``, ``turbine_engine``, ``turboprop_engine``...).
+
+    Parameters
+    ----------
+    engine_file : str
+        The engine's file name without ``.xml``.
+    aircraft_dir, jsbsim_root : Path
+        Where the file is looked for: ``<aircraft_dir>/Engines``, then ``<jsbsim_root>/engine``.
+
+    Returns
+    -------
+    str
+        The tag, ``"unknown engine"`` when the file is not found.
+
+    Raises
+    ------
+    InputError
+        The engine file cannot be read (:func:`parse`).
+    """
+    for cand in (aircraft_dir / "Engines" / f"{engine_file}.xml", jsbsim_root / "engine" / f"{engine_file}.xml"):
+        if cand.is_file():
+            eng = parse(cand)
+            if eng.tag.endswith("_engine"):
+                return eng.tag
+            inner = next((c.tag for c in eng if c.tag.endswith("_engine")), None)
+            return inner or eng.tag
+    return "unknown engine"

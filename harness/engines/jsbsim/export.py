@@ -26,7 +26,9 @@ The file is generated from the aircraft's data alone, so that any aircraft of
   ``(cos eps, 0, -sin eps)``; their magnitudes (lbf) are
   ``external_reactions/engine{1,2}/magnitude``.  A single-engine aircraft gets
   the same two forces, both on the symmetry plane, so that every aircraft has
-  the same interface (F1 + F2 = F);
+  the same interface (F1 + F2 = F); a thrust line offset below the CG moves
+  both forces there, a propeller torque is a ``BODY`` moment about x whose
+  magnitude is ``torque_arm (F1 + F2)`` (:mod:`gna.eom`'s propulsive moments);
 * **controls**: declared properties ``ctrl/delta-{l,m,n}-rad``;
 * **ground effect**, only when asked (an engine flying an environment with one): the correction of
   :mod:`gna.ground_effect` as functions of JSBSim's ``aero/h_b-cg-ft`` (:mod:`.ground`); the lift and drag
@@ -338,15 +340,37 @@ def aircraft_xml(
         f"<!-- thrust: engine 1 left (y = -y_p), engine 2 right (y = +y_p), tilt eps = {number_text(eng.epsilon)} rad "
         f"nose-up; magnitudes in lbf{'; single engine: both forces on the symmetry plane' if eng.count == 1 else ''} -->"
     )
+    # The thrust line thrust_line_offset below the CG: the forces at body (o sin eps, y, o cos eps) from it.
+    o = eng.thrust_line_offset
+    x_t = geo.x_cg / units.IN - (o * math.sin(eng.epsilon) / units.IN if o != 0.0 else 0.0)
+    z_t = -o * math.cos(eng.epsilon) / units.IN if o != 0.0 else 0.0
     for k, y_in in ((1, -yp_in), (2, yp_in)):
         w.open("force", f'name="engine{k}" frame="BODY"')
-        w.location(None, geo.x_cg / units.IN, y_in, 0.0)
+        w.location(None, x_t, y_in, z_t)
         w.open("direction")
         w.leaf("x", math.cos(eng.epsilon))
         w.leaf("y", 0.0)
         w.leaf("z", -math.sin(eng.epsilon))
         w.close("direction")
         w.close("force")
+    if eng.torque_arm != 0.0:
+        # The propeller torque, torque_arm x the total thrust [lbf ft], about body x.
+        w.open("moment", 'name="propeller-torque" frame="BODY"')
+        w.open("function", 'name="external_reactions/propeller-torque/magnitude"')
+        w.open("product")
+        w.leaf("value", eng.torque_arm / units.FT)
+        w.open("sum")
+        for prop in THRUST_PROPERTIES:
+            w.leaf("property", prop)
+        w.close("sum")
+        w.close("product")
+        w.close("function")
+        w.open("direction")
+        w.leaf("x", 1.0)
+        w.leaf("y", 0.0)
+        w.leaf("z", 0.0)
+        w.close("direction")
+        w.close("moment")
     w.close("external_reactions")
     w.line()
 
