@@ -32,8 +32,7 @@ from pathlib import Path
 
 from gna.errors import InputError
 
-from ..fileio import replacing
-from ..outguard import _cause, check_output_file
+from ..rundir import check_output_file, write_file
 from ._args import bounded_count, finite_float, nonnegative_int, out_path, positive_float
 
 #: Most sample points per block of a fit (``--samples``, ``--test``): a JSBSim point is one run_ic (about 1 ms),
@@ -400,11 +399,7 @@ def run(args) -> int:
         command=command,
     )
     text = render(doc, name, command)
-    try:
-        with replacing(out) as tmp:  # atomic: a reader never sees half a file
-            tmp.write_text(text, encoding="utf-8")
-    except OSError as exc:
-        raise InputError(f"cannot write {out}: {_cause(exc)}") from None
+    write_file(out, text)  # atomic: a reader never sees half a file
     print(f"wrote {out}")
     print("held-out statistics (R2, RMS, max |error|):")
     for c, s in result.stats.items():
