@@ -72,6 +72,19 @@ Engine comparison settings (``gflat compare``, ``gflat paper``): keys
 :data:`COMPARE_KEYS`, checked here whatever the command (an unknown key is
 refused with the closest known one); their values are checked by
 :func:`harness.validation.parse_compare`.
+
+The ``[verdicts]`` table
+------------------------
+``known``
+    A list of violations the scenario records, each ``{name = ..., reason =
+    ...}``: ``name`` a limit of the flyability verdict (:data:`gna.limits.LIMIT_NAMES`:
+    ``"dl"``, ``"thrust[1]"``, ``"alpha"``, ``"mach"``, ``"nz"``, ...) or a whole
+    verdict (:data:`KNOWN_VERDICTS`: ``"tracking"``, ``"engines_agree"``);
+    ``reason`` why the scenario keeps it (non-empty).  A recorded violation is
+    still computed and shown; it only stops failing the command's exit status::
+
+        [verdicts]
+        known = [{ name = "dl", reason = "the paper's path asks for that roll moment" }]
 """
 
 from __future__ import annotations
@@ -90,8 +103,9 @@ from gna.catalogue import bundled
 from gna.eom import HValues
 from gna.errors import GflatError, InputError
 from gna.ground_effect import GroundEffect
+from gna.limits import LIMIT_NAMES
 from gna.perturbation import Perturbation, perturbation_from_dict
-from gna.schema import check_name, find_file, load_schema, read_toml, unknown_key_message, validate
+from gna.schema import check_name, did_you_mean, find_file, load_schema, read_toml, unknown_key_message, validate
 
 from .expressions import CONSTANTS, FUNCTIONS, Expression, compile_expression
 from .flat import FLAT_KINDS, FlatOutput, FlatProblem, check_iterations
@@ -114,7 +128,40 @@ TRACKING_KEYS: tuple[str, ...] = ("lambdas", "feedforward_iterate", "saturate", 
 #: Keys of the ``[compare]`` table (engine comparison settings): the one list, checked here for every command
 #: (the scenario schema is generated from it) and read by :func:`harness.validation.parse_compare`, which
 #: checks the values.
-COMPARE_KEYS: tuple[str, ...] = ("tolerances", "rtol", "windows", "dt_out", "jsbsim_dt", "self_convergence")
+COMPARE_KEYS: tuple[str, ...] = (
+    "tolerances",
+    "rtol",
+    "windows",
+    "dt_out",
+    "jsbsim_dt",
+    "self_convergence",
+    "tracking_tolerance",
+    "settle_time",
+)
+
+#: Keys of the ``[verdicts]`` table, and of each of its ``known`` records.
+VERDICTS_KEYS: tuple[str, ...] = ("known",)
+KNOWN_KEYS: tuple[str, ...] = ("name", "reason")
+
+#: Verdicts a ``known`` record may name whole (besides the limits of the flyability verdict).
+KNOWN_VERDICTS: tuple[str, ...] = ("tracking", "engines_agree")
+
+
+@dataclass(frozen=True)
+class KnownViolation:
+    """A violation a scenario records (``[verdicts] known``): still shown, it does not fail the exit status.
+
+    Attributes
+    ----------
+    name : str
+        A limit (:data:`gna.limits.LIMIT_NAMES`) or a verdict (:data:`KNOWN_VERDICTS`).
+    reason : str
+        Why the scenario keeps it.
+    """
+
+    name: str
+    reason: str
+
 
 #: Default sampling interval [s] of the feedback on sampled engines (JSBSim): None, every engine step.  A
 #: sampled feedback is another system than the in-house engine's continuous one: measured (dispersed Twin
@@ -183,6 +230,7 @@ class Scenario:
     path: str | None = None
     tracking: Tracking = field(default_factory=Tracking)
     compare: Mapping = field(default_factory=dict)
+    known: tuple = ()
 
     @property
     def t_nodes(self) -> np.ndarray:
@@ -420,7 +468,38 @@ def scenario_from_dict(
         path=path,
         tracking=_tracking(data.get("tracking", {}), kind, J_max if J == AUTO_J else J, f"{where} [tracking]"),
         compare=_compare(data.get("compare", {}), f"{where} [compare]"),
+        known=_known(data.get("verdicts", {}), f"{where} [verdicts]"),
     )
+
+
+def _known(table: Any, where: str) -> tuple:
+    """The ``[verdicts]`` table's ``known`` records (:class:`KnownViolation`), each name once."""
+    if not isinstance(table, Mapping):
+        raise InputError(f"{where}: must be a table, got {table!r}")
+    for key in table:
+        if key not in VERDICTS_KEYS:
+            raise InputError(unknown_key_message(key, VERDICTS_KEYS, where))
+    records = table.get("known", [])
+    if not isinstance(records, list):
+        raise InputError(f"{where}: known must be a list of {{name = ..., reason = ...}} tables, got {records!r}")
+    names = LIMIT_NAMES + KNOWN_VERDICTS
+    out = []
+    for i, rec in enumerate(records):
+        at = f"{where} known[{i}]"
+        if not isinstance(rec, Mapping):
+            raise InputError(f"{at}: must be a table {{name = ..., reason = ...}}, got {rec!r}")
+        for key in rec:
+            if key not in KNOWN_KEYS:
+                raise InputError(unknown_key_message(key, KNOWN_KEYS, at))
+        name, reason = rec.get("name"), rec.get("reason")
+        if name not in names:
+            raise InputError(f"{at}: unknown name {name!r}{did_you_mean(str(name), names)}; names: {', '.join(names)}")
+        if not isinstance(reason, str) or not reason.strip():
+            raise InputError(f"{at} ({name}): reason must be a non-empty string saying why, got {reason!r}")
+        if name in [k.name for k in out]:
+            raise InputError(f"{at}: {name!r} recorded twice")
+        out.append(KnownViolation(name, reason.strip()))
+    return tuple(out)
 
 
 def _compare(table: Any, where: str) -> Mapping:
