@@ -215,8 +215,9 @@ def judge(verdicts: Mapping, known: Sequence = ()) -> dict:
     }
 
 
-#: Causes of a campaign sample, in the order a failure is explained: the first that applies.
-CAUSES: tuple[str, ...] = ("pass", "infeasible", "unflyable", "controller failure", "engines disagree")
+#: Causes of a campaign sample, in the order a failure is explained (the first that applies); ``error``: the
+#: sample did not run to its end (an exception, or past its time budget).
+CAUSES: tuple[str, ...] = ("pass", "infeasible", "unflyable", "controller failure", "engines disagree", "error")
 
 
 def cause(verdicts: Mapping, known: Sequence = ()) -> str:
@@ -248,3 +249,57 @@ def cause(verdicts: Mapping, known: Sequence = ()) -> str:
     if "tracking" in failed:
         return "controller failure"
     return "engines disagree"
+
+
+def verdict_lines(verdicts: Mapping, judged: Mapping | None = None) -> list[str]:
+    """The verdicts as printed lines (``gflat compare``, ``gflat paper``): one per verdict, then each violation.
+
+    Parameters
+    ----------
+    verdicts : mapping
+        ``flyable``, ``tracking``, ``engines_agree``.
+    judged : mapping, optional
+        :func:`judge` of them (which failures the scenario records).
+
+    Returns
+    -------
+    list of str
+    """
+
+    def word(ok):
+        return "n/a" if ok is None else ("PASS" if ok else "FAIL")
+
+    fly, trk, agr = (verdicts[k] for k in VERDICT_NAMES)
+    lines = []
+    if fly.get("infeasible"):
+        lines.append(f"flyable: FAIL (no plan: {fly['reason']})")
+    else:
+        n = len(fly["violations"])
+        known = sum(v["known"] for v in fly["violations"])
+        extra = f" ({n} violation(s), {known} recorded by the scenario)" if n else ""
+        lines.append(f"flyable: {word(fly['pass'])}{extra}")
+
+    def shown(x, unit):
+        return f"{math.degrees(x):.2f} deg" if unit == "rad" else f"{x:.4g} {unit}".rstrip(" -")
+
+    for v in fly["violations"]:
+        lines.append(
+            f"  {v['name']}: worst {shown(v['worst'], v['unit'])} at t = {v['time']:.4g} s against "
+            f"{shown(v['limit'], v['unit'])}, "
+            f"{100 * v['fraction']:.0f} % of the span" + (f"; recorded: {v['reason']}" if v["known"] else "")
+        )
+    if trk["pass"] is None:
+        lines.append(f"tracking: n/a ({trk['reason']})")
+    else:
+        err = trk["max_error_after_settle_m"]
+        lines.append(
+            f"tracking: {word(trk['pass'])} (largest distance to the flat outputs after {trk['settle_s']:g} s "
+            f"{'n/a' if err is None else f'{err:.3g} m'} against {trk['tolerance_m']:g} m; commands saturated "
+            f"{trk['saturated_s']:.2f} s)"
+        )
+    bad = [f"{k}: {', '.join(d['failing'])}" for k, d in agr["differences"].items() if d["failing"]]
+    detail = "; ".join(([f"runs ended early: {', '.join(agr['incomplete'])}"] if agr["incomplete"] else []) + bad)
+    lines.append(f"engines_agree: {word(agr['pass'])}" + (f" ({detail})" if detail else ""))
+    if judged is not None and judged["unrecorded"]:
+        lines.append(f"failing (not recorded by the scenario): {', '.join(judged['unrecorded'])}")
+    return lines
