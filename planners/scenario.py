@@ -103,9 +103,8 @@ from gna.catalogue import bundled
 from gna.eom import HValues
 from gna.errors import GflatError, InputError
 from gna.ground_effect import GroundEffect
-from gna.limits import LIMIT_NAMES
 from gna.perturbation import Perturbation, perturbation_from_dict
-from gna.schema import check_name, did_you_mean, find_file, load_schema, read_toml, unknown_key_message, validate
+from gna.schema import check_name, find_file, load_schema, read_toml, unknown_key_message, validate
 
 from .expressions import CONSTANTS, FUNCTIONS, Expression, compile_expression
 from .flat import FLAT_KINDS, FlatOutput, FlatProblem, check_iterations
@@ -138,10 +137,6 @@ COMPARE_KEYS: tuple[str, ...] = (
     "tracking_tolerance",
     "settle_time",
 )
-
-#: Keys of the ``[verdicts]`` table, and of each of its ``known`` records.
-VERDICTS_KEYS: tuple[str, ...] = ("known",)
-KNOWN_KEYS: tuple[str, ...] = ("name", "reason")
 
 #: Verdicts a ``known`` record may name whole (besides the limits of the flyability verdict).
 KNOWN_VERDICTS: tuple[str, ...] = ("tracking", "engines_agree")
@@ -472,33 +467,17 @@ def scenario_from_dict(
     )
 
 
-def _known(table: Any, where: str) -> tuple:
-    """The ``[verdicts]`` table's ``known`` records (:class:`KnownViolation`), each name once."""
-    if not isinstance(table, Mapping):
-        raise InputError(f"{where}: must be a table, got {table!r}")
-    for key in table:
-        if key not in VERDICTS_KEYS:
-            raise InputError(unknown_key_message(key, VERDICTS_KEYS, where))
-    records = table.get("known", [])
-    if not isinstance(records, list):
-        raise InputError(f"{where}: known must be a list of {{name = ..., reason = ...}} tables, got {records!r}")
-    names = LIMIT_NAMES + KNOWN_VERDICTS
+def _known(table: Mapping, where: str) -> tuple:
+    """The ``[verdicts]`` table's ``known`` records (:class:`KnownViolation`; keys, names and the reason's
+    presence checked by the schema), each name once and each reason said."""
     out = []
-    for i, rec in enumerate(records):
-        at = f"{where} known[{i}]"
-        if not isinstance(rec, Mapping):
-            raise InputError(f"{at}: must be a table {{name = ..., reason = ...}}, got {rec!r}")
-        for key in rec:
-            if key not in KNOWN_KEYS:
-                raise InputError(unknown_key_message(key, KNOWN_KEYS, at))
-        name, reason = rec.get("name"), rec.get("reason")
-        if name not in names:
-            raise InputError(f"{at}: unknown name {name!r}{did_you_mean(str(name), names)}; names: {', '.join(names)}")
-        if not isinstance(reason, str) or not reason.strip():
-            raise InputError(f"{at} ({name}): reason must be a non-empty string saying why, got {reason!r}")
+    for i, rec in enumerate(table.get("known", [])):
+        name, reason = rec["name"], rec["reason"].strip()
+        if not reason:
+            raise InputError(f"{where} known #{i + 1} ({name}): the reason is blank; say why the scenario keeps it")
         if name in [k.name for k in out]:
-            raise InputError(f"{at}: {name!r} recorded twice")
-        out.append(KnownViolation(name, reason.strip()))
+            raise InputError(f"{where} known #{i + 1}: {name!r} recorded twice")
+        out.append(KnownViolation(name, reason))
     return tuple(out)
 
 

@@ -230,7 +230,7 @@ def _metrics(plan, runs, ctl, j, settings, flyable: dict, known=()) -> dict:
     verdicts = {
         "flyable": flyable,
         "tracking": tracking_verdict(
-            runs, ref, plan.t0, settings.tracking_tolerance, settings.settle_time, sat if ctl is not None else None
+            runs, ref, span, settings.tracking_tolerance, settings.settle_time, sat if ctl is not None else None
         ),
         "engines_agree": engines_agree_verdict(runs, tables),
     }

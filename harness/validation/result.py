@@ -178,7 +178,7 @@ class CaseResult:
             "tracking": tracking_verdict(
                 self.runs,
                 lambda t: self.plan.state(t, J),
-                self.plan.t0,
+                (self.plan.t0, self.plan.t1),
                 tol,
                 settle,
                 self.saturated_s() if self.closed_loop is not None else None,

@@ -94,7 +94,7 @@ def infeasible_flyable(why: str) -> dict:
 def tracking_verdict(
     runs: Mapping,
     reference: Callable,
-    t0: float,
+    span: tuple[float, float],
     tolerance_m: float,
     settle_s: float,
     saturated_s: Mapping | None,
@@ -107,8 +107,9 @@ def tracking_verdict(
         Engine label -> closed-loop SimulationResult.
     reference : callable
         ``t -> state`` of the plan (its x, y, z are the flat outputs).
-    t0 : float
-        Start of the plan [s].
+    span : (t0, t1)
+        The plan's span [s]; the measure starts at ``min(t0 + settle_s, t1)`` (a span shorter than the
+        settle time is judged at its end).
     tolerance_m : float
         Largest distance allowed after the settle time [m].
     settle_s : float
@@ -129,8 +130,9 @@ def tracking_verdict(
     if saturated_s is None:
         return {"pass": None, "applies": False, "reason": "open loop: no feedback to judge"}
     engines = {}
+    start = min(float(span[0]) + settle_s, float(span[1]))
     for label, res in runs.items():
-        err = _finite(max_position_error(res, reference, (t0 + settle_s, None)))
+        err = _finite(max_position_error(res, reference, (start - 1e-9, None)))
         sat = float(saturated_s.get(label, {}).get("any", 0.0))
         ok = res.status == "completed" and err is not None and err <= tolerance_m
         engines[label] = {"status": res.status, "max_error_after_settle_m": err, "saturated_s": sat, "pass": ok}
@@ -140,6 +142,7 @@ def tracking_verdict(
         "applies": True,
         "tolerance_m": tolerance_m,
         "settle_s": settle_s,
+        "from_s": start,
         "engines": engines,
         "max_error_after_settle_m": None if None in errs else max(errs, default=None),
         "saturated_s": max((e["saturated_s"] for e in engines.values()), default=0.0),
