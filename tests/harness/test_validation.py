@@ -34,6 +34,8 @@ SUMMARY_KEYS = {
     "J",
     "engines",
     "passed",
+    "verdicts",
+    "failures",
     "status",
     "tables",
     "figures",
