@@ -209,8 +209,9 @@ def _figures(folder: Path, summary: dict, rows: list, outdir: Path) -> list[Path
             bottom += n
     ax.set_xticks(range(len(keys)), keys, rotation=15, fontsize=8)
     ax.set_ylabel("samples")
-    ax.legend(fontsize=7)
-    ax.set_title("Samples per cause (pass: no verdict failing that the scenario does not record)")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    ax.set_title("Samples per cause", fontsize=9)
+    fig.tight_layout()
     figs.append(("pass_rate.png", fig))
     for metric, title, unit in (
         ("max_position_error_m", "Largest distance to the flat outputs", "m"),
