@@ -94,6 +94,11 @@ def _naming(where: str):
         raise InputError(f"{where}: {exc}") from None
 
 
+def _plain(table: Mapping[str, Any], key: str, where: str) -> float | None:
+    """An optional dimensionless number (Mach, load factor), None when absent."""
+    return None if key not in table else _check(_number(table[key], key, where), key, where)
+
+
 def _check(value: float, key: str, where: str) -> float:
     if not math.isfinite(value):
         raise InputError(f"{where}: {key} is {value}")
@@ -244,16 +249,22 @@ class Propulsion:
 
 @dataclass(frozen=True)
 class Envelope:
-    """Validity domain of the aerodynamic model [rad], and control limits."""
+    """Validity domain of the aerodynamic model [rad], control limits, and the optional Mach and load-factor ranges.
+
+    ``mach_min``/``mach_max`` bound the Mach number of the data the aerodynamics were fitted or published
+    on, ``nz_min``/``nz_max`` the structural load factor; None leaves that side unchecked.  The checks of
+    all the limits are :mod:`gna.limits`.
+    """
 
     alpha_min: float = math.radians(-10.0)
     alpha_max: float = math.radians(30.0)
     beta_max: float = math.radians(20.0)
     control_limits: Mapping[str, float] = field(default_factory=dict)
     source: str = ""
-    #: Mach range of the data the model was fitted on or published from (None: not bounded).
     mach_min: float | None = None
     mach_max: float | None = None
+    nz_min: float | None = None
+    nz_max: float | None = None
 
     def __post_init__(self):
         if (self.mach_min is None) != (self.mach_max is None) or (
@@ -270,6 +281,12 @@ class Envelope:
         for name, lim in self.control_limits.items():
             if not lim > 0:
                 raise InputError(f"{name}_max = {lim} rad must be positive")
+        if self.mach_min is not None and not self.mach_min >= 0:
+            raise InputError(f"mach_min = {self.mach_min:g} must be >= 0")
+        for lo, hi in (("mach_min", "mach_max"), ("nz_min", "nz_max")):
+            a, b = getattr(self, lo), getattr(self, hi)
+            if a is not None and b is not None and not a < b:
+                raise InputError(f"{lo} = {a:g} must be below {hi} = {b:g}")
 
     def violations(self, alpha, beta) -> list[str]:
         """Human-readable list of envelope violations (empty when inside).
@@ -436,8 +453,7 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
             beta_max=_get(v, "beta_max", "angle", where + " [envelope]", math.radians(20.0)),
             control_limits=limits,
             source=str(v.get("source", "")),
-            mach_min=None if "mach_min" not in v else _number(v["mach_min"], "mach_min", where + " [envelope]"),
-            mach_max=None if "mach_max" not in v else _number(v["mach_max"], "mach_max", where + " [envelope]"),
+            **{k: _plain(v, k, where + " [envelope]") for k in ("mach_min", "mach_max", "nz_min", "nz_max")},
         )
     a = data["aero"]
     aero = TermTable.from_records(

@@ -41,6 +41,28 @@ RHO_TROPO = RHO0 * (T_TROPO / T0) ** _EXP_TROPO
 ISA_RANGE = (-2000.0, 20000.0)
 
 
+#: Ratio of specific heats of air (speed of sound of the ISA).
+GAMMA_AIR = 1.4
+
+
+def speed_of_sound(h) -> np.ndarray:
+    """ISA speed of sound ``a = sqrt(gamma R T(h))`` [m/s], troposphere and lower stratosphere.
+
+    Parameters
+    ----------
+    h : array_like
+        Altitude [m].
+
+    Returns
+    -------
+    ndarray
+        Speed of sound [m/s] (ISO 2533 temperature: ``T0 - L h`` up to 11 km, constant above).
+    """
+    h = np.asarray(h, dtype=float)
+    T = T0 - LAPSE * np.minimum(h, H_TROPO)
+    return np.sqrt(GAMMA_AIR * R_AIR * T)
+
+
 def _altitude_values(h) -> np.ndarray:
     """Altitudes [m] as a float array (constant terms of series)."""
     return np.atleast_1d(np.asarray(_constant_term(h), dtype=float))

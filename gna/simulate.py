@@ -31,6 +31,7 @@ from .atmosphere import Environment
 from .controller import as_controller, checked_initial_state, evaluate, state_names
 from .eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, loads
 from .errors import InputError
+from .limits import body_load_factors, limit_violations
 from .piecewise import PiecewisePolynomial
 from .tape import compile_derivatives
 from .trajectory import (
@@ -360,19 +361,13 @@ def _frame(aircraft, env, grid, Y, ufun, feedback, model, h) -> tuple[pd.DataFra
     ld = loads(aircraft, env, s, u, model, h)
     data = {n: Y[i] for i, n in enumerate(STATE_NAMES)}
     data.update({n: U[i] for i, n in enumerate(CONTROL_NAMES)})
-    m, g = aircraft.mass.mass, env.g
-    # Load factors: non-gravitational specific force in body axes over g (nz positive "up").
-    ca, sa, cb, sb = np.cos(s.alpha), np.sin(s.alpha), np.cos(s.beta), np.sin(s.beta)
-    fx_w, fy_w, fz_w = ld.Xa, ld.Ya, ld.Za
-    fbx = ca * cb * fx_w - ca * sb * fy_w - sa * fz_w
-    fby = sb * fx_w + cb * fy_w
-    fbz = sa * cb * fx_w - sa * sb * fy_w + ca * fz_w
+    nx, ny, nz = body_load_factors(aircraft, env, s, ld)  # the limits' definition (gna.limits)
     data.update(
         qbar=np.broadcast_to(ld.qbar, grid.shape),
         rho=np.broadcast_to(ld.rho, grid.shape),
-        nx=fbx / (m * g),
-        ny=fby / (m * g),
-        nz=-fbz / (m * g),
+        nx=nx,
+        ny=ny,
+        nz=nz,
         X=ld.X,
         Y=ld.Y,
         Z=ld.Z,
@@ -386,116 +381,31 @@ def _frame(aircraft, env, grid, Y, ufun, feedback, model, h) -> tuple[pd.DataFra
     return df, dU
 
 
-def _excursion(df, mask, name: str, values, worst_index: int, text: str) -> str:
-    t = df.index.to_numpy(dtype=float)
-    m = mask.to_numpy() if hasattr(mask, "to_numpy") else np.asarray(mask)
-    first, last = float(t[m][0]), float(t[m][-1])
-    dt = np.diff(t, append=t[-1])
-    duration = float(np.sum(dt[m]))
-    frac = 100.0 * duration / max(float(t[-1] - t[0]), 1e-300)
-    span = (
-        f"at t = {first:.4g} s" if first == last else f"from t = {first:.4g} to {last:.4g} s ({frac:.0f} % of the run)"
-    )
-    return f"{text} {span}; worst {values[worst_index]} at t = {t[worst_index]:.4g} s"
+#: The columns :func:`envelope_warnings` reads of a plan (a caller may build only these); a load-factor limit
+#: also reads every state and control (:func:`gna.limits.limit_columns`).
+ENVELOPE_VARIABLES: tuple[str, ...] = ("z", "V", "alpha", "beta") + CONTROL_NAMES
 
 
-#: The columns :func:`envelope_warnings` reads (a caller may build only these).
-ENVELOPE_VARIABLES: tuple[str, ...] = ("V", "alpha", "beta") + CONTROL_NAMES
-
-
-def envelope_warnings(aircraft, df) -> list[str]:
-    """Excursions of a trajectory outside the aircraft's envelope, control limits and thrust range (total, per engine).
+def envelope_warnings(aircraft, df, env=None) -> list[str]:
+    """Excursions of a trajectory outside the aircraft's limits (:func:`gna.limits.limit_violations`), as text.
 
     Parameters
     ----------
     aircraft : Aircraft
         Its envelope, control limits and propulsion.
     df : pandas.DataFrame
-        A trajectory indexed by time [s] with the columns :data:`ENVELOPE_VARIABLES` (V, alpha, beta, F, eta,
-        dl, dm, dn).
+        A trajectory indexed by time [s] with the columns :data:`ENVELOPE_VARIABLES` (z, V, alpha, beta, F,
+        eta, dl, dm, dn); ``nz`` or every state for a load-factor limit.
+    env : Environment, optional
+        To compute ``nz`` when the frame has no such column.
 
     Returns
     -------
     list of str
-        One warning per excursion: the span of times, its share of the run, the worst value and the limit.
+        One warning per excursion (:meth:`gna.limits.Violation.text`): the span of times, its share of the
+        run, the worst value and the limit.
     """
-    out = []
-    env = aircraft.envelope
-    deg = lambda v: f"{math.degrees(v):.2f} deg"  # noqa: E731
-    a, b = df["alpha"].to_numpy(), df["beta"].to_numpy()
-    for mask, worst, text in (
-        (
-            a < env.alpha_min,
-            int(np.argmin(a)),
-            f"alpha below the aerodynamic model's envelope ({math.degrees(env.alpha_min):.1f} deg)",
-        ),
-        (
-            a > env.alpha_max,
-            int(np.argmax(a)),
-            f"alpha above the aerodynamic model's envelope ({math.degrees(env.alpha_max):.1f} deg)",
-        ),
-        (
-            np.abs(b) > env.beta_max,
-            int(np.argmax(np.abs(b))),
-            f"|beta| above the aerodynamic model's envelope ({math.degrees(env.beta_max):.1f} deg)",
-        ),
-    ):
-        if np.any(mask):
-            vals = a if "alpha" in text else b
-            out.append(_excursion(df, mask, "", [deg(v) for v in vals], worst, text))
-    for name, lim in env.control_limits.items():
-        v = df[name].to_numpy()
-        mask = np.abs(v) > lim
-        if np.any(mask):
-            out.append(
-                _excursion(
-                    df,
-                    mask,
-                    name,
-                    [deg(x) for x in v],
-                    int(np.argmax(np.abs(v))),
-                    f"control {name} beyond its limit {math.degrees(lim):.1f} deg",
-                )
-            )
-    F = df["F"].to_numpy()
-    if np.any(F < 0):
-        out.append(
-            _excursion(
-                df,
-                F < 0,
-                "F",
-                [f"{x:.4g} N" for x in F],
-                int(np.argmin(F)),
-                "negative thrust F (drag beyond the airframe's needed)",
-            )
-        )
-    fmax = aircraft.propulsion.max_thrust
-    if fmax is not None and np.any(F > fmax):
-        out.append(
-            _excursion(
-                df,
-                F > fmax,
-                "F",
-                [f"{x:.4g} N" for x in F],
-                int(np.argmax(F)),
-                f"thrust F above the maximum {fmax:.4g} N",
-            )
-        )
-    out += engine_thrust_warnings(aircraft, F, df["eta"].to_numpy(), df["V"].to_numpy(), df.index.to_numpy(dtype=float))
-    if aircraft.propulsion.count == 2:
-        eta = df["eta"].to_numpy()
-        if np.any(np.abs(eta) > 1):
-            out.append(
-                _excursion(
-                    df,
-                    np.abs(eta) > 1,
-                    "eta",
-                    [f"{x:.4g}" for x in eta],
-                    int(np.argmax(np.abs(eta))),
-                    "|eta| above 1 (one engine would need negative thrust)",
-                )
-            )
-    return out
+    return [v.text() for v in limit_violations(aircraft, df, env)]
 
 
 def engine_thrust_warnings(aircraft: Aircraft, F, eta, V, t=None) -> list[str]:

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from gna.atmosphere import H_TROPO, LAPSE, R_AIR, T0
+from gna.atmosphere import speed_of_sound
 from gna.errors import InputError
 from gna.frames import C_body_ned, euler_from_dcm
 from gna.trajectory import UNITS
@@ -201,27 +201,6 @@ EXTRA_UNITS: dict[str, str] = {
     "w": "m/s",
     "Mach": "-",
 }
-
-#: Ratio of specific heats of air (speed of sound of the ISA).
-GAMMA_AIR = 1.4
-
-
-def speed_of_sound(h) -> np.ndarray:
-    """ISA speed of sound ``a = sqrt(gamma R T(h))`` [m/s], troposphere and lower stratosphere.
-
-    Parameters
-    ----------
-    h : array_like
-        Altitude [m].
-
-    Returns
-    -------
-    ndarray
-        Speed of sound [m/s] (ISO 2533 temperature: ``T0 - L h`` up to 11 km, constant above).
-    """
-    h = np.asarray(h, dtype=float)
-    T = T0 - LAPSE * np.minimum(h, H_TROPO)
-    return np.sqrt(GAMMA_AIR * R_AIR * T)
 
 
 def augmented(df: pd.DataFrame) -> pd.DataFrame:

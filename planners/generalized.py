@@ -383,7 +383,6 @@ def _auto_J(
 
 def _finish(plan: Plan) -> Plan:
     """Newton failures, domain, singularity monitor and envelope checks of a plan (both methods)."""
-    problem, t_nodes = plan.problem, plan.t_nodes
     plan.warnings.extend(plan.newton_failures)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         plan.singularities = monitor(plan)
@@ -391,12 +390,8 @@ def _finish(plan: Plan) -> Plan:
     plan.domain_failures = plan.singularities.failures + domain_failures(plan) + ground_failures(plan)
     plan.warnings.extend(plan.domain_failures)
     plan.warnings.extend(plan.singularities.warnings)
-    if plan.feasible:
-        from gna.simulate import ENVELOPE_VARIABLES, envelope_warnings
-
-        # between the nodes too; the columns gna.simulate.envelope_warnings reads
-        fine = plan.to_dataframe(step=float(np.min(np.diff(t_nodes))) / 8, variables=ENVELOPE_VARIABLES)
-        plan.warnings.extend(f"plan (j = {plan.J}): {w}" for w in envelope_warnings(problem.aircraft, fine))
+    if plan.feasible:  # between the nodes too: the grid and the limits of the flyability verdict
+        plan.warnings.extend(f"plan (j = {plan.J}): {v.text()}" for v in plan.limit_violations())
     return plan
 
 

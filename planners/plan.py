@@ -576,6 +576,58 @@ class Plan:
         vals = self._evaluate_many(names, t, j)  # (len(names), N): one float block
         return pd.DataFrame(vals.T, columns=list(names), index=pd.Index(t, name="t"))
 
+    def limit_frame(self, j: int = -1, aircraft: Aircraft | None = None) -> pd.DataFrame:
+        """The plan on the grid its limits are checked on: step ``gna.limits.fine_step(smallest node step)``.
+
+        The states are the iterate's; the controls are those of :meth:`control_function` (what an engine
+        flies), evaluated on the grid.
+
+        Parameters
+        ----------
+        j : int
+            Iterate (default: the last).
+        aircraft : Aircraft, optional
+            Whose limits decide the columns (:func:`gna.limits.limit_columns`); default the plan's.
+
+        Returns
+        -------
+        DataFrame
+            Indexed by ``t`` [s], ``t0`` to ``t1`` (``t1`` included).
+        """
+        from gna.limits import fine_step, limit_columns
+
+        step = fine_step(float(np.min(np.diff(self.t_nodes))))
+        n = int(math.ceil((self.t1 - self.t0) / step - 1e-9))
+        t = np.linspace(self.t0, self.t1, n + 1)
+        names = limit_columns(aircraft or self.aircraft)
+        frame = self.to_dataframe(t, j=j, variables=[v for v in names if v not in CONTROL_NAMES])
+        f = self.control_function(j)
+        U = f.evaluate(t) if isinstance(f, PiecewisePolynomial) else np.array([f(x) for x in t]).T
+        for i, c in enumerate(CONTROL_NAMES):
+            if c in names:
+                frame[c] = U[i]
+        return frame
+
+    def limit_violations(self, j: int = -1, aircraft: Aircraft | None = None) -> list:
+        """Where iterate ``j`` leaves the aircraft's limits (:func:`gna.limits.limit_violations`).
+
+        Parameters
+        ----------
+        j : int
+            Iterate (default: the last).
+        aircraft : Aircraft, optional
+            Whose limits (default the plan's).
+
+        Returns
+        -------
+        list of gna.limits.Violation
+            On the grid of :meth:`limit_frame`; empty within every limit.
+        """
+        from gna.limits import limit_violations
+
+        ac = aircraft or self.aircraft
+        return limit_violations(ac, self.limit_frame(j, ac), self.env)
+
     def node_values(self, j: int = -1) -> tuple[State, Controls]:
         """States and controls at the nodes (constant terms of the series).
 

@@ -83,6 +83,19 @@ Engine comparison settings (``gflat compare``, ``gflat paper``): keys
 :data:`COMPARE_KEYS`, checked here whatever the command (an unknown key is
 refused with the closest known one); their values are checked by
 :func:`harness.validation.parse_compare`.
+
+The ``[verdicts]`` table
+------------------------
+``known``
+    A list of violations the scenario records, each ``{name = ..., reason =
+    ...}``: ``name`` a limit of the flyability verdict (:data:`gna.limits.LIMIT_NAMES`:
+    ``"dl"``, ``"thrust[1]"``, ``"alpha"``, ``"mach"``, ``"nz"``, ...) or a whole
+    verdict (:data:`KNOWN_VERDICTS`: ``"tracking"``, ``"engines_agree"``);
+    ``reason`` why the scenario keeps it (non-empty).  A recorded violation is
+    still computed and shown; it only stops failing the command's exit status::
+
+        [verdicts]
+        known = [{ name = "dl", reason = "the paper's path asks for that roll moment" }]
 """
 
 from __future__ import annotations
@@ -134,7 +147,36 @@ TRACKING_KEYS: tuple[str, ...] = (
 #: Keys of the ``[compare]`` table (engine comparison settings): the one list, checked here for every command
 #: (the scenario schema is generated from it) and read by :func:`harness.validation.parse_compare`, which
 #: checks the values.
-COMPARE_KEYS: tuple[str, ...] = ("tolerances", "rtol", "windows", "dt_out", "jsbsim_dt", "self_convergence")
+COMPARE_KEYS: tuple[str, ...] = (
+    "tolerances",
+    "rtol",
+    "windows",
+    "dt_out",
+    "jsbsim_dt",
+    "self_convergence",
+    "tracking_tolerance",
+    "settle_time",
+)
+
+#: Verdicts a ``known`` record may name whole (besides the limits of the flyability verdict).
+KNOWN_VERDICTS: tuple[str, ...] = ("tracking", "engines_agree")
+
+
+@dataclass(frozen=True)
+class KnownViolation:
+    """A violation a scenario records (``[verdicts] known``): still shown, it does not fail the exit status.
+
+    Attributes
+    ----------
+    name : str
+        A limit (:data:`gna.limits.LIMIT_NAMES`) or a verdict (:data:`KNOWN_VERDICTS`).
+    reason : str
+        Why the scenario keeps it.
+    """
+
+    name: str
+    reason: str
+
 
 #: Default sampling interval [s] of the feedback on sampled engines (JSBSim): None, every engine step.  A
 #: sampled feedback is another system than the in-house engine's continuous one: measured (dispersed Twin
@@ -233,6 +275,7 @@ class Scenario:
     path: str | None = None
     tracking: Tracking = field(default_factory=Tracking)
     compare: Mapping = field(default_factory=dict)
+    known: tuple = ()
 
     @property
     def t_nodes(self) -> np.ndarray:
@@ -470,7 +513,22 @@ def scenario_from_dict(
         path=path,
         tracking=_tracking(data.get("tracking", {}), kind, J_max if J == AUTO_J else J, f"{where} [tracking]"),
         compare=_compare(data.get("compare", {}), f"{where} [compare]"),
+        known=_known(data.get("verdicts", {}), f"{where} [verdicts]"),
     )
+
+
+def _known(table: Mapping, where: str) -> tuple:
+    """The ``[verdicts]`` table's ``known`` records (:class:`KnownViolation`; keys, names and the reason's
+    presence checked by the schema), each name once and each reason said."""
+    out = []
+    for i, rec in enumerate(table.get("known", [])):
+        name, reason = rec["name"], rec["reason"].strip()
+        if not reason:
+            raise InputError(f"{where} known #{i + 1} ({name}): the reason is blank; say why the scenario keeps it")
+        if name in [k.name for k in out]:
+            raise InputError(f"{where} known #{i + 1}: {name!r} recorded twice")
+        out.append(KnownViolation(name, reason))
+    return tuple(out)
 
 
 def _compare(table: Any, where: str) -> Mapping:

@@ -18,7 +18,7 @@ __all__ = ["render_campaign", "FIGURES"]
 
 #: Figures of a campaign report, with their captions, in page order.
 FIGURES: tuple[tuple[str, str], ...] = (
-    ("pass_rate.png", "Cases passing per case group"),
+    ("pass_rate.png", "Samples per cause in each case group"),
     ("max_position_error_m.png", "Largest distance to the flat outputs"),
     ("saturated_s.png", "Time with a control commanded beyond its limits"),
     ("engine_differences.png", "Engine differences"),

@@ -102,6 +102,62 @@ def cell(value, column: str, spec: str | None = None) -> str:
     return fmt(value, spec)
 
 
+#: The verdict columns of the index and the case pages: verdict -> heading.
+VERDICT_HEADINGS = {"flyable": "flyable", "tracking": "tracking", "engines_agree": "engines agree"}
+
+
+def _shown(value, unit: str) -> str:
+    if value is None:
+        return "-"
+    if unit == "rad":
+        return f"{math.degrees(value):.2f}\u00b0"
+    return f"{fmt(value)} {unit}".rstrip(" -")
+
+
+def verdict_cells(model: dict) -> list[dict]:
+    """Each verdict of a case model as a cell: its state and its worst figure.
+
+    Parameters
+    ----------
+    model : dict
+        A case model (:func:`reports.model.case_model`); a model saved before the verdicts gives dashes.
+
+    Returns
+    -------
+    list of dict
+        In :data:`VERDICT_HEADINGS` order: ``name``, ``heading``, ``state`` (``"pass"``, ``"fail"``,
+        ``"recorded"``: failing, recorded by the scenario, or ``"n/a"``), ``worst`` (the worst
+        violation, the largest tracking error after the settle time, the largest engine difference).
+    """
+    verdict = model.get("verdict") or {}
+    verdicts = verdict.get("verdicts") or {}
+    failures = verdict.get("failures") or []
+    out = []
+    for name, heading in VERDICT_HEADINGS.items():
+        v = verdicts.get(name)
+        if v is None or v.get("pass") is None:
+            out.append({"name": name, "heading": heading, "state": "n/a", "worst": "-"})
+            continue
+        failing = any(f == name or f.startswith(name + ":") for f in failures)
+        state = "pass" if v["pass"] else ("fail" if failing else "recorded")
+        if name == "flyable":
+            if v.get("infeasible"):
+                worst = "no plan"
+            else:
+                viol = v.get("violations") or []
+                worst = (
+                    "; ".join(f"{x['name']} {_shown(x['worst'], x['unit'])} at t = {fmt(x['time'])} s" for x in viol)
+                    or "within limits"
+                )
+        elif name == "tracking":
+            worst = f"{_shown(v.get('max_error_after_settle_m'), 'm')} after {fmt(v.get('settle_s'))} s"
+        else:
+            d = [x.get("max_position_m") for x in (v.get("differences") or {}).values()]
+            worst = " ".join(_shown(x, "m") for x in d) or "-"
+        out.append({"name": name, "heading": heading, "state": state, "worst": worst})
+    return out
+
+
 def _environment():
     import jinja2
 
@@ -117,6 +173,7 @@ def _environment():
     env.filters["cell"] = cell
     env.filters["header"] = lambda name: HEADERS.get(name, name)
     env.filters["verdict"] = lambda ok: "PASS" if ok else "FAIL"
+    env.filters["verdict_cells"] = verdict_cells
     env.filters["tojson_pretty"] = lambda obj: json.dumps(obj, indent=2, sort_keys=False)
     return env
 

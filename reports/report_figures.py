@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from gna.eom import CONTROL_NAMES
+from gna.limits import control_ranges
 from harness.metrics import differences
 
 from .figures import grid_margins, plot_scale, save_figure
@@ -28,7 +29,7 @@ SINGULARITY_PNG, CONTROLS_LIMITS_PNG, SIGNED_DIFFERENCES_PNG = (
 
 
 def control_limits(aircraft) -> dict[str, tuple[float, float]]:
-    """Range of every bounded control: thrust ``0 .. max_thrust``, ``|eta| <= 1`` with two engines, surfaces.
+    """Range of every bounded control (:func:`gna.limits.control_ranges`, the one definition of the limits).
 
     Parameters
     ----------
@@ -38,17 +39,10 @@ def control_limits(aircraft) -> dict[str, tuple[float, float]]:
     Returns
     -------
     dict
-        Control name -> (lower, upper) in SI units (the bounds the tracking feedback saturates at).
+        Control name -> (lower, upper) in SI units: thrust ``0 .. max_thrust``, ``|eta| <= 1`` with two
+        engines, the surfaces.
     """
-    out = {}
-    if aircraft.propulsion.max_thrust is not None:
-        out["F"] = (0.0, float(aircraft.propulsion.max_thrust))
-    if aircraft.propulsion.count == 2:
-        out["eta"] = (-1.0, 1.0)
-    for name, lim in aircraft.envelope.control_limits.items():
-        if name in CONTROL_NAMES:
-            out[name] = (-float(lim), float(lim))
-    return out
+    return control_ranges(aircraft)
 
 
 def write_singularity_figure(plan, out_dir: str | Path) -> Path | None:

@@ -21,14 +21,16 @@ sys.path.insert(0, str(ROOT))
 
 from gna.aero import COEFFICIENTS, MAX_EXPONENT, MAX_TERMS  # noqa: E402
 from gna.aircraft import UNIT_FACTORS  # noqa: E402
+from gna.limits import LIMIT_NAMES  # noqa: E402
 from gna.perturbation import PERTURBATION_KEYS  # noqa: E402
 from gna.trim import TRIM_VARIABLES  # noqa: E402
+from harness.validation.tolerances import DEFAULT_SETTLE_TIME, DEFAULT_TRACKING_TOLERANCE  # noqa: E402
 from planners.expressions import CONSTANTS, FUNCTIONS  # noqa: E402
 from planners.flat import FLAT_KINDS  # noqa: E402
 from planners.generalized import AUTO_J, AUTO_J_MAX, AUTO_J_TOL, MAX_E, METHODS  # noqa: E402
 from planners.lqr import DESIGNS  # noqa: E402
 from planners.plan import DEFAULT_INTERPOLATION, INTERPOLATIONS, PLAN_VARIABLES  # noqa: E402
-from planners.scenario import COMPARE_KEYS, MAX_NODES, MAX_REPORT_TIMES, TRACKING_KEYS  # noqa: E402
+from planners.scenario import COMPARE_KEYS, KNOWN_VERDICTS, MAX_NODES, MAX_REPORT_TIMES, TRACKING_KEYS  # noqa: E402
 
 AIRCRAFT_SCHEMA = ROOT / "gna" / "data" / "schemas" / "aircraft.schema.json"
 SCENARIO_SCHEMA = ROOT / "planners" / "schemas" / "scenario.schema.json"
@@ -191,8 +193,29 @@ def aircraft_schema() -> dict:
     _quantity(env, cv, "beta_max", "angle", "Largest |sideslip| of the validity domain, in (0, 90] deg", "20 deg")
     for s, word in (("dl", "aileron"), ("dm", "elevator"), ("dn", "rudder")):
         _quantity(env, cv, f"{s}_max", "angle", f"Largest |{word} deflection| (optional)")
-    for key, word in (("mach_min", "Lowest"), ("mach_max", "Highest")):
-        env[key] = {"type": "number", "minimum": 0, "description": f"{word} Mach of the model's data (optional)"}
+    env["mach_min"] = {
+        "type": "number",
+        "minimum": 0,
+        "x-unit": "-",
+        "description": "Lowest Mach number of the data the aerodynamics were fitted or published on (optional; "
+        "absent: not checked)",
+    }
+    env["mach_max"] = {
+        "type": "number",
+        "exclusiveMinimum": 0,
+        "x-unit": "-",
+        "description": "Highest Mach number of that data (optional; absent: not checked)",
+    }
+    env["nz_min"] = {
+        "type": "number",
+        "x-unit": "-",
+        "description": "Lowest structural load factor nz (negative; optional; absent: not checked)",
+    }
+    env["nz_max"] = {
+        "type": "number",
+        "x-unit": "-",
+        "description": "Highest structural load factor nz (optional; absent: not checked)",
+    }
     env["source"] = _text("Where the numbers come from")
     term = {
         "type": "object",
@@ -355,7 +378,46 @@ COMPARE = {
         "x-default": "false",
         "description": "Also fly JSBSim at half its step and report that difference",
     },
+    "tracking_tolerance": {
+        "x-type": "number",
+        "x-unit": "m",
+        "x-default": f"{DEFAULT_TRACKING_TOLERANCE:g}",
+        "description": "Closed loop: the tracking verdict passes when every engine's largest distance to the "
+        "flat outputs after settle_time is at most this",
+    },
+    "settle_time": {
+        "x-type": "number",
+        "x-unit": "s",
+        "x-default": f"{DEFAULT_SETTLE_TIME:g}",
+        "description": "Closed loop: time from t0 the feedback is given to reach the flat outputs before the "
+        "tracking verdict measures",
+    },
 }
+
+VERDICTS = _table(
+    "Violations the scenario records (still computed and shown; they do not fail the exit status of gflat "
+    "compare and gflat paper; docs/output.md)",
+    {
+        "known": {
+            "type": "array",
+            "x-default": "[]",
+            "description": "Recorded violations: a limit of the flyability verdict ("
+            + ", ".join(LIMIT_NAMES)
+            + ") or a whole verdict ("
+            + ", ".join(KNOWN_VERDICTS)
+            + "), each with its reason",
+            "items": {
+                "type": "object",
+                "additionalProperties": False,
+                "required": ["name", "reason"],
+                "properties": {
+                    "name": {"enum": list(LIMIT_NAMES + KNOWN_VERDICTS), "description": "The limit or verdict"},
+                    "reason": {"type": "string", "minLength": 1, "description": "Why the scenario keeps it"},
+                },
+            },
+        }
+    },
+)
 
 
 def scenario_schema() -> dict:
@@ -632,6 +694,7 @@ def scenario_schema() -> dict:
                 "command, values by harness.validation.parse_compare",
                 COMPARE,
             ),
+            "verdicts": VERDICTS,
         },
     }
 

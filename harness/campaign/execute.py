@@ -8,6 +8,16 @@ tracking feedback about the nominal plan) and returns the metrics and the
 trajectories.  It writes nothing: the runner stores the outcome.  A
 ``[tracking.perturbation]`` of the scenario is replaced by the campaign's
 dispersion.
+
+Every sample is judged by the case's three verdicts
+(:mod:`harness.validation.verdicts`), to tell the plan from the controller:
+the same path is planned for the sample's (dispersed) aircraft, and its
+``flyable`` verdict says whether a plan exists (``infeasible`` when the
+planner finds none: Newton failure, domain, singularity) and stays within the
+aircraft's limits; ``tracking`` judges the feedback flying the nominal plan on
+the dispersed aircraft; ``engines_agree`` the difference tables.  The sample's
+``cause`` (:func:`harness.validation.verdicts.cause`) is ``pass``,
+``infeasible``, ``unflyable``, ``controller failure`` or ``engines disagree``.
 """
 
 from __future__ import annotations
@@ -24,13 +34,23 @@ from dataclasses import replace
 
 import numpy as np
 
-from gna.errors import GflatError, describe
+from gna.errors import DomainError, GflatError, describe
+from planners.generalized import plan_scenario
 
 from ..engines import fly, get_engine
 from ..metrics import engine_tables, max_position_error
 from ..validation import case_settings, plan_case
 from ..validation.closed import closed_loop_setup, sampled_engines, saturated_seconds
 from ..validation.run import with_step
+from ..validation.verdicts import (
+    VERDICT_NAMES,
+    cause,
+    engines_agree_verdict,
+    flyable_verdict,
+    infeasible_flyable,
+    judge,
+    tracking_verdict,
+)
 from .sampling import dispersed_aircraft, draw_sample
 from .spec import SampleTask
 
@@ -117,6 +137,40 @@ def _finite_or_none(v: float):
     return float(v) if math.isfinite(v) else None
 
 
+def sample_flyable(scenario, aircraft) -> tuple[dict, float]:
+    """The flyable verdict of the scenario's path planned for a (dispersed) aircraft.
+
+    Parameters
+    ----------
+    scenario : planners.scenario.Scenario
+        The case's scenario (its path, grid, J, recorded violations).
+    aircraft : gna.aircraft.Aircraft
+        The sample's aircraft.
+
+    Returns
+    -------
+    (dict, float)
+        :func:`harness.validation.verdicts.flyable_verdict` of the new plan, or
+        :func:`~harness.validation.verdicts.infeasible_flyable` when there is none (the planner's
+        first failure as the reason), and its planning time [s].  (The time goes to the sample's timings: the metrics stay the
+        same bit for bit from run to run.)
+    """
+    t = time.perf_counter()
+    try:
+        plan = plan_scenario(replace(scenario, aircraft=aircraft))
+    except DomainError as exc:
+        out = infeasible_flyable(str(exc))
+    else:
+        if plan.feasible:
+            out = flyable_verdict(plan, scenario.known)
+        else:
+            singular = plan.singularities.failures if plan.singularities is not None else []
+            out = infeasible_flyable(
+                (singular or plan.newton_failures or plan.domain_failures[-1:] or ["not feasible"])[0]
+            )
+    return out, time.perf_counter() - t
+
+
 def _fly(task: SampleTask):
     case = task.spec.case
     planned = _planned(case)
@@ -152,41 +206,44 @@ def _fly(task: SampleTask):
             env=plan.env,
             dt_out=settings.dt_out,
         )
-    return plan, draw, runs, ctl, j, planned.planning_time_s, settings
+    return plan, draw, runs, ctl, j, planned.planning_time_s, settings, sample_flyable(scenario, aircraft)
 
 
-def _metrics(plan, runs, ctl, j, settings) -> dict:
+def _metrics(plan, runs, ctl, j, settings, flyable: dict, known=()) -> dict:
     span = (plan.t0, plan.t1)
     ref = lambda t: plan.state(t, j)  # noqa: E731 - the flat outputs tracked
-    out_runs = {}
+    out_runs, sat = {}, {}
     for label, res in runs.items():
-        sat = saturated_seconds(ctl, res)["any"] if ctl is not None else 0.0
+        sat[label] = saturated_seconds(ctl, res) if ctl is not None else {"any": 0.0}
         out_runs[label] = {
             "status": res.status,
             "t_end": float(res.t_end),
             "max_position_error_m": _finite_or_none(max_position_error(res, ref)),
             "max_position_error_after_5s_m": _finite_or_none(max_position_error(res, ref, (plan.t0 + 5.0, None))),
-            "saturated_s": float(sat),
+            "saturated_s": float(sat[label]["any"]),
         }
-    diffs, passed = {}, True
-    if len(runs) > 1:
-        tables = engine_tables(runs, span, settings.tolerances, settings.windows, rtol=settings.rtol or None)
-        for label, per in tables.items():
-            tab = per.get("whole span") or next(iter(per.values()))
-            diffs[label] = {
-                "max_position_m": _finite_or_none(tab.row("position").max_abs),
-                "max_angle_rad": _finite_or_none(
-                    max(tab.row(v).max_abs for v in ("gamma", "chi", "alpha", "beta", "mu"))
-                ),
-                "pass": bool(all(t.passed for t in per.values())),
-                "failing": sorted({f"{r.variable} ({w})" for w, t in per.items() for r in t.failures()}),
-            }
-            passed = passed and diffs[label]["pass"]
-    ok = passed and all(r.status == "completed" for r in runs.values())
-    out = {"runs": out_runs, "differences": diffs, "pass": bool(ok)}
-    if ctl is not None:
-        out["tracking"] = getattr(ctl, "design", "paper")  # which design flew
-    return out
+    tables = (
+        engine_tables(runs, span, settings.tolerances, settings.windows, rtol=settings.rtol or None)
+        if len(runs) > 1
+        else {}
+    )
+    verdicts = {
+        "flyable": flyable,
+        "tracking": tracking_verdict(
+            runs, ref, span, settings.tracking_tolerance, settings.settle_time, sat if ctl is not None else None
+        ),
+        "engines_agree": engines_agree_verdict(runs, tables),
+    }
+    judged = judge(verdicts, known)
+    return {
+        "runs": out_runs,
+        "differences": verdicts["engines_agree"]["differences"],
+        "verdicts": {k: verdicts[k] for k in VERDICT_NAMES},
+        "cause": cause(verdicts, known),
+        "failures": judged["unrecorded"],
+        "pass": bool(judged["pass"]),
+        **({"tracking": getattr(ctl, "design", "paper")} if ctl is not None else {}),  # which design flew
+    }
 
 
 def run_sample(task: SampleTask) -> dict:
@@ -205,11 +262,16 @@ def run_sample(task: SampleTask) -> dict:
         ``max_position_error_after_5s_m`` [m] (None when not finite),
         ``saturated_s`` [s]; ``differences``: engine -> ``max_position_m``,
         ``max_angle_rad``, ``pass``, ``failing`` (variables beyond their
-        tolerance, with the window); ``pass``), ``draw`` (the dispersed
+        tolerance, with the window); ``verdicts``: ``flyable`` (of the path
+        planned for the sample's aircraft, :func:`sample_flyable`),
+        ``tracking``, ``engines_agree``; ``cause``
+        (:data:`harness.validation.verdicts.CAUSES`); ``failures`` (what
+        the scenario does not record); ``pass``: no such failure), ``draw`` (the dispersed
         parameters by name), ``error`` (message of a failed sample; a sample
         past its wall-time budget ``task.budget_s`` is stopped and fails with
         ``timeout: ...`` naming its time and the budget),
-        ``timings`` (``plan_s``, ``fly_s``, ``total_s``) and ``files``
+        ``timings`` (``plan_s``, ``sample_plan_s``: the path planned for the sample's aircraft, ``fly_s``,
+        ``total_s``) and ``files``
         (file name -> bytes: ``<engine>.parquet`` trajectories).  Runs that
         leave the flight domain are data (``done``, ``pass`` false); only an
         error raised while planning or flying makes a sample ``failed``.
@@ -226,9 +288,9 @@ def run_sample(task: SampleTask) -> dict:
     }
     try:
         with time_budget(task.budget_s):
-            plan, draw, runs, ctl, j, plan_s, settings = _fly(task)
+            plan, draw, runs, ctl, j, plan_s, settings, (flyable, replan_s) = _fly(task)
             t_fly = time.perf_counter()
-            metrics = _metrics(plan, runs, ctl, j, settings)
+            metrics = _metrics(plan, runs, ctl, j, settings, flyable, _planned(task.spec.case).scenario.known)
             files = {}
             if task.trajectories:
                 for label, res in runs.items():
@@ -237,7 +299,7 @@ def run_sample(task: SampleTask) -> dict:
                         df = df.join(res.controller_states)
                     files[f"{label}.parquet"] = frame_to_parquet(df)
         out.update(metrics=metrics, draw=draw.parameters(), files=files, status="done")
-        out["timings"] = {"plan_s": plan_s, "fly_s": t_fly - t_start}
+        out["timings"] = {"plan_s": plan_s, "sample_plan_s": replan_s, "fly_s": t_fly - t_start}
     except CaseTimeout:
         took = time.perf_counter() - t_start
         out["error"] = (

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..validation.verdicts import CAUSES, VERDICT_NAMES
 from .store import CampaignStore
 
 __all__ = ["campaign_summary", "write_report"]
@@ -56,6 +57,25 @@ def _stats(values) -> dict:
     }
 
 
+def _verdict_rates(rs: list, name: str) -> dict:
+    """Per verdict: samples judged, passing, failing, failing but recorded by the scenario, the pass rate."""
+    out = {"n": 0, "pass": 0, "fail": 0, "recorded": 0}
+    for r in rs:
+        v = (r["metrics"].get("verdicts") or {}).get(name)
+        if v is None or v.get("pass") is None:
+            continue
+        out["n"] += 1
+        if v["pass"]:
+            out["pass"] += 1
+            continue
+        out["fail"] += 1
+        failures = r["metrics"].get("failures") or []
+        if not any(f == name or f.startswith(f"{name}:") for f in failures):
+            out["recorded"] += 1
+    out["pass_rate"] = out["pass"] / out["n"] if out["n"] else None
+    return out
+
+
 def campaign_summary(folder: str | Path) -> dict:
     """Summary of a campaign folder.
 
@@ -68,8 +88,13 @@ def campaign_summary(folder: str | Path) -> dict:
     -------
     dict
         ``campaign`` (name, seed), ``description``, ``counts`` (cases, done, failed, pending),
-        ``groups``: per case label and dispersion, ``n``, ``passed``,
-        ``pass_rate``, ``status`` (engine -> run status -> count),
+        ``groups``: per case label and dispersion, ``n``, ``passed`` (no
+        verdict failing that the scenario does not record),
+        ``pass_rate``, ``verdicts`` (``flyable``, ``tracking``,
+        ``engines_agree`` -> ``n`` judged, ``pass``, ``fail``, ``recorded``
+        (failing, recorded by the scenario), ``pass_rate``), ``causes``
+        (:data:`harness.validation.verdicts.CAUSES` -> count, failed samples
+        as ``error``), ``status`` (engine -> run status -> count),
         ``tracking_error_m`` / ``saturated_s`` (engine -> min, median, p90,
         max), ``engine_difference_m`` (engine -> stats of the position
         difference from the reference), ``worst`` (the cases of largest
@@ -84,9 +109,13 @@ def campaign_summary(folder: str | Path) -> dict:
     finally:
         st.close()
     groups: dict[str, list] = {}
+    errors: dict[str, int] = {}
     for r in rows:
+        key = f"{r['label']}.{r['dispersion']}"
         if r["status"] == "done":
-            groups.setdefault(f"{r['label']}.{r['dispersion']}", []).append(r)
+            groups.setdefault(key, []).append(r)
+        elif r["status"] == "failed":
+            errors[key] = errors.get(key, 0) + 1
     out_groups = {}
     for key, rs in groups.items():
         engines = rs[0]["params"]["engines"]
@@ -99,6 +128,12 @@ def campaign_summary(folder: str | Path) -> dict:
             "passed": sum(bool(r["pass"]) for r in rs),
         }
         g["pass_rate"] = g["passed"] / g["n"]
+        g["verdicts"] = {name: _verdict_rates(rs, name) for name in VERDICT_NAMES}
+        g["causes"] = {c: 0 for c in CAUSES}
+        for r in rs:
+            c = r["metrics"].get("cause") or "unjudged"  # a store written before the verdicts
+            g["causes"][c] = g["causes"].get(c, 0) + 1
+        g["causes"]["error"] += errors.get(key, 0)
         g["status"] = {e: {} for e in engines}
         for r in rs:
             for e, run in r["metrics"]["runs"].items():
@@ -117,6 +152,7 @@ def campaign_summary(folder: str | Path) -> dict:
                 "case_id": rs[i]["case_id"],
                 "seed": rs[i]["seed"],
                 "pass": bool(rs[i]["pass"]),
+                "cause": rs[i]["metrics"].get("cause"),
                 "tracking_error_m": None if not math.isfinite(err[i]) else float(err[i]),
                 "status": {e: run["status"] for e, run in rs[i]["metrics"]["runs"].items()},
             }
@@ -156,11 +192,26 @@ def _figures(folder: Path, summary: dict, rows: list, outdir: Path) -> list[Path
     figs = []
     fig, ax = plt.subplots(figsize=(7, 3.2))
     keys = list(groups)
-    ax.bar(range(len(keys)), [100 * groups[k]["pass_rate"] for k in keys], color="#3a7")
+    colours = {
+        "pass": "#3a7",
+        "infeasible": "#888",
+        "unflyable": "#c80",
+        "controller failure": "#c33",
+        "engines disagree": "#84c",
+        "error": "#333",
+        "unjudged": "#ccc",
+    }
+    bottom = np.zeros(len(keys))
+    for c in dict.fromkeys(list(CAUSES) + [c for k in keys for c in groups[k]["causes"]]):
+        n = np.array([groups[k]["causes"].get(c, 0) for k in keys], dtype=float)
+        if n.any():
+            ax.bar(range(len(keys)), n, bottom=bottom, color=colours.get(c, "#999"), label=c)
+            bottom += n
     ax.set_xticks(range(len(keys)), keys, rotation=15, fontsize=8)
-    ax.set_ylabel("pass rate [%]")
-    ax.set_ylim(0, 100)
-    ax.set_title("Cases passing (runs complete, engines within tolerances)")
+    ax.set_ylabel("samples")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    ax.set_title("Samples per cause", fontsize=9)
+    fig.tight_layout()
     figs.append(("pass_rate.png", fig))
     for metric, title, unit in (
         ("max_position_error_m", "Largest distance to the flat outputs", "m"),

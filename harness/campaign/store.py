@@ -55,6 +55,10 @@ CREATE TABLE IF NOT EXISTS cases (
     params TEXT NOT NULL,
     status TEXT NOT NULL DEFAULT 'pending' CHECK (status IN ('pending', 'done', 'failed')),
     pass INTEGER,
+    flyable INTEGER,
+    tracking INTEGER,
+    engines_agree INTEGER,
+    cause TEXT,
     metrics TEXT,
     draw TEXT,
     error TEXT,
@@ -66,6 +70,15 @@ CREATE TABLE IF NOT EXISTS cases (
 );
 CREATE INDEX IF NOT EXISTS cases_status ON cases (status);
 """
+
+#: The verdict columns of ``cases`` (1 pass, 0 fail, NULL not judged: open loop's tracking, a failed sample) and
+#: the sample's cause (:data:`harness.validation.verdicts.CAUSES`); added to a store made before them.
+VERDICT_COLUMNS: dict[str, str] = {
+    "flyable": "INTEGER",
+    "tracking": "INTEGER",
+    "engines_agree": "INTEGER",
+    "cause": "TEXT",
+}
 
 
 @contextlib.contextmanager
@@ -138,6 +151,10 @@ class CampaignStore:
             self.db.execute("PRAGMA journal_mode=WAL")
             self.db.execute("PRAGMA synchronous=FULL")
             self.db.executescript(_SCHEMA)
+            have = {row[1] for row in self.db.execute("PRAGMA table_info(cases)")}
+            for name, kind in VERDICT_COLUMNS.items():
+                if name not in have:
+                    self.db.execute(f"ALTER TABLE cases ADD COLUMN {name} {kind}")
         except sqlite3.DatabaseError as exc:
             raise InputError(f"cannot open the campaign index {self.root / DB_NAME}: {describe(exc)}") from None
 
@@ -313,14 +330,25 @@ class CampaignStore:
             finally:
                 os.close(fd)
         m = outcome.get("metrics")
+        verdicts = (m or {}).get("verdicts") or {}
+
+        def judged(name):
+            ok = (verdicts.get(name) or {}).get("pass")
+            return None if ok is None else int(bool(ok))
+
         with self.db:
             self.db.execute("BEGIN IMMEDIATE")
             self.db.execute(
-                "UPDATE cases SET status = ?, pass = ?, metrics = ?, draw = ?, error = ?, timings = ?, files = ?, "
+                "UPDATE cases SET status = ?, pass = ?, flyable = ?, tracking = ?, engines_agree = ?, cause = ?, "
+                "metrics = ?, draw = ?, error = ?, timings = ?, files = ?, "
                 "versions = ?, attempts = attempts + 1, finished_utc = ? WHERE case_id = ?",
                 (
                     outcome["status"],
                     None if m is None else int(bool(m["pass"])),
+                    judged("flyable"),
+                    judged("tracking"),
+                    judged("engines_agree"),
+                    (m or {}).get("cause") if m is not None else "error",
                     None if m is None else _dumps(m),
                     None if outcome.get("draw") is None else _dumps(outcome["draw"]),
                     outcome.get("error"),

@@ -9,7 +9,9 @@ folder with each engine's trajectory (Parquet, CSV with ``--csv``), the plan of
 every iterate, ``summary.json`` (verdict and the tolerances that made it) and
 ``manifest.json``.  Tolerances, windows, output grid and JSBSim step come from
 the flags, else the scenario's ``[compare]`` table, else the defaults.  With
-``--json`` stdout carries one JSON object (the verdict) instead.
+``--json`` stdout carries one JSON object (the verdict) instead.  The three
+verdicts (flyable, tracking, engines_agree) are printed last; the exit status
+is 1 when one fails that the scenario does not record (``[verdicts] known``).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from reports.html import render_run
 from ..artefacts import json_safe, run_manifest
 from ..engines import engine_names, engines_from_names
 from ..validation import ValidationCase, case_settings, run_case
+from ..validation.verdicts import verdict_lines
 from ._args import add_replace, iterations, out_path
 from ._compare_args import add_compare_arguments, check_steps, compare_overrides, run_dir
 
@@ -125,7 +128,8 @@ def run(args) -> int:
                 f"{after}; controls saturated {r['saturated_s']:.2f} s"
             )
     print(f"figures, trajectories and tables written to {out.out}/, report {out.out / 'index.html'}")
+    print("\n".join(verdict_lines(verdict["verdicts"], {"unrecorded": verdict["failures"]})))
     if not verdict["pass"]:
-        print("gflat compare: the engines disagree beyond the tolerances (or a run ended early): FAIL")
+        print(f"gflat compare: {', '.join(verdict['failures'])} not recorded by the scenario: FAIL")
         return 1
     return 0

@@ -37,6 +37,7 @@ from ..parallel import ForkPool, default_jobs, run_all
 from ..rundir import RunDir
 from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
+from ..validation.verdicts import verdict_lines
 from ._args import add_replace, iterations, out_path, worker_count
 from ._compare_args import add_compare_arguments, check_steps, compare_overrides
 from .plan import write_plan
@@ -222,7 +223,7 @@ def run(args) -> int:
     int
         The exit status (:data:`harness.cli.EXIT_CODES`).
     """
-    rows, passed, closed_rows, results = [], [], [], []
+    rows, passed, closed_rows, results, verdict_rows = [], [], [], [], []
     cases = paper_cases(args.J, **compare_overrides(args))
     loops = ("open", "closed") if args.loop == "both" else (args.loop,)
     planned = []
@@ -252,7 +253,9 @@ def run(args) -> int:
             if "open" in loops:
                 result = sc.results["open"]
                 results.append(result)
-                passed[-1] = result.passed
+                ov = result.verdict()
+                passed[-1] = ov["pass"]
+                verdict_rows.append((name, "open", ov))
                 first, whole = result.tables["jsbsim"]["first 10 s"], result.tables["jsbsim"]["whole span"]
                 pos = lambda tab: tab.row("position").max_abs  # noqa: E731
                 ang = lambda tab: max(tab.row(v).max_abs for v in ANGLE_STATES)  # noqa: E731
@@ -273,6 +276,7 @@ def run(args) -> int:
                     f"  in-house vs JSBSim (open loop, J = {J}): first 10 s {pos(first):.2e} m, "
                     f"{ang(first):.2e} rad; whole span {pos(whole):.2e} m, {ang(whole):.2e} rad"
                 )
+                print("\n".join(f"  {line}" for line in verdict_lines(ov["verdicts"], {"unrecorded": ov["failures"]})))
                 print(f"  figures, trajectories and tables: {out.out / name / 'open'}/")
             if "closed" not in loops:
                 continue
@@ -280,6 +284,7 @@ def run(args) -> int:
             results.append(closed)
             v = closed.verdict()
             passed[-1] = passed[-1] and v["pass"]
+            verdict_rows.append((name, "closed", v))
             runs = v["runs"]
             closed_rows.append(
                 (
@@ -297,6 +302,7 @@ def run(args) -> int:
                 f"{runs['jsbsim']['status']}, {runs['jsbsim']['max_position_error_m']:.2e} m; in-house vs JSBSim "
                 f"{v['differences']['jsbsim']['max_position_m']:.2e} m"
             )
+            print("\n".join(f"  {line}" for line in verdict_lines(v["verdicts"], {"unrecorded": v["failures"]})))
             print(f"  four-curve figure: {out.out / name / 'closed' / 'tracking.png'}")
         jobs, log = pool.jobs, pool.log
         pool.close()
@@ -329,13 +335,34 @@ def run(args) -> int:
     if closed_rows:
         print(
             "  (beyond limits: time the commanded controls exceed the aircraft's limits, clipped when the scenario's\n"
-            "   [tracking] saturate is on; the forward slip's plan itself needs dl of about -28 deg, beyond the GTM's\n"
-            "   20 deg, and is flown unclipped)"
+            "   [tracking] saturate is on)"
         )
+    if verdict_rows:
+        print(
+            "\nverdicts (flyable: the plan within the aircraft's limits; tracking: closed loop, the flat outputs held;"
+        )
+        print("engines_agree: the difference tables; FAIL* = failing, recorded by the scenario's [verdicts] known)")
+        print(f"  {'scenario':<26} {'loop':<6} {'flyable':>8} {'tracking':>8} {'engines_agree':>13}  result")
+
+        def word(verdict, name):
+            ok = verdict["verdicts"][name]["pass"]
+            if ok is None:
+                return "n/a"
+            if ok:
+                return "PASS"
+            return "FAIL" if any(f == name or f.startswith(name + ":") for f in verdict["failures"]) else "FAIL*"
+
+        for name, loop, verdict in verdict_rows:
+            print(
+                f"  {name:<26} {loop:<6} {word(verdict, 'flyable'):>8} {word(verdict, 'tracking'):>8} "
+                f"{word(verdict, 'engines_agree'):>13}  {'PASS' if verdict['pass'] else 'FAIL'}"
+            )
+        for name, loop, verdict in verdict_rows:
+            for rec in verdict["recorded"]:
+                print(f"  recorded ({name}, {loop}): {rec['failure']}: {rec['reason']}")
     print(f"\nreport: {out.out / report['index'].name} (PDF: {out.out / report['pdf'].name})")
     if failed:
-        print(
-            f"gflat paper: engines disagree beyond the tolerances, or a run ended early, for {', '.join(failed)}: FAIL"
-        )
+        why = sorted({f for _, _, v in verdict_rows for f in v["failures"]})
+        print(f"gflat paper: {', '.join(why)} not recorded by the scenario, for {', '.join(failed)}: FAIL")
         return 1
     return 0

@@ -17,7 +17,8 @@ import numpy as np
 from ..metrics import PERCENT_FLOORS, max_position_error
 from .case import ValidationCase
 from .closed import ClosedLoopSetup, saturated_seconds
-from .tolerances import CompareSettings
+from .tolerances import DEFAULT_SETTLE_TIME, DEFAULT_TRACKING_TOLERANCE, CompareSettings
+from .verdicts import VERDICT_NAMES, engines_agree_verdict, flyable_verdict, judge, tracking_verdict
 
 #: Angles summarised in the verdict.
 ANGLE_STATES: tuple[str, ...] = ("gamma", "chi", "alpha", "beta", "mu")
@@ -118,7 +119,10 @@ class CaseResult:
 
     @property
     def passed(self) -> bool:
-        """True when every engine-against-reference table passes (the tables against the plan inform)."""
+        """True when every engine-against-reference table passes (the tables against the plan inform).
+
+        The engines' agreement only: the case's three verdicts are :meth:`verdicts`.
+        """
         return all(t.passed for per in self.tables.values() for t in per.values())
 
     def max_position_error_m(self, window: tuple[float | None, float | None] | None = None) -> dict:
@@ -152,6 +156,38 @@ class CaseResult:
             return {}
         return {label: saturated_seconds(self.closed_loop.controller, res) for label, res in self.runs.items()}
 
+    def verdicts(self) -> dict:
+        """The three verdicts of the case (:mod:`harness.validation.verdicts`).
+
+        Returns
+        -------
+        dict
+            ``flyable`` (the plan within the aircraft's limits), ``tracking``
+            (closed loop: the distance to the flat outputs after the settle
+            time; ``pass`` None open loop), ``engines_agree`` (the difference
+            tables), and ``judged`` (:func:`~harness.validation.verdicts.judge`:
+            what fails the exit status, what the scenario records).
+        """
+        known = tuple(getattr(self.scenario, "known", ()) or ())
+        s = self.settings
+        tol = s.tracking_tolerance if s is not None else DEFAULT_TRACKING_TOLERANCE
+        settle = s.settle_time if s is not None else DEFAULT_SETTLE_TIME
+        J = self.plan.J
+        out = {
+            "flyable": flyable_verdict(self.plan, known),
+            "tracking": tracking_verdict(
+                self.runs,
+                lambda t: self.plan.state(t, J),
+                (self.plan.t0, self.plan.t1),
+                tol,
+                settle,
+                self.saturated_s() if self.closed_loop is not None else None,
+            ),
+            "engines_agree": engines_agree_verdict(self.runs, self.tables),
+        }
+        out["judged"] = judge(out, known)
+        return out
+
     def verdict(self) -> dict:
         """The machine-readable verdict of ``gflat compare --json``.
 
@@ -165,11 +201,14 @@ class CaseResult:
             ``max_angle_rad`` over the whole span, ``delta_pct``: the relative
             difference [%] per variable over the whole span, NaN where undefined,
             see :func:`harness.metrics.percent_scale`), ``delta_pct_definition``
-            (:data:`DELTA_PCT_DEFINITION`, naming the window), ``pass`` (every run completed and every
-            engine agrees with the reference within the tolerances),
+            (:data:`DELTA_PCT_DEFINITION`, naming the window),
             ``settings`` (the tolerances and settings that made the verdict),
             ``self_convergence`` (JSBSim engine -> ``max_position_m``,
-            ``max_angle_rad`` between its step and half of it; empty unless asked).
+            ``max_angle_rad`` between its step and half of it; empty unless asked),
+            ``verdicts`` (:meth:`verdicts`: ``flyable``, ``tracking``,
+            ``engines_agree``, each with its ``pass``, and ``judged``).  ``pass``
+            is the exit status's: no verdict fails that the scenario does not
+            record (``[verdicts] known``); ``failures`` lists those that do.
         """
         t0 = self.plan.t0
         whole = self.max_position_error_m()
@@ -188,7 +227,7 @@ class CaseResult:
             label: dict(_maxima(per), delta_pct={r.variable: r.delta_pct for r in _whole(per).rows})
             for label, per in self.tables.items()
         }
-        ok = self.passed and all(r.status == "completed" for r in self.runs.values())
+        verdicts = self.verdicts()
         where = "the whole span"
         for per in self.tables.values():
             name = "whole span" if "whole span" in per else next(iter(per))
@@ -200,7 +239,10 @@ class CaseResult:
             "runs": runs,
             "differences": diffs,
             "delta_pct_definition": DELTA_PCT_DEFINITION.format(window=where),
-            "pass": ok,
+            "pass": verdicts["judged"]["pass"],
+            "failures": verdicts["judged"]["unrecorded"],
+            "verdicts": {k: verdicts[k] for k in VERDICT_NAMES},
+            "recorded": verdicts["judged"]["recorded"],
             "settings": self.settings.to_dict() if self.settings is not None else None,
             "self_convergence": {label: _maxima(per) for label, per in self.self_convergence.items()},
         }
@@ -227,7 +269,9 @@ class CaseResult:
         Returns
         -------
         dict
-            ``scenario``, ``J``, ``engines``, ``passed``, ``status`` (engine -> run
+            ``scenario``, ``J``, ``engines``, ``passed`` (no verdict fails that the
+            scenario does not record), ``verdicts`` and ``failures`` (as
+            :meth:`verdict`), ``status`` (engine -> run
             status), ``tables`` (engine -> window -> list of row records, with
             the relative difference ``delta_pct`` [%]), ``figures`` (paths as str),
             ``settings`` (tolerances and settings of the verdict),
@@ -240,11 +284,14 @@ class CaseResult:
                 for eng, per in tables.items()
             }
 
+        verdicts = self.verdicts()
         return {
             "scenario": self.plan.name,
             "J": self.plan.J,
             "engines": list(self.runs),
-            "passed": self.passed,
+            "passed": verdicts["judged"]["pass"],
+            "verdicts": {k: verdicts[k] for k in VERDICT_NAMES},
+            "failures": verdicts["judged"]["unrecorded"],
             "status": {k: r.status for k, r in self.runs.items()},
             "tables": records(self.tables),
             "figures": [str(p) for p in figures],

@@ -11,6 +11,8 @@ defaults (precedence: command line / case > scenario > defaults)::
     tolerances = { position = 0.02, angle = 2e-4 }   # absolute, per quantity or per variable
     rtol = { position = 1e-6 }                       # relative to max |reference| over the window
     windows = { "first 10 s" = 10.0, "whole span" = "all" }
+    tracking_tolerance = 1.0      # closed loop: largest distance to the flat outputs after settle_time [m]
+    settle_time = 5.0             # closed loop: from t0, before the tracking verdict measures [s]
 
 A variable passes when ``max |u - u_ref| <= atol + rtol * max |u_ref|`` over
 the window.  Quantities: ``position`` (the distance and x, y, z [m]),
@@ -48,6 +50,14 @@ DEFAULT_DT_OUT = 0.05
 
 #: JSBSim's step [s] when neither the command line nor the scenario sets one (the engine's default).
 DEFAULT_JSBSIM_DT = 1.0 / 480.0
+
+#: Closed loop: the tracking verdict's tolerance [m] on the largest distance to the flat outputs after the
+#: settle time, when the scenario's ``[compare]`` sets none (the 1 m the paper's figures are read at).
+DEFAULT_TRACKING_TOLERANCE = 1.0
+
+#: Closed loop: the time from t0 [s] the feedback is given to bring the aircraft onto the flat outputs
+#: before the tracking verdict measures, when the scenario's ``[compare]`` sets none.
+DEFAULT_SETTLE_TIME = 5.0
 
 
 def unknown_key(key: str, known, where: str) -> InputError:
@@ -173,7 +183,7 @@ def parse_compare(table: Mapping[str, Any] | None, where: str = "[compare]") -> 
     dict
         The keys given: ``tolerances`` and ``rtol`` (variable -> value),
         ``windows`` (name -> duration [s] or None), ``dt_out``,
-        ``jsbsim_dt`` [s], ``self_convergence`` (bool).
+        ``jsbsim_dt`` [s], ``self_convergence`` (bool), ``tracking_tolerance`` [m], ``settle_time`` [s].
 
     Raises
     ------
@@ -194,8 +204,10 @@ def parse_compare(table: Mapping[str, Any] | None, where: str = "[compare]") -> 
             out[key] = expand_tolerances(value, f"{where} {key}")
         elif key == "windows":
             out[key] = parse_windows(value, f"{where} windows")
-        elif key in ("dt_out", "jsbsim_dt"):
+        elif key in ("dt_out", "jsbsim_dt", "tracking_tolerance"):
             out[key] = _number(value, f"{where} {key}", positive=True)
+        elif key == "settle_time":
+            out[key] = _number(value, f"{where} {key}", positive=False)
         elif not isinstance(value, bool):
             raise InputError(f"{where} self_convergence must be true or false, got {value!r}")
         else:
@@ -221,6 +233,10 @@ class CompareSettings:
         JSBSim's step [s].
     self_convergence : bool
         JSBSim also flown at half its step.
+    tracking_tolerance : float
+        Closed loop: the tracking verdict's bound on the distance to the flat outputs after ``settle_time`` [m].
+    settle_time : float
+        Closed loop: from t0, before the tracking verdict measures [s].
     sources : dict
         Setting -> ``"command line"``, ``"scenario"`` or ``"default"``.
     """
@@ -232,6 +248,8 @@ class CompareSettings:
     jsbsim_dt: float
     self_convergence: bool
     sources: dict
+    tracking_tolerance: float = DEFAULT_TRACKING_TOLERANCE
+    settle_time: float = DEFAULT_SETTLE_TIME
 
     def to_dict(self) -> dict:
         """The settings as JSON-ready data (``summary.json``, ``manifest.json``).
@@ -248,6 +266,8 @@ class CompareSettings:
             "dt_out": self.dt_out,
             "jsbsim_dt": self.jsbsim_dt,
             "self_convergence": self.self_convergence,
+            "tracking_tolerance": self.tracking_tolerance,
+            "settle_time": self.settle_time,
             "sources": dict(self.sources),
         }
 
@@ -301,6 +321,8 @@ def resolve_compare(
         "dt_out": DEFAULT_DT_OUT,
         "jsbsim_dt": DEFAULT_JSBSIM_DT,
         "self_convergence": False,
+        "tracking_tolerance": DEFAULT_TRACKING_TOLERANCE,
+        "settle_time": DEFAULT_SETTLE_TIME,
     }
     values = {}
     for key, default in defaults.items():

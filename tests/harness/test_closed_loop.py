@@ -51,10 +51,23 @@ def test_compare_json_contract(tmp_path, capsys):
         "differences",
         "delta_pct_definition",
         "pass",
+        "failures",
+        "verdicts",
+        "recorded",
         "settings",
         "self_convergence",
     }
     assert set(d["runs"]) == {"inhouse", "jsbsim"} and set(d["differences"]) == {"jsbsim"}
+    v = d["verdicts"]
+    assert set(v) == {"flyable", "tracking", "engines_agree"} and all("pass" in x for x in v.values())
+    # the paper's single-engine path asks the live engine for more than its rating: recorded by the scenario
+    (thrust,) = v["flyable"]["violations"]
+    assert {"name", "limit", "worst", "time", "fraction"} <= set(thrust) and thrust["name"] == "thrust[1]"
+    assert thrust["worst"] == pytest.approx(5857, abs=1) and thrust["limit"] == pytest.approx(5632.4, abs=0.1)
+    assert thrust["time"] == pytest.approx(60.0) and thrust["known"] is True and v["flyable"]["pass"] is False
+    assert d["failures"] == [] and d["recorded"][0]["failure"] == "flyable: thrust[1]"
+    assert v["tracking"]["pass"] is True and v["tracking"]["max_error_after_settle_m"] < 1.0
+    assert v["engines_agree"]["pass"] is True
     assert set(d["runs"]["jsbsim"]) == {
         "status",
         "max_position_error_m",

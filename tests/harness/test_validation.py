@@ -33,6 +33,8 @@ SUMMARY_KEYS = {
     "J",
     "engines",
     "passed",
+    "verdicts",
+    "failures",
     "status",
     "tables",
     "figures",

@@ -42,6 +42,8 @@ def test_settings_precedence_and_unknown_keys():
         "dt_out": "scenario",
         "jsbsim_dt": "command line",
         "self_convergence": "scenario",
+        "tracking_tolerance": "default",
+        "settle_time": "default",
     }
     with pytest.raises(InputError, match=r"unknown key 'tolerance' \(did you mean 'tolerances'\?\)"):
         resolve_compare({"tolerance": 1.0}, where="s.toml [compare]")

@@ -51,6 +51,32 @@ def test_campaign_report_files(campaign):
     assert "Campaign tiny" in text and "Worst cases" in text
 
 
+def test_campaign_report_gives_pass_rates_per_verdict_and_per_cause(campaign):
+    import json
+    import sqlite3
+
+    summary = json.loads((campaign / "report" / "summary.json").read_text())
+    (g,) = summary["groups"].values()
+    assert set(g["verdicts"]) == {"flyable", "tracking", "engines_agree"}
+    for v in g["verdicts"].values():
+        assert v["n"] == 3 and v["pass"] + v["fail"] == 3 and v["pass_rate"] == v["pass"] / 3
+    assert sum(g["causes"].values()) == 3 and set(g["causes"]) >= {"pass", "infeasible", "controller failure"}
+    assert g["causes"]["pass"] == g["passed"]
+    con = sqlite3.connect(campaign / "campaign.sqlite")
+    try:  # the store: one column per verdict and the cause, as the metrics say
+        rows = con.execute("SELECT flyable, tracking, engines_agree, cause, metrics, timings FROM cases").fetchall()
+    finally:
+        con.close()
+    for fly, trk, agree, cause, metrics, timings in rows:
+        m = json.loads(metrics)
+        assert (fly, trk, agree) == tuple(
+            int(m["verdicts"][k]["pass"]) for k in ("flyable", "tracking", "engines_agree")
+        )
+        assert cause == m["cause"] and json.loads(timings)["sample_plan_s"] > 0  # the path planned for the sample
+    page = (campaign / "report" / "index.html").read_text(encoding="utf-8")
+    assert '<table class="verdicts">' in page and '<table class="causes">' in page and "controller failure" in page
+
+
 def test_campaign_report_in_chromium(campaign):
     sync_playwright = _sync_playwright()
     handler = functools.partial(_Quiet, directory=str(campaign))

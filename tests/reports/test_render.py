@@ -135,3 +135,35 @@ def test_settings_are_on_off_and_an_undefined_delta_is_a_dash(report_run):
     assert "FAIL" not in settings and "pass" not in settings
     assert "Undefined (&ndash;) where the scale is at most the floor of its kind" in page
     assert "excursion max &minus; min over the window for x, y, z and &chi;" in page
+
+
+def test_the_index_has_a_column_per_verdict_and_the_case_page_the_violations(report_run, tmp_path):
+    index = (report_run.root / "index.html").read_text(encoding="utf-8")
+    head = index.split('<table class="summary">')[1].split("</tr>")[0]
+    assert [h in head for h in ("flyable", "tracking", "engines agree", "result")] == [True] * 4
+    rows = index.split('<table class="summary">')[1].split("</table>")[0]
+    assert rows.count('class="text verdict-flyable"') == 2  # open and closed loop
+    assert "within limits" in rows and "after 5 s" in rows  # each case's worst figure: the roll is flyable
+    # a case whose plan leaves a limit, recorded by the scenario, and one not recorded
+    case = tmp_path / "case"
+    shutil.copytree(report_run.root / SCENARIO / CASE_FOLDERS["closed"], case)
+    for p in case.glob("*.html"):
+        p.unlink()
+    model = json.loads((case / "report.json").read_text())
+    fly = model["verdict"]["verdicts"]["flyable"]
+    record = {"name": "dl", "limit": -0.3490658503988659, "worst": -0.4847, "time": 14.47, "fraction": 1.0}
+    record.update(first=0.0, last=120.0, unit="rad", side="lower", known=True, reason="the paper's slip")
+    fly.update({"pass": False, "violations": [record]})
+    (case / "report.json").write_text(json.dumps(model))
+    render_run(case, pdf=False, date=DATE)
+    page = (case / "case.html").read_text(encoding="utf-8")
+    section = page.split(">Verdicts<")[1].split(">Scenario<")[0]
+    assert "FAIL (recorded)" in section and "-27.77&deg;" in section and "-20.00&deg;" in section
+    assert "yes: the paper&#39;s slip" in section and "100 %" in section
+    assert "FAIL (recorded)" in (case / "index.html").read_text(encoding="utf-8")
+    model["verdict"]["failures"] = ["flyable: dl"]
+    record.update(known=False, reason=None)
+    (case / "report.json").write_text(json.dumps(model))
+    render_run(case, pdf=False, date=DATE)
+    index = (case / "index.html").read_text(encoding="utf-8")
+    assert '<span class="badge fail">FAIL</span><br><span class="worst">dl -27.77\u00b0 at t = 14.47 s' in index
