@@ -162,3 +162,19 @@ def test_fitted_source_parses_a_file_outside_the_package():
     assert src.surfaces["dl"] == ("fcs/left-aileron-pos-rad", -1.0)
     with pytest.raises(InputError, match="surface mapping"):
         fitted_source({"source": prov["source"], "source_model": "surfaces: dm = a"})
+
+
+def test_an_engine_whose_steady_thrust_does_not_grow_is_one_line():
+    """JSBSim's steady-state solver gives no thrust for some piston engines (c182, pogo): refused, no traceback."""
+    import numpy as np
+    import pytest
+
+    from gna.errors import InputError
+    from harness.engines.jsbsim.source import _ThrottleLoop
+
+    grid = np.linspace(0.0, 2.0, 41)
+    for table in (np.zeros(41), np.full(41, np.nan)):
+        with pytest.raises(InputError, match="no thrust that grows with the throttle"):
+            _ThrottleLoop(grid, table, 0.5, 0.01)
+    loop = _ThrottleLoop(grid, np.where(grid < 1, grid * 100.0, np.nan), 0.5, 0.01)  # NaN tail left out
+    assert loop.th[-1] < 1 and np.isfinite(loop.T).all()

@@ -106,12 +106,26 @@ def source_model(aircraft: Aircraft) -> FittedSource:
         ) from None
 
 
+def _few_numbers(values, n: int = 4) -> str:
+    """``values`` as a short text: the first few, then how many more."""
+    shown = ", ".join(f"{v:.4g}" for v in values[:n])
+    return shown + (f", ... ({len(values)} values)" if len(values) > n else "")
+
+
 class _ThrottleLoop:
     """Throttle = steady-thrust table inverted at the command + integral correction on the measured thrust."""
 
     def __init__(self, table_th: np.ndarray, table_T: np.ndarray, tau: float, dt: float):
-        keep = np.concatenate([[True], np.diff(np.maximum.accumulate(table_T)) > 0])  # increasing part
+        finite = np.isfinite(table_T)
+        keep = np.concatenate([[True], np.diff(np.maximum.accumulate(np.where(finite, table_T, -np.inf))) > 0])
+        keep &= finite  # the increasing part of the steady-thrust table
         self.th, self.T = table_th[keep], table_T[keep]
+        if self.th.size < 2:
+            raise InputError(
+                f"JSBSim's steady state of the engine gives no thrust that grows with the throttle (thrust "
+                f"{_few_numbers(table_T * units.LBF)} N over throttle {table_th[0]:g} .. {table_th[-1]:g}): the "
+                f"jsbsim-source engine cannot command its thrust"
+            )
         self.slope = np.maximum(np.gradient(self.T, self.th), 1e-3 * (self.T[-1] - self.T[0]) + 1e-9)
         self.gain = dt / tau
         self.integral = 0.0
