@@ -354,7 +354,7 @@ def _listed(root: Path) -> set | None:
     data = read_manifest(root)
     if data is None or not isinstance(data.get("files"), list):
         return None
-    return {f.get("path") for f in data["files"] if isinstance(f, dict)}
+    return {f["path"] for f in data["files"] if isinstance(f, dict) and isinstance(f.get("path"), str)}
 
 
 def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:
