@@ -18,10 +18,25 @@ import numpy as np
 
 from .store import CampaignStore
 
-__all__ = ["campaign_summary", "write_report"]
+__all__ = ["campaign_summary", "first_line", "write_report"]
 
 #: Worst cases listed per case label.
 N_WORST = 5
+
+
+def first_line(error) -> str:
+    """The first line of a failed case's stored error (a placeholder when none was stored).
+
+    Parameters
+    ----------
+    error : str or None
+
+    Returns
+    -------
+    str
+    """
+    lines = str(error or "").strip().splitlines()
+    return lines[0] if lines else "(no error recorded)"
 
 
 def _ranks(v: np.ndarray) -> np.ndarray:
@@ -131,7 +146,7 @@ def campaign_summary(folder: str | Path) -> dict:
                 corr[p] = rho
         g["correlations"] = [[p, rho] for p, rho in sorted(corr.items(), key=lambda kv: -abs(kv[1]))]
         out_groups[key] = g
-    failed = {r["case_id"]: (r["error"] or "").splitlines()[0] for r in rows if r["status"] == "failed"}
+    failed = {r["case_id"]: first_line(r["error"]) for r in rows if r["status"] == "failed"}
     return {
         "campaign": meta.get("campaign"),
         "description": (meta.get("definition") or {}).get("description", ""),

@@ -47,9 +47,14 @@ def _check_folder(folder, n: int) -> None:
     for cid, _, files in rows:
         assert (
             sorted(p.name for p in (cases / cid).iterdir())
-            == json.loads(files)
+            == sorted(json.loads(files))
             == ["inhouse.parquet", "jsbsim.parquet"]
         )
+    st = CampaignStore(folder)
+    try:  # each file of the size and sha256 the store recorded
+        assert [st.check(r) for r in st.rows()] == [None] * n
+    finally:
+        st.close()
 
 
 @pytest.fixture(scope="module")
