@@ -16,7 +16,7 @@ import json
 import os
 from pathlib import Path
 
-from gna.errors import InputError
+from gna.errors import InputError, writing
 from harness.artefacts import json_safe as _json_safe
 from harness.artefacts import read_manifest
 from planners.scenario import load_scenario
@@ -245,8 +245,9 @@ def write_text(path: str | Path, text: str) -> Path:
         ``path``.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8", newline="\n")
+    with writing(path):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8", newline="\n")
     return path
 
 

@@ -15,6 +15,8 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
+from gna.errors import writing
+
 
 def can_merge() -> bool:
     """Whether printed parts can be put together (pypdf is installed).
@@ -132,5 +134,6 @@ def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path,
         prints = [lambda doc=doc: _print(doc, base_url) for doc in docs]
         printed = run_all(prints, len(docs)) if run_all is not None else [p() for p in prints]
         data = _merge(list(printed))
-    path.write_bytes(data)
+    with writing(path):
+        path.write_bytes(data)
     return path

@@ -220,3 +220,37 @@ def test_confinement_primitives(tmp_path):
     for bad in ("..", ".", "a/b", "../x", "", "a\nb", 3, "é"):
         with pytest.raises(InputError, match="not a plain name"):
             safe_name(bad, "case id")
+
+
+def test_a_re_render_on_a_full_disk_leaves_the_run_as_it_was(received):
+    """Kind 2: a re-render that cannot write (the file-size limit standing for a full disk) fails in one line;
+    the run keeps its files, all matching its manifest, and no staging folder is left."""
+    import resource
+    import signal
+    import subprocess
+    import sys
+
+    folder, _ = received
+    m = json.loads((folder / MANIFEST).read_text())
+    largest = max(f["bytes"] for f in m["files"])  # every file copies; the single report.html is larger
+
+    def limit():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails (EFBIG) instead of a kill
+        resource.setrlimit(resource.RLIMIT_FSIZE, (largest + 1, largest + 1))
+
+    before = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+    root = Path(__file__).parents[1]
+    proc = subprocess.run(
+        [sys.executable, "-m", "harness.cli", "report", str(folder), "--self-contained", "--no-pdf"],
+        capture_output=True,
+        text=True,
+        preexec_fn=limit,
+        env={**os.environ, "PYTHONPATH": str(root)},
+        cwd=root,
+    )
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "File too large" in proc.stderr and "report.html" in proc.stderr
+    assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before
+    for f in json.loads((folder / MANIFEST).read_text())["files"]:
+        assert file_problem(folder / f["path"], f["bytes"], f["sha256"]) is None
+    assert sorted(p.name for p in folder.parent.iterdir()) == ["run"]

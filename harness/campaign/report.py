@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gna.errors import writing
+
 from .store import CampaignStore
 
 __all__ = ["campaign_summary", "first_line", "write_report"]
@@ -228,7 +230,8 @@ def _figures(folder: Path, summary: dict, rows: list, outdir: Path) -> list[Path
     fig.tight_layout()
     figs.append(("correlations.png", fig))
     for name, fig in figs:
-        fig.savefig(outdir / name, dpi=110)
+        with writing(outdir / name):
+            fig.savefig(outdir / name, dpi=110)
         plt.close(fig)
         paths.append(outdir / name)
     return paths
@@ -259,7 +262,8 @@ def write_report(folder: str | Path, target: str | Path | None = None) -> tuple[
         rows = st.rows()
     finally:
         st.close()
-    (outdir / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=True), encoding="utf-8")
+    with writing(outdir / "summary.json"):
+        (outdir / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=True), encoding="utf-8")
     paths = [outdir / "summary.json"]
     if summary["groups"]:
         paths += _figures(folder, summary, rows, outdir)

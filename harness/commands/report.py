@@ -23,7 +23,7 @@ import shutil
 import time
 from pathlib import Path
 
-from gna.errors import InputError
+from gna.errors import InputError, writing
 from reports.html import render_date, render_run
 
 from ..parallel import default_jobs, run_all
@@ -129,8 +129,9 @@ def render_again(
             problem = file_problem(src, size, digest)
             if problem is None:
                 dst = out.path(*Path(name).parts)
-                dst.parent.mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(src, dst)
+                with writing(top / name):  # named as the run's file (the copy is staged beside it)
+                    dst.parent.mkdir(parents=True, exist_ok=True)
+                    shutil.copyfile(src, dst)
                 problem = file_problem(dst, size, digest)  # the copy checked, not the file read before
             if problem is not None:
                 raise InputError(f"{src}, listed in its manifest, is {problem}: the run was changed since it ran")
