@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -72,8 +70,8 @@ def test_newton_reaches_1e_10_where_the_fixed_point_stalls(roll):
 
 
 def test_newton_cheaper_than_fixed_point_to_the_fixed_points_best(roll):
-    """To the fixed point's best residual (its J = 8 iterate), Newton needs fewer model evaluations
-    and less time (medians of 3 runs)."""
+    """To the fixed point's best residual (its J = 8 iterate), Newton needs fewer model evaluations (what each
+    costs in time is measured in docs/performance.md, never asserted: a loaded machine would fail it)."""
     pb, counter = counted(roll.problem())
     fixed = plan_motion(pb, roll.t_nodes, 8)
     evals_f = counter.calls
@@ -83,15 +81,6 @@ def test_newton_cheaper_than_fixed_point_to_the_fixed_points_best(roll):
     res = [node_residual(newton, j) for j in range(newton.J + 1)]
     assert res[-1] < best * 1e-3
     assert counter.calls < evals_f, (counter.calls, evals_f)
-    tf, tn = [], []
-    for _ in range(3):
-        t = time.perf_counter()
-        plan_motion(roll.problem(), roll.t_nodes, 8)
-        tf.append(time.perf_counter() - t)
-        t = time.perf_counter()
-        plan_motion(roll.problem(), roll.t_nodes, 0, method="newton")
-        tn.append(time.perf_counter() - t)
-    assert np.median(tn) < np.median(tf), (tn, tf)
 
 
 def test_newton_iterates_and_orders(roll):
