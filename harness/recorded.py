@@ -19,7 +19,7 @@ import os
 from pathlib import Path, PurePosixPath
 from urllib.parse import quote
 
-from gna.errors import InputError
+from gna.errors import InputError, describe
 
 __all__ = ["confined", "file_problem", "href", "record", "sha256", "safe_name"]
 
@@ -162,7 +162,7 @@ def file_problem(path: str | Path, size=None, digest=None) -> str | None:
     except FileNotFoundError:
         return "missing"
     except OSError as exc:
-        return f"unreadable ({exc.strerror or exc})"
+        return f"unreadable ({describe(exc)})"
     if os.path.islink(path):
         return "a symbolic link"
     if not os.path.isfile(path):
@@ -176,7 +176,7 @@ def file_problem(path: str | Path, size=None, digest=None) -> str | None:
             if sha256(path) != digest:
                 return "changed since it was recorded (sha256 differs)"
         except OSError as exc:
-            return f"unreadable ({exc.strerror or exc})"
+            return f"unreadable ({describe(exc)})"
     return None
 
 

@@ -193,7 +193,7 @@ class RunDir:
         try:
             parent = parent.resolve()
         except (OSError, RuntimeError) as exc:
-            raise InputError(f"output folder {given}: cannot resolve its parent folder ({exc})") from None
+            raise InputError(f"output folder {given}: cannot resolve its parent folder ({describe(exc)})") from None
         self.out = parent / path.name
         self.command = command
         self._old_id: str | None = None

@@ -16,7 +16,7 @@ import json
 import os
 from pathlib import Path
 
-from gna.errors import InputError, writing
+from gna.errors import InputError, describe, writing
 from harness.artefacts import json_safe as _json_safe
 from harness.artefacts import read_manifest
 from planners.scenario import load_scenario
@@ -310,7 +310,7 @@ def read_json_object(path: str | Path, what: str) -> dict:
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read it: {getattr(exc, 'strerror', None) or exc}") from None
+        raise InputError(f"{path}: cannot read it: {describe(exc)}") from None
     try:
         obj = json.loads(text, parse_constant=_no_constant)
     except ValueError as exc:

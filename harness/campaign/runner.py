@@ -159,7 +159,7 @@ def _connect(where, timeout: float, scratch: Path | None = None):
             else "not a Dask scheduler?"
         )
         raise InputError(
-            f"cannot connect to the Dask scheduler at {arg}: {type(exc).__name__}: {exc} ({why})"
+            f"cannot connect to the Dask scheduler at {arg}: {type(exc).__name__}: {describe(exc)} ({why})"
         ) from None
     return box["client"], None
 
@@ -352,7 +352,7 @@ def _campaign_folder(out) -> Path:
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise InputError(f"campaign folder {path}: cannot create it: {exc.strerror or exc}") from None
+        raise InputError(f"campaign folder {path}: cannot create it: {describe(exc)}") from None
     return path
 
 

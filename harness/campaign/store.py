@@ -98,7 +98,7 @@ def locked(root: str | Path) -> Iterator[Path]:
     try:
         fd = os.open(root / DB_NAME, os.O_RDWR | os.O_CREAT, 0o666)
     except OSError as exc:
-        raise InputError(f"cannot open the campaign index {root / DB_NAME}: {exc.strerror or exc}") from None
+        raise InputError(f"cannot open the campaign index {root / DB_NAME}: {describe(exc)}") from None
     try:
         if fcntl is not None:
             try:
