@@ -131,8 +131,10 @@ def _figures(case_dir: Path, model: dict) -> list[Path]:
     out = []
     for f in model["figures"]:
         if not isinstance(f, dict) or not isinstance(f.get("file"), str):
-            raise InputError(f"{where}: a figure entry {f!r} is not {{'file': NAME, 'caption': TEXT}}")
+            raise InputError(f"{where}: a figure entry {f!r} is not {{'file': NAME.png, 'caption': TEXT}}")
         path = confined(case_dir, f["file"], f"{where} names the figure")
+        if not f["file"].endswith(".png"):
+            raise InputError(f"{where}: a figure entry {f!r} is not {{'file': NAME.png, 'caption': TEXT}}")
         problem = file_problem(path)
         if problem is not None:
             raise InputError(f"{where}: its figure {f['file']} is {problem}")

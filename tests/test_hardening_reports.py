@@ -90,6 +90,14 @@ def _refused(folder: Path, capsys, *words) -> str:
     return err
 
 
+def test_a_figure_that_is_no_png_is_refused(received, capsys):
+    folder, _ = received
+    _name_figure(folder, "report.json")
+    _reseal(folder)
+    err = _refused(folder, capsys, "is not {'file': NAME.png, 'caption': TEXT}")
+    assert ".gflat-" not in err and f"{folder}/report.json" in err  # named as the run's file, not its staged copy
+
+
 @pytest.mark.parametrize("figure", ["../../home/u/.ssh/id_rsa", "../../../../../../../../etc/passwd", "ABS"])
 def test_a_figure_outside_the_run_is_refused(received, capsys, figure):
     folder, secret = received

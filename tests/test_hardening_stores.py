@@ -123,19 +123,38 @@ def test_only_replaces_a_truncated_parquet(folder, capsys):
         ("files", '"inhouse.parquet"', "its files column is malformed"),
         ("files", '{"../../../x": {}}', "file '../../../x': not a plain name"),
         ("params", "[", "its params column is not JSON"),
+        ("metrics", "RUNS:max_position_error_m=far", "its metric max_position_error_m of engine inhouse is missing or"),
+        ("metrics", "RUNS:saturated_s=DROP", "its metric saturated_s of engine inhouse is missing or not a number"),
+        ("metrics", "DIFF:max_position_m=DROP", "its difference metric max_position_m of engine jsbsim is missing"),
     ],
 )
 def test_a_null_or_malformed_row_is_one_line(folder, capsys, column, value, cause):
+    if value is not None and value.startswith(("RUNS:", "DIFF:")):  # one metric changed in the stored JSON
+        where, change = value.split(":", 1)
+        key, new = change.split("=")
+        con = sqlite3.connect(folder / "campaign.sqlite")
+        m = json.loads(con.execute("SELECT metrics FROM cases WHERE case_id = ?", (CASE,)).fetchone()[0])
+        con.close()
+        tables = m["runs"].values() if where == "RUNS" else m["differences"].values()
+        for t in tables:
+            t.pop(key) if new == "DROP" else t.__setitem__(key, new)
+        value = json.dumps(m)
     _sql(folder, f"UPDATE cases SET {column} = ? WHERE case_id = ?", value, CASE)
     _one_line(main(["campaign", "report", str(folder), "--no-pdf"]), capsys, f"case {CASE}: {cause}")
-    assert main(["campaign", "status", str(folder)]) == 0  # status reads what is there
-    assert "2 cases" in capsys.readouterr().out
+    assert main(["campaign", "status", str(folder)]) == 0  # status reads what is there, and names the damage
+    assert "2 cases" in (out := capsys.readouterr().out) and f"untrusted {CASE}: {cause}" in out
     rc, err = _run(folder, capsys, "--quiet")
     if column == "params":  # the case's parameters are what the store is checked against
         assert rc == 2 and "stored with other parameters" in err and len(err.strip().splitlines()) == 1
     else:
         assert rc == 0 and f"case {CASE}: {cause}" in err
         _check_folder(folder, 2)
+
+
+def test_a_campaign_value_that_is_not_json_is_one_line(folder, capsys):
+    _sql(folder, "UPDATE campaign SET value = '{' WHERE key = 'campaign'")
+    for cmd in (["campaign", "report", str(folder), "--no-pdf"], ["campaign", "run", str(TINY), "--out", str(folder)]):
+        _one_line(main(cmd), capsys, "the campaign's 'campaign' is not JSON", "use a new folder")
 
 
 def test_a_failed_case_without_an_error_text_is_listed(folder, capsys):

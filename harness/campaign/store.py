@@ -123,6 +123,14 @@ def _os_cause(path: Path) -> str:
     return ""
 
 
+#: Metrics of each engine's run a report reads (numbers, or None where undefined).
+_RUN_METRICS = ("max_position_error_m", "saturated_s")
+
+
+def _number_or_none(v) -> bool:
+    return v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
+
+
 def _dumps(obj) -> str:
     return json.dumps(obj, sort_keys=True, allow_nan=True)
 
@@ -170,7 +178,16 @@ class CampaignStore:
         -------
         dict
         """
-        return {k: json.loads(v) for k, v in self.db.execute("SELECT key, value FROM campaign")}
+        out = {}
+        for k, v in self.db.execute("SELECT key, value FROM campaign"):
+            try:
+                out[k] = json.loads(v)
+            except (TypeError, ValueError, RecursionError):
+                raise InputError(
+                    f"{self.root / DB_NAME}: the campaign's {k!r} is not JSON ({str(v)[:40]!r}): the store was "
+                    f"changed; use a new folder"
+                ) from None
+        return out
 
     def set_meta(self, **values) -> None:
         """Store campaign-level values (JSON-encoded).
@@ -388,8 +405,17 @@ class CampaignStore:
         m = row.get("metrics")
         if not isinstance(m, dict) or not isinstance(m.get("runs"), dict) or not isinstance(m.get("differences"), dict):
             return "it is recorded done without metrics"
-        if any(not isinstance(m["runs"].get(e), dict) for e in row["params"]["engines"]):
+        engines = row["params"]["engines"]
+        if any(not isinstance(m["runs"].get(e), dict) for e in engines):
             return "it is recorded done without the metrics of every engine"
+        for e in engines:
+            bad = next((k for k in _RUN_METRICS if not _number_or_none(m["runs"][e].get(k, ""))), None)
+            if bad is not None or not isinstance(m["runs"][e].get("status"), str):
+                return f"its metric {bad or 'status'} of engine {e} is missing or not a number"
+        for e in engines[1:]:
+            d = m["differences"].get(e)
+            if not isinstance(d, dict) or not _number_or_none(d.get("max_position_m", "")):
+                return f"its difference metric max_position_m of engine {e} is missing or not a number"
         files = row.get("files") or {}
         if isinstance(files, list):  # recorded without sizes and checksums
             files = {n: {} for n in files}

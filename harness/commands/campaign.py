@@ -178,16 +178,18 @@ def run(args) -> int:
 @_store_errors
 def status(args) -> int:
     from harness.campaign.report import first_line
+    from harness.campaign.runner import untrusted
 
     st = _store(args.dir)
     try:
         counts = st.counts()
         rows = st.rows()
+        damaged = untrusted(st, quiet=True)
     finally:
         st.close()
     passed = sum(1 for r in rows if r["pass"])
     if args.json:
-        print(json.dumps({**counts, "passed": passed}, indent=2))
+        print(json.dumps({**counts, "passed": passed, "untrusted": damaged}, indent=2))
     else:
         print(
             f"{args.dir}: {counts['cases']} cases: {counts['done']} done ({passed} pass), "
@@ -196,6 +198,8 @@ def status(args) -> int:
         for r in rows:
             if r["status"] == "failed":
                 print(f"  failed {r['case_id']}: {first_line(r['error'])}")
+        for cid, problem in damaged.items():  # computed again by the next campaign run, refused by the report
+            print(f"  untrusted {cid}: {problem}")
     return 0
 
 

@@ -135,15 +135,18 @@ def render_again(
                 problem = file_problem(dst, size, digest)  # the copy checked, not the file read before
             if problem is not None:
                 raise InputError(f"{src}, listed in its manifest, is {problem}: the run was changed since it ran")
-        pages = render_run(
-            out.root,
-            self_contained=self_contained,
-            pdf=pdf,
-            date=date,
-            jobs=default_jobs(),
-            run_all=run_all,
-            manifest=old,
-        )
+        try:
+            pages = render_run(
+                out.root,
+                self_contained=self_contained,
+                pdf=pdf,
+                date=date,
+                jobs=default_jobs(),
+                run_all=run_all,
+                manifest=old,
+            )
+        except InputError as exc:  # named as the run's files, not as their staged copies
+            raise InputError(str(exc).replace(str(out.root), str(top))) from None
         out.commit({**old, "rendered_utc": render_date() if date is None else date})
     moved = lambda p: top / p.relative_to(out.root)  # noqa: E731
     return {k: [moved(p) for p in v] if isinstance(v, list) else moved(v) for k, v in pages.items()}
