@@ -373,6 +373,11 @@ def untrusted(store, quiet: bool = False, *, reset: bool = False) -> dict:
     -------
     dict
         Case id -> cause.
+
+    Raises
+    ------
+    InputError
+        A stored case id is not a plain name (the store was changed: nothing is removed).
     """
     rows = store.rows()
     for r in rows:

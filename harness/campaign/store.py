@@ -177,6 +177,11 @@ class CampaignStore:
         Returns
         -------
         dict
+
+        Raises
+        ------
+        InputError
+            A value that is not JSON (the store was changed), naming its key.
         """
         out = {}
         for k, v in self.db.execute("SELECT key, value FROM campaign"):
