@@ -7,6 +7,8 @@ traceback.
 
 from __future__ import annotations
 
+import contextlib
+
 
 def describe(exc: BaseException) -> str:
     """The text naming an exception's cause, never empty (messages end in a cause, not an empty clause).
@@ -78,3 +80,28 @@ class ConvergenceError(GflatError):
         self.iterations = iterations
         self.time = time
         super().__init__(message)
+
+
+@contextlib.contextmanager
+def writing(path):
+    """Name the file in the error of a write that fails (a full disk, a file-size limit, a read-only folder):
+    an :class:`OSError` raised in the block becomes ``InputError("cannot write <path>: <cause>")``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file written in the block.
+
+    Yields
+    ------
+    None
+
+    Raises
+    ------
+    InputError
+        The block raised an :class:`OSError` (its cause by :func:`describe`).
+    """
+    try:
+        yield
+    except OSError as exc:
+        raise InputError(f"cannot write {path}: {describe(exc)}") from None

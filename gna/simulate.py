@@ -258,7 +258,7 @@ def simulate(
             break
         if solver.status == "failed":
             status, t_end = "failed", t_prev
-            message = f"integrator failed at t = {t_prev:.6g} s: {err}"
+            message = f"integrator failed at t = {t_prev:.6g} s: {err or 'the solver gave no reason'}"
             out = domain_violation(t_prev, y_prev, bounds)
             if out is not None:
                 status, message = "domain", f"{out}; partial result kept up to t = {t_prev:.6g} s"

@@ -37,7 +37,7 @@ import numpy as np
 from .aircraft import Aircraft
 from .atmosphere import Environment
 from .eom import CONTROL_NAMES, STATE_NAMES, Controls, HValues, State, derivatives
-from .errors import InputError
+from .errors import InputError, describe
 
 __all__ = ["CompiledDerivatives", "compile_derivatives", "TraceError"]
 
@@ -442,7 +442,7 @@ def trace_program(
     except TraceError:
         raise
     except Exception as exc:  # anything the definition itself refuses on traced values
-        raise TraceError(f"{type(exc).__name__}: {exc}") from None
+        raise TraceError(f"{type(exc).__name__}: {describe(exc)}") from None
     outputs = list(out)
     for o in outputs:
         if not isinstance(o, (_Traced,) + _NUMBER):

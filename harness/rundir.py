@@ -32,7 +32,6 @@ import contextlib
 import ctypes
 import datetime
 import errno
-import hashlib
 import os
 import secrets
 import shutil
@@ -44,6 +43,7 @@ from pathlib import Path
 from gna.errors import InputError, describe
 
 from .artefacts import MANIFEST, enclosing_run, json_text, read_manifest
+from .recorded import sha256
 
 try:  # POSIX
     import fcntl
@@ -104,14 +104,6 @@ def _exchange(a: Path, b: Path) -> None:
     os.rename(aside, a)
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def _files(root: Path) -> list[str]:
     """Every entry under ``root`` that is not a folder (links not followed), as sorted POSIX paths."""
     out = []
@@ -131,7 +123,8 @@ def _run_files(folder: Path) -> dict:
             f"{folder} is not the folder of a gflat run (no {MANIFEST} of gflat): it is never removed or "
             f"changed; give another --out"
         )
-    listed = {f.get("path") for f in data.get("files", []) if isinstance(f, dict)} | {MANIFEST}
+    files = data.get("files") if isinstance(data.get("files"), list) else []
+    listed = {f["path"] for f in files if isinstance(f, dict) and isinstance(f.get("path"), str)} | {MANIFEST}
     foreign = [f for f in _files(folder) if f not in listed]
     if foreign:
         raise InputError(
@@ -200,7 +193,7 @@ class RunDir:
         try:
             parent = parent.resolve()
         except (OSError, RuntimeError) as exc:
-            raise InputError(f"output folder {given}: cannot resolve its parent folder ({exc})") from None
+            raise InputError(f"output folder {given}: cannot resolve its parent folder ({describe(exc)})") from None
         self.out = parent / path.name
         self.command = command
         self._old_id: str | None = None
@@ -426,7 +419,7 @@ class RunDir:
         if self._done:
             raise InputError(f"output folder {self.out}: the run is already committed or closed")
         files = [
-            {"path": f, "sha256": _sha256(self.root / f), "bytes": (self.root / f).stat().st_size}
+            {"path": f, "sha256": sha256(self.root / f), "bytes": (self.root / f).stat().st_size}
             for f in _files(self.root)
             if f != MANIFEST
         ]

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from harness.recorded import safe_name
+
 from .html import _environment, render_date
 from .model import write_text
 
@@ -69,7 +71,7 @@ def render_campaign(
     listed.update({cid: "failed" for cid in summary["failed"]})
     pages = []
     for cid, group in listed.items():
-        page = out / "cases" / f"{cid}.html"
+        page = out / "cases" / f"{safe_name(cid, 'case id')}.html"  # a page never written outside the report
         page.parent.mkdir(parents=True, exist_ok=True)
         html = env.get_template("campaign_case.html").render(
             c=by_id[cid], group=group, date=date, data_dir=f"../../cases/{cid}", incomplete=incomplete

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from gna.eom import CONTROL_NAMES, STATE_NAMES
+from gna.errors import writing
 from gna.trajectory import UNITS
 from harness.metrics import DEFAULT_VARIABLES, differences, resolve_tolerances
 
@@ -99,8 +100,9 @@ def save_figure(fig, out, name: str, dpi: int = 110) -> Path:
     """
     fmt = Path(name).suffix.lstrip(".") or None
     path = Path(out) / name
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi, format=fmt)
+    with writing(path):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=dpi, format=fmt)
     return path
 
 

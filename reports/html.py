@@ -16,10 +16,10 @@ import base64
 import datetime
 import json
 import math
-import os
 from pathlib import Path
 
 from gna.errors import InputError
+from harness.recorded import confined, file_problem, href
 
 from .model import REPORT_JSON, load_case_models, read_json_object, write_text
 
@@ -182,39 +182,60 @@ def _data_uri(path: Path) -> str:
     return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode("ascii")
 
 
-def _rel(target: Path, start: Path) -> str:
-    return Path(os.path.relpath(target, start)).as_posix()
+def _figures(case_dir: Path, model: dict) -> list[Path]:
+    """The figure files a case's model names, each confined to the run (:func:`harness.recorded.confined`)."""
+    where = case_dir / REPORT_JSON
+    out = []
+    for f in model["figures"]:
+        if not isinstance(f, dict) or not isinstance(f.get("file"), str):
+            raise InputError(f"{where}: a figure entry {f!r} is not {{'file': NAME.png, 'caption': TEXT}}")
+        path = confined(case_dir, f["file"], f"{where} names the figure")
+        if not f["file"].endswith(".png"):
+            raise InputError(f"{where}: a figure entry {f!r} is not {{'file': NAME.png, 'caption': TEXT}}")
+        problem = file_problem(path)
+        if problem is not None:
+            raise InputError(f"{where}: its figure {f['file']} is {problem}")
+        out.append(path)
+    return out
+
+
+def _run_file(root: Path, p: Path) -> bool:
+    """``p`` is a regular file of the run, not a link (a link, even inside the run, is no file the run wrote)."""
+    return not p.is_symlink() and p.is_file() and p.resolve().is_relative_to(root.resolve())
 
 
 def _case_view(root: Path, folder: Path, model: dict, page_dir: Path, embed: bool) -> dict:
-    """What a template needs of one case beyond its model: image sources, links, the data files."""
+    """What a template needs of one case beyond its model: image sources, links, the data files (every path
+    confined to the run ``root``, every link relative: :mod:`harness.recorded`)."""
     case_dir = root / folder
     src = {
-        f["file"]: (_data_uri(case_dir / f["file"]) if embed else _rel(case_dir / f["file"], page_dir))
-        for f in model["figures"]
+        f["file"]: (_data_uri(p) if embed else href(p, page_dir))
+        for f, p in zip(model["figures"], _figures(case_dir, model))
     }
     files = sorted(
         p
         for p in case_dir.iterdir()
-        if p.is_file() and not p.name.startswith(".") and p.suffix != ".png" and p.name not in RENDERED
+        if _run_file(root, p) and not p.name.startswith(".") and p.suffix != ".png" and p.name not in RENDERED
     )
     # the plan beside the case (gflat paper: <scenario>/plan) or inside it (gflat compare), never outside the run
     plan_dir = next(
         (
             d
             for d in (case_dir / PLAN_FOLDER, case_dir.parent / PLAN_FOLDER)
-            if d.is_dir() and d.resolve().is_relative_to(root.resolve())
+            if d.is_dir() and not d.is_symlink() and d.resolve().is_relative_to(root.resolve())
         ),
         None,
     )
-    plan_files = sorted(p for p in plan_dir.iterdir() if p.is_file() and not p.name.startswith(".")) if plan_dir else []
+    plan_files = (
+        sorted(p for p in plan_dir.iterdir() if _run_file(root, p) and not p.name.startswith(".")) if plan_dir else []
+    )
     return {
         "model": model,
         "folder": folder.as_posix() or ".",
         "img": src,
-        "page": _rel(case_dir / CASE_PAGE, page_dir),
-        "files": [{"name": p.name, "href": _rel(p, page_dir)} for p in files],
-        "plan_files": [{"name": f"{PLAN_FOLDER}/{p.name}", "href": _rel(p, page_dir)} for p in plan_files],
+        "page": href(case_dir / CASE_PAGE, page_dir),
+        "files": [{"name": p.name, "href": href(p, page_dir)} for p in files],
+        "plan_files": [{"name": f"{PLAN_FOLDER}/{p.name}", "href": href(p, page_dir)} for p in plan_files],
     }
 
 
@@ -313,7 +334,7 @@ def render_documents(
         page_dir = root / folder
         view = _case_view(root, folder, model, page_dir, False)
         docs[page_dir / CASE_PAGE] = env.get_template("case.html").render(
-            case=view, index=_rel(root / INDEX_PAGE, page_dir), **common
+            case=view, index=href(root / INDEX_PAGE, page_dir), **common
         )
     if embed:
         single = root / SINGLE_PAGE

@@ -16,7 +16,7 @@ import json
 import os
 from pathlib import Path
 
-from gna.errors import InputError
+from gna.errors import InputError, describe, writing
 from harness.artefacts import json_safe as _json_safe
 from harness.artefacts import read_manifest
 from planners.scenario import load_scenario
@@ -246,8 +246,9 @@ def write_text(path: str | Path, text: str) -> Path:
         ``path``.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8", newline="\n")
+    with writing(path):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8", newline="\n")
     return path
 
 
@@ -310,7 +311,7 @@ def read_json_object(path: str | Path, what: str) -> dict:
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read it: {getattr(exc, 'strerror', None) or exc}") from None
+        raise InputError(f"{path}: cannot read it: {describe(exc)}") from None
     try:
         obj = json.loads(text, parse_constant=_no_constant)
     except ValueError as exc:
@@ -355,7 +356,7 @@ def _listed(root: Path) -> set | None:
     data = read_manifest(root)
     if data is None or not isinstance(data.get("files"), list):
         return None
-    return {f.get("path") for f in data["files"] if isinstance(f, dict)}
+    return {f["path"] for f in data["files"] if isinstance(f, dict) and isinstance(f.get("path"), str)}
 
 
 def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:

@@ -15,6 +15,8 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
+from gna.errors import writing
+
 
 def can_merge() -> bool:
     """Whether printed parts can be put together (pypdf is installed).
@@ -30,6 +32,27 @@ def can_merge() -> bool:
     return True
 
 
+def _fetcher(base_url: str):
+    """A weasyprint URL fetcher that reads only ``data:`` URLs and files inside ``base_url`` (the run), links
+    resolved: a page never prints a file from outside its run."""
+    from urllib.parse import unquote, urlsplit
+
+    from weasyprint.urls import URLFetcher
+
+    base = Path(base_url).resolve()
+
+    class RunFetcher(URLFetcher):
+        def fetch(self, url, headers=None):
+            parts = urlsplit(url)
+            if parts.scheme != "data" and not (
+                parts.scheme == "file" and Path(unquote(parts.path)).resolve().is_relative_to(base)
+            ):
+                raise ValueError(f"{url}: not a file of the run {base} (never printed)")
+            return super().fetch(url, headers)
+
+    return RunFetcher(allowed_protocols=("file", "data"))
+
+
 def _print(html: str, base_url: str) -> bytes:
     import gc
 
@@ -38,7 +61,7 @@ def _print(html: str, base_url: str) -> bytes:
     gc.collect()
     gc.freeze()  # the objects alive before printing are not scanned again by every collection
     try:
-        return weasyprint.HTML(string=html, base_url=base_url).write_pdf()
+        return weasyprint.HTML(string=html, base_url=base_url, url_fetcher=_fetcher(base_url)).write_pdf()
     finally:
         gc.unfreeze()
 
@@ -111,5 +134,6 @@ def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path,
         prints = [lambda doc=doc: _print(doc, base_url) for doc in docs]
         printed = run_all(prints, len(docs)) if run_all is not None else [p() for p in prints]
         data = _merge(list(printed))
-    path.write_bytes(data)
+    with writing(path):
+        path.write_bytes(data)
     return path

@@ -308,7 +308,7 @@ def run_sample(task: SampleTask) -> dict:
         )
         out["timings"] = {"budget_s": task.budget_s}
     except GflatError as exc:
-        out["error"] = f"{type(exc).__name__}: {exc}"
+        out["error"] = f"{type(exc).__name__}: {describe(exc)}"
     except Exception as exc:  # a bug, kept with its traceback in the store
         out["error"] = f"{type(exc).__name__}: {describe(exc)}\n{traceback.format_exc(limit=8)}"
     out["timings"]["total_s"] = time.perf_counter() - t_start

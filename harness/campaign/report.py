@@ -16,13 +16,30 @@ from pathlib import Path
 
 import numpy as np
 
+from gna.errors import writing
+
 from ..validation.verdicts import CAUSES, VERDICT_NAMES
 from .store import CampaignStore
 
-__all__ = ["campaign_summary", "write_report"]
+__all__ = ["campaign_summary", "first_line", "write_report"]
 
 #: Worst cases listed per case label.
 N_WORST = 5
+
+
+def first_line(error) -> str:
+    """The first line of a failed case's stored error (a placeholder when none was stored).
+
+    Parameters
+    ----------
+    error : str or None
+
+    Returns
+    -------
+    str
+    """
+    lines = str(error or "").strip().splitlines()
+    return lines[0] if lines else "(no error recorded)"
 
 
 def _ranks(v: np.ndarray) -> np.ndarray:
@@ -167,7 +184,7 @@ def campaign_summary(folder: str | Path) -> dict:
                 corr[p] = rho
         g["correlations"] = [[p, rho] for p, rho in sorted(corr.items(), key=lambda kv: -abs(kv[1]))]
         out_groups[key] = g
-    failed = {r["case_id"]: (r["error"] or "").splitlines()[0] for r in rows if r["status"] == "failed"}
+    failed = {r["case_id"]: first_line(r["error"]) for r in rows if r["status"] == "failed"}
     return {
         "campaign": meta.get("campaign"),
         "description": (meta.get("definition") or {}).get("description", ""),
@@ -264,7 +281,8 @@ def _figures(folder: Path, summary: dict, rows: list, outdir: Path) -> list[Path
     fig.tight_layout()
     figs.append(("correlations.png", fig))
     for name, fig in figs:
-        fig.savefig(outdir / name, dpi=110)
+        with writing(outdir / name):
+            fig.savefig(outdir / name, dpi=110)
         plt.close(fig)
         paths.append(outdir / name)
     return paths
@@ -295,7 +313,8 @@ def write_report(folder: str | Path, target: str | Path | None = None) -> tuple[
         rows = st.rows()
     finally:
         st.close()
-    (outdir / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=True), encoding="utf-8")
+    with writing(outdir / "summary.json"):
+        (outdir / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=True), encoding="utf-8")
     paths = [outdir / "summary.json"]
     if summary["groups"]:
         paths += _figures(folder, summary, rows, outdir)

@@ -32,10 +32,11 @@ from gna.errors import InputError, describe
 
 from ..artefacts import read_manifest
 from ..parallel import check_workers
+from ..recorded import safe_name
 from ..validation import provenance
 from .execute import run_sample
 from .spec import Campaign, load_campaign
-from .store import CampaignStore, locked
+from .store import DB_NAME, CampaignStore, locked
 
 __all__ = ["run_campaign", "rerun_case", "parse_dask", "DASK_SCHEMES", "DASK_TIMEOUT_S"]
 
@@ -158,7 +159,7 @@ def _connect(where, timeout: float, scratch: Path | None = None):
             else "not a Dask scheduler?"
         )
         raise InputError(
-            f"cannot connect to the Dask scheduler at {arg}: {type(exc).__name__}: {exc} ({why})"
+            f"cannot connect to the Dask scheduler at {arg}: {type(exc).__name__}: {describe(exc)} ({why})"
         ) from None
     return box["client"], None
 
@@ -351,8 +352,46 @@ def _campaign_folder(out) -> Path:
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise InputError(f"campaign folder {path}: cannot create it: {exc.strerror or exc}") from None
+        raise InputError(f"campaign folder {path}: cannot create it: {describe(exc)}") from None
     return path
+
+
+def untrusted(store, quiet: bool = False, *, reset: bool = False) -> dict:
+    """The stored cases that fail :meth:`~harness.campaign.store.CampaignStore.check` (done cases whose files are
+    missing, truncated or changed, malformed rows), each named in one line on stderr.
+
+    Parameters
+    ----------
+    store : CampaignStore
+    quiet : bool
+        Print nothing.
+    reset : bool
+        Mark each pending again, its files removed (:meth:`~harness.campaign.store.CampaignStore.reset`), so that
+        this run computes it again.
+
+    Returns
+    -------
+    dict
+        Case id -> cause.
+
+    Raises
+    ------
+    InputError
+        A stored case id is not a plain name (the store was changed: nothing is removed).
+    """
+    rows = store.rows()
+    for r in rows:
+        try:
+            safe_name(r["case_id"], "case id")
+        except InputError as exc:
+            raise InputError(f"{store.root / DB_NAME}: {exc}: use a new folder") from None
+    bad = {r["case_id"]: p for r in rows if (p := store.check(r)) is not None}
+    for cid, problem in bad.items():
+        if reset:
+            store.reset(cid)
+        if not quiet:
+            print(f"campaign: case {cid}: {problem}" + (": computed again" if reset else ""), file=sys.stderr)
+    return bad
 
 
 def _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only) -> dict:
@@ -382,6 +421,7 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
     store.set_meta(campaign=ident, definition=camp.raw, source=camp.source)
     store.add_cases(tasks)
     store.clean_stale()
+    untrusted(store, reset=True)  # a case done whose files are missing or changed is computed again
     status = store.statuses()
     wanted = {t.case_id for t in tasks}
     if only is not None:

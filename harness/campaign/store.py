@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import hashlib
 import json
 import os
 import shutil
@@ -30,6 +31,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from gna.errors import InputError, describe
+
+from ..recorded import confined, file_problem, safe_name
 
 try:  # POSIX
     import fcntl
@@ -108,7 +111,7 @@ def locked(root: str | Path) -> Iterator[Path]:
     try:
         fd = os.open(root / DB_NAME, os.O_RDWR | os.O_CREAT, 0o666)
     except OSError as exc:
-        raise InputError(f"cannot open the campaign index {root / DB_NAME}: {exc.strerror or exc}") from None
+        raise InputError(f"cannot open the campaign index {root / DB_NAME}: {describe(exc)}") from None
     try:
         if fcntl is not None:
             try:
@@ -121,6 +124,24 @@ def locked(root: str | Path) -> Iterator[Path]:
         yield root
     finally:
         os.close(fd)
+
+
+def _os_cause(path: Path) -> str:
+    """What the system says of opening ``path`` for writing (SQLite's "unable to open database file" names no
+    cause), as `` (<cause>)``, or nothing."""
+    try:
+        os.close(os.open(path, os.O_RDWR))
+    except OSError as exc:
+        return f" ({describe(exc)}: the campaign folder must be writable)"
+    return ""
+
+
+#: Metrics of each engine's run a report reads (numbers, or None where undefined).
+_RUN_METRICS = ("max_position_error_m", "saturated_s")
+
+
+def _number_or_none(v) -> bool:
+    return v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
 
 
 def _dumps(obj) -> str:
@@ -145,6 +166,11 @@ class CampaignStore:
         self.root = Path(root)
         if self.root.exists() and not self.root.is_dir():
             raise InputError(f"campaign folder {self.root} is a file")
+        if (self.root / "cases").is_symlink():
+            raise InputError(
+                f"campaign folder {self.root}: its cases folder is a symbolic link (a campaign's files stay in its "
+                f"folder): remove the link, or use another folder"
+            )
         (self.root / "cases").mkdir(parents=True, exist_ok=True)
         try:
             self.db = sqlite3.connect(self.root / DB_NAME, timeout=30.0, isolation_level=None)
@@ -156,7 +182,9 @@ class CampaignStore:
                 if name not in have:
                     self.db.execute(f"ALTER TABLE cases ADD COLUMN {name} {kind}")
         except sqlite3.DatabaseError as exc:
-            raise InputError(f"cannot open the campaign index {self.root / DB_NAME}: {describe(exc)}") from None
+            raise InputError(
+                f"cannot open the campaign index {self.root / DB_NAME}: {describe(exc)}{_os_cause(self.root / DB_NAME)}"
+            ) from None
 
     # ------------------------------------------------------------------ campaign-level
 
@@ -166,8 +194,22 @@ class CampaignStore:
         Returns
         -------
         dict
+
+        Raises
+        ------
+        InputError
+            A value that is not JSON (the store was changed), naming its key.
         """
-        return {k: json.loads(v) for k, v in self.db.execute("SELECT key, value FROM campaign")}
+        out = {}
+        for k, v in self.db.execute("SELECT key, value FROM campaign"):
+            try:
+                out[k] = json.loads(v)
+            except (TypeError, ValueError, RecursionError):
+                raise InputError(
+                    f"{self.root / DB_NAME}: the campaign's {k!r} is not JSON ({str(v)[:40]!r}): the store was "
+                    f"changed; use a new folder"
+                ) from None
+        return out
 
     def set_meta(self, **values) -> None:
         """Store campaign-level values (JSON-encoded).
@@ -263,7 +305,11 @@ class CampaignStore:
         for r in cur:
             row = dict(zip(names, r))
             for k in ("params", "metrics", "draw", "timings", "files", "versions"):
-                row[k] = json.loads(row[k]) if row[k] is not None else None
+                try:
+                    row[k] = json.loads(row[k]) if row[k] is not None else None
+                except (TypeError, ValueError, RecursionError):  # a malformed row: named by check(), never trusted
+                    row.setdefault("malformed", f"its {k} column is not JSON ({str(row[k])[:40]!r})")
+                    row[k] = None
             out.append(row)
         return out
 
@@ -311,6 +357,7 @@ class CampaignStore:
         cid = outcome["case_id"]
         files = outcome.get("files") or {}
         names = sorted(files)
+        recorded = {n: {"bytes": len(files[n]), "sha256": hashlib.sha256(files[n]).hexdigest()} for n in names}
         if outcome["status"] == "done" and files:
             tmp = self.root / "cases" / f".tmp-{cid}-{os.getpid()}"
             shutil.rmtree(tmp, ignore_errors=True)
@@ -353,11 +400,84 @@ class CampaignStore:
                     None if outcome.get("draw") is None else _dumps(outcome["draw"]),
                     outcome.get("error"),
                     _dumps(outcome.get("timings", {})),
-                    _dumps(names),
+                    _dumps(recorded),
                     _dumps(versions),
                     time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
                     cid,
                 ),
+            )
+
+    def check(self, row: dict) -> str | None:
+        """Why a stored case cannot be trusted (None: it can), its recorded files checked on disk.
+
+        Every case: its id a plain name, its parameters a table.  A case done: its metrics recorded (runs and
+        differences), and each file it recorded, confined to its folder (:func:`harness.recorded.confined`), of
+        the size and sha256 recorded (stores written before sizes and checksums were recorded: present).
+
+        Parameters
+        ----------
+        row : dict
+            A row of :meth:`rows`.
+
+        Returns
+        -------
+        str or None
+            The cause, e.g. ``"its file inhouse.parquet is truncated (812 of 40960 bytes)"``,
+            ``"it is recorded done without metrics"``.
+        """
+        try:
+            cid = safe_name(row.get("case_id"), "case id")
+        except InputError as exc:
+            return str(exc)
+        if row.get("malformed"):
+            return row["malformed"]
+        if not isinstance(row.get("params"), dict) or not isinstance(row["params"].get("engines"), list):
+            return "its parameters are not recorded"
+        if row.get("status") != "done":
+            return None
+        m = row.get("metrics")
+        if not isinstance(m, dict) or not isinstance(m.get("runs"), dict) or not isinstance(m.get("differences"), dict):
+            return "it is recorded done without metrics"
+        engines = row["params"]["engines"]
+        if any(not isinstance(m["runs"].get(e), dict) for e in engines):
+            return "it is recorded done without the metrics of every engine"
+        for e in engines:
+            bad = next((k for k in _RUN_METRICS if not _number_or_none(m["runs"][e].get(k, ""))), None)
+            if bad is not None or not isinstance(m["runs"][e].get("status"), str):
+                return f"its metric {bad or 'status'} of engine {e} is missing or not a number"
+        for e in engines[1:]:
+            d = m["differences"].get(e)
+            if not isinstance(d, dict) or not _number_or_none(d.get("max_position_m", "")):
+                return f"its difference metric max_position_m of engine {e} is missing or not a number"
+        files = row.get("files") or {}
+        if isinstance(files, list):  # recorded without sizes and checksums
+            files = {n: {} for n in files}
+        if not isinstance(files, dict):
+            return "its files column is malformed"
+        for name, rec in sorted(files.items()):
+            try:
+                path = confined(self.root, f"cases/{cid}/{safe_name(name, 'file')}", "the store names the file")
+            except InputError as exc:
+                return str(exc)
+            rec = rec if isinstance(rec, dict) else {}
+            problem = file_problem(path, rec.get("bytes"), rec.get("sha256"))
+            if problem is not None:
+                return f"its file {name} is {problem}"
+        return None
+
+    def reset(self, case_id: str) -> None:
+        """Mark a case pending again and remove its files (a case whose files failed :meth:`check`).
+
+        Parameters
+        ----------
+        case_id : str
+        """
+        shutil.rmtree(self.case_dir(safe_name(case_id, "case id")), ignore_errors=True)
+        with self.db:
+            self.db.execute("BEGIN IMMEDIATE")
+            self.db.execute(
+                "UPDATE cases SET status = 'pending', pass = NULL, metrics = NULL, files = NULL WHERE case_id = ?",
+                (case_id,),
             )
 
     def integrity(self) -> str:

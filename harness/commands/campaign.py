@@ -13,12 +13,14 @@ one works.
 
 from __future__ import annotations
 
+import functools
 import json
+import sqlite3
 import sys
 from dataclasses import replace
 from pathlib import Path
 
-from gna.errors import InputError
+from gna.errors import InputError, describe
 
 from ..campaign.checks import MAX_CASES
 from ._args import add_tracking, cost_bound, positive_float, positive_int, worker_count
@@ -100,6 +102,20 @@ def register(sub) -> None:
     t.set_defaults(func=report)
 
 
+def _store_errors(command):
+    """``command(args)`` with an SQLite error of the store (read-only, corrupt, locked) as one line naming it."""
+
+    @functools.wraps(command)
+    def checked(args) -> int:
+        try:
+            return command(args)
+        except sqlite3.Error as exc:
+            folder = Path(getattr(args, "dir", None) or getattr(args, "out", None) or ".")
+            raise InputError(f"campaign index {folder / 'campaign.sqlite'}: {describe(exc)}") from None
+
+    return checked
+
+
 def _store(folder: str):
     from harness.campaign.store import DB_NAME, CampaignStore
 
@@ -108,6 +124,7 @@ def _store(folder: str):
     return CampaignStore(folder)
 
 
+@_store_errors
 def run(args) -> int:
     """Run ``gflat campaign`` with the parsed command line ``args``.
 
@@ -136,8 +153,9 @@ def run(args) -> int:
 
         if (Path(args.out) / DB_NAME).is_file():
             st = _store(args.out)
-            try:
-                done = [c for c in args.only if st.statuses().get(c) == "done"]
+            try:  # a case done whose files fail their check is computed again in the store (below), not aside
+                rows = {r["case_id"]: r for r in st.rows()}
+                done = [c for c in args.only if c in rows and rows[c]["status"] == "done" and st.check(rows[c]) is None]
             finally:
                 st.close()
             for cid in done:
@@ -177,6 +195,7 @@ def run(args) -> int:
     return 0 if res["pending"] == 0 else 1
 
 
+@_store_errors
 def status(args) -> int:
     """Run ``gflat campaign status`` with the parsed command line ``args``.
 
@@ -190,15 +209,19 @@ def status(args) -> int:
     int
         The exit status (:data:`harness.cli.EXIT_CODES`).
     """
+    from harness.campaign.report import first_line
+    from harness.campaign.runner import untrusted
+
     st = _store(args.dir)
     try:
         counts = st.counts()
         rows = st.rows()
+        damaged = untrusted(st, quiet=True)
     finally:
         st.close()
     passed = sum(1 for r in rows if r["pass"])
     if args.json:
-        print(json.dumps({**counts, "passed": passed}, indent=2))
+        print(json.dumps({**counts, "passed": passed, "untrusted": damaged}, indent=2))
     else:
         print(
             f"{args.dir}: {counts['cases']} cases: {counts['done']} done ({passed} pass), "
@@ -206,10 +229,13 @@ def status(args) -> int:
         )
         for r in rows:
             if r["status"] == "failed":
-                print(f"  failed {r['case_id']}: {(r['error'] or '').splitlines()[0]}")
+                print(f"  failed {r['case_id']}: {first_line(r['error'])}")
+        for cid, problem in damaged.items():  # computed again by the next campaign run, refused by the report
+            print(f"  untrusted {cid}: {problem}")
     return 0
 
 
+@_store_errors
 def report(args) -> int:
     """Run ``gflat campaign report`` with the parsed command line ``args``.
 
@@ -224,13 +250,26 @@ def report(args) -> int:
         The exit status (:data:`harness.cli.EXIT_CODES`).
     """
     from harness.campaign.report import write_report
-    from harness.campaign.store import locked
+    from harness.campaign.runner import untrusted
+    from harness.campaign.store import CampaignStore, locked
     from harness.rundir import RunDir
     from reports.campaign import render_campaign
 
     _store(args.dir).close()
     folder = Path(args.dir).expanduser().resolve()
     with locked(folder):  # refused while a campaign run works there, and held meanwhile
+        st = CampaignStore(folder)
+        try:
+            bad = untrusted(st, quiet=True)  # nothing unchecked is rendered
+        finally:
+            st.close()
+        if bad:
+            cid, problem = next(iter(bad.items()))
+            more = f" ({len(bad) - 1} more case(s) too)" if len(bad) > 1 else ""
+            raise InputError(
+                f"{folder}: case {cid}: {problem}{more}: no report written; run gflat campaign run CAMPAIGN --out "
+                f"{args.dir} to compute it again"
+            )
         # a report/ link is refused (never followed out of DIR); an earlier report/ is replaced once this is whole
         with RunDir(folder / "report", command="campaign report", replace=True) as out:
             summary, rows, paths = write_report(folder, out.root)

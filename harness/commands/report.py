@@ -19,16 +19,16 @@ leaves the run as it was.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import shutil
 import time
 from pathlib import Path
 
-from gna.errors import InputError
+from gna.errors import InputError, writing
 from reports.html import render_date, render_run
 
 from ..parallel import default_jobs, run_all
-from ..rundir import RunDir, read_manifest
+from ..recorded import confined, file_problem
+from ..rundir import MANIFEST, RunDir, read_manifest
 
 
 def register(sub) -> None:
@@ -87,6 +87,22 @@ def run_folder(folder: str | Path) -> tuple[Path, dict]:
     )
 
 
+def _listed(top: Path, manifest: dict) -> list[tuple[str, int, str]]:
+    """The files a run's manifest lists, as (path, bytes, sha256), refusing an entry that is none (one line)."""
+    files = manifest.get("files")
+    if not isinstance(files, list):
+        raise InputError(f"{top / MANIFEST}: not a gflat run manifest ('files' is not a list)")
+    out = []
+    for f in files:
+        ok = isinstance(f, dict) and isinstance(f.get("path"), str) and isinstance(f.get("sha256"), str)
+        if not ok or isinstance(f.get("bytes"), bool) or not isinstance(f.get("bytes"), int):
+            raise InputError(
+                f"{top / MANIFEST}: not a gflat run manifest (a file entry {f!r} lacks path, bytes or sha256)"
+            )
+        out.append((f["path"], f["bytes"], f["sha256"]))
+    return out
+
+
 def render_again(
     folder: str | Path, *, self_contained: bool = False, pdf: bool = True, date: str | None = None
 ) -> dict[str, Path]:
@@ -115,24 +131,29 @@ def render_again(
     """
     top, old = run_folder(folder)
     with RunDir(top, command=str(old.get("command")), replace=True) as out:  # refused if top holds a foreign file
-        for f in old.get("files", []):
-            src = top / f["path"]
-            if src.is_symlink() or not src.is_file():
-                raise InputError(f"{top}: {f['path']}, listed in its manifest, is missing or not a regular file")
-            dst = out.path(*Path(f["path"]).parts)
-            dst.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(src, dst)
-            if hashlib.sha256(dst.read_bytes()).hexdigest() != f.get("sha256"):
-                raise InputError(f"{src} differs from the run's manifest (sha256): the run was changed since it ran")
-        pages = render_run(
-            out.root,
-            self_contained=self_contained,
-            pdf=pdf,
-            date=date,
-            jobs=default_jobs(),
-            run_all=run_all,
-            manifest=old,
-        )
+        for name, size, digest in _listed(top, old):
+            src = confined(top, name, f"{top / MANIFEST} lists the file")
+            problem = file_problem(src, size, digest)
+            if problem is None:
+                dst = out.path(*Path(name).parts)
+                with writing(top / name):  # named as the run's file (the copy is staged beside it)
+                    dst.parent.mkdir(parents=True, exist_ok=True)
+                    shutil.copyfile(src, dst)
+                problem = file_problem(dst, size, digest)  # the copy checked, not the file read before
+            if problem is not None:
+                raise InputError(f"{src}, listed in its manifest, is {problem}: the run was changed since it ran")
+        try:
+            pages = render_run(
+                out.root,
+                self_contained=self_contained,
+                pdf=pdf,
+                date=date,
+                jobs=default_jobs(),
+                run_all=run_all,
+                manifest=old,
+            )
+        except InputError as exc:  # named as the run's files, not as their staged copies
+            raise InputError(str(exc).replace(str(out.root), str(top))) from None
         out.commit({**old, "rendered_utc": render_date() if date is None else date})
     moved = lambda p: top / p.relative_to(out.root)  # noqa: E731
     return {k: [moved(p) for p in v] if isinstance(v, list) else moved(v) for k, v in pages.items()}

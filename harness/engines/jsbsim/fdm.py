@@ -181,7 +181,7 @@ def import_jsbsim():
     try:
         import jsbsim
     except ImportError as exc:  # pragma: no cover - jsbsim is a declared dependency
-        raise EngineError(f"the JSBSim engine needs the 'jsbsim' package ({exc})") from None
+        raise EngineError(f"the JSBSim engine needs the 'jsbsim' package ({describe(exc)})") from None
     return jsbsim
 
 
