@@ -267,10 +267,6 @@ class Envelope:
     nz_max: float | None = None
 
     def __post_init__(self):
-        if (self.mach_min is None) != (self.mach_max is None) or (
-            self.mach_min is not None and not 0 <= self.mach_min <= self.mach_max
-        ):
-            raise InputError(f"mach_min = {self.mach_min} and mach_max = {self.mach_max}: both, 0 <= min <= max")
         if not self.alpha_min < self.alpha_max:
             raise InputError(
                 f"alpha_min = {math.degrees(self.alpha_min):.6g} deg must be below "

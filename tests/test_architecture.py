@@ -157,6 +157,7 @@ LAYERS: dict[str, int] = {
     "harness.metrics": 2,
     "harness.validation": 3,
     "harness.artefacts": 3,
+    "harness.recorded": 3,  # a run's recorded files, confined and checked: read by reports and campaigns
     "harness.testing": 3,
     "harness.parallel": 3,  # worker processes and their bounds: imports only gna, used by campaigns and commands
     "reports": 4,

@@ -248,6 +248,12 @@ def report(args) -> int:
     -------
     int
         The exit status (:data:`harness.cli.EXIT_CODES`).
+
+    Raises
+    ------
+    gna.errors.InputError
+        A recorded case whose files are missing or damaged (no report written), or a folder that is no
+        campaign's (one line; exit status 2).
     """
     from harness.campaign.report import write_report
     from harness.campaign.runner import untrusted
