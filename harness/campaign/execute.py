@@ -103,11 +103,14 @@ def time_budget(seconds: float):
     try:
         yield
     finally:
-        timer.cancel()
+        # done first, under the lock the timer injects under: no injection after it, a pending one withdrawn;
+        # only then the timer's cancel (an injection landing inside its Event.set would leave the timer's
+        # lock held and the process hanging at exit)
         with lock:
             state["done"] = True
-            if state["fired"]:  # fired as the block ended: withdraw it if still pending
+            if state["fired"]:
                 ctypes.pythonapi.PyThreadState_SetAsyncExc(tid, None)
+        timer.cancel()
 
 
 def frame_to_parquet(df) -> bytes:
