@@ -69,10 +69,10 @@ class CaseTimeout(BaseException):
 def time_budget(seconds: float):
     """Raise :class:`CaseTimeout` in the calling thread once ``seconds`` of wall time have passed.
 
-    A timer thread injects the exception into the thread running the work (``PyThreadState_SetAsyncExc``),
-    so the budget holds in this process, in a pool's worker process and in a Dask worker's thread alike; it
-    lands between two Python bytecodes (a long call into C, one JSBSim step, finishes first).  Leaving the
-    block cancels the timer and withdraws an exception not yet delivered.
+    A daemon watcher thread injects the exception into the thread running the work
+    (``PyThreadState_SetAsyncExc``), so the budget holds in this process, in a pool's worker process and in a
+    Dask worker's thread alike; it lands between two Python bytecodes (a long call into C, one JSBSim step,
+    finishes first).  Leaving the block stops the watcher and withdraws an exception not yet delivered.
 
     Parameters
     ----------
@@ -89,28 +89,41 @@ def time_budget(seconds: float):
         return
     tid = ctypes.c_ulong(threading.get_ident())
     lock = threading.Lock()
-    state = {"done": False, "fired": False}
+    state = {"armed": False, "done": False, "fired": False}
+    deadline = time.monotonic() + seconds
 
-    def fire():
-        with lock:
-            if not state["done"]:
-                state["fired"] = True
-                ctypes.pythonapi.PyThreadState_SetAsyncExc(tid, ctypes.py_object(CaseTimeout))
+    def watch():
+        # Sleeps in short slices and shares only ``state`` and ``lock`` with the worker: no Event or Timer,
+        # whose own locks an exception landing in the worker thread could leave held (seen under coverage's
+        # tracer: Timer.cancel and the timer's Event.set deadlocked).
+        while not state["done"]:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0.0 and state["armed"]:
+                with lock:
+                    if not state["done"]:
+                        state["fired"] = True
+                        ctypes.pythonapi.PyThreadState_SetAsyncExc(tid, ctypes.py_object(CaseTimeout))
+                return
+            time.sleep(min(remaining, 0.05) if state["armed"] else 0.001)
 
-    timer = threading.Timer(seconds, fire)
-    timer.daemon = True
-    timer.start()
+    threading.Thread(target=watch, name="gflat-case-budget", daemon=True).start()
+    # armed only once start() has returned: an exception landing inside Thread.start (slow under a tracer)
+    # would leave threading's own locks held
+    state["armed"] = True
+    delivered = False
     try:
         yield
+    except CaseTimeout:
+        delivered = True
+        raise
     finally:
-        # done first, under the lock the timer injects under: no injection after it, a pending one withdrawn;
-        # only then the timer's cancel (an injection landing inside its Event.set would leave the timer's
-        # lock held and the process hanging at exit)
+        # done under the lock the watcher injects under: no injection after it; one fired but not yet
+        # delivered is withdrawn (only then: withdrawing a delivered one hung the process under coverage's
+        # tracer, the thread that had injected never getting the interpreter lock back)
         with lock:
             state["done"] = True
-            if state["fired"]:
+            if state["fired"] and not delivered:
                 ctypes.pythonapi.PyThreadState_SetAsyncExc(tid, None)
-        timer.cancel()
 
 
 def frame_to_parquet(df) -> bytes:
