@@ -170,20 +170,13 @@ class SeriesNewtonReport:
 
     @property
     def series_residual(self) -> np.ndarray:
-        """Max abs coefficient of the residual series at ``u``, per node.
+        """Max abs coefficient of the residual series at the final order, per node.
 
-        Parameters
-        ----------
-        u : list of Series
-            The unknowns at order ``order``.
-        order : int
-            Working order.
-        batch : tuple of int
-            Batch shape of the nodes.
+        Evaluated on first access (one more residual evaluation), then kept.
 
         Returns
         -------
-        ndarray, shape batch
+        ndarray, shape (nodes,)
         """
         if callable(self._series_residual):
             self._series_residual = self._series_residual()
