@@ -11,6 +11,9 @@ Markdown, so this extension (``mkdocs.yml``, handler option ``extensions``) rewr
 * a paragraph ending in ``::`` into one ending in ``:`` (the indented block after it is a Markdown code
   block already);
 * ``.. math::`` directives into a code block of the formula.
+
+Module constants documented by a ``#:`` comment (Sphinx's style) get it as their docstring from the
+``griffe-sphinx`` extension, listed before this one.
 """
 
 from __future__ import annotations
@@ -88,10 +91,14 @@ def rewrite(text: str, obj: griffe.Object) -> str:
 
 
 class RestRoles(griffe.Extension):
-    """Rewrite every docstring when griffe creates the object (see the module docstring)."""
+    """Rewrite every docstring when griffe creates the object (see the module docstring).
+
+    Attributes are rewritten last (``on_attribute_instance``, listed after ``griffe_sphinx`` in
+    ``mkdocs.yml``), so that their ``#:`` comments, which ``griffe_sphinx`` makes docstrings, are too.
+    """
 
     def on_instance(self, *, obj: griffe.Object, **kwargs) -> None:
-        """Rewrite the docstring of ``obj``.
+        """Rewrite the docstring of ``obj`` (not an attribute).
 
         Parameters
         ----------
@@ -100,5 +107,18 @@ class RestRoles(griffe.Extension):
         **kwargs
             Other arguments of the event (unused).
         """
-        if obj.docstring is not None:
+        if obj.docstring is not None and obj.kind is not griffe.Kind.ATTRIBUTE:
             obj.docstring.value = rewrite(obj.docstring.value, obj)
+
+    def on_attribute_instance(self, *, attr: griffe.Attribute, **kwargs) -> None:
+        """Rewrite the docstring of the attribute ``attr``.
+
+        Parameters
+        ----------
+        attr : griffe.Attribute
+            The attribute griffe just created.
+        **kwargs
+            Other arguments of the event (unused).
+        """
+        if attr.docstring is not None:
+            attr.docstring.value = rewrite(attr.docstring.value, attr)
