@@ -1,10 +1,11 @@
-"""Write the JSON Schemas of aircraft and scenario files, and ``docs/scenarios.md`` from them.
+"""Write the JSON Schemas of aircraft, scenario and campaign files, and ``docs/scenarios.md`` from them.
 
 The schemas are built from the tables the loaders use (unit suffixes of
 :mod:`gna.aircraft`, coefficient names of :mod:`gna.aero`, flat-output kinds,
 plan variables, trim variables, tracking and perturbation keys), so a key the
 code learns is a key the schema and the page list.  ``tests/test_hardening_inputs.py``
-checks the three files are current.
+checks the files are current; the documentation site renders its file references from the schema
+files at every build (``scripts/mkdocs_hooks.py``, with :mod:`schema_doc`).
 
 Usage: ``python scripts/make_schemas.py``  (from the repository root)
 """
@@ -18,15 +19,24 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "scripts"))  # schema_doc, also when loaded by path (tests)
+
+from schema_doc import scenarios_page  # noqa: E402
 
 from gna.aero import COEFFICIENTS, MAX_EXPONENT, MAX_TERMS  # noqa: E402
 from gna.aircraft import UNIT_FACTORS  # noqa: E402
 from gna.limits import LIMIT_NAMES  # noqa: E402
 from gna.perturbation import PERTURBATION_KEYS  # noqa: E402
 from gna.trim import TRIM_VARIABLES  # noqa: E402
+from harness.campaign.spec import _CASE_KEYS as CAMPAIGN_CASE_KEYS  # noqa: E402
+from harness.campaign.spec import _DISP_KEYS as DISPERSION_KEYS  # noqa: E402
+from harness.campaign.spec import _OUTPUT_KEYS as CAMPAIGN_OUTPUT_KEYS  # noqa: E402
+from harness.campaign.spec import _TOP_KEYS as CAMPAIGN_KEYS  # noqa: E402
+from harness.campaign.spec import AERO_MODES, CASE_BUDGET_S, MAX_CASE_SPECS, MAX_DISPERSIONS  # noqa: E402
+from harness.engines.registry import engine_names  # noqa: E402
 from harness.validation.tolerances import DEFAULT_SETTLE_TIME, DEFAULT_TRACKING_TOLERANCE  # noqa: E402
 from planners.expressions import CONSTANTS, FUNCTIONS  # noqa: E402
-from planners.flat import FLAT_KINDS  # noqa: E402
+from planners.flat import FLAT_KINDS, MAX_J  # noqa: E402
 from planners.generalized import AUTO_J, AUTO_J_MAX, AUTO_J_TOL, MAX_E, METHODS  # noqa: E402
 from planners.lqr import DESIGNS  # noqa: E402
 from planners.plan import DEFAULT_INTERPOLATION, INTERPOLATIONS, PLAN_VARIABLES  # noqa: E402
@@ -34,6 +44,7 @@ from planners.scenario import COMPARE_KEYS, KNOWN_VERDICTS, MAX_NODES, MAX_REPOR
 
 AIRCRAFT_SCHEMA = ROOT / "gna" / "data" / "schemas" / "aircraft.schema.json"
 SCENARIO_SCHEMA = ROOT / "planners" / "schemas" / "scenario.schema.json"
+CAMPAIGN_SCHEMA = ROOT / "harness" / "campaign" / "schemas" / "campaign.schema.json"
 DOC = ROOT / "docs" / "scenarios.md"
 
 SAFE_NAME = "^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$"
@@ -276,6 +287,11 @@ def aircraft_schema() -> dict:
         "type": "object",
         "additionalProperties": False,
         "required": ["id", "mass", "geometry", "aero"],
+        "x-notes": [
+            "Each aerodynamic term `[[aero.terms]]` names one coefficient (CD, CY, CL, Cl, Cm, Cn) and one "
+            "monomial; a coefficient/monomial pair appears at most once, and term indices are unique. "
+            f"Exponents are at most {MAX_EXPONENT}."
+        ],
         "properties": {
             "id": _text(
                 "Identifier, also the name of exported files (required)",
@@ -699,94 +715,205 @@ def scenario_schema() -> dict:
     }
 
 
-def _rows(schema: dict, prefix: str) -> list[str]:
-    rows = []
-    for key, s in schema.get("properties", {}).items():
-        path = f"{prefix}.{key}" if prefix else key
-        t = s.get("x-type", s.get("type"))
-        if "enum" in s:
-            t = " / ".join(json.dumps(v) for v in s["enum"])
-        elif "oneOf" in s:
-            t = " or ".join(x.get("type", "?") if x.get("type") != "object" else "table" for x in s["oneOf"])
-        elif isinstance(t, list):
-            t = " or ".join(t)
-        elif t == "object":
-            t = "table"
-        rows.append(
-            f"| `{path}` | {t or 'any'} | {s.get('x-unit', '')} | {s.get('x-default', '')} | "
-            f"{s.get('description', '').replace('|', chr(92) + '|')} |"
-        )
-        subs = [s] + [x for x in s.get("oneOf", []) if isinstance(x, dict)]
-        for sub in subs:
-            if sub.get("type") == "object" and "properties" in sub:
-                rows.extend(_rows(sub, path))
-        if s.get("type") == "array" and isinstance(s.get("items"), dict) and "properties" in s["items"]:
-            rows.extend(_rows(s["items"], f"{path}[]"))
-    return rows
-
-
-def _section(title: str, schema: dict, path: str) -> list[str]:
-    lines = [f"## {title}", "", schema["description"], "", f"JSON Schema: `{path}`.", ""]
-    for key, s in schema["properties"].items():
-        if s.get("type") == "object" and "properties" in s:
-            lines += [
-                f"### `[{key}]`",
-                "",
-                s.get("description", ""),
-                "",
-                "| key | type | unit | default | meaning |",
-                "|---|---|---|---|---|",
-            ]
-            lines += _rows(s, key) + [""]
-        elif s.get("type") == "object":
-            lines += [f"### `[{key}]`", "", s.get("description", ""), ""]
-            if "propertyNames" in s and "enum" in s["propertyNames"]:
-                lines += ["Keys: " + ", ".join(f"`{k}`" for k in s["propertyNames"]["enum"]) + ".", ""]
-    top = {"properties": {k: v for k, v in schema["properties"].items() if v.get("type") != "object"}}
-    lines[6:6] = (
-        ["### Top-level keys", "", "| key | type | unit | default | meaning |", "|---|---|---|---|---|"]
-        + _rows(top, "")
-        + [""]
-    )
-    return lines
-
-
-def markdown(aircraft: dict, scenario: dict) -> str:
-    """The text of ``docs/scenarios.md``."""
-    lines = [
-        "# Scenario and aircraft files",
-        "",
-        "<!-- Generated by scripts/make_schemas.py from the JSON Schemas; do not edit by hand. -->",
-        "",
-        "Both files are TOML. Every table is checked against its JSON Schema when loaded: an unknown key "
-        "(with the closest known key suggested), a key of the wrong type, two keys giving the same quantity "
-        "(`weight_lb` beside `mass_kg`) or a value out of range is refused with one line naming the file, "
-        "table, key and value. Identifiers that name output files (`id`, `name`) are 1 to 64 letters, "
-        "digits, `.`, `_` or `-`, starting with a letter or a digit, without `..`.",
-        "",
-        "Files are read as UTF-8 (a leading byte-order mark is accepted). An `aircraft` path inside a "
-        "scenario is resolved from the scenario's folder. Defaults in the tables are those the loaders "
-        "apply when a key is absent; SI units inside, angles in radians.",
-        "",
-    ]
-    lines += _section("Scenario files", scenario, "planners/schemas/scenario.schema.json")
-    lines += _section("Aircraft files", aircraft, "gna/data/schemas/aircraft.schema.json")
-    lines += [
-        "Each aerodynamic term `[[aero.terms]]` names one coefficient (CD, CY, CL, Cl, Cm, Cn) and one "
-        "monomial; a coefficient/monomial pair appears at most once, and term indices are unique. "
-        f"Exponents are at most {MAX_EXPONENT}.",
-        "",
-    ]
-    return "\n".join(lines).rstrip() + "\n"
+def campaign_schema() -> dict:
+    """The JSON Schema of campaign files (``harness/campaign/campaigns/*.toml``), from the loader's key tables."""
+    J = {
+        "anyOf": [{"type": "integer", "minimum": 0, "maximum": MAX_J}, {"enum": [AUTO_J]}],
+        "x-type": f'integer 0..{MAX_J} or "auto"',
+    }
+    loop = {"enum": ["open", "closed"]}
+    names = {"type": "string", "pattern": SAFE_NAME}
+    case = {
+        "id": dict(
+            names,
+            description="Label of the case, part of every case id (safe identifier)",
+            **{"x-default": "the scenario's stem"},
+        ),
+        "scenario": {
+            "anyOf": [{"type": "string"}, {"type": "array", "minItems": 1, "items": {"type": "string"}}],
+            "x-type": "string or list",
+            "description": "Bundled scenario name or scenario file (relative to the campaign's folder); a list "
+            "expands into one case per scenario (required)",
+        },
+        "J": {
+            "anyOf": [J, {"type": "array", "minItems": 1, "items": J}],
+            "x-type": f'integer 0..{MAX_J}, "auto" or list',
+            "x-default": "the scenario's",
+            "description": "Generalized-flatness iterations; a list expands into one case per value",
+        },
+        "loop": {
+            "anyOf": [loop, {"type": "array", "minItems": 1, "items": loop}],
+            "x-type": '"open" / "closed" or list',
+            "x-default": '"open"',
+            "description": "The plan's controls alone, or with the tracking feedback; a list expands into one "
+            "case per value",
+        },
+        "engines": {
+            "type": "array",
+            "minItems": 2,
+            "items": {"enum": list(engine_names())},
+            "x-type": "list of " + " / ".join(json.dumps(e) for e in engine_names()),
+            "x-default": '["inhouse", "jsbsim"]',
+            "description": "At least two distinct engines, the first the reference of the comparison",
+        },
+        **{k: COMPARE[k] for k in CAMPAIGN_CASE_KEYS if k in COMPARE},
+        "tracking": {
+            "enum": list(DESIGNS),
+            "x-type": "string",
+            "x-default": "the scenario's [tracking] design",
+            "description": "Tracking design of a closed-loop case (gflat campaign run --tracking sets it for "
+            "every case)",
+        },
+    }
+    disp = {
+        "aero": {
+            "enum": list(AERO_MODES),
+            "x-default": '"std_error"',
+            "description": "std_error: each term theta + aero_sigma se z with the term's standard error se from "
+            "the aircraft file (aero_relative for a term without one); relative: theta (1 + aero_relative z); "
+            "none",
+        },
+        "aero_sigma": {
+            "type": "number",
+            "minimum": 0,
+            "x-default": "1",
+            "description": "Multiple of the standard errors",
+        },
+        "aero_relative": {
+            "type": "number",
+            "minimum": 0,
+            "x-unit": "-",
+            "x-default": "0",
+            "description": "Relative 1-sigma spread of a term",
+        },
+        "mass": {
+            "type": "number",
+            "minimum": 0,
+            "x-unit": "-",
+            "x-default": "0",
+            "description": "Relative 1-sigma spread of the mass (times truncate below 1)",
+        },
+        "inertia": {
+            "type": "number",
+            "minimum": 0,
+            "x-unit": "-",
+            "x-default": "0",
+            "description": "Relative 1-sigma spread of the whole inertia matrix (times truncate below 1)",
+        },
+        "cg_cbar": {
+            "type": "number",
+            "minimum": 0,
+            "x-unit": "fraction of cbar",
+            "x-default": "0",
+            "description": "1-sigma shift of the centre of gravity along body x",
+        },
+        "position_m": {
+            "type": "number",
+            "minimum": 0,
+            "x-unit": "m",
+            "x-default": "0",
+            "description": "1-sigma offset of each of x, y, z at the start",
+        },
+        "speed_mps": {
+            "type": "number",
+            "minimum": 0,
+            "x-unit": "m/s",
+            "x-default": "0",
+            "description": "1-sigma offset of the airspeed V at the start",
+        },
+        "angle_rad": {
+            "type": "number",
+            "minimum": 0,
+            "x-unit": "rad",
+            "x-default": "0",
+            "description": "1-sigma offset of each of gamma, chi, alpha, beta, mu at the start",
+        },
+        "truncate": {
+            "type": "number",
+            "exclusiveMinimum": 0,
+            "x-unit": "sigma",
+            "x-default": "3",
+            "description": "Normal draws z are clipped to [-truncate, truncate]",
+        },
+    }
+    assert tuple(case) == CAMPAIGN_CASE_KEYS
+    assert tuple(disp) == DISPERSION_KEYS
+    props = {
+        "name": _text("Name of the campaign (shown in its report)", **{"x-default": "the file name"}),
+        "description": _text("Free text", **{"x-default": '""'}),
+        "seed": {
+            "type": "integer",
+            "minimum": 0,
+            "description": "Campaign seed: every sample's seed derives from it and from the sample's case, "
+            "dispersion and index, not from the count (required)",
+        },
+        "samples": {
+            "type": "integer",
+            "minimum": 1,
+            "x-default": "1",
+            "description": "Samples per case and dispersion set (gflat campaign run --samples overrides)",
+        },
+        "case_budget_s": {
+            "type": "number",
+            "exclusiveMinimum": 0,
+            "x-unit": "s",
+            "x-default": f"{CASE_BUDGET_S:g}",
+            "description": "Wall-time budget of one case (inf: none); a case beyond it ends as a timeout "
+            "(gflat campaign run --case-budget overrides)",
+        },
+        "cases": {
+            "type": "array",
+            "minItems": 1,
+            "items": _table("A validation case", case, required=("scenario",)),
+            "description": "The cases (required, one or more); lists in scenario, J and loop expand into their "
+            f"product, at most {MAX_CASE_SPECS} expanded cases in all, each label unique",
+        },
+        "dispersions": {
+            "type": "object",
+            "minProperties": 1,
+            "maxProperties": MAX_DISPERSIONS,
+            "propertyNames": {"pattern": SAFE_NAME},
+            "additionalProperties": _table("A dispersion set", disp),
+            "x-default": '{nominal = {aero = "none"}}',
+            "description": "Named sets of 1-sigma spreads of the aircraft data and the initial state (all zero: "
+            f"the nominal aircraft), at most {MAX_DISPERSIONS}; each multiplies the cases; NAME is part of every "
+            "case id",
+        },
+        "output": _table(
+            "What the campaign stores",
+            {
+                "trajectories": {
+                    "type": "boolean",
+                    "x-default": "true",
+                    "description": "Write each case's trajectories (Parquet)",
+                }
+            },
+        ),
+    }
+    assert tuple(props) == CAMPAIGN_KEYS
+    assert tuple(props["output"]["properties"]) == CAMPAIGN_OUTPUT_KEYS
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$id": "https://gflat.invalid/schemas/campaign.schema.json",
+        "title": "gflat campaign file",
+        "description": "A validation campaign (TOML): validation cases times dispersion sets times samples, "
+        "with one seed. The schema is built from the key tables of harness/campaign/spec.py, which checks "
+        "the values.",
+        "type": "object",
+        "additionalProperties": False,
+        "required": ["seed", "cases"],
+        "properties": props,
+    }
 
 
 def outputs() -> dict[Path, str]:
-    """``{path: text}`` of the three generated files."""
+    """``{path: text}`` of the generated files."""
     a, s = aircraft_schema(), scenario_schema()
     return {
         AIRCRAFT_SCHEMA: json.dumps(a, indent=2) + "\n",
         SCENARIO_SCHEMA: json.dumps(s, indent=2) + "\n",
-        DOC: markdown(a, s),
+        CAMPAIGN_SCHEMA: json.dumps(campaign_schema(), indent=2) + "\n",
+        DOC: scenarios_page(a, s),
     }
 
 
