@@ -262,6 +262,11 @@ def output_grid(t0: float, t1: float, dt_out: float = 0.02, t_eval=None) -> np.n
         raise InputError(f"dt_out must be a positive finite interval [s], got {dt_out}")
     ratio = (t1 - t0) / dt_out
     n = int(round(ratio))
+    if ratio < 1 - 1e-6:
+        raise InputError(
+            f"dt_out = {dt_out:g} s is longer than the span [{t0:g}, {t1:g}] s, its bound; choose a divisor of "
+            f"{t1 - t0:g} s"
+        )
     if n < 1 or abs(ratio - n) > 1e-6 * max(1.0, ratio):
         raise InputError(
             f"dt_out = {dt_out:g} s does not divide the span [{t0:g}, {t1:g}] s "

@@ -154,6 +154,6 @@ def test_a_folder_that_exists_but_takes_no_files_is_named_so_by_every_command(ca
     )
     assert main(["report", "/proc"]) == 2
     assert capsys.readouterr().err.strip() == (
-        "gflat report: error: /proc is not the folder of a gflat run (no manifest.json of gflat there or above): "
-        "give the --out of gflat paper or gflat compare"
+        "gflat report: error: /proc is not the folder of a gflat run: no manifest.json there or in any folder "
+        "above it; give the folder of a gflat paper or gflat compare run"
     )
