@@ -15,7 +15,8 @@ Exit status (:data:`EXIT_CODES`): 0 success; 1 the work ran but its verdict is
 negative (a validation FAIL, an infeasible plan, a trim that does not
 converge, stale files under ``--check``); 2 a usage or input error (bad option, bad file, bad value), no
 result; 130 interrupted (Ctrl-C), 143 terminated (SIGTERM) and 129 hung up (SIGHUP), both handled like
-Ctrl-C (a run's staging folder removed; an ignored SIGHUP, under ``nohup``, stays ignored).  An option error (argparse's) is one line too, ``gflat <cmd>: error: <message> (see gflat <cmd>
+Ctrl-C (a run's staging folder removed; an ignored SIGHUP, under ``nohup``, stays ignored); the first of
+these signals counts, a second one waits for its cleanup.  An option error (argparse's) is one line too, ``gflat <cmd>: error: <message> (see gflat <cmd>
 --help)``, exit status 2.  ``-v``/``-q`` set the level of the ``logging``
 messages (and of Python warnings, routed through ``logging``), on stderr.
 """
@@ -231,22 +232,31 @@ class Terminated(KeyboardInterrupt):
 
 @contextlib.contextmanager
 def _signals_raise():
-    """Within the block :data:`TERMINATING` signals raise :class:`Terminated` in this process (one ignored
-    when the block starts, e.g. SIGHUP under ``nohup``, stays ignored; a forked child that inherited the
-    handler dies of the signal as before); the previous handlers are put back after it."""
+    """Within the block Ctrl-C raises ``KeyboardInterrupt`` and the :data:`TERMINATING` signals raise
+    :class:`Terminated`, once: a second interruption (Ctrl-C pressed twice, SIGTERM sent to the whole process
+    group) waits for the first one's cleanup instead of cutting it short.  A signal ignored when the block
+    starts (SIGHUP under ``nohup``) stays ignored; a forked child that inherited the handlers gets the
+    previous ones back (it dies of SIGTERM, or raises ``KeyboardInterrupt`` on Ctrl-C, as before).  The
+    previous handlers are put back after the block."""
     pid = os.getpid()
+    first: list[int] = []
+    old: dict = {}
 
     def handler(signum, frame):
-        if os.getpid() != pid:  # a worker forked from this process: the signal's default action
-            signal.signal(signum, signal.SIG_DFL)
+        if os.getpid() != pid:  # a worker forked from this process: the handler it had before
+            signal.signal(signum, old.get(signum, signal.SIG_DFL))
             os.kill(os.getpid(), signum)
             return
+        if first:  # the first interruption's cleanup runs on
+            return
+        first.append(signum)
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
         raise Terminated(signum)
 
-    old = {}
     try:
-        for sig in TERMINATING:
-            if signal.getsignal(sig) is not signal.SIG_IGN:
+        for sig in (signal.SIGINT, *TERMINATING):
+            if signal.getsignal(sig) not in (signal.SIG_IGN, None):
                 old[sig] = signal.signal(sig, handler)
     except ValueError:  # not the main thread (gflat run in-process from a thread): left as they are
         pass
@@ -335,6 +345,11 @@ def main(argv: list[str] | None = None) -> int:
         return _run(parser, words)
 
 
+def _one_line(text: str) -> str:
+    """``text`` on one line: a line break inside it (a file name holding one) written as ``\\n``."""
+    return text.replace("\r", "\\r").replace("\n", "\\n")
+
+
 def _interrupted(exc: KeyboardInterrupt) -> int:
     """The one line and exit status of an interruption: 143 for SIGTERM, 129 for SIGHUP, 130 for Ctrl-C."""
     if isinstance(exc, Terminated):
@@ -358,11 +373,11 @@ def _run(parser: argparse.ArgumentParser, words: list[str]) -> int:
         log.info("%s: done in %.2f s, exit status %d", args.command, time.perf_counter() - start, status)
         return status
     except GflatError as exc:
-        print(f"gflat {args.command}: error: {exc}", file=sys.stderr)
+        print(_one_line(f"gflat {args.command}: error: {exc}"), file=sys.stderr)
         return 2
     except OSError as exc:  # an output that cannot be written (missing or read-only folder, a file in the way)
         print(
-            f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {describe(exc)}",
+            _one_line(f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {describe(exc)}"),
             file=sys.stderr,
         )
         return 2

@@ -35,6 +35,7 @@ import datetime
 import errno
 import glob
 import os
+import re
 import secrets
 import shutil
 import stat
@@ -56,6 +57,8 @@ except ImportError:  # pragma: no cover - Windows: staging folders are not locke
 __all__ = ["MANIFEST", "OutputFile", "RunDir", "check_output_file", "enclosing_run", "read_manifest", "write_file"]
 
 RENAME_NOREPLACE, RENAME_EXCHANGE = 1, 2
+#: The name of a run's staging folder (and of a file's hidden temporary copy): ``.<name>.gflat-<12 hex>.tmp``.
+_STAGING = re.compile(r"\..+\.gflat-[0-9a-f]{12}\.tmp")
 _AT_FDCWD = -100
 
 
@@ -67,6 +70,8 @@ def _cause(exc: OSError) -> str:
         folder = Path(os.path.abspath(name)).parent
         if folder.is_dir():
             return f"{folder} exists, but its file system creates no new files or folders there"
+        if not os.path.lexists(folder):
+            return f"No such file or directory: its folder {folder} does not exist"
     return describe(exc)
 
 
@@ -214,6 +219,12 @@ class RunDir:
         self._old_id: str | None = None
         self._done = False
         self._pid = os.getpid()
+        staging = next((p for p in self.out.parents if _STAGING.fullmatch(p.name)), None)
+        if staging is not None:
+            raise InputError(
+                f"output folder {self.out} lies inside {staging}, the staging folder of another gflat run: give a "
+                f"folder outside it"
+            )
         run = enclosing_run(self.out)
         if run is not None:
             raise InputError(
@@ -523,9 +534,15 @@ def check_output_file(path: str | Path) -> Path:
             f"the path of a new or regular file"
         )
     try:
-        run = enclosing_run(path.resolve())
+        resolved = path.resolve()
+        run = enclosing_run(resolved)
     except (OSError, RuntimeError):
-        run = None
+        resolved, run = None, None
+    staging = next((p for p in (resolved.parents if resolved else ()) if _STAGING.fullmatch(p.name)), None)
+    if staging is not None:
+        raise InputError(
+            f"cannot write {path}: {staging} is the staging folder of another gflat run: give a path outside it"
+        )
     if run is not None:
         raise InputError(
             f"cannot write {path}: {run} is the folder of a gflat run, never changed once written: give a path "

@@ -408,3 +408,79 @@ def test_o6_help_is_unchanged():
     )
     assert proc.returncode == 0 and proc.stdout.startswith("usage: gflat plan [-h]") and "--replace" in proc.stdout
     assert proc.stdout.count("\n") > 10 and proc.stderr == ""
+
+
+# ---------------------------------------------------------------------------------------------------
+# Found by the attack on this round's work
+# ---------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["fit", "gtm", "--out", "-"], "argument --out: '-': gflat writes the file to a path, not to the standard"),
+        (["plan", "x", "--out", "-"], "argument --out: '-': gflat writes a run to a folder, not to the standard"),
+        (["fit", "gtm", "--out", "new-folder/"], "argument --out: 'new-folder/' ends with a '/', a folder's name"),
+        (["fit", "gtm", "--beta", "1e300"], "argument --beta: 1e+300 is above the bound of 90"),
+        (["fit", "gtm", "--alpha", "-1e300", "1e300"], "argument --alpha: -1e+300 is outside its bounds -90 .. 90"),
+        (["fit", "gtm", "--dl", "-100", "5"], "argument --dl: -100 is outside its bounds -90 .. 90"),
+        (["fit", "gtm", "--phat", "2"], "argument --phat: 2 is above the bound of 1"),
+        (["fit", "gtm", "--dm-band", "-5"], "argument --dm-band: -5 is outside its bounds 0 .. 180"),
+    ],
+)
+def test_a_out_names_and_design_flags_are_checked_at_parse_time(argv, words, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert words in _one_line_exit_2(argv, capsys)
+    assert os.listdir(tmp_path) == []  # "-" and "new-folder" not written as files
+
+
+def test_a_out_file_expands_the_home_folder(tmp_path, monkeypatch):
+    from harness.commands._output import out_file, out_path
+
+    monkeypatch.setenv("HOME", str(tmp_path))
+    assert out_file("~/a.toml") == tmp_path / "a.toml" and out_path("~/D") == tmp_path / "D"
+
+
+@pytest.mark.parametrize(
+    "flags, words",
+    [
+        (["--speed", "1e300"], "--speed 1e+300 m/s is outside the physical domain [1, 3000] m/s"),
+        (["--speed", "50", "--altitude", "1e9"], "altitude 1e+09 m (--altitude) is outside the ISA model"),
+    ],
+)
+def test_a_fit_reference_condition_is_checked_before_the_source_is_read(flags, words, tmp_path, no_fit, capsys):
+    assert words in _one_line_exit_2(["fit", "gtm", *flags, "--out", tmp_path / "f.toml"], capsys)
+
+
+def test_a_folder_inside_another_runs_staging_folder_is_refused(tmp_path, capsys):
+    staging = tmp_path / ".D.gflat-0123456789ab.tmp"  # a run working (or killed) into D
+    staging.mkdir()
+    err = _one_line_exit_2(["plan", SCENARIO, "--out", staging / "x"], capsys)
+    assert f"lies inside {staging}, the staging folder of another gflat run" in err
+    err = _one_line_exit_2(["fit", "gtm", "--out", staging / "x.toml"], capsys)
+    assert f"{staging} is the staging folder of another gflat run" in err
+    assert os.listdir(staging) == []
+
+
+def test_a_folder_named_like_a_pattern_removes_only_its_own_abandoned_staging(tmp_path):
+    other = tmp_path / ".D.gflat-aaaaaaaaaaaa.tmp"  # D's abandoned staging: not that of a folder named "*"
+    other.mkdir()
+    with RunDir(tmp_path / "*", command="plan") as run:
+        run.commit()
+    assert other.is_dir() and (tmp_path / "*" / MANIFEST).is_file()
+
+
+def test_a_message_naming_a_file_with_a_line_break_stays_one_line(tmp_path, capsys):
+    err = _one_line_exit_2(["plan", SCENARIO, "--out", tmp_path / "no\nsuch" / "x"], capsys)
+    assert "no\\nsuch" in err
+
+
+def test_a_missing_folder_of_an_output_file_is_named(tmp_path, no_fit, capsys):
+    err = _one_line_exit_2(["fit", "gtm", "--out", tmp_path / "none" / "x.toml"], capsys)
+    assert err.endswith(f"No such file or directory: its folder {tmp_path / 'none'} does not exist")
+
+
+def test_an_output_grid_of_absurdly_many_samples_is_one_line(tmp_path, capsys):
+    err = _one_line_exit_2(["export-jsbsim-script", SCENARIO, "--out", tmp_path / "o", "--dt-out", "1e-300"], capsys)
+    assert "dt_out = 1e-300 s makes 8e+300 output intervals over the span [-2.5, 5.5] s, above the bound 1e+09" in err
+    assert not (tmp_path / "o").exists()

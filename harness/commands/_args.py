@@ -82,6 +82,20 @@ def bounded_float(upper: float):
     return parse
 
 
+def within(lowest: float, upper: float):
+    """An argument type: a finite number in ``lowest..upper`` (an angle or a rate a flag sets, e.g. ``gflat fit
+    --alpha``)."""
+
+    def parse(text: str) -> float:
+        v = finite_float(text)
+        if not lowest <= v <= upper:
+            raise argparse.ArgumentTypeError(f"{v:g} is outside its bounds {lowest:g} .. {upper:g}")
+        return v
+
+    parse.__name__ = f"number in [{lowest:g}, {upper:g}]"
+    return parse
+
+
 def bounded_count(upper: int, lowest: int = 0):
     """An argument type: a whole number in ``lowest..upper`` (a count a flag sets, e.g. ``gflat fit --samples``)."""
 

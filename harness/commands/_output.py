@@ -14,6 +14,7 @@ not.
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from gna.errors import InputError
@@ -25,20 +26,29 @@ DEFAULT_ROOT = Path("reports") / "out"
 
 
 def out_path(text: str) -> Path:
-    """An ``--out`` folder: refused when empty (an empty name would silently mean the current folder or the
-    default)."""
+    """An ``--out`` folder (``~`` expanded): refused when empty (an empty name would silently mean the current
+    folder or the default) or ``-`` (no standard output)."""
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty path; give a folder's name (an empty one is no folder)")
-    return Path(text)
+    if text == "-":
+        raise argparse.ArgumentTypeError("'-': gflat writes a run to a folder, not to the standard output")
+    return Path(text).expanduser()
 
 
 def out_file(text: str) -> Path:
-    """An ``--out`` file: refused when empty (an empty name would silently mean the default)."""
+    """An ``--out`` file (``~`` expanded): refused when empty (an empty name would silently mean the default),
+    ``-`` (no standard output) or ending in ``/`` (a folder's name: the file would take it)."""
     if not text.strip():
         raise argparse.ArgumentTypeError(
             "an empty path; give the aircraft file's name, or leave --out out for the default <id>.toml"
         )
-    return Path(text)
+    if text == "-":
+        raise argparse.ArgumentTypeError("'-': gflat writes the file to a path, not to the standard output")
+    if text.endswith(("/", os.sep)):
+        raise argparse.ArgumentTypeError(
+            f"{text!r} ends with a '/', a folder's name; give the file's name (e.g. {text}<id>.toml)"
+        )
+    return Path(text).expanduser()
 
 
 def add_out(p: argparse.ArgumentParser, help: str, *, metavar: str = "DIR", required: bool = False) -> None:

@@ -32,8 +32,15 @@ from pathlib import Path
 
 from gna.errors import InputError
 
-from ._args import bounded_count, finite_float, nonnegative_int, positive_float
+from ._args import bounded_count, bounded_float, finite_float, nonnegative_int, positive_float, within
 from ._output import add_out, output_file, run_dir
+
+#: Largest angle a sampling flag names [deg] (``--alpha``, ``--beta``, the surfaces): the wind-frame chart ends
+#: at |alpha| = 90 deg (:data:`gna.trajectory.DOMAIN`), and no surface deflects further.
+MAX_ANGLE_DEG = 90.0
+#: Largest non-dimensional rate a sampling flag names (``--phat`` = |p b / 2V|, ``--qhat``, ``--rhat``): at 1
+#: the wing tip (the tail) moves as fast as the aircraft; the bundled fits sample 0.1 or less.
+MAX_RATE_HAT = 1.0
 
 #: Most sample points per block of a fit (``--samples``, ``--test``): a JSBSim point is one run_ic (about 1 ms),
 #: and the design matrix holds 45 regressors per point.
@@ -190,24 +197,34 @@ def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band, hint=None)
     d.add_argument(
         "--alpha",
         nargs=2,
-        type=finite_float,
+        type=within(-MAX_ANGLE_DEG, MAX_ANGLE_DEG),
         default=alpha,
         metavar=("LO", "HI"),
         help=f"angle-of-attack range (default {hint or f'{alpha[0]:g} {alpha[1]:g}'})",
     )
     d.add_argument(
-        "--beta", type=positive_float, default=beta, metavar="MAX", help=f"|sideslip| (default {hint or beta})"
+        "--beta",
+        type=bounded_float(MAX_ANGLE_DEG),
+        default=beta,
+        metavar="MAX",
+        help=f"|sideslip| (default {hint or beta})",
     )
-    d.add_argument("--phat", type=positive_float, default=phat, metavar="MAX", help=f"|p b/2V| (default {phat:g})")
-    d.add_argument("--qhat", type=positive_float, default=qhat, metavar="MAX", help=f"|q c/2V| (default {qhat:g})")
-    d.add_argument("--rhat", type=positive_float, default=rhat, metavar="MAX", help=f"|r b/2V| (default {rhat:g})")
+    d.add_argument(
+        "--phat", type=bounded_float(MAX_RATE_HAT), default=phat, metavar="MAX", help=f"|p b/2V| (default {phat:g})"
+    )
+    d.add_argument(
+        "--qhat", type=bounded_float(MAX_RATE_HAT), default=qhat, metavar="MAX", help=f"|q c/2V| (default {qhat:g})"
+    )
+    d.add_argument(
+        "--rhat", type=bounded_float(MAX_RATE_HAT), default=rhat, metavar="MAX", help=f"|r b/2V| (default {rhat:g})"
+    )
     for k, name in (("dl", "aileron"), ("dm", "elevator"), ("dn", "rudder")):
         default = None if surfaces is None else surfaces[k]
         hint = "the source's range" if default is None else f"{default[0]:g} {default[1]:g}"
         d.add_argument(
             f"--{k}",
             nargs=2,
-            type=finite_float,
+            type=within(-MAX_ANGLE_DEG, MAX_ANGLE_DEG),
             default=default,
             metavar=("LO", "HI"),
             help=f"{name} range (default {hint})",
@@ -221,7 +238,7 @@ def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band, hint=None)
     d.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (default 0)")
     d.add_argument(
         "--dm-band",
-        type=finite_float,
+        type=within(0.0, 2 * MAX_ANGLE_DEG),
         default=band,
         metavar="DEG",
         help=f"sample dm within this of the pitch-trim schedule on the longitudinal plane, 0 = "

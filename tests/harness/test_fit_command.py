@@ -39,7 +39,7 @@ def _one_line(capsys, rc) -> str:
 def test_an_output_file_that_cannot_be_written_is_refused_before_fitting(tmp_path, no_fit, capsys):
     (tmp_path / "a-file").write_text("")
     cases = {
-        tmp_path / "missing" / "x.toml": "No such file or directory",
+        tmp_path / "missing" / "x.toml": f"No such file or directory: its folder {tmp_path / 'missing'} does not exist",
         tmp_path / "a-file" / "x.toml": "Not a directory",
         Path("/proc/gflat-fit.toml"): _PROC,
     }  # a folder that takes no files

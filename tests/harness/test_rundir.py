@@ -252,14 +252,19 @@ runpy.run_module("harness.cli", run_name="__main__")
 """
 
 
-def _start(tmp_path, args, event="none", at="", name="run", **extra):
+def _start(tmp_path, args, event="none", at="", name="run", preexec_fn=None, **extra):
     driver = tmp_path / "driver.py"
     driver.write_text(DRIVER)
     env = dict(os.environ, PYTHONPATH=str(ROOT), STOP_EVENT=event, STOP_AT=at, MPLBACKEND="Agg", **extra)
     out, err = (open(tmp_path / f"{name}.{k}", "w") for k in ("out", "err"))
     with out, err:
         return subprocess.Popen(
-            [sys.executable, str(driver), *map(str, args)], cwd=tmp_path, env=env, stdout=out, stderr=err
+            [sys.executable, str(driver), *map(str, args)],
+            cwd=tmp_path,
+            env=env,
+            stdout=out,
+            stderr=err,
+            preexec_fn=preexec_fn,
         )
 
 
@@ -407,13 +412,36 @@ def test_ctrl_c_removes_the_staging_folder(tmp_path):
 # ---- SIGTERM, handled as Ctrl-C (exit status 143) -----------------------------------------------------------
 
 
-def _terminated(proc, tmp_path, name="run") -> None:
-    """Send SIGTERM to the stopped ``proc``, let it run on, and check it ends as terminated, in one line."""
-    proc.send_signal(signal.SIGTERM)  # delivered when it runs again
+#: The exit status and the last line of an interruption by each signal.
+ENDINGS = {
+    signal.SIGINT: (130, "interrupted"),
+    signal.SIGTERM: (143, "terminated (SIGTERM)"),
+    signal.SIGHUP: (129, "hung up (SIGHUP)"),
+}
+
+
+def _terminated(proc, tmp_path, name="run", signals=(signal.SIGTERM,)) -> None:
+    """Send ``signals`` to the stopped ``proc``, let it run on, and check it ends as interrupted by one of them
+    (the one Python handles first), in one line."""
+    for s in signals:  # delivered when it runs again
+        proc.send_signal(s)
     proc.send_signal(signal.SIGCONT)
-    assert proc.wait() == 143
+    rc = proc.wait()
     err = (tmp_path / f"{name}.err").read_text().strip().splitlines()
-    assert err[-1] == "gflat: terminated (SIGTERM)" and not any("Traceback" in e for e in err)
+    assert (rc, err[-1].removeprefix("gflat: ")) in {ENDINGS[s] for s in signals}, (rc, err)
+    assert not any("Traceback" in e for e in err)
+
+
+def _token_processes(token: str) -> list[str]:
+    """The processes whose environment holds ``token`` (workers left behind)."""
+    left = []
+    for p in Path("/proc").glob("[0-9]*"):
+        try:
+            if token.encode() in (p / "environ").read_bytes():
+                left.append(p.name)
+        except OSError:
+            continue
+    return left
 
 
 @pytest.mark.parametrize("moment", MOMENTS)
@@ -461,12 +489,52 @@ def test_sigterm_ends_the_worker_processes_too(tmp_path):
     )
     _stopped(proc)
     _terminated(proc, tmp_path)
+    assert list(runs.iterdir()) == [] and _token_processes(token) == []
+
+
+@pytest.mark.parametrize(
+    "signals",
+    [(signal.SIGTERM, signal.SIGINT), (signal.SIGINT, signal.SIGINT, signal.SIGTERM), (signal.SIGHUP,)],
+    ids=["term-int", "int-int-term", "hup"],
+)
+def test_a_second_signal_waits_for_the_first_ones_cleanup(tmp_path, signals):
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    proc = _start(tmp_path, ["compare", SCENARIO, "--out", runs / "D"], *MOMENTS["while its files are written"])
+    _stopped(proc)
+    _terminated(proc, tmp_path, signals=signals)
     assert list(runs.iterdir()) == []
-    left = []
-    for p in Path("/proc").glob("[0-9]*"):
-        try:
-            if token.encode() in (p / "environ").read_bytes():
-                left.append(p.name)
-        except OSError:
-            continue
-    assert left == []
+
+
+def test_an_ignored_sighup_stays_ignored(tmp_path):
+    # under nohup: the run goes on and completes
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    proc = _start(
+        tmp_path,
+        ["compare", "gtm-aileron-roll", "--out", runs / "D"],
+        *MOMENTS["while its files are written"],
+        preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN),
+    )
+    _stopped(proc)
+    proc.send_signal(signal.SIGHUP)
+    proc.send_signal(signal.SIGCONT)
+    assert proc.wait() in (0, 1), (tmp_path / "run.err").read_text()
+    assert _visible(runs) == ["D"] and _staging(runs) == []
+    _matches_manifest(runs / "D")
+
+
+def test_sigterm_during_a_campaign_ends_its_workers_and_the_rerun_resumes(tmp_path):
+    # stopped before the pool forks its second worker process (the first one running a case)
+    token = f"gflat-test-{os.getpid()}-{tmp_path.name}"
+    spec = ROOT / "tests" / "harness" / "campaign" / "tiny.toml"
+    for f in ("tiny.toml", "tiny-level.toml"):
+        shutil.copy(spec.parent / f, tmp_path / f)
+    args = ["campaign", "run", tmp_path / "tiny.toml", "--out", tmp_path / "C", "--samples", "2", "--workers", "2"]
+    proc = _start(tmp_path, args, "os.fork", "", STOP_COUNT="2", GFLAT_TEST_TOKEN=token)
+    _stopped(proc)
+    _terminated(proc, tmp_path)
+    assert _token_processes(token) == []
+    rc, err = _run(tmp_path, [*args, "-q"], name="rerun")
+    assert rc == 0, err
+    assert "0 pending of 2" in err
