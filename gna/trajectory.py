@@ -216,6 +216,10 @@ def check_span(t_span) -> tuple[float, float]:
     return t0, t1
 
 
+#: Most intervals of a uniform output grid (:func:`output_grid`): its times alone take 8 GB.
+MAX_OUTPUT_INTERVALS = 1e9
+
+
 def output_grid(t0: float, t1: float, dt_out: float = 0.02, t_eval=None) -> np.ndarray:
     """The output times of a run: ``t_eval`` checked, or the uniform grid of step ``dt_out``.
 
@@ -240,8 +244,9 @@ def output_grid(t0: float, t1: float, dt_out: float = 0.02, t_eval=None) -> np.n
     Raises
     ------
     InputError
-        ``dt_out`` not a positive finite number or not dividing the span;
-        ``t_eval`` empty, not finite, not increasing or outside the span.
+        ``dt_out`` not a positive finite number, longer than the span, not dividing it, or making more than
+        :data:`MAX_OUTPUT_INTERVALS` intervals; ``t_eval`` empty, not finite, not increasing or outside the
+        span.
     """
     if t_eval is not None:
         try:
@@ -262,6 +267,16 @@ def output_grid(t0: float, t1: float, dt_out: float = 0.02, t_eval=None) -> np.n
         raise InputError(f"dt_out must be a positive finite interval [s], got {dt_out}")
     ratio = (t1 - t0) / dt_out
     n = int(round(ratio))
+    if not ratio <= MAX_OUTPUT_INTERVALS:
+        raise InputError(
+            f"dt_out = {dt_out:g} s makes {ratio:.3g} output intervals over the span [{t0:g}, {t1:g}] s, above "
+            f"the bound {MAX_OUTPUT_INTERVALS:.0e}"
+        )
+    if ratio < 1 - 1e-6:
+        raise InputError(
+            f"dt_out = {dt_out:g} s is longer than the span [{t0:g}, {t1:g}] s, its bound; choose a divisor of "
+            f"{t1 - t0:g} s"
+        )
     if n < 1 or abs(ratio - n) > 1e-6 * max(1.0, ratio):
         raise InputError(
             f"dt_out = {dt_out:g} s does not divide the span [{t0:g}, {t1:g}] s "

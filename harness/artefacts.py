@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 
 from gna.atmosphere import speed_of_sound
-from gna.errors import InputError
+from gna.errors import InputError, describe
 from gna.frames import C_body_ned, euler_from_dcm
 from gna.trajectory import UNITS
 
@@ -172,6 +172,63 @@ def read_manifest(folder: str | Path) -> dict | None:
     except (OSError, ValueError):
         return None
     return data if isinstance(data, dict) and data.get("tool") == "gflat" else None
+
+
+def manifest_problem(folder: str | Path) -> str | None:
+    """What keeps ``folder`` from being a gflat run's, naming the file and what is wrong with it; None if nothing.
+
+    Parameters
+    ----------
+    folder : str or Path
+        A folder.
+
+    Returns
+    -------
+    str or None
+        ``"no manifest.json in <folder>"``, ``"<folder>/manifest.json is not valid JSON (line 1 column 2:
+        ...)"``, ``... is a JSON list, not an object``, ``... names tool 'x', not gflat``, ``... 'files' is not
+        a list`` or ``... a file entry ... lacks ...`` (a link, a folder, an unreadable file: said so); None
+        for a gflat run's manifest (:func:`read_manifest` reads it).
+    """
+    p = Path(folder) / MANIFEST
+    if p.is_symlink():
+        return f"{p} is a symbolic link, not a run's manifest"
+    if not p.exists():
+        return f"no {MANIFEST} in {folder}"
+    if not p.is_file():
+        return f"{p} is not a regular file"
+    try:
+        text = p.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        return f"{p} is not UTF-8 text (byte {exc.start})"
+    except OSError as exc:
+        return f"{p} cannot be read: {describe(exc)}"
+    try:
+        data = json.loads(text)
+    except ValueError as exc:
+        return f"{p} is not valid JSON ({describe(exc)})"
+    if not isinstance(data, dict):
+        return f"{p} is a JSON {_json_kind(data)}, not an object"
+    if data.get("tool") != "gflat":
+        return f"{p} names tool {data.get('tool')!r}, not 'gflat' (not written by gflat, or before it named itself)"
+    files = data.get("files")
+    if not isinstance(files, list):
+        return f"{p}: 'files' is a JSON {_json_kind(files)}, not a list"
+    for f in files:
+        ok = isinstance(f, dict) and isinstance(f.get("path"), str) and isinstance(f.get("sha256"), str)
+        if not ok or isinstance(f.get("bytes"), bool) or not isinstance(f.get("bytes"), int):
+            shown = json.dumps(f)
+            shown = shown if len(shown) <= 80 else shown[:77] + "..."
+            return f"{p}: a file entry {shown} lacks a string path, an integer bytes or a string sha256"
+    return None
+
+
+def _json_kind(value) -> str:
+    """The JSON name of a decoded value's type."""
+    for kind, name in ((bool, "boolean"), (str, "string"), ((int, float), "number"), (list, "list"), (dict, "object")):
+        if isinstance(value, kind):
+            return name
+    return "null" if value is None else type(value).__name__
 
 
 def enclosing_run(path: str | Path) -> Path | None:

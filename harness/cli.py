@@ -14,16 +14,22 @@ its traceback.
 Exit status (:data:`EXIT_CODES`): 0 success; 1 the work ran but its verdict is
 negative (a validation FAIL, an infeasible plan, a trim that does not
 converge, stale files under ``--check``); 2 a usage or input error (bad option, bad file, bad value), no
-result; 130 interrupted.  ``-v``/``-q`` set the level of the ``logging``
+result; 130 interrupted (Ctrl-C), 143 terminated (SIGTERM) and 129 hung up (SIGHUP), both handled like
+Ctrl-C (a run's staging folder removed; an ignored SIGHUP, under ``nohup``, stays ignored); the first of
+these signals counts, a second one waits for its cleanup.  An option error (argparse's) is one line too, ``gflat <cmd>: error: <message> (see gflat <cmd>
+--help)``, exit status 2.  ``-v``/``-q`` set the level of the ``logging``
 messages (and of Python warnings, routed through ``logging``), on stderr.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import logging
+import os
 import re
+import signal
 import sys
 import time
 from collections.abc import Sequence
@@ -37,22 +43,52 @@ EXIT_CODES: dict[int, str] = {
     "stale files (--check)",
     2: "usage or input error (bad option, file or value): one line names the cause, nothing is computed",
     130: "interrupted (Ctrl-C)",
+    129: "hung up (SIGHUP), handled as Ctrl-C",
+    143: "terminated (SIGTERM), handled as Ctrl-C: nothing left half-written",
 }
+
+#: The signals raised as :class:`Terminated` while a command runs (SIGHUP where the platform has it).
+TERMINATING = tuple(s for s in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)) if s is not None)
 
 #: Numbers such as -1, -0.5, -1e-3, -.5E+2 are option values, not option names.
 _NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
 
 
 class GflatParser(argparse.ArgumentParser):
-    """An :class:`argparse.ArgumentParser` reading ``--gamma -1e-3`` as a negative number.
+    """An :class:`argparse.ArgumentParser` reading ``--gamma -1e-3`` as a negative number, its errors in one line.
 
     argparse's own test for negative numbers (``-1``, ``-0.5``) misses the exponent form; no gflat
-    option name looks like a number, so every such word is a value.
+    option name looks like a number, so every such word is a value.  An option error prints
+    ``gflat <cmd>: error: <message> (see gflat <cmd> --help)`` (no usage block) and exits with status 2;
+    ``--help`` is argparse's own.
     """
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = _NEGATIVE_NUMBER
+        self.error_prog: str | None = None  # the command the words name, for errors found at the top level
+
+    def error(self, message: str):
+        """Print the one-line error and exit with status 2 (argparse's hook).
+
+        Parameters
+        ----------
+        message : str
+            argparse's message.
+        """
+        prog = self.error_prog or self.prog
+        self.exit(2, f"{prog}: error: {' '.join(str(message).split())} (see {prog} --help)\n")
+
+
+def _named_prog(parser: argparse.ArgumentParser, words: Sequence[str]) -> str:
+    """The ``prog`` of the deepest (sub-)command ``words`` name (``gflat campaign run``), else the parser's."""
+    for word in words:
+        if word == "--":
+            continue
+        subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        if subs and not word.startswith("-") and word in subs[0].choices:
+            parser = subs[0].choices[word]
+    return parser.prog
 
 
 def _version() -> str:
@@ -174,7 +210,61 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
             sub.add_parser(name, help=help_line)  # listed only: never chosen, since argv names another
     for p in _subparsers(parser):  # -v/-q also after the sub-command (counted there)
         _add_verbosity(p, argparse.SUPPRESS)
+    if argv is not None:  # "unrecognized arguments" is found by the top parser: named after the command
+        parser.error_prog = _named_prog(parser, argv)
     return parser
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (or SIGHUP) received by ``gflat``: raised like Ctrl-C, so that every cleanup of an interruption
+    runs (a run's staging folder removed, worker processes ended); exit status 128 + the signal's number.
+
+    Parameters
+    ----------
+    signum : int
+        The signal received.
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def _signals_raise():
+    """Within the block Ctrl-C raises ``KeyboardInterrupt`` and the :data:`TERMINATING` signals raise
+    :class:`Terminated`, once: a second interruption (Ctrl-C pressed twice, SIGTERM sent to the whole process
+    group) waits for the first one's cleanup instead of cutting it short.  A signal ignored when the block
+    starts (SIGHUP under ``nohup``) stays ignored; a forked child that inherited the handlers gets the
+    previous ones back (it dies of SIGTERM, or raises ``KeyboardInterrupt`` on Ctrl-C, as before).  The
+    previous handlers are put back after the block."""
+    pid = os.getpid()
+    first: list[int] = []
+    old: dict = {}
+
+    def handler(signum, frame):
+        if os.getpid() != pid:  # a worker forked from this process: the handler it had before
+            signal.signal(signum, old.get(signum, signal.SIG_DFL))
+            os.kill(os.getpid(), signum)
+            return
+        if first:  # the first interruption's cleanup runs on
+            return
+        first.append(signum)
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        raise Terminated(signum)
+
+    try:
+        for sig in (signal.SIGINT, *TERMINATING):
+            if signal.getsignal(sig) not in (signal.SIG_IGN, None):
+                old[sig] = signal.signal(sig, handler)
+    except ValueError:  # not the main thread (gflat run in-process from a thread): left as they are
+        pass
+    try:
+        yield
+    finally:
+        for sig, previous in old.items():
+            signal.signal(sig, previous)
 
 
 class _StderrHandler(logging.StreamHandler):
@@ -244,14 +334,34 @@ def main(argv: list[str] | None = None) -> int:
         The exit status (:data:`EXIT_CODES`).
     """
     words = sys.argv[1:] if argv is None else list(argv)
-    try:
-        parser = build_parser(words)
-    except GflatError as exc:  # a setting read at import (e.g. GFLAT_SERIES_BACKEND)
-        print(f"gflat: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:  # while the command's modules load
-        print("gflat: interrupted", file=sys.stderr)
-        return 130
+    with _signals_raise():
+        try:
+            parser = build_parser(words)
+        except GflatError as exc:  # a setting read at import (e.g. GFLAT_SERIES_BACKEND)
+            print(f"gflat: error: {exc}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt as exc:  # while the command's modules load
+            return _interrupted(exc)
+        return _run(parser, words)
+
+
+def _one_line(text: str) -> str:
+    """``text`` on one line: a line break inside it (a file name holding one) written as ``\\n``."""
+    return text.replace("\r", "\\r").replace("\n", "\\n")
+
+
+def _interrupted(exc: KeyboardInterrupt) -> int:
+    """The one line and exit status of an interruption: 143 for SIGTERM, 129 for SIGHUP, 130 for Ctrl-C."""
+    if isinstance(exc, Terminated):
+        what = "hung up" if exc.signum == getattr(signal, "SIGHUP", None) else "terminated"
+        print(f"gflat: {what} ({signal.Signals(exc.signum).name})", file=sys.stderr)
+        return 128 + exc.signum
+    print("gflat: interrupted", file=sys.stderr)
+    return 130
+
+
+def _run(parser: argparse.ArgumentParser, words: list[str]) -> int:
+    """Parse ``words`` and run the command they name (:func:`main`'s body, SIGTERM raising meanwhile)."""
     args = parser.parse_args(words)
     args.command_line = ["gflat", *words]  # recorded in manifests
     restore = _logging_state()
@@ -263,17 +373,16 @@ def main(argv: list[str] | None = None) -> int:
         log.info("%s: done in %.2f s, exit status %d", args.command, time.perf_counter() - start, status)
         return status
     except GflatError as exc:
-        print(f"gflat {args.command}: error: {exc}", file=sys.stderr)
+        print(_one_line(f"gflat {args.command}: error: {exc}"), file=sys.stderr)
         return 2
     except OSError as exc:  # an output that cannot be written (missing or read-only folder, a file in the way)
         print(
-            f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {describe(exc)}",
+            _one_line(f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {describe(exc)}"),
             file=sys.stderr,
         )
         return 2
-    except KeyboardInterrupt:
-        print("gflat: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        return _interrupted(exc)
     finally:
         restore()  # run in-process (tests, notebooks), gflat leaves logging as it found it
 

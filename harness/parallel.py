@@ -7,7 +7,7 @@ results), so nothing but the callable's return value is pickled (back).  A
 child ignores Ctrl-C; the parent, interrupted, terminates its children when
 the pool's ``with`` block ends, so the command stops with its usual one-line
 message.  The parent's pipes and process handles end (their finalizers run)
-only while Ctrl-C waits (:class:`_CtrlCWaits`): Python runs a signal's handler
+only while Ctrl-C and SIGTERM wait (:class:`InterruptsWait`): Python runs a signal's handler
 inside whatever function it enters next, and a ``KeyboardInterrupt`` raised
 inside a finalizer is printed and lost instead of stopping the command.  An
 error raised in a child is raised again in the parent, with the same type and
@@ -31,6 +31,7 @@ import shutil
 import signal
 import sys
 import tempfile
+import threading
 import time
 import traceback
 from collections.abc import Callable
@@ -124,26 +125,60 @@ def _portable(exc: BaseException) -> BaseException:
     return RuntimeError(f"{type(exc).__name__}: {describe(exc)}")
 
 
-class _CtrlCWaits:
-    """A ``with`` block during which Ctrl-C (SIGINT) waits, raised as ``KeyboardInterrupt`` where the block ends.
+#: The signals ``gflat`` turns into an interruption (:func:`harness.cli.main`): Ctrl-C, SIGTERM and SIGHUP.
+INTERRUPTS = frozenset(s for s in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None)) if s is not None)
 
-    ``signal.pthread_sigmask`` raises a Ctrl-C that arrived before it was called
-    after changing the mask: the mask in force is read first (changing nothing)
-    and restored whatever the moment the interruption is raised, so that a
-    Ctrl-C raised by the blocking call itself does not leave SIGINT blocked for
-    the rest of the process.
+
+class InterruptsWait:
+    """A ``with`` block during which Ctrl-C (SIGINT), SIGTERM and SIGHUP wait, raised where the block ends.
+
+    ``gflat`` raises ``KeyboardInterrupt`` on Ctrl-C and :class:`harness.cli.Terminated` on SIGTERM or SIGHUP; a
+    cleanup (a pool's children ended, a staging folder removed) inside the block is never cut short.
+
+    Two locks, for two ways a signal arrives.  In the main thread the signals' Python handlers are swapped for
+    one that only records them (a signal the kernel hands to another thread, e.g. one of Arrow's, still runs
+    its Python handler in the main thread, at once); the recorded ones are raised again, once each, when the
+    block ends, with the handlers put back.  And the signals are blocked in the calling thread
+    (``signal.pthread_sigmask``), so that a child forked inside the block starts with them pending, not lost,
+    until it has set its own handlers.  A handler that is ``SIG_IGN`` stays so.  ``pthread_sigmask`` runs the
+    handlers of signals that arrived before it returns: the handlers are swapped before the mask is changed,
+    the mask in force is read before it is changed (and restored whatever is raised meanwhile), and restored
+    before the handlers, so that nothing is raised half-way and no signal stays blocked for the rest of the
+    process.
     """
 
     def __enter__(self) -> None:
-        self._old = signal.pthread_sigmask(signal.SIG_BLOCK, ())
+        self._saved: dict = {}
+        self._pending: list[int] = []
+        self._mask = None
         try:
-            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+            if threading.current_thread() is threading.main_thread():
+                for sig in INTERRUPTS:
+                    if signal.getsignal(sig) not in (signal.SIG_IGN, None):
+                        self._saved[sig] = signal.signal(sig, self._record)
+            if hasattr(signal, "pthread_sigmask"):
+                self._mask = signal.pthread_sigmask(signal.SIG_BLOCK, ())  # read first: restored however this ends
+                signal.pthread_sigmask(signal.SIG_BLOCK, INTERRUPTS)
         except BaseException:
-            signal.pthread_sigmask(signal.SIG_SETMASK, self._old)
+            self._restore()
             raise
 
+    def _record(self, signum, frame) -> None:
+        self._pending.append(signum)
+
+    def _restore(self) -> None:
+        if self._mask is not None:  # the signals blocked meanwhile are recorded here
+            signal.pthread_sigmask(signal.SIG_SETMASK, self._mask)
+            self._mask = None
+        for sig, handler in self._saved.items():
+            signal.signal(sig, handler)
+        self._saved = {}
+        pending, self._pending = list(dict.fromkeys(self._pending)), []
+        for sig in pending:  # the put-back handler raises it (or, SIG_DFL, its default action)
+            signal.raise_signal(sig)
+
     def __exit__(self, *exc) -> None:
-        signal.pthread_sigmask(signal.SIG_SETMASK, self._old)
+        self._restore()
 
 
 class _Terminated(BaseException):
@@ -178,7 +213,7 @@ def _child(conn, fn: Callable[[], Any], tmp: str | None = None) -> None:
         if tmp is not None:
             tempfile.tempdir = tmp
         gc.freeze()  # the inherited objects are not scanned by this process's collections (nor copied by them)
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, INTERRUPTS)  # blocked while the parent forked
         w0, c0 = time.perf_counter(), time.process_time()
         try:
             out = ("ok", fn())
@@ -278,7 +313,7 @@ class ForkPool:
         while self._queue and len(self._running) < self.jobs:
             sys.stdout.flush()
             sys.stderr.flush()
-            with _CtrlCWaits():  # no Ctrl-C before the child ignores it, nor in the pipe's finalizers
+            with InterruptsWait():  # no Ctrl-C before the child ignores it, nor in the pipe's finalizers
                 _, _, key, fn, what = heapq.heappop(self._queue)
                 parent_end, child_end = self._ctx.Pipe(duplex=False)
                 try:
@@ -320,7 +355,7 @@ class ForkPool:
         # Ctrl-C waits while a finished child is collected and the next started, and the pipe and the Process
         # dropped here end inside the block (a Connection's __del__ and a Process's finalizer are Python
         # functions, where a KeyboardInterrupt would be printed and lost)
-        with _CtrlCWaits():
+        with InterruptsWait():
             conn = min(ready, key=lambda c: list(self._running).index(c))
             del ready
             proc, key, what = self._running.pop(conn)
@@ -351,7 +386,7 @@ class ForkPool:
     def close(self) -> None:
         """End every running child (after an error or an interruption), drop the queue, remove the workers'
         temporary folder."""
-        with _CtrlCWaits():  # a second Ctrl-C waits: no child left, no finalizer interrupted
+        with InterruptsWait():  # a second Ctrl-C waits: no child left, no finalizer interrupted
             self._queue.clear()
             for conn, (proc, _, _) in list(self._running.items()):
                 if proc.is_alive():

@@ -22,8 +22,9 @@ new one complete.  Runs are never changed once written: an output folder
 inside a run's folder is refused, and ``gflat report`` renders a copy that
 takes the run's place the same way.
 
-:func:`write_file` replaces a single file atomically (``gflat fit --out FILE``,
-the repository's ``aircraft_xml/``), after :func:`check_output_file`.
+:class:`OutputFile` is the same contract for one file the user names (``gflat fit --out FILE``): refused
+when it exists unless ``--replace``, written beside it under a hidden name and renamed into place.
+:func:`write_file` replaces one of the tool's own files atomically (the repository's ``aircraft_xml/``).
 """
 
 from __future__ import annotations
@@ -32,7 +33,9 @@ import contextlib
 import ctypes
 import datetime
 import errno
+import glob
 import os
+import re
 import secrets
 import shutil
 import stat
@@ -42,7 +45,8 @@ from pathlib import Path
 
 from gna.errors import InputError, describe
 
-from .artefacts import MANIFEST, enclosing_run, json_text, read_manifest
+from .artefacts import MANIFEST, enclosing_run, json_text, manifest_problem, read_manifest
+from .parallel import InterruptsWait
 from .recorded import sha256
 
 try:  # POSIX
@@ -50,9 +54,11 @@ try:  # POSIX
 except ImportError:  # pragma: no cover - Windows: staging folders are not locked
     fcntl = None
 
-__all__ = ["MANIFEST", "RunDir", "check_output_file", "enclosing_run", "read_manifest", "write_file"]
+__all__ = ["MANIFEST", "OutputFile", "RunDir", "check_output_file", "enclosing_run", "read_manifest", "write_file"]
 
 RENAME_NOREPLACE, RENAME_EXCHANGE = 1, 2
+#: The name of a run's staging folder (and of a file's hidden temporary copy): ``.<name>.gflat-<12 hex>.tmp``.
+_STAGING = re.compile(r"\..+\.gflat-[0-9a-f]{12}\.tmp")
 _AT_FDCWD = -100
 
 
@@ -64,6 +70,8 @@ def _cause(exc: OSError) -> str:
         folder = Path(os.path.abspath(name)).parent
         if folder.is_dir():
             return f"{folder} exists, but its file system creates no new files or folders there"
+        if not os.path.lexists(folder):
+            return f"No such file or directory: its folder {folder} does not exist"
     return describe(exc)
 
 
@@ -115,21 +123,22 @@ def _files(root: Path) -> list[str]:
     return sorted(out)
 
 
-def _run_files(folder: Path) -> dict:
-    """The manifest of the run in ``folder``, refusing a folder that is no gflat run's or holds a foreign file."""
-    data = read_manifest(folder)
-    if data is None:
+def _run_files(folder: Path, advice: str | None) -> dict:
+    """The manifest of the run in ``folder``, refusing a folder that is no gflat run's (naming the file and what
+    is wrong with it) or holds a foreign file; ``advice``, the other way out, ends each message."""
+    problem = manifest_problem(folder)
+    if problem is not None:
         raise InputError(
-            f"{folder} is not the folder of a gflat run (no {MANIFEST} of gflat): it is never removed or "
-            f"changed; give another --out"
+            f"{folder} is not the folder of a gflat run ({problem}): it is never removed or changed"
+            + (f"; {advice}" if advice else "")
         )
-    files = data.get("files") if isinstance(data.get("files"), list) else []
-    listed = {f["path"] for f in files if isinstance(f, dict) and isinstance(f.get("path"), str)} | {MANIFEST}
+    data = read_manifest(folder)
+    listed = {f["path"] for f in data["files"]} | {MANIFEST}
     foreign = [f for f in _files(folder) if f not in listed]
     if foreign:
         raise InputError(
-            f"{folder} holds {foreign[0]}, which is not a file of its gflat run: the folder is never removed; "
-            f"move that file away, or give another --out"
+            f"{folder} holds {foreign[0]}, which is not a file of its gflat run (its {MANIFEST} does not list "
+            f"it): the folder is never removed; move that file away" + (f", or {advice}" if advice else "")
         )
     return data
 
@@ -166,6 +175,9 @@ class RunDir:
     parents : bool
         Make missing parent folders (default output folders); else a missing
         parent is refused.
+    advice : str or None
+        The other way out a refusal of an existing folder names (default ``"give another --out"``; None for
+        ``gflat report``, which has no ``--out``).
 
     Raises
     ------
@@ -184,7 +196,15 @@ class RunDir:
         The staging folder the files are written into.
     """
 
-    def __init__(self, out: str | Path, *, command: str, replace: bool = False, parents: bool = False):
+    def __init__(
+        self,
+        out: str | Path,
+        *,
+        command: str,
+        replace: bool = False,
+        parents: bool = False,
+        advice: str | None = "give another --out",
+    ):
         given = Path(out).expanduser()
         path = Path(os.path.abspath(given))
         if path == Path(path.anchor):
@@ -199,6 +219,12 @@ class RunDir:
         self._old_id: str | None = None
         self._done = False
         self._pid = os.getpid()
+        staging = next((p for p in self.out.parents if _STAGING.fullmatch(p.name)), None)
+        if staging is not None:
+            raise InputError(
+                f"output folder {self.out} lies inside {staging}, the staging folder of another gflat run: give a "
+                f"folder outside it"
+            )
         run = enclosing_run(self.out)
         if run is not None:
             raise InputError(
@@ -215,7 +241,7 @@ class RunDir:
                     f"output folder {self.out} exists: give --replace to replace it once the new run is "
                     f"complete, or another --out"
                 )
-            self._old_id = str(_run_files(self.out).get("run_id"))
+            self._old_id = str(_run_files(self.out, advice).get("run_id"))
         if not parent.is_dir():
             if parent.exists() or not parents:
                 what = "is a file" if parent.exists() else "does not exist"
@@ -229,14 +255,14 @@ class RunDir:
 
     # ---- staging ---------------------------------------------------------------------------------
     def _pattern(self) -> str:
-        return f".{self.out.name}.gflat-*.tmp"
+        return f".{glob.escape(self.out.name)}.gflat-*.tmp"  # a name such as "*" matches only its own
 
     def _remove_stale(self) -> None:
         """Remove the staging folders of earlier runs into ``out`` that no process holds (killed runs)."""
         for p in self.out.parent.glob(self._pattern()):
             try:
-                fd = os.open(p, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
-            except OSError:
+                fd = os.open(p, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_NOFOLLOW", 0))
+            except OSError:  # gone, a file, a link: not a staging folder
                 continue
             try:
                 if _lock(fd):
@@ -263,15 +289,19 @@ class RunDir:
         raise InputError(f"output folder {self.out}: no staging folder could be made in {self.out.parent}")
 
     def close(self) -> None:
-        """Remove the staging folder (unless committed) and release it; again: nothing."""
+        """Remove the staging folder (unless committed) and release it; again: nothing.
+
+        A second Ctrl-C or SIGTERM waits until the folder is gone (:class:`harness.parallel.InterruptsWait`).
+        """
         if os.getpid() != self._pid:  # a forked worker never removes its parent's folder
             return
-        if not self._done:
-            self._done = True
-            shutil.rmtree(self.root, ignore_errors=True)
-        fd, self._fd = self._fd, None
-        if fd is not None:
-            os.close(fd)
+        with InterruptsWait():
+            if not self._done:
+                self._done = True
+                shutil.rmtree(self.root, ignore_errors=True)
+            fd, self._fd = self._fd, None
+            if fd is not None:
+                os.close(fd)
 
     def __enter__(self) -> RunDir:
         return self
@@ -429,22 +459,23 @@ class RunDir:
         record["files"] = files
         try:
             (self.root / MANIFEST).write_text(json_text(record, self.out / MANIFEST), encoding="utf-8")
-            if self._old_id is not None and os.path.isdir(self.out):
-                self._swap()
-            else:
-                try:
-                    _rename_new(self.root, self.out)
-                except OSError:
-                    if not os.path.lexists(self.out):
-                        raise
-                    raise InputError(
-                        f"{self.out} was written by another run meanwhile: this run's files are discarded; "
-                        f"give --replace to replace it, or another --out"
-                    ) from None
+            with InterruptsWait():  # Ctrl-C or SIGTERM raised after the rename and its record, never between
+                if self._old_id is not None and os.path.isdir(self.out):
+                    self._swap()
+                else:
+                    try:
+                        _rename_new(self.root, self.out)
+                    except OSError:
+                        if not os.path.lexists(self.out):
+                            raise
+                        raise InputError(
+                            f"{self.out} was written by another run meanwhile: this run's files are discarded; "
+                            f"give --replace to replace it, or another --out"
+                        ) from None
+                self._done = True
+                shutil.rmtree(self.root, ignore_errors=True)  # the old run, swapped out (nothing, for a new folder)
         except OSError as exc:
             raise InputError(f"cannot write {self.out}: {_cause(exc)}") from None
-        self._done = True
-        shutil.rmtree(self.root, ignore_errors=True)  # the old run, swapped out (nothing, for a new folder)
         self.close()
         return self.out
 
@@ -503,9 +534,15 @@ def check_output_file(path: str | Path) -> Path:
             f"the path of a new or regular file"
         )
     try:
-        run = enclosing_run(path.resolve())
+        resolved = path.resolve()
+        run = enclosing_run(resolved)
     except (OSError, RuntimeError):
-        run = None
+        resolved, run = None, None
+    staging = next((p for p in (resolved.parents if resolved else ()) if _STAGING.fullmatch(p.name)), None)
+    if staging is not None:
+        raise InputError(
+            f"cannot write {path}: {staging} is the staging folder of another gflat run: give a path outside it"
+        )
     if run is not None:
         raise InputError(
             f"cannot write {path}: {run} is the folder of a gflat run, never changed once written: give a path "
@@ -520,8 +557,59 @@ def check_output_file(path: str | Path) -> Path:
     return path
 
 
+def _stale_files(path: Path) -> None:
+    """Remove the hidden temporary files of earlier writes of ``path`` that no process holds (killed writes)."""
+    for p in path.parent.glob(f".{glob.escape(path.name)}.gflat-[0-9a-f]*.tmp"):  # not another's probe file
+        try:
+            if not stat.S_ISREG(os.lstat(p).st_mode):
+                continue
+            fd = os.open(p, os.O_RDONLY)
+        except OSError:
+            continue
+        try:
+            if _lock(fd):
+                with contextlib.suppress(OSError):
+                    os.unlink(p)
+        finally:
+            os.close(fd)
+
+
+def _write_whole(path: Path, data: bytes, replace: bool) -> Path:
+    """Write ``data`` beside ``path`` under a hidden, locked name, then rename it onto ``path`` (over an existing
+    file only with ``replace``); the hidden file is removed however this ends (an error, Ctrl-C, SIGTERM)."""
+    tmp = path.with_name(f".{path.name}.gflat-{secrets.token_hex(6)}.tmp")
+    try:
+        with open(tmp, "xb") as fh:
+            _lock(fh.fileno())  # held while written: the next write of ``path`` removes it only once abandoned
+            with contextlib.suppress(OSError):  # a file replaced keeps its permissions
+                os.chmod(fh.fileno(), stat.S_IMODE(os.stat(path).st_mode))
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+            with InterruptsWait():
+                if replace:
+                    os.replace(tmp, path)
+                else:
+                    try:
+                        _rename_new(tmp, path)
+                    except FileExistsError:
+                        raise InputError(
+                            f"output file {path} was written by another process meanwhile: this file is discarded; "
+                            f"give --replace to replace it, or another --out"
+                        ) from None
+    except OSError as exc:
+        raise InputError(f"cannot write {path}: {_cause(exc)}") from None
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+    return path
+
+
 def write_file(path: str | Path, data: bytes | str) -> Path:
     """Replace one file atomically: written beside it under a hidden name, then renamed over it.
+
+    For the tool's own files (the repository's ``aircraft_xml/``, the bundled fitted aircraft); a file the
+    user names is an :class:`OutputFile`.
 
     Parameters
     ----------
@@ -541,14 +629,66 @@ def write_file(path: str | Path, data: bytes | str) -> Path:
         left under the temporary name and ``path`` is untouched.
     """
     path = Path(path)
-    data = data.encode("utf-8") if isinstance(data, str) else data
-    tmp = path.with_name(f".{path.name}.gflat-{secrets.token_hex(6)}.tmp")
-    try:
-        with open(tmp, "xb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except OSError as exc:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise InputError(f"cannot write {path}: {_cause(exc)}") from None
-    return path
+    return _write_whole(path, data.encode("utf-8") if isinstance(data, str) else data, replace=True)
+
+
+class OutputFile:
+    """One output file the user names (``gflat fit --out FILE``): checked before any work, written whole.
+
+    The rules of a run's folder (:class:`RunDir`) for a single file: an existing file is refused unless
+    ``replace``; :meth:`write` writes the new content beside it under a hidden name
+    (``.<name>.gflat-<random>.tmp``) and renames it into place, so that a reader (and a killed run) sees the
+    old file or the new one, never a part; without ``replace`` the rename never overwrites a file that
+    appeared meanwhile.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (as given: the messages name it so).
+    replace : bool
+        An existing regular file may be replaced (once the new content is written).
+
+    Raises
+    ------
+    InputError
+        One line, before any work: what :func:`check_output_file` refuses; a symbolic link (give the file
+        itself); an existing file without ``replace``.
+
+    Attributes
+    ----------
+    path : Path
+        The file.
+    """
+
+    def __init__(self, path: str | Path, *, replace: bool = False):
+        self.path = check_output_file(path)
+        self.replace = replace
+        if self.path.is_symlink():
+            raise InputError(f"output file {self.path} is a symbolic link: give the file itself, or another --out")
+        if self.path.exists() and not replace:
+            raise InputError(
+                f"output file {self.path} exists: give --replace to replace it once the new one is written, "
+                f"or another --out"
+            )
+        _stale_files(self.path)
+
+    def write(self, data: bytes | str) -> Path:
+        """Write the file whole (atomically).
+
+        Parameters
+        ----------
+        data : bytes or str
+            Content (str: UTF-8).
+
+        Returns
+        -------
+        Path
+            :attr:`path`.
+
+        Raises
+        ------
+        InputError
+            The write failed (disk full, permissions), or without ``replace`` a file of that name appeared
+            meanwhile; ``path`` is then untouched and no temporary file is left.
+        """
+        return _write_whole(self.path, data.encode("utf-8") if isinstance(data, str) else data, self.replace)

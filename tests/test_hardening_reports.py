@@ -140,8 +140,8 @@ def test_a_folder_link_out_of_the_run_is_never_followed(received, capsys):
         ("/etc/passwd", "an absolute path"),
         ("plan/../../outside.txt", "a path with '..'"),
         ("~/.ssh/id_rsa", "an absolute path"),
-        (7, "lacks path, bytes or sha256"),
-        ({"path": ["a"], "sha256": "0", "bytes": 1}, "lacks path, bytes or sha256"),
+        (7, "a file entry 7 lacks a string path, an integer bytes or a string sha256"),
+        ({"path": ["a"], "sha256": "0", "bytes": 1}, "lacks a string path, an integer bytes or a string sha256"),
     ],
 )
 def test_a_manifest_listing_files_outside_the_run_is_refused(received, capsys, entry, cause):
@@ -163,7 +163,7 @@ def test_a_manifest_whose_files_are_no_list_is_one_line(received, capsys):
     m = json.loads((folder / MANIFEST).read_text())
     m["files"] = 5
     (folder / MANIFEST).write_text(json.dumps(m))
-    _refused(folder, capsys, "holds")  # every file of the folder is foreign to a manifest listing none
+    _refused(folder, capsys, f"{folder / MANIFEST}: 'files' is a JSON number, not a list")  # the cause, not its effect
 
 
 def test_a_data_file_named_as_a_url_is_a_relative_link(received):

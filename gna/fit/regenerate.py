@@ -357,6 +357,7 @@ def regenerate(
     check: bool = False,
     today: str | None = None,
     committed_dir: Path | None = None,
+    write=None,
 ) -> dict[str, list[str]]:
     """Rebuild the fitted aircraft files.
 
@@ -373,6 +374,9 @@ def regenerate(
         Date written into changed files (default: today).
     committed_dir : Path, optional
         Where the committed files are (default: the package's ``gna/data/aircraft``).
+    write : callable, optional
+        ``write(path, text)`` writing one file (default :meth:`pathlib.Path.write_text`; ``gflat fit
+        regenerate`` gives an atomic one).
 
     Returns
     -------
@@ -405,7 +409,7 @@ def regenerate(
         report[ident] = diffs
         if not check:
             target_dir.mkdir(parents=True, exist_ok=True)
-            (target_dir / f"{ident}.toml").write_text(text)
+            (write or Path.write_text)(target_dir / f"{ident}.toml", text)
     return report
 
 
@@ -436,7 +440,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
 
-def run(ids: list[str] | None, check: bool, out: Path | None, docs: Path | None) -> int:
+def run(ids: list[str] | None, check: bool, out: Path | None, docs: Path | None, write=None) -> int:
     """Regenerate (or check) and print one line per file, and its first differences.
 
     Parameters
@@ -449,6 +453,8 @@ def run(ids: list[str] | None, check: bool, out: Path | None, docs: Path | None)
         Output directory (None: the package's ``gna/data/aircraft``).
     docs : Path or None
         Also rewrite (or check) the generated block of this ``docs/fit_quality.md``.
+    write : callable, optional
+        ``write(path, text)`` writing one file (default :meth:`pathlib.Path.write_text`).
 
     Returns
     -------
@@ -462,7 +468,7 @@ def run(ids: list[str] | None, check: bool, out: Path | None, docs: Path | None)
     """
     from .report import update_docs
 
-    report = regenerate(out, ids, check)
+    report = regenerate(out, ids, check, write=write)
     stale = False
     for ident, diffs in report.items():
         state = "current" if not diffs else ("NOT current" if check else "updated")
@@ -471,7 +477,7 @@ def run(ids: list[str] | None, check: bool, out: Path | None, docs: Path | None)
         for d in diffs[:10]:
             print(f"    {d}")
     if docs is not None:
-        current = update_docs(docs, check=check)
+        current = update_docs(docs, check=check, write=write)
         stale = stale or not current
         print(f"{docs}: {'current' if current else ('NOT current' if check else 'updated')}")
     return 1 if (check and stale) else 0

@@ -267,7 +267,7 @@ def generated_block() -> str:
     return "\n".join(parts)
 
 
-def update_docs(path: str | Path, check: bool = False) -> bool:
+def update_docs(path: str | Path, check: bool = False, write=None) -> bool:
     """Rewrite (or, with ``check``, compare) the generated block of a documentation file.
 
     Parameters
@@ -276,6 +276,9 @@ def update_docs(path: str | Path, check: bool = False) -> bool:
         The Markdown file, holding the :data:`BEGIN` and :data:`END` markers.
     check : bool
         Compare only; write nothing.
+    write : callable, optional
+        ``write(path, text)`` writing the file (default :meth:`pathlib.Path.write_text`; ``gflat fit regenerate``
+        gives an atomic one).
 
     Returns
     -------
@@ -298,5 +301,5 @@ def update_docs(path: str | Path, check: bool = False) -> bool:
     new = head + generated_block() + tail
     current = new == text
     if not check and not current:
-        path.write_text(new)
+        (write or Path.write_text)(path, new)
     return current

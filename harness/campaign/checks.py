@@ -23,11 +23,15 @@ from planners.scenario import list_scenarios, load_scenario
 from ..validation import ValidationCase, case_settings
 from ..validation.work import MAX_STEPS, check_steps
 
-__all__ = ["MAX_CASES", "check_case", "check_samples", "closest_name"]
+__all__ = ["MAX_CASES", "MAX_DASK_TIMEOUT_S", "check_case", "check_samples", "closest_name"]
 
 #: Default bound on a campaign run's cases, samples x cases x dispersion sets (``gflat campaign run --max-cases``):
 #: a case takes seconds, so 1e5 cases are days of computing; the bundled campaign has 48.
 MAX_CASES = 1.0e5
+
+#: Longest wait for a Dask scheduler at an address (``--dask-timeout``) [s]: an hour; a scheduler that has not
+#: answered by then is not starting (and beyond about 1e9 s the wait overflows the platform's time).
+MAX_DASK_TIMEOUT_S = 3600.0
 
 
 def closest_name(value: str, names) -> str:

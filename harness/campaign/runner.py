@@ -34,6 +34,7 @@ from ..artefacts import read_manifest
 from ..parallel import check_workers
 from ..recorded import safe_name
 from ..validation import provenance
+from .checks import MAX_DASK_TIMEOUT_S
 from .execute import run_sample
 from .spec import Campaign, load_campaign
 from .store import DB_NAME, CampaignStore, locked
@@ -316,6 +317,8 @@ def run_campaign(
         or dask_timeout == float("inf")
     ):
         raise InputError(f"--dask-timeout must be a positive number of seconds, got {dask_timeout!r}")
+    if dask_timeout > MAX_DASK_TIMEOUT_S:
+        raise InputError(f"--dask-timeout {dask_timeout:g} s is above the bound of {MAX_DASK_TIMEOUT_S:g} s")
     tasks = camp.tasks(samples)
     if only is not None:
         unknown = sorted(set(only) - {t.case_id for t in tasks})
@@ -337,7 +340,8 @@ def run_campaign(
 
 def _campaign_folder(out) -> Path:
     """The campaign folder checked (one line, nothing written) and made: not a file, not a gflat run's folder nor
-    inside one (runs are never changed once written), its parent takes files."""
+    inside one (runs are never changed once written), not a non-empty folder without a campaign index (a folder
+    of the user's is never adopted), its parent takes files."""
     given = Path(out).expanduser()
     path = Path(os.path.abspath(given))
     if path.exists() and not path.is_dir():
@@ -349,11 +353,28 @@ def _campaign_folder(out) -> Path:
                 f"campaign folder {path} {where} the folder of a gflat run (runs are never changed once written): "
                 f"give another --out"
             )
+    if path.is_dir() and not os.path.lexists(path / DB_NAME):
+        held = _entries(path)
+        if held:  # a folder of the user's (or /, or a package's): never adopted
+            shown = ", ".join(held[:3]) + (f" and {len(held) - 3} more" if len(held) > 3 else "")
+            raise InputError(
+                f"campaign folder {path} is not a campaign folder (no {DB_NAME}) and is not empty: it holds "
+                f"{shown}; give a new or empty folder as --out"
+            )
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(f"campaign folder {path}: cannot create it: {describe(exc)}") from None
     return path
+
+
+def _entries(folder: Path) -> list[str]:
+    """The names in ``folder`` (folders with a ``/``), sorted; a folder that cannot be listed: its cause."""
+    try:
+        with os.scandir(folder) as it:
+            return sorted(e.name + ("/" if e.is_dir(follow_symlinks=False) else "") for e in it)
+    except OSError as exc:
+        raise InputError(f"campaign folder {folder}: cannot list it: {describe(exc)}") from None
 
 
 def untrusted(store, quiet: bool = False, *, reset: bool = False) -> dict:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 
 from gna.errors import InputError
 from planners.flat import MAX_J
@@ -69,6 +68,34 @@ def worker_count(text: str) -> int:
         raise argparse.ArgumentTypeError(str(exc).strip()) from None
 
 
+def bounded_float(upper: float):
+    """An argument type: a positive finite number at most ``upper`` (a time or size a flag sets, e.g. ``gflat
+    campaign run --dask-timeout``)."""
+
+    def parse(text: str) -> float:
+        v = positive_float(text)
+        if v > upper:
+            raise argparse.ArgumentTypeError(f"{v:g} is above the bound of {upper:g}")
+        return v
+
+    parse.__name__ = f"number in (0, {upper:g}]"
+    return parse
+
+
+def within(lowest: float, upper: float):
+    """An argument type: a finite number in ``lowest..upper`` (an angle or a rate a flag sets, e.g. ``gflat fit
+    --alpha``)."""
+
+    def parse(text: str) -> float:
+        v = finite_float(text)
+        if not lowest <= v <= upper:
+            raise argparse.ArgumentTypeError(f"{v:g} is outside its bounds {lowest:g} .. {upper:g}")
+        return v
+
+    parse.__name__ = f"number in [{lowest:g}, {upper:g}]"
+    return parse
+
+
 def bounded_count(upper: int, lowest: int = 0):
     """An argument type: a whole number in ``lowest..upper`` (a count a flag sets, e.g. ``gflat fit --samples``)."""
 
@@ -96,13 +123,6 @@ def iterations(text: str) -> int | str:
     return v
 
 
-def out_path(text: str) -> Path:
-    """An ``--out`` folder or file: refused when empty (an empty name would silently mean the default)."""
-    if not text.strip():
-        raise argparse.ArgumentTypeError("an empty path; give a folder, or leave --out out for the default")
-    return Path(text)
-
-
 def add_tracking(p: argparse.ArgumentParser) -> None:
     """``--tracking paper|lqr``: the closed loop's tracking design, over the scenario's ``[tracking] design``."""
     from planners.lqr import DESIGNS
@@ -113,14 +133,4 @@ def add_tracking(p: argparse.ArgumentParser) -> None:
         default=None,
         help="closed loop: the tracking design, the paper's pole placement or the time-varying LQR "
         "(default: the scenario's [tracking] design, else paper; docs/tracking.md)",
-    )
-
-
-def add_replace(p: argparse.ArgumentParser) -> None:
-    """``--replace``: an existing ``--out`` (a gflat run) is replaced once the new run is complete."""
-    p.add_argument(
-        "--replace",
-        action="store_true",
-        help="replace the existing --out folder (a gflat run's only) once the new run is complete; without it "
-        "an existing folder is refused",
     )

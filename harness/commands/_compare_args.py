@@ -1,4 +1,4 @@
-"""Comparison flags shared by ``gflat compare`` and ``gflat paper``, and their default output folders.
+"""Comparison flags shared by ``gflat compare`` and ``gflat paper``.
 
 The flags override the scenario's ``[compare]`` table, which overrides the
 defaults (:mod:`harness.validation.tolerances`).
@@ -7,20 +7,15 @@ defaults (:mod:`harness.validation.tolerances`).
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from gna.errors import InputError
 
-from ..rundir import RunDir
 from ..validation.tolerances import QUANTITIES
 from ..validation.work import MAX_STEPS, SAMPLE_COST, check_steps, flight_steps  # noqa: F401 (re-exported)
 from ._args import add_tracking, cost_bound, finite_float, positive_float
 
 #: Unit of each tolerance quantity, for the help texts.
 _UNITS = {"position": "m", "velocity": "m/s", "angle": "rad", "rate": "rad/s"}
-
-#: Where the command line writes when no ``--out`` is given.
-DEFAULT_ROOT = Path("reports") / "out"
 
 
 def nonnegative_float(text: str) -> float:
@@ -123,21 +118,3 @@ def compare_overrides(args) -> dict:
         "tracking": getattr(args, "tracking", None),
     }
     return {k: v for k, v in kw.items() if v is not None}
-
-
-def default_out(*parts: str, command: str) -> RunDir:
-    """``reports/out/<parts>`` as the run folder of ``command``: parents made, an earlier gflat run there replaced
-    (the tool owns its default folders; anything else there is refused), a name that leaves it refused."""
-    base = DEFAULT_ROOT.resolve()
-    target = base.joinpath(*parts).resolve()
-    if not target.is_relative_to(base) or target == base:
-        raise InputError(f"output folder {'/'.join(parts)!r} leaves {base}: rename the scenario or give --out")
-    return RunDir(target, command=command, replace=True, parents=True)
-
-
-def run_dir(args, *default: str, command: str) -> RunDir:
-    """The run folder of a command: ``--out`` (an existing one replaced only with ``--replace``), else
-    :func:`default_out` of ``default``."""
-    if args.out is None:
-        return default_out(*default, command=command)
-    return RunDir(args.out, command=command, replace=getattr(args, "replace", False))

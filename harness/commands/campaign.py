@@ -22,8 +22,9 @@ from pathlib import Path
 
 from gna.errors import InputError, describe
 
-from ..campaign.checks import MAX_CASES
-from ._args import add_tracking, cost_bound, positive_float, positive_int, worker_count
+from ..campaign.checks import MAX_CASES, MAX_DASK_TIMEOUT_S
+from ._args import add_tracking, bounded_float, cost_bound, positive_int, worker_count
+from ._output import out_path
 
 
 def register(sub) -> None:
@@ -44,7 +45,13 @@ def register(sub) -> None:
     csub.required = True
     r = csub.add_parser("run", help="run or resume a campaign")
     r.add_argument("campaign", metavar="NAME_OR_FILE", help="bundled campaign (paper-dispersions) or a TOML file")
-    r.add_argument("--out", required=True, metavar="DIR", help="campaign folder (resumed when it exists)")
+    r.add_argument(
+        "--out",
+        type=out_path,
+        required=True,
+        metavar="DIR",
+        help="campaign folder: new or empty, or a campaign folder of the same campaign (then resumed)",
+    )
     r.add_argument("--samples", type=positive_int, default=None, help="samples per case and dispersion set")
     r.add_argument(
         "--max-cases",
@@ -77,10 +84,10 @@ def register(sub) -> None:
     )
     r.add_argument(
         "--dask-timeout",
-        type=positive_float,
+        type=bounded_float(MAX_DASK_TIMEOUT_S),
         default=None,
         metavar="S",
-        help="seconds to wait for the scheduler at a --dask address (default 20)",
+        help=f"seconds to wait for the scheduler at a --dask address (default 20, at most {MAX_DASK_TIMEOUT_S:g})",
     )
     add_tracking(r)
     r.add_argument("--retry-failed", action="store_true", help="run the failed cases again")

@@ -27,8 +27,9 @@ from ..artefacts import json_safe, run_manifest
 from ..engines import engine_names, engines_from_names
 from ..validation import ValidationCase, case_settings, run_case
 from ..validation.verdicts import verdict_lines
-from ._args import add_replace, iterations, out_path
-from ._compare_args import add_compare_arguments, check_steps, compare_overrides, run_dir
+from ._args import iterations
+from ._compare_args import add_compare_arguments, check_steps, compare_overrides
+from ._output import add_out, run_dir
 
 
 def register(sub) -> None:
@@ -60,14 +61,7 @@ def register(sub) -> None:
         default="open",
         help="open: the plan's controls alone; closed: with the tracking feedback (default open)",
     )
-    p.add_argument(
-        "--out",
-        type=out_path,
-        default=None,
-        metavar="DIR",
-        help="output folder, created whole once the run is complete (default reports/out/<scenario>/open, or closed)",
-    )
-    add_replace(p)
+    add_out(p, "output folder, created whole once the run is complete (default reports/out/<scenario>/open, or closed)")
     p.add_argument("--json", action="store_true", help="print one JSON object (the verdict) instead of the tables")
     add_compare_arguments(p)
     p.set_defaults(func=run)

@@ -13,9 +13,9 @@ from gna.aircraft import list_aircraft, load_aircraft
 from gna.errors import InputError
 from harness.engines.jsbsim import files as jf
 from harness.engines.jsbsim.export import aircraft_xml
-from harness.rundir import RunDir, write_file
+from harness.rundir import write_file
 
-from ._args import add_replace, out_path
+from ._output import add_out, run_dir
 
 
 def register(sub) -> None:
@@ -37,15 +37,11 @@ def register(sub) -> None:
         "aircraft", nargs="*", help="aircraft identifiers or TOML files (default with --all: every bundled aircraft)"
     )
     p.add_argument("--all", action="store_true", help="export every bundled aircraft")
-    p.add_argument(
-        "--out",
-        type=out_path,
-        default=None,
-        metavar="DIR",
-        help="output folder, created whole once every file is written (default: the repository's aircraft_xml/, "
+    add_out(
+        p,
+        "output folder, created whole once every file is written (default: the repository's aircraft_xml/, "
         "updated in place)",
     )
-    add_replace(p)
     p.add_argument(
         "--check", action="store_true", help="write nothing; exit 1 if a file is missing or differs from a fresh export"
     )
@@ -93,9 +89,7 @@ def run(args) -> int:
             path.parent.mkdir(parents=True, exist_ok=True)
             print(f"{a.id}: {write_file(path, aircraft_xml(a))}")
         return 0
-    with RunDir(
-        root, command="export-jsbsim", replace=getattr(args, "replace", False)
-    ) as out:  # checked before any export
+    with run_dir(args, command="export-jsbsim") as out:  # checked before any export
         for a in crafts:
             out.write_text(a.id, f"{a.id}.xml", text=aircraft_xml(a))  # an id leaving the folder is refused
         out.commit()

@@ -9,8 +9,8 @@ from planners.scenario import list_scenarios, load_scenario
 from ..engines.jsbsim.engine import JSBSimEngine
 from ..engines.jsbsim.grid import output_grid
 from ..engines.jsbsim.script import export_script, steps_of
-from ..rundir import RunDir
-from ._args import add_replace, iterations, out_path, positive_float
+from ._args import iterations, positive_float
+from ._output import add_out, run_dir
 
 
 def register(sub) -> None:
@@ -32,10 +32,7 @@ def register(sub) -> None:
         "package's FGFDMExec(DIR).load_script(...). Bundled scenarios: " + ", ".join(list_scenarios()),
     )
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
-    p.add_argument(
-        "--out", type=out_path, required=True, metavar="DIR", help="output folder, created whole once written"
-    )
-    add_replace(p)
+    add_out(p, "output folder, created whole once written", required=True)
     p.add_argument(
         "--J", type=iterations, default=None, help="generalized-flatness iterations, or auto (default: the scenario's)"
     )
@@ -87,9 +84,7 @@ def run(args) -> int:
                 f"--table-dt {args.table_dt:g} s is longer than the plan's node step {sc.step:g} s: "
                 f"the tables' straight lines would replace the plan's controls between its nodes"
             )
-    with RunDir(
-        args.out, command="export-jsbsim-script", replace=getattr(args, "replace", False)
-    ) as out:  # checked before planning
+    with run_dir(args, command="export-jsbsim-script") as out:  # checked before planning
         plan = plan_scenario(sc)
         if not plan.feasible:
             why = (

@@ -7,7 +7,7 @@ Sub-commands::
     gflat fit gtm [design options] --out FILE
     gflat fit linear CSV [design options] --engines N --engine-offset Y --out FILE
     gflat fit compare ID --speed V [--altitude H] [--json]
-    gflat fit regenerate [IDS...] [--check] [--docs docs/fit_quality.md]
+    gflat fit regenerate [IDS...] [--check] [--out DIR [--replace]] [--docs docs/fit_quality.md]
 
 Design options (angles in degrees): ``--alpha LO HI``, ``--beta MAX``,
 ``--phat MAX``, ``--qhat MAX``, ``--rhat MAX``, ``--dl LO HI``, ``--dm LO HI``,
@@ -32,21 +32,19 @@ from pathlib import Path
 
 from gna.errors import InputError
 
-from ..rundir import check_output_file, write_file
-from ._args import bounded_count, finite_float, nonnegative_int, out_path, positive_float
+from ._args import bounded_count, bounded_float, finite_float, nonnegative_int, positive_float, within
+from ._output import add_out, output_file, run_dir
+
+#: Largest angle a sampling flag names [deg] (``--alpha``, ``--beta``, the surfaces): the wind-frame chart ends
+#: at |alpha| = 90 deg (:data:`gna.trajectory.DOMAIN`), and no surface deflects further.
+MAX_ANGLE_DEG = 90.0
+#: Largest non-dimensional rate a sampling flag names (``--phat`` = |p b / 2V|, ``--qhat``, ``--rhat``): at 1
+#: the wing tip (the tail) moves as fast as the aircraft; the bundled fits sample 0.1 or less.
+MAX_RATE_HAT = 1.0
 
 #: Most sample points per block of a fit (``--samples``, ``--test``): a JSBSim point is one run_ic (about 1 ms),
 #: and the design matrix holds 45 regressors per point.
 MAX_FIT_POINTS = 200_000
-
-
-def _out_file(text: str) -> Path:
-    """``--out FILE``: refused when empty (an empty name would silently mean the default)."""
-    if not text.strip():
-        raise argparse.ArgumentTypeError(
-            "an empty path; give the aircraft file's name, or leave --out out for the default <id>.toml"
-        )
-    return Path(text)
 
 
 def _surface_property(text: str) -> tuple[str, tuple[str, float | None]]:
@@ -69,7 +67,6 @@ def _surface_property(text: str) -> tuple[str, tuple[str, float | None]]:
 
 def _surface_overrides(items) -> dict[str, tuple[str, float]]:
     """The ``--property`` options as :class:`JSBSimAeroSource` ``surfaces`` (default factors filled in)."""
-    from gna.errors import InputError
     from gna.fit.sources.jsbsim_aero import SURFACE_CANDIDATES
 
     out = {}
@@ -186,7 +183,11 @@ def register(sub) -> None:
     r = sp.add_parser("regenerate", help="rebuild every bundled fitted aircraft file")
     r.add_argument("ids", nargs="*", help="subset (default: all)")
     r.add_argument("--check", action="store_true", help="only check that the committed files are current")
-    r.add_argument("--out", type=out_path, help="output directory (default: the package's aircraft folder)")
+    add_out(
+        r,
+        "output folder, created whole once every file is written (default: the package's aircraft folder, "
+        "each file replaced atomically)",
+    )
     r.add_argument("--docs", type=Path, help="also rewrite (or check) the generated block of docs/fit_quality.md")
     p.set_defaults(func=run)
 
@@ -196,24 +197,34 @@ def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band, hint=None)
     d.add_argument(
         "--alpha",
         nargs=2,
-        type=finite_float,
+        type=within(-MAX_ANGLE_DEG, MAX_ANGLE_DEG),
         default=alpha,
         metavar=("LO", "HI"),
         help=f"angle-of-attack range (default {hint or f'{alpha[0]:g} {alpha[1]:g}'})",
     )
     d.add_argument(
-        "--beta", type=positive_float, default=beta, metavar="MAX", help=f"|sideslip| (default {hint or beta})"
+        "--beta",
+        type=bounded_float(MAX_ANGLE_DEG),
+        default=beta,
+        metavar="MAX",
+        help=f"|sideslip| (default {hint or beta})",
     )
-    d.add_argument("--phat", type=positive_float, default=phat, metavar="MAX", help=f"|p b/2V| (default {phat:g})")
-    d.add_argument("--qhat", type=positive_float, default=qhat, metavar="MAX", help=f"|q c/2V| (default {qhat:g})")
-    d.add_argument("--rhat", type=positive_float, default=rhat, metavar="MAX", help=f"|r b/2V| (default {rhat:g})")
+    d.add_argument(
+        "--phat", type=bounded_float(MAX_RATE_HAT), default=phat, metavar="MAX", help=f"|p b/2V| (default {phat:g})"
+    )
+    d.add_argument(
+        "--qhat", type=bounded_float(MAX_RATE_HAT), default=qhat, metavar="MAX", help=f"|q c/2V| (default {qhat:g})"
+    )
+    d.add_argument(
+        "--rhat", type=bounded_float(MAX_RATE_HAT), default=rhat, metavar="MAX", help=f"|r b/2V| (default {rhat:g})"
+    )
     for k, name in (("dl", "aileron"), ("dm", "elevator"), ("dn", "rudder")):
         default = None if surfaces is None else surfaces[k]
         hint = "the source's range" if default is None else f"{default[0]:g} {default[1]:g}"
         d.add_argument(
             f"--{k}",
             nargs=2,
-            type=finite_float,
+            type=within(-MAX_ANGLE_DEG, MAX_ANGLE_DEG),
             default=default,
             metavar=("LO", "HI"),
             help=f"{name} range (default {hint})",
@@ -227,7 +238,7 @@ def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band, hint=None)
     d.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (default 0)")
     d.add_argument(
         "--dm-band",
-        type=finite_float,
+        type=within(0.0, 2 * MAX_ANGLE_DEG),
         default=band,
         metavar="DEG",
         help=f"sample dm within this of the pitch-trim schedule on the longitudinal plane, 0 = "
@@ -247,7 +258,7 @@ def _common(p) -> None:
     p.add_argument("--id", dest="ident", help="aircraft identifier (default: from the source)")
     p.add_argument("--name", help="aircraft name")
     p.add_argument("--structure", help="aircraft TOML file whose [aero] terms give the structure (default gna45)")
-    p.add_argument("--out", type=_out_file, help="output TOML file (default: <id>.toml)")
+    add_out(p, "output TOML file, written whole (default: <id>.toml in the current folder)", metavar="FILE")
     p.add_argument("--no-trim-check", action="store_true", help="skip the level-trim comparison")
 
 
@@ -329,8 +340,9 @@ def run(args) -> int:
         return _regenerate(args)
     if args.source == "compare":
         return _compare(args)
+    _check_reference(args)  # the reference condition and the output checked before the source is read
     ident = args.ident or _default_ident(args)
-    out = _output_file(args.out or Path(f"{ident}.toml"), ident)  # checked before the source is read
+    out = output_file(args, Path(f"{ident}.toml"), "aircraft file")
     from gna.fit.document import envelope_section, fitted_aircraft, fitted_document, render
     from gna.fit.pipeline import fit_source, gna45_structure, structure_from_file
     from gna.fit.quality import ReferenceCondition, trim_comparison
@@ -399,8 +411,8 @@ def run(args) -> int:
         command=command,
     )
     text = render(doc, name, command)
-    write_file(out, text)  # atomic: a reader never sees half a file
-    print(f"wrote {out}")
+    out.write(text)  # atomic: a reader never sees half a file
+    print(f"wrote {out.path}")
     print("held-out statistics (R2, RMS, max |error|):")
     for c, s in result.stats.items():
         t = s["test"]
@@ -415,21 +427,29 @@ def run(args) -> int:
     return 0
 
 
+def _check_reference(args) -> None:
+    """``--speed`` within the physical domain (:data:`gna.trajectory.DOMAIN`) and ``--altitude`` within the ISA
+    model's range, before anything is sampled (the fit would otherwise run at that speed and fail at the trim)."""
+    from gna.atmosphere import ISA
+    from gna.trajectory import DOMAIN
+
+    speed = getattr(args, "speed", None)
+    if speed is not None and not DOMAIN.V_min <= speed <= DOMAIN.V_max:
+        raise InputError(
+            f"--speed {speed:g} m/s is outside the physical domain [{DOMAIN.V_min:g}, {DOMAIN.V_max:g}] m/s "
+            f"(gna.trajectory.DOMAIN)"
+        )
+    altitude = getattr(args, "altitude", None)
+    if altitude is not None:
+        ISA().check_altitude(altitude, "--altitude")
+
+
 def _default_ident(args) -> str:
     """The fitted aircraft's identifier without ``--id``: the JSBSim model's name (as
     :func:`gna.fit.sources.jsbsim_aero.resolve` reads it), ``gtm-fit``, the CSV file's stem."""
     if args.source == "jsbsim":
         return (Path(args.model).stem if Path(args.model).suffix == ".xml" else args.model).lower()
     return "gtm-fit" if args.source == "gtm" else Path(args.csv).stem
-
-
-def _output_file(out: Path, ident: str) -> Path:
-    """``--out`` (or the default ``<id>.toml``) checked before any work: a folder, or a file that could not
-    be written there, is refused with the message writing it would give."""
-    if out.is_dir():
-        raise InputError(f"--out {out}: a folder; give the aircraft file's name (e.g. {out / (ident + '.toml')})")
-    check_output_file(out)
-    return out
 
 
 def _command_line(args, ranges) -> str:
@@ -467,7 +487,6 @@ def _command_line(args, ranges) -> str:
 
 
 def _linear_sections(args) -> dict:
-    from gna.errors import InputError
     from gna.fit.sources.linear import vehicle_values
 
     v = vehicle_values(args.csv)
@@ -496,7 +515,6 @@ def _compare(args) -> int:
     import json
 
     from gna.aircraft import load_aircraft
-    from gna.errors import InputError
     from gna.fit.quality import ReferenceCondition, trim_comparison
     from gna.fit.regenerate import SPECS
 
@@ -529,4 +547,11 @@ def _compare(args) -> int:
 def _regenerate(args) -> int:
     from gna.fit.regenerate import run as regenerate_run
 
-    return regenerate_run(args.ids or None, args.check, args.out, args.docs)
+    from ..rundir import write_file
+
+    if args.out is None or args.check:  # the package's own files (and docs), each replaced atomically
+        return regenerate_run(args.ids or None, args.check, None if args.check else args.out, args.docs, write_file)
+    with run_dir(args, command="fit regenerate") as out:  # a folder the user names: a run, written whole
+        status = regenerate_run(args.ids or None, False, out.root, args.docs, write_file)
+        out.commit()
+    return status

@@ -34,12 +34,12 @@ from reports.html import render_run
 
 from ..artefacts import run_manifest, write_plan_iterates
 from ..parallel import ForkPool, default_jobs, run_all
-from ..rundir import RunDir
 from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
 from ..validation.verdicts import verdict_lines
-from ._args import add_replace, iterations, out_path, worker_count
+from ._args import iterations, worker_count
 from ._compare_args import add_compare_arguments, check_steps, compare_overrides
+from ._output import add_out, run_dir
 from .plan import write_plan
 
 PAPER_SCENARIOS = ("twin-otter-single-engine", "gtm-forward-slip", "gtm-aileron-roll")
@@ -59,14 +59,7 @@ def register(sub) -> None:
         help="plan the paper's three manoeuvres and fly them on both engines",
         description=__doc__.split("\n\n")[1],
     )
-    p.add_argument(
-        "--out",
-        type=out_path,
-        default=None,
-        metavar="DIR",
-        help="output folder, created whole once the run is complete (default reports/out/paper)",
-    )
-    add_replace(p)
+    add_out(p, "output folder, created whole once the run is complete (default reports/out/paper)")
     p.add_argument("--J", type=iterations, default=None, help="iterations, or auto (default: each scenario's)")
     p.add_argument(
         "--loop",
@@ -231,8 +224,7 @@ def run(args) -> int:
         scenario = load_scenario(case.scenario, J=case.J)
         planned += [(replace(case, loop=loop), scenario, case_settings(case, scenario)) for loop in loops]
     check_steps(planned, args.max_steps, "paper")  # and the work of every flight
-    default = args.out is None  # the tool's own folder: an earlier gflat run there is replaced
-    out = RunDir(args.out or "reports/out/paper", command="paper", replace=default or args.replace, parents=default)
+    out = run_dir(args, "paper", command="paper")  # the default, the tool's own folder: an earlier run replaced
     with out, ForkPool(args.jobs or default_jobs()) as pool:
         scenarios = [_Scenario(case, loops, out.root, out.out, args.csv) for case in cases]
         by_name = {}

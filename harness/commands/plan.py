@@ -28,8 +28,8 @@ from planners.systems.demos import DEMOS, is_chained_scenario, run_demo
 from planners.verify import open_loop_error
 
 from ..artefacts import file_record, json_safe, manifest, write_json
-from ._args import add_replace, cost_bound, iterations, out_path
-from ._compare_args import default_out, run_dir
+from ._args import cost_bound, iterations
+from ._output import add_out, default_out, run_dir
 
 
 def register(sub) -> None:
@@ -56,14 +56,7 @@ def register(sub) -> None:
         default=None,
         help="generalized-flatness iterations, or auto (a convergence test; default: the scenario's)",
     )
-    p.add_argument(
-        "--out",
-        type=out_path,
-        default=None,
-        metavar="DIR",
-        help="output folder, created whole once the run is complete (default reports/out/<scenario>/plan)",
-    )
-    add_replace(p)
+    add_out(p, "output folder, created whole once the run is complete (default reports/out/<scenario>/plan)")
     p.add_argument(
         "--max-cost",
         type=cost_bound,

@@ -19,6 +19,7 @@ leaves the run as it was.
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
 import time
 from pathlib import Path
@@ -26,9 +27,13 @@ from pathlib import Path
 from gna.errors import InputError, writing
 from reports.html import render_date, render_run
 
+from ..artefacts import manifest_problem
 from ..parallel import default_jobs, run_all
 from ..recorded import confined, file_problem
 from ..rundir import MANIFEST, RunDir, read_manifest
+
+#: The commands whose runs hold a report (``report.json`` per case) that ``gflat report`` renders.
+RENDERED = ("paper", "compare")
 
 
 def register(sub) -> None:
@@ -71,36 +76,42 @@ def run_folder(folder: str | Path) -> tuple[Path, dict]:
     Raises
     ------
     InputError
-        ``folder`` is not a folder, or neither it nor a parent holds a gflat run's ``manifest.json``.
+        ``folder`` is not a folder, or neither it nor a parent holds a gflat run's ``manifest.json``: one line
+        naming the nearest ``manifest.json`` and what is wrong with it (not JSON, not an object, another
+        tool's, wrong types), or saying there is none.
     """
     path = Path(folder).expanduser()
     if not path.is_dir():
-        raise InputError(f"{folder} is not a folder")
+        what = "does not exist" if not os.path.lexists(path) else "is a file, not a folder"
+        raise InputError(f"{folder} {what}: give the folder of a gflat paper or gflat compare run")
     path = path.resolve()
-    for d in (path, *path.parents):
+    chain = (path, *path.parents)
+    for d in chain:
         data = read_manifest(d)
         if data is not None:
+            problem = manifest_problem(d)
+            if problem is not None:
+                raise InputError(f"{d} is not the folder of a gflat run that can be rendered: {problem}")
             return d, data
+    nearest = next((d for d in chain if os.path.lexists(d / MANIFEST)), None)
+    if nearest is not None:
+        raise InputError(f"{path} is not the folder of a gflat run: {manifest_problem(nearest)}")
+    from ..campaign.store import DB_NAME
+
+    if (path / DB_NAME).is_file():
+        raise InputError(
+            f"{path} is a campaign folder (it holds {DB_NAME}), not a run's: gflat campaign report {folder} "
+            f"renders its report"
+        )
     raise InputError(
-        f"{path} is not the folder of a gflat run (no manifest.json of gflat there or above): give the --out of "
-        f"gflat paper or gflat compare"
+        f"{path} is not the folder of a gflat run: no {MANIFEST} there or in any folder above it; give the "
+        f"folder of a gflat paper or gflat compare run"
     )
 
 
-def _listed(top: Path, manifest: dict) -> list[tuple[str, int, str]]:
-    """The files a run's manifest lists, as (path, bytes, sha256), refusing an entry that is none (one line)."""
-    files = manifest.get("files")
-    if not isinstance(files, list):
-        raise InputError(f"{top / MANIFEST}: not a gflat run manifest ('files' is not a list)")
-    out = []
-    for f in files:
-        ok = isinstance(f, dict) and isinstance(f.get("path"), str) and isinstance(f.get("sha256"), str)
-        if not ok or isinstance(f.get("bytes"), bool) or not isinstance(f.get("bytes"), int):
-            raise InputError(
-                f"{top / MANIFEST}: not a gflat run manifest (a file entry {f!r} lacks path, bytes or sha256)"
-            )
-        out.append((f["path"], f["bytes"], f["sha256"]))
-    return out
+def _listed(manifest: dict) -> list[tuple[str, int, str]]:
+    """The files a run's manifest lists, as (path, bytes, sha256) (their types checked by :func:`run_folder`)."""
+    return [(f["path"], f["bytes"], f["sha256"]) for f in manifest["files"]]
 
 
 def render_again(
@@ -130,8 +141,14 @@ def render_again(
         cannot be rendered.  The run is left as it was.
     """
     top, old = run_folder(folder)
-    with RunDir(top, command=str(old.get("command")), replace=True) as out:  # refused if top holds a foreign file
-        for name, size, digest in _listed(top, old):
+    if old.get("command") not in RENDERED:
+        other = "; gflat campaign report DIR renders a campaign's" if old.get("command") == "campaign report" else ""
+        raise InputError(
+            f"{top} is the folder of a gflat {old.get('command')} run, which holds no report: gflat report renders "
+            f"the runs of gflat paper and gflat compare{other}"
+        )
+    with RunDir(top, command=str(old.get("command")), replace=True, advice=None) as out:  # a foreign file: refused
+        for name, size, digest in _listed(old):
             src = confined(top, name, f"{top / MANIFEST} lists the file")
             problem = file_problem(src, size, digest)
             if problem is None:

@@ -10,7 +10,9 @@ import math
 
 from gna.errors import InputError
 
-__all__ = ["MAX_STEPS", "SAMPLE_COST", "COMPUTABLE_STEPS", "flight_steps", "check_steps"]
+from ..engines.jsbsim.run import MAX_JSBSIM_DT
+
+__all__ = ["MAX_STEPS", "SAMPLE_COST", "COMPUTABLE_STEPS", "MAX_JSBSIM_DT", "flight_steps", "check_steps"]
 
 #: Default bound on a command's work (``--max-steps``): engine steps plus SAMPLE_COST x output samples of all
 #: its flights.  Measured on gtm-aileron-roll: a JSBSim step takes about 330 bytes and 10 us, an output sample
@@ -56,6 +58,32 @@ def flight_steps(case, scenario, settings) -> tuple[int, int]:
 COMPUTABLE_STEPS = 9e15
 
 
+def _check_sizes(scenario, settings, command: str, keys) -> None:
+    """A JSBSim step and an output interval within the scenario's span (and the step within MAX_JSBSIM_DT)."""
+    span = scenario.t1 - scenario.t0
+
+    def named(key: str, flag: str) -> str:
+        if settings.sources.get(key) == "scenario":
+            return f"{scenario.path or scenario.name} [compare] {key}"
+        return flag
+
+    bound = min(span, MAX_JSBSIM_DT)
+    if settings.jsbsim_dt > bound * (1 + 1e-9):
+        why = (
+            f"{scenario.name}'s span"
+            if span < MAX_JSBSIM_DT
+            else "gflat's largest JSBSim step: the GTM diverges at 0.05 s"
+        )
+        raise InputError(
+            f"{command}: {named('jsbsim_dt', keys[0])} {settings.jsbsim_dt:g} s is above its bound {bound:g} s ({why})"
+        )
+    if settings.dt_out > span * (1 + 1e-9):
+        raise InputError(
+            f"{command}: {named('dt_out', keys[1])} {settings.dt_out:g} s is above its bound {span:g} s "
+            f"({scenario.name}'s span)"
+        )
+
+
 def check_steps(planned, bound: float, command: str, keys=("--jsbsim-dt", "--dt-out"), flag="--max-steps") -> None:
     """Refuse a command whose flights would take more than ``bound`` engine steps plus SAMPLE_COST x output samples.
 
@@ -76,8 +104,11 @@ def check_steps(planned, bound: float, command: str, keys=("--jsbsim-dt", "--dt-
     ------
     InputError
         One line naming the step and output interval, the span, the counts and the bound, before anything
-        is planned.
+        is planned; or a JSBSim step above the smaller of the span and :data:`MAX_JSBSIM_DT`, an output
+        interval above the span (one line naming the value, where it was set, and the bound).
     """
+    for _, scenario, settings in planned:
+        _check_sizes(scenario, settings, command, keys)
     steps = samples = 0
     for case, scenario, settings in planned:
         st, sa = flight_steps(case, scenario, settings)

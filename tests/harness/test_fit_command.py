@@ -39,7 +39,7 @@ def _one_line(capsys, rc) -> str:
 def test_an_output_file_that_cannot_be_written_is_refused_before_fitting(tmp_path, no_fit, capsys):
     (tmp_path / "a-file").write_text("")
     cases = {
-        tmp_path / "missing" / "x.toml": "No such file or directory",
+        tmp_path / "missing" / "x.toml": f"No such file or directory: its folder {tmp_path / 'missing'} does not exist",
         tmp_path / "a-file" / "x.toml": "Not a directory",
         Path("/proc/gflat-fit.toml"): _PROC,
     }  # a folder that takes no files
@@ -154,6 +154,6 @@ def test_a_folder_that_exists_but_takes_no_files_is_named_so_by_every_command(ca
     )
     assert main(["report", "/proc"]) == 2
     assert capsys.readouterr().err.strip() == (
-        "gflat report: error: /proc is not the folder of a gflat run (no manifest.json of gflat there or above): "
-        "give the --out of gflat paper or gflat compare"
+        "gflat report: error: /proc is not the folder of a gflat run: no manifest.json there or in any folder "
+        "above it; give the folder of a gflat paper or gflat compare run"
     )

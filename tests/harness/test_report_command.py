@@ -81,11 +81,15 @@ def test_refusals_are_one_line_and_change_nothing(compared, tmp_path, capsys):
     assert main(["report", str(run), "--no-pdf"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "holds mine.txt, which is not a file of its gflat run" in err
+    assert "--out" not in err and err.rstrip().endswith("move that file away")  # report has no --out
     assert _tree(run) == before
     (run / "mine.txt").unlink()
     (run / "states.png").unlink()  # a file the manifest lists, gone
     assert main(["report", str(run), "--no-pdf"]) == 2
     assert "states.png, listed in its manifest, is missing" in capsys.readouterr().err
     assert main(["report", str(tmp_path / "missing")]) == 2
-    assert capsys.readouterr().err == f"gflat report: error: {tmp_path / 'missing'} is not a folder\n"
+    assert capsys.readouterr().err == (
+        f"gflat report: error: {tmp_path / 'missing'} does not exist: give the folder of a gflat paper or gflat "
+        f"compare run\n"
+    )
     assert _staging(holder, "run") == []

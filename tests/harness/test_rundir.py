@@ -195,20 +195,20 @@ def test_of_two_replacing_runs_the_first_to_finish_wins(tmp_path, renames):
 
 
 def test_default_folders_are_replaced_only_when_they_are_gflat_runs(tmp_path, monkeypatch):
-    from harness.commands import _compare_args
+    from harness.commands import _output
 
-    monkeypatch.setattr(_compare_args, "DEFAULT_ROOT", tmp_path / "reports" / "out")
+    monkeypatch.setattr(_output, "DEFAULT_ROOT", tmp_path / "reports" / "out")
     for text in ("first", "second"):  # no --replace needed: the tool owns its default folders
-        with _compare_args.default_out("s", "plan", command="plan") as run:
+        with _output.default_out("s", "plan", command="plan") as run:
             run.write_text("x.txt", text=text)
             run.commit()
     folder = tmp_path / "reports" / "out" / "s" / "plan"
     assert (folder / "x.txt").read_text() == "second"
     (folder / "mine.txt").write_text("the user's")
     with pytest.raises(InputError, match="holds mine.txt"):
-        _compare_args.default_out("s", "plan", command="plan")
+        _output.default_out("s", "plan", command="plan")
     with pytest.raises(InputError, match="leaves"):
-        _compare_args.default_out("..", "..", command="plan")
+        _output.default_out("..", "..", command="plan")
 
 
 def test_single_files(tmp_path):
@@ -227,18 +227,24 @@ def test_single_files(tmp_path):
 
 # ---- the command line, killed at chosen moments -------------------------------------------------------------
 
-#: Runs the CLI with an audit hook that stops the process (SIGSTOP) at the first event EVENT on a path
-#: matching GLOB (for "open": opened for writing).
+#: Runs the CLI with an audit hook that stops the process (SIGSTOP) at the STOP_COUNT-th (default first) event
+#: EVENT on a path matching GLOB (for "open": opened for writing; GLOB empty: any such event).
 DRIVER = """
 import fnmatch, os, runpy, signal, sys
 event, pattern, hit = os.environ["STOP_EVENT"], os.environ["STOP_AT"], []
+count, pid = int(os.environ.get("STOP_COUNT", "1")), os.getpid()
 def hook(name, args):
-    if hit or name != event or not args or not isinstance(args[0], (str, bytes, os.PathLike)):
+    if len(hit) >= count or name != event or os.getpid() != pid:  # a forked worker never stops
         return
-    if name == "open" and not (isinstance(args[1], str) and any(c in args[1] for c in "wxa")):
-        return
-    if fnmatch.fnmatch(os.fsdecode(args[0]), pattern):
-        hit.append(1)
+    if pattern:  # an event on a path (none: any event of that name, e.g. os.fork)
+        if not args or not isinstance(args[0], (str, bytes, os.PathLike)):
+            return
+        if name == "open" and not (isinstance(args[1], str) and any(c in args[1] for c in "wxa")):
+            return
+        if not fnmatch.fnmatch(os.fsdecode(args[0]), pattern):
+            return
+    hit.append(1)
+    if len(hit) == count:
         os.kill(os.getpid(), signal.SIGSTOP)
 sys.addaudithook(hook)
 sys.argv = ["gflat", *sys.argv[1:]]
@@ -246,14 +252,19 @@ runpy.run_module("harness.cli", run_name="__main__")
 """
 
 
-def _start(tmp_path, args, event="none", at="", name="run"):
+def _start(tmp_path, args, event="none", at="", name="run", preexec_fn=None, **extra):
     driver = tmp_path / "driver.py"
     driver.write_text(DRIVER)
-    env = dict(os.environ, PYTHONPATH=str(ROOT), STOP_EVENT=event, STOP_AT=at, MPLBACKEND="Agg")
+    env = dict(os.environ, PYTHONPATH=str(ROOT), STOP_EVENT=event, STOP_AT=at, MPLBACKEND="Agg", **extra)
     out, err = (open(tmp_path / f"{name}.{k}", "w") for k in ("out", "err"))
     with out, err:
         return subprocess.Popen(
-            [sys.executable, str(driver), *map(str, args)], cwd=tmp_path, env=env, stdout=out, stderr=err
+            [sys.executable, str(driver), *map(str, args)],
+            cwd=tmp_path,
+            env=env,
+            stdout=out,
+            stderr=err,
+            preexec_fn=preexec_fn,
         )
 
 
@@ -396,3 +407,134 @@ def test_ctrl_c_removes_the_staging_folder(tmp_path):
     proc.send_signal(signal.SIGCONT)
     assert proc.wait() == 130
     assert list(runs.iterdir()) == []  # no D, no staging folder
+
+
+# ---- SIGTERM, handled as Ctrl-C (exit status 143) -----------------------------------------------------------
+
+
+#: The exit status and the last line of an interruption by each signal.
+ENDINGS = {
+    signal.SIGINT: (130, "interrupted"),
+    signal.SIGTERM: (143, "terminated (SIGTERM)"),
+    signal.SIGHUP: (129, "hung up (SIGHUP)"),
+}
+
+
+def _terminated(proc, tmp_path, name="run", signals=(signal.SIGTERM,)) -> None:
+    """Send ``signals`` to the stopped ``proc``, let it run on, and check it ends as interrupted by one of them
+    (the one Python handles first), in one line."""
+    for s in signals:  # delivered when it runs again
+        proc.send_signal(s)
+    proc.send_signal(signal.SIGCONT)
+    rc = proc.wait()
+    err = (tmp_path / f"{name}.err").read_text().strip().splitlines()
+    assert (rc, err[-1].removeprefix("gflat: ")) in {ENDINGS[s] for s in signals}, (rc, err)
+    assert not any("Traceback" in e for e in err)
+
+
+def _token_processes(token: str) -> list[str]:
+    """The processes whose environment holds ``token`` (workers left behind)."""
+    left = []
+    for p in Path("/proc").glob("[0-9]*"):
+        try:
+            if token.encode() in (p / "environ").read_bytes():
+                left.append(p.name)
+        except OSError:
+            continue
+    return left
+
+
+@pytest.mark.parametrize("moment", MOMENTS)
+def test_sigterm_removes_the_staging_folder_at_any_moment(tmp_path, moment):
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    proc = _start(tmp_path, ["compare", SCENARIO, "--out", runs / "D"], *MOMENTS[moment])
+    _stopped(proc)
+    assert len(_staging(runs)) == (0 if moment.startswith("before") else 1)
+    _terminated(proc, tmp_path)
+    assert list(runs.iterdir()) == []  # no D, no staging folder
+
+
+def test_sigterm_during_a_replacing_run_leaves_the_old_folder_as_it_was(old_run, tmp_path):
+    d, before = _copy(old_run, tmp_path)
+    proc = _start(tmp_path, ["compare", SCENARIO, "--out", d, "--replace"], *MOMENTS["right at the commit"])
+    _stopped(proc)
+    _terminated(proc, tmp_path)
+    assert _tree(d) == before and _visible(d.parent) == ["D"] and _staging(d.parent) == []
+
+
+def test_sigterm_at_the_swap_waits_for_it_to_end(old_run, tmp_path):
+    # the old run, swapped out to the staging path, about to be removed: the signal waits until it is
+    d, before = _copy(old_run, tmp_path)
+    proc = _start(tmp_path, ["compare", SCENARIO, "--out", d, "--replace"], "shutil.rmtree", "*/.D.gflat-*.tmp")
+    _stopped(proc)
+    _terminated(proc, tmp_path)
+    _matches_manifest(d)
+    assert _tree(d) != before and _staging(d.parent) == [] and _visible(d.parent) == ["D"]
+
+
+def test_sigterm_ends_the_worker_processes_too(tmp_path):
+    # gflat paper --jobs 2 stopped before it forks its second worker (the first one planning), then SIGTERM: the
+    # workers are ended and joined before gflat exits; none is left (each carries the token in its environment)
+    token = f"gflat-test-{os.getpid()}-{tmp_path.name}"
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    proc = _start(
+        tmp_path,
+        ["paper", "--loop", "open", "--jobs", "2", "--out", runs / "D"],
+        "os.fork",
+        "",
+        STOP_COUNT="2",
+        GFLAT_TEST_TOKEN=token,
+    )
+    _stopped(proc)
+    _terminated(proc, tmp_path)
+    assert list(runs.iterdir()) == [] and _token_processes(token) == []
+
+
+@pytest.mark.parametrize(
+    "signals",
+    [(signal.SIGTERM, signal.SIGINT), (signal.SIGINT, signal.SIGINT, signal.SIGTERM), (signal.SIGHUP,)],
+    ids=["term-int", "int-int-term", "hup"],
+)
+def test_a_second_signal_waits_for_the_first_ones_cleanup(tmp_path, signals):
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    proc = _start(tmp_path, ["compare", SCENARIO, "--out", runs / "D"], *MOMENTS["while its files are written"])
+    _stopped(proc)
+    _terminated(proc, tmp_path, signals=signals)
+    assert list(runs.iterdir()) == []
+
+
+def test_an_ignored_sighup_stays_ignored(tmp_path):
+    # under nohup: the run goes on and completes
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    proc = _start(
+        tmp_path,
+        ["compare", "gtm-aileron-roll", "--out", runs / "D"],
+        *MOMENTS["while its files are written"],
+        preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN),
+    )
+    _stopped(proc)
+    proc.send_signal(signal.SIGHUP)
+    proc.send_signal(signal.SIGCONT)
+    assert proc.wait() in (0, 1), (tmp_path / "run.err").read_text()
+    assert _visible(runs) == ["D"] and _staging(runs) == []
+    _matches_manifest(runs / "D")
+
+
+def test_sigterm_during_a_campaign_ends_its_workers_and_the_rerun_resumes(tmp_path):
+    # stopped before the pool forks its second worker process (the first one running a case)
+    token = f"gflat-test-{os.getpid()}-{tmp_path.name}"
+    spec = ROOT / "tests" / "harness" / "campaign" / "tiny.toml"
+    for f in ("tiny.toml", "tiny-level.toml"):
+        shutil.copy(spec.parent / f, tmp_path / f)
+    args = ["campaign", "run", tmp_path / "tiny.toml", "--out", tmp_path / "C", "--samples", "2", "--workers", "2"]
+    proc = _start(tmp_path, args, "os.fork", "", STOP_COUNT="2", GFLAT_TEST_TOKEN=token)
+    _stopped(proc)
+    _terminated(proc, tmp_path)
+    assert _token_processes(token) == []
+    rc, err = _run(tmp_path, [*args, "-q"], name="rerun")
+    assert rc == 0, err
+    assert "0 pending of 2" in err

@@ -340,11 +340,12 @@ def test_the_campaign_folder_is_guarded(inline, tmp_path, capsys):
 
 
 def test_a_campaign_keeps_the_users_files_in_its_folder(tmp_path):
+    # a file the user puts into a campaign folder stays through reruns; a non-empty folder that is no campaign
+    # folder is never adopted (tests/test_hardening_outputs.py)
     folder = tmp_path / "c"
-    folder.mkdir()
+    assert run_campaign(TINY, folder, samples=1, workers=1, quiet=True)["pending"] == 0
     (folder / "notes.txt").write_text("mine")
-    for _ in range(2):  # a run, then its rerun
-        assert run_campaign(TINY, folder, samples=1, workers=1, quiet=True)["pending"] == 0
+    assert run_campaign(TINY, folder, samples=2, workers=1, quiet=True)["pending"] == 0  # a rerun, one case more
     assert (folder / "notes.txt").read_text() == "mine"
 
 
