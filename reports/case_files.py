@@ -10,7 +10,8 @@ from .figures import write_figures
 from .model import write_case_report
 from .tracking import write_tracking_figure
 
-#: Figure files of a case folder (``tracking.png`` closed loop only, ``differences.png`` with two engines or more).
+#: Figure files of a case folder (``tracking.png`` closed loop only, ``differences.png`` with two engines or more;
+#: the report adds ``singularity.png``, :mod:`reports.model`).
 FIGURES: tuple[str, ...] = ("states.png", "controls.png", "differences.png", "tracking.png")
 
 
@@ -67,7 +68,12 @@ def write_case(
     out.mkdir(parents=True, exist_ok=True)
     tol = result.settings.tolerances if result.settings is not None else result.case.tolerance_spec
     figures = write_figures(
-        result.runs, out, reference=result.reference_frame(), title=case_title(result), tolerances=tol
+        result.runs,
+        out,
+        reference=result.reference_frame(),
+        title=case_title(result),
+        tolerances=tol,
+        aircraft=result.plan.aircraft,
     )
     if result.closed_loop is not None:
         figures.append(write_tracking_figure(result, out))

@@ -1,27 +1,70 @@
-"""Figures of engine runs: states, applied controls, differences to the reference engine.
+"""Figures of engine runs: states with the ground track and altitude, controls against their limits, differences.
 
 Fed by result objects only (mappings label -> :class:`gna.simulate.SimulationResult`,
 a reference DataFrame); no pyplot, hence no global figure state.  Angles are
-drawn in degrees, everything else in SI units (:data:`gna.trajectory.UNITS`).
+drawn in degrees and rates in deg/s, everything else in SI units
+(:data:`gna.trajectory.UNITS`); every axis label carries its unit, no axis
+uses offset or multiplier notation (:class:`PlainFormatter`).
+
+Drawing is cheap by construction: every figure of a process is drawn on one
+reused figure object (:class:`Sheet`, Agg canvas, a grid of axes made once:
+matplotlib's axes and tick objects are its dominant cost), with fixed margins
+(no layout engine), each line reduced to what a pixel column can show
+(:func:`decimate`), and saved as an 8-bit RGB PNG: no alpha channel, the
+form a PDF embeds as it is (:mod:`reports.pdf` copies its compressed data).
 """
 
 from __future__ import annotations
 
+import json
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.errors import writing
 from gna.trajectory import UNITS
 from harness.metrics import DEFAULT_VARIABLES, differences, resolve_tolerances
 
+#: Resolution of every figure [pixel per inch] and width of the sheet [in]: 1080 pixels, the page's width
+#: on screen, 150 pixels per inch on an A4 page.
+DPI, WIDTH_IN = 90, 12.0
+
+#: Height of one row of panels [in].
+ROW_IN = 2.3
+
+#: Fixed margins of the figures [in]: the y tick labels and label (left, between columns), the x tick labels
+#: and label (bottom), the title and the legend (top).  Fixed margins cost nothing at drawing time.
+MARGINS_IN = {"left": 0.9, "right": 0.15, "bottom": 0.55, "top": 0.75, "wspace": 0.95, "hspace": 0.25}
+
+#: Distance of the axis labels from their axes [in] (left of the y tick labels, below the x tick labels).
+LABEL_GAP_IN = {"x": 0.36, "y": 0.72}
+
+#: Most panels a sheet holds.
+MAX_PANELS = 12
+
+#: PNG text key under which a figure records the label of each of its axes (``"name [unit]"``, JSON list).
+AXES_KEY = "gflat:axes"
+
+#: Smallest span of a y axis per drawn unit: the comparison's resolution of each kind of quantity (the
+#: cross-engine tolerances, :data:`harness.metrics.PERCENT_FLOORS`): a variation below it is drawn flat.
+SPAN_FLOORS = {
+    "m": 1e-2,
+    "m/s": 1e-3,
+    "deg": math.degrees(1e-4),
+    "deg/s": math.degrees(1e-3),
+    "N": 1e-3,
+    "N m": 1e-4,
+}
+
+#: Line styles of the runs: the reference engine solid, the others dashed, dash-dotted.
+RUN_STYLES = ("-", "--", "-.", ":")
+
 
 def plot_scale(name: str) -> tuple[float, str]:
-    """Factor and unit a variable is drawn in: radians as degrees, the rest in SI units.
+    """Factor and unit a variable is drawn in: radians as degrees, rad/s as deg/s, the rest in SI units.
 
     Parameters
     ----------
@@ -41,46 +84,457 @@ def plot_scale(name: str) -> tuple[float, str]:
     return 1.0, unit
 
 
-def _draw_runs(ax, results: Mapping, name: str) -> None:
-    """One variable of every run on one axis: the reference engine solid, the others dashed."""
-    k, unit = plot_scale(name)
-    for i, (lab, res) in enumerate(results.items()):
-        ax.plot(res.df.index, res.df[name] * k, lw=1.2, ls="-" if i == 0 else "--", label=lab)
-    ax.set_ylabel(f"{name} [{unit}]")
-    ax.grid(alpha=0.3)
-
-
-#: Fixed margins of the figure grids [in]: room for the y tick labels and label (left, between columns), the
-#: x tick labels and label (bottom), the title (top).  Fixed margins cost nothing at drawing time, where
-#: matplotlib's constrained layout measured every axis twice (about 40 % of a figure's drawing time).
-MARGINS_IN = {"left": 0.95, "right": 0.2, "bottom": 0.6, "top": 0.55, "wspace": 1.0, "hspace": 0.3}
-
-
-def grid_margins(fig) -> None:
-    """Place a figure's grid of axes with the fixed margins :data:`MARGINS_IN`.
+def label(name: str, unit: str) -> str:
+    """An axis label: ``"name [unit]"`` (``[-]`` for a dimensionless quantity).
 
     Parameters
     ----------
-    fig : matplotlib.figure.Figure
-        A figure whose axes come from one ``fig.subplots(nrows, ncols)`` grid.
+    name, unit : str
+
+    Returns
+    -------
+    str
     """
-    w, h = fig.get_size_inches()
-    nrows, ncols = fig.axes[0].get_subplotspec().get_gridspec().get_geometry()
-    m = MARGINS_IN
-    ax_w = (w - m["left"] - m["right"] - (ncols - 1) * m["wspace"]) / ncols
-    ax_h = (h - m["bottom"] - m["top"] - (nrows - 1) * m["hspace"]) / nrows
-    fig.subplots_adjust(
-        left=m["left"] / w,
-        right=1 - m["right"] / w,
-        bottom=m["bottom"] / h,
-        top=1 - m["top"] / h,
-        wspace=m["wspace"] / ax_w,
-        hspace=m["hspace"] / ax_h,
+    return f"{name} [{unit or '-'}]"
+
+
+def decimate(t, y, width_px: int):
+    """The points of a line a panel ``width_px`` pixels wide can show: per pixel column its first, lowest,
+    highest and last point, in time order (the line drawn is the same to the pixel).
+
+    Parameters
+    ----------
+    t, y : array_like
+        Shape (n,) each.
+    width_px : int
+        Pixel columns of the panel.
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        At most ``4 width_px`` points; the input itself when it is no longer, or holds a NaN.
+    """
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    n, bins = t.size, max(int(width_px), 1)
+    if n <= 4 * bins or not np.all(np.isfinite(y)):
+        return t, y
+    k = -(-n // bins)
+    pad = np.concatenate([y, np.full(k * bins - n, y[-1])]).reshape(bins, k)
+    base = np.arange(bins) * k
+    keep = np.concatenate(
+        [base, base + pad.argmin(axis=1), base + pad.argmax(axis=1), np.minimum(base + k - 1, n - 1), [n - 1]]
     )
+    keep = np.unique(np.minimum(keep, n - 1))
+    return t[keep], y[keep]
 
 
-def save_figure(fig, out, name: str, dpi: int = 110) -> Path:
-    """Save a figure as ``name`` in the folder ``out`` (made when missing).
+def span_limits(values, unit: str = "", pad: float = 0.05) -> tuple[float, float]:
+    """Limits of a linear axis holding ``values``: their range padded, at least :data:`SPAN_FLOORS` of the
+    unit (and 1e-4 of their magnitude) wide, so that a tick label needs few digits and no offset.
+
+    Parameters
+    ----------
+    values : sequence of array_like
+        The finite values drawn (NaN ignored).
+    unit : str
+        The drawn unit (its floor), see :data:`SPAN_FLOORS`.
+    pad : float
+        Share of the span added on each side.
+
+    Returns
+    -------
+    (float, float)
+    """
+    arrays = [np.asarray(v, dtype=float).ravel() for v in values]
+    finite = np.concatenate([a[np.isfinite(a)] for a in arrays]) if arrays else np.zeros(0)
+    if finite.size == 0:
+        return -1.0, 1.0
+    lo, hi = float(finite.min()), float(finite.max())
+    floor = max(SPAN_FLOORS.get(unit, 1e-9), 1e-4 * max(abs(lo), abs(hi)))
+    if hi - lo < floor:
+        mid = 0.5 * (lo + hi)
+        lo, hi = mid - 0.5 * floor, mid + 0.5 * floor
+    margin = pad * (hi - lo)
+    return lo - margin, hi + margin
+
+
+def log_limits(values, floor: float = 1e-16, decades: float = 10.0) -> tuple[float, float]:
+    """Limits of a log axis holding the positive ``values`` (and the tolerances drawn), padded.
+
+    Parameters
+    ----------
+    values : sequence of array_like
+    floor : float
+        Smallest value shown.
+    decades : float
+        Most decades shown below the largest value.
+
+    Returns
+    -------
+    (float, float)
+    """
+    arrays = [np.asarray(v, dtype=float).ravel() for v in values]
+    finite = np.concatenate([a[np.isfinite(a) & (a > 0)] for a in arrays]) if arrays else np.zeros(0)
+    if finite.size == 0:
+        return 1e-3, 1.0
+    hi = math.log10(float(finite.max()))
+    lo = max(math.log10(max(float(finite.min()), floor)), hi - decades)
+    if hi - lo < 1.0:
+        lo = hi - 1.0
+    pad = 0.05 * (hi - lo)
+    return 10.0 ** (lo - pad), 10.0 ** (hi + pad)
+
+
+def _plain(values: Sequence[float]) -> list[str]:
+    """Tick labels of a linear axis: fixed-point with the digits the step needs, or a short exponent form."""
+    v = np.asarray(values, dtype=float)
+    if v.size == 0:
+        return []
+    big = float(np.max(np.abs(v)))
+    step = float(np.min(np.diff(v))) if v.size > 1 else (big or 1.0)
+    if big >= 1e5 or (0 < big < 1e-3):
+        return [f"{x:.3g}".replace("e-0", "e-").replace("e+0", "e") for x in v]
+    decimals = max(0, min(8, -math.floor(math.log10(step) + 1e-9))) if step > 0 else 0
+    out = [f"{x:.{decimals}f}" for x in v]
+    return ["0" if float(s) == 0 else s for s in out]
+
+
+def _decades(values: Sequence[float]) -> list[str]:
+    """Tick labels of a log axis at whole decades: ``1e-6``, ``0.01``, ``1``, ``100``."""
+    out = []
+    for x in values:
+        e = round(math.log10(x)) if x > 0 else 0
+        out.append(f"{x:g}" if -2 <= e <= 3 else f"1e{e}")
+    return out
+
+
+def _formatters():
+    from matplotlib import ticker
+
+    class PlainFormatter(ticker.Formatter):
+        """Tick labels without offset or multiplier (``1e-5+1.503329e2`` never appears)."""
+
+        def __call__(self, x, pos=None):
+            return _plain([x])[0]
+
+        def format_ticks(self, values):
+            return _plain(values)
+
+    class DecadeFormatter(ticker.Formatter):
+        """Decade tick labels of a log axis in plain text (no mathtext to lay out)."""
+
+        def __call__(self, x, pos=None):
+            return _decades([x])[0]
+
+        def format_ticks(self, values):
+            return _decades(values)
+
+    return PlainFormatter, DecadeFormatter
+
+
+class Sheet:
+    """One Agg figure with :data:`MAX_PANELS` axes, reused for every figure a process draws.
+
+    :meth:`panels` lays out a grid of ``rows x cols`` of its axes for the
+    next figure (the others hidden), each emptied of the previous figure's
+    artists but keeping its tick objects; :meth:`save` draws and writes it.
+    """
+
+    def __init__(self):
+        from matplotlib import ticker
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        self.fig = Figure(figsize=(WIDTH_IN, 4 * ROW_IN), dpi=DPI, layout=None)
+        FigureCanvasAgg(self.fig)
+        self._plain, self._decades = _formatters()
+        self._ticker = ticker
+        self.axes = [self.fig.add_axes((0, 0, 0.1, 0.1)) for _ in range(MAX_PANELS)]
+        self._state: dict = {}
+        for ax in self.axes:
+            ax.set_autoscale_on(False)
+            ax.grid(True, alpha=0.3)
+            ax.xaxis.set_major_locator(ticker.MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
+            ax.xaxis.set_major_formatter(self._plain())
+            ax.xaxis.set_minor_locator(ticker.NullLocator())
+        self.shown: list = []
+        self.time_row: dict = {}
+        self.width_px = 300
+
+    def panels(self, rows: int, cols: int, title: str, *, height_in: float = ROW_IN, hspace_in=None) -> list:
+        """The axes of the next figure, ``rows x cols`` of them in reading order, empty.
+
+        Parameters
+        ----------
+        rows, cols : int
+            Grid (``rows * cols <= MAX_PANELS``).
+        title : str
+            The figure's title.
+        height_in : float
+            Height of a row [in].
+        hspace_in : float, optional
+            Space between rows [in] (default :data:`MARGINS_IN`; more when a panel above the bottom row
+            labels its x axis).
+
+        Returns
+        -------
+        list of matplotlib.axes.Axes
+
+        Raises
+        ------
+        ValueError
+            More panels than :data:`MAX_PANELS`.
+        """
+        n = rows * cols
+        if n > MAX_PANELS:
+            raise ValueError(f"a sheet holds at most {MAX_PANELS} panels, asked for {rows} x {cols}")
+        m = dict(MARGINS_IN)
+        if hspace_in is not None:
+            m["hspace"] = hspace_in
+        w = WIDTH_IN
+        h = m["top"] + m["bottom"] + rows * height_in + (rows - 1) * m["hspace"]
+        self.fig.set_size_inches(w, h)
+        ax_w = (w - m["left"] - m["right"] - (cols - 1) * m["wspace"]) / cols
+        self.width_px = int(ax_w * DPI)
+        for lg in list(self.fig.legends):
+            lg.remove()
+        for t in list(self.fig.texts):
+            t.remove()
+        self.fig.suptitle(title, fontsize=11, y=1 - 0.12 / h, va="top")
+        for i, ax in enumerate(self.axes):
+            if i >= n:
+                ax.set_visible(False)
+                continue
+            r, c = divmod(i, cols)
+            left = m["left"] + c * (ax_w + m["wspace"])
+            bottom = h - m["top"] - (r + 1) * height_in - r * m["hspace"]
+            ax.set_position((left / w, bottom / h, ax_w / w, height_in / h))
+            self._clear(ax)
+            ax.set_visible(True)
+            # labels placed at fixed distances: matplotlib would measure every tick label to place them
+            ax.yaxis.set_label_coords(-LABEL_GAP_IN["y"] / ax_w, 0.5)
+            ax.xaxis.set_label_coords(0.5, -LABEL_GAP_IN["x"] / height_in)
+            self.time_row[ax] = i + cols >= n  # the bottom panel of its column: the time axis labelled
+        self.shown = self.axes[:n]
+        self.shown = self.axes[:n]
+        return list(self.shown)
+
+    def _clear(self, ax) -> None:
+        """Remove the previous figure's artists from ``ax``, keep its axis and tick objects (each setting
+        changed only when it differs: a change is applied to every tick object)."""
+        for artist in list(ax.lines) + list(ax.collections) + list(ax.texts) + list(ax.patches):
+            artist.remove()
+        if ax.get_legend() is not None:
+            ax.get_legend().remove()
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+        ax.set_aspect("auto")
+        ax.set_prop_cycle(None)
+        self.linear(ax)
+        self.x_ticks_labelled(ax, True)
+        if not ax.axison:
+            ax.axis("on")
+
+    def x_ticks_labelled(self, ax, on: bool) -> None:
+        """Label the x ticks of ``ax`` or not.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes
+            A panel of the sheet.
+        on : bool
+            Whether its x tick labels are drawn.
+        """
+        if self._state.get((id(ax), "labelbottom")) != on:
+            ax.tick_params(axis="x", labelbottom=on)
+            self._state[(id(ax), "labelbottom")] = on
+
+    def linear(self, ax) -> None:
+        """Give ``ax`` a linear y axis with plain tick labels (at most six).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes
+            A panel of the sheet.
+        """
+        if self._state.get((id(ax), "y")) == "linear":
+            return
+        ax.set_yscale("linear")
+        t = self._ticker
+        ax.yaxis.set_major_locator(t.MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
+        ax.yaxis.set_major_formatter(self._plain())
+        ax.yaxis.set_minor_locator(t.NullLocator())
+        self._state[(id(ax), "y")] = "linear"
+
+    def log(self, ax) -> None:
+        """Give ``ax`` a log y axis with decade ticks only (no minor ticks: each tick is an object to draw).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes
+            A panel of the sheet.
+        """
+        if self._state.get((id(ax), "y")) == "log":
+            return
+        ax.set_yscale("log")
+        t = self._ticker
+        ax.yaxis.set_major_locator(t.LogLocator(base=10.0, numticks=6))
+        ax.yaxis.set_major_formatter(self._decades())
+        ax.yaxis.set_minor_locator(t.NullLocator())
+        self._state[(id(ax), "y")] = "log"
+
+    def line(self, ax, t, y, **kw):
+        """Draw ``y(t)`` decimated to the panel's pixel columns (:func:`decimate`).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes
+            A panel of the sheet.
+        t, y : array_like
+            Shape (n,) each.
+        **kw
+            Line properties (``matplotlib.axes.Axes.plot``).
+
+        Returns
+        -------
+        list of matplotlib.lines.Line2D
+        """
+        tt, yy = decimate(t, y, self.width_px)
+        return ax.plot(tt, yy, **kw)
+
+    def legend(self, handles, labels, ncol: int | None = None) -> None:
+        """Draw one legend for the figure, under its title.
+
+        Parameters
+        ----------
+        handles : list of matplotlib.artist.Artist
+        labels : list of str
+        ncol : int, optional
+            Columns (default: as many as entries, at most six).
+        """
+        if not handles:
+            return
+        h = self.fig.get_figheight()
+        self.fig.legend(
+            handles,
+            labels,
+            loc="upper center",
+            bbox_to_anchor=(0.5, 1 - 0.36 / h),
+            ncol=ncol or min(len(labels), 6),
+            fontsize=8,
+            frameon=False,
+        )
+
+    def axis_labels(self) -> list[str]:
+        """The label of every shown axis (``"name [unit]"``), in panel order, without repeats.
+
+        Returns
+        -------
+        list of str
+        """
+        out = []
+        for ax in self.shown:
+            if not ax.axison:
+                continue
+            for text in (ax.get_ylabel(), ax.get_xlabel()):
+                if text and text not in out:
+                    out.append(text)
+        return out
+
+    def save(self, out, name: str) -> Path:
+        """Draw the figure and write it as an RGB PNG ``name`` in the folder ``out`` (made when missing).
+
+        The label of every axis is recorded in the PNG's text chunk :data:`AXES_KEY` (JSON).
+
+        Parameters
+        ----------
+        out : str or Path
+            Output folder.
+        name : str
+            File name (``.png``).
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
+        from PIL import Image, PngImagePlugin
+
+        canvas = self.fig.canvas
+        canvas.draw()
+        w, h = canvas.get_width_height()
+        image = Image.frombuffer("RGBA", (w, h), canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB")
+        info = PngImagePlugin.PngInfo()
+        info.add_text(AXES_KEY, json.dumps(self.axis_labels()))
+        path = Path(out) / name
+        with writing(path):
+            path.parent.mkdir(parents=True, exist_ok=True)
+            image.save(path, format="PNG", pnginfo=info, compress_level=6)
+        return path
+
+
+_SHEET: Sheet | None = None
+
+
+def sheet() -> Sheet:
+    """This process's :class:`Sheet` (made on first use; a forked worker inherits its parent's).
+
+    Returns
+    -------
+    Sheet
+    """
+    global _SHEET
+    if _SHEET is None:
+        _SHEET = Sheet()
+    return _SHEET
+
+
+def prepare() -> None:
+    """Make this process's sheet and draw it once, so that forked workers inherit its axes and tick objects.
+
+    Cheaper than each worker making its own: call it before forking the workers that draw figures.
+    """
+    s = sheet()
+    axes = s.panels(4, 3, "")
+    t = np.linspace(0.0, 1.0, 3)
+    for ax in axes:
+        ax.plot(t, t)
+        ax.set_xlim(0, 1)
+        ax.set_ylim(0, 1)
+    s.fig.canvas.draw()
+
+
+def recorded_axes(path: str | Path) -> list[str] | None:
+    """The axis labels a figure written by :meth:`Sheet.save` records (None: none recorded).
+
+    Parameters
+    ----------
+    path : str or Path
+        A PNG file.
+
+    Returns
+    -------
+    list of str or None
+    """
+    from PIL import Image
+
+    try:
+        with Image.open(path) as im:
+            text = im.info.get(AXES_KEY)
+    except (OSError, ValueError):
+        return None
+    if not isinstance(text, str):
+        return None
+    try:
+        labels = json.loads(text)
+    except ValueError:
+        return None
+    return [str(x) for x in labels] if isinstance(labels, list) else None
+
+
+def save_figure(fig, out, name: str, dpi: int = DPI) -> Path:
+    """Save a matplotlib figure (not a :class:`Sheet`) as ``name`` in the folder ``out`` (made when missing).
 
     Parameters
     ----------
@@ -106,8 +560,331 @@ def save_figure(fig, out, name: str, dpi: int = 110) -> Path:
     return path
 
 
+def grid_margins(fig) -> None:
+    """Place a figure's grid of axes (one ``fig.subplots(nrows, ncols)``) with the fixed margins :data:`MARGINS_IN`.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    """
+    w, h = fig.get_size_inches()
+    nrows, ncols = fig.axes[0].get_subplotspec().get_gridspec().get_geometry()
+    m = MARGINS_IN
+    ax_w = (w - m["left"] - m["right"] - (ncols - 1) * m["wspace"]) / ncols
+    ax_h = (h - m["bottom"] - m["top"] - (nrows - 1) * m["hspace"]) / nrows
+    fig.subplots_adjust(
+        left=m["left"] / w,
+        right=1 - m["right"] / w,
+        bottom=m["bottom"] / h,
+        top=1 - m["top"] / h,
+        wspace=m["wspace"] / ax_w,
+        hspace=m["hspace"] / ax_h,
+    )
+
+
+# --------------------------------------------------------------------------- the case figures
+
+
+def _t(df) -> np.ndarray:
+    return np.asarray(df.index, dtype=float)
+
+
+def time_axis(ax, t0: float, t1: float, s: Sheet) -> None:
+    """Set a panel's time axis: ``t0 .. t1`` [s], its ticks labelled on the bottom panel of each column only.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        A panel of ``s``.
+    t0, t1 : float
+        Span [s].
+    s : Sheet
+        The sheet.
+    """
+    ax.set_xlim(t0, t1 if t1 > t0 else t0 + 1.0)
+    bottom = s.time_row.get(ax, True)
+    s.x_ticks_labelled(ax, bottom)
+    ax.set_xlabel(label("t", "s") if bottom else "")
+
+
+def _span(results: Mapping, reference) -> tuple[float, float]:
+    ts = [_t(r.df) for r in results.values() if len(r.df)]
+    if reference is not None and len(reference):
+        ts.append(_t(reference))
+    if not ts:
+        return 0.0, 1.0
+    return min(float(t[0]) for t in ts), max(float(t[-1]) for t in ts)
+
+
+def _series(name: str, results: Mapping, reference) -> list[tuple[str, np.ndarray, np.ndarray, dict]]:
+    """(label, t, drawn values, style) of ``name`` for the plan (dotted black) and every run."""
+    k, _ = plot_scale(name)
+    out = []
+    if reference is not None and name in reference.columns:
+        out.append(("plan", _t(reference), reference[name].to_numpy(float) * k, {"color": "k", "ls": ":", "lw": 2.0}))
+    for i, (lab, res) in enumerate(results.items()):
+        if name in res.df.columns:
+            style = {"color": f"C{i}", "ls": RUN_STYLES[i % len(RUN_STYLES)], "lw": 1.2}
+            out.append((lab, _t(res.df), res.df[name].to_numpy(float) * k, style))
+    return out
+
+
+def _draw_time(s: Sheet, ax, series, unit: str, ylabel: str, span) -> dict:
+    handles = {}
+    for lab, t, y, style in series:
+        (handles[lab],) = s.line(ax, t, y, label=lab, **style)
+    ax.set_ylim(*span_limits([y for _, _, y, _ in series], unit))
+    ax.set_ylabel(ylabel)
+    time_axis(ax, *span, s)
+    return handles
+
+
+def _altitude(series):
+    return [(lab, t, -y, style) for lab, t, y, style in series]
+
+
+def _ground_track(s: Sheet, ax, results: Mapping, reference) -> dict:
+    """North x against east y, equal scales (north up)."""
+    handles, xs, ys = {}, [], []
+    curves = []
+    if reference is not None and {"x", "y"} <= set(reference.columns):
+        curves.append(("plan", reference, {"color": "k", "ls": ":", "lw": 2.0}))
+    for i, (lab, res) in enumerate(results.items()):
+        curves.append((lab, res.df, {"color": f"C{i}", "ls": RUN_STYLES[i % len(RUN_STYLES)], "lw": 1.2}))
+    for lab, df, style in curves:
+        east, north = df["y"].to_numpy(float), df["x"].to_numpy(float)
+        (handles[lab],) = ax.plot(east, north, label=lab, **style)
+        xs.append(east)
+        ys.append(north)
+    x0, x1 = span_limits(xs, "m")
+    y0, y1 = span_limits(ys, "m")
+    # equal scales: the panel's shorter data side widened to its aspect
+    pos = ax.get_position()
+    fw, fh = s.fig.get_size_inches()
+    aspect = (pos.height * fh) / (pos.width * fw)
+    if (y1 - y0) / (x1 - x0) < aspect:
+        mid, half = 0.5 * (y0 + y1), 0.5 * aspect * (x1 - x0)
+        y0, y1 = mid - half, mid + half
+    else:
+        mid, half = 0.5 * (x0 + x1), 0.5 * (y1 - y0) / aspect
+        x0, x1 = mid - half, mid + half
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_xlabel(label("y (east)", "m"))
+    ax.set_ylabel(label("x (north)", "m"))
+    return handles
+
+
+def _distance_to_plan(s: Sheet, ax, results: Mapping, reference, span) -> dict:
+    from harness.metrics import position_error
+
+    handles, drawn = {}, []
+    s.log(ax)
+    for i, (lab, res) in enumerate(results.items()):
+        err = position_error(res, reference)
+        d = np.maximum(err.to_numpy(float), 1e-9)
+        drawn.append(d)
+        style = {"color": f"C{i}", "ls": RUN_STYLES[i % len(RUN_STYLES)], "lw": 1.2}
+        (handles[lab],) = s.line(ax, _t(err), d, label=lab, **style)
+    ax.set_ylim(*log_limits(drawn, 1e-9))
+    ax.set_ylabel(label("|position - plan|", "m"))
+    time_axis(ax, *span, s)
+    return handles
+
+
+#: Panels of the states figure after the ground track, the altitude and the distance to the plan.
+STATE_PANELS: tuple[str, ...] = ("V", "gamma", "chi", "alpha", "beta", "mu", "p", "q", "r")
+
+
+def draw_states(results: Mapping, out, *, reference=None, title: str = "", name: str = "states.png") -> Path:
+    """States of every run and the plan: ground track (north up), altitude, distance to the plan, the others.
+
+    Parameters
+    ----------
+    results : mapping label -> SimulationResult
+        The runs (the first is the reference engine).
+    out : str or Path
+        Folder.
+    reference : DataFrame, optional
+        The plan's states indexed by ``t`` [s] (dotted).
+    title : str
+        Prefix of the figure's title.
+    name : str
+        File name.
+
+    Returns
+    -------
+    Path
+    """
+    s = sheet()
+    axes = s.panels(4, 3, f"{title}: ground track, altitude and states", hspace_in=0.55)
+    span = _span(results, reference)
+    handles = _ground_track(s, axes[0], results, reference)
+    _draw_time(s, axes[1], _altitude(_series("z", results, reference)), "m", label("h = -z", "m"), span)
+    if reference is not None and {"x", "y", "z"} <= set(reference.columns):
+        _distance_to_plan(s, axes[2], results, reference, span)
+    else:
+        axes[2].axis("off")
+    for ax, var in zip(axes[3:], STATE_PANELS):
+        k, unit = plot_scale(var)
+        _draw_time(s, ax, _series(var, results, reference), unit, label(var, unit), span)
+    s.legend(list(handles.values()), list(handles))
+    return s.save(out, name)
+
+
+def control_panels(aircraft) -> list[tuple[str, object]]:
+    """The panels of the controls figure: each engine's thrust, eta (two engines), the surfaces.
+
+    Parameters
+    ----------
+    aircraft : gna.aircraft.Aircraft or None
+        Its limits (:func:`gna.limits.aircraft_limits`, the one definition); None: the five controls unbounded.
+
+    Returns
+    -------
+    list of (str, gna.limits.Limit or None)
+        Panel name (``"thrust[1]"``, ``"eta"``, ``"dl"`` ...) and its limit.
+    """
+    if aircraft is None:
+        return [(n, None) for n in ("F", "eta", "dl", "dm", "dn")]
+    from gna.limits import aircraft_limits
+
+    limits = {lim.name: lim for lim in aircraft_limits(aircraft) if lim.kind == "control"}
+    names = [f"thrust[{i}]" for i in range(1, aircraft.propulsion.count + 1)]
+    names += (["eta"] if aircraft.propulsion.count == 2 else []) + ["dl", "dm", "dn"]
+    return [(n, limits.get(n)) for n in names]
+
+
+def _control_values(name: str, limit, df) -> tuple[np.ndarray, str, float]:
+    if limit is not None and name.startswith("thrust"):
+        return np.asarray(limit.value_of(df, None), dtype=float), "N", 1.0
+    k, unit = plot_scale(name)
+    return df[name].to_numpy(float) * k, unit, k
+
+
+def draw_controls(
+    results: Mapping, out, *, reference=None, aircraft=None, title: str = "", name: str = "controls.png"
+) -> Path:
+    """Applied controls of every run and the plan, each against the aircraft's limits (red dash-dotted).
+
+    Parameters
+    ----------
+    results : mapping label -> SimulationResult
+    out : str or Path
+        Folder.
+    reference : DataFrame, optional
+        The plan's controls indexed by ``t`` [s] (dotted).
+    aircraft : gna.aircraft.Aircraft, optional
+        Its limits (:func:`control_panels`); without it the five controls, no limit.
+    title : str
+    name : str
+
+    Returns
+    -------
+    Path
+    """
+    s = sheet()
+    panels = control_panels(aircraft)
+    rows = -(-len(panels) // 3)
+    axes = s.panels(rows, 3, f"{title}: applied controls against the aircraft's limits")
+    span = _span(results, reference)
+    handles = {}
+    curves = []
+    if reference is not None:
+        curves.append(("plan", reference, {"color": "k", "ls": ":", "lw": 2.0}))
+    for i, (lab, res) in enumerate(results.items()):
+        curves.append((lab, res.df, {"color": f"C{i}", "ls": RUN_STYLES[i % len(RUN_STYLES)], "lw": 1.2}))
+    for ax, (pname, limit) in zip(axes, panels):
+        drawn, unit = [], ""
+        for lab, df, style in curves:
+            y, unit, k = _control_values(pname, limit, df)
+            (handles[lab],) = s.line(ax, _t(df), y, label=lab, **style)
+            drawn.append(y)
+        if limit is not None:
+            k = 1.0 if unit == "N" else plot_scale(pname)[0]
+            ref_df = curves[-1][1]
+            lo, hi = limit.bounds(ref_df)
+            t = _t(ref_df)
+            for bound in (lo, hi):
+                b = np.asarray(bound, dtype=float) * k
+                if np.all(np.isfinite(b)):
+                    (handles["limit"],) = s.line(ax, t, b, color="r", ls="-.", lw=1.0, label="limit")
+                    drawn.append(b)
+        ax.set_ylim(*span_limits(drawn, unit))
+        ax.set_ylabel(label(pname, unit))
+        time_axis(ax, *span, s)
+    for ax in axes[len(panels) :]:
+        ax.axis("off")
+    s.legend(list(handles.values()), list(handles))
+    return s.save(out, name)
+
+
+#: Panels of the differences figure: drawn unit -> the variables drawn in it.
+DIFFERENCE_GROUPS: dict[str, tuple[str, ...]] = {
+    "position": ("position", "x", "y", "z"),
+    "speed": ("V",),
+    "angles": ("gamma", "chi", "alpha", "beta", "mu"),
+    "rates": ("p", "q", "r"),
+}
+
+
+def draw_differences(results: Mapping, out, *, tolerances=None, title: str = "", name: str = "differences.png"):
+    """Absolute differences of every run to the first (log scale), one panel per kind of quantity, the
+    tolerances dotted in red.
+
+    Parameters
+    ----------
+    results : mapping label -> SimulationResult
+        Two runs or more; the first is the reference.
+    out : str or Path
+    tolerances : None, float or mapping
+        :func:`harness.metrics.resolve_tolerances`.
+    title : str
+    name : str
+
+    Returns
+    -------
+    Path or None
+        None with a single run.
+    """
+    labels = list(results)
+    if len(labels) < 2:
+        return None
+    tol = resolve_tolerances(tolerances, DEFAULT_VARIABLES)
+    s = sheet()
+    axes = s.panels(2, 2, f"{title}: differences to {labels[0]}", height_in=2.6)
+    ref = results[labels[0]]
+    span = _span(results, None)
+    for ax, (group, names) in zip(axes, DIFFERENCE_GROUPS.items()):
+        s.log(ax)
+        drawn, unit = [], ""
+        for j, lab in enumerate(labels[1:]):
+            for c, var in enumerate(names):
+                k, unit = plot_scale(var)
+                d = differences(ref, results[lab], var)
+                y = np.maximum(np.abs(d.to_numpy(float)) * k, 1e-16)
+                shown = "h" if var == "z" else var
+                who = shown if len(labels) == 2 else f"{shown}, {lab}"
+                s.line(ax, _t(d), y, color=f"C{c}", ls=RUN_STYLES[j % len(RUN_STYLES)], lw=1.0, label=who)
+                drawn.append(y)
+        for value in sorted({tol[v] * plot_scale(v)[0] for v in names if v in tol}):
+            ax.axhline(value, color="r", ls=":", lw=1.2, label="tolerance")
+            drawn.append([value])
+        ax.set_ylim(*log_limits(drawn))
+        ax.set_ylabel(label(f"|d {group}|", unit))
+        time_axis(ax, *span, s)
+        ax.legend(fontsize=7, ncol=3, loc="lower right", framealpha=0.8)
+    return s.save(out, name)
+
+
 def write_figures(
-    results: Mapping, out_dir, *, reference: pd.DataFrame | None = None, title: str = "", tolerances=None
+    results: Mapping,
+    out_dir,
+    *,
+    reference: pd.DataFrame | None = None,
+    title: str = "",
+    tolerances=None,
+    aircraft=None,
 ) -> list[Path]:
     """States and controls of every engine (and the reference), and the differences to the first engine.
 
@@ -118,69 +895,23 @@ def write_figures(
     out_dir : str or Path
         Folder the PNG files are written to (created if needed).
     reference : DataFrame, optional
-        Planned states indexed by ``t`` [s], drawn dotted (e.g. the plan's).
+        Planned states and controls indexed by ``t`` [s], drawn dotted (e.g. the plan's).
     title : str
         Prefix of the figure titles.
     tolerances : None, float or mapping
         Drawn as lines on the difference plots (see
         :func:`harness.metrics.resolve_tolerances`).
+    aircraft : gna.aircraft.Aircraft, optional
+        Its limits, drawn on the controls (:func:`draw_controls`).
 
     Returns
     -------
     list of Path
         ``states.png``, ``controls.png`` and (with two runs or more) ``differences.png``.
     """
-    from matplotlib.figure import Figure  # no pyplot: no global state
-
-    out = out_dir
-    labels = list(results)
-    paths = []
-
-    fig = Figure(figsize=(13, 11), layout=None)
-    axs = fig.subplots(4, 3, sharex=True)
-    for ax, name in zip(axs.ravel(), STATE_NAMES):
-        if reference is not None and name in reference.columns:
-            ax.plot(reference.index, reference[name] * plot_scale(name)[0], "k:", lw=2.0, label="plan")
-        _draw_runs(ax, results, name)
-    for ax in axs[-1]:
-        ax.set_xlabel("t [s]")
-    axs[0, 0].legend(fontsize=8)
-    fig.suptitle(f"{title}: states")
-    grid_margins(fig)
-    paths.append(save_figure(fig, out, "states.png"))
-
-    fig = Figure(figsize=(13, 7), layout=None)
-    axs = fig.subplots(2, 3, sharex=True)
-    for ax, name in zip(axs.ravel(), CONTROL_NAMES):
-        _draw_runs(ax, results, name)
-    axs.ravel()[-1].axis("off")
-    for ax in axs[-1]:
-        ax.set_xlabel("t [s]")
-    axs[0, 0].legend(fontsize=8)
-    fig.suptitle(f"{title}: applied controls")
-    grid_margins(fig)
-    paths.append(save_figure(fig, out, "controls.png"))
-
-    if len(labels) > 1:
-        tol = resolve_tolerances(tolerances, DEFAULT_VARIABLES)
-        fig = Figure(figsize=(13, 12), layout=None)
-        axs = fig.subplots(5, 3, sharex=True)
-        ref = results[labels[0]]
-        names = DEFAULT_VARIABLES
-        for ax, name in zip(axs.ravel(), names):
-            for lab in labels[1:]:
-                d = differences(ref, results[lab], name)
-                ax.semilogy(d.index, np.maximum(np.abs(d.to_numpy()), 1e-16), lw=1.0, label=f"{lab} - {labels[0]}")
-            if name in tol:
-                ax.axhline(tol[name], color="r", ls=":", lw=1.0, label="tolerance")
-            ax.set_ylabel(f"|d {name}| [{UNITS.get(name, '')}]")
-            ax.grid(alpha=0.3, which="both")
-        for ax in axs.ravel()[len(names) :]:
-            ax.axis("off")
-        axs[0, 0].legend(fontsize=8)
-        for ax in axs[-1]:
-            ax.set_xlabel("t [s]")
-        fig.suptitle(f"{title}: differences to {labels[0]}")
-        grid_margins(fig)
-        paths.append(save_figure(fig, out, "differences.png"))
-    return paths
+    paths = [
+        draw_states(results, out_dir, reference=reference, title=title),
+        draw_controls(results, out_dir, reference=reference, aircraft=aircraft, title=title),
+    ]
+    diff = draw_differences(results, out_dir, tolerances=tolerances, title=title)
+    return paths + ([diff] if diff is not None else [])

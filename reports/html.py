@@ -29,16 +29,191 @@ CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE = "case.html", "index.html", "repor
 #: What rendering writes (never listed among a case's data files: a re-rendering must give the same page).
 RENDERED = frozenset((CASE_PAGE, INDEX_PAGE, SINGLE_PAGE, PDF_FILE))
 
-#: Column headings of the difference tables (others print as named).
+#: Column headings of the difference and convergence tables ("[unit]": in the row's unit, its ``unit`` column).
 HEADERS = {
-    "max_abs": "max |diff|",
+    "t": "t [s]",
+    "variable": "variable",
+    "unit": "unit",
+    "max_abs": "max |diff| [unit]",
     "t_max": "at t [s]",
-    "rms": "RMS",
-    "delta_pct": "\u03b4 %*",
-    "scale": "\u03b4 scale*",
-    "ref_max": "max |ref|",
+    "rms": "RMS [unit]",
+    "delta_pct": "\u03b4 [%]*",
+    "scale": "\u03b4 scale [unit]*",
+    "ref_max": "max |ref| [unit]",
+    "atol": "atol [unit]",
+    "rtol": "rtol [-]",
+    "tolerance": "tolerance [unit]",
     "passed": "result",
 }
+
+#: Columns of a difference table in the row's unit: converted with it (radians shown as degrees).
+IN_ROW_UNIT = ("max_abs", "rms", "scale", "ref_max", "atol", "tolerance")
+
+#: Columns of the tables printed as text (left-aligned).
+TEXT_COLUMNS = frozenset(("variable", "unit"))
+
+
+def header(name: str) -> str:
+    """The heading of a table column, with its unit (``"J=3"`` of a convergence table: ``"J = 3 [unit]"``).
+
+    Parameters
+    ----------
+    name : str
+        Column name of a model's table.
+
+    Returns
+    -------
+    str
+    """
+    if name.startswith("J=") and name[2:].isdigit():
+        return f"J = {name[2:]} [unit]"
+    return HEADERS.get(name, name)
+
+
+def shown_unit(unit: str) -> tuple[float, str]:
+    """Factor and unit a value in the SI ``unit`` is shown in: radians as degrees, rad/s as deg/s.
+
+    Parameters
+    ----------
+    unit : str
+        SI unit (``"rad"``, ``"rad/s"``, ``"m"``, ...).
+
+    Returns
+    -------
+    (float, str)
+    """
+    if unit == "rad":
+        return math.degrees(1.0), "deg"
+    if unit == "rad/s":
+        return math.degrees(1.0), "deg/s"
+    return 1.0, unit or "-"
+
+
+def _times(value, k: float):
+    return value * k if isinstance(value, (int, float)) and not isinstance(value, bool) else value
+
+
+#: Columns of a difference table in the PDF (the HTML page shows every column).
+COMPACT_COLUMNS = ("variable", "unit", "max_abs", "t_max", "delta_pct", "tolerance", "passed")
+
+
+def shown_table(table: dict, compact: bool = False) -> dict:
+    """A model's table as a reader sees it: angles in degrees and rates in deg/s, a unit on every row.
+
+    A difference table (with a ``unit`` column) has its :data:`IN_ROW_UNIT` columns converted; a
+    convergence table (``t``, ``variable``, ``J=k``...) gains the ``unit`` column, its values converted.
+
+    Parameters
+    ----------
+    table : dict
+        ``{"columns": [...], "rows": [[...], ...]}`` (:func:`reports.model.case_model`).
+    compact : bool
+        Keep only the :data:`COMPACT_COLUMNS` of a difference table (the PDF's).
+
+    Returns
+    -------
+    dict
+        A new table (the model is not changed).
+    """
+    from gna.trajectory import UNITS
+
+    cols = list(table["columns"])
+    rows = []
+    if compact and "unit" in cols:
+        keep = [i for i, c in enumerate(cols) if c in COMPACT_COLUMNS]
+        table = dict(table, columns=[cols[i] for i in keep], rows=[[r[i] for i in keep] for r in table["rows"]])
+        cols = list(table["columns"])
+    if "unit" in cols:
+        u = cols.index("unit")
+        conv = [i for i, c in enumerate(cols) if c in IN_ROW_UNIT]
+        for row in table["rows"]:
+            k, unit = shown_unit(row[u])
+            row = list(row)
+            row[u] = unit
+            for i in conv:
+                row[i] = _times(row[i], k)
+            rows.append(row)
+        return dict(table, columns=cols, rows=rows)
+    if "variable" in cols:
+        v = cols.index("variable")
+        values = [i for i, c in enumerate(cols) if c.startswith("J=")]
+        for row in table["rows"]:
+            k, unit = shown_unit(UNITS.get(row[v], ""))
+            row = [_times(x, k) if i in values else x for i, x in enumerate(row)]
+            rows.append(row[: v + 1] + [unit] + row[v + 1 :])
+        return dict(table, columns=cols[: v + 1] + ["unit"] + cols[v + 1 :], rows=rows)
+    return table
+
+
+#: Units of the comparison settings (SI; the tolerances take their variable's unit).
+SETTING_UNITS = {"dt_out": "s", "jsbsim_dt": "s", "tracking_tolerance": "m", "settle_time": "s"}
+
+
+def quantity(value, unit: str) -> str:
+    """A value in the SI ``unit`` as shown (:func:`shown_unit`), its unit after it.
+
+    Parameters
+    ----------
+    value : object
+    unit : str
+
+    Returns
+    -------
+    str
+    """
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return text(value)
+    k, shown = shown_unit(unit)
+    return f"{fmt(value * k)} {shown}".rstrip(" -")
+
+
+def setting(value, name: str) -> str:
+    """A comparison setting as prose, with its unit: tolerances per variable (angles in degrees), windows
+    and steps in seconds, relative tolerances dimensionless.
+
+    Parameters
+    ----------
+    value : object
+        The setting (:meth:`harness.validation.CompareSettings.to_dict`).
+    name : str
+        Its key.
+
+    Returns
+    -------
+    str
+    """
+    from gna.trajectory import UNITS
+
+    if name == "tolerances" and isinstance(value, dict):
+        return "; ".join(f"{k} {quantity(v, UNITS.get(k, ''))}" for k, v in value.items()) or "-"
+    if name == "rtol" and isinstance(value, dict):
+        return "; ".join(f"{k} {fmt(v)}" for k, v in value.items()) or "none"
+    if name == "windows" and isinstance(value, dict):
+        return "; ".join(f"{k}: {quantity(v, 's')}" for k, v in value.items()) or "-"
+    if name in SETTING_UNITS:
+        return quantity(value, SETTING_UNITS[name])
+    return text(value)
+
+
+def text(value) -> str:
+    """A setting as prose, never a Python repr: mappings ``key value, ...``, sequences joined, yes/no.
+
+    Parameters
+    ----------
+    value : object
+
+    Returns
+    -------
+    str
+    """
+    if isinstance(value, dict):
+        return "; ".join(f"{str(k).replace('_', ' ')} {text(v)}" for k, v in value.items()) or "-"
+    if isinstance(value, (list, tuple)):
+        return ", ".join(text(v) for v in value) or "-"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    return fmt(value)
+
 
 #: Sub-folder of a scenario holding its plan's files (linked from the case pages when present).
 PLAN_FOLDER = "plan"
@@ -110,7 +285,8 @@ def _shown(value, unit: str) -> str:
     if value is None:
         return "-"
     if unit == "rad":
-        return f"{math.degrees(value):.2f}\u00b0"
+        a = math.degrees(value)
+        return f"{a:.2f}\u00b0" if abs(a) >= 0.01 or a == 0 else f"{fmt(a)}\u00b0"
     return f"{fmt(value)} {unit}".rstrip(" -")
 
 
@@ -152,8 +328,18 @@ def verdict_cells(model: dict) -> list[dict]:
         elif name == "tracking":
             worst = f"{_shown(v.get('max_error_after_settle_m'), 'm')} after {fmt(v.get('settle_s'))} s"
         else:
-            d = [x.get("max_position_m") for x in (v.get("differences") or {}).values()]
-            worst = " ".join(_shown(x, "m") for x in d) or "-"
+            d = v.get("differences") or {}
+            many = len(d) > 1
+            worst = (
+                "; ".join(
+                    f"{e + ': ' if many else ''}position {_shown(x.get('max_position_m'), 'm')}, "
+                    f"angle {_shown(x.get('max_angle_rad'), 'rad')}"
+                    for e, x in d.items()
+                )
+                or "-"
+            )
+            if v.get("incomplete"):
+                worst = f"runs ended early: {', '.join(v['incomplete'])}; {worst}"
         out.append({"name": name, "heading": heading, "state": state, "worst": worst})
     return out
 
@@ -171,7 +357,13 @@ def _environment():
     )
     env.filters["fmt"] = fmt
     env.filters["cell"] = cell
-    env.filters["header"] = lambda name: HEADERS.get(name, name)
+    env.filters["header"] = header
+    env.filters["shown_table"] = shown_table
+    env.filters["text"] = text
+    env.filters["setting"] = setting
+    env.filters["quantity"] = quantity
+    env.filters["deg"] = lambda rad: fmt(None if rad is None else math.degrees(rad))
+    env.tests["text_column"] = lambda name: name in TEXT_COLUMNS
     env.filters["verdict"] = lambda ok: "PASS" if ok else "FAIL"
     env.filters["verdict_cells"] = verdict_cells
     env.filters["tojson_pretty"] = lambda obj: json.dumps(obj, indent=2, sort_keys=False)
@@ -343,30 +535,7 @@ def render_documents(
     return docs
 
 
-def single_document(run_dir: str | Path, *, date: str | None = None) -> str:
-    """The whole run as one HTML document with images as paths relative to ``run_dir`` (what the PDF prints).
-
-    Parameters
-    ----------
-    run_dir : str or Path
-        A run folder holding ``report.json`` files.
-    date : str, optional
-        Render date (default now, UTC).
-
-    Returns
-    -------
-    str
-        HTML; resolve its links and images against ``run_dir``.
-
-    Raises
-    ------
-    InputError
-        No ``report.json`` under ``run_dir``.
-    """
-    return document_parts(run_dir, 1, date=date)[0]
-
-
-#: Weight of a figure in :func:`document_parts`' balance, in characters of HTML.
+#: Weight of a figure in :func:`pdf_documents`' balance, in characters of HTML.
 FIGURE_WEIGHT = 3000
 
 
@@ -392,25 +561,21 @@ def _split(costs: list[float], parts: int) -> list[int]:
     return best[1]
 
 
-def document_parts(
-    run_dir: str | Path, parts: int, *, date: str | None = None, manifest: dict | None = None
-) -> list[str]:
-    """:func:`single_document` cut at case boundaries into documents of about equal work, to print separately.
+def pdf_documents(run_dir: str | Path, parts: int, *, date: str | None = None, manifest: dict | None = None):
+    """The run's PDF as HTML documents to print separately: the cases cut into ``parts`` of about equal work,
+    and the front matter (title, contents with page numbers, summary, manifest) made once their pages are known.
 
-    The first part holds the front matter (summary table of every case,
-    manifest) and the first cases, the last the footer; each case starts a new
-    page in print anyway, so the printed parts put end to end are the pages
-    of the single document (:func:`reports.pdf.write_pdf`).  The first part
-    also carries empty anchors named after the cases of the later parts, so
-    that its summary links are printed; a later part's destination of the
-    same name replaces the anchor's when the parts are put together.
+    Each case starts a new page in print, so the printed documents put end to end
+    (:func:`reports.pdf.write_pdf`: front matter first) are the pages of one report.  The front matter
+    carries empty anchors named after every case, so that its links are printed; a case's own destination
+    of the same name replaces the anchor's when the documents are put together.
 
     Parameters
     ----------
     run_dir : str or Path
         A run folder holding ``report.json`` files.
     parts : int
-        Number of documents wanted (fewer when the run has fewer cases).
+        Documents the cases are cut into (fewer when the run has fewer cases).
     date : str, optional
         Render date (default now, UTC).
     manifest : dict, optional
@@ -418,8 +583,10 @@ def document_parts(
 
     Returns
     -------
-    list of str
-        HTML documents; resolve their links and images against ``run_dir``.
+    (callable, list of str)
+        ``front(pages) -> str``, the front matter's HTML given the page number (1-based, in the whole
+        report) of each case id and of ``"manifest"``; and the cases' documents.  Resolve their links and
+        images against ``run_dir``.
 
     Raises
     ------
@@ -430,29 +597,22 @@ def document_parts(
     cases, common = _run_context(root, date, manifest)
     views = [_case_view(root, f, m, root, False) for f, m in cases]
     template = _environment().get_template("single.html")
+    plain = dict(common, pdf=True, front=False, last_part=False)
     if parts <= 1 or len(views) <= 1:
-        return [template.render(cases=views, pdf=True, **common)]
-    front = len(template.render(cases=[], all_cases=views, pdf=True, last_part=False, **common))
-    costs = [
-        len(template.render(cases=[v], pdf=True, first_part=False, last_part=False, **common))
-        + FIGURE_WEIGHT * len(v["model"]["figures"])
-        for v in views
-    ]
-    costs[0] += front
-    starts = _split(costs, parts) + [len(views)]
-    later = [v["model"]["id"] for v in views[starts[1] :]]
-    return [
-        template.render(
-            cases=views[a:b],
-            all_cases=views,
-            pdf=True,
-            first_part=(i == 0),
-            later_ids=later,
-            last_part=(b == len(views)),
-            **common,
+        starts = [0]
+    else:
+        costs = [len(template.render(cases=[v], **plain)) + FIGURE_WEIGHT * len(v["model"]["figures"]) for v in views]
+        starts = _split(costs, parts)
+    starts.append(len(views))
+    documents = [template.render(cases=views[a:b], **plain) for a, b in zip(starts, starts[1:])]
+    ids = [v["model"]["id"] for v in views]
+
+    def front(pages: dict) -> str:
+        return template.render(
+            cases=[], all_cases=views, later_ids=ids, pages=pages, **dict(common, pdf=True, last_part=False)
         )
-        for i, (a, b) in enumerate(zip(starts, starts[1:]))
-    ]
+
+    return front, documents
 
 
 def render_run(
@@ -506,10 +666,8 @@ def render_run(
     if self_contained:
         out["single"] = root / SINGLE_PAGE
     if pdf:
-        from .pdf import can_merge, write_pdf
+        from .pdf import write_pdf
 
-        parts = jobs if jobs > 1 and can_merge() else 1
-        out["pdf"] = write_pdf(
-            document_parts(root, parts, date=date, manifest=manifest), root, root / PDF_FILE, run_all=run_all
-        )
+        front, documents = pdf_documents(root, jobs if jobs > 1 else 1, date=date, manifest=manifest)
+        out["pdf"] = write_pdf(documents, root, root / PDF_FILE, run_all=run_all, front=front)
     return out

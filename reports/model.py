@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 from gna.errors import InputError, describe, writing
@@ -21,14 +22,8 @@ from harness.artefacts import json_safe as _json_safe
 from harness.artefacts import read_manifest
 from planners.scenario import load_scenario
 
-from .report_figures import (
-    CONTROLS_LIMITS_PNG,
-    SIGNED_DIFFERENCES_PNG,
-    control_limits,
-    write_controls_limits_figure,
-    write_signed_differences_figure,
-    write_singularity_figure,
-)
+from .figures import recorded_axes
+from .report_figures import control_limits, write_singularity_figure
 
 #: Version of the model's layout (bumped when keys change meaning).
 SCHEMA = 1
@@ -56,12 +51,14 @@ MODEL_KEYS = {
 
 #: Figures a case page shows, in order: file name -> caption (those present in the case folder).
 FIGURES: dict[str, str] = {
-    "tracking.png": "The paper's four curves: flat plan J = 0 (red), closed loop (dark blue), generalized plan "
-    "(green), generalized controls open loop (cyan); bottom right, the position error.",
-    "states.png": "States of every engine; the plan dotted.",
-    CONTROLS_LIMITS_PNG: "Applied controls; the plan dotted, the aircraft's limits dash-dotted in red.",
-    SIGNED_DIFFERENCES_PNG: "Signed differences to the reference engine, in the units of the state plots.",
-    "differences.png": "Absolute differences to the reference engine (log scale), tolerances dotted in red.",
+    "tracking.png": "The paper's four curves: flat plan J = 0 (red), closed loop (dark blue; the controls with "
+    "their feedback part), generalized plan (green), generalized controls open loop (cyan); bottom right, the "
+    "distance to the flat outputs.",
+    "states.png": "Ground track (north up, equal scales), altitude h = -z, distance to the plan and the states of "
+    "every engine; the plan dotted.",
+    "controls.png": "Applied controls (each engine's thrust, eta, surfaces); the plan dotted, the aircraft's "
+    "limits dash-dotted in red.",
+    "differences.png": "Absolute differences to the reference engine (log scale), the tolerances dotted in red.",
     "singularity.png": "Singularity monitor along the flat plan: a zero or a sign change is a singularity.",
 }
 
@@ -154,6 +151,39 @@ def _runs_section(result) -> dict:
     return out
 
 
+_PLAN_PREFIX = re.compile(r"^plan \(j = (\d+)\): ")
+
+
+def _plan_source(text: str, J: int) -> str:
+    m = _PLAN_PREFIX.match(text)
+    return f"plan (iterate j = {m.group(1) if m else J})"
+
+
+def _plan_text(text: str) -> str:
+    return _PLAN_PREFIX.sub("", text, count=1)
+
+
+def merged_warnings(said) -> list[str]:
+    """Warnings as a reader reads them: each text once, after every source that gave it.
+
+    Parameters
+    ----------
+    said : sequence of (str, str)
+        (source, text) pairs in order (the plan, each engine, each difference table).
+
+    Returns
+    -------
+    list of str
+        ``"<source>, <source>: <text>"`` in the order each text first appears.
+    """
+    sources: dict[str, list[str]] = {}
+    for source, text in said:
+        who = sources.setdefault(text, [])
+        if source not in who:
+            who.append(source)
+    return [f"{', '.join(who)}: {text}" for text, who in sources.items()]
+
+
 def case_model(result, figures=(), *, scenario=None) -> dict:
     """The report model of one validation case.
 
@@ -161,8 +191,9 @@ def case_model(result, figures=(), *, scenario=None) -> dict:
     ----------
     result : harness.validation.CaseResult
         The case's plan, runs, difference tables and provenance.
-    figures : sequence of str
-        File names of the figures in the case folder, shown in the order of :data:`FIGURES`.
+    figures : sequence of str or dict
+        The figures in the case folder, shown in the order of :data:`FIGURES`: file names, or entries
+        ``{"file": NAME, "axes": [LABEL, ...]}`` with the label (``"name [unit]"``) of each of their axes.
     scenario : planners.scenario.Scenario, optional
         The loaded scenario (its file text, flat outputs, report times); loaded
         again from ``result.case.scenario`` when not given (parsing only).
@@ -191,12 +222,13 @@ def case_model(result, figures=(), *, scenario=None) -> dict:
         if getattr(result, "settings", None) is not None
         else {"tolerances": case.tolerance_spec, "windows": case.window_spec, "dt_out": case.dt_out}
     )
-    warnings = [f"plan: {w}" for w in plan.warnings]
+    said = [(_plan_source(w, plan.J), _plan_text(w)) for w in plan.warnings]
     for label, res in result.runs.items():
         if res.status != "completed":
-            warnings.append(f"{label}: run {res.status}{(': ' + res.message) if res.message else ''}")
-        warnings += [f"{label}: {w}" for w in res.warnings]
-    warnings += [f"{t['labels'][1]} - {t['labels'][0]} ({t['window']}): {n}" for t in tables for n in t["notes"]]
+            said.append((label, f"run {res.status}{(': ' + res.message) if res.message else ''}"))
+        said += [(label, w) for w in res.warnings]
+    said += [(f"{t['labels'][1]} - {t['labels'][0]} ({t['window']})", n) for t in tables for n in t["notes"]]
+    warnings = merged_warnings(said)
     closed = None
     if result.closed_loop is not None:
         ctl = result.closed_loop.controller
@@ -206,7 +238,11 @@ def case_model(result, figures=(), *, scenario=None) -> dict:
             "lambdas": [list(x) for x in getattr(ctl, "lambdas", ())],
             "saturated_s": result.saturated_s(),
         }
-    shown = [{"file": f, "caption": c} for f, c in FIGURES.items() if f in set(map(str, figures))]
+    given = {}
+    for f in figures:
+        entry = f if isinstance(f, dict) else {"file": str(f)}
+        given[str(entry["file"])] = list(entry.get("axes") or [])
+    shown = [{"file": f, "caption": c, "axes": given[f]} for f, c in FIGURES.items() if f in given]
     model = {
         "schema": SCHEMA,
         "title": f"{plan.name} (J = {plan.J}), {case.loop} loop",
@@ -273,13 +309,10 @@ def write_case_report(result, out, *, figures=(), scenario=None) -> Path:
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    drawn = [
-        write_singularity_figure(result.plan, out),
-        write_controls_limits_figure(result, out),
-        write_signed_differences_figure(result, out),
-    ]
-    names = list(map(str, figures)) + [p.name for p in drawn if p is not None]
-    text = json.dumps(case_model(result, names, scenario=scenario), indent=1, allow_nan=False) + "\n"
+    drawn = write_singularity_figure(result.plan, out)
+    names = list(map(str, figures)) + ([drawn.name] if drawn is not None else [])
+    entries = [{"file": n, "axes": recorded_axes(out / n) or []} for n in names]
+    text = json.dumps(case_model(result, entries, scenario=scenario), indent=1, allow_nan=False) + "\n"
     return write_text(out / REPORT_JSON, text)
 
 

@@ -1,35 +1,24 @@
-"""PDF validation report: the run's single HTML document printed by weasyprint (text stays extractable).
+"""PDF validation report: the run's HTML printed by weasyprint (text stays extractable).
 
 Each case starts a new page under a level-1 heading (a PDF bookmark) that
-carries its PASS/FAIL; the figures are the case folder's PNG files.  The
-document may come in parts cut at case boundaries
-(:func:`reports.html.document_parts`): the parts are printed concurrently in
-worker processes and put end to end with pypdf, bookmarks and the summary's
-links to the cases kept.
+carries its PASS/FAIL, its sections level-2 bookmarks; the figures are the
+case folder's PNG files, embedded as they are (not drawn again).  The cases
+come in documents cut at case boundaries (:func:`reports.html.pdf_documents`),
+printed concurrently in worker processes; the front matter (title, contents
+with each case's page, summary, manifest) is printed once their pages are
+known, and everything is put end to end with pypdf, bookmarks and links kept,
+every page numbered ``k / N`` at its foot.
 """
 
 from __future__ import annotations
 
 import io
 import os
+import struct
 from collections.abc import Sequence
 from pathlib import Path
 
 from gna.errors import writing
-
-
-def can_merge() -> bool:
-    """Whether printed parts can be put together (pypdf is installed).
-
-    Returns
-    -------
-    bool
-    """
-    try:
-        import pypdf  # noqa: F401
-    except ImportError:
-        return False
-    return True
 
 
 def _fetcher(base_url: str):
@@ -53,6 +42,60 @@ def _fetcher(base_url: str):
     return RunFetcher(allowed_protocols=("file", "data"))
 
 
+def png_stream(data: bytes) -> bytes | None:
+    """The compressed image data of an 8-bit RGB, non-interlaced PNG: its IDAT chunks end to end.
+
+    That is a PDF image's ``FlateDecode`` stream with the PNG predictors, as weasyprint writes it: the
+    figures (:meth:`reports.figures.Sheet.save`) go into the PDF without being decoded and compressed again.
+
+    Parameters
+    ----------
+    data : bytes
+        A PNG file.
+
+    Returns
+    -------
+    bytes or None
+        None for any other PNG (palette, alpha, 16-bit, interlaced) or a file that is not one.
+    """
+    if data[:8] != b"\x89PNG\r\n\x1a\n":
+        return None
+    pos, out = 8, []
+    while pos + 8 <= len(data):
+        (length,) = struct.unpack(">I", data[pos : pos + 4])
+        kind = data[pos + 4 : pos + 8]
+        chunk = data[pos + 8 : pos + 8 + length]
+        if kind == b"IHDR":
+            depth, colour, interlace = chunk[8], chunk[9], chunk[12]
+            if (depth, colour, interlace) != (8, 2, 0):  # 8-bit truecolour, not interlaced
+                return None
+        elif kind in (b"tRNS", b"PLTE"):
+            return None
+        elif kind == b"IDAT":
+            out.append(chunk)
+        elif kind == b"IEND":
+            break
+        pos += 12 + length
+    return b"".join(out) or None
+
+
+def _passthrough():
+    """weasyprint's PNG re-encoding replaced, while printing, by :func:`png_stream` where it applies."""
+    from weasyprint.images import RasterImage
+
+    original = RasterImage._get_png_data  # noqa: SLF001
+
+    def get_png_data(pillow_image):
+        fp = getattr(pillow_image, "fp", None)
+        if pillow_image.format == "PNG" and pillow_image.mode == "RGB" and hasattr(fp, "getvalue"):
+            stream = png_stream(fp.getvalue())
+            if stream is not None:
+                return stream
+        return original(pillow_image)
+
+    return RasterImage, original, staticmethod(get_png_data)
+
+
 def _print(html: str, base_url: str) -> bytes:
     import gc
 
@@ -60,14 +103,18 @@ def _print(html: str, base_url: str) -> bytes:
 
     gc.collect()
     gc.freeze()  # the objects alive before printing are not scanned again by every collection
+    cls, original, patched = _passthrough()
+    cls._get_png_data = patched  # noqa: SLF001
     try:
         return weasyprint.HTML(string=html, base_url=base_url, url_fetcher=_fetcher(base_url)).write_pdf()
     finally:
+        cls._get_png_data = staticmethod(original)  # noqa: SLF001
         gc.unfreeze()
 
 
-def _merge(parts: list[bytes]) -> bytes:
-    """PDF documents end to end: pages, bookmarks, links and the named destinations they point to."""
+def _merge(parts: list[bytes], number: bool = False) -> bytes:
+    """PDF documents end to end: pages, bookmarks, links and the named destinations they point to; with
+    ``number``, every page numbered at its foot (:func:`_number_pages`)."""
     from pypdf import PdfReader, PdfWriter
     from pypdf.generic import ArrayObject, DictionaryObject, FloatObject, NameObject, NumberObject, TextStringObject
 
@@ -75,8 +122,8 @@ def _merge(parts: list[bytes]) -> bytes:
     writer = PdfWriter()
     for reader in readers:
         writer.append(reader, import_outline=True)
-    # named destinations: the last part's of each name (the first part's anchors of later cases are placeholders
-    # that let weasyprint print the summary's links)
+    # named destinations: the last document's of each name (the front matter's anchors of the cases are
+    # placeholders that let weasyprint print its links)
     dests, offset = {}, 0
     for reader in readers:
         for name, d in reader.named_destinations.items():
@@ -99,26 +146,91 @@ def _merge(parts: list[bytes]) -> bytes:
     )
     if readers[0].metadata:
         writer.add_metadata(dict(readers[0].metadata))
+    if number:
+        _number_pages(writer)
     buf = io.BytesIO()
     writer.write(buf)
     return buf.getvalue()
 
 
-def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path, *, run_all=None) -> Path:
-    """Print an HTML document (or its parts, end to end) to PDF with weasyprint.
+#: Font size [pt] and distance from the page's foot [pt] of the page numbers.
+PAGE_NUMBER_PT, PAGE_NUMBER_FOOT_PT = 8, 22
+
+
+def _number_pages(writer) -> None:
+    """Write ``k / N`` at the foot of every page (centred; Helvetica, a standard PDF font: nothing embedded).
+
+    Each page's content is wrapped in ``q ... Q`` and a stream drawing its number appended: the page's own
+    content streams are not parsed nor rewritten.
+    """
+    from pypdf.generic import ArrayObject, DecodedStreamObject, DictionaryObject, NameObject
+
+    font = writer._add_object(  # noqa: SLF001  (pypdf's way to add an indirect object)
+        DictionaryObject(
+            {
+                NameObject("/Type"): NameObject("/Font"),
+                NameObject("/Subtype"): NameObject("/Type1"),
+                NameObject("/BaseFont"): NameObject("/Helvetica"),
+                NameObject("/Encoding"): NameObject("/WinAnsiEncoding"),
+            }
+        )
+    )
+    n = len(writer.pages)
+    for k, page in enumerate(writer.pages, start=1):
+        label = f"{k} / {n}"
+        width = float(page.mediabox.width)
+        x = float(page.mediabox.left) + 0.5 * width - 0.25 * PAGE_NUMBER_PT * len(label)
+        y = float(page.mediabox.bottom) + PAGE_NUMBER_FOOT_PT
+        resources = page.get("/Resources")
+        resources = resources.get_object() if resources is not None else DictionaryObject()
+        fonts = resources.get("/Font")
+        fonts = DictionaryObject(fonts.get_object()) if fonts is not None else DictionaryObject()
+        fonts[NameObject("/GflatPageNo")] = font
+        resources = DictionaryObject(resources)
+        resources[NameObject("/Font")] = fonts
+        page[NameObject("/Resources")] = resources
+        before, after = DecodedStreamObject(), DecodedStreamObject()
+        before.set_data(b"q\n")
+        after.set_data(
+            f"Q\nq BT /GflatPageNo {PAGE_NUMBER_PT} Tf 0.35 g {x:.2f} {y:.2f} Td ({label}) Tj ET Q\n".encode("ascii")
+        )
+        contents = page.get("/Contents")
+        streams = ArrayObject([writer._add_object(before)])  # noqa: SLF001
+        if contents is not None:
+            obj = contents.get_object()
+            streams += list(obj) if isinstance(obj, ArrayObject) else [contents]
+        streams.append(writer._add_object(after))  # noqa: SLF001
+        page[NameObject("/Contents")] = streams
+
+
+def _pages_of(data: bytes) -> tuple[int, dict]:
+    """Page count of a printed PDF and the 0-based page of each of its named destinations."""
+    from pypdf import PdfReader
+
+    reader = PdfReader(io.BytesIO(data))
+    return len(reader.pages), {
+        str(name): reader.get_destination_page_number(d) for name, d in reader.named_destinations.items()
+    }
+
+
+def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path, *, run_all=None, front=None) -> Path:
+    """Print an HTML document (or documents, end to end) to PDF with weasyprint.
 
     Parameters
     ----------
     html : str or sequence of str
-        The document (:func:`reports.html.single_document`), or its parts
-        (:func:`reports.html.document_parts`; several need pypdf).
+        The document, or the documents of the cases (:func:`reports.html.pdf_documents`; more than one,
+        or a ``front``, need pypdf).
     base_dir : str or Path
         Folder its relative image paths resolve against.
     path : str or Path
         The PDF to write; its folder must exist.
     run_all : callable, optional
-        ``run_all(callables, jobs)`` -> their results in order: prints the parts concurrently (a command gives
-        :func:`harness.parallel.run_all`); default one after the other.
+        ``run_all(callables, jobs)`` -> their results in order: prints the documents concurrently (a command
+        gives :func:`harness.parallel.run_all`); default one after the other.
+    front : callable, optional
+        ``front(pages) -> str``: the front matter, given the 1-based page of each named destination of the
+        documents (:func:`reports.html.pdf_documents`); printed after them, put first, every page numbered.
 
     Returns
     -------
@@ -128,12 +240,26 @@ def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path,
     path = Path(path)
     docs = [html] if isinstance(html, str) else list(html)
     base_url = str(Path(base_dir).resolve()) + os.sep
-    if len(docs) == 1:
+    if len(docs) == 1 and front is None:
         data = _print(docs[0], base_url)
     else:
         prints = [lambda doc=doc: _print(doc, base_url) for doc in docs]
-        printed = run_all(prints, len(docs)) if run_all is not None else [p() for p in prints]
-        data = _merge(list(printed))
+        printed = list(run_all(prints, len(docs)) if run_all is not None and len(docs) > 1 else [p() for p in prints])
+        if front is not None:
+            where, offset = {}, 0
+            for data in printed:
+                n, dests = _pages_of(data)
+                where.update({name: offset + p for name, p in dests.items()})
+                offset += n
+            guess = 1
+            for _ in range(3):  # the front matter's own length shifts the pages it lists
+                first = _print(front({name: guess + p + 1 for name, p in where.items()}), base_url)
+                n = _pages_of(first)[0]
+                if n == guess:
+                    break
+                guess = n
+            printed = [first] + printed
+        data = _merge(printed, number=front is not None)
     with writing(path):
         path.write_bytes(data)
     return path

@@ -19,7 +19,7 @@ import numpy as np
 
 from harness.metrics import position_error
 
-from .figures import grid_margins, plot_scale, save_figure
+from .figures import label, log_limits, plot_scale, sheet, span_limits, time_axis
 
 #: Variables drawn, in panel order (the paper's figures show the angles and the surfaces).
 TRACKING_VARIABLES: tuple[str, ...] = ("V", "alpha", "beta", "mu", "F", "dl", "dm", "dn")
@@ -50,8 +50,6 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
     ValueError
         When the result is not a closed-loop one.
     """
-    from matplotlib.figure import Figure
-
     if result.closed_loop is None or result.open_loop is None:
         raise ValueError("the four-curve figure needs a closed-loop case result")
     plan = result.plan
@@ -62,65 +60,61 @@ def write_tracking_figure(result, out_dir: str | Path, name: str = "tracking.png
     flat = plan.to_dataframe(t, j=0)
     gen = plan.to_dataframe(t, j=plan.J)
     opened = result.open_loop.df
-    fig = Figure(figsize=(13, 11), layout=None)
-    axs = fig.subplots(3, 3, sharex=True)
-    for ax, var in zip(axs.ravel(), TRACKING_VARIABLES):
+    s = sheet()
+    axes = s.panels(
+        3,
+        3,
+        f"{plan.name}: closed loop with the tracking feedback (engine {result.reference_engine}) "
+        f"against the flat (J = 0) and generalized (J = {plan.J}) plans",
+    )
+    t0, t1 = float(t[0]), float(t[-1])
+    handles = {}
+    for ax, var in zip(axes, TRACKING_VARIABLES):
         k, unit = plot_scale(var)
-        ax.plot(flat.index, flat[var] * k, color=COLOURS["flat"], lw=1.2, label="flat plan J = 0")
-        ax.plot(
-            opened.index,
-            opened[var] * k,
-            color=COLOURS["open"],
-            lw=1.0,
-            ls="--",
-            label="open loop, generalized controls",
-        )
         surf = " (delta + d delta)" if var in ("F", "dl", "dm", "dn") else ""
-        ax.plot(
-            dark_blue.df.index,
-            dark_blue.df[var] * k,
-            color=COLOURS["closed"],
-            lw=1.2,
-            label="closed loop, feedforward J = 0" + surf,
-        )
+        curves = [
+            (flat, {"color": COLOURS["flat"], "lw": 1.2}, "flat plan J = 0"),
+            (opened, {"color": COLOURS["open"], "lw": 1.0, "ls": "--"}, "open loop, generalized controls"),
+            (dark_blue.df, {"color": COLOURS["closed"], "lw": 1.2}, "closed loop, feedforward J = 0" + surf),
+        ]
         if dark_blue is not closed:
-            ax.plot(
-                closed.df.index,
-                closed.df[var] * k,
-                color=COLOURS["closed_last"],
-                lw=1.0,
-                ls=":",
-                label=f"closed loop, feedforward j = {j}" + surf,
+            curves.append(
+                (
+                    closed.df,
+                    {"color": COLOURS["closed_last"], "lw": 1.0, "ls": ":"},
+                    f"closed loop, feedforward j = {j}" + surf,
+                )
             )
         # drawn last, thin and translucent: it lies under the closed loop when the tracking is good
-        ax.plot(
-            gen.index,
-            gen[var] * k,
-            color=COLOURS["generalized"],
-            lw=2.5,
-            alpha=0.55,
-            ls=(0, (4, 3)),
-            label=f"generalized plan J = {plan.J}",
+        curves.append(
+            (
+                gen,
+                {"color": COLOURS["generalized"], "lw": 2.5, "alpha": 0.55, "ls": (0, (4, 3))},
+                f"generalized plan J = {plan.J}",
+            )
         )
-        ax.set_ylabel(f"{var} [{unit}]")
-        ax.grid(alpha=0.3)
-    ax = axs.ravel()[-1]
-    curves = [(dark_blue, COLOURS["closed"], "closed loop, J = 0 feedforward", "-")]
+        drawn = []
+        for df, style, lab in curves:
+            y = df[var].to_numpy(float) * k
+            (handles[lab.replace(surf, "")],) = s.line(ax, np.asarray(df.index, dtype=float), y, label=lab, **style)
+            drawn.append(y)
+        ax.set_ylim(*span_limits(drawn, unit))
+        ax.set_ylabel(label(var, unit))
+        time_axis(ax, t0, t1, s)
+    ax = axes[-1]
+    s.log(ax)
+    errors = [(dark_blue, COLOURS["closed"], "-")]
     if dark_blue is not closed:
-        curves.append((closed, COLOURS["closed_last"], f"closed loop, j = {j} feedforward", ":"))
-    curves.append((result.open_loop, COLOURS["open"], "open loop", "--"))
-    for run, colour, label, ls in curves:
-        err = position_error(run, lambda tt: plan.state(tt, plan.J))
-        ax.semilogy(err.index, np.maximum(err.to_numpy(), 1e-9), color=colour, lw=1.2, ls=ls, label=label)
-    ax.set_ylabel("|position - flat outputs| [m]")
-    ax.grid(alpha=0.3, which="both")
-    for a in axs[-1]:
-        a.set_xlabel("t [s]")
-    axs[0, 0].legend(fontsize=7)
-    ax.legend(fontsize=7)
-    fig.suptitle(
-        f"{plan.name}: closed loop with the tracking feedback (engine {result.reference_engine}) "
-        f"against the flat (J = 0) and generalized (J = {plan.J}) plans"
-    )
-    grid_margins(fig)
-    return save_figure(fig, out_dir, name)
+        errors.append((closed, COLOURS["closed_last"], ":"))
+    errors.append((result.open_loop, COLOURS["open"], "--"))
+    drawn = []
+    for run, colour, ls in errors:
+        err = position_error(run, gen)
+        y = np.maximum(err.to_numpy(float), 1e-9)
+        s.line(ax, np.asarray(err.index, dtype=float), y, color=colour, lw=1.2, ls=ls)
+        drawn.append(y)
+    ax.set_ylim(*log_limits(drawn, 1e-9))
+    ax.set_ylabel(label("|position - flat outputs|", "m"))
+    time_axis(ax, t0, t1, s)
+    s.legend(list(handles.values()), list(handles), ncol=3)
+    return s.save(out_dir, name)

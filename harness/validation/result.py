@@ -150,11 +150,17 @@ class CaseResult:
         Returns
         -------
         dict
-            Engine name -> ``{"F": s, ..., "any": s}``; empty open loop.
+            Engine name -> ``{"F": s, ..., "any": s}``; empty open loop.  Computed once (the controller
+        evaluated at every sample) and kept: the verdict, the summary and the report each ask for it.
         """
         if self.closed_loop is None:
             return {}
-        return {label: saturated_seconds(self.closed_loop.controller, res) for label, res in self.runs.items()}
+        key = (id(self.closed_loop), tuple((label, id(res)) for label, res in self.runs.items()))
+        memo = self.__dict__.get("_saturated")
+        if memo is None or memo[0] != key:
+            memo = (key, {label: saturated_seconds(self.closed_loop.controller, r) for label, r in self.runs.items()})
+            self.__dict__["_saturated"] = memo
+        return {label: dict(v) for label, v in memo[1].items()}
 
     def verdicts(self) -> dict:
         """The three verdicts of the case (:mod:`harness.validation.verdicts`).

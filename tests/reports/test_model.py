@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import pytest
 
@@ -41,13 +42,11 @@ def test_every_case_folder_holds_its_model_as_strict_json(report_run):
         files = [f["file"] for f in model["figures"]]
         for f in files:
             assert (path.parent / f).stat().st_size > 0
-        assert {
-            "states.png",
-            "controls-limits.png",
-            "signed-differences.png",
-            "differences.png",
-            "singularity.png",
-        } <= set(files)
+        assert {"states.png", "controls.png", "differences.png", "singularity.png"} <= set(files)
+        for f in model["figures"]:  # every axis of every figure labelled with its unit (PNG metadata)
+            assert f["axes"] and all(re.fullmatch(r".+ \[[^\]]+\]", a) for a in f["axes"]), f
+        axes = {a for f in model["figures"] for a in f["axes"]}
+        assert {"h = -z [m]", "x (north) [m]", "y (east) [m]", "alpha [deg]", "p [deg/s]", "dl [deg]"} <= axes
         assert ("tracking.png" in files) == (loop == "closed")
         assert (model["closed_loop"] is not None) == (loop == "closed")
         assert model["provenance"]["jsbsim"]
@@ -67,7 +66,7 @@ def test_every_case_folder_holds_its_model_as_strict_json(report_run):
 def test_the_model_is_a_function_of_the_result(report_run):
     result = report_run.results["open"]
     saved = json.loads((report_run.root / SCENARIO / CASE_FOLDERS["open"] / REPORT_JSON).read_text())
-    again = case_model(result, [f["file"] for f in saved["figures"]], scenario=report_run.scenario)
+    again = case_model(result, saved["figures"], scenario=report_run.scenario)
     assert again == saved
 
 

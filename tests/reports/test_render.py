@@ -90,7 +90,7 @@ def test_the_self_contained_file_embeds_every_image(report_run):
     srcs = re.findall(r'<img src="([^"]*)"', text)
     n_figures = sum(len(list((report_run.root / SCENARIO / f).glob("*.png"))) for f in CASE_FOLDERS.values())
     assert srcs and all(s.startswith("data:image/png;base64,") for s in srcs)
-    assert len(srcs) == n_figures - 2  # every figure but the plain controls.png (drawn with limits instead)
+    assert len(srcs) == n_figures  # every figure of every case
     hrefs = re.findall(r'href="([^"]*)"', text)
     assert hrefs and all(h.startswith(("#", "data:")) for h in hrefs)  # one file to mail: no link leaves it
 
@@ -160,7 +160,7 @@ def test_the_index_has_a_column_per_verdict_and_the_case_page_the_violations(rep
     page = (case / "case.html").read_text(encoding="utf-8")
     section = page.split(">Verdicts<")[1].split(">Scenario<")[0]
     assert "FAIL (recorded)" in section and "-27.77&deg;" in section and "-20.00&deg;" in section
-    assert "yes: the paper&#39;s slip" in section and "100 %" in section
+    assert "yes: the paper&#39;s slip" in section and "<td>100</td>" in section and "span [%]" in section
     assert "FAIL (recorded)" in (case / "index.html").read_text(encoding="utf-8")
     model["verdict"]["failures"] = ["flyable: dl"]
     record.update(known=False, reason=None)
