@@ -284,6 +284,8 @@ def _short(value: Any) -> str:
 def _expected(schema: Mapping[str, Any]) -> str:
     if "enum" in schema:
         return "one of " + ", ".join(repr(v) for v in schema["enum"])
+    if "const" in schema:
+        return repr(schema["const"])
     t = schema.get("type")
     if isinstance(t, list):
         return " or ".join(_TYPE_WORDS.get(x, x) for x in t)
@@ -291,6 +293,8 @@ def _expected(schema: Mapping[str, Any]) -> str:
         return _TYPE_WORDS.get(t, t)
     if "oneOf" in schema or "anyOf" in schema:
         return " or ".join(_expected(s) for s in schema.get("oneOf", schema.get("anyOf")))
+    if "$ref" in schema:  # the scenario schema's definitions are tables (a spline, a boundary)
+        return "a table"
     return "valid"
 
 
@@ -390,6 +394,11 @@ def _message(error, where: str) -> str:
         best = jsonschema.exceptions.best_match(error.context)
         if best is not None and len(best.absolute_path) > len(error.absolute_path):
             return _message(best, where)
+        # the alternative of the value's own type (a table where a table is allowed) names its problem
+        deeper = [e for e in error.context if len(e.absolute_path) > len(error.absolute_path)]
+        typed = deeper or [e for e in error.context if e.validator not in ("type", "const", "enum")]
+        if typed:
+            return _message(jsonschema.exceptions.best_match(typed), where)
     name = key if key is not None else "value"
     custom = schema.get("errorMessage")
     if index is not None:

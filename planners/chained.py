@@ -632,6 +632,7 @@ def generalized_parametrization(
     newton_tol: float | None = None,
     guesses: list | None = None,
     progress: Callable | None = None,
+    stop: Callable | None = None,
 ) -> ChainedPlan:
     """``GeneralizedFlatParametrization(v, zeta, J, e)`` of the paper for a chained system.
 
@@ -660,11 +661,15 @@ def generalized_parametrization(
         the same iterate at a lower order) instead of the previous iterate.
     progress : callable, optional
         ``progress(j, kappa, seconds)`` after each iterate.
+    stop : callable, optional
+        ``stop(sol) -> bool`` after each iterate: True ends the iterations there (e.g. at a Newton failure,
+        when only whether the plan exists matters).
 
     Returns
     -------
     ChainedPlan
-        Every iterate j = 0..J (iterate j at ``kappa_0 - j L``, ``kappa_0 = e + r + J L``).
+        Every iterate j = 0..J (iterate j at ``kappa_0 - j L``, ``kappa_0 = e + r + J L``), or up to the
+        one ``stop`` ended at.
 
     Raises
     ------
@@ -685,6 +690,8 @@ def generalized_parametrization(
         if progress is not None:
             progress(j, kappa, timings[j])
         iterates.append(sol)
+        if stop is not None and stop(sol):
+            break
         hat = {n: sol[n] for n in system.neglected}
         prev = sol
         kappa -= system.L

@@ -21,7 +21,7 @@ import logging
 import numpy as np
 
 from gna.eom import STATE_NAMES
-from gna.errors import InputError
+from gna.errors import DomainError, InputError
 from gna.trajectory import domain_bounds, first_domain_violation, ground_violation, inside_domain
 
 from .chained import generalized_parametrization
@@ -157,6 +157,7 @@ def plan_motion(
     interpolation: str | None = None,
     J_tol: float = AUTO_J_TOL,
     J_max: int = AUTO_J_MAX,
+    stop_on_failure: bool = False,
 ) -> Plan:
     """Plan with J generalized-flatness iterations, or Newton's method on their fixed point.
 
@@ -195,6 +196,10 @@ def plan_motion(
         ``J = "auto"`` only: residual tolerance [m/s^2, rad/s] (default :data:`AUTO_J_TOL`).
     J_max : int
         ``J = "auto"`` only: largest J tried (default :data:`AUTO_J_MAX`).
+    stop_on_failure : bool
+        Fixed-point method with a whole J: end the iterations at the first iterate whose Newton fails
+        (the plan is then infeasible and has fewer iterates than J + 1); for callers that only need to
+        know whether the plan exists (the bounded planner's candidates), at a fraction of a failure's cost.
 
     Returns
     -------
@@ -254,7 +259,7 @@ def plan_motion(
             )
         return _finish(plan)
     if not auto:
-        iterates, timings = _fixed_point(problem, t_nodes, J, e, name)
+        iterates, timings = _fixed_point(problem, t_nodes, J, e, name, stop_on_failure=stop_on_failure)
         plan = Plan(problem, t_nodes, iterates, [], name, timings, interpolation=interpolation, e=e)
         plan.generalized = {"method": method, "J_rule": "given"}
         return _finish(plan)
@@ -287,7 +292,13 @@ def _duration(seconds: float) -> str:
 
 
 def _fixed_point(
-    problem: FlatProblem, t_nodes: np.ndarray, J: int, e: int, name: str, guesses: list | None = None
+    problem: FlatProblem,
+    t_nodes: np.ndarray,
+    J: int,
+    e: int,
+    name: str,
+    guesses: list | None = None,
+    stop_on_failure: bool = False,
 ) -> tuple[list, dict]:
     """The paper's J iterations (:func:`planners.chained.generalized_parametrization` of
     :func:`planners.flat.aircraft_system`): iterates 0..J (orders ``e + 4 + 2 (J - j)``) and their
@@ -321,9 +332,21 @@ def _fixed_point(
     # Near a singularity Newton may overflow: reported through the Newton and monitor warnings.
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         cp = generalized_parametrization(
-            aircraft_system(problem), t_nodes, None, J, e, guesses=guesses, progress=progress
+            aircraft_system(problem),
+            t_nodes,
+            None,
+            J,
+            e,
+            guesses=guesses,
+            progress=progress,
+            stop=_failed if stop_on_failure else None,
         )
     return [plan_iterate(it) for it in cp.iterates], cp.timings
+
+
+def _failed(sol) -> bool:
+    """Whether an iterate's Newton failed somewhere (a stage report with failures)."""
+    return any(getattr(rep, "failures", ()) for rep in sol.reports.values())
 
 
 def _more_iterations(res: list, tol: float) -> int:
@@ -472,6 +495,7 @@ def plan_scenario(
     method: str | None = None,
     e: int | None = None,
     interpolation: str | None = None,
+    stop_on_failure: bool = False,
 ) -> Plan:
     """Plan a :class:`~planners.scenario.Scenario`.
 
@@ -491,11 +515,16 @@ def plan_scenario(
         Output order (the controls' series order in the last iterate); default: the scenario's.
     interpolation : {"hermite", "paper"}, optional
         Evaluation between nodes; default: the scenario's.
+    stop_on_failure : bool
+        End the iterations at the first Newton failure (:func:`plan_motion`).
 
     Returns
     -------
     Plan
-        See :func:`plan_motion`.
+        See :func:`plan_motion`.  A scenario with free parameters (``[parameters]`` with a range) is planned
+        bounded (:func:`planners.bounded.plan_bounded`: the parameters minimizing its ``[bounded] cost``
+        within the aircraft's limits, every candidate planned by this function); the plan of the optimum
+        is returned, ``plan.bounded`` holding the optimizer's outcome.
 
     Raises
     ------
@@ -503,6 +532,8 @@ def plan_scenario(
         ``scenario`` is not a Scenario, ``J`` is neither a whole number in 0..30 nor ``"auto"``, ``e``
         is not in 0..MAX_E, an unknown interpolation, or an unknown ``[generalized] method`` in the
         scenario.
+    DomainError
+        A bounded scenario none of whose parameter vectors gave a plan.
     """
     if not (callable(getattr(scenario, "problem", None)) and hasattr(scenario, "t_nodes")):
         raise InputError(
@@ -511,6 +542,19 @@ def plan_scenario(
         )
     if J is not None and not (isinstance(J, str) and J == AUTO_J):
         J = check_iterations(J, f"plan_scenario({scenario.name})")
+    if getattr(scenario, "free_parameters", ()):
+        from .bounded import plan_bounded
+
+        if method is not None or e is not None or interpolation is not None:
+            raise InputError(
+                f"plan_scenario({scenario.name}): a scenario with free parameters is planned bounded with its "
+                f"own method, e and interpolation"
+            )
+        result = plan_bounded(scenario, J=J, max_cost=max_cost)
+        if result.plan is None:
+            raise DomainError(f"{scenario.name}: {result.infeasible_line()}")
+        result.plan.bounded = result
+        return result.plan
     if method is None:
         gen = (getattr(scenario, "raw", None) or {}).get("generalized", {})
         method = gen.get("method", "fixed-point") if isinstance(gen, dict) else "fixed-point"
@@ -532,4 +576,5 @@ def plan_scenario(
         interpolation=interpolation,
         J_tol=getattr(scenario, "J_tol", AUTO_J_TOL),
         J_max=getattr(scenario, "J_max", AUTO_J_MAX),
+        stop_on_failure=stop_on_failure,
     )

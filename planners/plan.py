@@ -287,6 +287,9 @@ class Plan:
         paper's two-sided formula (module docstring).
     e : int
         Order of the controls' series in the last iterate (the paper's output order e).
+    bounded : planners.bounded.BoundedResult or None
+        For a scenario with free parameters, the bounded planner's outcome (optimum, cost, active
+        limits, plans evaluated) this plan is the optimum of; None otherwise.
     """
 
     problem: FlatProblem
@@ -300,6 +303,7 @@ class Plan:
     generalized: dict = field(default_factory=dict)
     interpolation: str = DEFAULT_INTERPOLATION
     e: int = 1
+    bounded: object | None = field(default=None, repr=False)
 
     def __post_init__(self):
         check_interpolation(self.interpolation, f"plan {self.name}")

@@ -117,11 +117,13 @@ from gna.ground_effect import GroundEffect
 from gna.perturbation import Perturbation, perturbation_from_dict
 from gna.schema import check_name, find_file, load_schema, read_toml, unknown_key_message, validate
 
+from .bounded import BoundedSettings, bounded_settings
 from .expressions import CONSTANTS, FUNCTIONS, Expression, compile_expression
 from .flat import FLAT_KINDS, FlatOutput, FlatProblem, check_iterations
 from .generalized import AUTO_J, AUTO_J_MAX, AUTO_J_TOL, check_output_order
 from .lqr import DEFAULT_TOLERANCES, TrackingTolerances, check_design
 from .plan import DEFAULT_INTERPOLATION, check_interpolation
+from .splines import BASES, bezier_expression, bezier_points, steady_derivatives
 
 #: Largest grid accepted (memory: every node carries ~20 series of order up to 5 + 2J).
 MAX_NODES = 20000
@@ -176,6 +178,118 @@ class KnownViolation:
 
     name: str
     reason: str
+
+
+#: Keys of a parameter of the ``[parameters]`` table.
+PARAMETER_KEYS: tuple[str, ...] = ("value", "min", "max", "description")
+
+#: Keys of a spline flat output (``x = {basis = "bezier", ...}``).
+SPLINE_KEYS: tuple[str, ...] = ("basis", "coefficients", "start", "end")
+
+#: Keys of a side of the ``[boundary]`` table besides the trim variables.
+BOUNDARY_KEYS: tuple[str, ...] = ("altitude", "x", "y", "chi")
+
+#: Trim variables a side of ``[boundary]`` fixes when it gives fewer than four, in this order (level,
+#: straight, coordinated).
+BOUNDARY_DEFAULTS: tuple[tuple[str, float], ...] = (("gamma", 0.0), ("chi_dot", 0.0), ("beta", 0.0))
+
+#: Default highest derivative of x, y, z matched at a boundary (4: the controls start and end at the trims').
+DEFAULT_BOUNDARY_ORDER = 4
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A parameter of a scenario (``[parameters] name = {value = ..., min = ..., max = ...}``).
+
+    Attributes
+    ----------
+    name : str
+        The name the expressions use.
+    value : float
+        Its value (the nominal one; the bounded planner's starting point and the ``deviation`` cost's
+        reference).
+    lower, upper : float
+        Its range (``lower <= value <= upper``).
+    free : bool
+        The bounded planner chooses it (``lower < upper`` in a scenario as loaded; False in the scenario of
+        one member of the family, :meth:`Scenario.at`).
+    description : str
+    """
+
+    name: str
+    value: float
+    lower: float
+    upper: float
+    free: bool = True
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class BoundaryState:
+    """One end of a point-to-point manoeuvre: a steady flight (trim) at a position and heading.
+
+    Attributes
+    ----------
+    side : {"start", "end"}
+    time : float
+        ``t0`` or ``t1`` [s].
+    trim : gna.trim.TrimResult
+        The full-model trim (``gflat trim``'s solution) with the side's four fixed variables.
+    x, y, chi, altitude : float
+        Position [m], heading [rad] and altitude [m] of the point.
+    derivatives : dict
+        ``"x"``, ``"y"``, ``"z"`` -> values and derivatives ``0..order`` of the steady flight there (SI).
+    """
+
+    side: str
+    time: float
+    trim: Any
+    x: float
+    y: float
+    chi: float
+    altitude: float
+    derivatives: dict
+
+    def state(self) -> np.ndarray:
+        """The 12 states of the steady flight at the point (SI, rad; :data:`gna.eom.STATE_NAMES` order).
+
+        Returns
+        -------
+        ndarray, shape (12,)
+        """
+        v = self.trim.values
+        return np.array(
+            [self.x, self.y, -self.altitude, v["V"], v["gamma"], self.chi]
+            + [v[k] for k in ("alpha", "beta", "mu", "p", "q", "r")]
+        )
+
+    def controls(self) -> np.ndarray:
+        """The trim's controls ``(F, eta, dl, dm, dn)`` [N, -, rad, rad, rad].
+
+        Returns
+        -------
+        ndarray, shape (5,)
+        """
+        return np.array(list(self.trim.controls), dtype=float)
+
+    def to_dict(self) -> dict:
+        """The boundary as JSON-ready data (SI, rad).
+
+        Returns
+        -------
+        dict
+            ``side``, ``time``, ``x``, ``y``, ``chi``, ``altitude``, ``trim_fixed``, ``trim`` (the 13 trim values).
+        """
+        return {
+            "side": self.side,
+            "time": self.time,
+            "x": self.x,
+            "y": self.y,
+            "chi": self.chi,
+            "altitude": self.altitude,
+            "trim_fixed": dict(self.trim.fixed),
+            "trim": dict(self.trim.values),
+        }
 
 
 #: Default sampling interval [s] of the feedback on sampled engines (JSBSim): None, every engine step.  A
@@ -276,11 +390,91 @@ class Scenario:
     tracking: Tracking = field(default_factory=Tracking)
     compare: Mapping = field(default_factory=dict)
     known: tuple = ()
+    parameters: tuple = ()
+    boundary: Mapping = field(default_factory=dict)
+    bounded: BoundedSettings = field(default_factory=BoundedSettings)
 
     @property
     def t_nodes(self) -> np.ndarray:
         n = int(round((self.t1 - self.t0) / self.step))
         return np.linspace(self.t0, self.t1, n + 1)
+
+    @property
+    def free_parameters(self) -> tuple:
+        """The parameters the bounded planner chooses (:class:`Parameter` with ``free``), in file order."""
+        return tuple(p for p in self.parameters if p.free)
+
+    def parameter_values(self) -> dict:
+        """Every parameter's value.
+
+        Returns
+        -------
+        dict
+            Name -> value.
+        """
+        return {p.name: p.value for p in self.parameters}
+
+    def at(self, values: Mapping[str, float]) -> Scenario:
+        """The member of the scenario's family with the given parameter values, every parameter fixed.
+
+        The flat outputs, the time span and grid, the boundary trims and the calibration are rebuilt
+        from the file with the values; the aircraft (possibly perturbed), tracking, comparison settings
+        and recorded violations are this scenario's.
+
+        Parameters
+        ----------
+        values : mapping
+            Parameter name -> value (the others keep theirs); each within its range.
+
+        Returns
+        -------
+        Scenario
+            With no free parameter (:attr:`free_parameters` empty): its plan is a plain plan.
+
+        Raises
+        ------
+        InputError
+            An unknown parameter, a value outside its range, or an expression or grid the values make
+            invalid.
+        gna.errors.GflatError
+            A boundary trim or the calibration that does not converge at these values.
+        """
+        from dataclasses import replace
+
+        known = {p.name: p for p in self.parameters}
+        for k, v in values.items():
+            if k not in known:
+                raise InputError(unknown_key_message(k, tuple(known), f"{self.name} parameters"))
+            p = known[k]
+            if not (isinstance(v, (int, float)) and p.lower - 1e-12 * max(1.0, abs(p.lower)) <= v):
+                raise InputError(f"{self.name}: parameter {k} = {v!r} is outside [{p.lower:g}, {p.upper:g}]")
+            if not v <= p.upper + 1e-12 * max(1.0, abs(p.upper)):
+                raise InputError(f"{self.name}: parameter {k} = {v!r} is outside [{p.lower:g}, {p.upper:g}]")
+        data = dict(self.raw)
+        table = {k: dict(v) for k, v in (self.raw.get("parameters") or {}).items()}
+        for k, v in values.items():
+            table[k]["value"] = min(max(float(v), known[k].lower), known[k].upper)
+        data["parameters"] = table
+        new = scenario_from_dict(
+            data, where=self.path or self.name, J=self.J, path=self.path, aircraft=self.aircraft, member=True
+        )
+        return replace(
+            self,
+            t1=new.t1,
+            step=new.step,
+            x=new.x,
+            y=new.y,
+            z=new.z,
+            zeta=new.zeta,
+            eta=new.eta,
+            dn=new.dn,
+            h=new.h,
+            start=new.start,
+            calibration=new.calibration,
+            parameters=new.parameters,
+            boundary=new.boundary,
+            raw=data,
+        )
 
     def problem(self) -> FlatProblem:
         """The flat planning problem of this scenario.
@@ -354,7 +548,13 @@ def load_scenario(name_or_path: str | Path, J: int | None = None) -> Scenario:
 
 
 def scenario_from_dict(
-    data: Mapping[str, Any], where: str = "scenario", J: int | None = None, path: str | None = None
+    data: Mapping[str, Any],
+    where: str = "scenario",
+    J: int | None = None,
+    path: str | None = None,
+    *,
+    aircraft: Aircraft | None = None,
+    member: bool = False,
 ) -> Scenario:
     """Build a :class:`Scenario` from the parsed TOML structure.
 
@@ -369,6 +569,11 @@ def scenario_from_dict(
         :func:`planners.generalized.choose_J`), instead of the file's.
     path : str, optional
         The file's path: an aircraft path in the file is resolved from its folder.
+    aircraft : Aircraft, optional
+        The aircraft, instead of loading the file's (:meth:`Scenario.at`: the same, possibly perturbed).
+    member : bool
+        The data of one member of a family (:meth:`Scenario.at`): already checked against the schema, and
+        every parameter fixed at its value.
 
     Returns
     -------
@@ -378,19 +583,22 @@ def scenario_from_dict(
     ------
     InputError
         One line naming the file, the table, the key and the value: an unknown key (with the closest
-        known one), conflicting keys, a wrong type, an unsafe ``name``, a constant shadowing a
-        built-in name, a bad expression or grid.
+        known one), conflicting keys, a wrong type, an unsafe ``name``, a constant or parameter shadowing
+        a built-in name, a parameter outside its range, a bad expression, spline, boundary or grid, or a
+        boundary trim that does not converge.
     """
     if not isinstance(data, Mapping):
         raise InputError(f"{where}: a scenario is a table of tables, got {type(data).__name__}")
-    validate(data, load_schema("planners", "schemas", "scenario.schema.json"), where)
+    if not member:
+        validate(data, load_schema("planners", "schemas", "scenario.schema.json"), where)
     if "name" in data:
         name = check_name(data["name"], "name", where)
     else:
         name = check_name(Path(path).stem if path else "scenario", "name (from the file name)", where)
     if "aircraft" not in data:
         raise InputError(f"{where}: missing 'aircraft'")
-    aircraft = load_aircraft(str(data["aircraft"]), base=Path(path).parent if path else None)
+    if aircraft is None:
+        aircraft = load_aircraft(str(data["aircraft"]), base=Path(path).parent if path else None)
     consts = data.get("constants", {})
     reserved = set(CONSTANTS) | set(FUNCTIONS) | {"t"}
     for k, v in consts.items():
@@ -398,9 +606,19 @@ def scenario_from_dict(
         if k in reserved:
             kind = "function" if k in FUNCTIONS else ("time variable" if k == "t" else "built-in constant")
             raise InputError(f"{where} [constants]: {k} = {v!r} would shadow the {kind} {k!r}; choose another name")
+    parameters = _parameters(data.get("parameters", {}), consts, reserved, f"{where} [parameters]", member)
+    consts = {**consts, **{p.name: p.value for p in parameters}}
     tm = data["time"]
-    t0, t1 = _num(tm, "t0", f"{where} [time]"), _num(tm, "t1", f"{where} [time]")
-    step = _num(tm, "step", f"{where} [time]")
+    t0, t1 = _time_value(tm, "t0", consts, f"{where} [time]"), _time_value(tm, "t1", consts, f"{where} [time]")
+    if ("step" in tm) == ("nodes" in tm):
+        raise InputError(f"{where} [time]: give either step (the node step [s]) or nodes (their number), not both")
+    if "nodes" in tm:
+        nodes = tm["nodes"]
+        if isinstance(nodes, bool) or not isinstance(nodes, int) or not 2 <= nodes <= MAX_NODES + 1:
+            raise InputError(f"{where} [time]: nodes must be a whole number in 2..{MAX_NODES + 1}, got {nodes!r}")
+        step = (t1 - t0) / (nodes - 1) if t1 > t0 else 0.0
+    else:
+        step = _num(tm, "step", f"{where} [time]")
     for key, v in (("t0", t0), ("t1", t1)):
         if abs(v) > MAX_TIME:
             raise InputError(f"{where} [time]: {key} = {v:g} s is beyond +-{MAX_TIME:g} s")
@@ -417,14 +635,19 @@ def scenario_from_dict(
         raise InputError(
             f"{where} [time]: step {step:g} s does not divide the span {t1 - t0:g} s ({n_steps:.6g} steps)"
         )
+    env = _environment(data.get("environment", {}), f"{where} [environment]")
     fo = data["flat_outputs"]
+    ends = {}  # the boundary trims, once eta is known
 
     def expr(key, default=...):
         if key not in fo:
             if default is ...:
                 raise InputError(f"{where} [flat_outputs]: missing {key!r}")
             return default
-        return compile_expression(fo[key], consts, where=f"{where} [flat_outputs] {key}")
+        w = f"{where} [flat_outputs] {key}"
+        if isinstance(fo[key], Mapping):
+            return _spline(fo[key], key, consts, t0, t1, ends, w)
+        return compile_expression(fo[key], consts, where=w)
 
     kind = str(fo.get("zeta", "beta"))
     if kind not in FLAT_KINDS:
@@ -444,6 +667,9 @@ def scenario_from_dict(
     dn = expr("dn", None)
     if eta is None and dn is None:
         eta = compile_expression(0.0)
+    if "boundary" in data:
+        ends.update(_boundary(data["boundary"], aircraft, env, eta, zeta, consts, (t0, t1), f"{where} [boundary]"))
+    x_out, y_out, z_out = expr("x"), expr("y"), expr("z")
     gen = data.get("generalized", {})
     J_file = _iterations(gen.get("J", 0), f"{where} [generalized]")
     stray = [k for k in ("J_tol", "J_max") if k in gen and J_file != AUTO_J]
@@ -459,7 +685,6 @@ def scenario_from_dict(
     if J_tol < 0:
         raise InputError(f"{where} [generalized]: J_tol must be >= 0 [m/s^2, rad/s], got {J_tol:g}")
     J_max = check_iterations(gen.get("J_max", AUTO_J_MAX), f"{where} [generalized] J_max")
-    env = _environment(data.get("environment", {}), f"{where} [environment]")
     cal = data.get("calibration")
     h = HValues()
     start = None
@@ -472,7 +697,7 @@ def scenario_from_dict(
             env,
             cal,
             f"{where} [calibration]",
-            -float(np.mean(np.broadcast_to(expr("z")(np.linspace(t0, t1, 5)), (5,)))),
+            -float(np.mean(np.broadcast_to(z_out(np.linspace(t0, t1, 5)), (5,)))),
         )
     rep = data.get("report", {})
     times = rep.get("times", [])
@@ -493,9 +718,9 @@ def scenario_from_dict(
         t0=t0,
         t1=t1,
         step=step,
-        x=expr("x"),
-        y=expr("y"),
-        z=expr("z"),
+        x=x_out,
+        y=y_out,
+        z=z_out,
         zeta=zeta,
         eta=eta,
         dn=dn,
@@ -514,7 +739,155 @@ def scenario_from_dict(
         tracking=_tracking(data.get("tracking", {}), kind, J_max if J == AUTO_J else J, f"{where} [tracking]"),
         compare=_compare(data.get("compare", {}), f"{where} [compare]"),
         known=_known(data.get("verdicts", {}), f"{where} [verdicts]"),
+        parameters=parameters,
+        boundary={e.side: e for e in ends.values()},
+        bounded=bounded_settings(data.get("bounded", {}), f"{where} [bounded]"),
     )
+
+
+def _parameters(table: Mapping, consts: Mapping, reserved: set, where: str, member: bool) -> tuple:
+    """The ``[parameters]`` table: each ``{value, min, max}`` checked (names, order of the bounds)."""
+    out = []
+    for name, spec in table.items():
+        w = f"{where} {name}"
+        if name in reserved:
+            kind = "function" if name in FUNCTIONS else ("time variable" if name == "t" else "built-in constant")
+            raise InputError(f"{w}: the parameter would shadow the {kind} {name!r}; choose another name")
+        if name in consts:
+            raise InputError(f"{w}: the name is also a constant of [constants]; choose another name")
+        if not isinstance(spec, Mapping):
+            raise InputError(f"{w}: a parameter is a table {{value = ..., min = ..., max = ...}}, got {spec!r}")
+        for key in spec:
+            if key not in PARAMETER_KEYS:
+                raise InputError(unknown_key_message(key, PARAMETER_KEYS, w))
+        value, lo, hi = (_num(spec, k, w) for k in ("value", "min", "max"))
+        if not lo <= hi:
+            raise InputError(f"{w}: min = {lo:g} is above max = {hi:g}")
+        if not lo <= value <= hi:
+            raise InputError(f"{w}: value = {value:g} is outside [min, max] = [{lo:g}, {hi:g}]")
+        out.append(
+            Parameter(name, value, lo, hi, free=(lo < hi) and not member, description=str(spec.get("description", "")))
+        )
+    return tuple(out)
+
+
+def _time_value(table: Mapping, key: str, consts: Mapping, where: str) -> float:
+    """``[time] t0`` or ``t1``: a number, or an expression of the constants and parameters (not of t)."""
+    if key not in table:
+        raise InputError(f"{where}: missing {key!r}")
+    v = table[key]
+    if isinstance(v, str):
+        e = compile_expression(v, consts, where=f"{where} {key}")
+        if e.depends_on_t:
+            raise InputError(f"{where}: {key} = {v!r} may use constants and parameters, not t")
+        v = float(e(0.0))
+        if not math.isfinite(v):
+            raise InputError(f"{where}: {key} = {table[key]!r} is {v}")
+        return v
+    return _num(table, key, where)
+
+
+def _values(spec: Any, consts: Mapping, what: str, where: str) -> list:
+    """A list of numbers or expressions of the constants and parameters (not of t), as floats."""
+    if not isinstance(spec, list):
+        raise InputError(f"{where}: {what} must be a list of numbers or expressions of the parameters, got {spec!r}")
+    out = []
+    for i, v in enumerate(spec):
+        e = compile_expression(v, consts, where=f"{where} {what} item {i + 1}")
+        if e.depends_on_t:
+            raise InputError(f"{where}: {what} item {i + 1} = {v!r} may use constants and parameters, not t")
+        out.append(float(e(0.0)))
+    return out
+
+
+def _spline(spec: Mapping, key: str, consts: Mapping, t0: float, t1: float, ends: Mapping, where: str) -> Expression:
+    """A spline flat output ``{basis, coefficients, start, end}`` (:mod:`planners.splines`)."""
+    for k in spec:
+        if k not in SPLINE_KEYS:
+            raise InputError(unknown_key_message(k, SPLINE_KEYS, where))
+    basis = spec.get("basis", "bezier")
+    if basis not in BASES:
+        raise InputError(f"{where}: basis must be one of {', '.join(BASES)}, got {basis!r}")
+    conditions = {}
+    for side in ("start", "end"):
+        given = spec.get(side, "boundary" if side in ends else [])
+        if isinstance(given, str) and given == "boundary":
+            if key not in ("x", "y", "z"):
+                raise InputError(f"{where}: {side} = 'boundary' applies to x, y and z only; give a list of derivatives")
+            if side not in ends:
+                raise InputError(f"{where}: {side} = 'boundary' needs a [boundary.{side}] table")
+            conditions[side] = list(ends[side].derivatives[key])
+        else:
+            conditions[side] = _values(given, consts, f"{side} (value and derivatives)", where)
+    interior = _values(spec.get("coefficients", []), consts, "coefficients", where)
+    try:
+        points = bezier_points(conditions["start"], conditions["end"], interior, t0, t1)
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
+    n = points.size - 1
+    return bezier_expression(
+        points,
+        t0,
+        t1,
+        f"bezier(degree {n} on [{t0:g}, {t1:g}] s; {len(conditions['start'])} start and "
+        f"{len(conditions['end'])} end conditions, {len(interior)} coefficients)",
+    )
+
+
+def _boundary(
+    table: Mapping, aircraft: Aircraft, env: Environment, eta, zeta: FlatOutput, consts: Mapping, span, where: str
+) -> dict:
+    """The ``[boundary]`` table: each side a full-model trim at a position and heading (:class:`BoundaryState`)."""
+    from gna.trim import TRIM_VARIABLES, trim
+
+    keys = ("order", "start", "end")
+    for k in table:
+        if k not in keys:
+            raise InputError(unknown_key_message(k, keys, where))
+    order = table.get("order", DEFAULT_BOUNDARY_ORDER)
+    if isinstance(order, bool) or not isinstance(order, int) or not 0 <= order <= 8:
+        raise InputError(
+            f"{where}: order must be a whole number in 0..8 (derivatives of x, y, z matched), got {order!r}"
+        )
+    if eta is None:
+        raise InputError(f"{where}: boundary trims need a prescribed eta (not a fixed rudder dn)")
+    out = {}
+    for side, t in zip(("start", "end"), span):
+        if side not in table:
+            continue
+        spec, w = table[side], f"{where[:-1]}.{side}]"
+        if not isinstance(spec, Mapping):
+            raise InputError(f"{w}: must be a table of trim variables, altitude, x, y, chi")
+        for k in spec:
+            if k not in TRIM_VARIABLES + BOUNDARY_KEYS:
+                raise InputError(unknown_key_message(k, TRIM_VARIABLES + BOUNDARY_KEYS, w))
+        val = {k: _values([spec[k]], consts, k, w)[0] for k in spec}
+        if "altitude" not in val:
+            raise InputError(f"{w}: missing 'altitude'")
+        fixed = {k: val[k] for k in TRIM_VARIABLES if k in val}
+        for k, v in BOUNDARY_DEFAULTS:
+            if len(fixed) < 4 and k not in fixed:
+                fixed[k] = v
+        if len(fixed) != 4:
+            raise InputError(
+                f"{w}: fix at most four of the trim variables ({', '.join(TRIM_VARIABLES)}), got {', '.join(fixed)}"
+            )
+        eta_t = float(np.real(eta(t)))
+        try:
+            tr = trim(aircraft, fixed, altitude=val["altitude"], env=env, eta=eta_t, model="full")
+        except GflatError as exc:
+            raise InputError(f"{w}: the trim failed: {exc}") from None
+        v = tr.values
+        zv = float(np.real(zeta.value(t)))
+        if zeta.kind in ("beta", "mu", "F") and abs(v[zeta.kind] - zv) > 1e-9 * max(1.0, abs(zv)):
+            raise InputError(
+                f"{w}: the fourth flat output {zeta.kind} = {zv:g} at t = {t:g} s differs from the trim's "
+                f"{zeta.kind} = {v[zeta.kind]:g}; fix {zeta.kind} in the trim or change zeta_value"
+            )
+        pos = (val.get("x", 0.0), val.get("y", 0.0), -val["altitude"])
+        der = steady_derivatives(v["V"], v["gamma"], val.get("chi", 0.0), v["chi_dot"], pos, order)
+        out[side] = BoundaryState(side, float(t), tr, pos[0], pos[1], val.get("chi", 0.0), val["altitude"], der)
+    return out
 
 
 def _known(table: Mapping, where: str) -> tuple:

@@ -32,10 +32,11 @@ META = {
         'source = "single engine on the symmetry plane; thrust line assumed along body x (no data); '
         'max thrust unknown in the GNA sources"',
         envelope="alpha_min_deg = -10.0\nalpha_max_deg = 45.0\nbeta_max_deg = 30.0\n"
-        "dl_max_deg = 21.5\ndm_max_deg = 25.0\ndn_max_deg = 30.0\n"
+        "dl_max_deg = 21.5\ndm_max_deg = 25.0\ndn_max_deg = 30.0\nnz_min = -3.0\nnz_max = 9.0\n"
         'source = "GNA database ranges not retrieved (MISSING). Angles: range of the NASA F-16 wind-tunnel '
         "tables used in Stevens & Lewis, Aircraft Control and Simulation (alpha -10..45 deg, beta +-30 deg); "
-        "surface limits: Stevens & Lewis F-16 model (elevator 25, aileron 21.5, rudder 30 deg). "
+        "surface limits: Stevens & Lewis F-16 model (elevator 25, aileron 21.5, rudder 30 deg); load factor: "
+        "the F-16's symmetric structural limits, +9 / -3 g (the flight-control system's g limiter). "
         'Assumed, not from the GNA paper."',
         notes="theta31 = -8.267 (S2's -8267 has a lost decimal point). theta42 = -0.034: the two transcriptions "
         "disagree in sign; we take S1 (PIGPSEE) because (1) S1 carries Unicode minus signs typical of "

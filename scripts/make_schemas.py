@@ -35,12 +35,32 @@ from harness.campaign.spec import _TOP_KEYS as CAMPAIGN_KEYS  # noqa: E402
 from harness.campaign.spec import AERO_MODES, CASE_BUDGET_S, MAX_CASE_SPECS, MAX_DISPERSIONS  # noqa: E402
 from harness.engines.registry import engine_names  # noqa: E402
 from harness.validation.tolerances import DEFAULT_SETTLE_TIME, DEFAULT_TRACKING_TOLERANCE  # noqa: E402
+from planners.bounded import (  # noqa: E402
+    BOUNDED_KEYS,
+    COSTS,
+    DEFAULT_MARGIN,
+    DEFAULT_MAXITER,
+    DEFAULT_SINGULAR_MARGIN,
+    DEFAULT_TOL,
+)
+from planners.bounded import METHODS as BOUNDED_METHODS  # noqa: E402
 from planners.expressions import CONSTANTS, FUNCTIONS  # noqa: E402
 from planners.flat import FLAT_KINDS, MAX_J  # noqa: E402
 from planners.generalized import AUTO_J, AUTO_J_MAX, AUTO_J_TOL, MAX_E, METHODS  # noqa: E402
 from planners.lqr import DESIGNS  # noqa: E402
 from planners.plan import DEFAULT_INTERPOLATION, INTERPOLATIONS, PLAN_VARIABLES  # noqa: E402
-from planners.scenario import COMPARE_KEYS, KNOWN_VERDICTS, MAX_NODES, MAX_REPORT_TIMES, TRACKING_KEYS  # noqa: E402
+from planners.scenario import (  # noqa: E402
+    BOUNDARY_KEYS,
+    COMPARE_KEYS,
+    DEFAULT_BOUNDARY_ORDER,
+    KNOWN_VERDICTS,
+    MAX_NODES,
+    MAX_REPORT_TIMES,
+    PARAMETER_KEYS,
+    SPLINE_KEYS,
+    TRACKING_KEYS,
+)
+from planners.splines import BASES  # noqa: E402
 
 AIRCRAFT_SCHEMA = ROOT / "gna" / "data" / "schemas" / "aircraft.schema.json"
 SCENARIO_SCHEMA = ROOT / "planners" / "schemas" / "scenario.schema.json"
@@ -326,6 +346,88 @@ def _expr(description: str, default: str | None = None) -> dict:
     return out
 
 
+#: A number, or an expression of the constants and parameters (not of t).
+_VALUE = {"type": ["string", "number"]}
+
+#: A spline flat output (planners.splines).
+SPLINE = {
+    "type": "object",
+    "additionalProperties": False,
+    "description": "A spline: basis, interior coefficients and conditions at both ends (planners.splines)",
+    "properties": {
+        "basis": {
+            "enum": list(BASES),
+            "x-default": '"bezier"',
+            "description": "Basis: Bezier curve on [t0, t1] (Bernstein polynomials)",
+        },
+        "coefficients": {
+            "type": "array",
+            "items": _VALUE,
+            "x-default": "[]",
+            "description": "Control points between those the end conditions fix (numbers or expressions of "
+            "the parameters)",
+        },
+        "start": {
+            "anyOf": [{"const": "boundary"}, {"type": "array", "items": _VALUE}],
+            "x-type": 'list or "boundary"',
+            "x-default": '"boundary" with a [boundary.start] table, else []',
+            "description": "Value and derivatives 0..k at t0, or the [boundary.start] trim's (x, y, z only)",
+        },
+        "end": {
+            "anyOf": [{"const": "boundary"}, {"type": "array", "items": _VALUE}],
+            "x-type": 'list or "boundary"',
+            "x-default": '"boundary" with a [boundary.end] table, else []',
+            "description": "Value and derivatives 0..k at t1, or the [boundary.end] trim's (x, y, z only)",
+        },
+    },
+}
+assert tuple(SPLINE["properties"]) == SPLINE_KEYS
+
+
+def _output(description: str, default: str | None = None, unit: str | None = None) -> dict:
+    """A flat output or prescribed input: an expression of t, or a spline table."""
+    e = _expr(description, default)
+    if unit:
+        e["x-unit"] = unit
+    out = {"anyOf": [{"type": ["string", "number"]}, {"$ref": "#/$defs/spline"}], "x-type": "string or number or table"}
+    return {**out, **{k: v for k, v in e.items() if k != "type"}}
+
+
+def _boundary_side() -> dict:
+    props = {
+        k: {**_VALUE, "description": d, "x-unit": u}
+        for k, d, u in (
+            ("V", "Airspeed", "m/s"),
+            ("gamma", "Flight-path angle (default 0 when fewer than four trim variables are given)", "rad"),
+            ("chi_dot", "Turn rate (default 0, as gamma)", "rad/s"),
+            ("F", "Thrust", "N"),
+            ("alpha", "Angle of attack", "rad"),
+            ("beta", "Sideslip (default 0, as gamma)", "rad"),
+            ("mu", "Bank angle", "rad"),
+            ("p", "Roll rate", "rad/s"),
+            ("q", "Pitch rate", "rad/s"),
+            ("r", "Yaw rate", "rad/s"),
+            ("dl", "Aileron", "rad"),
+            ("dm", "Elevator", "rad"),
+            ("dn", "Rudder", "rad"),
+            ("altitude", "Altitude of the point (required)", "m"),
+            ("x", "North position of the point", "m"),
+            ("y", "East position of the point", "m"),
+            ("chi", "Heading at the point", "rad"),
+        )
+    }
+    for k in ("x", "y", "chi"):
+        props[k]["x-default"] = "0"
+    assert tuple(props) == TRIM_VARIABLES + BOUNDARY_KEYS
+    return _table(
+        "One end of a point-to-point manoeuvre: a steady flight of the full model (gflat trim's solution) "
+        "with at most four trim variables fixed (numbers or expressions of the parameters; fewer: gamma = 0, "
+        "chi_dot = 0, beta = 0 fill the four), at a position and heading",
+        props,
+        required=("altitude",),
+    )
+
+
 #: The ``[tracking.perturbation]`` keys (values checked by gna.perturbation.perturbation_from_dict).
 PERTURBATION = {
     "aero_spread": {
@@ -505,7 +607,8 @@ def scenario_schema() -> dict:
     assert tuple(PERTURBATION) == PERTURBATION_KEYS
     assert set(tracking["properties"]) == set(TRACKING_KEYS)
     assert tuple(COMPARE) == COMPARE_KEYS
-    return {
+    assert tuple(PARAMETER_KEYS) == ("value", "min", "max", "description")
+    schema = {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "$id": "https://gflat.invalid/schemas/scenario.schema.json",
         "title": "gflat scenario file",
@@ -513,6 +616,7 @@ def scenario_schema() -> dict:
         "generalized-flatness iterations, first-iterate H values, report, environment, tracking.",
         "type": "object",
         "additionalProperties": False,
+        "$defs": {"spline": SPLINE, "boundary_side": _boundary_side()},
         "required": ["aircraft", "time", "flat_outputs"],
         "allOf": [{"not": {"required": ["h", "calibration"]}}],
         "properties": {
@@ -530,29 +634,44 @@ def scenario_schema() -> dict:
             "time": _table(
                 "Time span and grid",
                 {
-                    "t0": dict(num, description="Start (required)", **{"x-unit": "s"}),
-                    "t1": dict(num, description="End, after t0 (required)", **{"x-unit": "s"}),
+                    "t0": dict(
+                        _VALUE,
+                        description="Start (required; a number or an expression of the parameters)",
+                        **{"x-unit": "s"},
+                    ),
+                    "t1": dict(
+                        _VALUE,
+                        description="End, after t0 (required; a number or an expression of the parameters)",
+                        **{"x-unit": "s"},
+                    ),
                     "step": dict(
                         num,
                         exclusiveMinimum=0,
-                        description=f"Grid step dividing t1 - t0, at most {MAX_NODES} steps (required)",
+                        description=f"Grid step dividing t1 - t0, at most {MAX_NODES} steps (this or nodes)",
                         **{"x-unit": "s"},
                     ),
+                    "nodes": {
+                        "type": "integer",
+                        "minimum": 2,
+                        "maximum": MAX_NODES + 1,
+                        "description": "Number of nodes from t0 to t1 (this or step)",
+                    },
                 },
-                required=("t0", "t1", "step"),
+                conflicts=[("step", "nodes")],
+                required=("t0", "t1"),
             ),
             "flat_outputs": _table(
                 "Flat outputs",
                 {
-                    "x": _expr("North position (required)", None) | {"x-unit": "m, expression of t [s]"},
-                    "y": _expr("East position (required)", None) | {"x-unit": "m, expression of t [s]"},
-                    "z": _expr("Down position (required)", None) | {"x-unit": "m, expression of t [s]"},
+                    "x": _output("North position (required)", None, "m, expression of t [s] or spline"),
+                    "y": _output("East position (required)", None, "m, expression of t [s] or spline"),
+                    "z": _output("Down position (required)", None, "m, expression of t [s] or spline"),
                     "zeta": {"enum": list(FLAT_KINDS), "description": "The fourth flat output", "x-default": "beta"},
-                    "zeta_value": _expr("Value of the fourth flat output (rad, or N for F)", "0"),
-                    "eta": _expr("Thrust asymmetry, the rudder being a control (not with dn)", "0"),
-                    "dn": _expr("Fixed rudder [rad] (eta becomes a control; not with eta)"),
-                    "f1": _expr("With zeta = 'mix': f1 beta + f2 mu = zeta_value"),
-                    "f2": _expr("With zeta = 'mix': f1 beta + f2 mu = zeta_value"),
+                    "zeta_value": _output("Value of the fourth flat output (rad, or N for F)", "0"),
+                    "eta": _output("Thrust asymmetry, the rudder being a control (not with dn)", "0"),
+                    "dn": _output("Fixed rudder [rad] (eta becomes a control; not with eta)"),
+                    "f1": _output("With zeta = 'mix': f1 beta + f2 mu = zeta_value"),
+                    "f2": _output("With zeta = 'mix': f1 beta + f2 mu = zeta_value"),
                 },
                 conflicts=[("eta", "dn")],
                 required=("x", "y", "z"),
@@ -622,6 +741,89 @@ def scenario_schema() -> dict:
                 },
                 "additionalProperties": num,
             },
+            "parameters": {
+                "type": "object",
+                "description": "Named numbers the expressions, spline coefficients, boundary values and t1 may "
+                "use, each with its range: a scenario with a parameter whose min is below its max plans "
+                "bounded (planners.bounded: the parameters minimizing [bounded] cost within the aircraft's "
+                "limits; docs/bounded.md). Names as constants, distinct from them",
+                "propertyNames": {
+                    "pattern": "^[A-Za-z_][A-Za-z0-9_]*$",
+                    "errorMessage": "a parameter's name is a letter or '_' followed by letters, digits or '_'",
+                },
+                "additionalProperties": {
+                    "type": "object",
+                    "additionalProperties": False,
+                    "required": ["value", "min", "max"],
+                    "properties": {
+                        "value": dict(
+                            num, description="Nominal value (the starting point, the deviation cost's reference)"
+                        ),
+                        "min": dict(num, description="Lower bound"),
+                        "max": dict(num, description="Upper bound (equal to min: fixed)"),
+                        "description": _text("Free text"),
+                    },
+                },
+            },
+            "boundary": _table(
+                "Point-to-point ends: steady flights whose positions and derivatives (0..order) the spline flat "
+                "outputs x, y, z meet at t0 and t1",
+                {
+                    "order": {
+                        "type": "integer",
+                        "minimum": 0,
+                        "maximum": 8,
+                        "x-default": str(DEFAULT_BOUNDARY_ORDER),
+                        "description": "Highest derivative of x, y, z matched at each end (4: the controls start "
+                        "and end at the trims'; 5: their rates too are zero there)",
+                    },
+                    "start": {"$ref": "#/$defs/boundary_side", "description": "The start (at t0)"},
+                    "end": {"$ref": "#/$defs/boundary_side", "description": "The end (at t1)"},
+                },
+            ),
+            "bounded": _table(
+                "The bounded planner (scenarios with free parameters; planners.bounded, docs/bounded.md)",
+                {
+                    "cost": {
+                        "enum": list(COSTS),
+                        "x-default": '"deviation"',
+                        "description": "deviation: sum of ((p - value)/(max - min))^2; control_rate: mean of "
+                        "sum (du/dt / half range)^2 over the span; thrust: integral of F; duration: t1 - t0",
+                    },
+                    "method": {
+                        "enum": list(BOUNDED_METHODS),
+                        "x-default": '"SLSQP"',
+                        "description": "scipy.optimize.minimize method",
+                    },
+                    "maxiter": {
+                        "type": "integer",
+                        "minimum": 1,
+                        "x-default": str(DEFAULT_MAXITER),
+                        "description": "Iterations of the optimizer at most",
+                    },
+                    "margin": dict(
+                        num,
+                        minimum=0,
+                        exclusiveMaximum=0.5,
+                        description="Share of each limit's scale (half range; thrust: m g) kept inside the bound",
+                        **{"x-default": f"{DEFAULT_MARGIN:g}"},
+                    ),
+                    "singular_margin": dict(
+                        num,
+                        minimum=0,
+                        exclusiveMaximum=1,
+                        description="Share of the largest magnitude of the flat output's stage-2 condition along "
+                        "the nominal plan (planners.singularity, last iterate) kept at every node; 0: none",
+                        **{"x-default": f"{DEFAULT_SINGULAR_MARGIN:g}"},
+                    ),
+                    "tol": dict(
+                        num,
+                        exclusiveMinimum=0,
+                        description="Tolerance of the optimizer",
+                        **{"x-default": f"{DEFAULT_TOL:g}"},
+                    ),
+                },
+            ),
             "calibration": {
                 "type": "object",
                 "description": "H values of the first iterate from a full-model "
@@ -713,6 +915,8 @@ def scenario_schema() -> dict:
             "verdicts": VERDICTS,
         },
     }
+    assert tuple(schema["properties"]["bounded"]["properties"]) == BOUNDED_KEYS
+    return schema
 
 
 def campaign_schema() -> dict:

@@ -31,19 +31,29 @@ def _type(s: dict) -> str:
     return t or "any"
 
 
-def rows(schema: dict, prefix: str) -> list[str]:
-    """Table rows of every property of ``schema`` (and of its sub-tables), keys prefixed by ``prefix``."""
+def _resolve(s: dict, root: dict | None) -> dict:
+    """A property's schema with its ``$ref`` (to ``#/$defs/...``) merged in."""
+    if root is None or "$ref" not in s:
+        return s
+    target = root["$defs"][s["$ref"].rsplit("/", 1)[-1]]
+    return {**target, **{k: v for k, v in s.items() if k != "$ref"}}
+
+
+def rows(schema: dict, prefix: str, root: dict | None = None) -> list[str]:
+    """Table rows of every property of ``schema`` (and of its sub-tables), keys prefixed by ``prefix``;
+    ``$ref`` resolved against ``root``."""
     out = []
     for key, s in schema.get("properties", {}).items():
+        s = _resolve(s, root)
         path = f"{prefix}.{key}" if prefix else key
         meaning = s.get("description", "").replace("|", chr(92) + "|")
         out.append(f"| `{path}` | {_type(s)} | {s.get('x-unit', '')} | {s.get('x-default', '')} | {meaning} |")
         subs = [s] + [x for x in s.get("oneOf", []) if isinstance(x, dict)]
         for sub in subs:
             if sub.get("type") == "object" and "properties" in sub:
-                out.extend(rows(sub, path))
+                out.extend(rows(sub, path, root))
         if s.get("type") == "array" and isinstance(s.get("items"), dict) and "properties" in s["items"]:
-            out.extend(rows(s["items"], f"{path}[]"))
+            out.extend(rows(s["items"], f"{path}[]", root))
     return out
 
 
@@ -80,20 +90,30 @@ def section(title: str, schema: dict, path: str) -> list[str]:
         default = [f"Without it: `{s['x-default']}`.", ""] if "x-default" in s else []
         if s.get("type") == "object" and named is not None:
             lines += [f"### `[{key}.NAME]`", "", s.get("description", ""), ""] + default + HEADER
-            lines += rows(named, f"{key}.NAME") + [""]
+            lines += rows(named, f"{key}.NAME", schema) + [""]
         elif array is not None:
             lines += [f"### `[[{key}]]`", "", s.get("description", ""), ""] + default + HEADER
-            lines += rows(array, key) + [""]
+            lines += rows(array, key, schema) + [""]
         elif s.get("type") == "object" and "properties" in s:
             lines += [f"### `[{key}]`", "", s.get("description", ""), ""] + HEADER
-            lines += rows(s, key) + [""]
+            lines += rows(s, key, schema) + [""]
         elif s.get("type") == "object":
             lines += [f"### `[{key}]`", "", s.get("description", ""), ""]
             if "propertyNames" in s and "enum" in s["propertyNames"]:
                 lines += ["Keys: " + ", ".join(f"`{k}`" for k in s["propertyNames"]["enum"]) + ".", ""]
         else:
             top[key] = s
-    lines[6:6] = ["### Top-level keys", ""] + HEADER + rows({"properties": top}, "") + [""]
+    lines[6:6] = ["### Top-level keys", ""] + HEADER + rows({"properties": top}, "", schema) + [""]
+    if "spline" in schema.get("$defs", {}):
+        sp = schema["$defs"]["spline"]
+        lines += [
+            "### Spline flat outputs",
+            "",
+            sp["description"] + ": a flat output or prescribed input given as a table instead of an expression, "
+            'e.g. `x = { basis = "bezier", coefficients = ["cx1", 4000.0] }`.',
+            "",
+        ]
+        lines += HEADER + rows(sp, "flat_outputs.<output>", schema) + [""]
     for note in schema.get("x-notes", []):
         lines += [note, ""]
     return lines

@@ -1,5 +1,11 @@
 """``gflat plan SCENARIO [--J N] [--out DIR] [--json] [--verify]``: plan a manoeuvre by (generalized) flatness.
 
+A scenario with free parameters (``[parameters]`` with ranges) is planned bounded
+(:func:`planners.bounded.plan_bounded`): the summary then has ``bounded`` (the optimum, its cost, the active
+limits, the number of plans evaluated; :meth:`planners.bounded.BoundedResult.to_dict`) and the files are the
+optimum's plan; bounds no parameter value can meet print one line naming the binding limit and its best
+value (stderr) and exit with status 1 (the files of the least-violating plan are written).
+
 ``--json`` prints one JSON object (the plan's summary: ``planning_time_s``, ``feasible``, the full-model
 equation residual per iterate, ...) instead of the text report; ``--verify`` flies the planned controls
 open loop on the full model (:func:`planners.verify.open_loop_error`) and adds
@@ -205,6 +211,8 @@ def plan_summary(sc, plan, elapsed: float, check=None, not_flown: str | None = N
         "equation_residual_per_iterate": res,
         "warnings": plan.warnings,
     }
+    if getattr(plan, "bounded", None) is not None:
+        out["bounded"] = plan.bounded.to_dict()
     if check is not None:
         ok = math.isfinite(check.max_position_error_m)
         out.update(
@@ -275,6 +283,8 @@ def write_plan(
         lines.append(
             f"  J = {plan.J} chosen by the convergence test (stopped by {summary['J_stop']}): {summary['J_rule']}"
         )
+    if getattr(plan, "bounded", None) is not None:
+        lines.append(plan.bounded.text())
     lines.append(f"  orders of x, y, z per iterate: {orders} (controls at order {orders[-1] - 4})")
     lines.append(f"  planning time {elapsed:.3f} s ({', '.join(f'j={j}: {t:.3f}' for j, t in plan.timings.items())})")
     lines.append(f"  worst Newton residual: {plan.worst_newton_residual():.2e}")
@@ -391,5 +401,9 @@ def run(args) -> int:
         return 1
     if check is not None and summary["open_loop_max_position_error_m"] is None:
         print(f"gflat plan: the open-loop check did not reach the end of the plan: {check.message}", file=sys.stderr)
+        return 1
+    bounded = getattr(plan, "bounded", None)
+    if bounded is not None and not bounded.feasible:
+        print(f"gflat plan: infeasible bounds: {bounded.infeasible_line()}", file=sys.stderr)
         return 1
     return 0
