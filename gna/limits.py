@@ -309,7 +309,7 @@ def _engine_thrust(index: int, count: int) -> Callable:
 
 def _rating(prop) -> Callable:
     def upper(frame):
-        return np.array([prop.engine_thrust_limit(float(v)) for v in frame["V"].to_numpy(dtype=float)])
+        return prop.engine_thrust_limits(frame["V"].to_numpy(dtype=float))
 
     return upper
 
