@@ -74,6 +74,11 @@ class Stage:
     warm : bool
         Newton at the full working order from the start even without a previous iterate (equations
         affine in the unknowns: one step solves them; :func:`planners.newton.newton_series` ``warm``).
+    solve_series : callable, optional
+        The closed form :attr:`solve` written with plain arithmetic on series (no other operations, no
+        truncations), ``solve_series(v) -> list``: ``v`` maps every variable known so far to its series at
+        the working order ``k + 1``, and the first ``k + 1`` coefficients of each result are the unknowns at
+        order ``k``.  The native evaluator runs it as a traced program (:mod:`planners.program`).
     """
 
     unknowns: tuple
@@ -84,6 +89,7 @@ class Stage:
     start: Callable | None = None
     post: Callable | None = None
     warm: bool = False
+    solve_series: Callable | None = None
 
 
 @dataclass(frozen=True)
@@ -348,6 +354,32 @@ def _first_neglecting_stage(system: ChainedSystem) -> int:
     return next((h for h, s in enumerate(system.stages, start=1) if s.neglected), system.r + 1)
 
 
+#: Grids whose traced programs a system keeps (the latest ones): plans of one problem on one grid trace once.
+PROGRAM_GRIDS = 4
+
+
+def _programs_of(system: ChainedSystem, zeta, t_nodes: np.ndarray, cached: dict) -> dict:
+    """The dict of the stages' traced programs for this plan: kept on the system for its default flat outputs
+    and this grid (the programs depend on nothing else: their numbers are parameters of the system's model,
+    their decisions read the static data of these flat outputs on this grid), else for this plan only."""
+    programs = cached.get("programs")
+    if programs is not None:
+        return programs
+    if zeta is not None:  # other flat-output functions: traced for this plan
+        programs = cached["programs"] = {}
+        return programs
+    store = system.__dict__.setdefault("_programs", {})  # a frozen dataclass: its __dict__ holds the cache
+    key = t_nodes.tobytes()
+    programs = store.pop(key, None)
+    if programs is None:
+        programs = {}
+    store[key] = programs  # the latest grid last
+    while len(store) > PROGRAM_GRIDS:
+        store.pop(next(iter(store)))
+    cached["programs"] = programs
+    return programs
+
+
 def _stage_evaluator(programs, h, stage, data, static, nodes):
     """The compiled evaluator of stage h for this call (its program traced on first use in the plan), or None."""
     if programs is None:
@@ -359,9 +391,29 @@ def _stage_evaluator(programs, h, stage, data, static, nodes):
     prog, _reason = programs[h]
     if prog is None or set(prog.data_names) - set(data):
         return None
-    from .program import StageEvaluator
+    from .program import NativeStageEvaluator, StageEvaluator
 
-    return StageEvaluator(prog, data, nodes)
+    return (NativeStageEvaluator if program_backend() == "native" else StageEvaluator)(prog, data, nodes)
+
+
+def _solve_compiled(programs, h, stage, data, static, nodes, k):
+    """A closed-form stage by its traced :attr:`Stage.solve_series` on the native evaluator (the unknowns at
+    order k), or None (no such form, another backend, or the form could not be traced)."""
+    if programs is None or stage.solve_series is None or program_backend() != "native":
+        return None
+    key = ("solve", h)
+    if key not in programs:
+        from .program import trace
+
+        programs[key] = trace(lambda v: stage.solve_series(v), (), data, static)
+    prog, _reason = programs[key]
+    if prog is None or set(prog.data_names) - set(data):
+        return None
+    from .program import NativeStageEvaluator
+
+    ev = NativeStageEvaluator(prog, data, nodes)
+    out = ev.nat.evaluate(np.zeros((0, k + 2, nodes)), ev._data_for(k + 2), k + 2)
+    return [Series(np.ascontiguousarray(out[j, : k + 1].T)) for j in range(out.shape[0])]
 
 
 def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, tol, carry, programs=None, static=()):
@@ -379,9 +431,11 @@ def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, to
         data[name] = _as_series(v, nodes, k)
     rep = None
     if stage.solve is not None:
-        v = {n: s.truncate(min(s.order, k + 1)) for n, s in data.items()}
-        u = [_as_series(s, nodes, k) for s in stage.solve(v, t_nodes)]
-        u = [s.truncate(k) if s.order > k else s for s in u]
+        u = _solve_compiled(programs, h, stage, data, static, nodes, k)
+        if u is None:
+            v = {n: s.truncate(min(s.order, k + 1)) for n, s in data.items()}
+            u = [_as_series(s, nodes, k) for s in stage.solve(v, t_nodes)]
+            u = [s.truncate(k) if s.order > k else s for s in u]
     else:
         cache: dict[int, dict] = {}
 
@@ -415,21 +469,37 @@ def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, to
     return u, rep
 
 
+def program_backend() -> str | None:
+    """How the stages' compiled programs (:mod:`planners.program`) are run, or None for the numpy path.
+
+    Returns
+    -------
+    str or None
+        ``"native"`` (the default series backend ``"native"``, ``GFLAT_SERIES_BACKEND``, when the native
+        evaluator could be compiled or loaded: :mod:`planners._native`), ``"numba"`` (backend ``"compiled"``,
+        numba importable), or None (backend ``"numpy"``, or the compiled evaluator unavailable).
+    """
+    from . import series
+
+    if series.BACKEND == "native":
+        from . import _native
+
+        return "native" if _native.library() is not None else None
+    if series.BACKEND == "compiled":
+        from .program import available
+
+        return "numba" if available() else None
+    return None
+
+
 def compiled_programs() -> bool:
-    """Whether the stages run as compiled programs (:mod:`planners.program`).
+    """Whether the stages run as compiled programs (:mod:`planners.program`): :func:`program_backend` is not None.
 
     Returns
     -------
     bool
-        The series backend is ``"compiled"`` (``GFLAT_SERIES_BACKEND``) and numba is importable.
     """
-    from . import series
-
-    if series.BACKEND != "compiled":
-        return False
-    from .program import available
-
-    return available()
+    return program_backend() is not None
 
 
 def _add_known(known: dict, derivs: dict, names, values) -> None:
@@ -532,7 +602,7 @@ def flat_parametrization(
     known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
     derivs = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["derivs"].items()}
     reports = dict(cached["reports"])
-    programs = cached.setdefault("programs", {}) if compiled_programs() else None
+    programs = _programs_of(system, zeta, t_nodes, cached) if compiled_programs() else None
     static = set(known) | set(derivs)
     for h, stage in enumerate(system.stages[h0 - 1 :], start=h0):
         u, rep = _solve_stage(

@@ -538,6 +538,9 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
     def solve3(v, t_nodes):
         return list(_stage3(v["alpha"], v["beta"], v["mu"], {n: v[n] for n in _PATH_TERMS}))
 
+    def solve3_series(v):
+        return list(_stage3_series(v["alpha"], v["beta"], v["mu"], *(v[n] for n in _PATH_TERMS)))
+
     def residual4(v):
         st = state(v)
         ctl = Controls(v["F"], v["eta"], v["dl"], v["dm"], v["dn"])
@@ -560,7 +563,7 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
         stages=(
             Stage(STAGE_UNKNOWNS[0], residual1, solve=solve1),
             Stage(STAGE_UNKNOWNS[1], residual2, neglected=H_NAMES, ell=3, start=start2, post=post2),
-            Stage(STAGE_UNKNOWNS[2], residual3, solve=solve3),
+            Stage(STAGE_UNKNOWNS[2], residual3, solve=solve3, solve_series=solve3_series),
             Stage(controls4, residual4, warm=True),
         ),
         description=f"{ac.id}: wind-frame model, flat outputs x, y, z and {kind}"

@@ -348,6 +348,23 @@ def _warm_newton(
     # step with Jc yet); theta: largest rate of decrease measured with Jc; newton_step: the last step
     # used a Jacobian computed at its start.
     Jc = _usable_jacobian(carried, n, n, batch, K)
+    native = getattr(ev, "warm_newton", None)
+    if native is not None and len(batch) == 1:
+        # the same steps whole in native code (planners.program.NativeStageEvaluator); status 2 (a singular
+        # node) leaves them to the numpy steps below, which take a least-squares step there
+        status, x, Jn, cres, steps = native(stacked, weights, Jc, tol, maxsteps, CHORD_STEPS, CHORD_PROOF)
+        if status == 1:
+            return None
+        if status == 0:
+            u = [Series(np.ascontiguousarray(x[j])) for j in range(n)]
+
+            def native_residual() -> np.ndarray:
+                return ev.series_residual(u, order, batch)
+
+            rep = SeriesNewtonReport(
+                tuple(names), np.asarray(t_nodes), cres, 0, native_residual, [order] * steps, jacobian=Jn
+            )
+            return u, rep
     proof = Jc is not None
     if Jc is not None:
         # The constant term of the carried Jacobian at this start: one pointwise complex-step evaluation
@@ -699,7 +716,17 @@ def newton_series(
         u.append(Series(c))
     orders = doubling_orders(order)
     Jc = None
-    for k in orders:
+    native = getattr(ev, "doubling", None)
+    if native is not None and orders and len(batch) == 1:
+        # the same steps whole in native code; status 2 (a singular node) leaves them to the numpy steps
+        status, xs, Jn = native(np.stack([np.broadcast_to(ui.coeffs, batch + (order + 1,)) for ui in u]), orders)
+        if status == 0:
+            u, Jc, orders_left = [Series(np.ascontiguousarray(xs[j])) for j in range(n)], Jn, []
+        else:
+            orders_left = orders
+    else:
+        orders_left = orders
+    for k in orders_left:
         cur = [ui.truncate(k) for ui in u]
         stacked = np.stack([np.broadcast_to(ci.coeffs, batch + (k + 1,)) for ci in cur])  # (n, *batch, K)
         G, Jc = ev.residual_and_jacobian(stacked, k)

@@ -40,6 +40,9 @@ __all__ = ["Program", "Sym", "TraceError", "trace", "available"]
 # opcodes: the same numbers as planners._program_kernels (kept here so that tracing needs no numba)
 (INPUT, DATA, ADD, SUB, MUL, DIV, NEG, ADDC, RSUBC, MULC, DIVC, RDIVC) = range(12)
 (SQRT, EXP, LOG, SINCOS, SINHCOSH, POW, ARCTAN, CONST, AXPY, ZERO, TAN, COPY) = range(12, 24)
+#: The time derivative (native evaluator only: the closed-form stages): coefficient m is (m + 1) a_(m+1), the
+#: last coefficient of the working order is 0 (a program using it is exact to one order less).
+DERIV = 24
 
 
 class TraceError(Exception):
@@ -155,6 +158,8 @@ class _Recorder:
             v = getattr(self.concrete(a), {SQRT: "sqrt", EXP: "exp", LOG: "log", ARCTAN: "arctan", TAN: "tan"}[op])()
         elif op == POW:
             v = self.concrete(a) ** p[k]
+        elif op == DERIV:
+            v = self.concrete(a).derivative()
         else:
             raise TraceError(f"reading the value of operation {op} is not supported")
         self._concrete[i] = v
@@ -311,6 +316,15 @@ class Sym:
 
     def _f_tan(self):
         return self._unary(TAN)
+
+    def derivative(self):
+        """The time derivative (:data:`DERIV`: the program is then exact to one order less).
+
+        Returns
+        -------
+        Sym
+        """
+        return self._unary(DERIV)
 
     def _f_square(self):
         return self * self
@@ -469,6 +483,20 @@ class Program:
         self.outputs = outputs
         self.outputs_unk = outputs_unk
         self.extra = extra
+
+    def native(self):
+        """This program laid out for the native evaluator (:class:`planners._native.NativeProgram`), made once.
+
+        Returns
+        -------
+        planners._native.NativeProgram
+        """
+        nat = self.__dict__.get("_native")
+        if nat is None:
+            from ._native import NativeProgram
+
+            nat = self.__dict__["_native"] = NativeProgram(self)
+        return nat
 
     @property
     def structure_key(self) -> str:
@@ -774,3 +802,163 @@ class StageEvaluator:
         """
         stacked = np.stack([np.broadcast_to(np.real(s.coeffs), batch + (order + 1,)) for s in u])
         return np.max(np.abs(self.residual_only(stacked, order)), axis=(0, 2))
+
+
+class NativeStageEvaluator(StageEvaluator):
+    """A :class:`StageEvaluator` run by the native evaluator (``planners/_program.c``, :mod:`planners._native`),
+    which also runs Newton's steps on series whole (:meth:`warm_newton`, :meth:`doubling`).
+
+    One data array at the highest order serves every working order (the native calls read the first M
+    coefficients of each datum).
+
+    Parameters
+    ----------
+    program : Program
+        The stage's program.
+    data : mapping of str -> Series
+        The data series of this call, batch shape (nodes,).
+    nodes : int
+        Number of nodes.
+    """
+
+    def __init__(self, program: Program, data: Mapping, nodes: int) -> None:
+        super().__init__(program, data, nodes)
+        self.nat = program.native()
+        self._top = None
+
+    def _data_for(self, M: int) -> np.ndarray:
+        """The data at M coefficients or more, coefficient first (D, Md >= M, S)."""
+        top = self._top
+        if top is None or top.shape[1] < M:
+            series = [self.data[n] for n in self.program.data_names] + self.program.extra
+            k = max([M - 1] + [s.order for s in series])
+            top = self._top = self.program.data_array(self.data, k, self.nodes)
+        return top
+
+    def residual_and_jacobian(self, stacked: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Residual series and Jacobian series at the unknowns' coefficients.
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, nodes, K)
+            Taylor coefficients of the n unknowns (coefficient last).
+        k : int
+            Working order, ``K - 1``.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            ``G`` (neq, nodes, K) and ``Jc`` (neq, n, nodes, K).
+        """
+        x = np.ascontiguousarray(np.swapaxes(stacked, 1, 2), dtype=float)
+        G, J = self.nat.evaluate_tangent(x, self._data_for(k + 1), k + 1)
+        return np.swapaxes(G, 1, 2), np.swapaxes(J, 2, 3)
+
+    def residual_only(self, stacked: np.ndarray, k: int) -> np.ndarray:
+        """Residual series at the unknowns' coefficients.
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, nodes, K)
+            Taylor coefficients of the n unknowns (coefficient last).
+        k : int
+            Working order, ``K - 1``.
+
+        Returns
+        -------
+        ndarray, shape (neq, nodes, K)
+        """
+        x = np.ascontiguousarray(np.swapaxes(stacked, 1, 2), dtype=float)
+        return np.swapaxes(self.nat.evaluate(x, self._data_for(k + 1), k + 1), 1, 2)
+
+    def const_fun(self, x: np.ndarray) -> np.ndarray:
+        """Constant term of the residual at constant unknowns (the pointwise problem).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, nodes)
+            Values of the unknowns.
+
+        Returns
+        -------
+        ndarray, shape (neq, nodes)
+        """
+        xx = np.ascontiguousarray(np.real(x), dtype=float)[:, None, :]
+        return self.nat.evaluate(xx, self._data_for(1), 1)[:, 0, :]
+
+    def const_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`const_fun`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, nodes)
+            Values of the unknowns.
+
+        Returns
+        -------
+        ndarray, shape (neq, n, nodes)
+        """
+        xx = np.ascontiguousarray(np.real(x), dtype=float)[:, None, :]
+        return self.nat.evaluate_tangent(xx, self._data_for(1), 1)[1][:, :, 0, :]
+
+    def warm_newton(self, stacked, weights, carried, tol, maxsteps, chord_steps, chord_proof):
+        """Newton and chord steps at the full working order, whole in native code (as
+        :func:`planners.newton._warm_newton`'s loop).
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, nodes, K)
+            The start (coefficient last).
+        weights : ndarray, shape (K,)
+            ``step^m``, the weights of the residual's coefficients in the test.
+        carried : ndarray, shape (n, n, nodes, K), or None
+            A usable carried Jacobian series (its constant term is replaced at the start).
+        tol : float
+            Tolerance.
+        maxsteps, chord_steps : int
+            :data:`planners.newton.WARM_MAXSTEPS`, :data:`planners.newton.CHORD_STEPS`.
+        chord_proof : float
+            :data:`planners.newton.CHORD_PROOF`.
+
+        Returns
+        -------
+        tuple
+            ``(status, x, Jc, cres, evaluations)``: status 0 solved (x (n, nodes, K), Jc (n, n, nodes, K),
+            cres (nodes,)), 1 not solved (the caller's full scheme follows), 2 a singular node (the caller
+            reruns the numpy steps).
+        """
+        K = stacked.shape[-1]
+        x = np.ascontiguousarray(np.swapaxes(stacked, 1, 2), dtype=float)
+        n, S = x.shape[0], x.shape[2]
+        if carried is None:
+            Jc = np.empty((n, n, K, S))
+        else:
+            Jc = np.ascontiguousarray(np.swapaxes(carried, 2, 3), dtype=float)
+        w = np.ascontiguousarray(weights, dtype=float)
+        st, cres, steps = self.nat.warm_newton(
+            x, self._data_for(K), Jc, carried is not None, tol, w, maxsteps, chord_steps, chord_proof
+        )
+        return st, np.swapaxes(x, 1, 2), np.swapaxes(Jc, 2, 3), cres, steps
+
+    def doubling(self, stacked, orders):
+        """The precision-doubling steps of :func:`planners.newton.newton_series`, whole in native code.
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, nodes, K)
+            The pointwise solution in the constant terms, the starting guess above (coefficient last).
+        orders : sequence of int
+            Working orders, increasing, ending at ``K - 1``.
+
+        Returns
+        -------
+        tuple
+            ``(status, x, Jc)``: status 0 (x (n, nodes, K), Jc (n, n, nodes, K) of the last step) or 2 (a
+            singular node: the caller reruns the numpy steps).
+        """
+        K = stacked.shape[-1]
+        x = np.ascontiguousarray(np.swapaxes(stacked, 1, 2), dtype=float)
+        n, S = x.shape[0], x.shape[2]
+        Jc = np.empty((n, n, K, S))
+        st = self.nat.doubling(x, self._data_for(K), np.asarray(orders, dtype=np.int64), Jc)
+        return st, np.swapaxes(x, 1, 2), np.swapaxes(Jc, 2, 3)

@@ -579,7 +579,7 @@ class _CompiledKernels:
 #: Environment variable selecting the kernels of the series arithmetic (read once, at import).
 BACKEND_ENV = "GFLAT_SERIES_BACKEND"
 #: The kernel sets: ``"numpy"`` (the reference) and ``"compiled"`` (numba).
-BACKENDS = ("numpy", "compiled")
+BACKENDS = ("numpy", "compiled", "native")
 
 
 def _select_backend() -> str:
