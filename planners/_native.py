@@ -199,21 +199,17 @@ class NativeProgram:
         self.n = program.n_unknowns
         self.nreg = program.n_registers
         self.neq = len(self.outs)
+        # the program's own pointers, once (the arrays are kept alive by this object)
+        self._head = (_ptr(self.code), self.code.shape[0], _ptr(self.params))
+        self._tail = (self.nreg, _ptr(self.outs), _ptr(self.outs_unk), self.neq, self.n)
+        self._data_ptr: tuple = (None, 0)
 
-    def _args(self, data: np.ndarray) -> list:
-        return [
-            _ptr(self.code),
-            self.code.shape[0],
-            _ptr(self.params),
-            _ptr(data),
-            data.shape[1],
-            self.nreg,
-            _ptr(self.outs),
-            _ptr(self.outs_unk),
-            self.neq,
-            self.n,
-            data.shape[2],
-        ]
+    def _args(self, data: np.ndarray) -> tuple:
+        held, ptr = self._data_ptr
+        if held is not data:
+            ptr = _ptr(data)
+            self._data_ptr = (data, ptr)
+        return (*self._head, ptr, data.shape[1], *self._tail, data.shape[2])
 
     def evaluate(self, x: np.ndarray, data: np.ndarray, M: int) -> np.ndarray:
         """Residual series (neq, M, S) at ``x`` (n, Mx >= M, S), data (D, Md >= M, S), both C-contiguous."""

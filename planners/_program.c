@@ -29,23 +29,51 @@ enum {
 
 /* ------------------------------------------------------------------ series recurrences on (M, S) */
 
-static void s_mul(const double *a, const double *b, double *out, i64 M, i64 S) {
+/* The Cauchy products accumulate each coefficient of a block of BLOCK nodes in local variables (registers):
+ * the same sum, in the same order (j ascending), as one node at a time. */
+#define BLOCK 8
+#if defined(__GNUC__) && !defined(__clang__)
+#define HOT __attribute__((optimize("O3")))
+#else
+#define HOT
+#endif
+
+HOT static void s_mul(const double *a, const double *b, double *out, i64 M, i64 S) {
     for (i64 k = 0; k < M; k++) {
-        double *o = out + k * S;
-        for (i64 i = 0; i < S; i++) o[i] = 0.0;
-        for (i64 j = 0; j <= k; j++) {
-            const double *aj = a + j * S, *bk = b + (k - j) * S;
-            for (i64 i = 0; i < S; i++) o[i] += aj[i] * bk[i];
+        i64 i = 0;
+        for (; i + BLOCK <= S; i += BLOCK) {
+            double acc[BLOCK] = {0.0};
+            for (i64 j = 0; j <= k; j++) {
+                const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
+                for (int q = 0; q < BLOCK; q++) acc[q] += aj[q] * bk[q];
+            }
+            for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
+        }
+        for (; i < S; i++) {
+            double acc = 0.0;
+            for (i64 j = 0; j <= k; j++) acc += a[j * S + i] * b[(k - j) * S + i];
+            out[k * S + i] = acc;
         }
     }
 }
 
-static void s_mul_add(const double *a, const double *b, double *out, i64 M, i64 S) {
+/* out = a * b + c * d (the tangent of a product: one pass) */
+HOT static void s_mul2(const double *a, const double *b, const double *c, const double *d, double *out, i64 M, i64 S) {
     for (i64 k = 0; k < M; k++) {
-        double *o = out + k * S;
-        for (i64 j = 0; j <= k; j++) {
-            const double *aj = a + j * S, *bk = b + (k - j) * S;
-            for (i64 i = 0; i < S; i++) o[i] += aj[i] * bk[i];
+        i64 i = 0;
+        for (; i + BLOCK <= S; i += BLOCK) {
+            double acc[BLOCK] = {0.0};
+            for (i64 j = 0; j <= k; j++) {
+                const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
+                const double *cj = c + j * S + i, *dk = d + (k - j) * S + i;
+                for (int q = 0; q < BLOCK; q++) acc[q] += aj[q] * bk[q] + cj[q] * dk[q];
+            }
+            for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
+        }
+        for (; i < S; i++) {
+            double acc = 0.0;
+            for (i64 j = 0; j <= k; j++) acc += a[j * S + i] * b[(k - j) * S + i] + c[j * S + i] * d[(k - j) * S + i];
+            out[k * S + i] = acc;
         }
     }
 }
@@ -322,9 +350,12 @@ static void tangent_op(const Prog *P, const i64 *row, const double *W, double *T
             break;
         }
         case MUL:
-            s_fill(To, 0.0, MS);
-            if (ta) s_mul_add(Ta, Wb, To, M, S);
-            if (tb) s_mul_add(Wa, Tb, To, M, S);
+            if (ta && tb)
+                s_mul2(Ta, Wb, Wa, Tb, To, M, S);
+            else if (ta)
+                s_mul(Ta, Wb, To, M, S);
+            else
+                s_mul(Wa, Tb, To, M, S);
             break;
         case DIV:
             /* (da - q db) / b */

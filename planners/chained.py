@@ -502,10 +502,10 @@ def compiled_programs() -> bool:
     return program_backend() is not None
 
 
-def _add_known(known: dict, derivs: dict, names, values) -> None:
+def _add_known(known: dict, derivs: dict, names, values, derivatives: bool = True) -> None:
     for name, v in zip(names, values):
         known[name] = v
-        if v.order >= 1:
+        if derivatives and v.order >= 1:
             derivs[name + "'"] = v.derivative()
 
 
@@ -608,7 +608,7 @@ def flat_parametrization(
         u, rep = _solve_stage(
             system, h, stage, known, derivs, hat, guess, t_nodes, order, tol, carry, programs=programs, static=static
         )
-        _add_known(known, derivs, stage.unknowns, u)
+        _add_known(known, derivs, stage.unknowns, u, derivatives=h < system.r)  # no stage reads the last's
         if rep is not None:
             reports[f"stage{h}"] = rep
     return NodeSolution(known, order, reports, cached)

@@ -333,30 +333,17 @@ def _warm_newton(
     n = len(base)
     batch = base[0].batch_shape
     K = order + 1
-    stacked = np.stack(
-        [
-            np.broadcast_to(
-                np.real(u.truncate(order).coeffs if u.order >= order else u.pad(order).coeffs), batch + (K,)
-            )
-            for u in base
-        ]
-    ).astype(float)
     t = np.ravel(np.asarray(t_nodes, dtype=float))
-    step = float(np.min(np.diff(t))) if t.size > 1 and np.all(np.diff(t) > 0) else 1.0
-    weights = step ** np.arange(K)
-    # Jc: the Jacobian of the steps; last: residual size where the last step with Jc started (None: no
-    # step with Jc yet); theta: largest rate of decrease measured with Jc; newton_step: the last step
-    # used a Jacobian computed at its start.
-    Jc = _usable_jacobian(carried, n, n, batch, K)
-    native = getattr(ev, "warm_newton", None)
+    dt = np.diff(t)
+    step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
+    native = getattr(ev, "warm_newton_series", None)
     if native is not None and len(batch) == 1:
-        # the same steps whole in native code (planners.program.NativeStageEvaluator); status 2 (a singular
-        # node) leaves them to the numpy steps below, which take a least-squares step there
-        status, x, Jn, cres, steps = native(stacked, weights, Jc, tol, maxsteps, CHORD_STEPS, CHORD_PROOF)
+        # the steps below, whole in native code (planners.program.NativeStageEvaluator) on the coefficient-first
+        # storage; status 2 (a singular node) leaves them to the numpy steps, which take a least-squares step
+        status, u, Jn, cres, steps = native(base, order, step, carried, tol, maxsteps, CHORD_STEPS, CHORD_PROOF)
         if status == 1:
             return None
         if status == 0:
-            u = [Series(np.ascontiguousarray(x[j])) for j in range(n)]
 
             def native_residual() -> np.ndarray:
                 return ev.series_residual(u, order, batch)
@@ -365,6 +352,19 @@ def _warm_newton(
                 tuple(names), np.asarray(t_nodes), cres, 0, native_residual, [order] * steps, jacobian=Jn
             )
             return u, rep
+    stacked = np.stack(
+        [
+            np.broadcast_to(
+                np.real(u.truncate(order).coeffs if u.order >= order else u.pad(order).coeffs), batch + (K,)
+            )
+            for u in base
+        ]
+    ).astype(float)
+    weights = step ** np.arange(K)
+    # Jc: the Jacobian of the steps; last: residual size where the last step with Jc started (None: no
+    # step with Jc yet); theta: largest rate of decrease measured with Jc; newton_step: the last step
+    # used a Jacobian computed at its start.
+    Jc = _usable_jacobian(carried, n, n, batch, K)
     proof = Jc is not None
     if Jc is not None:
         # The constant term of the carried Jacobian at this start: one pointwise complex-step evaluation

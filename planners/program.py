@@ -901,18 +901,30 @@ class NativeStageEvaluator(StageEvaluator):
         xx = np.ascontiguousarray(np.real(x), dtype=float)[:, None, :]
         return self.nat.evaluate_tangent(xx, self._data_for(1), 1)[1][:, :, 0, :]
 
-    def warm_newton(self, stacked, weights, carried, tol, maxsteps, chord_steps, chord_proof):
-        """Newton and chord steps at the full working order, whole in native code (as
-        :func:`planners.newton._warm_newton`'s loop).
+    def _coefficients(self, us, K: int) -> np.ndarray:
+        """Series ``us`` (batch (S,) or ()) as one coefficient-first array (n, K, S), truncated or zero-padded."""
+        x = np.zeros((len(us), K, self.nodes))
+        for j, u in enumerate(us):
+            c = u._c
+            m = min(c.shape[0], K)
+            x[j, :m] = np.real(c[:m]) if c.ndim == 2 else np.real(c[:m, None])
+        return x
+
+    def warm_newton_series(self, base, order, step, carried, tol, maxsteps, chord_steps, chord_proof):
+        """Newton and chord steps at the full working order from ``base``, whole in native code: the loop of
+        :func:`planners.newton._warm_newton` (same steps, same tests).
 
         Parameters
         ----------
-        stacked : ndarray, shape (n, nodes, K)
-            The start (coefficient last).
-        weights : ndarray, shape (K,)
-            ``step^m``, the weights of the residual's coefficients in the test.
-        carried : ndarray, shape (n, n, nodes, K), or None
-            A usable carried Jacobian series (its constant term is replaced at the start).
+        base : list of Series
+            The start (batch shape (nodes,)), truncated or zero-padded to ``order``.
+        order : int
+            Working order.
+        step : float
+            The smallest node spacing [s] (coefficient m of the residual is weighted by ``step^m``).
+        carried : ndarray, shape (n, n, nodes, K' >= order + 1), or None
+            The Jacobian series of a nearby problem (:attr:`planners.newton.SeriesNewtonReport.jacobian`);
+            ignored when its shape does not fit or it is not finite.
         tol : float
             Tolerance.
         maxsteps, chord_steps : int
@@ -923,22 +935,38 @@ class NativeStageEvaluator(StageEvaluator):
         Returns
         -------
         tuple
-            ``(status, x, Jc, cres, evaluations)``: status 0 solved (x (n, nodes, K), Jc (n, n, nodes, K),
-            cres (nodes,)), 1 not solved (the caller's full scheme follows), 2 a singular node (the caller
-            reruns the numpy steps).
+            ``(status, u, Jc, cres, evaluations)``: status 0 solved (u the list of Series, Jc (n, n, nodes, K)
+            the Jacobian series of the last step, cres (nodes,) the constant-term residual bound), 1 not
+            solved (the caller's full scheme follows), 2 a singular node (the caller reruns the numpy steps).
         """
-        K = stacked.shape[-1]
-        x = np.ascontiguousarray(np.swapaxes(stacked, 1, 2), dtype=float)
+        K = order + 1
+        x = self._coefficients(base, K)
         n, S = x.shape[0], x.shape[2]
-        if carried is None:
+        has = False
+        Jc = None
+        if carried is not None:
+            Jn = getattr(carried, "base", None)  # a report's Jacobian is a view of the native layout
+            if (
+                isinstance(Jn, np.ndarray)
+                and Jn.ndim == 4
+                and Jn.shape[:2] == (n, n)
+                and Jn.shape[2] >= K
+                and Jn.shape[3] == S
+                and np.shares_memory(Jn, carried)
+            ):
+                Jc = np.ascontiguousarray(Jn[:, :, :K])
+            else:
+                Jc = np.ascontiguousarray(np.swapaxes(np.asarray(carried, dtype=float), 2, 3)[:, :, :K])
+            has = Jc.shape == (n, n, K, S) and bool(np.all(np.isfinite(Jc)))
+        if not has:
             Jc = np.empty((n, n, K, S))
-        else:
-            Jc = np.ascontiguousarray(np.swapaxes(carried, 2, 3), dtype=float)
-        w = np.ascontiguousarray(weights, dtype=float)
+        w = step ** np.arange(K, dtype=float)
         st, cres, steps = self.nat.warm_newton(
-            x, self._data_for(K), Jc, carried is not None, tol, w, maxsteps, chord_steps, chord_proof
+            x, self._data_for(K), Jc, has, tol, w, maxsteps, chord_steps, chord_proof
         )
-        return st, np.swapaxes(x, 1, 2), np.swapaxes(Jc, 2, 3), cres, steps
+        if st != 0:
+            return st, None, None, None, steps
+        return st, [Series._wrap(x[j]) for j in range(n)], np.swapaxes(Jc, 2, 3), cres, steps
 
     def doubling(self, stacked, orders):
         """The precision-doubling steps of :func:`planners.newton.newton_series`, whole in native code.
