@@ -704,3 +704,19 @@ int gf_doubling(PROG_ARGS, double *x, i64 Mx, const i64 *orders, i64 norders, do
     free(buf);
     return status;
 }
+
+/* ------------------------------------------------------------------ piecewise polynomials on many times */
+
+/* out (v, N): the polynomials c (intervals, v, d1) of interval idx[t] at offsets s[t], by Horner's rule:
+ * o = c_(d1-1); o = o * s + c_p for p = d1 - 2 .. 0 (the operations of planners.plan._horner, without
+ * contraction into fused multiply-adds: the same values). */
+int gf_horner(const double *c, i64 v, i64 d1, const i64 *idx, const double *s, i64 N, double *out) {
+    for (i64 q = 0; q < v; q++)
+        for (i64 t = 0; t < N; t++) {
+            const double *cp = c + (idx[t] * v + q) * d1;
+            double o = cp[d1 - 1], st = s[t];
+            for (i64 p = d1 - 2; p >= 0; p--) o = o * st + cp[p];
+            out[q * N + t] = o;
+        }
+    return 0;
+}

@@ -599,10 +599,14 @@ def flat_parametrization(
             "reports": reports,
         }
     loss = cached["order"] - order  # every reused series loses the order the flat outputs lose
+    programs = _programs_of(system, zeta, t_nodes, cached) if compiled_programs() else None
+    if programs is not None and carry and isinstance(guess, NodeSolution) and guess._inputs is cached:
+        sol = _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h0)
+        if sol is not None:
+            return sol
     known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
     derivs = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["derivs"].items()}
     reports = dict(cached["reports"])
-    programs = _programs_of(system, zeta, t_nodes, cached) if compiled_programs() else None
     static = set(known) | set(derivs)
     for h, stage in enumerate(system.stages[h0 - 1 :], start=h0):
         u, rep = _solve_stage(
@@ -612,6 +616,165 @@ def flat_parametrization(
         if rep is not None:
             reports[f"stage{h}"] = rep
     return NodeSolution(known, order, reports, cached)
+
+
+class _NativeStage:
+    """One stage of :func:`_native_iterate`: its program, and its data as one buffer (D, M, S) kept for the
+    plan: the static rows filled once at the plan's top order (later iterates read fewer coefficients, and
+    the coefficients above a truncated series' order are zeroed), the other rows written at each iterate."""
+
+    def __init__(self, h, stage, prog, solve, cached, M, nodes):
+        self.h, self.stage, self.prog, self.solve = h, stage, prog, solve
+        self.nat = prog.native()
+        self.names = list(prog.data_names)
+        self.B = np.zeros((len(self.names) + len(prog.extra), M, nodes))
+        self.static = {}  # row -> order of the series at the plan's top order
+        top = {**cached["known"], **cached["derivs"]}
+        for r, n in enumerate(self.names):
+            if n in top:
+                self.static[r] = top[n].order
+                _fill(self.B[r], top[n])
+        for r, s in enumerate(prog.extra, start=len(self.names)):
+            self.static[r] = s.order
+            _fill(self.B[r], s)
+
+    def data(self, M: int, loss: int, values: Mapping) -> np.ndarray:
+        """The buffer at this iterate: static rows truncated by ``loss``, the others from ``values``."""
+        B = self.B
+        for r, n in enumerate(self.names):
+            o = self.static.get(r)
+            if o is None:
+                _fill(B[r, :M], values[n])
+            elif o - loss + 1 < M:
+                B[r, max(o - loss + 1, 0) : M] = 0.0
+        for r in range(len(self.names), B.shape[0]):
+            o = self.static[r]
+            if o - loss + 1 < M:
+                B[r, max(o - loss + 1, 0) : M] = 0.0
+        return B
+
+
+def _fill(row: np.ndarray, v) -> None:
+    """``row`` (M, S) := the coefficients of ``v`` (a Series of batch (S,) or (), or a number), zero-padded."""
+    if isinstance(v, _LazyDerivative):  # (k + 1) c_(k+1), as Series.derivative
+        c = v.v._c
+        m = min(c.shape[0] - 1, row.shape[0])
+        d = c[1 : m + 1] * np.arange(1, m + 1, dtype=float)[:, None] if c.ndim == 2 else None
+        if d is None:
+            d = (c[1 : m + 1] * np.arange(1, m + 1, dtype=float))[:, None]
+        row[:m] = np.real(d)
+        row[m:] = 0.0
+    elif isinstance(v, Series):
+        c = v._c
+        m = min(c.shape[0], row.shape[0])
+        row[:m] = np.real(c[:m]) if c.ndim == 2 else np.real(c[:m, None])
+        row[m:] = 0.0
+    else:
+        row[:] = 0.0
+        row[0] = np.real(v)
+
+
+def _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h0):
+    """A generalized-flatness iterate after the first on the native evaluator, from the previous one: the stages
+    of :func:`flat_parametrization` (warm Newton with its carried Jacobians, the closed forms) on the plan's
+    data buffers, without the series objects between them.  None (the caller takes the general path, whose
+    result this is) when a stage has no native program, its Newton steps need the full scheme or the numpy
+    steps, or the previous iterate lacks what a warm start needs."""
+    from . import newton as nw
+
+    if program_backend() != "native":
+        return None
+    nodes = len(t_nodes)
+    loss = cached["order"] - order
+    state = cached.get("native_stages")
+    if state is None:
+        state = {}
+        for h, stage in enumerate(system.stages[h0 - 1 :], start=h0):
+            solve = stage.solve is not None
+            prog, _ = programs.get(("solve", h) if solve else h, (None, ""))
+            if prog is None:
+                state = None
+                break
+            M = order - h + (2 if solve else 1)
+            state[h] = _NativeStage(h, stage, prog, solve, cached, M, nodes)
+        cached["native_stages"] = state if state is not None else False
+    if not state:
+        return None
+    t = np.asarray(t_nodes, dtype=float)
+    dt = np.diff(t)
+    step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
+    values = dict(hat or {})
+    for n in system.neglected:
+        if n not in values:
+            values[n] = system.neglected_start(n)
+    out, reports = {}, dict(cached["reports"])
+    for h, st in state.items():
+        stage, k = st.stage, order - h
+        M = k + (2 if st.solve else 1)
+        if st.B.shape[1] < M:
+            return None
+        if st.solve:
+            B = st.data(M, loss, values)
+            res = st.nat.evaluate(np.zeros((0, M, nodes)), B, M)
+            u = [Series._wrap(res[j, : k + 1]) for j in range(res.shape[0])]
+        else:
+            if not all(n in guess for n in stage.unknowns):
+                return None
+            rep0 = guess.reports.get(f"stage{h}")
+            Jn = getattr(getattr(rep0, "jacobian", None), "base", None)
+            n = len(stage.unknowns)
+            if not (isinstance(Jn, np.ndarray) and Jn.shape[:2] == (n, n) and Jn.shape[2] >= M):
+                return None
+            B = st.data(M, loss, values)
+            x = np.empty((n, M, nodes))
+            for j, name in enumerate(stage.unknowns):
+                _fill(x[j], guess[name])
+            Jc = np.ascontiguousarray(Jn[:, :, :M])
+            if not np.all(np.isfinite(Jc)):
+                return None
+            w = step ** np.arange(M, dtype=float)
+            status, cres, steps = st.nat.warm_newton(
+                x, B, Jc, True, tol, w, nw.WARM_MAXSTEPS, nw.CHORD_STEPS, nw.CHORD_PROOF
+            )
+            if status != 0:
+                return None
+            u = [Series._wrap(x[j]) for j in range(n)]
+            reports[f"stage{h}"] = nw.SeriesNewtonReport(
+                tuple(stage.unknowns),
+                t,
+                cres,
+                0,
+                _lazy_series_residual(st.nat, x, np.ascontiguousarray(B[:, :M]), M),
+                [k] * steps,
+                jacobian=np.swapaxes(Jc, 2, 3),
+            )
+        if stage.post is not None:
+            u = list(stage.post(list(u)))
+        for name, v in zip(stage.unknowns, u):
+            values[name] = out[name] = v
+            if h < system.r and v.order >= 1:
+                values[name + "'"] = _LazyDerivative(v)
+    known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
+    known.update(out)
+    return NodeSolution(known, order, reports, cached)
+
+
+class _LazyDerivative:
+    """A series' derivative computed when a stage's data first reads it."""
+
+    __slots__ = ("v", "d")
+
+    def __init__(self, v: Series) -> None:
+        self.v, self.d = v, None
+
+
+def _lazy_series_residual(nat, x, data, M):
+    """The report's series residual (max abs coefficient per node), evaluated on first access."""
+
+    def series_residual() -> np.ndarray:
+        return np.max(np.abs(nat.evaluate(x, data, M)), axis=(0, 1))
+
+    return series_residual
 
 
 @dataclass

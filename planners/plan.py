@@ -219,10 +219,11 @@ def _horner_blocks(c: np.ndarray, i: np.ndarray, s: np.ndarray) -> np.ndarray:
     for a, b in zip(starts[:-1], starts[1:]):
         cp = c[i[a]]  # (v, d + 1)
         sb = s[a:b]
-        o = np.repeat(cp[:, -1:], b - a, axis=1)
-        for p in range(cp.shape[1] - 2, -1, -1):
-            o = o * sb + cp[:, p : p + 1]
-        out[:, a:b] = o
+        o = out[:, a:b]
+        o[:] = cp[:, -1:]
+        for p in range(cp.shape[1] - 2, -1, -1):  # in place: the same operations as o = o * s + c
+            o *= sb
+            o += cp[:, p : p + 1]
     return out
 
 
@@ -422,8 +423,14 @@ class Plan:
         t_arr = self._check_times(t)
         tn = self.t_nodes
         i = np.clip(np.searchsorted(tn, t_arr, side="right") - 1, 0, len(tn) - 2)
-        if derivative == 0 and t_arr.size > 8 * len(tn) and np.all(np.diff(i) >= 0):  # a fine sorted grid
-            return _horner_blocks(c, i, t_arr - tn[i])
+        if derivative == 0 and t_arr.size > 8 * len(tn):  # a fine grid (the limit checks)
+            from . import _native
+
+            out = _native.horner(c, i, t_arr - tn[i])  # when the native evaluator is loaded: the same values
+            if out is not None:
+                return out
+            if np.all(np.diff(i) >= 0):
+                return _horner_blocks(c, i, t_arr - tn[i])
         return _horner(c[i], t_arr - tn[i], derivative)
 
     def piecewise(self, names=CONTROL_NAMES, j: int = -1) -> PiecewisePolynomial:
