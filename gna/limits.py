@@ -439,6 +439,43 @@ def control_ranges(aircraft) -> dict[str, tuple[float, float]]:
     return out
 
 
+class _Columns:
+    """A trajectory's float columns as arrays, read from its DataFrame once (what the limits' functions read:
+    ``columns``, ``frame[name].to_numpy(dtype=float)``, ``len``)."""
+
+    class _Column:
+        __slots__ = ("values",)
+
+        def __init__(self, values: np.ndarray) -> None:
+            self.values = values
+
+        def to_numpy(self, dtype=float) -> np.ndarray:
+            return self.values.astype(dtype, copy=False)
+
+    def __init__(self, frame) -> None:
+        self.columns = tuple(frame.columns)
+        try:
+            block = frame.to_numpy(dtype=float)
+        except (TypeError, ValueError):  # a column that is not numeric: read the numeric ones one by one
+            block = None
+        if block is not None:
+            self._cols = {c: block[:, i] for i, c in enumerate(self.columns)}
+        else:
+            self._cols = {}
+            for c in self.columns:
+                try:
+                    self._cols[c] = frame[c].to_numpy(dtype=float)
+                except (TypeError, ValueError):
+                    continue
+        self._n = len(frame)
+
+    def __getitem__(self, name: str):
+        return self._Column(self._cols[name])
+
+    def __len__(self) -> int:
+        return self._n
+
+
 def limit_violations(aircraft, frame, env=None) -> list[Violation]:
     """Where a trajectory leaves the aircraft's limits, one record per limit and side.
 
@@ -464,8 +501,9 @@ def limit_violations(aircraft, frame, env=None) -> list[Violation]:
     dt = np.diff(t, append=t[-1])
     span = max(float(t[-1] - t[0]), 1e-300)
     out = []
+    frame = _Columns(frame)  # the columns read once (a DataFrame's lookups cost more than the checks)
+    have = set(frame.columns)
     for lim in aircraft_limits(aircraft):
-        have = set(frame.columns)
         if lim.name == "nz":
             if "nz" not in have and (env is None or not set(lim.columns) <= have):
                 continue
