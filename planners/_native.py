@@ -135,6 +135,8 @@ def _declare(lib) -> None:
     lib.gf_warm_newton.argtypes = prog + [P, P, I, I, D, P, I, I, D, P, P]
     lib.gf_doubling.argtypes = prog + [P, I, P, I, P]
     lib.gf_horner.argtypes = [P, I, I, P, P, I, P]
+    lib.gf_pointwise_newton.argtypes = prog + [P, D, I, P, P]
+    lib.gf_pointwise_newton.restype = ctypes.c_int
     for f in (
         lib.gf_evaluate,
         lib.gf_evaluate_tangent,
@@ -254,6 +256,16 @@ class NativeProgram:
             ctypes.addressof(steps),
         )
         return st, cres, steps.value
+
+    def pointwise_newton(self, x, data, tol: float, maxiter: int):
+        """``gf_pointwise_newton``: status (0, or 2 singular), residuals (S,), iterations; x (n, S) updated."""
+        S = data.shape[2]
+        res = np.empty(S)
+        its = ctypes.c_int64(0)
+        st = self.lib.gf_pointwise_newton(
+            *self._args(data), _ptr(x), float(tol), int(maxiter), _ptr(res), ctypes.addressof(its)
+        )
+        return st, res, its.value
 
     def doubling(self, x, data, orders: np.ndarray, Jc) -> int:
         """``gf_doubling``: status (0, or 2 singular); x (n, Mx, S) and Jc (n, n, Mx, S) updated."""

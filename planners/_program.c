@@ -720,3 +720,109 @@ int gf_horner(const double *c, i64 v, i64 d1, const i64 *idx, const double *s, i
         }
     return 0;
 }
+
+/* ------------------------------------------------------------------ the pointwise Newton (constant terms) */
+
+static double node_norm(const double *f, i64 n, i64 S, i64 i) {
+    /* max_a |f_a| at node i, NaN when one is NaN (numpy.max) */
+    double r = fabs(f[i]);
+    for (i64 a = 1; a < n; a++) {
+        double v = fabs(f[a * S + i]);
+        if (isnan(v) || isnan(r))
+            r = NAN;
+        else if (v > r)
+            r = v;
+    }
+    return r;
+}
+
+/* gna.solve.newton on the constant terms of a program (scale ones, damped, the Jacobian by the tangent):
+ * x (n, S) in/out, res (S) out, *iterations out.  Returns 0, or 2 when a node's Jacobian is exactly singular
+ * (numpy then takes least squares: the caller reruns gna.solve.newton). */
+int gf_pointwise_newton(PROG_ARGS, double *x, double tol, i64 maxiter, double *res, i64 *iterations) {
+    Prog P = PROG_INIT;
+    i64 nS = n * S;
+    i64 wsz = work_size(&P, 1, 1);
+    double *buf = malloc((size_t)(wsz + 6 * nS + n * nS + 2 * S + n * (n + 1)) * sizeof(double));
+    if (buf == NULL) return -1;
+    double *work = buf, *f = work + wsz, *fn = f + nS, *xn = fn + nS, *dx = xn + nS, *tmp = dx + nS;
+    double *J = tmp + nS, *rn = J + n * nS, *step = rn + S, *aug = step + S;
+    int status = 0;
+    run(&P, x, 1, 1, f, NULL, work);
+    for (i64 i = 0; i < S; i++) res[i] = node_norm(f, n, S, i);
+    i64 it = 0;
+    for (;;) {
+        int all_done = 1;
+        for (i64 i = 0; i < S; i++)
+            if (!(res[i] <= tol)) all_done = 0;
+        if (it >= maxiter || all_done) break;
+        it++;
+        if (!all_finite(f, nS)) break;
+        run(&P, x, 1, 1, tmp, J, work); /* J (n, n, 1, S) */
+        for (i64 i = 0; i < S; i++) {
+            /* J dx = -f at node i: Gaussian elimination with partial pivoting */
+            for (i64 r = 0; r < n; r++) {
+                for (i64 c = 0; c < n; c++) aug[r * (n + 1) + c] = J[(r * n + c) * S + i];
+                aug[r * (n + 1) + n] = -f[r * S + i];
+            }
+            for (i64 c = 0; c < n; c++) {
+                i64 piv = c;
+                double best = fabs(aug[c * (n + 1) + c]);
+                for (i64 r = c + 1; r < n; r++)
+                    if (fabs(aug[r * (n + 1) + c]) > best) {
+                        best = fabs(aug[r * (n + 1) + c]);
+                        piv = r;
+                    }
+                if (!(best > 0.0)) {
+                    status = 2;
+                    goto done;
+                }
+                if (piv != c)
+                    for (i64 q = 0; q <= n; q++) {
+                        double t = aug[c * (n + 1) + q];
+                        aug[c * (n + 1) + q] = aug[piv * (n + 1) + q];
+                        aug[piv * (n + 1) + q] = t;
+                    }
+                for (i64 r = c + 1; r < n; r++) {
+                    double m = aug[r * (n + 1) + c] / aug[c * (n + 1) + c];
+                    for (i64 q = c; q <= n; q++) aug[r * (n + 1) + q] -= m * aug[c * (n + 1) + q];
+                }
+            }
+            for (i64 r = n - 1; r >= 0; r--) {
+                double acc = aug[r * (n + 1) + n];
+                for (i64 q = r + 1; q < n; q++) acc -= aug[r * (n + 1) + q] * dx[q * S + i];
+                dx[r * S + i] = acc / aug[r * (n + 1) + r];
+            }
+            if (!(res[i] > tol))
+                for (i64 r = 0; r < n; r++) dx[r * S + i] = 0.0; /* inactive */
+            step[i] = 1.0;
+        }
+        for (i64 q = 0; q < nS; q++) xn[q] = x[q] + dx[q];
+        run(&P, xn, 1, 1, fn, NULL, work);
+        for (i64 i = 0; i < S; i++) rn[i] = node_norm(fn, n, S, i);
+        for (int h = 0; h < 10; h++) {
+            int any = 0;
+            for (i64 i = 0; i < S; i++) {
+                int active = res[i] > tol;
+                int bad = !(rn[i] < res[i]) && active && !(rn[i] <= tol);
+                bad = bad && (!isfinite(rn[i]) || rn[i] >= res[i]);
+                if (bad) {
+                    any = 1;
+                    step[i] *= 0.5;
+                }
+            }
+            if (!any) break;
+            for (i64 a = 0; a < n; a++)
+                for (i64 i = 0; i < S; i++) xn[a * S + i] = x[a * S + i] + dx[a * S + i] * step[i];
+            run(&P, xn, 1, 1, fn, NULL, work);
+            for (i64 i = 0; i < S; i++) rn[i] = node_norm(fn, n, S, i);
+        }
+        memcpy(x, xn, (size_t)nS * sizeof(double));
+        memcpy(f, fn, (size_t)nS * sizeof(double));
+        for (i64 i = 0; i < S; i++) res[i] = isfinite(rn[i]) ? rn[i] : INFINITY;
+    }
+done:
+    *iterations = it;
+    free(buf);
+    return status;
+}

@@ -667,7 +667,14 @@ def newton_series(
         if done is not None:
             return done
     x0 = np.stack([np.broadcast_to(np.real(u.constant_term), batch) for u in base]).astype(float)
-    res = newton(const_fun, x0, tol=tol, maxiter=maxiter, jac=ev.const_jacobian)
+    native = getattr(ev, "pointwise_newton", None) if len(batch) == 1 else None
+
+    def pointwise(start):
+        # the same iteration in native code when the evaluator has it (None at a singular node: numpy's)
+        done = native(start, tol, maxiter) if native is not None else None
+        return done if done is not None else newton(const_fun, start, tol=tol, maxiter=maxiter, jac=ev.const_jacobian)
+
+    res = pointwise(x0)
     x, cres, its = res.x, res.residual, res.iterations
     # Memory Newton: restart failed nodes from their nearest converged neighbour, sweeping outwards.
     for _ in range(8):
@@ -679,7 +686,7 @@ def newton_series(
         nearest = good_idx[np.argmin(np.abs(bad_idx[:, None] - good_idx[None, :]), axis=1)]
         xs = x.copy()
         xs[:, bad_idx] = x[:, nearest]
-        r2 = newton(const_fun, xs, tol=tol, maxiter=maxiter, jac=ev.const_jacobian)
+        r2 = pointwise(xs)
         improved = r2.residual < cres
         if not np.any(improved & bad):
             break

@@ -968,6 +968,33 @@ class NativeStageEvaluator(StageEvaluator):
             return st, None, None, None, steps
         return st, [Series._wrap(x[j]) for j in range(n)], np.swapaxes(Jc, 2, 3), cres, steps
 
+    def pointwise_newton(self, x0: np.ndarray, tol: float, maxiter: int):
+        """:func:`gna.solve.newton` on the constant terms (damped, the Jacobian of :meth:`const_jacobian`), whole
+        in native code.
+
+        Parameters
+        ----------
+        x0 : ndarray, shape (n, nodes)
+            The start.
+        tol : float
+            Tolerance on each node's max-norm residual.
+        maxiter : int
+            Iterations at most.
+
+        Returns
+        -------
+        gna.solve.NewtonResult or None
+            None at an exactly singular node (the caller runs :func:`gna.solve.newton`, which takes a
+            least-squares step there); ``history`` holds the final residual only.
+        """
+        from gna.solve import NewtonResult
+
+        x = np.array(np.real(x0), dtype=float, order="C")
+        status, res, its = self.nat.pointwise_newton(x, self._data_for(1), tol, maxiter)
+        if status != 0:
+            return None
+        return NewtonResult(x=x, residual=res, iterations=its, converged=res <= tol, history=[float(np.max(res))])
+
     def doubling(self, stacked, orders):
         """The precision-doubling steps of :func:`planners.newton.newton_series`, whole in native code.
 

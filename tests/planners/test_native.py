@@ -147,6 +147,8 @@ def test_newton_on_series_in_native_code_agrees_with_numpy(seed):
     kw = dict(tol=1e-12, names=("u", "v", "w"), t_nodes=t)
     ref, rr = newton_series(residual, u0, order, **kw)
     new, rn = newton_series(residual, u0, order, evaluator=NativeStageEvaluator(prog, data, nodes), **kw)
+    assert rr.constant_iterations == rn.constant_iterations  # the pointwise Newton's iterations
+    close(rr.constant_residual, rn.constant_residual, 1e-9)
     for a, b in zip(ref, new):
         close(a.coeffs, b.coeffs)
     close(rr.jacobian, rn.jacobian)
@@ -177,6 +179,7 @@ def test_a_singular_node_falls_back_to_the_numpy_steps():
     start = [Series(np.full((nodes, order + 1), 0.9)), Series(np.full((nodes, order + 1), 0.4))]
     status = ev.warm_newton_series(start, order, 1.0, None, 1e-12, 8, 2, 0.1)[0]
     assert status == 2
+    assert ev.pointwise_newton(np.stack([s.coeffs[..., 0] for s in start]), 1e-12, 20) is None
     assert ev.doubling(np.stack([s.coeffs for s in start]), [1, 3])[0] == 2
 
     def residual(us, k):
@@ -210,6 +213,8 @@ def test_whole_plans_agree_with_the_numpy_path(name):
             close(np.real(it_r[var].coeffs), np.real(it_n[var].coeffs))
         for stage, rep in it_r.reports.items():
             assert rep.doubling_orders == it_n.reports[stage].doubling_orders
+            assert rep.constant_iterations == it_n.reports[stage].constant_iterations
+            close(rep.constant_residual, it_n.reports[stage].constant_residual, 1e-9)
     assert ref.feasible == new.feasible
     assert ref.warnings == new.warnings
 
