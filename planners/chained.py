@@ -628,29 +628,29 @@ class _NativeStage:
         self.nat = prog.native()
         self.names = list(prog.data_names)
         self.B = np.zeros((len(self.names) + len(prog.extra), M, nodes))
-        self.static = {}  # row -> order of the series at the plan's top order
+        self.static = []  # (row, order of the series at the plan's top order)
+        self.var = []  # (row, name)
         top = {**cached["known"], **cached["derivs"]}
         for r, n in enumerate(self.names):
             if n in top:
-                self.static[r] = top[n].order
+                self.static.append((r, top[n].order))
                 _fill(self.B[r], top[n])
+            else:
+                self.var.append((r, n))
         for r, s in enumerate(prog.extra, start=len(self.names)):
-            self.static[r] = s.order
+            self.static.append((r, s.order))
             _fill(self.B[r], s)
+        self.lowest = min((o for _, o in self.static), default=None)
 
     def data(self, M: int, loss: int, values: Mapping) -> np.ndarray:
         """The buffer at this iterate: static rows truncated by ``loss``, the others from ``values``."""
         B = self.B
-        for r, n in enumerate(self.names):
-            o = self.static.get(r)
-            if o is None:
-                _fill(B[r, :M], values[n])
-            elif o - loss + 1 < M:
-                B[r, max(o - loss + 1, 0) : M] = 0.0
-        for r in range(len(self.names), B.shape[0]):
-            o = self.static[r]
-            if o - loss + 1 < M:
-                B[r, max(o - loss + 1, 0) : M] = 0.0
+        for r, n in self.var:
+            _fill(B[r, :M], values[n])
+        if self.lowest is not None and self.lowest - loss + 1 < M:
+            for r, o in self.static:
+                if o - loss + 1 < M:
+                    B[r, max(o - loss + 1, 0) : M] = 0.0
         return B
 
 
@@ -667,8 +667,11 @@ def _fill(row: np.ndarray, v) -> None:
     elif isinstance(v, Series):
         c = v._c
         m = min(c.shape[0], row.shape[0])
-        row[:m] = np.real(c[:m]) if c.ndim == 2 else np.real(c[:m, None])
-        row[m:] = 0.0
+        if c.dtype.kind == "c":
+            c = c.real
+        row[:m] = c[:m] if c.ndim == 2 else c[:m, None]
+        if m < row.shape[0]:
+            row[m:] = 0.0
     else:
         row[:] = 0.0
         row[0] = np.real(v)
