@@ -24,7 +24,7 @@ typedef int64_t i64;
 
 enum {
     INPUT, DATA, ADD, SUB, MUL, DIV, NEG, ADDC, RSUBC, MULC, DIVC, RDIVC,
-    SQRT, EXP, LOG, SINCOS, SINHCOSH, POW, ARCTAN, CONST, AXPY, ZERO, TAN, COPY, DERIV
+    SQRT, EXP, LOG, SINCOS, SINHCOSH, POW, ARCTAN, CONST, AXPY, ZERO, TAN, COPY, DERIV, ATAN2
 };
 
 /* ------------------------------------------------------------------ series recurrences on (M, S) */
@@ -55,6 +55,15 @@ HOT static void s_mul(const double *a, const double *b, double *out, i64 M, i64 
             out[k * S + i] = acc;
         }
     }
+}
+
+/* out += a * b */
+static void s_mul_add(const double *a, const double *b, double *out, i64 M, i64 S) {
+    for (i64 k = 0; k < M; k++)
+        for (i64 j = 0; j <= k; j++) {
+            const double *aj = a + j * S, *bk = b + (k - j) * S;
+            for (i64 i = 0; i < S; i++) out[k * S + i] += aj[i] * bk[i];
+        }
 }
 
 /* out = a * b + c * d (the tangent of a product: one pass) */
@@ -202,6 +211,27 @@ static void s_tan(const double *u, double *out, i64 M, i64 S, double *scratch) {
     s_div(s, c, out, M, S);
 }
 
+/* arctan2(y, x) = arctan2(y0, x0) + integral((x y' - y x') / (x^2 + y^2)); scratch: 6 M S */
+static void s_deriv(const double *u, double *out, i64 M, i64 S);
+static void s_atan2(const double *y, const double *x, double *out, i64 M, i64 S, double *scratch) {
+    for (i64 i = 0; i < S; i++) out[i] = atan2(y[i], x[i]);
+    if (M < 2) return;
+    i64 M1 = M - 1;
+    double *dy = scratch, *dx = dy + M * S, *num = dx + M * S, *t2 = num + M * S, *den = t2 + M * S;
+    double *q = den + M * S;
+    s_deriv(y, dy, M, S);
+    s_deriv(x, dx, M, S);
+    s_mul(x, dy, num, M1, S);
+    s_mul(y, dx, t2, M1, S);
+    for (i64 i = 0; i < M1 * S; i++) num[i] -= t2[i];
+    s_mul(x, x, den, M1, S);
+    s_mul(y, y, t2, M1, S);
+    for (i64 i = 0; i < M1 * S; i++) den[i] += t2[i];
+    s_div(num, den, q, M1, S);
+    for (i64 k = 1; k < M; k++)
+        for (i64 i = 0; i < S; i++) out[k * S + i] = q[(k - 1) * S + i] / (double)k;
+}
+
 /* the time derivative: coefficient m is (m + 1) u_(m+1); the last one 0 */
 static void s_deriv(const double *u, double *out, i64 M, i64 S) {
     for (i64 m = 0; m + 1 < M; m++)
@@ -319,6 +349,9 @@ static void value_op(const Prog *P, const i64 *row, double *W, const double *x, 
     case DERIV:
         s_deriv(Wa, Wo, M, S);
         break;
+    case ATAN2:
+        s_atan2(Wa, Wb, Wo, M, S, scratch);
+        break;
     }
 }
 
@@ -434,15 +467,33 @@ static void tangent_op(const Prog *P, const i64 *row, const double *W, double *T
         case DERIV:
             s_deriv(Ta, To, M, S);
             break;
+        case ATAN2: {
+            /* d arctan2(y, x) = (x dy - y dx) / (x^2 + y^2); y = a, x = b */
+            double *den = tmp2;
+            s_mul(Wb, Wb, den, M, S);
+            s_mul_add(Wa, Wa, den, M, S);
+            if (ta && tb) {
+                s_mul(Wb, Ta, tmp, M, S);
+                s_mul(Wa, Tb, To, M, S);
+                for (i64 i = 0; i < MS; i++) tmp[i] -= To[i];
+            } else if (ta)
+                s_mul(Wb, Ta, tmp, M, S);
+            else {
+                s_mul(Wa, Tb, tmp, M, S);
+                for (i64 i = 0; i < MS; i++) tmp[i] = -tmp[i];
+            }
+            s_div(tmp, den, To, M, S);
+            break;
+        }
         }
     }
 }
 
 /* residual series res (neq, M, S); with jac != NULL also the Jacobian series (neq, n, M, S).
- * work: (nreg + 4) M S doubles, plus nreg n M S with a Jacobian. */
+ * work: (nreg + 8) M S doubles, plus nreg n M S with a Jacobian. */
 static void run(const Prog *P, const double *x, i64 Mx, i64 M, double *res, double *jac, double *work) {
     i64 S = P->S, MS = M * S, n = P->n;
-    double *W = work, *scratch = W + P->nreg * MS, *tmp = scratch + 2 * MS, *tmp2 = tmp + MS;
+    double *W = work, *scratch = W + P->nreg * MS, *tmp = scratch + 6 * MS, *tmp2 = tmp + MS;
     double *T = tmp2 + MS;
     for (i64 i = 0; i < P->ninstr; i++) {
         const i64 *row = P->code + 6 * i;
@@ -462,7 +513,7 @@ static void run(const Prog *P, const double *x, i64 Mx, i64 M, double *res, doub
 
 static i64 work_size(const Prog *P, i64 M, int tangent) {
     i64 MS = M * P->S;
-    return (P->nreg + 4) * MS + (tangent ? P->nreg * P->n * MS : 0);
+    return (P->nreg + 8) * MS + (tangent ? P->nreg * P->n * MS : 0);
 }
 
 #define PROG_ARGS                                                                                              \

@@ -74,6 +74,9 @@ class Stage:
     warm : bool
         Newton at the full working order from the start even without a previous iterate (equations
         affine in the unknowns: one step solves them; :func:`planners.newton.newton_series` ``warm``).
+    check : callable, optional
+        ``check(v, t_nodes)``: the checks :attr:`solve` makes of its data (raising their errors), run before
+        the compiled :attr:`solve_series` (which makes none).
     solve_series : callable, optional
         The closed form :attr:`solve` written with plain arithmetic on series (no other operations, no
         truncations), ``solve_series(v) -> list``: ``v`` maps every variable known so far to its series at
@@ -90,6 +93,7 @@ class Stage:
     post: Callable | None = None
     warm: bool = False
     solve_series: Callable | None = None
+    check: Callable | None = None
 
 
 @dataclass(frozen=True)
@@ -431,7 +435,11 @@ def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, to
         data[name] = _as_series(v, nodes, k)
     rep = None
     if stage.solve is not None:
-        u = _solve_compiled(programs, h, stage, data, static, nodes, k)
+        u = None
+        if programs is not None and stage.solve_series is not None and program_backend() == "native":
+            if stage.check is not None:
+                stage.check(data, t_nodes)
+            u = _solve_compiled(programs, h, stage, data, static, nodes, k)
         if u is None:
             v = {n: s.truncate(min(s.order, k + 1)) for n, s in data.items()}
             u = [_as_series(s, nodes, k) for s in stage.solve(v, t_nodes)]
@@ -577,13 +585,17 @@ def flat_parametrization(
         if missing:
             raise InputError(f"{system.name}: no function given for the flat output(s) {', '.join(missing)}")
         known, derivs, reports = {}, {}, {}
+        first = _programs_of(system, zeta, t_nodes, {}) if compiled_programs() else None
         for z, h in system.flat_outputs.items():
             k = order - int(h) + 1
             _add_known(known, derivs, [z], [_as_series(funcs[z](Series.variable(t_nodes, k)), nodes, k)])
         for name, f in system.inputs.items():
             _add_known(known, derivs, [name], [_as_series(f(Series.variable(t_nodes, order)), nodes, order)])
         for h, stage in enumerate(system.stages[: h0 - 1], start=1):
-            u, rep = _solve_stage(system, h, stage, known, derivs, None, None, t_nodes, order, tol, carry)
+            static0 = set(known) | set(derivs)  # the stages before the first with neglected terms: static data
+            u, rep = _solve_stage(
+                system, h, stage, known, derivs, None, None, t_nodes, order, tol, carry, first, static0
+            )
             _add_known(known, derivs, stage.unknowns, u)
             if rep is not None:
                 reports[f"stage{h}"] = rep
@@ -598,6 +610,8 @@ def flat_parametrization(
             "derivs": derivs,
             "reports": reports,
         }
+        if first is not None:
+            cached["programs"] = first
     loss = cached["order"] - order  # every reused series loses the order the flat outputs lose
     programs = _programs_of(system, zeta, t_nodes, cached) if compiled_programs() else None
     if programs is not None and carry and isinstance(guess, NodeSolution) and guess._inputs is cached:
@@ -704,8 +718,11 @@ def _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h
     if not state:
         return None
     t = np.asarray(t_nodes, dtype=float)
-    dt = np.diff(t)
-    step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
+    weights = cached.get("native_weights")
+    if weights is None:  # step^m, step the smallest node spacing (planners.newton._warm_newton's test)
+        dt = np.diff(t)
+        step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
+        weights = cached["native_weights"] = step ** np.arange(cached["order"] + 2, dtype=float)
     values = dict(hat or {})
     for n in system.neglected:
         if n not in values:
@@ -735,9 +752,8 @@ def _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h
             Jc = np.ascontiguousarray(Jn[:, :, :M])
             if not np.all(np.isfinite(Jc)):
                 return None
-            w = step ** np.arange(M, dtype=float)
             status, cres, steps = st.nat.warm_newton(
-                x, B, Jc, True, tol, w, nw.WARM_MAXSTEPS, nw.CHORD_STEPS, nw.CHORD_PROOF
+                x, B, Jc, True, tol, weights[:M], nw.WARM_MAXSTEPS, nw.CHORD_STEPS, nw.CHORD_PROOF
             )
             if status != 0:
                 return None

@@ -251,12 +251,18 @@ def stage1(x: Series, y: Series, z: Series):
         ``(V, gamma, chi)`` [m/s, rad, rad], one order below the flat outputs; chi is made
         continuous along the nodes.
     """
+    V, gamma, chi = _stage1_series(x, y, z)
+    return V, gamma, _unwrap_constant(chi)
+
+
+def _stage1_series(x, y, z):
+    """:func:`stage1` without making chi continuous: plain arithmetic on series (traced as a program)."""
     xd, yd, zd = x.derivative(), y.derivative(), z.derivative()
     vh2 = xd * xd + yd * yd
     vh = np.sqrt(vh2)
     V = np.sqrt(vh2 + zd * zd)
     gamma = np.arctan2(-zd, vh)
-    chi = _unwrap_constant(np.arctan2(yd, xd))
+    chi = np.arctan2(yd, xd)
     return V, gamma, chi
 
 
@@ -493,10 +499,20 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
         xd, yd, zd = kinematics(state(v, rates=False))
         return [v["x'"] - xd, v["y'"] - yd, v["z'"] - zd]
 
-    def solve1(v, t_nodes):
+    def check1(v, t_nodes):
         names = ("x", "y", "z", "zeta", "f1", "f2", "eta", "dn")
         _check_inputs(t_nodes, {n: v.get(n) for n in names})
+
+    def solve1(v, t_nodes):
+        check1(v, t_nodes)
         return list(stage1(v["x"], v["y"], v["z"]))
+
+    def solve1_series(v):
+        return list(_stage1_series(v["x"], v["y"], v["z"]))
+
+    def post1(u):
+        V, gamma, chi = u
+        return [V, gamma, _unwrap_constant(chi)]  # chi continuous along the nodes (as stage1 gives it)
 
     def residual2(v):
         h = HValues(*(v[n] for n in H_NAMES))
@@ -561,7 +577,7 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
         name="aircraft",
         flat_outputs={"x": 1, "y": 1, "z": 1, "zeta": 3},
         stages=(
-            Stage(STAGE_UNKNOWNS[0], residual1, solve=solve1),
+            Stage(STAGE_UNKNOWNS[0], residual1, solve=solve1, solve_series=solve1_series, check=check1, post=post1),
             Stage(STAGE_UNKNOWNS[1], residual2, neglected=H_NAMES, ell=3, start=start2, post=post2),
             Stage(STAGE_UNKNOWNS[2], residual3, solve=solve3, solve_series=solve3_series),
             Stage(controls4, residual4, warm=True),

@@ -43,6 +43,8 @@ __all__ = ["Program", "Sym", "TraceError", "trace", "available"]
 #: The time derivative (native evaluator only: the closed-form stages): coefficient m is (m + 1) a_(m+1), the
 #: last coefficient of the working order is 0 (a program using it is exact to one order less).
 DERIV = 24
+#: arctan2(y, x) (native evaluator only): arctan2(y0, x0) + integral((x y' - y x') / (x^2 + y^2)).
+ATAN2 = 25
 
 
 class TraceError(Exception):
@@ -160,6 +162,8 @@ class _Recorder:
             v = self.concrete(a) ** p[k]
         elif op == DERIV:
             v = self.concrete(a).derivative()
+        elif op == ATAN2:
+            v = np.arctan2(self.concrete(a), self.concrete(b))
         else:
             raise TraceError(f"reading the value of operation {op} is not supported")
         self._concrete[i] = v
@@ -418,6 +422,22 @@ class Sym:
         return impl(*inputs)
 
 
+def _arctan2(y, x):
+    """arctan2 of two traced series (a number or node array operand becomes a constant series)."""
+    like = y if isinstance(y, Sym) else x
+    rec = like.rec
+
+    def as_sym(v):
+        o = like._operand(v)
+        if isinstance(o, float):
+            return rec.node(CONST, -1, -1, rec.param(o))
+        if o is None:
+            raise TraceError(f"arctan2 of a {type(v).__name__}")
+        return o
+
+    return rec.node(ATAN2, as_sym(y).i, as_sym(x).i)
+
+
 def _as_sym_pair(x, y):
     like = x if isinstance(x, Sym) else y
     return like
@@ -445,6 +465,7 @@ _UFUNCS: dict = {
     np.multiply: _ufunc_binary("mul"),
     np.divide: _ufunc_binary("truediv"),
     np.power: _ufunc_binary("pow"),
+    np.arctan2: _arctan2,
     np.negative: lambda x: -x,
     np.positive: lambda x: x,
     **{
