@@ -619,6 +619,11 @@ class Plan:
         DataFrame
             Indexed by ``t`` [s], ``t0`` to ``t1`` (``t1`` included).
         """
+        t, cols, vals = self._limit_arrays(j, aircraft)
+        return pd.DataFrame(vals.T, columns=cols, index=pd.Index(t, name="t"))
+
+    def _limit_arrays(self, j: int, aircraft: Aircraft | None) -> tuple:
+        """:meth:`limit_frame` as arrays: times (N,), column names, values (columns, N)."""
         from gna.limits import fine_step, limit_columns
 
         step = fine_step(float(np.min(np.diff(self.t_nodes))))
@@ -633,8 +638,7 @@ class Plan:
             U = np.array([f(x) for x in t]).T
         used = [i for i, c in enumerate(CONTROL_NAMES) if c in names]
         vals = np.concatenate([self._evaluate_many(tuple(states), t, j), U[used]]) if states else U[used]
-        cols = states + [CONTROL_NAMES[i] for i in used]
-        return pd.DataFrame(vals.T, columns=cols, index=pd.Index(t, name="t"))
+        return t, states + [CONTROL_NAMES[i] for i in used], vals
 
     def limit_violations(self, j: int = -1, aircraft: Aircraft | None = None) -> list:
         """Where iterate ``j`` leaves the aircraft's limits (:func:`gna.limits.limit_violations`).
@@ -651,10 +655,10 @@ class Plan:
         list of gna.limits.Violation
             On the grid of :meth:`limit_frame`; empty within every limit.
         """
-        from gna.limits import limit_violations
+        from gna.limits import TrajectoryColumns, limit_violations
 
         ac = aircraft or self.aircraft
-        return limit_violations(ac, self.limit_frame(j, ac), self.env)
+        return limit_violations(ac, TrajectoryColumns(*self._limit_arrays(j, ac)), self.env)
 
     def node_values(self, j: int = -1) -> tuple[State, Controls]:
         """States and controls at the nodes (constant terms of the series).
