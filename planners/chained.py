@@ -166,6 +166,10 @@ class ChainedSystem:
         the stages before the first with neglected terms (``v``, for flat outputs at ``order``):
         computed once per plan and truncated in later iterates by the orders they lose; every stage
         sees them (e.g. the aircraft's dynamic pressure).
+    derived_series : callable, optional
+        :attr:`derived` for the native evaluator: ``derived_series(order) -> (function, orders)``, the
+        function ``f(v) -> list`` written with plain arithmetic on series of ``v`` (untruncated: traced as a
+        program), ``orders`` the order of each result in :attr:`derived`'s dict (its keys, in order).
     """
 
     name: str
@@ -179,6 +183,7 @@ class ChainedSystem:
     newton_tol: float = 1e-13
     model: StateSpaceModel | None = None
     derived: Callable | None = None
+    derived_series: Callable | None = None
 
     @property
     def r(self) -> int:
@@ -420,6 +425,27 @@ def _solve_compiled(programs, h, stage, data, static, nodes, k):
     return [Series(np.ascontiguousarray(out[j, : k + 1].T)) for j in range(out.shape[0])]
 
 
+def _derived_compiled(system, programs, known, order, nodes):
+    """:attr:`ChainedSystem.derived` by its traced :attr:`ChainedSystem.derived_series` on the native evaluator
+    (the series truncated to the orders it names), or None (no such form, another backend, not traceable)."""
+    if programs is None or system.derived_series is None or program_backend() != "native":
+        return None
+    fun, orders = system.derived_series(order)
+    if "derived" not in programs:
+        from .program import trace
+
+        programs["derived"] = trace(fun, (), known, set(known))
+    prog, _reason = programs["derived"]
+    if prog is None or set(prog.data_names) - set(known) or len(prog.outputs) != len(orders):
+        return None
+    from .program import NativeStageEvaluator
+
+    M = order + 1
+    ev = NativeStageEvaluator(prog, known, nodes)
+    out = ev.nat.evaluate(np.zeros((0, M, nodes)), ev._data_for(M), M)
+    return {name: Series._wrap(out[j, : k + 1]) for j, (name, k) in enumerate(orders.items())}
+
+
 def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, tol, carry, programs=None, static=()):
     """Stage h at order ``order - h``: its unknowns (list of Series) and its Newton report (or None).
 
@@ -600,7 +626,8 @@ def flat_parametrization(
             if rep is not None:
                 reports[f"stage{h}"] = rep
         if system.derived is not None:  # data of the stages, not variables of the solution
-            derivs.update(system.derived(dict(known), order))
+            more = _derived_compiled(system, first, known, order, nodes)
+            derivs.update(system.derived(dict(known), order) if more is None else more)
         cached = {
             "system": system,
             "zeta": zeta,

@@ -573,6 +573,13 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
             "qbar": _dynamic_pressure(env, z4, V4),
         }
 
+    def derived_series(order):
+        def fun(v):
+            path = _path_terms(v["gamma"], v["chi"])
+            return [path[n] for n in _PATH_TERMS] + [_dynamic_pressure(env, v["z"], v["V"])]
+
+        return fun, {**dict.fromkeys(_PATH_TERMS, order - 3), "qbar": order - 4}
+
     system = ChainedSystem(
         name="aircraft",
         flat_outputs={"x": 1, "y": 1, "z": 1, "zeta": 3},
@@ -589,6 +596,7 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
         neglected_values=dict(zip(H_NAMES, problem.h)),
         newton_tol=1e-12,
         derived=derived,
+        derived_series=derived_series,
     )
     problem.__dict__["_system"] = system  # one system per problem: iterates reuse each other's series
     return system
