@@ -137,6 +137,8 @@ def _declare(lib) -> None:
     lib.gf_horner.argtypes = [P, I, I, P, P, I, P]
     lib.gf_pointwise_newton.argtypes = prog + [P, D, I, P, P]
     lib.gf_pointwise_newton.restype = ctypes.c_int
+    lib.gf_iterates.argtypes = [I, P, P, P, P, I, P, P, I, I, I, P, I, P, P, P, P, P, D, P, I, I, D]
+    lib.gf_iterates.restype = ctypes.c_int64
     for f in (
         lib.gf_evaluate,
         lib.gf_evaluate_tangent,
@@ -298,3 +300,21 @@ def horner(c: np.ndarray, i: np.ndarray, s: np.ndarray) -> np.ndarray | None:
     out = np.empty((c.shape[1], s.size))
     lib.gf_horner(_ptr(c), c.shape[1], c.shape[2], _ptr(i), _ptr(s), s.size, _ptr(out))
     return out
+
+
+def iterates(*args) -> int:
+    """``gf_iterates`` (the generalized-flatness iterates whole, :func:`planners.chained._native_run`): the
+    first iterate not completed.
+
+    Parameters
+    ----------
+    *args
+        The arguments of ``gf_iterates`` in ``planners/_program.c``, arrays as numpy arrays.
+
+    Returns
+    -------
+    int
+    """
+    lib = library()
+    conv = [_ptr(a) if isinstance(a, np.ndarray) else a for a in args]
+    return int(lib.gf_iterates(*conv))

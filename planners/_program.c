@@ -15,6 +15,9 @@
  * exactly singular at a node (the caller then reruns the numpy path, which takes a least-squares step).
  */
 
+#if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
+#define _POSIX_C_SOURCE 199309L /* clock_gettime */
+#endif
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -876,4 +879,127 @@ done:
     *iterations = it;
     free(buf);
     return status;
+}
+
+/* ------------------------------------------------------------------ generalized-flatness iterates, whole */
+
+#include <time.h>
+static double now_s(void) { /* wall time [s] (processor time without a monotonic clock) */
+#ifdef CLOCK_MONOTONIC
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+#else
+    return (double)clock() / CLOCKS_PER_SEC;
+#endif
+}
+
+#define META 10  /* per stage: kind (0 Newton, 1 closed form), n, neq, ninstr, nreg, D, Mtop, nvar, nstatic, h */
+#define PTRS 5   /* per stage: code, params, outs, outs_unk, B */
+
+/* row (M, S) of B := coefficients 0..K-1 of the series src (K, S) (or of its derivative), zero-padded */
+static void fill_row(double *row, i64 M, i64 S, const double *src, i64 K, int deriv) {
+    i64 avail = deriv ? K - 1 : K;
+    i64 m = avail < M ? avail : M;
+    if (m < 0) m = 0;
+    for (i64 c = 0; c < m; c++)
+        for (i64 i = 0; i < S; i++) row[c * S + i] = deriv ? (c + 1) * src[(c + 1) * S + i] : src[c * S + i];
+    for (i64 c = m; c < M; c++)
+        for (i64 i = 0; i < S; i++) row[c * S + i] = 0.0;
+}
+
+/* Iterates j0 .. j1 - 1 of the generalized flat parametrization on the native evaluator, each from the one
+ * before (the stages of planners.chained._native_iterate: the warm Newton with the carried Jacobian, the closed
+ * forms), without returning to Python between them.
+ *
+ * Slots are the stages' unknowns; slot_ptrs[j * nslots + s] is the coefficient array (order_j - slot_h[s] + 1,
+ * S) of slot s at iterate j (iterate j0 - 1 given).  Each stage's data rows are its buffer B's: var rows
+ * (row, slot, derivative, previous iterate) written here, static rows (row, top order) truncated by the
+ * iterate's loss.  jac_ptrs[j * nst + st] and cres_ptrs: the Newton stages' Jacobian (n, n, M_j, S) and
+ * constant-term residual (S) at iterate j (iterate j0 - 1's Jacobian given); steps[j * nst + st] their
+ * evaluations; seconds[j] each iterate's wall time.  Returns the first iterate not completed (j1 when all
+ * were): a Newton stage that needs the full scheme or the numpy steps stops here, and the caller goes on. */
+i64 gf_iterates(i64 nst, const i64 *meta, const i64 *ptrs, const i64 *var_rows, const i64 *static_rows,
+                i64 nslots, const i64 *slot_h, const i64 *unk_slots, i64 S, i64 j0, i64 j1, const i64 *orders,
+                i64 order_top, const i64 *slot_ptrs, const i64 *jac_ptrs, const i64 *cres_ptrs, i64 *steps,
+                double *seconds, double tol, const double *weights, i64 maxsteps, i64 chord_steps,
+                double chord_proof) {
+    for (i64 j = j0; j < j1; j++) {
+        double t0 = now_s();
+        i64 order = orders[j], loss = order_top - order;
+        const i64 *vr = var_rows, *sr = static_rows, *us = unk_slots;
+        for (i64 st = 0; st < nst; st++) {
+            const i64 *m = meta + META * st;
+            i64 kind = m[0], n = m[1], neq = m[2], Mtop = m[6], nvar = m[7], nstatic = m[8], h = m[9];
+            const i64 *pp = ptrs + PTRS * st;
+            double *B = (double *)(intptr_t)pp[4];
+            i64 k = order - h, M = k + (kind ? 2 : 1);
+            if (M > Mtop) return j;
+            for (i64 q = 0; q < nvar; q++) {
+                i64 row = vr[4 * q], slot = vr[4 * q + 1], deriv = vr[4 * q + 2], prev = vr[4 * q + 3];
+                i64 jj = prev ? j - 1 : j;
+                const double *src = (const double *)(intptr_t)slot_ptrs[jj * nslots + slot];
+                i64 K = orders[jj] - slot_h[slot] + 1;
+                fill_row(B + row * Mtop * S, M, S, src, K, (int)deriv);
+            }
+            for (i64 q = 0; q < nstatic; q++) {
+                i64 row = sr[2 * q], o = sr[2 * q + 1];
+                i64 from = o - loss + 1;
+                if (from < 0) from = 0;
+                for (i64 c = from; c < M; c++)
+                    for (i64 i = 0; i < S; i++) B[(row * Mtop + c) * S + i] = 0.0;
+            }
+            Prog P = {(const i64 *)(intptr_t)pp[0], m[3], (const double *)(intptr_t)pp[1], B, Mtop, m[4],
+                      (const i64 *)(intptr_t)pp[2], (const i64 *)(intptr_t)pp[3], neq, n, S};
+            if (kind == 1) {
+                double *res = malloc((size_t)(neq * M * S + work_size(&P, M, 0)) * sizeof(double));
+                if (res == NULL) return j;
+                run(&P, NULL, M, M, res, NULL, res + neq * M * S);
+                for (i64 a = 0; a < neq; a++) {
+                    double *dst = (double *)(intptr_t)slot_ptrs[j * nslots + us[a]];
+                    memcpy(dst, res + a * M * S, (size_t)((k + 1) * S) * sizeof(double));
+                }
+                free(res);
+            } else {
+                double *x = malloc((size_t)(n * M * S) * sizeof(double));
+                if (x == NULL) return j;
+                for (i64 a = 0; a < n; a++) {
+                    const double *src = (const double *)(intptr_t)slot_ptrs[(j - 1) * nslots + us[a]];
+                    i64 K = orders[j - 1] - slot_h[us[a]] + 1;
+                    fill_row(x + a * M * S, M, S, src, K, 0);
+                }
+                const double *Jp = (const double *)(intptr_t)jac_ptrs[(j - 1) * nst + st];
+                i64 Mp = orders[j - 1] - h + 1;
+                double *Jc = (double *)(intptr_t)jac_ptrs[j * nst + st];
+                if (Mp < M) {
+                    free(x);
+                    return j;
+                }
+                for (i64 q = 0; q < n * n; q++) memcpy(Jc + q * M * S, Jp + q * Mp * S, (size_t)(M * S) * sizeof(double));
+                if (!all_finite(Jc, n * n * M * S)) {
+                    free(x);
+                    return j;
+                }
+                i64 ns = 0;
+                int status = gf_warm_newton(P.code, P.ninstr, P.p, B, Mtop, P.nreg, P.outs, P.outs_unk, neq, n, S, x,
+                                            Jc, M, 1, tol, weights, maxsteps, chord_steps, chord_proof,
+                                            (double *)(intptr_t)cres_ptrs[j * nst + st], &ns);
+                steps[j * nst + st] = ns;
+                if (status != 0) {
+                    free(x);
+                    return j;
+                }
+                for (i64 a = 0; a < n; a++) {
+                    double *dst = (double *)(intptr_t)slot_ptrs[j * nslots + us[a]];
+                    memcpy(dst, x + a * M * S, (size_t)(M * S) * sizeof(double));
+                }
+                free(x);
+            }
+            vr += 4 * nvar;
+            sr += 2 * nstatic;
+            us += (kind ? neq : n);
+        }
+        seconds[j] = now_s() - t0;
+    }
+    return j1;
 }

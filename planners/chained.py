@@ -730,18 +730,7 @@ def _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h
         return None
     nodes = len(t_nodes)
     loss = cached["order"] - order
-    state = cached.get("native_stages")
-    if state is None:
-        state = {}
-        for h, stage in enumerate(system.stages[h0 - 1 :], start=h0):
-            solve = stage.solve is not None
-            prog, _ = programs.get(("solve", h) if solve else h, (None, ""))
-            if prog is None:
-                state = None
-                break
-            M = order - h + (2 if solve else 1)
-            state[h] = _NativeStage(h, stage, prog, solve, cached, M, nodes)
-        cached["native_stages"] = state if state is not None else False
+    state = _native_state(system, cached, programs, order, nodes, h0)
     if not state:
         return None
     t = np.asarray(t_nodes, dtype=float)
@@ -790,7 +779,7 @@ def _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h
                 t,
                 cres,
                 0,
-                _lazy_series_residual(st.nat, x, np.ascontiguousarray(B[:, :M]), M),
+                _lazy_series_residual(st.nat, x, np.array(B[:, :M], order="C", copy=True), M),  # B is reused
                 [k] * steps,
                 jacobian=np.swapaxes(Jc, 2, 3),
             )
@@ -803,6 +792,166 @@ def _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h
     known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
     known.update(out)
     return NodeSolution(known, order, reports, cached)
+
+
+def _native_state(system, cached, programs, order, nodes, h0):
+    """The plan's :class:`_NativeStage` per stage h >= h0 (made at the first iterate that asks, whose working
+    orders size the buffers), or False when a stage has no native program."""
+    state = cached.get("native_stages")
+    if state is None:
+        state = {}
+        for h, stage in enumerate(system.stages[h0 - 1 :], start=h0):
+            solve = stage.solve is not None
+            prog, _ = programs.get(("solve", h) if solve else h, (None, ""))
+            if prog is None:
+                state = None
+                break
+            M = order - h + (2 if solve else 1)
+            state[h] = _NativeStage(h, stage, prog, solve, cached, M, nodes)
+        state = cached["native_stages"] = state if state is not None else False
+    return state
+
+
+def _native_run(system, t_nodes, iterates, orders, tol, timings):
+    """Iterates ``len(iterates)`` .. ``len(orders) - 1`` of :func:`generalized_parametrization` in one native call
+    (:func:`planners._native.iterates`, the stages of :func:`_native_iterate`), appended to ``iterates`` with
+    their wall times in ``timings``.  Stops (the caller goes on iterate by iterate) where a Newton stage needs
+    the full scheme or the numpy steps, where a stage's :attr:`Stage.post` changes its result (it ran after
+    the native stages), or at once when the plan is not on the native evaluator."""
+    from . import _native
+    from . import newton as nw
+
+    prev = iterates[-1]
+    cached = prev._inputs
+    j0, j1 = len(iterates), len(orders)
+    if j0 >= j1 or not cached or program_backend() != "native":
+        return
+    state = cached.get("native_stages")
+    if not state:
+        return
+    nodes = len(t_nodes)
+    slots, slot_h = [], []
+    for h, st in state.items():
+        for name in st.stage.unknowns:
+            slots.append(name)
+            slot_h.append(h)
+    sid = {n: i for i, n in enumerate(slots)}
+    meta, ptrs, var_rows, static_rows, unk = [], [], [], [], []
+    for h, st in state.items():
+        stage = st.stage
+        for r, name in st.var:
+            base = name[:-1] if name.endswith("'") else name
+            if name in stage.neglected and name in sid:
+                var_rows.append((r, sid[name], 0, 1))  # the previous iterate's value
+            elif base in sid and slot_h[sid[base]] < h:
+                var_rows.append((r, sid[base], int(name != base), 0))
+            else:
+                return  # a datum the native iterates do not provide
+        static_rows.extend(st.static)
+        unk.extend(sid[n] for n in stage.unknowns)
+        nat = st.nat
+        n_unk = 0 if st.solve else len(stage.unknowns)
+        meta.append((int(st.solve), n_unk, nat.neq, nat.code.shape[0], nat.nreg, st.B.shape[0], st.B.shape[1],
+                     len(st.var), len(st.static), h))  # fmt: skip
+        ptrs.append((*(int(a.ctypes.data) for a in (nat.code, nat.params, nat.outs, nat.outs_unk)), st.B.ctypes.data))
+    newton_stages = [i for i, st in enumerate(state.values()) if not st.solve]
+    nst, ns = len(state), len(slots)
+    keep = []  # the arrays whose addresses the native call reads
+    slot_ptrs = np.zeros((j1, ns), dtype=np.int64)
+    for i, name in enumerate(slots):
+        a = np.ascontiguousarray(np.real(prev[name]._c), dtype=float)
+        if a.ndim != 2 or a.shape != (orders[j0 - 1] - slot_h[i] + 1, nodes):
+            return
+        keep.append(a)
+        slot_ptrs[j0 - 1, i] = a.ctypes.data
+    jac_ptrs = np.zeros((j1, nst), dtype=np.int64)
+    cres_ptrs = np.zeros((j1, nst), dtype=np.int64)
+    for i in newton_stages:
+        st = list(state.values())[i]
+        rep = prev.reports.get(f"stage{st.h}")
+        jac = getattr(rep, "jacobian", None)
+        n = len(st.stage.unknowns)
+        if jac is None or np.shape(jac) != (n, n, nodes, orders[j0 - 1] - st.h + 1):
+            return
+        a = np.ascontiguousarray(np.swapaxes(jac, 2, 3), dtype=float)
+        keep.append(a)
+        jac_ptrs[j0 - 1, i] = a.ctypes.data
+    out_slots, out_jac, out_cres = {}, {}, {}
+    for j in range(j0, j1):
+        for i in range(ns):
+            a = out_slots[j, i] = np.empty((orders[j] - slot_h[i] + 1, nodes))
+            slot_ptrs[j, i] = a.ctypes.data
+        for i in newton_stages:
+            st = list(state.values())[i]
+            n = len(st.stage.unknowns)
+            a = out_jac[j, i] = np.empty((n, n, orders[j] - st.h + 1, nodes))
+            jac_ptrs[j, i] = a.ctypes.data
+            c = out_cres[j, i] = np.empty(nodes)
+            cres_ptrs[j, i] = c.ctypes.data
+    steps = np.zeros((j1, nst), dtype=np.int64)
+    seconds = np.zeros(j1)
+    weights = cached.get("native_weights")
+    if weights is None:
+        t = np.asarray(t_nodes, dtype=float)
+        dt = np.diff(t)
+        step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
+        weights = cached["native_weights"] = step ** np.arange(cached["order"] + 2, dtype=float)
+    arr = [np.array(v, dtype=np.int64).reshape(-1) for v in (meta, ptrs, var_rows, static_rows, slot_h, unk)]
+    done = _native.iterates(
+        nst, *arr[:4], ns, arr[4], arr[5], nodes, j0, j1, np.array(orders, dtype=np.int64), cached["order"],
+        slot_ptrs, jac_ptrs, cres_ptrs, steps, seconds, tol, weights, nw.WARM_MAXSTEPS, nw.CHORD_STEPS,
+        nw.CHORD_PROOF,
+    )  # fmt: skip
+    del keep
+    t = np.asarray(t_nodes, dtype=float)
+    for j in range(j0, done):
+        loss = cached["order"] - orders[j]
+        known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
+        reports = dict(cached["reports"])
+        changed = False
+        for i, (h, st) in enumerate(state.items()):
+            stage = st.stage
+            u = [Series._wrap(out_slots[j, sid[n]]) for n in stage.unknowns]
+            if stage.post is not None and any(a is not b for a, b in zip(stage.post(list(u)), u)):
+                changed = True  # the native stages ran without it: this iterate and the later ones again
+                break
+            known.update(zip(stage.unknowns, u))
+            if not st.solve:
+                k = orders[j] - h
+                reports[f"stage{h}"] = nw.SeriesNewtonReport(
+                    tuple(stage.unknowns),
+                    t,
+                    out_cres[j, i],
+                    0,
+                    _lazy_residual_of(st, j, known, iterates, cached, loss, orders, nodes),
+                    [k] * int(steps[j, i]),
+                    jacobian=np.swapaxes(out_jac[j, i], 2, 3),
+                )
+        if changed:
+            break
+        iterates.append(NodeSolution(known, orders[j], reports, cached))
+        timings[j] = float(seconds[j])
+
+
+def _lazy_residual_of(st, j, known, iterates, cached, loss, orders, nodes):
+    """A native iterate's Newton report's series residual, evaluated on first access from the iterate's own
+    series (the stage's data rebuilt: the plan's buffers hold the last iterate's)."""
+
+    def series_residual() -> np.ndarray:
+        from .program import NativeStageEvaluator
+
+        prev = iterates[j - 1]
+        data = {**{n: v.truncate(v.order - loss) if loss else v for n, v in cached["derivs"].items()}, **known}
+        for name in st.stage.neglected:
+            data[name] = prev[name]
+        for _r, name in st.var:
+            if name not in data and name.endswith("'") and name[:-1] in known:
+                data[name] = known[name[:-1]].derivative()
+        ev = NativeStageEvaluator(st.prog, data, nodes)
+        u = [known[n] for n in st.stage.unknowns]
+        return ev.series_residual(u, orders[j] - st.h, (nodes,))
+
+    return series_residual
 
 
 class _LazyDerivative:
@@ -956,15 +1105,28 @@ def generalized_parametrization(
     kappa = e + system.r + J * system.L
     iterates, timings = [], {}
     hat, prev = dict(v or {}), None
-    for j in range(J + 1):
+    orders = [kappa - j * system.L for j in range(J + 1)]
+    tol = system.newton_tol if newton_tol is None else newton_tol
+    j = 0
+    while j <= J:
+        if j >= 2 and guesses is None:  # the remaining iterates in one native call (when the plan is native)
+            _native_run(system, t_nodes, iterates, orders, tol, timings)
+            if len(iterates) > j:
+                for jj in range(j, len(iterates)):
+                    if progress is not None:
+                        progress(jj, orders[jj], timings[jj])
+                j = len(iterates)
+                prev = iterates[-1]
+                hat = {n: prev[n] for n in system.neglected}
+                continue
         t0 = time.perf_counter()
         guess = guesses[j] if guesses is not None and j < len(guesses) else prev
-        sol = flat_parametrization(system, t_nodes, kappa, zeta, hat=hat, guess=guess, newton_tol=newton_tol)
+        sol = flat_parametrization(system, t_nodes, orders[j], zeta, hat=hat, guess=guess, newton_tol=newton_tol)
         timings[j] = time.perf_counter() - t0
         if progress is not None:
-            progress(j, kappa, timings[j])
+            progress(j, orders[j], timings[j])
         iterates.append(sol)
         hat = {n: sol[n] for n in system.neglected}
         prev = sol
-        kappa -= system.L
+        j += 1
     return ChainedPlan(system, t_nodes, iterates, timings)

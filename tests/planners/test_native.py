@@ -220,6 +220,7 @@ def test_whole_plans_agree_with_the_numpy_path(name):
             assert rep.doubling_orders == it_n.reports[stage].doubling_orders
             assert rep.constant_iterations == it_n.reports[stage].constant_iterations
             close(rep.constant_residual, it_n.reports[stage].constant_residual, 1e-9)
+            close(rep.series_residual, it_n.reports[stage].series_residual, 1e-9)  # a check of each iterate
     assert ref.feasible == new.feasible
     assert ref.warnings == new.warnings
 
@@ -293,3 +294,35 @@ def test_without_a_compiler_the_plans_run_on_numpy(monkeypatch):
 
     monkeypatch.setattr(S, "BACKEND", "native")
     assert C.program_backend() is None and not C.compiled_programs()
+
+
+def test_the_later_iterates_run_in_one_native_call():
+    """After iterates 0 and 1, the plan's remaining iterates are one native call, each with its wall time."""
+    calls = []
+    orig = NA.iterates
+
+    def spy(*args):
+        calls.append(args[9:11])  # j0, j1
+        return orig(*args)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(NA, "iterates", spy)
+        plan = _plan("gtm-aileron-roll", "native")
+    assert calls == [(2, plan.J + 1)]
+    assert sorted(plan.timings) == list(range(plan.J + 1)) and all(v > 0 for v in plan.timings.values())
+
+
+def test_a_post_that_changes_a_native_iterate_sends_it_back_to_python():
+    """A stage's post-processing (chi, mu made continuous) runs after the native iterates: where it changes
+    a result (here: a new series object, the same values), that iterate and the later ones are computed again
+    on the general path, and the plan is the numpy path's."""
+    import planners.flat as F
+
+    ref = _plan("twin-otter-single-engine", None)
+    with pytest.MonkeyPatch.context() as mp:
+        orig = F._unwrap_constant
+        mp.setattr(F, "_unwrap_constant", lambda angle: orig(angle) + 0.0)
+        new = _plan("twin-otter-single-engine", "native")
+    for it_r, it_n in zip(ref.iterates, new.iterates):
+        for var in it_r:
+            close(np.real(it_r[var].coeffs), np.real(it_n[var].coeffs))
