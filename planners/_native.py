@@ -4,7 +4,7 @@ The C source is part of the package.  On first use it is compiled by the system'
 else Python's own configured compiler, else ``cc``, ``gcc`` or ``clang`` on the path) into the user's cache
 folder (``$XDG_CACHE_HOME/gflat/native``, default ``~/.cache/gflat/native``), under a file name keyed by the
 source, the compiler's version, its flags and the machine; a changed source or compiler gives another name, so
-a stale library is never loaded (it is rebuilt; older files are removed).  Each process compiles into a
+a stale library is never loaded (it is rebuilt; a build unused for :data:`STALE_DAYS` is removed).  Each process compiles into a
 temporary file of its own and renames it into place (atomic), so several processes compiling at once are
 safe.  Loading a compiled library costs about a millisecond; compiling it about 1 s of CPU (``-O2``).
 Without a compiler, or when the compilation fails, :func:`library` returns None and says why: the planner
@@ -31,6 +31,8 @@ SOURCE = Path(__file__).with_name("_program.c")
 #: Compiler flags: optimised, IEEE arithmetic kept (no fast-math, no fused multiply-adds: the results agree
 #: with numpy to 1e-12, Horner's rule bit for bit).
 FLAGS = ("-O2", "-shared", "-fPIC", "-std=c99", "-ffp-contract=off")
+#: Days after which a build for another source or compiler (not loaded since) is removed from the cache.
+STALE_DAYS = 7
 #: Environment variable naming the C compiler (as for most build tools).
 CC_ENV = "CC"
 
@@ -118,12 +120,16 @@ def build(cc: list, target: Path) -> None:
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
-    for old in target.parent.glob("gflat_program-*"):  # stale builds (another source or compiler)
-        if old != target and not old.name.startswith("."):
-            try:
+    # Builds for another source or compiler: removed once unused for STALE_DAYS (another installed version of
+    # gflat may still load its own; a file being loaded is not in the way on POSIX)
+    import time
+
+    for old in target.parent.glob("gflat_program-*"):
+        try:
+            if old != target and time.time() - old.stat().st_atime > STALE_DAYS * 86400:
                 old.unlink()
-            except OSError:
-                pass
+        except OSError:
+            pass
 
 
 def _declare(lib) -> None:

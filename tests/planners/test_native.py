@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -269,7 +270,8 @@ def test_concurrent_builds_give_one_loadable_library(tmp_path):
 
 
 def test_the_cache_is_keyed_and_stale_builds_are_replaced(tmp_path, monkeypatch):
-    """Another source or compiler gives another file name; building it removes the stale one."""
+    """Another source or compiler gives another file name; building it removes the builds unused for
+    STALE_DAYS (another installed version's recent build stays)."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     cc = NA._compiler()
     path = NA.library_path(cc)
@@ -281,8 +283,12 @@ def test_the_cache_is_keyed_and_stale_builds_are_replaced(tmp_path, monkeypatch)
     monkeypatch.setattr(NA, "_compiler_version", lambda cc: "another compiler 1.0")
     other = NA.library_path(cc)
     assert other != path
+    recent = path.parent / "gflat_program-11111111111111111111.so"
+    recent.write_bytes(b"another version's library")
+    old = time.time() - (NA.STALE_DAYS + 1) * 86400
+    os.utime(stale, (old, old))
     NA.build(cc, other)
-    assert other.exists() and not stale.exists()
+    assert other.exists() and not stale.exists() and recent.exists()
 
 
 def test_without_a_compiler_the_plans_run_on_numpy(monkeypatch):
