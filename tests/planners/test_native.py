@@ -332,3 +332,22 @@ def test_a_post_that_changes_a_native_iterate_sends_it_back_to_python():
     for it_r, it_n in zip(ref.iterates, new.iterates):
         for var in it_r:
             close(np.real(it_r[var].coeffs), np.real(it_n[var].coeffs))
+
+
+def test_a_scenario_gives_one_problem_whose_programs_are_reused():
+    """Scenario.problem() returns the same (immutable) problem while the scenario's fields are the same objects:
+    plan_scenario twice traces the stages once; a scenario with another field gets a new problem."""
+    import dataclasses
+
+    import planners.program as P
+    from planners.generalized import plan_scenario
+    from planners.scenario import load_scenario
+
+    sc = load_scenario("gtm-forward-slip")
+    assert sc.problem() is sc.problem()
+    assert dataclasses.replace(sc, h=sc.h).problem() is not sc.problem()
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(C, "program_backend", lambda: "native")
+        plan_scenario(sc, J=1)
+        mp.setattr(P, "trace", lambda *a, **k: (_ for _ in ()).throw(AssertionError("traced again")))
+        plan_scenario(sc, J=1)
