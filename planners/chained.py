@@ -671,21 +671,33 @@ class _NativeStage:
         self.B = np.zeros((len(self.names) + len(prog.extra), M, nodes))
         self.static = []  # (row, order of the series at the plan's top order)
         self.var = []  # (row, name)
+        self.top = {}  # row -> the static series at the top order
         top = {**cached["known"], **cached["derivs"]}
         for r, n in enumerate(self.names):
             if n in top:
                 self.static.append((r, top[n].order))
-                _fill(self.B[r], top[n])
+                self.top[r] = top[n]
             else:
                 self.var.append((r, n))
         for r, s in enumerate(prog.extra, start=len(self.names)):
             self.static.append((r, s.order))
-            _fill(self.B[r], s)
+            self.top[r] = s
         self.lowest = min((o for _, o in self.static), default=None)
+        self.loss = None  # the largest loss the static rows were truncated for (their tails zeroed)
+        self.refill()
+
+    def refill(self) -> None:
+        """The static rows at the top order again (a later plan from this plan's iterates: a smaller loss)."""
+        for r, s in self.top.items():
+            _fill(self.B[r], s)
+        self.loss = 0
 
     def data(self, M: int, loss: int, values: Mapping) -> np.ndarray:
         """The buffer at this iterate: static rows truncated by ``loss``, the others from ``values``."""
         B = self.B
+        if loss < self.loss:
+            self.refill()
+        self.loss = loss
         for r, n in self.var:
             _fill(B[r, :M], values[n])
         if self.lowest is not None and self.lowest - loss + 1 < M:
@@ -855,6 +867,10 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
                      len(st.var), len(st.static), h))  # fmt: skip
         ptrs.append((*(int(a.ctypes.data) for a in (nat.code, nat.params, nat.outs, nat.outs_unk)), st.B.ctypes.data))
     newton_stages = [i for i, st in enumerate(state.values()) if not st.solve]
+    for st in state.values():  # the static rows as at iterate j0 - 1 or before (the native run zeroes them on)
+        if cached["order"] - orders[j0] < st.loss:
+            st.refill()
+        st.loss = cached["order"] - orders[j1 - 1]
     nst, ns = len(state), len(slots)
     keep = []  # the arrays whose addresses the native call reads
     slot_ptrs = np.zeros((j1, ns), dtype=np.int64)
