@@ -779,6 +779,8 @@ def floor_estimate(plan, repeat: int = 20) -> float | None:
     """Time [s] of one compiled Taylor evaluation of each Newton stage residual per iterate, all nodes at once
     (the plan's own programs, at each iterate's working order, on its solution): the planner's time over this
     is how many such evaluations a plan costs.  None on the numpy path (no programs)."""
+    from planners.series import BACKEND
+
     total = 0.0
     found = False
     for it in plan.iterates:
@@ -791,8 +793,8 @@ def floor_estimate(plan, repeat: int = 20) -> float | None:
             if it[n].order >= 1:
                 data[n + "'"] = it[n].derivative()
         for h, (prog, _why) in programs.items():
-            if prog is None or any(n not in data for n in prog.data_names):
-                continue
+            if not isinstance(h, int) or prog is None or any(n not in data for n in prog.data_names):
+                continue  # the Newton stages only (a closed-form stage's program is keyed ("solve", h))
             from planners.flat import aircraft_system
 
             unknowns = aircraft_system(plan.problem).stages[h - 1].unknowns
@@ -806,11 +808,22 @@ def floor_estimate(plan, repeat: int = 20) -> float | None:
                 m = min(c.shape[0], k + 1)
                 x[j, :m] = c[:m]
             d = prog.data_array(data, k, nodes)
-            prog.residual(x, d)
+            if BACKEND == "native":  # the evaluator the plans ran on
+                nat = prog.native()
+
+                def evaluate(x=x, d=d, k=k, nat=nat):
+                    return nat.evaluate(x, d, k + 1)
+
+            else:
+
+                def evaluate(x=x, d=d, prog=prog):
+                    return prog.residual(x, d)
+
+            evaluate()
             ts = []
             for _ in range(repeat):
                 t0 = time.perf_counter()
-                prog.residual(x, d)
+                evaluate()
                 ts.append(time.perf_counter() - t0)
             total += min(ts)
             found = True

@@ -1,6 +1,7 @@
-"""Planning time of the paper's scenarios: numpy against compiled series kernels (and a reference tree).
+"""Planning time of the paper's scenarios: the numpy reference, the native programs (the default) and numba's.
 
-Each variant -- this tree with ``GFLAT_SERIES_BACKEND=numpy``, with ``=compiled``, and optionally
+Each variant -- this tree with ``GFLAT_SERIES_BACKEND=numpy``, ``=native`` (the default: the stages as
+compiled programs in C), ``=compiled`` (numba), and optionally
 another source tree (``--ref``, e.g. a checkout of main) -- plans in its own process (the backend is
 read once, at import), one BLAS thread.  The variants are interleaved: every round runs each variant
 once, in turn, and each run times ``--inner`` plans of every case after one warm-up plan.  Printed:
@@ -11,8 +12,9 @@ accuracy work asks for)::
     python benchmarks/bench_planning.py [--rounds 5] [--inner 3] [--ref /work/main [--ref-compiled]] [--scenarios ...]
                                         [--blas-threads 1|default]
 
-The compiled kernels are loaded (or compiled, on a fresh clone) before the first timed plan; the
-one-time cost of that is printed separately (``first use``), from a process of its own.
+The compiled code is loaded (or compiled, on a fresh clone) before the first timed plan; the one-time
+cost of that is printed separately (``first use``: import, then the first series operations and the
+native library's loading), from a process of its own.
 """
 
 from __future__ import annotations
@@ -44,12 +46,14 @@ for name, J, e in cases:
     J = sc.J if J is None else J
     e = getattr(sc, "e", 1) if e is None else e
     plan_motion(prob, sc.t_nodes, J, e=e, name=name, max_cost=float("inf"))  # warm-up
-    ts = []
+    ts, cs = [], []
     for _ in range(inner):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         plan_motion(prob, sc.t_nodes, J, e=e, name=name, max_cost=float("inf"))
         ts.append(time.perf_counter() - t0)
+        cs.append(time.process_time() - c0)
     out[key] = float(np.median(ts))
+    out[key + " [CPU]"] = float(np.median(cs))
     settings[key] = f"J = {J}, e = {e}, {len(sc.t_nodes)} nodes"
 print(json.dumps({"times": out, "settings": settings}))
 """
@@ -63,6 +67,9 @@ import numpy as np
 t1 = time.perf_counter()
 a = Series(np.ones((3, 4)))
 (a * a) / (a + 1)
+if S.BACKEND == "native":
+    import planners._native as N
+    N.library()
 t2 = time.perf_counter()
 print(S.BACKEND, f"{t1 - t0:.3f}", f"{t2 - t1:.3f}")
 """
@@ -137,12 +144,12 @@ def main() -> None:
     cases = [(n, None, None) for n in args.scenarios]  # each tree's bundled J, e and grid
     if not args.no_high_order:
         cases += [(n, 8, 3) for n in args.scenarios]
-    variants = {"numpy": (HERE, "numpy"), "compiled": (HERE, "compiled")}
+    variants = {"numpy": (HERE, "numpy"), "native": (HERE, "native"), "compiled": (HERE, "compiled")}
     if args.ref:
         variants = {"ref": (Path(args.ref).resolve(), None), **variants}
         if args.ref_compiled:
             variants = {"ref_c": (Path(args.ref).resolve(), "compiled"), **variants}
-    print("first use (own process):", "; ".join(first_use(HERE, b) for b in ("numpy", "compiled")))
+    print("first use (own process):", "; ".join(first_use(HERE, b) for b in ("numpy", "native", "compiled")))
     results: dict[str, list[dict]] = {v: [] for v in variants}
     t_start = time.perf_counter()
     for r in range(args.rounds):
@@ -150,18 +157,22 @@ def main() -> None:
             results[v].append(run_variant(tree, backend, cases, args.inner))
         print(f"  round {r + 1}/{args.rounds} done ({time.perf_counter() - t_start:.0f} s)", file=sys.stderr)
     keys = list(results["numpy"][0])
-    med = {v: {k: float(np.median([run[k] for run in runs])) for k in keys} for v, runs in results.items()}
-    head = f"{'case':<40}" + "".join(f"{v + ' [s]':>14}" for v in variants) + f"{'numpy/compiled':>16}"
+    med = {v: {k: float(np.median([run.get(k, np.nan) for run in runs])) for k in keys} for v, runs in results.items()}
+    head = f"{'case':<40}" + "".join(f"{v + ' [s]':>14}" for v in variants) + f"{'numpy/native':>14}"
+    head += f"{'numpy/compiled':>16}"
     if args.ref:
         head += f"{'ref/numpy':>11}{'ref/compiled':>14}"
         if args.ref_compiled:
             head += f"{'ref_c/compiled':>16}"
     threads = "1 BLAS thread" if args.blas_threads == "1" else "BLAS threads left to the library"
-    print(f"median over {args.rounds} interleaved rounds of the median of {args.inner} plans ({threads})")
+    print(
+        f"median over {args.rounds} interleaved rounds of the median of {args.inner} plans ({threads}); wall, then CPU"
+    )
     print(head)
+    keys = [k for k in keys if not k.endswith(" [CPU]")] + [k for k in keys if k.endswith(" [CPU]")]
     for k in keys:
         row = f"{k:<40}" + "".join(f"{med[v][k]:>14.4f}" for v in variants)
-        row += f"{med['numpy'][k] / med['compiled'][k]:>16.2f}"
+        row += f"{med['numpy'][k] / med['native'][k]:>14.2f}{med['numpy'][k] / med['compiled'][k]:>16.2f}"
         if args.ref:
             row += f"{med['ref'][k] / med['numpy'][k]:>11.2f}{med['ref'][k] / med['compiled'][k]:>14.2f}"
             if args.ref_compiled:

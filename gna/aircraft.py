@@ -222,6 +222,34 @@ class Propulsion:
             lims.append((self.propeller_efficiency or 1.0) * self.engine_power / V)
         return min(lims) if lims else None
 
+    def engine_thrust_limits(self, V) -> np.ndarray | None:
+        """:meth:`engine_thrust_limit` at many airspeeds at once (the same values, element by element).
+
+        Parameters
+        ----------
+        V : array_like, shape (n,)
+            Airspeeds [m/s].
+
+        Returns
+        -------
+        ndarray, shape (n,), or None
+            Thrust of one engine [N]; None when the engine has no rating.
+        """
+        V = np.asarray(V, dtype=float)
+        lims = []
+        if self.thrust_curve:
+            Vs, Ts = zip(*self.thrust_curve)
+            lims.append(np.interp(V, Vs, Ts))
+        if self.engine_static_thrust is not None:
+            lims.append(np.full(V.shape, float(self.engine_static_thrust)))
+        if self.engine_power is not None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                power = (self.propeller_efficiency or 1.0) * self.engine_power / V
+            lims.append(np.where(V > 0, power, np.inf))  # no power limit at V <= 0, as the scalar rule
+        if not lims:
+            return None
+        return np.minimum.reduce(lims) if len(lims) > 1 else lims[0]
+
     def __post_init__(self):
         if self.count not in (1, 2):
             raise InputError(f"engine count must be 1 or 2, got {self.count}")

@@ -309,7 +309,7 @@ def _engine_thrust(index: int, count: int) -> Callable:
 
 def _rating(prop) -> Callable:
     def upper(frame):
-        return np.array([prop.engine_thrust_limit(float(v)) for v in frame["V"].to_numpy(dtype=float)])
+        return prop.engine_thrust_limits(frame["V"].to_numpy(dtype=float))
 
     return upper
 
@@ -439,6 +439,81 @@ def control_ranges(aircraft) -> dict[str, tuple[float, float]]:
     return out
 
 
+class TrajectoryColumns:
+    """A trajectory's float columns as arrays: what the limits' functions read (``columns``,
+    ``frame[name].to_numpy(dtype=float)``, ``len``), without a DataFrame's lookups.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Times [s].
+    columns : sequence of str
+        Column names.
+    values : ndarray, shape (len(columns), n)
+        One row per column (SI, rad).
+    """
+
+    class _Column:
+        __slots__ = ("values",)
+
+        def __init__(self, values: np.ndarray) -> None:
+            self.values = values
+
+        def to_numpy(self, dtype=float) -> np.ndarray:
+            return self.values.astype(dtype, copy=False)
+
+    class _Index:
+        __slots__ = ("t",)
+
+        def __init__(self, t: np.ndarray) -> None:
+            self.t = t
+
+        def to_numpy(self, dtype=float) -> np.ndarray:
+            return self.t.astype(dtype, copy=False)
+
+    def __init__(self, t, columns, values) -> None:
+        self.index = self._Index(np.asarray(t, dtype=float))
+        self.columns = tuple(columns)
+        self._cols = {c: values[i] for i, c in enumerate(self.columns)}
+
+    @classmethod
+    def from_frame(cls, frame) -> TrajectoryColumns:
+        """The numeric columns of a DataFrame, read once.
+
+        Parameters
+        ----------
+        frame : pandas.DataFrame
+            Indexed by time [s].
+
+        Returns
+        -------
+        TrajectoryColumns
+        """
+        out = cls.__new__(cls)
+        out.index = cls._Index(frame.index.to_numpy(dtype=float))
+        out.columns = tuple(frame.columns)
+        try:
+            block = frame.to_numpy(dtype=float)
+        except (TypeError, ValueError):  # a column that is not numeric: read the numeric ones one by one
+            block = None
+        if block is not None:
+            out._cols = {c: block[:, i] for i, c in enumerate(out.columns)}
+        else:
+            out._cols = {}
+            for c in out.columns:
+                try:
+                    out._cols[c] = frame[c].to_numpy(dtype=float)
+                except (TypeError, ValueError):
+                    continue
+        return out
+
+    def __getitem__(self, name: str):
+        return self._Column(self._cols[name])
+
+    def __len__(self) -> int:
+        return self.index.t.size
+
+
 def limit_violations(aircraft, frame, env=None) -> list[Violation]:
     """Where a trajectory leaves the aircraft's limits, one record per limit and side.
 
@@ -446,7 +521,7 @@ def limit_violations(aircraft, frame, env=None) -> list[Violation]:
     ----------
     aircraft : gna.aircraft.Aircraft
         Its limits (:func:`aircraft_limits`).
-    frame : pandas.DataFrame
+    frame : pandas.DataFrame or TrajectoryColumns
         A trajectory indexed by time [s] with the columns of :func:`limit_columns` (a load-factor limit
         reads ``nz`` when the frame has it, else computes it from every state and control with ``env``).
     env : gna.atmosphere.Environment, optional
@@ -458,14 +533,16 @@ def limit_violations(aircraft, frame, env=None) -> list[Violation]:
         In the order of :func:`aircraft_limits`; empty inside every limit.  The fraction of the span is
         the rectangle rule on the rows (each row counts until the next).
     """
+    if not isinstance(frame, TrajectoryColumns):  # the columns read once (a DataFrame's lookups cost more)
+        frame = TrajectoryColumns.from_frame(frame)
     t = frame.index.to_numpy(dtype=float)
     if t.size == 0:
         return []
     dt = np.diff(t, append=t[-1])
     span = max(float(t[-1] - t[0]), 1e-300)
     out = []
+    have = set(frame.columns)
     for lim in aircraft_limits(aircraft):
-        have = set(frame.columns)
         if lim.name == "nz":
             if "nz" not in have and (env is None or not set(lim.columns) <= have):
                 continue

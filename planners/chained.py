@@ -74,6 +74,14 @@ class Stage:
     warm : bool
         Newton at the full working order from the start even without a previous iterate (equations
         affine in the unknowns: one step solves them; :func:`planners.newton.newton_series` ``warm``).
+    check : callable, optional
+        ``check(v, t_nodes)``: the checks :attr:`solve` makes of its data (raising their errors), run before
+        the compiled :attr:`solve_series` (which makes none).
+    solve_series : callable, optional
+        The closed form :attr:`solve` written with plain arithmetic on series (no other operations, no
+        truncations), ``solve_series(v) -> list``: ``v`` maps every variable known so far to its series at
+        the working order ``k + 1``, and the first ``k + 1`` coefficients of each result are the unknowns at
+        order ``k``.  The native evaluator runs it as a traced program (:mod:`planners.program`).
     """
 
     unknowns: tuple
@@ -84,6 +92,8 @@ class Stage:
     start: Callable | None = None
     post: Callable | None = None
     warm: bool = False
+    solve_series: Callable | None = None
+    check: Callable | None = None
 
 
 @dataclass(frozen=True)
@@ -156,6 +166,10 @@ class ChainedSystem:
         the stages before the first with neglected terms (``v``, for flat outputs at ``order``):
         computed once per plan and truncated in later iterates by the orders they lose; every stage
         sees them (e.g. the aircraft's dynamic pressure).
+    derived_series : callable, optional
+        :attr:`derived` for the native evaluator: ``derived_series(order) -> (function, orders)``, the
+        function ``f(v) -> list`` written with plain arithmetic on series of ``v`` (untruncated: traced as a
+        program), ``orders`` the order of each result in :attr:`derived`'s dict (its keys, in order).
     """
 
     name: str
@@ -169,6 +183,7 @@ class ChainedSystem:
     newton_tol: float = 1e-13
     model: StateSpaceModel | None = None
     derived: Callable | None = None
+    derived_series: Callable | None = None
 
     @property
     def r(self) -> int:
@@ -348,6 +363,32 @@ def _first_neglecting_stage(system: ChainedSystem) -> int:
     return next((h for h, s in enumerate(system.stages, start=1) if s.neglected), system.r + 1)
 
 
+#: Grids whose traced programs a system keeps (the latest ones): plans of one problem on one grid trace once.
+PROGRAM_GRIDS = 4
+
+
+def _programs_of(system: ChainedSystem, zeta, t_nodes: np.ndarray, cached: dict) -> dict:
+    """The dict of the stages' traced programs for this plan: kept on the system for its default flat outputs
+    and this grid (the programs depend on nothing else: their numbers are parameters of the system's model,
+    their decisions read the static data of these flat outputs on this grid), else for this plan only."""
+    programs = cached.get("programs")
+    if programs is not None:
+        return programs
+    if zeta is not None:  # other flat-output functions: traced for this plan
+        programs = cached["programs"] = {}
+        return programs
+    store = system.__dict__.setdefault("_programs", {})  # a frozen dataclass: its __dict__ holds the cache
+    key = t_nodes.tobytes()
+    programs = store.pop(key, None)
+    if programs is None:
+        programs = {}
+    store[key] = programs  # the latest grid last
+    while len(store) > PROGRAM_GRIDS:
+        store.pop(next(iter(store)))
+    cached["programs"] = programs
+    return programs
+
+
 def _stage_evaluator(programs, h, stage, data, static, nodes):
     """The compiled evaluator of stage h for this call (its program traced on first use in the plan), or None."""
     if programs is None:
@@ -359,9 +400,50 @@ def _stage_evaluator(programs, h, stage, data, static, nodes):
     prog, _reason = programs[h]
     if prog is None or set(prog.data_names) - set(data):
         return None
-    from .program import StageEvaluator
+    from .program import NativeStageEvaluator, StageEvaluator
 
-    return StageEvaluator(prog, data, nodes)
+    return (NativeStageEvaluator if program_backend() == "native" else StageEvaluator)(prog, data, nodes)
+
+
+def _solve_compiled(programs, h, stage, data, static, nodes, k):
+    """A closed-form stage by its traced :attr:`Stage.solve_series` on the native evaluator (the unknowns at
+    order k), or None (no such form, another backend, or the form could not be traced)."""
+    if programs is None or stage.solve_series is None or program_backend() != "native":
+        return None
+    key = ("solve", h)
+    if key not in programs:
+        from .program import trace
+
+        programs[key] = trace(lambda v: stage.solve_series(v), (), data, static)
+    prog, _reason = programs[key]
+    if prog is None or set(prog.data_names) - set(data):
+        return None
+    from .program import NativeStageEvaluator
+
+    ev = NativeStageEvaluator(prog, data, nodes)
+    out = ev.nat.evaluate(np.zeros((0, k + 2, nodes)), ev._data_for(k + 2), k + 2)
+    return [Series(np.ascontiguousarray(out[j, : k + 1].T)) for j in range(out.shape[0])]
+
+
+def _derived_compiled(system, programs, known, order, nodes):
+    """:attr:`ChainedSystem.derived` by its traced :attr:`ChainedSystem.derived_series` on the native evaluator
+    (the series truncated to the orders it names), or None (no such form, another backend, not traceable)."""
+    if programs is None or system.derived_series is None or program_backend() != "native":
+        return None
+    fun, orders = system.derived_series(order)
+    if "derived" not in programs:
+        from .program import trace
+
+        programs["derived"] = trace(fun, (), known, set(known))
+    prog, _reason = programs["derived"]
+    if prog is None or set(prog.data_names) - set(known) or len(prog.outputs) != len(orders):
+        return None
+    from .program import NativeStageEvaluator
+
+    M = order + 1
+    ev = NativeStageEvaluator(prog, known, nodes)
+    out = ev.nat.evaluate(np.zeros((0, M, nodes)), ev._data_for(M), M)
+    return {name: Series._wrap(out[j, : k + 1]) for j, (name, k) in enumerate(orders.items())}
 
 
 def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, tol, carry, programs=None, static=()):
@@ -379,9 +461,15 @@ def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, to
         data[name] = _as_series(v, nodes, k)
     rep = None
     if stage.solve is not None:
-        v = {n: s.truncate(min(s.order, k + 1)) for n, s in data.items()}
-        u = [_as_series(s, nodes, k) for s in stage.solve(v, t_nodes)]
-        u = [s.truncate(k) if s.order > k else s for s in u]
+        u = None
+        if programs is not None and stage.solve_series is not None and program_backend() == "native":
+            if stage.check is not None:
+                stage.check(data, t_nodes)
+            u = _solve_compiled(programs, h, stage, data, static, nodes, k)
+        if u is None:
+            v = {n: s.truncate(min(s.order, k + 1)) for n, s in data.items()}
+            u = [_as_series(s, nodes, k) for s in stage.solve(v, t_nodes)]
+            u = [s.truncate(k) if s.order > k else s for s in u]
     else:
         cache: dict[int, dict] = {}
 
@@ -415,27 +503,43 @@ def _solve_stage(system, h, stage, known, derivs, hat, guess, t_nodes, order, to
     return u, rep
 
 
+def program_backend() -> str | None:
+    """How the stages' compiled programs (:mod:`planners.program`) are run, or None for the numpy path.
+
+    Returns
+    -------
+    str or None
+        ``"native"`` (the default series backend ``"native"``, ``GFLAT_SERIES_BACKEND``, when the native
+        evaluator could be compiled or loaded: :mod:`planners._native`), ``"numba"`` (backend ``"compiled"``,
+        numba importable), or None (backend ``"numpy"``, or the compiled evaluator unavailable).
+    """
+    from . import series
+
+    if series.BACKEND == "native":
+        from . import _native
+
+        return "native" if _native.library() is not None else None
+    if series.BACKEND == "compiled":
+        from .program import available
+
+        return "numba" if available() else None
+    return None
+
+
 def compiled_programs() -> bool:
-    """Whether the stages run as compiled programs (:mod:`planners.program`).
+    """Whether the stages run as compiled programs (:mod:`planners.program`): :func:`program_backend` is not None.
 
     Returns
     -------
     bool
-        The series backend is ``"compiled"`` (``GFLAT_SERIES_BACKEND``) and numba is importable.
     """
-    from . import series
-
-    if series.BACKEND != "compiled":
-        return False
-    from .program import available
-
-    return available()
+    return program_backend() is not None
 
 
-def _add_known(known: dict, derivs: dict, names, values) -> None:
+def _add_known(known: dict, derivs: dict, names, values, derivatives: bool = True) -> None:
     for name, v in zip(names, values):
         known[name] = v
-        if v.order >= 1:
+        if derivatives and v.order >= 1:
             derivs[name + "'"] = v.derivative()
 
 
@@ -507,18 +611,23 @@ def flat_parametrization(
         if missing:
             raise InputError(f"{system.name}: no function given for the flat output(s) {', '.join(missing)}")
         known, derivs, reports = {}, {}, {}
+        first = _programs_of(system, zeta, t_nodes, {}) if compiled_programs() else None
         for z, h in system.flat_outputs.items():
             k = order - int(h) + 1
             _add_known(known, derivs, [z], [_as_series(funcs[z](Series.variable(t_nodes, k)), nodes, k)])
         for name, f in system.inputs.items():
             _add_known(known, derivs, [name], [_as_series(f(Series.variable(t_nodes, order)), nodes, order)])
         for h, stage in enumerate(system.stages[: h0 - 1], start=1):
-            u, rep = _solve_stage(system, h, stage, known, derivs, None, None, t_nodes, order, tol, carry)
+            static0 = set(known) | set(derivs)  # the stages before the first with neglected terms: static data
+            u, rep = _solve_stage(
+                system, h, stage, known, derivs, None, None, t_nodes, order, tol, carry, first, static0
+            )
             _add_known(known, derivs, stage.unknowns, u)
             if rep is not None:
                 reports[f"stage{h}"] = rep
         if system.derived is not None:  # data of the stages, not variables of the solution
-            derivs.update(system.derived(dict(known), order))
+            more = _derived_compiled(system, first, known, order, nodes)
+            derivs.update(system.derived(dict(known), order) if more is None else more)
         cached = {
             "system": system,
             "zeta": zeta,
@@ -528,20 +637,355 @@ def flat_parametrization(
             "derivs": derivs,
             "reports": reports,
         }
+        if first is not None:
+            cached["programs"] = first
     loss = cached["order"] - order  # every reused series loses the order the flat outputs lose
+    programs = _programs_of(system, zeta, t_nodes, cached) if compiled_programs() else None
+    if programs is not None and carry and isinstance(guess, NodeSolution) and guess._inputs is cached:
+        sol = _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h0)
+        if sol is not None:
+            return sol
     known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
     derivs = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["derivs"].items()}
     reports = dict(cached["reports"])
-    programs = cached.setdefault("programs", {}) if compiled_programs() else None
     static = set(known) | set(derivs)
     for h, stage in enumerate(system.stages[h0 - 1 :], start=h0):
         u, rep = _solve_stage(
             system, h, stage, known, derivs, hat, guess, t_nodes, order, tol, carry, programs=programs, static=static
         )
-        _add_known(known, derivs, stage.unknowns, u)
+        _add_known(known, derivs, stage.unknowns, u, derivatives=h < system.r)  # no stage reads the last's
         if rep is not None:
             reports[f"stage{h}"] = rep
     return NodeSolution(known, order, reports, cached)
+
+
+class _NativeStage:
+    """One stage of :func:`_native_iterate`: its program, and its data as one buffer (D, M, S) kept for the
+    plan: the static rows filled once at the plan's top order (later iterates read fewer coefficients, and
+    the coefficients above a truncated series' order are zeroed), the other rows written at each iterate."""
+
+    def __init__(self, h, stage, prog, solve, cached, M, nodes):
+        self.h, self.stage, self.prog, self.solve = h, stage, prog, solve
+        self.nat = prog.native()
+        self.names = list(prog.data_names)
+        self.B = np.zeros((len(self.names) + len(prog.extra), M, nodes))
+        self.static = []  # (row, order of the series at the plan's top order)
+        self.var = []  # (row, name)
+        self.top = {}  # row -> the static series at the top order
+        top = {**cached["known"], **cached["derivs"]}
+        for r, n in enumerate(self.names):
+            if n in top:
+                self.static.append((r, top[n].order))
+                self.top[r] = top[n]
+            else:
+                self.var.append((r, n))
+        for r, s in enumerate(prog.extra, start=len(self.names)):
+            self.static.append((r, s.order))
+            self.top[r] = s
+        self.lowest = min((o for _, o in self.static), default=None)
+        self.loss = None  # the largest loss the static rows were truncated for (their tails zeroed)
+        self.refill()
+
+    def refill(self) -> None:
+        """The static rows at the top order again (a later plan from this plan's iterates: a smaller loss)."""
+        for r, s in self.top.items():
+            _fill(self.B[r], s)
+        self.loss = 0
+
+    def data(self, M: int, loss: int, values: Mapping) -> np.ndarray:
+        """The buffer at this iterate: static rows truncated by ``loss``, the others from ``values``."""
+        B = self.B
+        if loss < self.loss:
+            self.refill()
+        self.loss = loss
+        for r, n in self.var:
+            _fill(B[r, :M], values[n])
+        if self.lowest is not None and self.lowest - loss + 1 < M:
+            for r, o in self.static:
+                if o - loss + 1 < M:
+                    B[r, max(o - loss + 1, 0) : M] = 0.0
+        return B
+
+
+def _fill(row: np.ndarray, v) -> None:
+    """``row`` (M, S) := the coefficients of ``v`` (a Series of batch (S,) or (), or a number), zero-padded."""
+    if isinstance(v, _LazyDerivative):  # (k + 1) c_(k+1), as Series.derivative
+        c = v.v._c
+        m = min(c.shape[0] - 1, row.shape[0])
+        d = c[1 : m + 1] * np.arange(1, m + 1, dtype=float)[:, None] if c.ndim == 2 else None
+        if d is None:
+            d = (c[1 : m + 1] * np.arange(1, m + 1, dtype=float))[:, None]
+        row[:m] = np.real(d)
+        row[m:] = 0.0
+    elif isinstance(v, Series):
+        c = v._c
+        m = min(c.shape[0], row.shape[0])
+        if c.dtype.kind == "c":
+            c = c.real
+        row[:m] = c[:m] if c.ndim == 2 else c[:m, None]
+        if m < row.shape[0]:
+            row[m:] = 0.0
+    else:
+        row[:] = 0.0
+        row[0] = np.real(v)
+
+
+def _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h0):
+    """A generalized-flatness iterate after the first on the native evaluator, from the previous one: the stages
+    of :func:`flat_parametrization` (warm Newton with its carried Jacobians, the closed forms) on the plan's
+    data buffers, without the series objects between them.  None (the caller takes the general path, whose
+    result this is) when a stage has no native program, its Newton steps need the full scheme or the numpy
+    steps, or the previous iterate lacks what a warm start needs."""
+    from . import newton as nw
+
+    if program_backend() != "native":
+        return None
+    nodes = len(t_nodes)
+    loss = cached["order"] - order
+    state = _native_state(system, cached, programs, order, nodes, h0)
+    if not state:
+        return None
+    t = np.asarray(t_nodes, dtype=float)
+    weights = cached.get("native_weights")
+    if weights is None:  # step^m, step the smallest node spacing (planners.newton._warm_newton's test)
+        dt = np.diff(t)
+        step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
+        weights = cached["native_weights"] = step ** np.arange(cached["order"] + 2, dtype=float)
+    values = dict(hat or {})
+    for n in system.neglected:
+        if n not in values:
+            values[n] = system.neglected_start(n)
+    out, reports = {}, dict(cached["reports"])
+    for h, st in state.items():
+        stage, k = st.stage, order - h
+        M = k + (2 if st.solve else 1)
+        if st.B.shape[1] < M:
+            return None
+        if st.solve:
+            B = st.data(M, loss, values)
+            res = st.nat.evaluate(np.zeros((0, M, nodes)), B, M)
+            u = [Series._wrap(res[j, : k + 1]) for j in range(res.shape[0])]
+        else:
+            if not all(n in guess for n in stage.unknowns):
+                return None
+            rep0 = guess.reports.get(f"stage{h}")
+            Jn = getattr(getattr(rep0, "jacobian", None), "base", None)
+            n = len(stage.unknowns)
+            if not (isinstance(Jn, np.ndarray) and Jn.shape[:2] == (n, n) and Jn.shape[2] >= M):
+                return None
+            B = st.data(M, loss, values)
+            x = np.empty((n, M, nodes))
+            for j, name in enumerate(stage.unknowns):
+                _fill(x[j], guess[name])
+            Jc = np.ascontiguousarray(Jn[:, :, :M])
+            if not np.all(np.isfinite(Jc)):
+                return None
+            status, cres, steps = st.nat.warm_newton(
+                x, B, Jc, True, tol, weights[:M], nw.WARM_MAXSTEPS, nw.CHORD_STEPS, nw.CHORD_PROOF
+            )
+            if status != 0:
+                return None
+            u = [Series._wrap(x[j]) for j in range(n)]
+            reports[f"stage{h}"] = nw.SeriesNewtonReport(
+                tuple(stage.unknowns),
+                t,
+                cres,
+                0,
+                _lazy_series_residual(st.nat, x, np.array(B[:, :M], order="C", copy=True), M),  # B is reused
+                [k] * steps,
+                jacobian=np.swapaxes(Jc, 2, 3),
+            )
+        if stage.post is not None:
+            u = list(stage.post(list(u)))
+        for name, v in zip(stage.unknowns, u):
+            values[name] = out[name] = v
+            if h < system.r and v.order >= 1:
+                values[name + "'"] = _LazyDerivative(v)
+    known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
+    known.update(out)
+    return NodeSolution(known, order, reports, cached)
+
+
+def _native_state(system, cached, programs, order, nodes, h0):
+    """The plan's :class:`_NativeStage` per stage h >= h0 (made at the first iterate that asks, whose working
+    orders size the buffers), or False when a stage has no native program."""
+    state = cached.get("native_stages")
+    if state is None:
+        state = {}
+        for h, stage in enumerate(system.stages[h0 - 1 :], start=h0):
+            solve = stage.solve is not None
+            prog, _ = programs.get(("solve", h) if solve else h, (None, ""))
+            if prog is None:
+                state = None
+                break
+            M = order - h + (2 if solve else 1)
+            state[h] = _NativeStage(h, stage, prog, solve, cached, M, nodes)
+        state = cached["native_stages"] = state if state is not None else False
+    return state
+
+
+def _native_run(system, t_nodes, iterates, orders, tol, timings):
+    """Iterates ``len(iterates)`` .. ``len(orders) - 1`` of :func:`generalized_parametrization` in one native call
+    (:func:`planners._native.iterates`, the stages of :func:`_native_iterate`), appended to ``iterates`` with
+    their wall times in ``timings``.  Stops (the caller goes on iterate by iterate) where a Newton stage needs
+    the full scheme or the numpy steps, where a stage's :attr:`Stage.post` changes its result (it ran after
+    the native stages), or at once when the plan is not on the native evaluator."""
+    from . import _native
+    from . import newton as nw
+
+    prev = iterates[-1]
+    cached = prev._inputs
+    j0, j1 = len(iterates), len(orders)
+    if j0 >= j1 or not cached or program_backend() != "native":
+        return
+    state = cached.get("native_stages")
+    if not state:
+        return
+    nodes = len(t_nodes)
+    slots, slot_h = [], []
+    for h, st in state.items():
+        for name in st.stage.unknowns:
+            slots.append(name)
+            slot_h.append(h)
+    sid = {n: i for i, n in enumerate(slots)}
+    meta, ptrs, var_rows, static_rows, unk = [], [], [], [], []
+    for h, st in state.items():
+        stage = st.stage
+        for r, name in st.var:
+            base = name[:-1] if name.endswith("'") else name
+            if name in stage.neglected and name in sid:
+                var_rows.append((r, sid[name], 0, 1))  # the previous iterate's value
+            elif base in sid and slot_h[sid[base]] < h:
+                var_rows.append((r, sid[base], int(name != base), 0))
+            else:
+                return  # a datum the native iterates do not provide
+        static_rows.extend(st.static)
+        unk.extend(sid[n] for n in stage.unknowns)
+        nat = st.nat
+        n_unk = 0 if st.solve else len(stage.unknowns)
+        meta.append((int(st.solve), n_unk, nat.neq, nat.code.shape[0], nat.nreg, st.B.shape[0], st.B.shape[1],
+                     len(st.var), len(st.static), h))  # fmt: skip
+        ptrs.append((*(int(a.ctypes.data) for a in (nat.code, nat.params, nat.outs, nat.outs_unk)), st.B.ctypes.data))
+    newton_stages = [i for i, st in enumerate(state.values()) if not st.solve]
+    for st in state.values():  # the static rows as at iterate j0 - 1 or before (the native run zeroes them on)
+        if cached["order"] - orders[j0] < st.loss:
+            st.refill()
+        st.loss = cached["order"] - orders[j1 - 1]
+    nst, ns = len(state), len(slots)
+    keep = []  # the arrays whose addresses the native call reads
+    slot_ptrs = np.zeros((j1, ns), dtype=np.int64)
+    for i, name in enumerate(slots):
+        a = np.ascontiguousarray(np.real(prev[name]._c), dtype=float)
+        if a.ndim != 2 or a.shape != (orders[j0 - 1] - slot_h[i] + 1, nodes):
+            return
+        keep.append(a)
+        slot_ptrs[j0 - 1, i] = a.ctypes.data
+    jac_ptrs = np.zeros((j1, nst), dtype=np.int64)
+    cres_ptrs = np.zeros((j1, nst), dtype=np.int64)
+    for i in newton_stages:
+        st = list(state.values())[i]
+        rep = prev.reports.get(f"stage{st.h}")
+        jac = getattr(rep, "jacobian", None)
+        n = len(st.stage.unknowns)
+        if jac is None or np.shape(jac) != (n, n, nodes, orders[j0 - 1] - st.h + 1):
+            return
+        a = np.ascontiguousarray(np.swapaxes(jac, 2, 3), dtype=float)
+        keep.append(a)
+        jac_ptrs[j0 - 1, i] = a.ctypes.data
+    out_slots, out_jac, out_cres = {}, {}, {}
+    for j in range(j0, j1):
+        for i in range(ns):
+            a = out_slots[j, i] = np.empty((orders[j] - slot_h[i] + 1, nodes))
+            slot_ptrs[j, i] = a.ctypes.data
+        for i in newton_stages:
+            st = list(state.values())[i]
+            n = len(st.stage.unknowns)
+            a = out_jac[j, i] = np.empty((n, n, orders[j] - st.h + 1, nodes))
+            jac_ptrs[j, i] = a.ctypes.data
+            c = out_cres[j, i] = np.empty(nodes)
+            cres_ptrs[j, i] = c.ctypes.data
+    steps = np.zeros((j1, nst), dtype=np.int64)
+    seconds = np.zeros(j1)
+    weights = cached.get("native_weights")
+    if weights is None:
+        t = np.asarray(t_nodes, dtype=float)
+        dt = np.diff(t)
+        step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
+        weights = cached["native_weights"] = step ** np.arange(cached["order"] + 2, dtype=float)
+    arr = [np.array(v, dtype=np.int64).reshape(-1) for v in (meta, ptrs, var_rows, static_rows, slot_h, unk)]
+    done = _native.iterates(
+        nst, *arr[:4], ns, arr[4], arr[5], nodes, j0, j1, np.array(orders, dtype=np.int64), cached["order"],
+        slot_ptrs, jac_ptrs, cres_ptrs, steps, seconds, tol, weights, nw.WARM_MAXSTEPS, nw.CHORD_STEPS,
+        nw.CHORD_PROOF,
+    )  # fmt: skip
+    del keep
+    t = np.asarray(t_nodes, dtype=float)
+    for j in range(j0, done):
+        loss = cached["order"] - orders[j]
+        known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
+        reports = dict(cached["reports"])
+        changed = False
+        for i, (h, st) in enumerate(state.items()):
+            stage = st.stage
+            u = [Series._wrap(out_slots[j, sid[n]]) for n in stage.unknowns]
+            if stage.post is not None and any(a is not b for a, b in zip(stage.post(list(u)), u)):
+                changed = True  # the native stages ran without it: this iterate and the later ones again
+                break
+            known.update(zip(stage.unknowns, u))
+            if not st.solve:
+                k = orders[j] - h
+                reports[f"stage{h}"] = nw.SeriesNewtonReport(
+                    tuple(stage.unknowns),
+                    t,
+                    out_cres[j, i],
+                    0,
+                    _lazy_residual_of(st, j, known, iterates, cached, loss, orders, nodes),
+                    [k] * int(steps[j, i]),
+                    jacobian=np.swapaxes(out_jac[j, i], 2, 3),
+                )
+        if changed:
+            break
+        iterates.append(NodeSolution(known, orders[j], reports, cached))
+        timings[j] = float(seconds[j])
+
+
+def _lazy_residual_of(st, j, known, iterates, cached, loss, orders, nodes):
+    """A native iterate's Newton report's series residual, evaluated on first access from the iterate's own
+    series (the stage's data rebuilt: the plan's buffers hold the last iterate's)."""
+
+    def series_residual() -> np.ndarray:
+        from .program import NativeStageEvaluator
+
+        prev = iterates[j - 1]
+        data = {**{n: v.truncate(v.order - loss) if loss else v for n, v in cached["derivs"].items()}, **known}
+        for name in st.stage.neglected:
+            data[name] = prev[name]
+        for _r, name in st.var:
+            if name not in data and name.endswith("'") and name[:-1] in known:
+                data[name] = known[name[:-1]].derivative()
+        ev = NativeStageEvaluator(st.prog, data, nodes)
+        u = [known[n] for n in st.stage.unknowns]
+        return ev.series_residual(u, orders[j] - st.h, (nodes,))
+
+    return series_residual
+
+
+class _LazyDerivative:
+    """A series' derivative computed when a stage's data first reads it."""
+
+    __slots__ = ("v", "d")
+
+    def __init__(self, v: Series) -> None:
+        self.v, self.d = v, None
+
+
+def _lazy_series_residual(nat, x, data, M):
+    """The report's series residual (max abs coefficient per node), evaluated on first access."""
+
+    def series_residual() -> np.ndarray:
+        return np.max(np.abs(nat.evaluate(x, data, M)), axis=(0, 1))
+
+    return series_residual
 
 
 @dataclass
@@ -682,17 +1126,30 @@ def generalized_parametrization(
     kappa = e + system.r + J * system.L
     iterates, timings = [], {}
     hat, prev = dict(v or {}), None
-    for j in range(J + 1):
+    orders = [kappa - j * system.L for j in range(J + 1)]
+    tol = system.newton_tol if newton_tol is None else newton_tol
+    j = 0
+    while j <= J:
+        if j >= 2 and guesses is None:  # the remaining iterates in one native call (when the plan is native)
+            _native_run(system, t_nodes, iterates, orders, tol, timings)
+            if len(iterates) > j:
+                for jj in range(j, len(iterates)):
+                    if progress is not None:
+                        progress(jj, orders[jj], timings[jj])
+                j = len(iterates)
+                prev = iterates[-1]
+                hat = {n: prev[n] for n in system.neglected}
+                continue
         t0 = time.perf_counter()
         guess = guesses[j] if guesses is not None and j < len(guesses) else prev
-        sol = flat_parametrization(system, t_nodes, kappa, zeta, hat=hat, guess=guess, newton_tol=newton_tol)
+        sol = flat_parametrization(system, t_nodes, orders[j], zeta, hat=hat, guess=guess, newton_tol=newton_tol)
         timings[j] = time.perf_counter() - t0
         if progress is not None:
-            progress(j, kappa, timings[j])
+            progress(j, orders[j], timings[j])
         iterates.append(sol)
         if stop is not None and stop(sol):
             break
         hat = {n: sol[n] for n in system.neglected}
         prev = sol
-        kappa -= system.L
+        j += 1
     return ChainedPlan(system, t_nodes, iterates, timings)

@@ -251,12 +251,18 @@ def stage1(x: Series, y: Series, z: Series):
         ``(V, gamma, chi)`` [m/s, rad, rad], one order below the flat outputs; chi is made
         continuous along the nodes.
     """
+    V, gamma, chi = _stage1_series(x, y, z)
+    return V, gamma, _unwrap_constant(chi)
+
+
+def _stage1_series(x, y, z):
+    """:func:`stage1` without making chi continuous: plain arithmetic on series (traced as a program)."""
     xd, yd, zd = x.derivative(), y.derivative(), z.derivative()
     vh2 = xd * xd + yd * yd
     vh = np.sqrt(vh2)
     V = np.sqrt(vh2 + zd * zd)
     gamma = np.arctan2(-zd, vh)
-    chi = _unwrap_constant(np.arctan2(yd, xd))
+    chi = np.arctan2(yd, xd)
     return V, gamma, chi
 
 
@@ -493,10 +499,20 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
         xd, yd, zd = kinematics(state(v, rates=False))
         return [v["x'"] - xd, v["y'"] - yd, v["z'"] - zd]
 
-    def solve1(v, t_nodes):
+    def check1(v, t_nodes):
         names = ("x", "y", "z", "zeta", "f1", "f2", "eta", "dn")
         _check_inputs(t_nodes, {n: v.get(n) for n in names})
+
+    def solve1(v, t_nodes):
+        check1(v, t_nodes)
         return list(stage1(v["x"], v["y"], v["z"]))
+
+    def solve1_series(v):
+        return list(_stage1_series(v["x"], v["y"], v["z"]))
+
+    def post1(u):
+        V, gamma, chi = u
+        return [V, gamma, _unwrap_constant(chi)]  # chi continuous along the nodes (as stage1 gives it)
 
     def residual2(v):
         h = HValues(*(v[n] for n in H_NAMES))
@@ -538,6 +554,9 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
     def solve3(v, t_nodes):
         return list(_stage3(v["alpha"], v["beta"], v["mu"], {n: v[n] for n in _PATH_TERMS}))
 
+    def solve3_series(v):
+        return list(_stage3_series(v["alpha"], v["beta"], v["mu"], *(v[n] for n in _PATH_TERMS)))
+
     def residual4(v):
         st = state(v)
         ctl = Controls(v["F"], v["eta"], v["dl"], v["dm"], v["dn"])
@@ -554,13 +573,20 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
             "qbar": _dynamic_pressure(env, z4, V4),
         }
 
+    def derived_series(order):
+        def fun(v):
+            path = _path_terms(v["gamma"], v["chi"])
+            return [path[n] for n in _PATH_TERMS] + [_dynamic_pressure(env, v["z"], v["V"])]
+
+        return fun, {**dict.fromkeys(_PATH_TERMS, order - 3), "qbar": order - 4}
+
     system = ChainedSystem(
         name="aircraft",
         flat_outputs={"x": 1, "y": 1, "z": 1, "zeta": 3},
         stages=(
-            Stage(STAGE_UNKNOWNS[0], residual1, solve=solve1),
+            Stage(STAGE_UNKNOWNS[0], residual1, solve=solve1, solve_series=solve1_series, check=check1, post=post1),
             Stage(STAGE_UNKNOWNS[1], residual2, neglected=H_NAMES, ell=3, start=start2, post=post2),
-            Stage(STAGE_UNKNOWNS[2], residual3, solve=solve3),
+            Stage(STAGE_UNKNOWNS[2], residual3, solve=solve3, solve_series=solve3_series),
             Stage(controls4, residual4, warm=True),
         ),
         description=f"{ac.id}: wind-frame model, flat outputs x, y, z and {kind}"
@@ -570,6 +596,7 @@ def aircraft_system(problem: FlatProblem) -> ChainedSystem:
         neglected_values=dict(zip(H_NAMES, problem.h)),
         newton_tol=1e-12,
         derived=derived,
+        derived_series=derived_series,
     )
     problem.__dict__["_system"] = system  # one system per problem: iterates reuse each other's series
     return system

@@ -333,6 +333,25 @@ def _warm_newton(
     n = len(base)
     batch = base[0].batch_shape
     K = order + 1
+    t = np.ravel(np.asarray(t_nodes, dtype=float))
+    dt = np.diff(t)
+    step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
+    native = getattr(ev, "warm_newton_series", None)
+    if native is not None and len(batch) == 1:
+        # the steps below, whole in native code (planners.program.NativeStageEvaluator) on the coefficient-first
+        # storage; status 2 (a singular node) leaves them to the numpy steps, which take a least-squares step
+        status, u, Jn, cres, steps = native(base, order, step, carried, tol, maxsteps, CHORD_STEPS, CHORD_PROOF)
+        if status == 1:
+            return None
+        if status == 0:
+
+            def native_residual() -> np.ndarray:
+                return ev.series_residual(u, order, batch)
+
+            rep = SeriesNewtonReport(
+                tuple(names), np.asarray(t_nodes), cres, 0, native_residual, [order] * steps, jacobian=Jn
+            )
+            return u, rep
     stacked = np.stack(
         [
             np.broadcast_to(
@@ -341,8 +360,6 @@ def _warm_newton(
             for u in base
         ]
     ).astype(float)
-    t = np.ravel(np.asarray(t_nodes, dtype=float))
-    step = float(np.min(np.diff(t))) if t.size > 1 and np.all(np.diff(t) > 0) else 1.0
     weights = step ** np.arange(K)
     # Jc: the Jacobian of the steps; last: residual size where the last step with Jc started (None: no
     # step with Jc yet); theta: largest rate of decrease measured with Jc; newton_step: the last step
@@ -650,7 +667,14 @@ def newton_series(
         if done is not None:
             return done
     x0 = np.stack([np.broadcast_to(np.real(u.constant_term), batch) for u in base]).astype(float)
-    res = newton(const_fun, x0, tol=tol, maxiter=maxiter, jac=ev.const_jacobian)
+    native = getattr(ev, "pointwise_newton", None) if len(batch) == 1 else None
+
+    def pointwise(start):
+        # the same iteration in native code when the evaluator has it (None at a singular node: numpy's)
+        done = native(start, tol, maxiter) if native is not None else None
+        return done if done is not None else newton(const_fun, start, tol=tol, maxiter=maxiter, jac=ev.const_jacobian)
+
+    res = pointwise(x0)
     x, cres, its = res.x, res.residual, res.iterations
     # Memory Newton: restart failed nodes from their nearest converged neighbour, sweeping outwards.
     for _ in range(8):
@@ -662,7 +686,7 @@ def newton_series(
         nearest = good_idx[np.argmin(np.abs(bad_idx[:, None] - good_idx[None, :]), axis=1)]
         xs = x.copy()
         xs[:, bad_idx] = x[:, nearest]
-        r2 = newton(const_fun, xs, tol=tol, maxiter=maxiter, jac=ev.const_jacobian)
+        r2 = pointwise(xs)
         improved = r2.residual < cres
         if not np.any(improved & bad):
             break
@@ -699,7 +723,17 @@ def newton_series(
         u.append(Series(c))
     orders = doubling_orders(order)
     Jc = None
-    for k in orders:
+    native = getattr(ev, "doubling", None)
+    if native is not None and orders and len(batch) == 1:
+        # the same steps whole in native code; status 2 (a singular node) leaves them to the numpy steps
+        status, xs, Jn = native(np.stack([np.broadcast_to(ui.coeffs, batch + (order + 1,)) for ui in u]), orders)
+        if status == 0:
+            u, Jc, orders_left = [Series(np.ascontiguousarray(xs[j])) for j in range(n)], Jn, []
+        else:
+            orders_left = orders
+    else:
+        orders_left = orders
+    for k in orders_left:
         cur = [ui.truncate(k) for ui in u]
         stacked = np.stack([np.broadcast_to(ci.coeffs, batch + (k + 1,)) for ci in cur])  # (n, *batch, K)
         G, Jc = ev.residual_and_jacobian(stacked, k)

@@ -210,6 +210,23 @@ def _horner(c: np.ndarray, s: np.ndarray, k: int) -> np.ndarray:
     return out.T.copy()
 
 
+def _horner_blocks(c: np.ndarray, i: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """:func:`_horner` ``(c[i], s, 0)`` for non-decreasing interval indices ``i``: one Horner per interval on
+    its block of offsets (the same operations on every value: the same values, without the gather)."""
+    v, N = c.shape[1], s.size
+    out = np.empty((v, N))
+    starts = np.concatenate(([0], np.flatnonzero(np.diff(i)) + 1, [N]))
+    for a, b in zip(starts[:-1], starts[1:]):
+        cp = c[i[a]]  # (v, d + 1)
+        sb = s[a:b]
+        o = out[:, a:b]
+        o[:] = cp[:, -1:]
+        for p in range(cp.shape[1] - 2, -1, -1):  # in place: the same operations as o = o * s + c
+            o *= sb
+            o += cp[:, p : p + 1]
+    return out
+
+
 @dataclass(frozen=True)
 class PlanFunctions(PiecewisePolynomial):
     """Plan variables as a :class:`gna.piecewise.PiecewisePolynomial` that also takes arrays of times.
@@ -410,6 +427,14 @@ class Plan:
         t_arr = self._check_times(t)
         tn = self.t_nodes
         i = np.clip(np.searchsorted(tn, t_arr, side="right") - 1, 0, len(tn) - 2)
+        if derivative == 0 and t_arr.size > 8 * len(tn):  # a fine grid (the limit checks)
+            from . import _native
+
+            out = _native.horner(c, i, t_arr - tn[i])  # when the native evaluator is loaded: the same values
+            if out is not None:
+                return out
+            if np.all(np.diff(i) >= 0):
+                return _horner_blocks(c, i, t_arr - tn[i])
         return _horner(c[i], t_arr - tn[i], derivative)
 
     def piecewise(self, names=CONTROL_NAMES, j: int = -1) -> PiecewisePolynomial:
@@ -598,19 +623,26 @@ class Plan:
         DataFrame
             Indexed by ``t`` [s], ``t0`` to ``t1`` (``t1`` included).
         """
+        t, cols, vals = self._limit_arrays(j, aircraft)
+        return pd.DataFrame(vals.T, columns=cols, index=pd.Index(t, name="t"))
+
+    def _limit_arrays(self, j: int, aircraft: Aircraft | None) -> tuple:
+        """:meth:`limit_frame` as arrays: times (N,), column names, values (columns, N)."""
         from gna.limits import fine_step, limit_columns
 
         step = fine_step(float(np.min(np.diff(self.t_nodes))))
         n = int(math.ceil((self.t1 - self.t0) / step - 1e-9))
         t = np.linspace(self.t0, self.t1, n + 1)
         names = limit_columns(aircraft or self.aircraft)
-        frame = self.to_dataframe(t, j=j, variables=[v for v in names if v not in CONTROL_NAMES])
+        states = [v for v in names if v not in CONTROL_NAMES]
         f = self.control_function(j)
-        U = f.evaluate(t) if isinstance(f, PiecewisePolynomial) else np.array([f(x) for x in t]).T
-        for i, c in enumerate(CONTROL_NAMES):
-            if c in names:
-                frame[c] = U[i]
-        return frame
+        # the piecewise polynomial's values are those of the plan's evaluation with the same coefficients
+        U = self._evaluate_many(CONTROL_NAMES, t, j) if isinstance(f, PiecewisePolynomial) else None
+        if U is None:
+            U = np.array([f(x) for x in t]).T
+        used = [i for i, c in enumerate(CONTROL_NAMES) if c in names]
+        vals = np.concatenate([self._evaluate_many(tuple(states), t, j), U[used]]) if states else U[used]
+        return t, states + [CONTROL_NAMES[i] for i in used], vals
 
     def limit_violations(self, j: int = -1, aircraft: Aircraft | None = None) -> list:
         """Where iterate ``j`` leaves the aircraft's limits (:func:`gna.limits.limit_violations`).
@@ -627,10 +659,10 @@ class Plan:
         list of gna.limits.Violation
             On the grid of :meth:`limit_frame`; empty within every limit.
         """
-        from gna.limits import limit_violations
+        from gna.limits import TrajectoryColumns, limit_violations
 
         ac = aircraft or self.aircraft
-        return limit_violations(ac, self.limit_frame(j, ac), self.env)
+        return limit_violations(ac, TrajectoryColumns(*self._limit_arrays(j, ac)), self.env)
 
     def node_values(self, j: int = -1) -> tuple[State, Controls]:
         """States and controls at the nodes (constant terms of the series).

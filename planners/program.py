@@ -40,6 +40,11 @@ __all__ = ["Program", "Sym", "TraceError", "trace", "available"]
 # opcodes: the same numbers as planners._program_kernels (kept here so that tracing needs no numba)
 (INPUT, DATA, ADD, SUB, MUL, DIV, NEG, ADDC, RSUBC, MULC, DIVC, RDIVC) = range(12)
 (SQRT, EXP, LOG, SINCOS, SINHCOSH, POW, ARCTAN, CONST, AXPY, ZERO, TAN, COPY) = range(12, 24)
+#: The time derivative (native evaluator only: the closed-form stages): coefficient m is (m + 1) a_(m+1), the
+#: last coefficient of the working order is 0 (a program using it is exact to one order less).
+DERIV = 24
+#: arctan2(y, x) (native evaluator only): arctan2(y0, x0) + integral((x y' - y x') / (x^2 + y^2)).
+ATAN2 = 25
 
 
 class TraceError(Exception):
@@ -155,6 +160,10 @@ class _Recorder:
             v = getattr(self.concrete(a), {SQRT: "sqrt", EXP: "exp", LOG: "log", ARCTAN: "arctan", TAN: "tan"}[op])()
         elif op == POW:
             v = self.concrete(a) ** p[k]
+        elif op == DERIV:
+            v = self.concrete(a).derivative()
+        elif op == ATAN2:
+            v = np.arctan2(self.concrete(a), self.concrete(b))
         else:
             raise TraceError(f"reading the value of operation {op} is not supported")
         self._concrete[i] = v
@@ -312,6 +321,15 @@ class Sym:
     def _f_tan(self):
         return self._unary(TAN)
 
+    def derivative(self):
+        """The time derivative (:data:`DERIV`: the program is then exact to one order less).
+
+        Returns
+        -------
+        Sym
+        """
+        return self._unary(DERIV)
+
     def _f_square(self):
         return self * self
 
@@ -404,6 +422,22 @@ class Sym:
         return impl(*inputs)
 
 
+def _arctan2(y, x):
+    """arctan2 of two traced series (a number or node array operand becomes a constant series)."""
+    like = y if isinstance(y, Sym) else x
+    rec = like.rec
+
+    def as_sym(v):
+        o = like._operand(v)
+        if isinstance(o, float):
+            return rec.node(CONST, -1, -1, rec.param(o))
+        if o is None:
+            raise TraceError(f"arctan2 of a {type(v).__name__}")
+        return o
+
+    return rec.node(ATAN2, as_sym(y).i, as_sym(x).i)
+
+
 def _as_sym_pair(x, y):
     like = x if isinstance(x, Sym) else y
     return like
@@ -431,6 +465,7 @@ _UFUNCS: dict = {
     np.multiply: _ufunc_binary("mul"),
     np.divide: _ufunc_binary("truediv"),
     np.power: _ufunc_binary("pow"),
+    np.arctan2: _arctan2,
     np.negative: lambda x: -x,
     np.positive: lambda x: x,
     **{
@@ -469,6 +504,20 @@ class Program:
         self.outputs = outputs
         self.outputs_unk = outputs_unk
         self.extra = extra
+
+    def native(self):
+        """This program laid out for the native evaluator (:class:`planners._native.NativeProgram`), made once.
+
+        Returns
+        -------
+        planners._native.NativeProgram
+        """
+        nat = self.__dict__.get("_native")
+        if nat is None:
+            from ._native import NativeProgram
+
+            nat = self.__dict__["_native"] = NativeProgram(self)
+        return nat
 
     @property
     def structure_key(self) -> str:
@@ -774,3 +823,218 @@ class StageEvaluator:
         """
         stacked = np.stack([np.broadcast_to(np.real(s.coeffs), batch + (order + 1,)) for s in u])
         return np.max(np.abs(self.residual_only(stacked, order)), axis=(0, 2))
+
+
+class NativeStageEvaluator(StageEvaluator):
+    """A :class:`StageEvaluator` run by the native evaluator (``planners/_program.c``, :mod:`planners._native`),
+    which also runs Newton's steps on series whole (:meth:`warm_newton`, :meth:`doubling`).
+
+    One data array at the highest order serves every working order (the native calls read the first M
+    coefficients of each datum).
+
+    Parameters
+    ----------
+    program : Program
+        The stage's program.
+    data : mapping of str -> Series
+        The data series of this call, batch shape (nodes,).
+    nodes : int
+        Number of nodes.
+    """
+
+    def __init__(self, program: Program, data: Mapping, nodes: int) -> None:
+        super().__init__(program, data, nodes)
+        self.nat = program.native()
+        self._top = None
+
+    def _data_for(self, M: int) -> np.ndarray:
+        """The data at M coefficients or more, coefficient first (D, Md >= M, S)."""
+        top = self._top
+        if top is None or top.shape[1] < M:
+            series = [self.data[n] for n in self.program.data_names] + self.program.extra
+            k = max([M - 1] + [s.order for s in series])
+            top = self._top = self.program.data_array(self.data, k, self.nodes)
+        return top
+
+    def residual_and_jacobian(self, stacked: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Residual series and Jacobian series at the unknowns' coefficients.
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, nodes, K)
+            Taylor coefficients of the n unknowns (coefficient last).
+        k : int
+            Working order, ``K - 1``.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            ``G`` (neq, nodes, K) and ``Jc`` (neq, n, nodes, K).
+        """
+        x = np.ascontiguousarray(np.swapaxes(stacked, 1, 2), dtype=float)
+        G, J = self.nat.evaluate_tangent(x, self._data_for(k + 1), k + 1)
+        return np.swapaxes(G, 1, 2), np.swapaxes(J, 2, 3)
+
+    def residual_only(self, stacked: np.ndarray, k: int) -> np.ndarray:
+        """Residual series at the unknowns' coefficients.
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, nodes, K)
+            Taylor coefficients of the n unknowns (coefficient last).
+        k : int
+            Working order, ``K - 1``.
+
+        Returns
+        -------
+        ndarray, shape (neq, nodes, K)
+        """
+        x = np.ascontiguousarray(np.swapaxes(stacked, 1, 2), dtype=float)
+        return np.swapaxes(self.nat.evaluate(x, self._data_for(k + 1), k + 1), 1, 2)
+
+    def const_fun(self, x: np.ndarray) -> np.ndarray:
+        """Constant term of the residual at constant unknowns (the pointwise problem).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, nodes)
+            Values of the unknowns.
+
+        Returns
+        -------
+        ndarray, shape (neq, nodes)
+        """
+        xx = np.ascontiguousarray(np.real(x), dtype=float)[:, None, :]
+        return self.nat.evaluate(xx, self._data_for(1), 1)[:, 0, :]
+
+    def const_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`const_fun`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n, nodes)
+            Values of the unknowns.
+
+        Returns
+        -------
+        ndarray, shape (neq, n, nodes)
+        """
+        xx = np.ascontiguousarray(np.real(x), dtype=float)[:, None, :]
+        return self.nat.evaluate_tangent(xx, self._data_for(1), 1)[1][:, :, 0, :]
+
+    def _coefficients(self, us, K: int) -> np.ndarray:
+        """Series ``us`` (batch (S,) or ()) as one coefficient-first array (n, K, S), truncated or zero-padded."""
+        x = np.zeros((len(us), K, self.nodes))
+        for j, u in enumerate(us):
+            c = u._c
+            m = min(c.shape[0], K)
+            x[j, :m] = np.real(c[:m]) if c.ndim == 2 else np.real(c[:m, None])
+        return x
+
+    def warm_newton_series(self, base, order, step, carried, tol, maxsteps, chord_steps, chord_proof):
+        """Newton and chord steps at the full working order from ``base``, whole in native code: the loop of
+        :func:`planners.newton._warm_newton` (same steps, same tests).
+
+        Parameters
+        ----------
+        base : list of Series
+            The start (batch shape (nodes,)), truncated or zero-padded to ``order``.
+        order : int
+            Working order.
+        step : float
+            The smallest node spacing [s] (coefficient m of the residual is weighted by ``step^m``).
+        carried : ndarray, shape (n, n, nodes, K' >= order + 1), or None
+            The Jacobian series of a nearby problem (:attr:`planners.newton.SeriesNewtonReport.jacobian`);
+            ignored when its shape does not fit or it is not finite.
+        tol : float
+            Tolerance.
+        maxsteps, chord_steps : int
+            :data:`planners.newton.WARM_MAXSTEPS`, :data:`planners.newton.CHORD_STEPS`.
+        chord_proof : float
+            :data:`planners.newton.CHORD_PROOF`.
+
+        Returns
+        -------
+        tuple
+            ``(status, u, Jc, cres, evaluations)``: status 0 solved (u the list of Series, Jc (n, n, nodes, K)
+            the Jacobian series of the last step, cres (nodes,) the constant-term residual bound), 1 not
+            solved (the caller's full scheme follows), 2 a singular node (the caller reruns the numpy steps).
+        """
+        K = order + 1
+        x = self._coefficients(base, K)
+        n, S = x.shape[0], x.shape[2]
+        has = False
+        Jc = None
+        if carried is not None:
+            Jn = getattr(carried, "base", None)  # a report's Jacobian is a view of the native layout
+            if (
+                isinstance(Jn, np.ndarray)
+                and Jn.ndim == 4
+                and Jn.shape[:2] == (n, n)
+                and Jn.shape[2] >= K
+                and Jn.shape[3] == S
+                and np.shares_memory(Jn, carried)
+            ):
+                Jc = np.ascontiguousarray(Jn[:, :, :K])
+            else:
+                Jc = np.ascontiguousarray(np.swapaxes(np.asarray(carried, dtype=float), 2, 3)[:, :, :K])
+            has = Jc.shape == (n, n, K, S) and bool(np.all(np.isfinite(Jc)))
+        if not has:
+            Jc = np.empty((n, n, K, S))
+        w = step ** np.arange(K, dtype=float)
+        st, cres, steps = self.nat.warm_newton(
+            x, self._data_for(K), Jc, has, tol, w, maxsteps, chord_steps, chord_proof
+        )
+        if st != 0:
+            return st, None, None, None, steps
+        return st, [Series._wrap(x[j]) for j in range(n)], np.swapaxes(Jc, 2, 3), cres, steps
+
+    def pointwise_newton(self, x0: np.ndarray, tol: float, maxiter: int):
+        """:func:`gna.solve.newton` on the constant terms (damped, the Jacobian of :meth:`const_jacobian`), whole
+        in native code.
+
+        Parameters
+        ----------
+        x0 : ndarray, shape (n, nodes)
+            The start.
+        tol : float
+            Tolerance on each node's max-norm residual.
+        maxiter : int
+            Iterations at most.
+
+        Returns
+        -------
+        gna.solve.NewtonResult or None
+            None at an exactly singular node (the caller runs :func:`gna.solve.newton`, which takes a
+            least-squares step there); ``history`` holds the final residual only.
+        """
+        from gna.solve import NewtonResult
+
+        x = np.array(np.real(x0), dtype=float, order="C")
+        status, res, its = self.nat.pointwise_newton(x, self._data_for(1), tol, maxiter)
+        if status != 0:
+            return None
+        return NewtonResult(x=x, residual=res, iterations=its, converged=res <= tol, history=[float(np.max(res))])
+
+    def doubling(self, stacked, orders):
+        """The precision-doubling steps of :func:`planners.newton.newton_series`, whole in native code.
+
+        Parameters
+        ----------
+        stacked : ndarray, shape (n, nodes, K)
+            The pointwise solution in the constant terms, the starting guess above (coefficient last).
+        orders : sequence of int
+            Working orders, increasing, ending at ``K - 1``.
+
+        Returns
+        -------
+        tuple
+            ``(status, x, Jc)``: status 0 (x (n, nodes, K), Jc (n, n, nodes, K) of the last step) or 2 (a
+            singular node: the caller reruns the numpy steps).
+        """
+        K = stacked.shape[-1]
+        x = np.ascontiguousarray(np.swapaxes(stacked, 1, 2), dtype=float)
+        n, S = x.shape[0], x.shape[2]
+        Jc = np.empty((n, n, K, S))
+        st = self.nat.doubling(x, self._data_for(K), np.asarray(orders, dtype=np.int64), Jc)
+        return st, np.swapaxes(x, 1, 2), np.swapaxes(Jc, 2, 3)

@@ -485,9 +485,13 @@ class Scenario:
             Aircraft, environment, flat outputs, eta or fixed rudder, first-iterate H values and
             stage-2 starting values.
         """
-        return FlatProblem(
-            self.aircraft, self.env, self.x, self.y, self.z, self.zeta, self.eta, self.dn, self.h, self.start
-        )
+        fields = (self.aircraft, self.env, self.x, self.y, self.z, self.zeta, self.eta, self.dn, self.h, self.start)
+        kept = self.__dict__.get("_problem")
+        if kept is not None and len(kept[0]) == len(fields) and all(a is b for a, b in zip(kept[0], fields)):
+            return kept[1]  # the same problem (immutable): its system and traced programs are reused
+        prob = FlatProblem(*fields)
+        self.__dict__["_problem"] = (fields, prob)
+        return prob
 
 
 def _catalogue() -> dict[str, Path]:

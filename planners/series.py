@@ -46,11 +46,16 @@ Design
   either side of an operator (``arr * s``, ``s - arr``, ``np.float64(2) * s``).
 * **Backends.**  The kernels (Cauchy product, quotient, the recurrences, the
   order-by-order solve of :mod:`planners.newton`) exist twice: the numpy
-  functions of this module, the reference and the default, and numba-compiled
-  loops (:mod:`planners._series_compiled`, ``pip install gflat[fast]``).  The
-  environment variable ``GFLAT_SERIES_BACKEND`` (``numpy`` or ``compiled``) is
-  read once, at import (:data:`BACKEND`).  Both agree to 1e-12 relative to the
-  coefficient scale (``tests/planners/test_series_backends.py``).  A product
+  functions of this module, the reference, and numba-compiled loops
+  (:mod:`planners._series_compiled`, ``pip install gflat[fast]``).  The
+  environment variable ``GFLAT_SERIES_BACKEND`` (``native``, the default,
+  ``numpy`` or ``compiled``) is read once, at import (:data:`BACKEND`):
+  ``native`` keeps these numpy kernels and runs the planner's stages as
+  compiled programs in C (:mod:`planners.program`, :mod:`planners._native`;
+  the numpy path where no C compiler is found), ``compiled`` uses the numba
+  kernels and runs the programs with numba.  All agree to 1e-12 relative to the
+  coefficient scale (``tests/planners/test_series_backends.py``,
+  ``tests/planners/test_native.py``).  A product
   of a batch ``(nodes,)`` and a batch ``(k, nodes)`` (the complex-step
   Jacobians of Newton on series) is computed without materialising the
   broadcast in the compiled kernels.
@@ -578,19 +583,22 @@ class _CompiledKernels:
 
 #: Environment variable selecting the kernels of the series arithmetic (read once, at import).
 BACKEND_ENV = "GFLAT_SERIES_BACKEND"
-#: The kernel sets: ``"numpy"`` (the reference) and ``"compiled"`` (numba).
-BACKENDS = ("numpy", "compiled")
+#: The backends: ``"numpy"`` (the reference), ``"compiled"`` (numba kernels and programs) and ``"native"``
+#: (numpy kernels, the stages as compiled programs in C: the default).
+BACKENDS = ("numpy", "compiled", "native")
+#: The backend when :data:`BACKEND_ENV` is unset.
+DEFAULT_BACKEND = "native"
 
 
 def _select_backend() -> str:
-    """The backend named by :data:`BACKEND_ENV`: ``"numpy"`` (the default) or ``"compiled"``.
+    """The backend named by :data:`BACKEND_ENV`: ``"native"`` (the default), ``"numpy"`` or ``"compiled"``.
 
-    numpy is the default because numba's import and the loading of the compiled code cost about
-    0.6-1 s per process (several seconds to compile them once on a fresh install), more than the
-    compiled kernels save on the few plans of a command; long runs (campaigns, benchmarks, many plans
-    per process, high orders) gain from ``GFLAT_SERIES_BACKEND=compiled`` (``pip install gflat[fast]``).
+    ``native`` is the default: the stages run as compiled programs in C, compiled once per machine in about
+    a second by the system's C compiler and loaded in a millisecond (:mod:`planners._native`); without a C
+    compiler the planner runs on the numpy path.  numba (``compiled``) costs 0.6-1 s per process to import
+    and load its compiled code, and tens of seconds to compile it once on a fresh install.
     """
-    want = os.environ.get(BACKEND_ENV, "").strip().lower() or "numpy"
+    want = os.environ.get(BACKEND_ENV, "").strip().lower() or DEFAULT_BACKEND
     if want not in BACKENDS:
         raise InputError(
             f"environment variable {BACKEND_ENV}={want!r}: the series backend must be one of {', '.join(BACKENDS)}"
