@@ -44,7 +44,26 @@ Weights (Bryson's rule; Bryson & Ho, *Applied Optimal Control*, 1975, sec. 5.4)
   tolerance held for :data:`INTEGRAL_TIME` s, ``I4`` the angle tolerance for as long; the thrust
   deviation ``e_F`` the thrust range;
 * ranges: each surface its deflection limit (``aircraft.envelope.control_limits``), the thrust
-  ``propulsion.max_thrust`` (the weight ``m g`` for an unrated engine), ``eta`` 1.
+  ``propulsion.max_thrust`` (the weight ``m g`` for an unrated engine), ``eta`` 1; for a loop that clips
+  its commands at the limits (``saturate``), the smaller of that and the room the feedback has in both
+  directions along the plan, ``min_t min(u~ - lower, upper - u~)`` (:func:`feedforward_room`): the
+  feedback input is the deviation from the feedforward, and beyond the room one direction saturates.
+  The aileron roll flies 5.9-28 N of its GTM's 136 N: sized by the rating, the thrust gains answered a
+  2 m lag with up to +126 N, and the aircraft, then 2.9 m/s too fast, had 6 N of thrust to brake with
+  (docs/tracking.md).  Where the plan touches or leaves a limit (no room), the limit's size.
+
+Initial integrals
+-----------------
+The integrals are the controller's own states, free at ``t0``.  Started at zero, the loop must bring
+``int dx`` back to zero, so an initial offset is answered by an overshoot of the same area (measured on a
+dispersed aileron roll, 2 m off: ``y`` +2.1 -> -1.0 m, ``z`` +1.9 -> -0.9 m).  They start where the
+cost-to-go ``z' P(t0) z`` of the initial error is least::
+
+    I(t0) = -P_II(t0)^-1 P_Ix(t0) dx(t0)
+
+(``P`` partitioned into the model's states ``x`` and the integrals ``I``; ``e_F`` starts at 0, the engine
+at the plan's thrust): zero when the aircraft starts on the plan, so a loop flying a model error alone is
+unchanged.
 
 Anti-windup: back-calculation (Astrom & Hagglund, *Advanced PID Control*, ISA 2006, sec. 3.5; in state
 space, Astrom & Murray, *Feedback Systems*, 2008, sec. 11.4).  While a command ``u_cmd`` exceeds its
@@ -71,6 +90,7 @@ import numpy as np
 
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.errors import DomainError, InputError
+from gna.piecewise import PiecewisePolynomial
 
 from .plan import Plan, interval_coefficients
 from .series import Series
@@ -206,8 +226,13 @@ class LQRWeights:
     ranges: np.ndarray
 
 
-def input_ranges(plan, inputs) -> np.ndarray:
-    """Range of each feedback input for Bryson's rule: surface limits, thrust rating, ``|eta| <= 1``.
+def feedforward_room(plan, inputs, j: int = -1) -> np.ndarray:
+    """Room the feedback has in both directions along the plan: ``min_t min(u~ - lower, upper - u~)``.
+
+    ``u~`` the controls of iterate ``j`` (what the loop flies as feedforward) on the grid the plan's limits
+    are checked on (:meth:`planners.plan.Plan.limit_frame`: step ``gna.limits.fine_step`` of the smallest
+    node step), the limits those the loop clips at (:func:`planners.tracking.tracking_limits`: surface
+    limits, thrust ``0 .. max_thrust``, ``|eta| <= 1``).
 
     Parameters
     ----------
@@ -215,10 +240,54 @@ def input_ranges(plan, inputs) -> np.ndarray:
         An aircraft plan.
     inputs : sequence of str
         Control names among :data:`gna.eom.CONTROL_NAMES`.
+    j : int
+        Feedforward iterate.
 
     Returns
     -------
     ndarray, shape (len(inputs),)
+        In the inputs' units (N, rad, 1); ``inf`` for an input without limits, 0 or negative where the
+        plan touches or leaves a limit.
+    """
+    from gna.limits import fine_step
+
+    from .tracking import tracking_limits
+
+    lower, upper = tracking_limits(plan)
+    step = fine_step(float(np.min(np.diff(plan.t_nodes))))
+    t = np.linspace(plan.t0, plan.t1, int(math.ceil((plan.t1 - plan.t0) / step - 1e-9)) + 1)
+    f = plan.control_function(j)
+    U = f.evaluate(t) if isinstance(f, PiecewisePolynomial) else np.array([f(x) for x in t]).T  # (5, M)
+    out = []
+    for u in inputs:
+        k = CONTROL_NAMES.index(u)
+        out.append(float(np.min(np.minimum(U[k] - lower[k], upper[k] - U[k]))))
+    return np.array(out)
+
+
+def input_ranges(plan, inputs, *, j: int | None = None) -> np.ndarray:
+    """Range of each feedback input for Bryson's rule (module notes).
+
+    The size of each limit: surface deflection limits, the thrust rating (the weight ``m g`` for an
+    unrated engine), ``|eta| <= 1``.  With ``j`` (a loop that clips its commands at the limits, flying
+    iterate ``j`` as feedforward), the smaller of that size and the room the feedback has in both
+    directions along the plan (:func:`feedforward_room`): the feedback input is the deviation from the
+    feedforward, and a deviation beyond the room saturates.  Where the plan touches or leaves a limit
+    (no room), the size.
+
+    Parameters
+    ----------
+    plan : Plan
+        An aircraft plan.
+    inputs : sequence of str
+        Control names among :data:`gna.eom.CONTROL_NAMES`.
+    j : int, optional
+        Feedforward iterate of a saturating loop; None: the limits' sizes.
+
+    Returns
+    -------
+    ndarray, shape (len(inputs),)
+        In the inputs' units (N, rad, 1).
 
     Raises
     ------
@@ -241,10 +310,23 @@ def input_ranges(plan, inputs) -> np.ndarray:
                     f"R = 1 / range^2, Bryson's rule)"
                 )
             out.append(float(lim))
-    return np.array(out)
+    out = np.array(out)
+    if j is not None:
+        room = feedforward_room(plan, inputs, j)
+        out = np.where(room > 0.0, np.minimum(out, room), out)
+    return out
 
 
-def lqr_weights(plan, states, inputs, n_integrals: int, tolerances: TrackingTolerances | None = None, lag=None):
+def lqr_weights(
+    plan,
+    states,
+    inputs,
+    n_integrals: int,
+    tolerances: TrackingTolerances | None = None,
+    lag=None,
+    *,
+    j: int | None = None,
+):
     """Bryson's-rule weights of the augmented error system (module notes).
 
     Parameters
@@ -261,6 +343,9 @@ def lqr_weights(plan, states, inputs, n_integrals: int, tolerances: TrackingTole
         Default :data:`DEFAULT_TOLERANCES`.
     lag : float, optional
         Thrust time constant [s]: adds the state ``e_F`` with the thrust range as its error.
+    j : int, optional
+        Feedforward iterate of a loop that clips its commands at the limits: the input ranges are the room
+        along the plan (:func:`input_ranges`); None: the limits' sizes.
 
     Returns
     -------
@@ -272,7 +357,7 @@ def lqr_weights(plan, states, inputs, n_integrals: int, tolerances: TrackingTole
     errors += [tol.position * INTEGRAL_TIME] * min(3, n_integrals)
     if n_integrals == 4:
         errors.append(tol.angle * INTEGRAL_TIME)
-    ranges = input_ranges(plan, inputs)
+    ranges = input_ranges(plan, inputs, j=j)
     if lag is not None:
         names.append("e_F")
         errors.append(float(ranges[list(inputs).index("F")]))
@@ -396,6 +481,20 @@ class LQRDesign:
     A_of: object = field(repr=False)
     B_of: object = field(repr=False)
 
+    def initial_integrals(self) -> np.ndarray:
+        """Gains of the integrals' least-cost start: ``I(t) = M(t) dx`` with ``M = -P_II^-1 P_Ix`` (module notes).
+
+        Returns
+        -------
+        ndarray, shape (M, n_I, n_x)
+            ``M`` at the gain grid :attr:`t`; ``n_x`` the model's states (12), ``n_I`` the integrals.
+        """
+        n_i = len(self.integrals)
+        n_x = self.P.shape[1] - n_i - (self.lag is not None)
+        P_ii = self.P[:, n_x : n_x + n_i, n_x : n_x + n_i]
+        P_ix = self.P[:, n_x : n_x + n_i, :n_x]
+        return -np.linalg.solve(P_ii, P_ix)
+
 
 class _Interpolant:
     """Per-interval polynomials of matrix series (C^1 cubic Hermite from order-1 node series); picklable."""
@@ -430,7 +529,9 @@ def _grid(t_nodes: np.ndarray, step: float) -> np.ndarray:
     return out
 
 
-def lqr_design(plan, *, j: int = -1, tolerances: TrackingTolerances | None = None, lag="aircraft") -> LQRDesign:
+def lqr_design(
+    plan, *, j: int = -1, tolerances: TrackingTolerances | None = None, lag="aircraft", saturate: bool = True
+) -> LQRDesign:
     """Time-varying LQR gains along an aircraft plan (module notes).
 
     Parameters
@@ -444,6 +545,9 @@ def lqr_design(plan, *, j: int = -1, tolerances: TrackingTolerances | None = Non
     lag : "aircraft", float or None
         Thrust time constant [s] of the design: ``"aircraft"`` reads :func:`thrust_lag`; None or 0:
         immediate thrust.  Ignored without the thrust input.
+    saturate : bool
+        The loop clips its commands at the limits: Bryson's input ranges are the room the feedback has
+        along the plan (:func:`input_ranges` with ``j``); False: the limits' sizes.
 
     Returns
     -------
@@ -490,7 +594,7 @@ def lqr_design(plan, *, j: int = -1, tolerances: TrackingTolerances | None = Non
     if K < 2:
         A, B = np.concatenate([A, np.zeros_like(A)], -1), np.concatenate([B, np.zeros_like(B)], -1)
     A_of, B_of = _Interpolant(plan.t_nodes, A), _Interpolant(plan.t_nodes, B)
-    w = lqr_weights(plan, ssm.states, inputs, n_i, tolerances, tau)
+    w = lqr_weights(plan, ssm.states, inputs, n_i, tolerances, tau, j=lin.iterate if saturate else None)
     Q, R = np.diag(w.Q), np.diag(w.R)
     t0, t1 = float(plan.t_nodes[0]), float(plan.t_nodes[-1])
     P_f = terminal_weight(A_of(t1), B_of(t1), Q, R)
@@ -552,7 +656,8 @@ class LQRController(TrackingController):
     Built by :func:`lqr_controller`.  The same reference, feedforward and evaluation as
     :class:`planners.tracking.TrackingController` on a finer grid (:data:`GAIN_STEP`); states: the
     integrals ``I1..I4`` (``I1..I3`` with the thrust output), then ``e_F`` with a thrust lag.  Output:
-    ``sat(u~ + lead + K z) - u~``.  Anti-windup: conditional integration per integral (module notes).
+    ``sat(u~ + lead + K z) - u~``.  Anti-windup: back-calculation (module notes).  The integrals start
+    where the cost-to-go of the initial error is least (:meth:`initial_state`).
 
     Attributes
     ----------
@@ -562,6 +667,9 @@ class LQRController(TrackingController):
         Per-interval polynomial of ``tau F~'`` (the command lead of a lagged engine).
     n_integrals : int
         Integrals among the states (the first ``n_integrals``).
+    initial_gain : ndarray, shape (M, n_integrals, 12) or None
+        ``M(t)`` at the gain grid ``t_nodes`` of the integrals' least-cost start ``I(t0) = M(t0) dx(t0)``
+        (:meth:`initial_state`, module notes); None: the integrals start at zero.
     """
 
     lag: float | None = None
@@ -570,6 +678,37 @@ class LQRController(TrackingController):
     input_rows: tuple = ()
     tracking_time: float = 1.0
     design: str = "lqr"
+    initial_gain: np.ndarray | None = None
+
+    def initial_state(self, t0: float, x0: np.ndarray) -> np.ndarray:
+        """Controller states at the start: the integrals where the cost-to-go is least, ``e_F`` zero.
+
+        ``I(t0) = -P_II^-1 P_Ix dx(t0)`` minimises ``z' P(t0) z`` over the integrals for the aircraft's
+        initial error ``dx(t0)`` (module notes): zero when the aircraft starts on the plan.  ``M(t0)`` is
+        linear between the gain grid's samples.
+
+        Parameters
+        ----------
+        t0 : float
+            Start time [s].
+        x0 : ndarray, shape (12,)
+            Initial aircraft state [SI, rad].
+
+        Returns
+        -------
+        ndarray, shape (n_states,)
+        """
+        out = np.zeros(self.n_states)
+        if self.initial_gain is None:
+            return out
+        ref, _ = self._reference_and_gain(float(t0))
+        e = self._errors(x0, ref)
+        tg = self.t_nodes
+        k = int(np.clip(np.searchsorted(tg, t0, side="right") - 1, 0, len(tg) - 2))
+        w = float(np.clip((t0 - tg[k]) / (tg[k + 1] - tg[k]), 0.0, 1.0))
+        M = (1.0 - w) * self.initial_gain[k] + w * self.initial_gain[k + 1]
+        out[: self.n_integrals] = M @ e
+        return out
 
     def _law(self, ref, gain, e, xc, lead):
         """Output and state derivatives from the reference, gains and errors; (n,) or (n, batch) arrays."""
@@ -678,6 +817,7 @@ def lqr_controller(
     anti_windup: bool = True,
     tolerances: TrackingTolerances | None = None,
     lag="aircraft",
+    least_cost_start: bool = True,
 ) -> LQRController:
     """The time-varying LQR tracking feedback for an aircraft plan (:func:`lqr_design`), ready to fly.
 
@@ -696,6 +836,9 @@ def lqr_controller(
         Bryson's-rule errors (default :data:`DEFAULT_TOLERANCES`).
     lag : "aircraft", float or None
         Thrust time constant of the design (:func:`lqr_design`).
+    least_cost_start : bool
+        Start the integrals where the cost-to-go of the initial error is least
+        (:meth:`LQRController.initial_state`); False: at zero.
 
     Returns
     -------
@@ -710,7 +853,7 @@ def lqr_controller(
     """
     from .tracking import tracking_limits
 
-    des = lqr_design(plan, j=feedforward_iterate, tolerances=tolerances, lag=lag)
+    des = lqr_design(plan, j=feedforward_iterate, tolerances=tolerances, lag=lag, saturate=saturate)
     j = des.iterate
     names = STATE_NAMES + CONTROL_NAMES
     tn = np.asarray(plan.t_nodes, dtype=float)
@@ -760,6 +903,7 @@ def lqr_controller(
         n_integrals=n_i,
         input_rows=tuple(CONTROL_NAMES.index(u) for u in des.inputs),
         tracking_time=TRACKING_TIME,
+        initial_gain=des.initial_integrals() if least_cost_start else None,
     )
 
 
@@ -796,6 +940,7 @@ __all__ = [
     "LQRWeights",
     "TrackingTolerances",
     "check_design",
+    "feedforward_room",
     "input_ranges",
     "lqr_controller",
     "lqr_design",
