@@ -445,7 +445,11 @@ def _manifest(root: Path, given: dict | None):
         given = read_json_object(p, "a gflat run manifest")
     if not isinstance(given.get("cases", []), list):
         raise InputError(f"{p}: not a gflat run manifest ('cases' is not a list)")
-    return {k: v for k, v in given.items() if k not in UNSHOWN}
+    shown = {k: v for k, v in given.items() if k not in UNSHOWN}
+    if isinstance(shown.get("execution"), dict) and "cpu_s" in shown["execution"]:
+        # measured after the pages are rendered: never on them, so that rendering them again gives the same
+        shown["execution"] = {k: v for k, v in shown["execution"].items() if k != "cpu_s"}
+    return shown
 
 
 def _run_order(cases: list, manifest) -> list:
@@ -566,7 +570,9 @@ def pdf_documents(run_dir: str | Path, parts: int, *, date: str | None = None, m
     and the front matter (title, contents with page numbers, summary, manifest) made once their pages are known.
 
     Each case starts a new page in print, so the printed documents put end to end
-    (:func:`reports.pdf.write_pdf`: front matter first) are the pages of one report.  The front matter
+    (:func:`reports.pdf.write_pdf`: front matter first) are the pages of one report.  A scenario's later
+    cases (the closed loop after the open loop) refer to the first for the scenario file, the plan's
+    convergence table and its singularity monitor, which are the same.  The front matter
     carries empty anchors named after every case, so that its links are printed; a case's own destination
     of the same name replaces the anchor's when the documents are put together.
 
@@ -596,6 +602,14 @@ def pdf_documents(run_dir: str | Path, parts: int, *, date: str | None = None, m
     root = Path(run_dir)
     cases, common = _run_context(root, date, manifest)
     views = [_case_view(root, f, m, root, False) for f, m in cases]
+    first: dict = {}
+    for v in views:  # a scenario's later cases print its plan once: "as in the first case"
+        m = v["model"]
+        key = (m["scenario"]["name"], m["plan"]["J"], m["scenario"].get("toml"))
+        if key in first:
+            v["same_plan_as"] = first[key]
+        else:
+            first[key] = {"id": m["id"], "title": m["title"]}
     template = _environment().get_template("single.html")
     plain = dict(common, pdf=True, front=False, last_part=False)
     if parts <= 1 or len(views) <= 1:
