@@ -40,7 +40,6 @@ import pandas as pd
 
 from gna.atmosphere import speed_of_sound
 from gna.errors import InputError, describe
-from gna.frames import C_body_ned, euler_from_dcm
 from gna.trajectory import UNITS
 
 
@@ -260,6 +259,34 @@ EXTRA_UNITS: dict[str, str] = {
 }
 
 
+def _rotations(axis: int, angle: np.ndarray) -> np.ndarray:
+    """The elementary frame rotations of :mod:`gna.frames` (``R1``, ``R2``, ``R3``) at every angle, (n, 3, 3)."""
+    n = angle.size
+    cos, sin = np.cos(angle), np.sin(angle)
+    R = np.zeros((n, 3, 3))
+    i, j = [(1, 2), (2, 0), (0, 1)][axis - 1]
+    R[:, axis - 1, axis - 1] = 1.0
+    R[:, i, i], R[:, i, j], R[:, j, i], R[:, j, j] = cos, sin, -sin, cos
+    return R
+
+
+def _euler_angles(gamma, chi, mu, alpha, beta) -> np.ndarray:
+    """Body Euler angles (phi, theta, psi) of every sample, (n, 3) [rad]: :func:`gna.frames.euler_from_dcm` of
+    :func:`gna.frames.C_body_ned`, on arrays (NaN where an angle is not finite)."""
+    C = _rotations(2, alpha) @ _rotations(3, -beta) @ _rotations(1, mu) @ _rotations(2, gamma) @ _rotations(3, chi)
+    eul = np.stack(
+        [
+            np.arctan2(C[:, 1, 2], C[:, 2, 2]),
+            -np.arcsin(np.clip(C[:, 0, 2], -1.0, 1.0)),
+            np.arctan2(C[:, 0, 1], C[:, 0, 0]),
+        ],
+        axis=1,
+    )
+    bad = ~np.all(np.isfinite(np.stack([gamma, chi, mu, alpha, beta])), axis=0)
+    eul[bad] = np.nan
+    return eul
+
+
 def augmented(df: pd.DataFrame) -> pd.DataFrame:
     """A trajectory with altitude, Euler angles, body velocities and Mach added.
 
@@ -285,10 +312,7 @@ def augmented(df: pd.DataFrame) -> pd.DataFrame:
     g, c, m, a, b = (out[k].to_numpy(float) for k in ("gamma", "chi", "mu", "alpha", "beta"))
     V = out["V"].to_numpy(float)
     out["h"] = -out["z"].to_numpy(float)
-    eul = np.full((len(out), 3), np.nan)
-    for i in range(len(out)):
-        if np.all(np.isfinite((g[i], c[i], m[i], a[i], b[i]))):
-            eul[i] = euler_from_dcm(C_body_ned(g[i], c[i], m[i], a[i], b[i]))
+    eul = _euler_angles(g, c, m, a, b)
     out["phi"], out["theta"], out["psi"] = eul[:, 0], eul[:, 1], eul[:, 2]
     out["u"] = V * np.cos(a) * np.cos(b)
     out["v"] = V * np.sin(b)
@@ -535,6 +559,54 @@ def tracking_design(result) -> str | None:
     """
     closed = getattr(result, "closed_loop", None)
     return None if closed is None else getattr(closed.controller, "design", "paper")
+
+
+def cpu_time() -> float:
+    """CPU time of this process and of its children that have ended [s] (user + system).
+
+    Returns
+    -------
+    float
+    """
+    import resource
+
+    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def cpu_split(tasks, plan_s: float, render_s: float, total_s: float) -> dict:
+    """The CPU of a run by stage, for its manifest's ``execution.cpu_s``.
+
+    Parameters
+    ----------
+    tasks : list of dict
+        The worker tasks' log (:attr:`harness.parallel.ForkPool.log`: ``what``, ``cpu_s``): ``flying ...``
+        tasks count as flying, ``writing ...`` ones as writing.
+    plan_s : float
+        CPU of planning (and writing the plans' files) [s].
+    render_s : float
+        CPU of rendering the pages and printing the PDF, its worker processes included [s].
+    total_s : float
+        CPU of the whole run, its worker processes included [s].
+
+    Returns
+    -------
+    dict
+        ``plan``, ``fly``, ``write`` (the case folders' figures and files, the pages and the PDF),
+        ``other`` (the rest: tabulating and judging the flights, the command's own work) and ``total`` [s],
+        and ``write_share``: ``write / total``.
+    """
+    fly = sum(t.get("cpu_s", 0.0) for t in tasks if str(t.get("what", "")).startswith("flying"))
+    write = sum(t.get("cpu_s", 0.0) for t in tasks if str(t.get("what", "")).startswith("writing")) + render_s
+    other = max(total_s - plan_s - fly - write, 0.0)
+    return {
+        "plan": plan_s,
+        "fly": fly,
+        "write": write,
+        "other": other,
+        "total": total_s,
+        "write_share": write / total_s if total_s > 0 else None,
+    }
 
 
 def run_manifest(results=(), *, command_line: list | None = None, execution: dict | None = None) -> dict:

@@ -795,17 +795,21 @@ def draw_controls(
     for i, (lab, res) in enumerate(results.items()):
         curves.append((lab, res.df, {"color": f"C{i}", "ls": RUN_STYLES[i % len(RUN_STYLES)], "lw": 1.2}))
     for ax, (pname, limit) in zip(axes, panels):
-        drawn, unit = [], ""
+        thrust = limit is not None and pname.startswith("thrust")
+        k, unit = (1.0, "N") if thrust else plot_scale(pname)
+        need = limit.columns if thrust else (pname,)
+        drawn, bounded = [], None
         for lab, df, style in curves:
-            y, unit, k = _control_values(pname, limit, df)
+            if not all(c in df.columns for c in need):
+                continue  # a reference of states only
+            y, _, _ = _control_values(pname, limit, df)
             (handles[lab],) = s.line(ax, _t(df), y, label=lab, **style)
             drawn.append(y)
-        if limit is not None:
-            k = 1.0 if unit == "N" else plot_scale(pname)[0]
-            ref_df = curves[-1][1]
-            lo, hi = limit.bounds(ref_df)
-            t = _t(ref_df)
-            for bound in (lo, hi):
+            if limit is not None and all(c in df.columns for c in limit.columns):
+                bounded = df
+        if bounded is not None:
+            t = _t(bounded)
+            for bound in limit.bounds(bounded):
                 b = np.asarray(bound, dtype=float) * k
                 if np.all(np.isfinite(b)):
                     (handles["limit"],) = s.line(ax, t, b, color="r", ls="-.", lw=1.0, label="limit")

@@ -49,8 +49,60 @@ HEADERS = {
 #: Columns of a difference table in the row's unit: converted with it (radians shown as degrees).
 IN_ROW_UNIT = ("max_abs", "rms", "scale", "ref_max", "atol", "tolerance")
 
+
+def _in_row_unit(column: str) -> bool:
+    return column.split("|", 1)[0] in IN_ROW_UNIT
+
+
 #: Columns of the tables printed as text (left-aligned).
 TEXT_COLUMNS = frozenset(("variable", "unit"))
+
+
+def side_by_side(tables: list, key: str) -> dict:
+    """Difference tables of the same variables as one table, each one's max |diff| and result side by side
+    (the PDF's form: half the rows to print).
+
+    Parameters
+    ----------
+    tables : list of dict
+        Tables of a model (``columns``, ``rows``; the same variables in the same order), each with ``key``.
+    key : str
+        What tells them apart (``"window"``, ``"engine"``), named in their columns' headings.
+
+    Returns
+    -------
+    dict
+        ``columns`` (``variable``, ``unit``, ``max_abs|<name>``, ``passed|<name>`` (tables with a verdict)
+        ... and ``tolerance`` when every table has the same), ``rows``.
+    """
+    if not tables:
+        return {"columns": [], "rows": []}
+    cols = tables[0]["columns"]
+    i_var, i_unit = cols.index("variable"), cols.index("unit")
+    names = [str(t[key]) for t in tables]
+    rows_of = [{r[t["columns"].index("variable")]: r for r in t["rows"]} for t in tables]
+    tol = [
+        [r[t["columns"].index("tolerance")] for r in t["rows"]] if "tolerance" in t["columns"] else None for t in tables
+    ]
+    same_tol = all(x == tol[0] for x in tol) and tol[0] is not None
+    judged = [any(r[t["columns"].index("passed")] is not None for r in t["rows"]) for t in tables]
+    columns = ["variable", "unit"]
+    for n, j in zip(names, judged):
+        columns += [f"max_abs|{n}"] + ([f"passed|{n}"] if j else [])
+    columns += ["tolerance"] if same_tol else []
+    rows = []
+    for r in tables[0]["rows"]:
+        var = r[i_var]
+        row = [var, r[i_unit]]
+        for t, by, j in zip(tables, rows_of, judged):
+            other = by.get(var)
+            c = t["columns"]
+            cells = [None, None] if other is None else [other[c.index("max_abs")], other[c.index("passed")]]
+            row += cells if j else cells[:1]
+        if same_tol:
+            row.append(r[cols.index("tolerance")])
+        rows.append(row)
+    return {"columns": columns, "rows": rows}
 
 
 def header(name: str) -> str:
@@ -67,6 +119,9 @@ def header(name: str) -> str:
     """
     if name.startswith("J=") and name[2:].isdigit():
         return f"J = {name[2:]} [unit]"
+    if "|" in name:
+        base, which = name.split("|", 1)
+        return f"{HEADERS.get(base, base)}, {which}"
     return HEADERS.get(name, name)
 
 
@@ -119,13 +174,13 @@ def shown_table(table: dict, compact: bool = False) -> dict:
 
     cols = list(table["columns"])
     rows = []
-    if compact and "unit" in cols:
+    if compact and "unit" in cols and not any("|" in c for c in cols):
         keep = [i for i, c in enumerate(cols) if c in COMPACT_COLUMNS]
         table = dict(table, columns=[cols[i] for i in keep], rows=[[r[i] for i in keep] for r in table["rows"]])
         cols = list(table["columns"])
     if "unit" in cols:
         u = cols.index("unit")
-        conv = [i for i, c in enumerate(cols) if c in IN_ROW_UNIT]
+        conv = [i for i, c in enumerate(cols) if _in_row_unit(c)]
         for row in table["rows"]:
             k, unit = shown_unit(row[u])
             row = list(row)
@@ -268,6 +323,7 @@ def cell(value, column: str, spec: str | None = None) -> str:
     -------
     str
     """
+    column = column.split("|", 1)[0]
     if isinstance(value, bool):
         return "pass" if value else "FAIL"
     if column == "delta_pct" and (
@@ -359,6 +415,7 @@ def _environment():
     env.filters["cell"] = cell
     env.filters["header"] = header
     env.filters["shown_table"] = shown_table
+    env.filters["side_by_side"] = side_by_side
     env.filters["text"] = text
     env.filters["setting"] = setting
     env.filters["quantity"] = quantity
@@ -445,7 +502,11 @@ def _manifest(root: Path, given: dict | None):
         given = read_json_object(p, "a gflat run manifest")
     if not isinstance(given.get("cases", []), list):
         raise InputError(f"{p}: not a gflat run manifest ('cases' is not a list)")
-    return {k: v for k, v in given.items() if k not in UNSHOWN}
+    shown = {k: v for k, v in given.items() if k not in UNSHOWN}
+    if isinstance(shown.get("execution"), dict) and "cpu_s" in shown["execution"]:
+        # measured after the pages are rendered: never on them, so that rendering them again gives the same
+        shown["execution"] = {k: v for k, v in shown["execution"].items() if k != "cpu_s"}
+    return shown
 
 
 def _run_order(cases: list, manifest) -> list:
@@ -566,7 +627,9 @@ def pdf_documents(run_dir: str | Path, parts: int, *, date: str | None = None, m
     and the front matter (title, contents with page numbers, summary, manifest) made once their pages are known.
 
     Each case starts a new page in print, so the printed documents put end to end
-    (:func:`reports.pdf.write_pdf`: front matter first) are the pages of one report.  The front matter
+    (:func:`reports.pdf.write_pdf`: front matter first) are the pages of one report.  A scenario's later
+    cases (the closed loop after the open loop) refer to the first for the scenario file, the plan's
+    convergence table and its singularity monitor, which are the same.  The front matter
     carries empty anchors named after every case, so that its links are printed; a case's own destination
     of the same name replaces the anchor's when the documents are put together.
 
@@ -596,6 +659,14 @@ def pdf_documents(run_dir: str | Path, parts: int, *, date: str | None = None, m
     root = Path(run_dir)
     cases, common = _run_context(root, date, manifest)
     views = [_case_view(root, f, m, root, False) for f, m in cases]
+    first: dict = {}
+    for v in views:  # a scenario's later cases print its plan once: "as in the first case"
+        m = v["model"]
+        key = (m["scenario"]["name"], m["plan"]["J"], m["scenario"].get("toml"))
+        if key in first:
+            v["same_plan_as"] = first[key]
+        else:
+            first[key] = {"id": m["id"], "title": m["title"]}
     template = _environment().get_template("single.html")
     plain = dict(common, pdf=True, front=False, last_part=False)
     if parts <= 1 or len(views) <= 1:

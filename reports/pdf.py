@@ -240,6 +240,8 @@ def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path,
     path = Path(path)
     docs = [html] if isinstance(html, str) else list(html)
     base_url = str(Path(base_dir).resolve()) + os.sep
+    import weasyprint  # noqa: F401  (imported once here, not in every printing worker)
+
     if len(docs) == 1 and front is None:
         data = _print(docs[0], base_url)
     else:

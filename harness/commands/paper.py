@@ -30,9 +30,10 @@ from dataclasses import replace
 
 from planners.scenario import load_scenario
 from reports.case_files import write_case
+from reports.figures import prepare as prepare_figures
 from reports.html import render_run
 
-from ..artefacts import run_manifest, write_plan_iterates
+from ..artefacts import cpu_split, cpu_time, run_manifest, write_plan_iterates
 from ..parallel import ForkPool, default_jobs, run_all
 from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
@@ -141,10 +142,11 @@ class _Scenario:
         self.elapsed = {loop: 0.0 for loop in loops}
         self.submitted: set = set()
         self.t_plan = 0.0
+        self.cpu_plan = 0.0
 
     def plan(self, pool: ForkPool) -> None:
         """Plan, write the plan's files, set the cases up and submit their flights."""
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         planned = plan_case(self.case)
         self.name = planned.scenario.name
         for loop in self.loops:  # each case's flights submitted as soon as it is set up
@@ -159,6 +161,7 @@ class _Scenario:
         shown = self.shown / self.name / "plan"
         self.lines.append(write_plan(planned.scenario, planned.plan, planned.planning_time_s, folder, shown=shown)[0])
         self.t_plan = time.perf_counter() - t0
+        self.cpu_plan = time.process_time() - c0
 
     def _fly(self, pool: ForkPool, loop: str, name: str) -> None:
         self.submitted.add((loop, name))
@@ -189,6 +192,7 @@ class _Scenario:
             if lp in self.results or any(name not in self.runs[lp] for name in cf.flights):
                 continue
             self.results[lp] = result = finish_case(cf, self.runs[lp])
+            result.saturated_s()  # judged here once: the forked writer inherits it (summary, report, verdict)
             plan_sub = (self.name, "plan") if lp == self.loops[0] else None
             pool.submit(
                 ("write", self.name, lp),
@@ -225,7 +229,9 @@ def run(args) -> int:
         planned += [(replace(case, loop=loop), scenario, case_settings(case, scenario)) for loop in loops]
     check_steps(planned, args.max_steps, "paper")  # and the work of every flight
     out = run_dir(args, "paper", command="paper")  # the default, the tool's own folder: an earlier run replaced
+    cpu0 = cpu_time()
     with out, ForkPool(args.jobs or default_jobs()) as pool:
+        prepare_figures()  # one figure and its axes made here, inherited by every forked writer
         scenarios = [_Scenario(case, loops, out.root, out.out, args.csv) for case in cases]
         by_name = {}
         for sc in scenarios:
@@ -304,7 +310,11 @@ def run(args) -> int:
             command_line=getattr(args, "command_line", None),
             execution={"jobs": jobs, "how": how, "planning_s": {sc.name: sc.t_plan for sc in scenarios}, "tasks": log},
         )
+        c0 = cpu_time()
         report = render_run(out.root, jobs=jobs, run_all=run_all, manifest=record)  # from the saved report.json files
+        record["execution"]["cpu_s"] = cpu_split(
+            log, sum(sc.cpu_plan for sc in scenarios), cpu_time() - c0, cpu_time() - cpu0
+        )
         out.commit(record)
     print(f"\nmanifest, plans, trajectories, figures, tables and report written to {out.out}/")
     failed = [c.scenario for c, ok in zip(cases, passed) if not ok]

@@ -78,4 +78,6 @@ def test_a_plan_that_cannot_be_made_is_one_line_and_exit_1(bc, capsys):
         bc.main(["--quick", "--J", "30", "--scenarios", "gtm-aileron-roll", "--guess", "plan-j0"])
     assert exc.value.code == 1
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("bench_collocation: error: ") and "outside the physical domain" in err[0]
+    # the diverged iterate leaves the domain (numpy path: finite values outside it; the native path: non-finite)
+    assert len(err) == 1 and err[0].startswith("bench_collocation: error: ")
+    assert "outside the physical domain" in err[0] or "non-finite values" in err[0]

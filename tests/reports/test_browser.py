@@ -3,15 +3,21 @@
 Every page of the run (the index, each case page, the single-file report) is
 served over HTTP and loaded; every image must decode (``naturalWidth > 0``),
 every link must stay inside the report and resolve (the file is served, the
-anchor exists), and the console must show no error.  A screenshot of the index
-page is saved in the test's folder and copied to ``reports/out/``.  Without a
-browser the test is skipped locally and fails under CI (``CI`` set).
+anchor exists), and the console must show no error.  Then a look at what the
+reader sees: every figure names the unit of each of its axes (the labels the
+figure recorded, in its alt text), no text overflows its box (each element's
+``scrollWidth`` within its ``clientWidth``, each table, figure and image inside
+its parent, no horizontal scrolling of the page), and the screenshots of the
+index and of a case page hold a drawn page (not blank).  The screenshots are
+saved in the test's folder and copied to ``reports/out/``.  Without a browser
+the test is skipped locally and fails under CI (``CI`` set).
 """
 
 from __future__ import annotations
 
 import functools
 import http.server
+import json
 import os
 import re
 import shutil
@@ -31,7 +37,44 @@ FLAGS = [
     "--disable-sync",
     "--no-first-run",
 ]
-SCREENSHOT_COPY = Path(__file__).resolve().parents[2] / "reports" / "out" / "report-index.png"
+SCREENSHOT_DIR = Path(__file__).resolve().parents[2] / "reports" / "out"
+
+#: Elements whose content may scroll by design (the scenario file, the manifest).
+SCROLLING = ("PRE",)
+
+#: The browser's look at a page: elements whose text overflows their box, boxes outside their parent.
+OVERFLOW_JS = """() => {
+  const bad = [];
+  const name = e => e.tagName.toLowerCase() + (e.id ? '#' + e.id : '') + (e.className ? '.' + e.className : '');
+  for (const e of document.querySelectorAll('body *')) {
+    const cs = getComputedStyle(e);
+    if (cs.display === 'none' || cs.display === 'inline' || SCROLLING.includes(e.tagName)) continue;
+    if (e.closest('pre')) continue;
+    if (cs.overflowX === 'visible' && e.scrollWidth > e.clientWidth + 1 && e.clientWidth > 0)
+      bad.push(`${name(e)}: text ${e.scrollWidth} px wide in a box of ${e.clientWidth} px: ${e.textContent.slice(0, 60)}`);
+  }
+  for (const e of document.querySelectorAll('table, figure, img, p, h1, h2, h3, h4, ul')) {
+    const r = e.getBoundingClientRect(), p = e.parentElement.getBoundingClientRect();
+    if (r.width > 0 && (r.right > p.right + 1 || r.left < p.left - 1))
+      bad.push(`${name(e)} outside its parent ${name(e.parentElement)}: ${Math.round(r.left)}..${Math.round(r.right)} px in ${Math.round(p.left)}..${Math.round(p.right)} px`);
+  }
+  const d = document.documentElement;
+  if (d.scrollWidth > window.innerWidth + 1) bad.push(`the page scrolls sideways: ${d.scrollWidth} px in ${window.innerWidth} px`);
+  return bad;
+}""".replace("SCROLLING", json.dumps(list(SCROLLING)))
+
+#: An axis label with its unit, as the figures record them (``"alpha [deg]"``, ``"t [s]"``).
+AXIS_LABEL = re.compile(r".+ \[[^\]]+\]")
+
+
+def _drawn(path: Path) -> float:
+    """Share of a screenshot's pixels that are not the page's white: a page with content, not a blank one."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        grey = im.convert("L")
+        hist = grey.histogram()
+    return 1.0 - sum(hist[250:]) / max(sum(hist), 1)
 
 
 def _in_ci() -> bool:
@@ -74,7 +117,7 @@ def test_report_pages_load_in_chromium_with_images_links_and_no_console_error(re
     pages = ["index.html", "report.html"] + [
         p.relative_to(report_run.root).as_posix() for p in report_run.written["pages"]
     ]
-    problems, visited, html_of = [], [], {}
+    problems, visited, html_of, shots = [], [], {}, {}
     with sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=CHROMIUM, args=FLAGS)
         try:
@@ -101,9 +144,19 @@ def test_report_pages_load_in_chromium_with_images_links_and_no_console_error(re
                 for alt, complete, width in images:
                     if not (complete and width > 0):
                         problems.append(f"{rel}: image {alt!r} does not decode")
-                if rel == "index.html":
-                    shot = tmp_path / "index.png"
-                    page.screenshot(path=str(shot), full_page=True)
+                for alt, axes in page.eval_on_selector_all(
+                    "figure img", "els => els.map(e => [e.getAttribute('alt'), e.dataset.axes || ''])"
+                ):
+                    labels = json.loads(axes or "[]")
+                    if not labels or not all(AXIS_LABEL.fullmatch(a) for a in labels):
+                        problems.append(f"{rel}: figure {alt!r} without a unit on every axis: {labels}")
+                    elif not all(a in alt for a in labels):
+                        problems.append(f"{rel}: figure {alt!r}: its alt text does not name its axes")
+                problems += [f"{rel}: {p}" for p in page.evaluate(OVERFLOW_JS)]
+                if rel == "index.html" or (rel.endswith("/case.html") and "case" not in shots):
+                    key = "index" if rel == "index.html" else "case"
+                    shots[key] = tmp_path / f"report-{key}.png"
+                    page.screenshot(path=str(shots[key]), full_page=(key == "index"))
                 for href in page.eval_on_selector_all("a[href]", "els => els.map(e => e.href)"):
                     if not href.startswith(served):
                         problems.append(f"{rel}: link leaves the report: {href}")
@@ -127,9 +180,11 @@ def test_report_pages_load_in_chromium_with_images_links_and_no_console_error(re
     assert not problems, "\n".join(problems)
     assert set(visited) >= {"index.html", "report.html"} and len(visited) == 2 + len(report_run.written["pages"])
     assert len(links) > 10
-    assert shot.stat().st_size > 10_000
-    SCREENSHOT_COPY.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(shot, SCREENSHOT_COPY)
+    assert set(shots) == {"index", "case"}
+    SCREENSHOT_DIR.mkdir(parents=True, exist_ok=True)
+    for shot in shots.values():  # a look at the screenshots: a drawn page, kept for the docs
+        assert shot.stat().st_size > 10_000 and _drawn(shot) > 0.02, shot
+        shutil.copyfile(shot, SCREENSHOT_DIR / shot.name)
 
 
 def test_a_missing_browser_fails_under_ci_and_skips_elsewhere(monkeypatch, tmp_path):

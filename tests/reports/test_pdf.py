@@ -1,4 +1,5 @@
-"""The PDF report read back: one section (bookmark) per case with its PASS/FAIL, text extractable, figures in it."""
+"""The PDF report read back: contents, page numbers, one section (bookmark) per case with its PASS/FAIL, text
+extractable, figures in it (a scenario's plan figures once)."""
 
 from __future__ import annotations
 
@@ -37,13 +38,41 @@ def test_pdf_has_one_section_per_case_with_its_verdict_and_figures(report_run):
     assert sections[0] == ("gflat validation report", 0)
     assert [t for t, _ in sections[1:]] == [f"{m['title']}: {'PASS' if m['passed'] else 'FAIL'}" for _, m in cases]
     starts = [p for _, p in sections[1:]] + [len(reader.pages)]
+    seen = set()
     for (title, first), end, (_, model) in zip(sections[1:], starts[1:], cases):
         pages = reader.pages[first:end]
         text = "\n".join(p.extract_text() for p in pages)
         assert title in text  # extractable text, verdict included
         assert "Differences between engines" in text and model["scenario"]["aircraft"]["name"] in text
-        for fig in model["figures"]:
-            assert fig["file"] in text  # each figure's caption ...
-        assert sum(_images_drawn(p) for p in pages) == len(model["figures"])  # ... and its image
-    summary = reader.pages[0].extract_text()
-    assert "2 of 2 case(s) pass" in summary
+        # the scenario's later case refers to the first for the plan's figure (the same plan)
+        shared = model["scenario"]["name"] in seen
+        seen.add(model["scenario"]["name"])
+        figures = [f["file"] for f in model["figures"] if not (shared and f["file"] == "singularity.png")]
+        for fig in figures:
+            assert fig in text  # each figure's caption ...
+        assert sum(_images_drawn(p) for p in pages) == len(figures)  # ... and its image
+        assert ("the same plan" in text) == shared
+        assert "deg/s" in text and "[rad]" not in text  # angles in degrees, rates in deg/s
+    n = len(reader.pages)
+    for k, page in enumerate(reader.pages, start=1):  # numbered k / n at the foot
+        assert page.extract_text().rstrip().endswith(f"{k} / {n}")
+    front = reader.pages[0].extract_text()
+    assert "2 of 2 case(s) pass" in front and "Contents" in front
+    for (_title, page), (_, model) in zip(sections[1:], cases):  # the contents give each case's page
+        assert f"{model['title']}\nPASS\n{page + 1}" in front or re.search(
+            rf"{re.escape(model['title'])}\s+PASS\s+{page + 1}\b", front
+        ), front
+    levels = [item for item in reader.outline if isinstance(item, list)]
+    assert levels and any(getattr(sub, "title", "") == "Verdicts" for group in levels for sub in group)
+
+
+def test_pdf_is_no_larger_than_it_needs_to_be(report_run):
+    """The figures' PNG data embedded as they are (one image object per figure shown), no more."""
+    path = report_run.written["pdf"]
+    reader = pypdf.PdfReader(path)
+    images = {id(v.get_object()) for p in reader.pages for v in (p["/Resources"].get("/XObject") or {}).values()}
+    figures = sum(
+        p.stat().st_size for p in report_run.root.rglob("*.png") if p.name != "singularity.png" or "open" in str(p)
+    )
+    assert len(images) >= 1
+    assert path.stat().st_size < 1.3 * figures + 400_000
