@@ -178,7 +178,7 @@ def test_a_bad_series_backend_is_one_line_not_a_traceback():
     assert out.returncode == 2
     assert out.stderr.strip().splitlines() == [
         "gflat: error: environment variable GFLAT_SERIES_BACKEND='bogus': the series backend must be one of "
-        "numpy, compiled"
+        "numpy, compiled, native"
     ]
 
 
