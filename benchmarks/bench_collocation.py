@@ -1338,6 +1338,7 @@ def main(argv=None) -> None:
 
 
 def _main(argv=None) -> None:
+    os.environ.setdefault("GFLAT_NATIVE_WAIT", "1")  # the planner's native library compiled before it is timed
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
     ap.add_argument("--repeat", type=int, default=5, help="interleaved repetitions (medians)")

@@ -89,6 +89,7 @@ def _env(tree: Path, backend: str | None) -> dict:
         else:
             env.pop(v, None)
     env.pop("GFLAT_SERIES_BACKEND", None)
+    env.setdefault("GFLAT_NATIVE_WAIT", "1")  # a fresh cache: compile before the first plan, not in the background
     if backend:
         env["GFLAT_SERIES_BACKEND"] = backend
     return env

@@ -6,7 +6,9 @@ folder (``$XDG_CACHE_HOME/gflat/native``, default ``~/.cache/gflat/native``), un
 source, the compiler's version, its flags and the machine; a changed source or compiler gives another name, so
 a stale library is never loaded (it is rebuilt; a build unused for :data:`STALE_DAYS` is removed).  Each process compiles into a
 temporary file of its own and renames it into place (atomic), so several processes compiling at once are
-safe.  Loading a compiled library costs about a millisecond; compiling it about 1 s of CPU (``-O2``).
+safe.  Loading a compiled library costs about a millisecond; compiling it about 1 s of CPU (``-O2``), in the
+background by default: the process that finds no library starts the compiler detached and plans on the
+numpy path, so a first ``gflat plan`` waits for no compiler (``GFLAT_NATIVE_WAIT=1`` compiles at once).
 Without a compiler, or when the compilation fails, :func:`library` returns None and says why: the planner
 then runs on the numpy path (or numba's, ``GFLAT_SERIES_BACKEND=compiled``).
 """
@@ -23,6 +25,7 @@ import subprocess
 import sys
 import sysconfig
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -122,8 +125,6 @@ def build(cc: list, target: Path) -> None:
             os.unlink(tmp)
     # Builds for another source or compiler: removed once unused for STALE_DAYS (another installed version of
     # gflat may still load its own; a file being loaded is not in the way on POSIX)
-    import time
-
     for old in target.parent.glob("gflat_program-*"):
         try:
             if old != target and time.time() - old.stat().st_atime > STALE_DAYS * 86400:
@@ -156,32 +157,127 @@ def _declare(lib) -> None:
         f.restype = ctypes.c_int
 
 
-def library():
-    """The loaded native library (compiled first when not in the cache), or None when it cannot be had.
+#: Environment variable: ``1`` makes the first use wait for the compilation (tests, benchmarks); unset, a process
+#: that finds no library starts the compiler in the background and plans on the numpy path meanwhile.
+WAIT_ENV = "GFLAT_NATIVE_WAIT"
+#: Seconds a build in progress (its lock file) keeps other processes from starting another.
+BUILD_LOCK_S = 300
+
+
+def library(wait: bool | None = None):
+    """The loaded native library, or None when it cannot be had (yet).
+
+    A library in the cache is loaded (about a millisecond).  Without one, ``wait`` (default: the environment
+    variable :data:`WAIT_ENV` set to 1) compiles it now (about 1 s of CPU); else the compiler is started in the
+    background, detached, and this process gets None (its plans run on the numpy path: a first ``gflat plan``
+    pays no compilation), the next ones load the library.  One background build at a time (a lock file);
+    a failed build is not retried for a day.
+
+    Parameters
+    ----------
+    wait : bool, optional
+        Compile now rather than in the background.
 
     Returns
     -------
     ctypes.CDLL or None
-        None: :func:`reason` says why (no C compiler, a failed compilation).
+        None: :func:`reason` says why (no C compiler, a failed compilation, a compilation under way).
     """
-    if _STATE["tried"]:
+    if wait is None:
+        wait = os.environ.get(WAIT_ENV, "").strip() == "1"
+    if _STATE["tried"] and (_STATE["lib"] is not None or _STATE.get("final")):
         return _STATE["lib"]
+    if _STATE["tried"] and not wait:
+        # a build in the background: its library is loaded once it is there (checked every few seconds)
+        target = _STATE.get("target")
+        if target is None or time.monotonic() < _STATE.get("next_check", 0.0) or not target.exists():
+            _STATE["next_check"] = time.monotonic() + 2.0
+            return None
     _STATE["tried"] = True
     cc = _compiler()
     if cc is None:
         _STATE["reason"] = "no C compiler found (set CC, or install cc, gcc or clang)"
+        _STATE["final"] = True
         return None
-    target = library_path(cc)
+    target = _STATE["target"] = library_path(cc)
+    failed = target.with_name("." + target.name + ".failed")
     try:
         if not target.exists():
-            build(cc, target)
+            if failed.exists() and time.time() - failed.stat().st_mtime < 86400 and not wait:
+                _STATE["reason"] = f"the native evaluator failed to compile: {failed.read_text()[:300]}"
+                return None
+            if not wait and _build_in_background(cc, target):
+                _STATE["reason"] = "the native evaluator is being compiled in the background"
+                return None
+            try:
+                build(cc, target)
+            except (OSError, subprocess.SubprocessError) as exc:
+                try:
+                    failed.write_text(str(exc))
+                except OSError:
+                    pass
+                raise
         lib = ctypes.CDLL(str(target))
         _declare(lib)
     except (OSError, subprocess.SubprocessError) as exc:
         _STATE["reason"] = f"the native evaluator could not be built or loaded: {exc}"
+        _STATE["final"] = True
         return None
     _STATE["lib"] = lib
     return lib
+
+
+_BACKGROUND = r"""
+import os, sys, time
+sys.path.insert(0, sys.argv[3])
+lock = sys.argv[2]
+try:
+    from planners import _native as N
+    try:
+        N.build(N._compiler(), N.Path(sys.argv[1]))
+    except Exception as exc:
+        N.Path(sys.argv[1]).with_name("." + N.Path(sys.argv[1]).name + ".failed").write_text(str(exc))
+finally:
+    try:
+        os.unlink(lock)
+    except OSError:
+        pass
+"""
+
+
+def _build_in_background(cc: list, target: Path) -> bool:
+    """Start the compilation in a detached process (a lock file keeps others from starting another): True when
+    one was started or is under way, False when it could not be (the caller then compiles now)."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    lock = target.with_name("." + target.name + ".building")
+    try:
+        fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+    except FileExistsError:
+        try:
+            if time.time() - lock.stat().st_mtime < BUILD_LOCK_S:
+                return True  # another process is compiling
+            lock.unlink()  # a stale lock (a build that died)
+            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except OSError:
+            return True
+    except OSError:
+        return False
+    os.write(fd, str(os.getpid()).encode())
+    os.close(fd)
+    root = str(Path(__file__).resolve().parents[1])
+    try:
+        subprocess.Popen(
+            [sys.executable, "-c", _BACKGROUND, str(target), str(lock), root],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+            close_fds=True,
+        )
+    except OSError:
+        os.unlink(lock)
+        return False
+    return True
 
 
 def reason() -> str:

@@ -4,9 +4,15 @@ The Ctrl-C tests send SIGINT to child processes.  A shell running a command in t
 job control starts it with SIGINT ignored, and an ignored signal stays ignored across ``exec``: the
 children would never see the Ctrl-C.  The suite restores the default disposition (Python's
 KeyboardInterrupt), which its children then inherit as a user's terminal gives them.
+
+The planner's native evaluator is compiled at once when the suite first needs it (``GFLAT_NATIVE_WAIT=1``),
+not in the background as for a first ``gflat plan``: every test plans on the default backend.
 """
 
+import os
 import signal
+
+os.environ.setdefault("GFLAT_NATIVE_WAIT", "1")
 
 pytest_plugins = ["pytester"]
 

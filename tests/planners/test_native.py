@@ -23,7 +23,7 @@ from planners.newton import ResidualEvaluator, newton_series
 from planners.program import NativeStageEvaluator, trace
 from planners.series import Series
 
-if NA.library() is None:  # pragma: no cover - a machine without a C compiler
+if NA.library(wait=True) is None:  # pragma: no cover - a machine without a C compiler
     pytest.skip(f"native evaluator unavailable: {NA.reason()}", allow_module_level=True)
 
 SET = settings(max_examples=25, deadline=None)
@@ -296,6 +296,7 @@ def test_without_a_compiler_the_plans_run_on_numpy(monkeypatch):
     monkeypatch.setattr(NA, "_STATE", {"lib": None, "reason": "", "tried": False})
     monkeypatch.setattr(NA, "_compiler", lambda: None)
     assert NA.library() is None and "no C compiler" in NA.reason()
+    assert NA.library(wait=True) is None
     import planners.series as S
 
     monkeypatch.setattr(S, "BACKEND", "native")
@@ -351,3 +352,31 @@ def test_a_scenario_gives_one_problem_whose_programs_are_reused():
         plan_scenario(sc, J=1)
         mp.setattr(P, "trace", lambda *a, **k: (_ for _ in ()).throw(AssertionError("traced again")))
         plan_scenario(sc, J=1)
+
+
+_FIRST = r"""
+import planners._native as NA
+print(NA.library() is None, "background" in NA.reason())
+"""
+
+
+def test_a_first_use_compiles_in_the_background(tmp_path):
+    """Without a library in the cache (and without GFLAT_NATIVE_WAIT=1) a process starts the compiler detached and
+    plans on the numpy path at once; the library appears in the cache for the next processes."""
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path), PYTHONPATH=str(ROOT))
+    env.pop("GFLAT_NATIVE_WAIT", None)
+    out = subprocess.run([sys.executable, "-c", _FIRST], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["True", "True"]
+    folder = tmp_path / "gflat" / "native"
+    deadline = time.monotonic() + 600  # the compiler's own time on a loaded machine
+    while time.monotonic() < deadline and not any(f.name.startswith("gflat_program-") for f in folder.iterdir()):
+        time.sleep(0.2)
+    lock = [f for f in folder.iterdir() if f.name.endswith(".building")]
+    while lock and time.monotonic() < deadline and lock[0].exists():
+        time.sleep(0.2)
+    assert [f.name for f in folder.iterdir() if f.name.startswith("gflat_program-")]
+    again = subprocess.run(
+        [sys.executable, "-c", "import planners._native as NA; print(NA.library() is not None)"],
+        env=env, capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    assert again.stdout.strip() == "True"
