@@ -196,6 +196,8 @@ def _plain(values: Sequence[float]) -> list[str]:
     if big >= 1e5 or (0 < big < 1e-3):
         return [f"{x:.3g}".replace("e-0", "e-").replace("e+0", "e") for x in v]
     decimals = max(0, min(8, -math.floor(math.log10(step) + 1e-9))) if step > 0 else 0
+    while decimals < 8 and any(abs(float(f"{x:.{decimals}f}") - x) > 1e-6 * step for x in v):
+        decimals += 1  # a step of 2.5 units of the last digit: one digit more (0.0025, not 0.003)
     out = [f"{x:.{decimals}f}" for x in v]
     return ["0" if float(s) == 0 else s for s in out]
 
