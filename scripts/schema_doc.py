@@ -89,7 +89,7 @@ def section(title: str, schema: dict, path: str) -> list[str]:
         named, array = _named_tables(s), _array_of_tables(s)
         default = [f"Without it: `{s['x-default']}`.", ""] if "x-default" in s else []
         if s.get("type") == "object" and named is not None:
-            lines += [f"### `[{key}.NAME]`", "", s.get("description", ""), ""] + default + HEADER
+            lines += [f"### `[{key}]`: `[{key}.NAME]`", "", s.get("description", ""), ""] + default + HEADER
             lines += rows(named, f"{key}.NAME", schema) + [""]
         elif array is not None:
             lines += [f"### `[[{key}]]`", "", s.get("description", ""), ""] + default + HEADER
