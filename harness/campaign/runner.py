@@ -18,6 +18,7 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import multiprocessing
 import os
 import re
 import shutil
@@ -43,6 +44,8 @@ __all__ = ["run_campaign", "rerun_case", "parse_dask", "DASK_SCHEMES", "DASK_TIM
 
 #: Times a broken process pool is restarted before the remaining cases are left pending.
 MAX_POOL_RESTARTS = 3
+#: Seconds an ended worker is given to unwind (its temporary files) before it is killed.
+WORKER_END_S = 10.0
 
 
 #: Address schemes of a Dask scheduler (``distributed.comm``; ``inproc`` only reaches this process).
@@ -192,9 +195,7 @@ def _local_pool(tasks, workers: int, commit):
         except BaseException as exc:
             # Ctrl-C or an error: the cases committed so far stay recorded (a rerun resumes); the queued ones are
             # dropped and the running workers ended at once, not waited for (a case can take many seconds).
-            for proc in list((getattr(pool, "_processes", None) or {}).values()):
-                with contextlib.suppress(Exception):
-                    proc.terminate()
+            _end_workers(pool)
             pool.shutdown(wait=False, cancel_futures=True)
             if not isinstance(exc, BrokenProcessPool):
                 raise
@@ -204,6 +205,22 @@ def _local_pool(tasks, workers: int, commit):
                 file=sys.stderr,
             )
     return list(remaining)
+
+
+def _end_workers(pool) -> None:
+    """End the pool's worker processes and wait until they have ended (killed if one does not within
+    ``WORKER_END_S``), so that none outlives the runner.  A worker the pool was forking when the runner was
+    interrupted is not in the pool's table yet: the runner's own children are ended too."""
+    procs = {*(getattr(pool, "_processes", None) or {}).values(), *multiprocessing.active_children()}
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.terminate()
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.join(WORKER_END_S)
+            if proc.is_alive():
+                proc.kill()
+                proc.join()
 
 
 @contextlib.contextmanager
