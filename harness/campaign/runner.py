@@ -22,6 +22,7 @@ import multiprocessing
 import os
 import re
 import shutil
+import signal
 import sys
 import threading
 import time
@@ -32,7 +33,7 @@ from pathlib import Path
 from gna.errors import InputError, describe
 
 from ..artefacts import read_manifest
-from ..parallel import check_workers
+from ..parallel import INTERRUPTS, InterruptsWait, check_workers
 from ..recorded import safe_name
 from ..validation import provenance
 from .checks import MAX_DASK_TIMEOUT_S
@@ -184,9 +185,13 @@ def _local_pool(tasks, workers: int, commit):
     for attempt in range(MAX_POOL_RESTARTS + 1):
         if not remaining:
             return []
-        pool = ProcessPoolExecutor(max_workers=workers)
+        pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_starts)
         try:
-            futures = [pool.submit(run_sample, t) for t in remaining.values()]
+            # The pool forks its workers in the first submit: an interruption arriving meanwhile waits for the
+            # block's end (its Python handler would otherwise run in an at-fork callback, which swallows what
+            # it raises, and the run would go on), and the workers start with it blocked until they run.
+            with InterruptsWait():
+                futures = [pool.submit(run_sample, t) for t in remaining.values()]
             for fut in as_completed(futures):
                 outcome = fut.result()
                 commit(outcome)
@@ -205,6 +210,11 @@ def _local_pool(tasks, workers: int, commit):
                 file=sys.stderr,
             )
     return list(remaining)
+
+
+def _worker_starts() -> None:
+    """A pool worker's first step: the interruptions blocked while the pool forked it are delivered again."""
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, INTERRUPTS)
 
 
 def _end_workers(pool) -> None:
