@@ -28,10 +28,6 @@ from harness.engines.jsbsim.source import JSBSimSourceEngine
 STATE = AeroState(0.05, 0.01, 0.0, 0.0, 0.0, 0.0, -0.02, 0.0)
 
 
-def _temp_folders() -> set[str]:
-    return {p.name for p in Path(tempfile.gettempdir()).iterdir() if p.name.startswith("gflat-")}
-
-
 def _jsbsim_root_copy(tmp_path: Path, *aircraft: str) -> Path:
     """A JSBSim root under ``tmp_path/jroot``: copies of ``aircraft``, links to the package's engines and systems."""
     root = tmp_path / "jroot"
@@ -90,11 +86,14 @@ def test_k6_a_relative_root_works(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("name", ["B17", "c172x", "737"])
-def test_k6_aircraft_with_output_and_input_directives_sample_silently(name, tmp_path, capfd):
+def test_k6_aircraft_with_output_and_input_directives_sample_silently(name, tmp_path, capfd, monkeypatch):
     root = _jsbsim_root_copy(tmp_path, name)
+    temp = tmp_path / "temp"  # this test's own temporary folder: other tests' (in other workers) stay apart
+    temp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))
     xml = parse(root / "aircraft" / name / f"{name}.xml")
     assert any(child.tag in IO_ELEMENTS for child in xml)  # the case under test: the file has them
-    before_tmp, before_root = _temp_folders(), set(root.rglob("*"))
+    before_root = set(root.rglob("*"))
     capfd.readouterr()
     kw = {"surfaces": {"dl": ("fcs/left-aileron-pos-rad", -1.0)}} if name != "737" else {}
     src = JSBSimAeroSource(name, mach=0.3, altitude=1000.0, root=root, **kw)
@@ -103,8 +102,8 @@ def test_k6_aircraft_with_output_and_input_directives_sample_silently(name, tmp_
     out, err = capfd.readouterr()
     assert out == "" and err == "", (out[:300], err[:300])  # no banner, no "unable to open", no socket bind
     assert set(root.rglob("*")) == before_root  # nothing written into the JSBSim root
-    assert not (set(os.listdir(tmp_path)) - {"jroot"})
-    assert _temp_folders() <= before_tmp  # no temporary folder left
+    assert not (set(os.listdir(tmp_path)) - {"jroot", "temp"})
+    assert list(temp.iterdir()) == []  # no temporary folder left
 
 
 def test_k6_loadable_model_strips_only_the_io_children(tmp_path):
