@@ -140,7 +140,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "aircraft": ("harness.commands.aircraft", "list the aircraft and their provenance"),
     "trim": ("harness.commands.trim", "steady flight (trim) of an aircraft"),
     "plan": ("harness.commands.plan", "plan a manoeuvre (flatness + generalized flatness)"),
-    "compare": ("harness.commands.compare", "fly a plan open loop on several engines and compare them"),
+    "compare": ("harness.commands.compare", "fly a plan on several engines, open or closed loop, and compare them"),
     "paper": ("harness.commands.paper", "plan the paper's three manoeuvres and fly them on both engines"),
     "report": ("harness.commands.report", "render a run's HTML and PDF reports again from its saved results"),
     "export-jsbsim": ("harness.commands.export_jsbsim", "write the JSBSim aircraft files (aircraft_xml/<id>/<id>.xml)"),
@@ -361,30 +361,56 @@ def _interrupted(exc: KeyboardInterrupt) -> int:
 
 
 def _run(parser: argparse.ArgumentParser, words: list[str]) -> int:
-    """Parse ``words`` and run the command they name (:func:`main`'s body, SIGTERM raising meanwhile)."""
+    """Parse ``words`` and run the command they name (:func:`main`'s body, SIGTERM raising meanwhile).
+
+    With ``--json`` the command's printed text goes to stderr and its result (or, on an error or an
+    interruption, ``{"command", "error", "exit_status"}``) is the one JSON object on stdout
+    (:mod:`harness.commands._json`).
+    """
     args = parser.parse_args(words)
     args.command_line = ["gflat", *words]  # recorded in manifests
+    json_mode = bool(getattr(args, "json", False))
+    args.json_stream = sys.stdout  # the command's JSON result goes here, whatever it prints meanwhile
+    name = " ".join(
+        [args.command] + [v for v in (getattr(args, "campaign_command", None), getattr(args, "source", None)) if v]
+    )
     restore = _logging_state()
     setup_logging(args.verbose, args.quiet)
     log = logging.getLogger("gflat")
     start = time.perf_counter()
+
+    def failed(message: str, status: int) -> int:
+        print(message, file=sys.stderr)
+        if json_mode and not getattr(args, "json_emitted", False):
+            _json_error(args, name, message, status)
+        return status
+
     try:
-        status = int(args.func(args) or 0)
+        with contextlib.redirect_stdout(sys.stderr) if json_mode else contextlib.nullcontext():
+            status = int(args.func(args) or 0)
         log.info("%s: done in %.2f s, exit status %d", args.command, time.perf_counter() - start, status)
         return status
     except GflatError as exc:
-        print(_one_line(f"gflat {args.command}: error: {exc}"), file=sys.stderr)
-        return 2
+        return failed(_one_line(f"gflat {args.command}: error: {exc}"), 2)
     except OSError as exc:  # an output that cannot be written (missing or read-only folder, a file in the way)
-        print(
-            _one_line(f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {describe(exc)}"),
-            file=sys.stderr,
+        return failed(
+            _one_line(f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {describe(exc)}"), 2
         )
-        return 2
     except KeyboardInterrupt as exc:
-        return _interrupted(exc)
+        status = _interrupted(exc)
+        if json_mode and not getattr(args, "json_emitted", False):
+            _json_error(args, name, "interrupted", status)
+        return status
     finally:
         restore()  # run in-process (tests, notebooks), gflat leaves logging as it found it
+
+
+def _json_error(args, name: str, message: str, status: int) -> None:
+    """The ``--json`` object of a command that failed: its name, the one-line message, the exit status."""
+    import json
+
+    args.json_stream.write(json.dumps({"command": name, "error": message, "exit_status": status}) + "\n")
+    args.json_stream.flush()
 
 
 def _logging_state():
