@@ -9,7 +9,10 @@ shows its ``--help``): ``gflat --help`` lists the commands from the static table
 
 Errors gflat raises on purpose (:class:`gna.errors.GflatError`) are printed as
 one line naming the cause, with exit status 2; anything else is a bug and keeps
-its traceback.
+its traceback.  With ``--json`` (every command has it,
+:mod:`harness.commands._json`) stdout carries exactly one JSON object: the
+command's result, or on an error ``{"command", "error", "exit_status"}``; the
+text the command prints goes to stderr.
 
 Exit status (:data:`EXIT_CODES`): 0 success; 1 the work ran but its verdict is
 negative (a validation FAIL, an infeasible plan, a trim that does not
@@ -196,7 +199,8 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         description="Flatness-based motion planning of aircraft (GNA aerodynamics) and its validation "
         "across dynamics engines.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="exit status:\n" + "\n".join(f"  {k:<4} {v}" for k, v in EXIT_CODES.items()),
+        epilog="every command takes --json (one JSON object on stdout, its text on stderr) and --help (its options "
+        "and examples)\n\nexit status:\n" + "\n".join(f"  {k:<4} {v}" for k, v in EXIT_CODES.items()),
     )
     parser.add_argument("--version", action=_VersionAction, help="show program's version number and exit")
     _add_verbosity(parser, 0)
@@ -386,7 +390,7 @@ def _run(parser: argparse.ArgumentParser, words: list[str]) -> int:
         return status
 
     try:
-        with contextlib.redirect_stdout(sys.stderr) if json_mode else contextlib.nullcontext():
+        with _stdout_to_stderr(args) if json_mode else contextlib.nullcontext():
             status = int(args.func(args) or 0)
         log.info("%s: done in %.2f s, exit status %d", args.command, time.perf_counter() - start, status)
         return status
@@ -403,6 +407,37 @@ def _run(parser: argparse.ArgumentParser, words: list[str]) -> int:
         return status
     finally:
         restore()  # run in-process (tests, notebooks), gflat leaves logging as it found it
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr(args):
+    """Within the block whatever is printed goes to stderr, and ``args.json_stream`` is the real stdout.
+
+    When stdout and stderr are the process's own (file descriptors 1 and 2), the redirection is made on the
+    descriptors too, so that a library printing from C or C++ (JSBSim) or a child process cannot add text to
+    the JSON on stdout; otherwise (gflat run in-process, streams replaced) on ``sys.stdout`` only.
+    """
+    try:
+        descriptors = sys.stdout.fileno() == 1 and sys.stderr.fileno() == 2
+    except (AttributeError, OSError, ValueError):  # a stream without a descriptor (a test's capture, a notebook)
+        descriptors = False
+    if not descriptors:
+        with contextlib.redirect_stdout(sys.stderr):
+            yield
+        return
+    sys.stdout.flush()
+    saved = os.dup(1)
+    args.json_stream = os.fdopen(saved, "w", encoding="utf-8", closefd=False)
+    os.dup2(2, 1)
+    try:
+        with contextlib.redirect_stdout(sys.stderr):
+            yield
+    finally:
+        sys.stdout.flush()
+        args.json_stream.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+        args.json_stream = sys.stdout  # an error's object, written after the block
 
 
 def _json_error(args, name: str, message: str, status: int) -> None:

@@ -150,21 +150,6 @@ def test_an_input_error_after_the_checks_leaves_no_output_folder(tmp_path, capsy
     assert not (tmp_path / "D").exists()
 
 
-def test_manifest_records_the_gflat_command_line(tmp_path):
-    """The manifest names the gflat command that made the run, also when main() is called in-process."""
-    import json
-
-    out = tmp_path / "c"
-    assert main(["compare", "gtm-aileron-roll", "--out", str(out)]) == 0
-    assert json.loads((out / "manifest.json").read_text())["command_line"] == [
-        "gflat",
-        "compare",
-        "gtm-aileron-roll",
-        "--out",
-        str(out),
-    ]
-
-
 def test_a_bad_series_backend_is_one_line_not_a_traceback():
     """GFLAT_SERIES_BACKEND is read when the planners are imported: still one line and exit 2."""
     import os

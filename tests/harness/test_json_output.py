@@ -133,7 +133,8 @@ def _run(words, capsys, where: Path) -> tuple[int, dict, str]:
 
 @pytest.fixture(scope="module")
 def paper_folder(work):
-    """A paper run of the short scenario, open loop, for ``gflat paper`` and ``gflat report``."""
+    """A paper run of the short scenario, open loop (what test_validation's paper tests do not cover: --loop
+    open, its files and text), for ``gflat paper`` and ``gflat report``."""
     from harness.commands import paper
 
     with pytest.MonkeyPatch.context() as mp:
@@ -146,7 +147,7 @@ def paper_folder(work):
         with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(err):
             rc = main(["paper", "--loop", "open", "--jobs", "1", "--out", "paper", "--json"])
     assert rc == 0, err.getvalue()[-2000:]
-    return work / "paper", json.loads(buf.getvalue())
+    return work / "paper", json.loads(buf.getvalue()), err.getvalue()
 
 
 @pytest.fixture(scope="module")
@@ -198,15 +199,28 @@ def test_every_command_prints_one_json_object_valid_against_its_schema(
 ):
     schema = COMMANDS[name][0].get_default("json_schema")
     if name == "paper":
-        obj = paper_folder[1]
+        folder, obj, err = paper_folder
         assert obj["pass"] and [c["loop"] for c in obj["cases"]] == ["open"]
+        assert "in-house vs JSBSim (open loop" in err and "closed loop with the tracking feedback" not in err
+        assert (folder / "short" / "open" / "summary.json").is_file() and not (folder / "short" / "closed").exists()
+        plan = json.loads((folder / "short" / "plan" / "summary.json").read_text())["files"]
+        assert (
+            sorted(f for f in os.listdir(folder / "short" / "plan") if f.startswith("plan-j"))
+            == sorted(v for k, v in plan.items() if k.startswith("plan-j"))
+            == ["plan-j0.parquet", "plan-j1.parquet", "plan-j2.parquet"]
+        )  # one naming, no CSV without --csv
         assert Path(obj["report"]["pdf"]).is_file() and obj["execution"]["cpu_s"]["total"] > 0
     elif name == "report":
         rc, obj, _ = _run(["report", paper_folder[0], "--no-pdf", "--json"], capsys, work)
         assert rc == 0 and obj["pdf"] is None and Path(obj["index"]).is_file() and len(obj["pages"]) == 1
     elif name == "campaign run":
         obj = campaign_folder[1]
-        assert obj["pending"] == 0 and obj["computed"] == obj["cases"]
+        assert obj["pending"] == 0 and obj["computed"] == obj["cases"] and obj["reruns"] == []
+        _validate(obj, schema)
+        words = ["campaign", "run", TINY, "--out", campaign_folder[0], "--samples", "1", "--only", "level.fit.0000"]
+        rc, obj, _ = _run([*words, "--quiet", "--json"], capsys, work)  # a done case computed again, compared
+        assert rc == 0 and [r["case_id"] for r in obj["reruns"]] == ["level.fit.0000"] and obj["computed"] == 0
+        assert obj["reruns"][0]["same_as_stored"] is True
     elif name.startswith("campaign "):
         extra = ["--no-pdf"] if name.endswith("report") else []
         rc, obj, _ = _run([*name.split(), campaign_folder[0], *extra, "--json"], capsys, work)
@@ -218,6 +232,9 @@ def test_every_command_prints_one_json_object_valid_against_its_schema(
         rc, obj, err = _run([*words, "--json"], capsys, work)
         assert rc == 0, err[-2000:]
     _validate(obj, schema)
+    if name == "compare":  # the manifest names the gflat command that made the run, also run in-process
+        manifest = json.loads((Path(obj["out"]) / "manifest.json").read_text())
+        assert manifest["command_line"] == ["gflat", *words, "--json"]
     if name == "plan":
         assert obj["feasible"] and {"plan-j0", "plan-j2", "plan-j2.csv", "singularities"} <= set(obj["files"])
         assert obj["files"]["plan-j2"] == "plan-j2.parquet"
@@ -292,3 +309,22 @@ def test_fit_regenerate_refuses_to_write_into_an_installed_package(monkeypatch, 
     monkeypatch.setattr(fit, "_source_checkout", lambda: False)
     rc, obj, err = _run(["fit", "regenerate", "gtm", "--json"], capsys, tmp_path)
     assert rc == 2 and "installed package: give --out DIR" in obj["error"] and not list(tmp_path.iterdir())
+
+
+def test_text_written_below_python_cannot_reach_the_json_on_stdout():
+    """A library printing from C (JSBSim does, from C++) writes to file descriptor 1: with --json it lands on
+    stderr, and stdout is still the one object."""
+    import sys
+
+    code = (
+        "import os, sys\n"
+        "from harness import cli\n"
+        "from harness.commands import aircraft\n"
+        "real = aircraft.run\n"
+        "aircraft.run = lambda args: (os.write(1, b'from C\\n'), print('from Python'), real(args))[2]\n"
+        "sys.exit(cli.main(['aircraft', 'f16c', '--json']))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
+    assert done.returncode == 0, done.stderr[-2000:]
+    _validate(json.loads(done.stdout), "aircraft")
+    assert "from C" in done.stderr and "from Python" in done.stderr
