@@ -9,6 +9,7 @@ the repository's tracked folder) is updated in place, each file replaced atomica
 
 from __future__ import annotations
 
+import shlex
 import sys
 from pathlib import Path
 
@@ -97,7 +98,9 @@ def run(args) -> int:
         for s in stale:
             print(s, file=sys.stderr)
         if stale:
-            print("run 'gflat export-jsbsim --all' to regenerate", file=sys.stderr)
+            again = ["gflat", "export-jsbsim", *(["--all"] if args.all else args.aircraft)]
+            again += [] if args.out is None else ["--out", str(args.out), "--replace"]
+            print(f"run {shlex.join(again)} to regenerate", file=sys.stderr)
         else:
             print(f"{len(crafts)} JSBSim file(s) current in {root}")
         if json_mode:
