@@ -636,8 +636,8 @@ def run_manifest(results=(), *, command_line: list | None = None, execution: dic
     return record
 
 
-def write_plan_iterates(out: str | Path, plan, times, *, csv: bool = False) -> list[Path]:
-    """Write the plan of every iterate, ``plan-j<k>.parquet`` (and CSV), on the given times.
+def write_plan_iterates(out: str | Path, plan, times, *, csv: bool = False, iterates=None) -> list[Path]:
+    """Write the plan of every iterate, ``plan-j<k>.parquet`` (and ``plan-j<k>.csv``), on the given times.
 
     Parameters
     ----------
@@ -649,6 +649,8 @@ def write_plan_iterates(out: str | Path, plan, times, *, csv: bool = False) -> l
         Times [s].
     csv : bool
         Also write CSV files.
+    iterates : sequence of int, optional
+        The iterates written (default every one, 0 to J).
 
     Returns
     -------
@@ -656,7 +658,7 @@ def write_plan_iterates(out: str | Path, plan, times, *, csv: bool = False) -> l
     """
     t = np.asarray(times, dtype=float)
     paths = []
-    for j in range(plan.J + 1):
+    for j in range(plan.J + 1) if iterates is None else iterates:
         paths += write_trajectory(
             out,
             f"plan-j{j}",

@@ -9,7 +9,10 @@ shows its ``--help``): ``gflat --help`` lists the commands from the static table
 
 Errors gflat raises on purpose (:class:`gna.errors.GflatError`) are printed as
 one line naming the cause, with exit status 2; anything else is a bug and keeps
-its traceback.
+its traceback.  With ``--json`` (every command has it,
+:mod:`harness.commands._json`) stdout carries exactly one JSON object: the
+command's result, or on an error ``{"command", "error", "exit_status"}``; the
+text the command prints goes to stderr.
 
 Exit status (:data:`EXIT_CODES`): 0 success; 1 the work ran but its verdict is
 negative (a validation FAIL, an infeasible plan, a trim that does not
@@ -140,7 +143,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "aircraft": ("harness.commands.aircraft", "list the aircraft and their provenance"),
     "trim": ("harness.commands.trim", "steady flight (trim) of an aircraft"),
     "plan": ("harness.commands.plan", "plan a manoeuvre (flatness + generalized flatness)"),
-    "compare": ("harness.commands.compare", "fly a plan open loop on several engines and compare them"),
+    "compare": ("harness.commands.compare", "fly a plan on several engines, open or closed loop, and compare them"),
     "paper": ("harness.commands.paper", "plan the paper's three manoeuvres and fly them on both engines"),
     "report": ("harness.commands.report", "render a run's HTML and PDF reports again from its saved results"),
     "export-jsbsim": ("harness.commands.export_jsbsim", "write the JSBSim aircraft files (aircraft_xml/<id>/<id>.xml)"),
@@ -196,7 +199,8 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         description="Flatness-based motion planning of aircraft (GNA aerodynamics) and its validation "
         "across dynamics engines.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="exit status:\n" + "\n".join(f"  {k:<4} {v}" for k, v in EXIT_CODES.items()),
+        epilog="every command takes --json (one JSON object on stdout, its text on stderr) and --help (its options "
+        "and examples)\n\nexit status:\n" + "\n".join(f"  {k:<4} {v}" for k, v in EXIT_CODES.items()),
     )
     parser.add_argument("--version", action=_VersionAction, help="show program's version number and exit")
     _add_verbosity(parser, 0)
@@ -361,30 +365,87 @@ def _interrupted(exc: KeyboardInterrupt) -> int:
 
 
 def _run(parser: argparse.ArgumentParser, words: list[str]) -> int:
-    """Parse ``words`` and run the command they name (:func:`main`'s body, SIGTERM raising meanwhile)."""
+    """Parse ``words`` and run the command they name (:func:`main`'s body, SIGTERM raising meanwhile).
+
+    With ``--json`` the command's printed text goes to stderr and its result (or, on an error or an
+    interruption, ``{"command", "error", "exit_status"}``) is the one JSON object on stdout
+    (:mod:`harness.commands._json`).
+    """
     args = parser.parse_args(words)
     args.command_line = ["gflat", *words]  # recorded in manifests
+    json_mode = bool(getattr(args, "json", False))
+    args.json_stream = sys.stdout  # the command's JSON result goes here, whatever it prints meanwhile
+    name = " ".join(
+        [args.command] + [v for v in (getattr(args, "campaign_command", None), getattr(args, "source", None)) if v]
+    )
     restore = _logging_state()
     setup_logging(args.verbose, args.quiet)
     log = logging.getLogger("gflat")
     start = time.perf_counter()
+
+    def failed(message: str, status: int) -> int:
+        print(message, file=sys.stderr)
+        if json_mode and not getattr(args, "json_emitted", False):
+            _json_error(args, name, message, status)
+        return status
+
     try:
-        status = int(args.func(args) or 0)
+        with _stdout_to_stderr(args) if json_mode else contextlib.nullcontext():
+            status = int(args.func(args) or 0)
         log.info("%s: done in %.2f s, exit status %d", args.command, time.perf_counter() - start, status)
         return status
     except GflatError as exc:
-        print(_one_line(f"gflat {args.command}: error: {exc}"), file=sys.stderr)
-        return 2
+        return failed(_one_line(f"gflat {args.command}: error: {exc}"), 2)
     except OSError as exc:  # an output that cannot be written (missing or read-only folder, a file in the way)
-        print(
-            _one_line(f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {describe(exc)}"),
-            file=sys.stderr,
+        return failed(
+            _one_line(f"gflat {args.command}: error: cannot write {exc.filename or 'the output'}: {describe(exc)}"), 2
         )
-        return 2
     except KeyboardInterrupt as exc:
-        return _interrupted(exc)
+        status = _interrupted(exc)
+        if json_mode and not getattr(args, "json_emitted", False):
+            _json_error(args, name, "interrupted", status)
+        return status
     finally:
         restore()  # run in-process (tests, notebooks), gflat leaves logging as it found it
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr(args):
+    """Within the block whatever is printed goes to stderr, and ``args.json_stream`` is the real stdout.
+
+    When stdout and stderr are the process's own (file descriptors 1 and 2), the redirection is made on the
+    descriptors too, so that a library printing from C or C++ (JSBSim) or a child process cannot add text to
+    the JSON on stdout; otherwise (gflat run in-process, streams replaced) on ``sys.stdout`` only.
+    """
+    try:
+        descriptors = sys.stdout.fileno() == 1 and sys.stderr.fileno() == 2
+    except (AttributeError, OSError, ValueError):  # a stream without a descriptor (a test's capture, a notebook)
+        descriptors = False
+    if not descriptors:
+        with contextlib.redirect_stdout(sys.stderr):
+            yield
+        return
+    sys.stdout.flush()
+    saved = os.dup(1)
+    args.json_stream = os.fdopen(saved, "w", encoding="utf-8", closefd=False)
+    os.dup2(2, 1)
+    try:
+        with contextlib.redirect_stdout(sys.stderr):
+            yield
+    finally:
+        sys.stdout.flush()
+        args.json_stream.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+        args.json_stream = sys.stdout  # an error's object, written after the block
+
+
+def _json_error(args, name: str, message: str, status: int) -> None:
+    """The ``--json`` object of a command that failed: its name, the one-line message, the exit status."""
+    import json
+
+    args.json_stream.write(json.dumps({"command": name, "error": message, "exit_status": status}) + "\n")
+    args.json_stream.flush()
 
 
 def _logging_state():

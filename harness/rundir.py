@@ -316,7 +316,7 @@ class RunDir:
         Parameters
         ----------
         *parts : str
-            Relative path components (``"plan"``, ``"plan/plan_j0.csv"``).
+            Relative path components (``"plan"``, ``"plan/plan-j0.parquet"``).
 
         Returns
         -------

@@ -813,9 +813,10 @@ class Plan:
         return max(r.worst_residual for it in self.iterates for r in it.reports.values())
 
 
-def save_plan(plan: Plan, out_dir, step: float | None = None) -> dict:
-    """Write a plan to ``out_dir``: node series (npz, with the formula between nodes and e), CSV tables of
-    iterates 0 and J, singularity table.
+def save_plan(plan: Plan, out_dir, step: float | None = None, *, csv: bool = False) -> dict:
+    """Write a plan to ``out_dir``: node series (npz, with the formula between nodes and e), the plan of every
+    iterate (``plan-j<k>.parquet``), the singularity table (``singularities.parquet``); with ``csv`` the
+    tables also as CSV, the same stem (``gflat plan``'s files and names).
 
     Parameters
     ----------
@@ -824,12 +825,14 @@ def save_plan(plan: Plan, out_dir, step: float | None = None) -> dict:
     out_dir : str or Path
         Folder, created if needed.
     step : float, optional
-        Step [s] of the CSV time grid (default: a quarter of the smallest node spacing).
+        Step [s] of the iterates' time grid (default: a quarter of the smallest node spacing).
+    csv : bool
+        Also write each table as CSV.
 
     Returns
     -------
     dict
-        What was written (``"series"``, ``"plan_j0"``, ...) -> its path.
+        What was written (``"series"``, ``"plan-j0"``, ``"plan-j0.csv"``, ...) -> its path.
     """
     from pathlib import Path
 
@@ -844,13 +847,15 @@ def save_plan(plan: Plan, out_dir, step: float | None = None) -> dict:
     np.savez_compressed(p, **arrays)
     written["series"] = str(p)
     step = step if step is not None else float(np.min(np.diff(plan.t_nodes))) / 4
-    for j in sorted({0, plan.J}):
-        p = out / f"plan_j{j}.csv"
-        plan.to_dataframe(step=step, j=j).to_csv(p, float_format="%.10g")
-        written[f"plan_j{j}"] = str(p)
-    sing = plan.singularities
-    if sing is not None:
-        p = out / "singularities.csv"
-        sing.table.to_csv(p, float_format="%.8g")
-        written["singularities"] = str(p)
+    tables = {f"plan-j{j}": plan.to_dataframe(step=step, j=j) for j in range(plan.J + 1)}
+    if plan.singularities is not None:
+        tables["singularities"] = plan.singularities.table
+    for name, df in tables.items():
+        p = out / f"{name}.parquet"
+        df.to_parquet(p)
+        written[name] = str(p)
+        if csv:
+            p = out / f"{name}.csv"
+            df.to_csv(p, float_format="%.10g")
+            written[f"{name}.csv"] = str(p)
     return written

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "scripts"))  # schema_doc, also when loaded by path (tests)
 
-from schema_doc import scenarios_page  # noqa: E402
+from schema_doc import cli_page, scenarios_page  # noqa: E402
 
 from gna.aero import COEFFICIENTS, MAX_EXPONENT, MAX_TERMS  # noqa: E402
 from gna.aircraft import UNIT_FACTORS  # noqa: E402
@@ -66,6 +66,27 @@ AIRCRAFT_SCHEMA = ROOT / "gna" / "data" / "schemas" / "aircraft.schema.json"
 SCENARIO_SCHEMA = ROOT / "planners" / "schemas" / "scenario.schema.json"
 CAMPAIGN_SCHEMA = ROOT / "harness" / "campaign" / "schemas" / "campaign.schema.json"
 DOC = ROOT / "docs" / "scenarios.md"
+CLI_DOC = ROOT / "docs" / "cli.md"
+#: The JSON Schemas of the commands' --json outputs (hand-written; docs/cli.md's key tables are made from them).
+OUTPUT_SCHEMAS = ROOT / "harness" / "commands" / "schemas"
+#: Their order on the page: the commands' order in gflat --help, then the error object.
+OUTPUT_ORDER = (
+    "aircraft",
+    "trim",
+    "plan",
+    "compare",
+    "paper",
+    "report",
+    "export-jsbsim",
+    "export-jsbsim-script",
+    "fit",
+    "fit-compare",
+    "fit-regenerate",
+    "campaign-run",
+    "campaign-status",
+    "campaign-report",
+    "error",
+)
 
 SAFE_NAME = "^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$"
 UNIT_WORDS = {
@@ -1118,7 +1139,15 @@ def outputs() -> dict[Path, str]:
         SCENARIO_SCHEMA: json.dumps(s, indent=2) + "\n",
         CAMPAIGN_SCHEMA: json.dumps(campaign_schema(), indent=2) + "\n",
         DOC: scenarios_page(a, s),
+        CLI_DOC: cli_page(CLI_DOC.read_text(encoding="utf-8"), output_schemas()),
     }
+
+
+def output_schemas() -> dict[str, dict]:
+    """The output schemas of the commands, in :data:`OUTPUT_ORDER` (then any other, by name)."""
+    names = sorted(p.stem for p in OUTPUT_SCHEMAS.glob("*.json"))
+    order = [n for n in OUTPUT_ORDER if n in names] + [n for n in names if n not in OUTPUT_ORDER]
+    return {n: json.loads((OUTPUT_SCHEMAS / f"{n}.json").read_text(encoding="utf-8")) for n in order}
 
 
 def main() -> int:

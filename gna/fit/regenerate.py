@@ -440,7 +440,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
 
-def run(ids: list[str] | None, check: bool, out: Path | None, docs: Path | None, write=None) -> int:
+def run(
+    ids: list[str] | None, check: bool, out: Path | None, docs: Path | None, write=None, summary: dict | None = None
+) -> int:
     """Regenerate (or check) and print one line per file, and its first differences.
 
     Parameters
@@ -455,6 +457,9 @@ def run(ids: list[str] | None, check: bool, out: Path | None, docs: Path | None,
         Also rewrite (or check) the generated block of this ``docs/fit_quality.md``.
     write : callable, optional
         ``write(path, text)`` writing one file (default :meth:`pathlib.Path.write_text`).
+    summary : dict, optional
+        Filled with what was done: ``files`` (id -> ``state``, ``differences``) and ``docs`` (the page's
+        ``path`` and ``state``, or None): ``gflat fit regenerate --json``.
 
     Returns
     -------
@@ -470,16 +475,21 @@ def run(ids: list[str] | None, check: bool, out: Path | None, docs: Path | None,
 
     report = regenerate(out, ids, check, write=write)
     stale = False
+    done = {} if summary is None else summary
+    done["files"], done["docs"] = {}, None
     for ident, diffs in report.items():
         state = "current" if not diffs else ("NOT current" if check else "updated")
         stale = stale or bool(diffs)
         print(f"{ident}: {state}")
         for d in diffs[:10]:
             print(f"    {d}")
+        done["files"][ident] = {"state": state, "differences": list(diffs)}
     if docs is not None:
         current = update_docs(docs, check=check, write=write)
         stale = stale or not current
-        print(f"{docs}: {'current' if current else ('NOT current' if check else 'updated')}")
+        state = "current" if current else ("NOT current" if check else "updated")
+        print(f"{docs}: {state}")
+        done["docs"] = {"path": str(docs), "state": state}
     return 1 if (check and stale) else 0
 
 

@@ -94,7 +94,9 @@ def add_compare_arguments(p: argparse.ArgumentParser) -> None:
         f"manoeuvres' spans, checked before any work (default {MAX_STEPS:.0e}, about 3.5 GB; "
         f"'inf' for none)",
     )
-    p.add_argument("--csv", action="store_true", help="write every trajectory as CSV too (Parquet always)")
+    p.add_argument(
+        "--csv", action="store_true", help="write every trajectory and plan iterate as CSV too (Parquet always)"
+    )
 
 
 def compare_overrides(args) -> dict:

@@ -7,7 +7,7 @@ A command that writes a run (``plan``, ``compare``, ``paper``, ``export-jsbsim -
 command that writes one file (``fit jsbsim|gtm|linear``) declares them with :func:`add_out` too
 (``metavar="FILE"``) and opens :func:`output_file` (:class:`harness.rundir.OutputFile`: written beside it,
 renamed into place).  Without ``--out`` the tool's own default folders under ``reports/out/`` are replaced
-implicitly (:func:`default_out`); a default file the user's folder would hold (``fit``'s ``<id>.toml``) is
+implicitly (:func:`default_out`; under the current folder); a default file the user's folder would hold (``fit``'s ``<id>.toml``) is
 not.
 """
 
@@ -21,7 +21,8 @@ from gna.errors import InputError
 
 from ..rundir import OutputFile, RunDir
 
-#: Where the command line writes a run when no ``--out`` is given.
+#: Where the command line writes a run when no ``--out`` is given: relative, so under the current folder (never
+#: in the installed package; ``tests/harness/test_json_output.py`` runs the commands from a folder of their own).
 DEFAULT_ROOT = Path("reports") / "out"
 
 

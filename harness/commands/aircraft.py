@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
-import json
 import math
 
 from gna.aircraft import list_aircraft, load_aircraft
+
+from ._help import add_command
+from ._json import add_json, emit
 
 
 def register(sub) -> None:
@@ -16,13 +18,15 @@ def register(sub) -> None:
     sub : argparse._SubParsersAction
         The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
     """
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "aircraft",
         help="list the aircraft and their provenance",
-        description="List the bundled aircraft with their provenance, or show one in detail.",
+        description="List the bundled aircraft with their provenance, or show one in detail. Writes nothing.",
+        examples=["gflat aircraft", "gflat aircraft f16c --json"],
     )
     p.add_argument("name", nargs="?", help="aircraft identifier or path to an aircraft TOML file")
-    p.add_argument("--json", action="store_true", help="machine-readable output")
+    add_json(p, "aircraft", help='print one JSON object: the aircraft (with NAME), or {"aircraft": [...]}')
     p.set_defaults(func=run)
 
 
@@ -79,7 +83,7 @@ def run(args) -> int:
         a = load_aircraft(args.name)
         d = _describe(a)
         if args.json:
-            print(json.dumps(d, indent=2))
+            emit(args, d)
             return 0
         print(a.summary())
         for k, v in d["provenance"].items():
@@ -90,7 +94,7 @@ def run(args) -> int:
         return 0
     crafts = [load_aircraft(n) for n in list_aircraft()]
     if args.json:
-        print(json.dumps([_describe(a) for a in crafts], indent=2))
+        emit(args, {"aircraft": [_describe(a) for a in crafts]})
         return 0
     for a in crafts:
         print(f"{a.id:<12} {a.name}")

@@ -24,6 +24,8 @@ from gna.errors import InputError, describe
 
 from ..campaign.checks import MAX_CASES, MAX_DASK_TIMEOUT_S
 from ._args import add_tracking, bounded_float, cost_bound, positive_int, worker_count
+from ._help import add_command
+from ._json import add_json, emit
 from ._output import out_path
 
 
@@ -35,15 +37,33 @@ def register(sub) -> None:
     sub : argparse._SubParsersAction
         The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
     """
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "campaign",
         help="validation campaigns: many cases over dispersed aircraft",
         description="Run, inspect and report validation campaigns (a product of validation cases "
         "and aircraft dispersions, stored in an SQLite-indexed folder).",
+        examples=[
+            "gflat campaign run paper-dispersions --out camp --samples 4",
+            "gflat campaign status camp --json",
+            "gflat campaign report camp",
+        ],
     )
     csub = p.add_subparsers(dest="campaign_command", metavar="ACTION")
     csub.required = True
-    r = csub.add_parser("run", help="run or resume a campaign")
+    r = add_command(
+        csub,
+        "run",
+        help="run or resume a campaign",
+        description="Run a campaign (a bundled one or a TOML file) into DIR, or resume it there: the cases done "
+        "are skipped, the failed ones run again only with --retry-failed. The campaign file, every case and "
+        "--dask are checked before DIR is created or touched. Exit 1 while cases are pending.",
+        examples=[
+            "gflat campaign run paper-dispersions --out camp --samples 4 --workers 2",
+            "gflat campaign run my-campaign.toml --out camp --dask local:4 --json",
+            "gflat campaign run paper-dispersions --out camp --only CASE_ID   # one case again, compared",
+        ],
+    )
     r.add_argument("campaign", metavar="NAME_OR_FILE", help="bundled campaign (paper-dispersions) or a TOML file")
     r.add_argument(
         "--out",
@@ -98,14 +118,31 @@ def register(sub) -> None:
         metavar="CASE_ID",
         help="run only this case (a done case is computed again alone and compared with the store)",
     )
+    add_json(r, "campaign-run")
     r.set_defaults(func=run)
-    s = csub.add_parser("status", help="count the cases of a campaign folder")
-    s.add_argument("dir", metavar="DIR")
-    s.add_argument("--json", action="store_true", help="one JSON object: cases, done, failed, pending")
+    s = add_command(
+        csub,
+        "status",
+        help="count the cases of a campaign folder",
+        description="Count the cases of a campaign folder: done (and how many pass), failed, pending, and "
+        "those whose stored files fail their check (untrusted). Writes nothing.",
+        examples=["gflat campaign status camp", "gflat campaign status camp --json"],
+    )
+    s.add_argument("dir", metavar="DIR", help="the campaign folder (gflat campaign run --out DIR)")
+    add_json(s, "campaign-status", help="one JSON object: cases, done, failed, pending, passed, untrusted")
     s.set_defaults(func=status)
-    t = csub.add_parser("report", help="write the campaign report (summary, figures, HTML) into DIR/report")
-    t.add_argument("dir", metavar="DIR")
+    t = add_command(
+        csub,
+        "report",
+        help="write the campaign report (summary, figures, HTML) into DIR/report",
+        description="Write the campaign report into DIR/report: summary.json, figures, index.html, a page per "
+        "worst or failed case and report.pdf, written whole and put in place of an earlier report in one "
+        "rename. A case whose stored files fail their check is refused (nothing written).",
+        examples=["gflat campaign report camp", "gflat campaign report camp --no-pdf --json"],
+    )
+    t.add_argument("dir", metavar="DIR", help="the campaign folder (gflat campaign run --out DIR)")
     t.add_argument("--no-pdf", action="store_true", help="skip report.pdf")
+    add_json(t, "campaign-report")
     t.set_defaults(func=report)
 
 
@@ -155,6 +192,7 @@ def run(args) -> int:
     if args.case_budget is not None:
         camp = replace(camp, case_budget_s=args.case_budget)
     check_samples(camp, args.samples, args.max_cases)  # the work bounded before any case is expanded
+    reruns: list[dict] = []
     if args.only:
         from harness.campaign.store import DB_NAME
 
@@ -167,19 +205,34 @@ def run(args) -> int:
                 st.close()
             for cid in done:
                 out = rerun_case(args.out, cid, camp)
-                print(
-                    json.dumps(
-                        {
-                            "case_id": cid,
-                            "status": out["status"],
-                            "metrics": out["metrics"],
-                            "same_as_stored": out["same_as_stored"],
-                        },
-                        indent=2,
-                    )
-                )
+                again = {
+                    "case_id": cid,
+                    "status": out["status"],
+                    "metrics": out["metrics"],
+                    "same_as_stored": out["same_as_stored"],
+                }
+                reruns.append(again)
+                if not args.json:
+                    print(json.dumps(again, indent=2))
             args.only = [c for c in args.only if c not in done]
             if not args.only:
+                if args.json:
+                    st = _store(args.out)
+                    try:
+                        counts = st.counts()
+                    finally:
+                        st.close()
+                    emit(
+                        args,
+                        {
+                            **counts,
+                            "computed": 0,
+                            "skipped": 0,
+                            "elapsed_s": 0.0,
+                            "folder": str(args.out),
+                            "reruns": reruns,
+                        },
+                    )
                 return 0
     quiet = bool(getattr(args, "quiet", 0))  # gflat's -q/--quiet: no progress bar
     timeout = {} if args.dask_timeout is None else {"dask_timeout": args.dask_timeout}
@@ -199,6 +252,8 @@ def run(args) -> int:
         f"{res['done']} done, {res['failed']} failed, {res['pending']} pending of {res['cases']} -> {res['folder']}"
     )
     print(note, file=sys.stderr if quiet else sys.stdout)
+    if args.json:
+        emit(args, {**res, "reruns": reruns})
     return 0 if res["pending"] == 0 else 1
 
 
@@ -228,7 +283,7 @@ def status(args) -> int:
         st.close()
     passed = sum(1 for r in rows if r["pass"])
     if args.json:
-        print(json.dumps({**counts, "passed": passed, "untrusted": damaged}, indent=2))
+        emit(args, {**counts, "passed": passed, "untrusted": damaged})
     else:
         print(
             f"{args.dir}: {counts['cases']} cases: {counts['done']} done ({passed} pass), "
@@ -289,5 +344,19 @@ def report(args) -> int:
             pages = render_campaign(folder, summary, rows, target=out.root, pdf=not args.no_pdf)
             out.commit()
     paths += [pages["index"], *pages["pages"]] + ([pages["pdf"]] if "pdf" in pages else [])
+    if args.json:
+        moved = lambda p: out.out / Path(p).relative_to(out.root)  # noqa: E731
+        emit(
+            args,
+            {
+                "folder": str(folder),
+                "report": str(out.out),
+                "index": str(out.out / "index.html"),
+                "pdf": str(out.out / "report.pdf") if "pdf" in pages else None,
+                "files": [str(moved(p)) for p in paths],
+                "cases": len(rows),
+            },
+        )
+        return 0
     print(f"campaign report: {out.out / 'index.html'} ({len(paths)} files)")
     return 0

@@ -16,19 +16,20 @@ is 1 when one fails that the scenario does not record (``[verdicts] known``).
 
 from __future__ import annotations
 
-import json
 import math
 
 from planners.scenario import list_scenarios, load_scenario
 from reports.case_files import write_case
 from reports.html import render_run
 
-from ..artefacts import json_safe, run_manifest
+from ..artefacts import run_manifest
 from ..engines import engine_names, engines_from_names
 from ..validation import ValidationCase, case_settings, run_case
 from ..validation.verdicts import verdict_lines
 from ._args import iterations
 from ._compare_args import add_compare_arguments, check_steps, compare_overrides
+from ._help import add_command
+from ._json import add_json, emit
 from ._output import add_out, run_dir
 
 
@@ -40,11 +41,20 @@ def register(sub) -> None:
     sub : argparse._SubParsersAction
         The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
     """
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "compare",
-        help="fly a plan open loop on several engines and compare them",
-        description="Plan a scenario and fly its controls open loop on the in-house model and "
-        "JSBSim from the same initial state. Bundled scenarios: " + ", ".join(list_scenarios()),
+        help="fly a plan on several engines, open or closed loop, and compare them",
+        description="Plan a scenario and fly its controls on the in-house model and JSBSim (or the "
+        "--engines given) from the same initial state, open loop or, with --loop closed, with the "
+        "tracking feedback; print the difference tables of each engine against the first and the three "
+        "verdicts, and write the trajectories (Parquet; CSV with --csv), figures, summary.json and a "
+        "report page. Bundled scenarios: " + ", ".join(list_scenarios()),
+        examples=[
+            "gflat compare gtm-forward-slip                       # open loop, in-house model and JSBSim",
+            "gflat compare twin-otter-single-engine --loop closed --json   # with the tracking feedback",
+            "gflat compare f16-s-turn --engines inhouse,jsbsim-source --out s-turn   # on JSBSim's own F-16",
+        ],
     )
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
     p.add_argument(
@@ -61,8 +71,11 @@ def register(sub) -> None:
         default="open",
         help="open: the plan's controls alone; closed: with the tracking feedback (default open)",
     )
-    add_out(p, "output folder, created whole once the run is complete (default reports/out/<scenario>/open, or closed)")
-    p.add_argument("--json", action="store_true", help="print one JSON object (the verdict) instead of the tables")
+    add_out(
+        p,
+        "output folder, created whole once the run is complete (default reports/out/<scenario>/open, or closed, under the current folder)",
+    )
+    add_json(p, "compare", help="print one JSON object (the verdict; docs/cli.md) instead of the tables")
     add_compare_arguments(p)
     p.set_defaults(func=run)
 
@@ -111,7 +124,7 @@ def run(args) -> int:
         out.commit(record)
     verdict = result.verdict()
     if args.json:
-        print(json.dumps(json_safe(verdict), indent=2))
+        emit(args, {**verdict, "out": str(out.out), "report": str(out.out / "index.html")})
         return 0 if verdict["pass"] else 1
     print(result.report_text())
     if args.loop == "closed":

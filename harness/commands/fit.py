@@ -33,6 +33,8 @@ from pathlib import Path
 from gna.errors import InputError
 
 from ._args import bounded_count, bounded_float, finite_float, nonnegative_int, positive_float, within
+from ._help import add_command
+from ._json import add_json, emit
 from ._output import add_out, output_file, run_dir
 
 #: Largest angle a sampling flag names [deg] (``--alpha``, ``--beta``, the surfaces): the wind-frame chart ends
@@ -87,17 +89,37 @@ def register(sub) -> None:
     sub : argparse._SubParsersAction
         The CLI's sub-command set.
     """
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "fit",
         help="fit GNA aerodynamic parameters to a source model",
         description="Fit the 45-term GNA structure (or the terms of --structure) by least squares "
         "to samples of a source aerodynamic model and write an aircraft file with "
         "provenance, sampling design, held-out statistics and a level-trim check.",
+        examples=[
+            "gflat fit jsbsim F4N                   # any JSBSim aircraft: writes f4n.toml here",
+            "gflat fit gtm --out gtm-fit.toml",
+            "gflat fit compare gtm --speed 40 --json",
+        ],
     )
     sp = p.add_subparsers(dest="source", metavar="SOURCE")
     sp.required = True
 
-    j = sp.add_parser("jsbsim", help="any JSBSim aircraft, sampled through JSBSim")
+    j = add_command(
+        sp,
+        "jsbsim",
+        help="any JSBSim aircraft, sampled through JSBSim",
+        description="Fit the GNA structure to a JSBSim aircraft's aerodynamics, sampled through JSBSim at a "
+        "reference condition (default: level flight at C_L = 0.4 at 1000 m), and write <id>.toml (--out "
+        "FILE) with the engines measured from JSBSim's own, the surfaces and their ranges from its "
+        "flight-control system, the alpha and beta box clipped to its tables' data, held-out statistics "
+        "and a level-trim check against JSBSim. No option is needed.",
+        examples=[
+            "gflat fit jsbsim F4N                                  # f4n.toml in the current folder",
+            "gflat fit jsbsim c172x --samples 2000 --out c172.toml --json",
+            "gflat fit jsbsim MODEL --property dm=fcs/elevator-pos-norm:-2.9   # name a surface's property",
+        ],
+    )
     j.add_argument("model", help="bundled JSBSim aircraft name (e.g. F4N) or path to <name>/<name>.xml")
     j.add_argument("--root", help="JSBSim root directory (default: the jsbsim package's)")
     j.add_argument(
@@ -131,7 +153,14 @@ def register(sub) -> None:
     )
     _common(j)
 
-    g = sp.add_parser("gtm", help="NASA GTM T2 database (clean configuration)")
+    g = add_command(
+        sp,
+        "gtm",
+        help="NASA GTM T2 database (clean configuration)",
+        description="Fit the GNA structure to the NASA GTM T2 aerodynamic database (clean configuration) and "
+        "write the aircraft file, with held-out statistics and a level-trim check.",
+        examples=["gflat fit gtm --out gtm-fit.toml", "gflat fit gtm --samples 1000 --test 200 --out g.toml --json"],
+    )
     _design_args(
         g,
         alpha=(-5.0, 16.0),
@@ -152,7 +181,14 @@ def register(sub) -> None:
     g.add_argument("--altitude", type=finite_float, default=0.0, metavar="H_M", help="reference altitude [m]")
     _common(g)
 
-    lin = sp.add_parser("linear", help="linear derivative model in the Twin Otter CSV format")
+    lin = add_command(
+        sp,
+        "linear",
+        help="linear derivative model in the Twin Otter CSV format",
+        description="Fit the GNA structure to a linear derivative model (stability and control derivatives, "
+        "geometry and mass rows in the Twin Otter CSV format) and write the aircraft file.",
+        examples=["gflat fit linear aircraft_dat_clean.csv --speed 72 --engines 2 --engine-offset 2.8 --out to.toml"],
+    )
     lin.add_argument("csv", help="group,name,value,unit,note file with derivatives, geometry and mass rows")
     _design_args(
         lin,
@@ -174,13 +210,28 @@ def register(sub) -> None:
     lin.add_argument("--altitude", type=finite_float, default=0.0, metavar="H_M", help="reference altitude [m]")
     _common(lin)
 
-    c = sp.add_parser("compare", help="level trim of a bundled fitted aircraft and of its source model")
+    c = add_command(
+        sp,
+        "compare",
+        help="level trim of a bundled fitted aircraft and of its source model",
+        description="Trim a bundled fitted aircraft and its source model in level flight at the given speed "
+        "and altitude and print both (angle of attack, elevator, thrust, ...). Writes nothing.",
+        examples=["gflat fit compare gtm --speed 40", "gflat fit compare f4 --speed 200 --altitude 3000 --json"],
+    )
     c.add_argument("ident", help="fitted aircraft: twin-otter, gtm, f4, f16-jsbsim")
     c.add_argument("--speed", type=positive_float, required=True, metavar="V_MS", help="airspeed [m/s]")
     c.add_argument("--altitude", type=finite_float, default=0.0, metavar="H_M", help="altitude [m] (default 0)")
-    c.add_argument("--json", action="store_true", help="print the comparison as JSON")
+    add_json(c, "fit-compare", help="print the comparison as one JSON object")
 
-    r = sp.add_parser("regenerate", help="rebuild every bundled fitted aircraft file")
+    r = add_command(
+        sp,
+        "regenerate",
+        help="rebuild every bundled fitted aircraft file",
+        description="Fit every bundled fitted aircraft again from its source and rewrite its file in the "
+        "source checkout's gna/data/aircraft/ (each file replaced atomically; an installed package is "
+        "refused: give --out), or write them as a run folder with --out DIR; --check compares only.",
+        examples=["gflat fit regenerate --check", "gflat fit regenerate gtm --out fits --json"],
+    )
     r.add_argument("ids", nargs="*", help="subset (default: all)")
     r.add_argument("--check", action="store_true", help="only check that the committed files are current")
     add_out(
@@ -189,6 +240,7 @@ def register(sub) -> None:
         "each file replaced atomically)",
     )
     r.add_argument("--docs", type=Path, help="also rewrite (or check) the generated block of docs/fit_quality.md")
+    add_json(r, "fit-regenerate")
     p.set_defaults(func=run)
 
 
@@ -260,6 +312,7 @@ def _common(p) -> None:
     p.add_argument("--structure", help="aircraft TOML file whose [aero] terms give the structure (default gna45)")
     add_out(p, "output TOML file, written whole (default: <id>.toml in the current folder)", metavar="FILE")
     p.add_argument("--no-trim-check", action="store_true", help="skip the level-trim comparison")
+    add_json(p, "fit")
 
 
 #: The alpha range [deg] and |beta| [deg] of a JSBSim fit without --alpha/--beta, before the tables clip them.
@@ -412,6 +465,23 @@ def run(args) -> int:
     )
     text = render(doc, name, command)
     out.write(text)  # atomic: a reader never sees half a file
+    if getattr(args, "json", False):
+        emit(
+            args,
+            {
+                "out": str(out.path),
+                "aircraft": ident,
+                "name": name,
+                "source": src.name,
+                "statistics": {
+                    c: {"r2": s["test"].r2, "rms": s["test"].rms, "max_abs": s["test"].max_abs}
+                    for c, s in result.stats.items()
+                },
+                "trim": trim,
+                "regenerate": command,
+            },
+        )
+        return 0
     print(f"wrote {out.path}")
     print("held-out statistics (R2, RMS, max |error|):")
     for c, s in result.stats.items():
@@ -453,15 +523,17 @@ def _default_ident(args) -> str:
 
 
 def _command_line(args, ranges) -> str:
-    """The ``gflat fit`` invocation that reproduces this file."""
+    """The ``gflat fit`` invocation that reproduces this file (paths quoted for a POSIX shell: it runs as written)."""
+    from shlex import quote
+
     parts = ["gflat fit", args.source]
     if args.source == "jsbsim":
-        parts += [args.model, f"--mach {args.mach:g}", f"--altitude {args.altitude:g}"]
+        parts += [quote(str(args.model)), f"--mach {args.mach:g}", f"--altitude {args.altitude:g}"]
         if args.root:
-            parts.append(f"--root {args.root}")
+            parts.append(f"--root {quote(str(args.root))}")
     elif args.source == "linear":
         parts += [
-            str(args.csv),
+            quote(str(args.csv)),
             f"--engines {args.engines}",
             f"--engine-offset {args.engine_offset:g}",
             f"--speed {args.speed:g}",
@@ -482,7 +554,7 @@ def _command_line(args, ranges) -> str:
         if getattr(args, flag):
             parts.append("--" + flag.replace("_", "-"))
     if args.structure:
-        parts.append(f"--structure {args.structure}")
+        parts.append(f"--structure {quote(str(args.structure))}")
     return " ".join(parts)
 
 
@@ -512,8 +584,6 @@ def _linear_sections(args) -> dict:
 
 
 def _compare(args) -> int:
-    import json
-
     from gna.aircraft import load_aircraft
     from gna.fit.quality import ReferenceCondition, trim_comparison
     from gna.fit.regenerate import SPECS
@@ -524,11 +594,9 @@ def _compare(args) -> int:
     ref = ReferenceCondition(args.speed, args.altitude, f"{args.speed:g} m/s at {args.altitude:g} m")
     res = trim_comparison(load_aircraft(args.ident), src, ref)
     if args.json:
-        print(
-            json.dumps(
-                {"aircraft": args.ident, "source": src.name, "V_ms": args.speed, "altitude_m": args.altitude, **res},
-                indent=2,
-            )
+        emit(
+            args,
+            {"aircraft": args.ident, "source_model": src.name, "V_ms": args.speed, "altitude_m": args.altitude, **res},
         )
         return 0
     print(f"{args.ident}: level trim at {ref.label}, GNA fit vs source ({src.name})")
@@ -544,14 +612,43 @@ def _compare(args) -> int:
     return 0
 
 
+def _source_checkout() -> bool:
+    """gna is a source checkout's (its repository's ``pyproject.toml`` beside it), not an installed package."""
+    import gna
+
+    return (Path(gna.__file__).resolve().parents[1] / "pyproject.toml").is_file()
+
+
 def _regenerate(args) -> int:
     from gna.fit.regenerate import run as regenerate_run
 
     from ..rundir import write_file
 
+    done: dict = {}
+    if args.out is None and not args.check and not _source_checkout():
+        raise InputError(
+            "gflat fit regenerate rewrites the bundled aircraft files of a source checkout; this gflat is an "
+            "installed package: give --out DIR"
+        )
     if args.out is None or args.check:  # the package's own files (and docs), each replaced atomically
-        return regenerate_run(args.ids or None, args.check, None if args.check else args.out, args.docs, write_file)
-    with run_dir(args, command="fit regenerate") as out:  # a folder the user names: a run, written whole
-        status = regenerate_run(args.ids or None, False, out.root, args.docs, write_file)
-        out.commit()
+        where = None if args.check else args.out
+        status = regenerate_run(args.ids or None, args.check, where, args.docs, write_file, summary=done)
+        out = args.out
+    else:
+        with run_dir(args, command="fit regenerate") as folder:  # a folder the user names: a run, written whole
+            status = regenerate_run(args.ids or None, False, folder.root, args.docs, write_file, summary=done)
+            folder.commit()
+        out = folder.out
+    if getattr(args, "json", False):
+        import gna
+
+        emit(
+            args,
+            {
+                "out": str(out if out is not None else Path(gna.__file__).resolve().parent / "data" / "aircraft"),
+                "check": bool(args.check),
+                "current": status == 0 if args.check else None,
+                **done,
+            },
+        )
     return status

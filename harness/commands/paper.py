@@ -1,4 +1,4 @@
-"""``gflat paper [--out DIR] [--J N] [--loop open|closed|both] [--csv] [comparison flags]``: the main job.
+"""``gflat paper [--out DIR] [--J N] [--loop open|closed|both] [--csv] [--json] [comparison flags]``: the main job.
 
 Plans the paper's three manoeuvres (single-engine Twin Otter, GTM forward slip,
 GTM aileron roll in a zero-g parabola) by flatness and generalized flatness,
@@ -8,8 +8,8 @@ the plans, figures (the paper's four-curve figure per scenario) and difference
 tables.
 
 Layout of ``--out DIR``: ``DIR/manifest.json``; ``DIR/<scenario>/plan/`` (the
-plan's series, CSV tables, ``plan-j<k>.parquet`` of every iterate,
-``summary.json``); ``DIR/<scenario>/open/`` and ``DIR/<scenario>/closed/``
+plan's series, ``plan-j<k>.parquet`` of every iterate, the convergence table,
+``singularities.parquet``, ``summary.json``; CSV copies with ``--csv``); ``DIR/<scenario>/open/`` and ``DIR/<scenario>/closed/``
 (``trajectory-<engine>.parquet``, figures, ``differences.txt``,
 ``summary.json``); the report pages (``index.html``, a ``case.html`` per case,
 ``report.pdf``).  The folder appears whole once everything is written
@@ -40,6 +40,8 @@ from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_
 from ..validation.verdicts import verdict_lines
 from ._args import iterations, worker_count
 from ._compare_args import add_compare_arguments, check_steps, compare_overrides
+from ._help import add_command
+from ._json import add_json, emit
 from ._output import add_out, run_dir
 from .plan import write_plan
 
@@ -55,12 +57,20 @@ def register(sub) -> None:
     sub : argparse._SubParsersAction
         The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
     """
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "paper",
         help="plan the paper's three manoeuvres and fly them on both engines",
         description=__doc__.split("\n\n")[1],
+        examples=[
+            "gflat paper                              # reports/out/paper/ under the current folder",
+            "gflat paper --loop open --jobs 1 --out run   # open loop only, in one process",
+            "gflat paper --json --out run --replace   # the verdicts as one JSON object",
+        ],
     )
-    add_out(p, "output folder, created whole once the run is complete (default reports/out/paper)")
+    add_out(
+        p, "output folder, created whole once the run is complete (default reports/out/paper under the current folder)"
+    )
     p.add_argument("--J", type=iterations, default=None, help="iterations, or auto (default: each scenario's)")
     p.add_argument(
         "--loop",
@@ -77,6 +87,7 @@ def register(sub) -> None:
         "CPUs available; 1: everything in this process); the results and files are the same",
     )
     add_compare_arguments(p)
+    add_json(p, "paper")
     p.set_defaults(func=run)
 
 
@@ -159,7 +170,10 @@ class _Scenario:
                     self._fly(pool, loop, name)  # the open-loop run waits for the open case's
         folder = self.root / self.name / "plan"
         shown = self.shown / self.name / "plan"
-        self.lines.append(write_plan(planned.scenario, planned.plan, planned.planning_time_s, folder, shown=shown)[0])
+        text, self.plan_summary = write_plan(
+            planned.scenario, planned.plan, planned.planning_time_s, folder, shown=shown, csv=self.csv, iterates=False
+        )  # the iterates are written with the first case's files, on its flights' output grid
+        self.lines.append(text)
         self.t_plan = time.perf_counter() - t0
         self.cpu_plan = time.process_time() - c0
 
@@ -363,6 +377,42 @@ def run(args) -> int:
             for rec in verdict["recorded"]:
                 print(f"  recorded ({name}, {loop}): {rec['failure']}: {rec['reason']}")
     print(f"\nreport: {out.out / report['index'].name} (PDF: {out.out / report['pdf'].name})")
+    if args.json:
+        emit(
+            args,
+            {
+                "out": str(out.out),
+                "report": {"index": str(out.out / report["index"].name), "pdf": str(out.out / report["pdf"].name)},
+                "pass": not failed,
+                "failed": failed,
+                "cases": [{**v, "folder": str(out.out / name / loop)} for name, loop, v in verdict_rows],
+                "open_loop": [
+                    dict(
+                        zip(
+                            (
+                                "scenario",
+                                "aircraft",
+                                "J",
+                                "position_10s_m",
+                                "angle_10s_rad",
+                                "position_m",
+                                "angle_rad",
+                                "time_s",
+                            ),
+                            r,
+                        )
+                    )
+                    for r in rows
+                ],
+                "closed_loop": [
+                    dict(
+                        zip(("scenario", "inhouse_m", "jsbsim_m", "inhouse_vs_jsbsim_m", "beyond_limits_s", "pass"), r)
+                    )
+                    for r in closed_rows
+                ],
+                "execution": {k: record["execution"][k] for k in ("jobs", "planning_s", "cpu_s")},
+            },
+        )
     if failed:
         why = sorted({f for _, _, v in verdict_rows for f in v["failures"]})
         print(f"gflat paper: {', '.join(why)} not recorded by the scenario, for {', '.join(failed)}: FAIL")

@@ -1,4 +1,4 @@
-"""``gflat plan SCENARIO [--J N] [--out DIR] [--json] [--verify]``: plan a manoeuvre by (generalized) flatness.
+"""``gflat plan SCENARIO [--J N] [--out DIR] [--json] [--verify] [--csv]``: plan a manoeuvre by (generalized) flatness.
 
 A scenario with free parameters (``[parameters]`` with ranges) is planned bounded
 (:func:`planners.bounded.plan_bounded`): the summary then has ``bounded`` (the optimum, its cost, the active
@@ -12,20 +12,21 @@ open loop on the full model (:func:`planners.verify.open_loop_error`) and adds
 ``open_loop_max_position_error_m``.  An infeasible plan (exit status 1) is not flown: ``infeasible_reason``
 says why, and with ``--verify`` the ``open_loop_*`` keys are present as null, ``open_loop_message`` saying
 why the flight was not made.  A plan whose flat parametrization is singular (stage 2,
-:data:`planners.singularity.SINGULAR`) keeps only its flat plan (``plan_j0.csv``) and ``singularities.csv``:
-the later iterates, built on an undetermined stage 2, are not written.
+:data:`planners.singularity.SINGULAR`) keeps only its flat plan (``plan-j0.parquet``) and
+``singularities.parquet``: the later iterates, built on an undetermined stage 2, are not written.  Tables are
+Parquet; ``--csv`` writes each also as CSV, the same stem.
 """
 
 from __future__ import annotations
 
 import io
-import json
 import math
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from gna.errors import InputError
 from planners.generalized import plan_scenario
@@ -33,8 +34,10 @@ from planners.scenario import list_scenarios, load_scenario
 from planners.systems.demos import DEMOS, is_chained_scenario, run_demo
 from planners.verify import open_loop_error
 
-from ..artefacts import file_record, json_safe, manifest, write_json
+from ..artefacts import file_record, json_safe, manifest, write_json, write_plan_iterates, write_trajectory
 from ._args import cost_bound, iterations
+from ._help import add_command
+from ._json import add_json, emit
 from ._output import add_out, default_out, run_dir
 
 
@@ -46,14 +49,21 @@ def register(sub) -> None:
     sub : argparse._SubParsersAction
         The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
     """
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "plan",
         help="plan a manoeuvre (flatness + generalized flatness)",
         description="Plan a scenario: flat parametrization on a grid of power series, then J "
-        "generalized-flatness iterations. Bundled scenarios: "
+        "generalized-flatness iterations; writes the plan of every iterate (plan-j<k>.parquet), the "
+        "convergence table and summary.json. Bundled scenarios: "
         + ", ".join(list_scenarios())
         + "; chained-system demos: "
         + ", ".join(DEMOS),
+        examples=[
+            "gflat plan gtm-aileron-roll             # J = 7, the convergence table at t = -1.9 s",
+            "gflat plan gtm-aileron-roll --json --verify --out roll   # and flown open loop on the full model",
+            "gflat plan turn.toml --J auto --csv     # your own scenario, J by the convergence test, CSV too",
+        ],
     )
     p.add_argument("scenario", help="bundled scenario name or path to a scenario TOML file")
     p.add_argument(
@@ -62,7 +72,10 @@ def register(sub) -> None:
         default=None,
         help="generalized-flatness iterations, or auto (a convergence test; default: the scenario's)",
     )
-    add_out(p, "output folder, created whole once the run is complete (default reports/out/<scenario>/plan)")
+    add_out(
+        p,
+        "output folder, created whole once the run is complete (default reports/out/<scenario>/plan under the current folder)",
+    )
     p.add_argument(
         "--max-cost",
         type=cost_bound,
@@ -70,11 +83,13 @@ def register(sub) -> None:
         metavar="UNITS",
         help="bound on the plan's cost, nodes x sum of squared orders (default 5e6, about 30 s; 'inf' for none)",
     )
-    p.add_argument(
-        "--json",
-        action="store_true",
-        help="print one JSON object (planning_time_s, feasible, residual per iterate, ...) instead of the text report",
+    add_json(
+        p,
+        "plan",
+        help="print one JSON object (planning_time_s, feasible, residual per iterate, ...; docs/cli.md) "
+        "instead of the text report",
     )
+    p.add_argument("--csv", action="store_true", help="write every table as CSV too (Parquet always)")
     p.add_argument(
         "--verify",
         action="store_true",
@@ -116,12 +131,15 @@ def _singular(plan) -> bool:
     return plan.singularities is not None and bool(plan.singularities.failures)
 
 
-def save_plan_files(plan, out: str | Path, step: float | None = None) -> dict:
-    """Write a plan's node series (npz), CSV tables of iterates 0 and J and singularity table into a folder.
+def save_plan_files(
+    plan, out: str | Path, step: float | None = None, *, csv: bool = False, iterates: bool = True
+) -> dict:
+    """Write a plan's node series (npz), the plan of every iterate (``plan-j<k>.parquet``) and its singularity
+    table (``singularities.parquet``) into a folder; with ``csv`` each table also as CSV (the same stem).
 
-    The files of :func:`planners.plan.save_plan`.  A plan whose flat
-    parametrization is singular (stage 2) gets only ``plan_j0.csv`` and ``singularities.csv``: its later
-    iterates are not solutions of the model (values up to 1e+150 and beyond).
+    A plan whose flat parametrization is singular (stage 2) gets only ``plan-j0.parquet`` and
+    ``singularities.parquet``: its later iterates are not solutions of the model (values up to 1e+150 and
+    beyond).
 
     Parameters
     ----------
@@ -130,12 +148,18 @@ def save_plan_files(plan, out: str | Path, step: float | None = None) -> dict:
     out : str or Path
         Folder (made when missing).
     step : float, optional
-        Step [s] of the CSV time grid (default: a quarter of the smallest node spacing).
+        Step [s] of the iterates' time grid (default: a quarter of the smallest node spacing).
+    csv : bool
+        Also write every table as CSV.
+    iterates : bool
+        Write the iterates here; without, they are only named (``gflat paper`` writes them on its flights'
+        output grid, :func:`harness.artefacts.write_plan_iterates`).
 
     Returns
     -------
     dict
-        What was written (``"series"``, ``"plan_j0"``, ...) -> its file name in ``out``.
+        What was written (``"series"``, ``"plan-j0"``, ``"singularities"``, ...) -> its file name in ``out``
+        (with ``csv``, ``"plan-j0.csv"`` -> ...).
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -149,14 +173,22 @@ def save_plan_files(plan, out: str | Path, step: float | None = None) -> dict:
         with open(out / "plan_series.npz", "wb") as fh:
             np.savez_compressed(fh, **arrays)
         written["series"] = "plan_series.npz"
-    step = step if step is not None else float(np.min(np.diff(plan.t_nodes))) / 4
-    for j in sorted({0} if singular else {0, plan.J}):
-        plan.to_dataframe(step=step, j=j).to_csv(out / f"plan_j{j}.csv", float_format="%.10g")
-        written[f"plan_j{j}"] = f"plan_j{j}.csv"
+    js = [0] if singular else list(range(plan.J + 1))
+    if iterates:
+        step = step if step is not None else float(np.min(np.diff(plan.t_nodes))) / 4
+        write_plan_iterates(out, plan, plan.to_dataframe(step=step, j=0).index, csv=csv, iterates=js)
+    for j in js:
+        written[f"plan-j{j}"] = f"plan-j{j}.parquet"
+        if csv:
+            written[f"plan-j{j}.csv"] = f"plan-j{j}.csv"
     sing = plan.singularities
     if sing is not None:
-        sing.table.to_csv(out / "singularities.csv", float_format="%.8g")
-        written["singularities"] = "singularities.csv"
+        table = sing.table
+        table.to_parquet(out / "singularities.parquet")
+        written["singularities"] = "singularities.parquet"
+        if csv:
+            table.to_csv(out / "singularities.csv", float_format="%.8g")
+            written["singularities.csv"] = "singularities.csv"
     return written
 
 
@@ -241,7 +273,16 @@ def plan_summary(sc, plan, elapsed: float, check=None, not_flown: str | None = N
 
 
 def write_plan(
-    sc, plan, elapsed: float, out, check=None, not_flown: str | None = None, shown: Path | None = None
+    sc,
+    plan,
+    elapsed: float,
+    out,
+    check=None,
+    not_flown: str | None = None,
+    shown: Path | None = None,
+    *,
+    csv: bool = False,
+    iterates: bool = True,
 ) -> tuple[str, dict]:
     """Write a plan's files (series, CSV tables, convergence table, summary) to ``out``.
 
@@ -262,6 +303,8 @@ def write_plan(
     shown : Path, optional
         The folder the report names (default ``out``; a command gives its final ``--out``, not the staging
         folder).
+    csv, iterates : bool
+        As :func:`save_plan_files`.
 
     Returns
     -------
@@ -271,7 +314,7 @@ def write_plan(
         The contents of ``summary.json`` (:func:`plan_summary` plus the files written).
     """
     od = Path(out)
-    written = save_plan_files(plan, od)
+    written = save_plan_files(plan, od, csv=csv, iterates=iterates)
     summary = plan_summary(sc, plan, elapsed, check, not_flown)
     tn = plan.t_nodes
     lines = [
@@ -311,9 +354,9 @@ def write_plan(
         lines.append("  no Newton or singularity warnings")
     if _singular(plan):
         lines.append(
-            f"  no convergence table, plan_series.npz or plan_j{plan.J}.csv: the iterates j >= 1 are built on a "
-            "singular stage 2 and are not solutions of the model (plan_j0.csv: the flat plan; "
-            "singularities.csv: the condition at the nodes)"
+            f"  no convergence table, plan_series.npz or plan-j1 .. plan-j{plan.J}: the iterates j >= 1 are built "
+            "on a singular stage 2 and are not solutions of the model (plan-j0.parquet: the flat plan; "
+            "singularities.parquet: the condition at the nodes)"
         )
     else:
         times = sc.report_times or [float(tn[0])]
@@ -367,11 +410,17 @@ def run(args) -> int:
         out = run_dir(args, command="plan") if args.out else None  # checked before planning
         demo = run_demo(args.scenario, J=args.J)
         out = out if out is not None else default_out(demo.summary["scenario"], "plan", command="plan")
+        last = f"plan-j{demo.summary['J']}"
         with out:
-            out.write_text("plan.csv", text=demo.csv)
-            out.write_json("summary.json", obj=demo.summary)
+            table = pd.read_csv(io.StringIO(demo.csv)).set_index("t")
+            written = write_trajectory(out.root, last, table, csv=getattr(args, "csv", False))
+            summary = {**demo.summary, "files": {p.name if p.suffix == ".csv" else last: p.name for p in written}}
+            out.write_json("summary.json", obj=json_safe(summary))
             out.commit(manifest(command_line=getattr(args, "command_line", None)))
-        print(json.dumps(json_safe(demo.summary), indent=2) if args.json else demo.text + f"\n  written to {out.out}/")
+        if args.json:
+            emit(args, {**summary, "out": str(out.out)})
+        else:
+            print(demo.text + f"\n  written to {out.out}/")
         if demo.summary["failure"]:
             print(f"gflat plan: the plan is not feasible: {demo.summary['failure']}", file=sys.stderr)
             return 1
@@ -384,11 +433,14 @@ def run(args) -> int:
         reason = infeasible_reason(plan)
         check = open_loop_error(plan) if args.verify and reason is None else None
         not_flown = f"not flown: the plan is not feasible: {reason}" if args.verify and reason is not None else None
-        text, summary = write_plan(sc, plan, elapsed, out.root, check, not_flown, shown=out.out)
+        text, summary = write_plan(sc, plan, elapsed, out.root, check, not_flown, shown=out.out, csv=args.csv)
         out.commit(
             manifest(inputs={"scenario": file_record(sc.path)}, command_line=getattr(args, "command_line", None))
         )
-    print(json.dumps(json_safe(summary), indent=2) if args.json else text)
+    if args.json:
+        emit(args, {**summary, "out": str(out.out)})
+    else:
+        print(text)
     if reason is not None:
         if plan.domain_failures or _singular(plan):
             print(f"gflat plan: the plan is not feasible: {reason}", file=sys.stderr)

@@ -1,4 +1,4 @@
-"""``gflat report DIR [--self-contained] [--pdf/--no-pdf]``: render a run's reports again from its saved results.
+"""``gflat report DIR [--self-contained] [--pdf/--no-pdf] [--json]``: render a run's reports again from its saved results.
 
 Reads the ``report.json`` of every case of the run in DIR (written by ``gflat
 paper`` and ``gflat compare``) and writes ``DIR/index.html``, a ``case.html``
@@ -31,6 +31,8 @@ from ..artefacts import manifest_problem
 from ..parallel import default_jobs, run_all
 from ..recorded import confined, file_problem
 from ..rundir import MANIFEST, RunDir, read_manifest
+from ._help import add_command
+from ._json import add_json, emit
 
 #: The commands whose runs hold a report (``report.json`` per case) that ``gflat report`` renders.
 RENDERED = ("paper", "compare")
@@ -44,10 +46,16 @@ def register(sub) -> None:
     sub : argparse._SubParsersAction
         The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
     """
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "report",
         help="render a run's HTML and PDF reports again from its saved results",
         description=__doc__.split("\n\n")[1],
+        examples=[
+            "gflat report reports/out/paper                    # index.html, case pages and report.pdf again",
+            "gflat report reports/out/paper --self-contained   # plus report.html, one file to mail",
+            "gflat report run --no-pdf --json",
+        ],
     )
     p.add_argument("dir", metavar="DIR", help="output folder of a run (gflat paper --out DIR, gflat compare --out DIR)")
     p.add_argument(
@@ -58,6 +66,7 @@ def register(sub) -> None:
     p.add_argument(
         "--pdf", action=argparse.BooleanOptionalAction, default=True, help="write DIR/report.pdf (default yes)"
     )
+    add_json(p, "report")
     p.set_defaults(func=run)
 
 
@@ -191,6 +200,19 @@ def run(args) -> int:
     """
     t0 = time.perf_counter()
     pages = render_again(args.dir, self_contained=args.self_contained, pdf=args.pdf)
+    if args.json:
+        emit(
+            args,
+            {
+                "dir": str(pages["index"].parent),
+                "index": str(pages["index"]),
+                "pages": [str(p) for p in pages["pages"]],
+                "single": str(pages["single"]) if "single" in pages else None,
+                "pdf": str(pages["pdf"]) if "pdf" in pages else None,
+                "elapsed_s": time.perf_counter() - t0,
+            },
+        )
+        return 0
     print(f"report: {pages['index']} ({len(pages['pages'])} case page(s))")
     for key in ("single", "pdf"):
         if key in pages:

@@ -6,7 +6,6 @@ line with the cause on stderr (and ``{"converged": false, "message": ...}`` with
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 
@@ -15,6 +14,8 @@ from gna.errors import ConvergenceError
 from gna.trim import trim
 
 from ._args import finite_float, positive_float
+from ._help import add_command
+from ._json import add_json, emit
 
 
 def register(sub) -> None:
@@ -25,11 +26,16 @@ def register(sub) -> None:
     sub : argparse._SubParsersAction
         The ``gflat`` parser's sub-commands (:func:`harness.cli.build_parser`).
     """
-    p = sub.add_parser(
+    p = add_command(
+        sub,
         "trim",
         help="steady flight (trim) of an aircraft",
         description="Solve the nine steady-flight equations with V, gamma, turn rate and beta fixed. "
-        "Density: ISA at the given altitude.",
+        "Density: ISA at the given altitude. Writes nothing.",
+        examples=[
+            "gflat trim f16c --speed 152.4 --altitude 3048 --json",
+            "gflat trim a7 --speed 120 --altitude 1000 --turn-rate 0.1   # steady coordinated turn",
+        ],
     )
     p.add_argument("aircraft", help="aircraft identifier (see 'gflat aircraft') or TOML file")
     p.add_argument("--speed", type=positive_float, required=True, metavar="V_MS", help="airspeed [m/s]")
@@ -41,7 +47,7 @@ def register(sub) -> None:
         "--eta", type=finite_float, default=0.0, help="thrust asymmetry (F1-F2)/F in [-1, 1] (0 for one engine)"
     )
     p.add_argument("--model", choices=("full", "simple"), default="full")
-    p.add_argument("--json", action="store_true", help="print the trim as JSON")
+    add_json(p, "trim", help="print the trim as one JSON object (a trim not found: converged false, message)")
     p.set_defaults(func=run)
 
 
@@ -69,11 +75,11 @@ def run(args) -> int:
         )
     except ConvergenceError as exc:  # the equations were solved for, without a steady state found
         if args.json:
-            print(json.dumps({"aircraft": a.id, "converged": False, "message": str(exc)}))
+            emit(args, {"aircraft": a.id, "converged": False, "message": str(exc)})
         print(f"gflat trim: no steady flight found: {exc}", file=sys.stderr)
         return 1
     if args.json:
-        print(t.to_json())
+        emit(args, t.to_dict())
         return 0
     v = t.values
     print(

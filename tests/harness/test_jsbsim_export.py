@@ -40,7 +40,7 @@ def test_cli_reproduces_committed_files_byte_for_byte(tmp_path, capsys):
     assert main(["export-jsbsim", "--all", "--out", str(tmp_path / "out")]) == 0
     for name in AIRCRAFT:
         assert jf.xml_path(tmp_path / "out", name).read_bytes() == jf.xml_path(ROOT, name).read_bytes()
-    assert main(["export-jsbsim", "--all", "--check"]) == 0
+    assert main(["export-jsbsim", "--all", "--out", str(ROOT), "--check"]) == 0
     assert f"{len(AIRCRAFT)} JSBSim file(s) current" in capsys.readouterr().out
 
 

@@ -67,7 +67,7 @@ e = 2
 def test_singular_flat_output_is_one_line_exit_1_and_no_absurd_files(tmp_path, capsys):
     """The aileron roll with zeta = 'beta' (unusable at zero g): the planner names the singular stage 2, the
     verification flight is not made (its keys null, with the reason), and the diverged iterates are not
-    written (no plan_j2.csv, series or convergence table with values beyond 1e+100)."""
+    written (no plan-j2.parquet, series or convergence table with values beyond 1e+100)."""
     path = tmp_path / "roll-beta.toml"
     path.write_text(ROLL.format(zeta="beta", value="0"))
     out = tmp_path / "out"
@@ -89,8 +89,8 @@ def test_singular_flat_output_is_one_line_exit_1_and_no_absurd_files(tmp_path, c
     assert d["open_loop_message"].startswith("not flown: the plan is not feasible: stage 2")
     assert sorted(p.name for p in out.iterdir()) == [
         "manifest.json",
-        "plan_j0.csv",
-        "singularities.csv",
+        "plan-j0.parquet",
+        "singularities.parquet",
         "summary.json",
     ]
 

@@ -194,18 +194,6 @@ def test_paper_plans_each_scenario_once(short_scenario, tmp_path, monkeypatch, c
     assert "short/open/report.json" in [f["path"] for f in manifest["files"]]
 
 
-def test_paper_open_loop_only(short_scenario, tmp_path, monkeypatch, capsys):
-    from harness.cli import main
-    from harness.commands import paper
-
-    monkeypatch.setattr(paper, "PAPER_SCENARIOS", (str(short_scenario),))
-    assert main(["paper", "--loop", "open", "--out", str(tmp_path / "out")]) == 0
-    out = capsys.readouterr().out
-    assert "in-house vs JSBSim (open loop" in out and "closed loop with the tracking feedback" not in out
-    assert (tmp_path / "out" / "short" / "open" / "summary.json").is_file()
-    assert not (tmp_path / "out" / "short" / "closed").exists()
-
-
 def _two_engine_aircraft():
     for name in list_aircraft():
         a = load_aircraft(name)

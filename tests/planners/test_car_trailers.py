@@ -59,7 +59,8 @@ def test_gflat_plan_runs_the_chained_demos(tmp_path, capsys):
         assert main(["plan", name, "--out", str(tmp_path / name)]) == 0
         summary = json.loads((tmp_path / name / "summary.json").read_text())
         assert summary["checks"][key] < (1e-10 if name == "first-order-lag" else 1e-4)
-        assert (tmp_path / name / "plan.csv").exists()
+        last = f"plan-j{summary['J']}"
+        assert summary["files"] == {last: f"{last}.parquet"} and (tmp_path / name / f"{last}.parquet").exists()
     assert "written to" in capsys.readouterr().out
     from gna.errors import InputError
     from planners.systems.demos import run_demo
