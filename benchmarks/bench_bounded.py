@@ -33,7 +33,8 @@ full model (:func:`bench_collocation.fly_by_pieces`: DOP853, rtol = atol = 1e-10
 from its own initial state, the largest distance to its own planned path (x, y, z) on a 0.05 s grid; the
 ``control_rate`` cost of its controls on a 0.1 s grid (trapezoidal rule, :func:`planners.bounded.control_rate_cost`,
 the same for all); the limits (:func:`gna.limits.limit_violations`) of its states and controls on that grid.
-python-control's controls between the grid points: cubic Hermite pieces of the reverse map's values and rates.
+python-control's controls between the grid points (0.1 s): cubic Hermite pieces of the reverse map's values
+and rates.
 Times: CPU (``time.process_time``) and wall (``time.perf_counter``) of the solve, medians of ``--repeat``
 interleaved repeats, BLAS threads pinned to 1; the machine's load average before and after.
 
@@ -89,8 +90,9 @@ INPUTS = ("F", "dl", "dm", "dn")
 FLAG = 6
 #: python-control: the fourth flat output beta held within this of 0 at every timept [rad].
 BETA_TOL = 1e-6
-#: ``--quick``: the scenario's node step [s].
-QUICK_STEP = 5.0
+#: ``--quick``: the scenario's node step [s], and python-control's result tabulated every this [s] (the
+#: open-loop flight restarts at every piece).
+QUICK_STEP, QUICK_TABLE_STEP = 5.0, 1.0
 #: python-control: the cost and the constraints' values at a point where the reverse map fails.
 FAILED_COST, FAILED_VALUE = 1e6, 1e9
 
@@ -286,7 +288,7 @@ def solve_python_control(sc, quick: bool, pc_step: float) -> Outcome:
     from planners.splines import bezier_expression
 
     curves = [bezier_expression(np.asarray(c, dtype=float), sc.t0, sc.t1) for c in traj.coeffs]
-    t = np.arange(sc.t0, sc.t1 + 1e-9, COST_STEP)
+    t = np.arange(sc.t0, sc.t1 + 1e-9, QUICK_TABLE_STEP if quick else COST_STEP)
     judged = dataclasses.replace(fa.problem, x=curves[0], y=curves[1], z=curves[2], zeta=FlatOutput("beta", curves[3]))
     sol = parametrize(judged, t, FLAG - 1)
     value = {n: np.real(sol[n].coeffs[:, 0]) for n in list(eom.STATE_NAMES) + list(INPUTS)}
@@ -559,7 +561,7 @@ def main(argv=None) -> None:
     ap.add_argument("--repeat", type=int, default=3, help="repeats of each method, interleaved (median; default 3)")
     ap.add_argument("--methods", default=",".join(METHODS), help=f"comma-separated, of {', '.join(METHODS)}")
     ap.add_argument("--pc-step", type=float, default=2.0, help="python-control's timepts step [s] (default 2)")
-    ap.add_argument("--col-step", type=float, default=0.5, help="collocation interval [s] (default 0.5)")
+    ap.add_argument("--col-step", type=float, default=1.0, help="collocation interval [s] (default 1)")
     ap.add_argument("--quick", action="store_true", help="the smallest setting: coarse grids, 2-5 iterations")
     ap.add_argument("--json", help="also write the results to this JSON file")
     args = ap.parse_args(argv)
