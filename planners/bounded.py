@@ -19,7 +19,7 @@ planner picks the member that minimizes a cost subject to the aircraft's limits:
   the optimizer.  ``margin`` (default :data:`DEFAULT_MARGIN`) keeps the optimum strictly inside, so that
   the verdict's exact comparison holds at every point of the grid.
 * **A plan that fails** (Newton, the physical domain, a singular parametrization, a boundary trim that does
-  not converge) is a violation of every constraint (value -1), not an error: the optimizer steps back.
+  not converge) is a violation of every constraint (value :data:`FAILED`), not an error: the optimizer steps back.
 * **Gradients** by forward differences over the planner (step :data:`FD_STEP` of each parameter's range),
   every plan evaluated once (a cache by parameter vector); SLSQP (default) or trust-constr
   (:func:`scipy.optimize.minimize`) on the parameters scaled to [0, 1].
@@ -68,6 +68,10 @@ FD_STEP = 1e-6
 WINDOWS = 40
 #: A limit is reported active when its least scaled distance to the bound is at most this plus the margin.
 ACTIVE_TOL = 2e-3
+#: Scaled distances beyond the bound by more than one scale are compressed (``-1 - log(-d)``: continuous, slope 1
+#: at -1, monotone, so that the least-worst-violation phase still sees a violation shrink) and floored here, the
+#: value of a plan that failed (1000 scales beyond a bound: a plan near a singularity, whose values are wild).
+FAILED = -1.0 - math.log(1000.0)
 
 
 @dataclass(frozen=True)
@@ -543,7 +547,7 @@ class _Problem:
         """Each side's least scaled distance to its bound in each window, less the margin (-1: no plan); then
         the singularity margin per window."""
         if ev.failure is not None:
-            return -np.ones(self.n_constraints())
+            return np.full(self.n_constraints(), FAILED)
         n = ev.slack.shape[1]
         edges = np.linspace(0, n, self.n_windows + 1).round().astype(int)
         edges[1:] = np.maximum(edges[1:], edges[:-1] + 1)
@@ -551,11 +555,12 @@ class _Problem:
         g = np.minimum.reduceat(ev.slack, starts, axis=1).ravel()
         # A quantity held exactly at its bound (a glide's zero thrust) meets it: no margin there.
         exact = np.maximum.reduceat(np.abs(ev.slack), starts, axis=1).ravel() == 0.0
-        # Far from a bound (10 scales): inactive; beyond it by more than a scale (a plan near a singularity, its
-        # values huge): -1, as a failed plan, so that one wild node does not swamp the optimizer's model.
-        out = np.where(exact, 0.0, np.clip(g, -1.0, 10.0) - self.settings.margin)
+        # Far from a bound (10 scales): inactive; beyond it by more than a scale: compressed (_compressed), so that
+        # one wild node (a plan near a singularity) does not swamp the optimizer's model, yet a violation that
+        # shrinks is seen (the least worst violation of infeasible bounds).
+        out = np.where(exact, 0.0, _compressed(g) - self.settings.margin)
         if self.settings.singular_margin > 0:
-            sing = np.clip(self.singular_slack(ev), -1.0, 10.0) - self.settings.singular_margin
+            sing = _compressed(self.singular_slack(ev)) - self.settings.singular_margin
             out = np.concatenate([out, sing])
         return out
 
@@ -592,6 +597,15 @@ class _Problem:
 
     def constraints_jac(self, x) -> np.ndarray:
         return self._jacobian(self.constraints, x)
+
+
+def _compressed(d: np.ndarray) -> np.ndarray:
+    """Scaled distances to the bounds as the optimizer sees them: at most 10, below -1 ``-1 - log(-d)``, at
+    least :data:`FAILED`."""
+    d = np.minimum(np.asarray(d, dtype=float), 10.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        far = -1.0 - np.log(np.maximum(-d, 1.0))
+    return np.maximum(np.where(d < -1.0, far, d), FAILED)
 
 
 def _minimize(problem: _Problem, fun, jac, cons, cons_jac, x0, n_bounds: int, settings: BoundedSettings):

@@ -878,7 +878,7 @@ def _boundary(
             )
         eta_t = float(np.real(eta(t)))
         try:
-            tr = trim(aircraft, fixed, altitude=val["altitude"], env=env, eta=eta_t, model="full")
+            tr = _boundary_trim(trim, aircraft, fixed, val["altitude"], env, eta_t)
         except GflatError as exc:
             raise InputError(f"{w}: the trim failed: {exc}") from None
         v = tr.values
@@ -892,6 +892,26 @@ def _boundary(
         der = steady_derivatives(v["V"], v["gamma"], val.get("chi", 0.0), v["chi_dot"], pos, order)
         out[side] = BoundaryState(side, float(t), tr, pos[0], pos[1], val.get("chi", 0.0), val["altitude"], der)
     return out
+
+
+#: The boundary trims of the latest members (:meth:`Scenario.at`): a bounded plan's members share their ends
+#: unless a parameter moves them, and a trim costs more than a third of a member's plan.
+_TRIMS: dict = {}
+_TRIMS_KEPT = 64
+
+
+def _boundary_trim(trim, aircraft: Aircraft, fixed: Mapping, altitude: float, env: Environment, eta: float):
+    """``trim(aircraft, fixed, altitude, env, eta, model="full")``, kept for the same aircraft, environment and
+    values (objects by identity, kept alive with the entry)."""
+    key = (id(aircraft), id(env), tuple(sorted((k, float(v)) for k, v in fixed.items())), float(altitude), eta)
+    hit = _TRIMS.get(key)
+    if hit is not None and hit[0] is aircraft and hit[1] is env:
+        return hit[2]
+    tr = trim(aircraft, fixed, altitude=altitude, env=env, eta=eta, model="full")
+    if len(_TRIMS) >= _TRIMS_KEPT:
+        _TRIMS.pop(next(iter(_TRIMS)))
+    _TRIMS[key] = (aircraft, env, tr)
+    return tr
 
 
 def _known(table: Mapping, where: str) -> tuple:

@@ -209,10 +209,16 @@ def case_settings(case: ValidationCase, scenario) -> CompareSettings:
     Raises
     ------
     InputError
-        An unknown key (with a suggestion) or a bad value in either source.
+        An unknown key (with a suggestion) or a bad value in either source; engine ``jsbsim-source`` for an
+        aircraft fitted from no JSBSim aircraft (before any plan is made: a bounded plan takes seconds).
     """
     where = f"{scenario.path or scenario.name} [compare]"
-    return resolve_compare(getattr(scenario, "compare", None) or {}, case.overrides, where=where)
+    settings = resolve_compare(getattr(scenario, "compare", None) or {}, case.overrides, where=where)
+    if "jsbsim-source" in case.engines and getattr(scenario, "aircraft", None) is not None:
+        from ..engines.jsbsim.source import source_model
+
+        source_model(scenario.aircraft)
+    return settings
 
 
 def with_step(engine, dt: float):

@@ -178,3 +178,17 @@ def test_an_engine_whose_steady_thrust_does_not_grow_is_one_line():
             _ThrottleLoop(grid, table, 0.5, 0.01)
     loop = _ThrottleLoop(grid, np.where(grid < 1, grid * 100.0, np.nan), 0.5, 0.01)  # NaN tail left out
     assert loop.th[-1] < 1 and np.isfinite(loop.T).all()
+
+
+def test_compare_refuses_jsbsim_source_for_an_unfitted_aircraft_before_planning(tmp_path, capsys):
+    """f16c (the published Grauer-Morelli set) has no JSBSim original: gflat compare says so in one line, exit 2,
+    before the bounded plan (seconds) is made; its JSBSim-fitted twin is f16-climb-turn."""
+    from harness.cli import main
+
+    out = tmp_path / "o"
+    rc = main(
+        ["compare", "f16c-climb-turn", "--loop", "closed", "--engines", "inhouse,jsbsim-source", "--out", str(out)]
+    )
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "jsbsim-source" in err[0] and "'f16c' was not fitted" in err[0]
+    assert "INFO: bounded" not in "".join(err) and not out.exists()

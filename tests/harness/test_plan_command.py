@@ -145,3 +145,39 @@ def test_compare_names_the_singular_stage_2_too(tmp_path, capsys):
     assert main(["compare", str(path), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "the plan is not feasible, nothing to fly: stage 2 of the flat parametrization is singular" in err
+
+
+def test_infeasible_bounds_are_one_line_naming_the_binding_limit_and_exit_1(tmp_path, capsys):
+    """The bounded forward slip on a GTM whose ailerons move +-5 deg only (its own aircraft file), the descent
+    rate free: no descent within [4, 6.5] m/s meets dl, and gflat plan says so in one line naming the binding
+    limit and the best value it reaches, exit 1 (the JSON's bounded.infeasible is the same line)."""
+    from gna.catalogue import bundled
+
+    text = bundled("gna", "data", "aircraft")["gtm"].read_text(encoding="utf-8")
+    assert "\ndl_max_deg = 20.0\n" in text and '\nid = "gtm"\n' in text
+    text = text.replace("\ndl_max_deg = 20.0\n", "\ndl_max_deg = 5.0\n").replace('\nid = "gtm"\n', '\nid = "gtm-dl5"\n')
+    (tmp_path / "gtm-dl5.toml").write_text(text)
+    sc = bundled("planners", "scenarios")["gtm-forward-slip-bounded"].read_text(encoding="utf-8")
+    for old, new in (
+        ('aircraft = "gtm"', 'aircraft = "gtm-dl5.toml"'),
+        ("min = 27.0, max = 32.0", "min = 29.10852587, max = 29.10852587"),  # speed fixed
+        ("value = 70.0, min = 0.0, max = 100.0", "value = 0.0, min = 0.0, max = 0.0"),  # no wave
+        ("step = 6.0", "step = 30.0"),
+        ("J = 8", "J = 1"),
+    ):
+        assert old in sc
+        sc = sc.replace(old, new)
+    (tmp_path / "slip-dl5.toml").write_text(sc)
+    rc = main(["plan", str(tmp_path / "slip-dl5.toml"), "--json", "-q", "--out", str(tmp_path / "o")])
+    cap = capsys.readouterr()
+    assert rc == 1
+    err = cap.err.strip().splitlines()
+    assert len(err) == 1, err
+    line = err[0]
+    assert line.startswith("gflat plan: infeasible bounds: gtm-forward-slip-bounded: no parameter values")
+    assert "binding limit dl: control dl beyond its limit 5.0 deg" in line and "worst -" in line
+    assert "at the best parameters (descent = " in line
+    d = json.loads(cap.out)["bounded"]
+    assert d["feasible"] is False and line.endswith(d["infeasible"]) and d["binding"]["name"] == "dl"
+    assert 4.0 <= d["optimum"]["descent"] < 5.983  # less descent, less drag to make: less aileron
+    assert abs(d["binding"]["worst"]) < abs(d["binding"]["limit"]) * 27.8 / 5.0  # better than the nominal's

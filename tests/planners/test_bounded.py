@@ -15,7 +15,7 @@ import pytest
 
 from gna.errors import InputError
 from gna.limits import limit_violations
-from planners.bounded import BoundedResult, control_rate_cost, control_scales, plan_bounded
+from planners.bounded import FAILED, BoundedResult, control_rate_cost, control_scales, plan_bounded
 from planners.generalized import plan_scenario
 from planners.scenario import load_scenario, scenario_from_dict
 from planners.series import Series
@@ -173,7 +173,7 @@ def test_a_failing_plan_is_a_violation_not_an_error():
     pb = _Problem(sc)
     ev = pb.evaluate(np.array([1.0]))
     assert ev.failure is not None and "20" in ev.failure
-    assert np.all(pb.constraints(np.array([1.0])) == -1.0) and pb.failed == 1
+    assert np.all(pb.constraints(np.array([1.0])) == FAILED) and pb.failed == 1
     assert math.isfinite(pb.objective(np.array([1.0])))
 
 
@@ -205,3 +205,15 @@ def test_duration_cost_with_a_free_end_time():
     r = plan_bounded(scenario_from_dict(data))
     assert r.feasible and r.optimum["T"] == pytest.approx(4.0, abs=1e-3) and r.cost == pytest.approx(r.optimum["T"])
     assert r.plan.t1 == pytest.approx(r.optimum["T"]) and len(r.plan.t_nodes) == 3
+
+
+def test_a_violation_beyond_one_scale_is_compressed_not_clipped():
+    """Beyond a bound by more than its scale, a constraint still grows as the violation shrinks (the least worst
+    violation of infeasible bounds needs the slope), and a failed plan stays the worst value."""
+    from planners.bounded import _compressed
+
+    d = np.array([-1e9, -1000.0, -30.0, -4.5, -1.0, -0.5, 0.0, 3.0, 50.0])
+    c = _compressed(d)
+    assert np.all(np.diff(c[1:]) > 0)  # monotone above the floor
+    assert c[0] == c[1] == FAILED and c[4] == -1.0 and c[5] == -0.5 and c[-1] == 10.0
+    assert -4.5 < c[3] < -1.0 and c[2] < c[3]
