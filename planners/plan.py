@@ -636,13 +636,15 @@ class Plan:
         names = limit_columns(aircraft or self.aircraft)
         states = [v for v in names if v not in CONTROL_NAMES]
         f = self.control_function(j)
-        # the piecewise polynomial's values are those of the plan's evaluation with the same coefficients
-        U = self._evaluate_many(CONTROL_NAMES, t, j) if isinstance(f, PiecewisePolynomial) else None
-        if U is None:
-            U = np.array([f(x) for x in t]).T
-        used = [i for i, c in enumerate(CONTROL_NAMES) if c in names]
-        vals = np.concatenate([self._evaluate_many(tuple(states), t, j), U[used]]) if states else U[used]
-        return t, states + [CONTROL_NAMES[i] for i in used], vals
+        used = [c for c in CONTROL_NAMES if c in names]
+        if isinstance(f, PiecewisePolynomial):
+            # the piecewise polynomial's values are those of the plan's evaluation with the same coefficients
+            # (each variable's own polynomial, zero-padded: the same values), states and controls in one pass
+            return t, states + used, self._evaluate_many(tuple(states + used), t, j)
+        U = np.array([f(x) for x in t]).T
+        U = U[[CONTROL_NAMES.index(c) for c in used]]
+        vals = np.concatenate([self._evaluate_many(tuple(states), t, j), U]) if states else U
+        return t, states + used, vals
 
     def limit_violations(self, j: int = -1, aircraft: Aircraft | None = None) -> list:
         """Where iterate ``j`` leaves the aircraft's limits (:func:`gna.limits.limit_violations`).
