@@ -52,10 +52,14 @@ HOT static void s_mul(const double *a, const double *b, double *out, i64 M, i64 
             }
             for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
         }
-        for (; i < S; i++) {
-            double acc = 0.0;
-            for (i64 j = 0; j <= k; j++) acc += a[j * S + i] * b[(k - j) * S + i];
-            out[k * S + i] = acc;
+        if (i < S) { /* the last nodes: independent sums side by side (each node's in the same order) */
+            i64 rem = S - i;
+            double acc[BLOCK] = {0.0};
+            for (i64 j = 0; j <= k; j++) {
+                const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
+                for (i64 q = 0; q < rem; q++) acc[q] += aj[q] * bk[q];
+            }
+            for (i64 q = 0; q < rem; q++) out[k * S + i + q] = acc[q];
         }
     }
 }
@@ -82,10 +86,15 @@ HOT static void s_mul2(const double *a, const double *b, const double *c, const 
             }
             for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
         }
-        for (; i < S; i++) {
-            double acc = 0.0;
-            for (i64 j = 0; j <= k; j++) acc += a[j * S + i] * b[(k - j) * S + i] + c[j * S + i] * d[(k - j) * S + i];
-            out[k * S + i] = acc;
+        if (i < S) {
+            i64 rem = S - i;
+            double acc[BLOCK] = {0.0};
+            for (i64 j = 0; j <= k; j++) {
+                const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
+                const double *cj = c + j * S + i, *dk = d + (k - j) * S + i;
+                for (i64 q = 0; q < rem; q++) acc[q] += aj[q] * bk[q] + cj[q] * dk[q];
+            }
+            for (i64 q = 0; q < rem; q++) out[k * S + i + q] = acc[q];
         }
     }
 }
