@@ -335,7 +335,7 @@ def aircraft_limits(aircraft) -> tuple[Limit, ...]:
         return hit[1]
     out = _aircraft_limits(aircraft)
     try:
-        ref = weakref.ref(aircraft, lambda _r, key=key: _LIMITS.pop(key, None))
+        ref = weakref.ref(aircraft, lambda _r, key=key, store=_LIMITS: store.pop(key, None))
     except TypeError:  # an object without weak references: not kept
         return out
     _LIMITS[key] = (ref, out)

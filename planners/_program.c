@@ -783,13 +783,23 @@ int gf_doubling(PROG_ARGS, double *x, i64 Mx, const i64 *orders, i64 norders, do
  * o = c_(d1-1); o = o * s + c_p for p = d1 - 2 .. 0 (the operations of planners.plan._horner, without
  * contraction into fused multiply-adds: the same values). */
 int gf_horner(const double *c, i64 v, i64 d1, const i64 *idx, const double *s, i64 N, double *out) {
-    for (i64 q = 0; q < v; q++)
-        for (i64 t = 0; t < N; t++) {
-            const double *cp = c + (idx[t] * v + q) * d1;
-            double o = cp[d1 - 1], st = s[t];
-            for (i64 p = d1 - 2; p >= 0; p--) o = o * st + cp[p];
-            out[q * N + t] = o;
+    /* by runs of times in one interval (the usual sorted grid): the run's coefficients are scalars, the
+     * times a vector; each value's operations are those of one time at a time */
+    i64 t0 = 0;
+    while (t0 < N) {
+        i64 t1 = t0 + 1;
+        while (t1 < N && idx[t1] == idx[t0]) t1++;
+        for (i64 q = 0; q < v; q++) {
+            const double *cp = c + (idx[t0] * v + q) * d1;
+            double *o = out + q * N;
+            for (i64 t = t0; t < t1; t++) o[t] = cp[d1 - 1];
+            for (i64 p = d1 - 2; p >= 0; p--) {
+                double cq = cp[p];
+                for (i64 t = t0; t < t1; t++) o[t] = o[t] * s[t] + cq;
+            }
         }
+        t0 = t1;
+    }
     return 0;
 }
 

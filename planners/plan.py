@@ -635,12 +635,12 @@ class Plan:
         t = np.linspace(self.t0, self.t1, n + 1)
         names = limit_columns(aircraft or self.aircraft)
         states = [v for v in names if v not in CONTROL_NAMES]
-        f = self.control_function(j)
         used = [c for c in CONTROL_NAMES if c in names]
-        if isinstance(f, PiecewisePolynomial):
+        if np.all(np.isfinite(self._coefficients(CONTROL_NAMES, j))):  # what control_function then returns
             # the piecewise polynomial's values are those of the plan's evaluation with the same coefficients
             # (each variable's own polynomial, zero-padded: the same values), states and controls in one pass
             return t, states + used, self._evaluate_many(tuple(states + used), t, j)
+        f = self.control_function(j)
         U = np.array([f(x) for x in t]).T
         U = U[[CONTROL_NAMES.index(c) for c in used]]
         vals = np.concatenate([self._evaluate_many(tuple(states), t, j), U]) if states else U

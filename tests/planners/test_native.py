@@ -197,6 +197,30 @@ def test_a_singular_node_falls_back_to_the_numpy_steps():
         close(a.coeffs, b.coeffs)
 
 
+@SET
+@given(
+    intervals=st.integers(1, 12),
+    v=st.integers(1, 6),
+    d1=st.integers(1, 18),
+    N=st.integers(0, 300),
+    sort=st.booleans(),
+    seed=st.integers(0, 10**6),
+)
+def test_piecewise_polynomials_in_native_code_are_numpys_bit_for_bit(intervals, v, d1, N, sort, seed):
+    """The native Horner (by runs of times in one interval) gives planners.plan._horner's values exactly, on
+    sorted grids (the limit checks) and on times in any order."""
+    from planners.plan import _horner
+
+    rng = np.random.default_rng(seed)
+    c = rng.normal(size=(intervals, v, d1)) * 10.0 ** rng.integers(-3, 4, size=(intervals, v, d1))
+    i = rng.integers(0, intervals, N)
+    if sort:
+        i = np.sort(i)
+    s = rng.uniform(0.0, 2.0, N)
+    out = NA.horner(c, i, s)
+    assert np.array_equal(out, _horner(c[i], s, 0))
+
+
 def _plan(name, backend):
     from planners.generalized import plan_motion
     from planners.scenario import load_scenario
