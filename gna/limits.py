@@ -352,6 +352,7 @@ def _aircraft_limits(aircraft) -> tuple[Limit, ...]:
     out = []
     fmax = prop.max_thrust
     rated = prop.engine_power is not None or prop.engine_static_thrust is not None
+    rating = _rating(prop) if rated else None  # one function for the engines: limit_violations computes it once
     for i in range(1, prop.count + 1):
         out.append(
             Limit(
@@ -362,7 +363,7 @@ def _aircraft_limits(aircraft) -> tuple[Limit, ...]:
                 None if fmax is None else fmax / prop.count,
                 (prop.engine_source or "[engines] rating") if rated else "[engines] max_thrust / count",
                 _engine_thrust(i, prop.count),
-                _rating(prop) if rated else None,
+                rating,
                 columns=("F", "eta", "V") if rated else ("F", "eta"),
             )
         )
@@ -560,6 +561,7 @@ def limit_violations(aircraft, frame, env=None) -> list[Violation]:
     if t.size == 0:
         return []
     dt = None
+    uppers: dict = {}
     span = max(float(t[-1] - t[0]), 1e-300)
     out = []
     have = set(frame.columns)
@@ -576,8 +578,11 @@ def limit_violations(aircraft, frame, env=None) -> list[Violation]:
         if lim.upper_of is None:  # constant bounds: compared as numbers (the same tests as on arrays of them)
             lo = -np.inf if lim.lower is None else float(lim.lower)
             hi = np.inf if lim.upper is None else float(lim.upper)
-        else:
-            lo, hi = lim.bounds(frame)
+        else:  # a varying upper bound (the engines' rating): computed once per function
+            if lim.upper_of not in uppers:
+                uppers[lim.upper_of] = lim.upper_of(frame)
+            lo = -np.inf if lim.lower is None else float(lim.lower)
+            hi = np.minimum(np.inf if lim.upper is None else lim.upper, uppers[lim.upper_of])
         for side, bound in (("lower", lo), ("upper", hi)):
             if np.ndim(bound) == 0 and (np.isnan(bound) or bound == (-np.inf if side == "lower" else np.inf)):
                 continue  # unbounded on that side: no excess is positive

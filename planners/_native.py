@@ -6,7 +6,7 @@ folder (``$XDG_CACHE_HOME/gflat/native``, default ``~/.cache/gflat/native``), un
 source, the compiler's version, its flags and the machine; a changed source or compiler gives another name, so
 a stale library is never loaded (it is rebuilt; a build unused for :data:`STALE_DAYS` is removed).  Each process compiles into a
 temporary file of its own and renames it into place (atomic), so several processes compiling at once are
-safe.  Loading a compiled library costs about a millisecond; compiling it about 1 s of CPU (``-O2``), in the
+safe.  Loading a compiled library costs about a millisecond; compiling it about 3 s of CPU (``-O3``), in the
 background by default: the process that finds no library starts the compiler detached and plans on the
 numpy path, so a first ``gflat plan`` waits for no compiler (``GFLAT_NATIVE_WAIT=1`` compiles at once).
 Without a compiler, or when the compilation fails, :func:`library` returns None and says why: the planner
@@ -200,7 +200,7 @@ def library(wait: bool | None = None):
     """The loaded native library, or None when it cannot be had (yet).
 
     A library in the cache is loaded (about a millisecond).  Without one, ``wait`` (default: the environment
-    variable :data:`WAIT_ENV` set to 1) compiles it now (about 1 s of CPU); else the compiler is started in the
+    variable :data:`WAIT_ENV` set to 1) compiles it now (about 3 s of CPU); else the compiler is started in the
     background, detached, and this process gets None (its plans run on the numpy path: a first ``gflat plan``
     pays no compilation), the next ones load the library.  One background build at a time (a lock file);
     a failed build is not retried for a day.

@@ -90,14 +90,22 @@ def test_linear_combinations_broadcast_batches_and_constants():
         Series.linear_combinations(w, [1.0, 2.0, 3.0, 4.0])
 
 
-def test_limits_are_built_once_per_aircraft_and_checked_as_on_arrays(weave_plan):
+@pytest.mark.parametrize("which", ["weave", "twin-otter-single-engine"])
+def test_limits_are_built_once_per_aircraft_and_checked_as_on_arrays(weave_plan, which):
     """aircraft_limits is kept per aircraft object; limit_violations with constant bounds compared as numbers
-    gives the records of the bounds as arrays (Limit.bounds), on a frame leaving several limits."""
+    and the engines' rating computed once gives the records of the bounds as arrays (Limit.bounds), on a
+    frame leaving several limits (the Twin Otter: two engines with a power rating)."""
     from dataclasses import replace
 
     from gna.limits import TrajectoryColumns, aircraft_limits, limit_violations
 
-    _, plan = weave_plan
+    if which == "weave":
+        _, plan = weave_plan
+    else:
+        from planners.generalized import plan_scenario
+        from planners.scenario import load_scenario
+
+        plan = plan_scenario(load_scenario(which), J=1)
     ac = plan.aircraft
     assert aircraft_limits(ac) is aircraft_limits(ac)
     other = replace(ac)
