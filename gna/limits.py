@@ -25,6 +25,7 @@ records (:func:`control_ranges` gives the constant control ranges).
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -325,12 +326,33 @@ def aircraft_limits(aircraft) -> tuple[Limit, ...]:
     Returns
     -------
     tuple of Limit
-        Controls first (F, thrust per engine, eta, surfaces), then the states (alpha, beta, Mach, nz).
+        Controls first (F, thrust per engine, eta, surfaces), then the states (alpha, beta, Mach, nz);
+        built once per aircraft object (an immutable dataclass).
     """
+    key = id(aircraft)
+    hit = _LIMITS.get(key)
+    if hit is not None and hit[0]() is aircraft:
+        return hit[1]
+    out = _aircraft_limits(aircraft)
+    try:
+        ref = weakref.ref(aircraft, lambda _r, key=key, store=_LIMITS: store.pop(key, None))
+    except TypeError:  # an object without weak references: not kept
+        return out
+    _LIMITS[key] = (ref, out)
+    return out
+
+
+#: id(aircraft) -> (weak reference, its limits): :func:`aircraft_limits` once per aircraft object (kept out of
+#: the aircraft itself, which stays picklable; its limits' functions are closures).
+_LIMITS: dict = {}
+
+
+def _aircraft_limits(aircraft) -> tuple[Limit, ...]:
     env, prop = aircraft.envelope, aircraft.propulsion
     out = []
     fmax = prop.max_thrust
     rated = prop.engine_power is not None or prop.engine_static_thrust is not None
+    rating = _rating(prop) if rated else None  # one function for the engines: limit_violations computes it once
     for i in range(1, prop.count + 1):
         out.append(
             Limit(
@@ -341,7 +363,7 @@ def aircraft_limits(aircraft) -> tuple[Limit, ...]:
                 None if fmax is None else fmax / prop.count,
                 (prop.engine_source or "[engines] rating") if rated else "[engines] max_thrust / count",
                 _engine_thrust(i, prop.count),
-                _rating(prop) if rated else None,
+                rating,
                 columns=("F", "eta", "V") if rated else ("F", "eta"),
             )
         )
@@ -538,7 +560,8 @@ def limit_violations(aircraft, frame, env=None) -> list[Violation]:
     t = frame.index.to_numpy(dtype=float)
     if t.size == 0:
         return []
-    dt = np.diff(t, append=t[-1])
+    dt = None
+    uppers: dict = {}
     span = max(float(t[-1] - t[0]), 1e-300)
     out = []
     have = set(frame.columns)
@@ -552,16 +575,28 @@ def limit_violations(aircraft, frame, env=None) -> list[Violation]:
         elif not set(lim.columns) <= have:
             continue
         v = lim.value_of(frame, env)
-        lo, hi = lim.bounds(frame)
-        for side, excess, bound in (("lower", lo - v, lo), ("upper", v - hi, hi)):
+        if lim.upper_of is None:  # constant bounds: compared as numbers (the same tests as on arrays of them)
+            lo = -np.inf if lim.lower is None else float(lim.lower)
+            hi = np.inf if lim.upper is None else float(lim.upper)
+        else:  # a varying upper bound (the engines' rating): computed once per function
+            if lim.upper_of not in uppers:
+                uppers[lim.upper_of] = lim.upper_of(frame)
+            lo = -np.inf if lim.lower is None else float(lim.lower)
+            hi = np.minimum(np.inf if lim.upper is None else lim.upper, uppers[lim.upper_of])
+        for side, bound in (("lower", lo), ("upper", hi)):
+            if np.ndim(bound) == 0 and (np.isnan(bound) or bound == (-np.inf if side == "lower" else np.inf)):
+                continue  # unbounded on that side: no excess is positive
+            excess = bound - v if side == "lower" else v - bound
             over = excess > 0
-            if not np.any(over):
+            if not over.any():
                 continue
+            if dt is None:
+                dt = np.diff(t, append=t[-1])
             i = int(np.argmax(np.where(over, excess, -np.inf)))
             out.append(
                 Violation(
                     name=lim.name,
-                    limit=float(bound[i]),
+                    limit=float(bound if np.ndim(bound) == 0 else bound[i]),
                     worst=float(v[i]),
                     time=float(t[i]),
                     fraction=float(np.sum(dt[over])) / span if t.size > 1 else 1.0,

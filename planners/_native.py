@@ -6,7 +6,7 @@ folder (``$XDG_CACHE_HOME/gflat/native``, default ``~/.cache/gflat/native``), un
 source, the compiler's version, its flags and the machine; a changed source or compiler gives another name, so
 a stale library is never loaded (it is rebuilt; a build unused for :data:`STALE_DAYS` is removed).  Each process compiles into a
 temporary file of its own and renames it into place (atomic), so several processes compiling at once are
-safe.  Loading a compiled library costs about a millisecond; compiling it about 1 s of CPU (``-O2``), in the
+safe.  Loading a compiled library costs about a millisecond; compiling it about 3 s of CPU (``-O3``), in the
 background by default: the process that finds no library starts the compiler detached and plans on the
 numpy path, so a first ``gflat plan`` waits for no compiler (``GFLAT_NATIVE_WAIT=1`` compiles at once).
 Without a compiler, or when the compilation fails, :func:`library` returns None and says why: the planner
@@ -31,9 +31,39 @@ from pathlib import Path
 import numpy as np
 
 SOURCE = Path(__file__).with_name("_program.c")
-#: Compiler flags: optimised, IEEE arithmetic kept (no fast-math, no fused multiply-adds: the results agree
+#: Compiler flags: optimised (O3), IEEE arithmetic kept (no fast-math, no fused multiply-adds: the results agree
 #: with numpy to 1e-12, Horner's rule bit for bit).
-FLAGS = ("-O2", "-shared", "-fPIC", "-std=c99", "-ffp-contract=off")
+FLAGS = ("-O3", "-shared", "-fPIC", "-std=c99", "-ffp-contract=off")
+#: Added on an x86-64 processor that has AVX2 (read from ``/proc/cpuinfo``): the series products on 4 doubles at a
+#: time, 1.5x faster per evaluation, the same values (no contraction: each multiply and add rounds as before).
+#: The flag is part of the library's cache key, so a cache shared with a processor without AVX2 holds two builds.
+SIMD_FLAGS = ("-mavx2",)
+
+
+@functools.cache
+def _cpu_has_avx2() -> bool:
+    if platform.machine().lower() not in ("x86_64", "amd64") or not sys.platform.startswith("linux"):
+        return False
+    try:
+        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as f:
+            for line in f:
+                if line.startswith("flags"):
+                    return "avx2" in line.split()
+    except OSError:
+        pass
+    return False
+
+
+def flags() -> tuple:
+    """The compiler flags of this machine: :data:`FLAGS`, and :data:`SIMD_FLAGS` where the processor has AVX2.
+
+    Returns
+    -------
+    tuple of str
+    """
+    return FLAGS + SIMD_FLAGS if _cpu_has_avx2() else FLAGS
+
+
 #: Days after which a build for another source or compiler (not loaded since) is removed from the cache.
 STALE_DAYS = 7
 #: Environment variable naming the C compiler (as for most build tools).
@@ -91,7 +121,7 @@ def library_path(cc: list) -> Path:
     key = hashlib.sha256()
     key.update(SOURCE.read_bytes())
     key.update(_compiler_version(tuple(cc)).encode())
-    key.update(" ".join((*cc, *FLAGS)).encode())
+    key.update(" ".join((*cc, *flags())).encode())
     key.update(f"{platform.machine()} {platform.system()} {sys.maxsize}".encode())
     suffix = ".dll" if sys.platform == "win32" else (".dylib" if sys.platform == "darwin" else ".so")
     return cache_dir() / f"gflat_program-{key.hexdigest()[:20]}{suffix}"
@@ -116,7 +146,9 @@ def build(cc: list, target: Path) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=target.suffix + ".tmp", dir=target.parent)
     os.close(fd)
     try:
-        out = subprocess.run([*cc, *FLAGS, "-o", tmp, str(SOURCE), "-lm"], capture_output=True, text=True, timeout=300)
+        out = subprocess.run(
+            [*cc, *flags(), "-o", tmp, str(SOURCE), "-lm"], capture_output=True, text=True, timeout=300
+        )
         if out.returncode != 0:
             raise OSError(f"{' '.join(cc)} failed: {(out.stderr or out.stdout).strip()[:500]}")
         os.replace(tmp, target)
@@ -168,7 +200,7 @@ def library(wait: bool | None = None):
     """The loaded native library, or None when it cannot be had (yet).
 
     A library in the cache is loaded (about a millisecond).  Without one, ``wait`` (default: the environment
-    variable :data:`WAIT_ENV` set to 1) compiles it now (about 1 s of CPU); else the compiler is started in the
+    variable :data:`WAIT_ENV` set to 1) compiles it now (about 3 s of CPU); else the compiler is started in the
     background, detached, and this process gets None (its plans run on the numpy path: a first ``gflat plan``
     pays no compilation), the next ones load the library.  One background build at a time (a lock file);
     a failed build is not retried for a day.
@@ -183,9 +215,12 @@ def library(wait: bool | None = None):
     ctypes.CDLL or None
         None: :func:`reason` says why (no C compiler, a failed compilation, a compilation under way).
     """
+    lib = _STATE["lib"]
+    if lib is not None:  # loaded: the planner's many calls return here
+        return lib
     if wait is None:
         wait = os.environ.get(WAIT_ENV, "").strip() == "1"
-    if _STATE["tried"] and (_STATE["lib"] is not None or _STATE.get("final")):
+    if _STATE["tried"] and _STATE.get("final"):
         return _STATE["lib"]
     if _STATE["tried"] and not wait:
         # a build in the background: its library is loaded once it is there (checked every few seconds)

@@ -52,10 +52,14 @@ HOT static void s_mul(const double *a, const double *b, double *out, i64 M, i64 
             }
             for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
         }
-        for (; i < S; i++) {
-            double acc = 0.0;
-            for (i64 j = 0; j <= k; j++) acc += a[j * S + i] * b[(k - j) * S + i];
-            out[k * S + i] = acc;
+        if (i < S) { /* the last nodes: independent sums side by side (each node's in the same order) */
+            i64 rem = S - i;
+            double acc[BLOCK] = {0.0};
+            for (i64 j = 0; j <= k; j++) {
+                const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
+                for (i64 q = 0; q < rem; q++) acc[q] += aj[q] * bk[q];
+            }
+            for (i64 q = 0; q < rem; q++) out[k * S + i + q] = acc[q];
         }
     }
 }
@@ -82,10 +86,15 @@ HOT static void s_mul2(const double *a, const double *b, const double *c, const 
             }
             for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
         }
-        for (; i < S; i++) {
-            double acc = 0.0;
-            for (i64 j = 0; j <= k; j++) acc += a[j * S + i] * b[(k - j) * S + i] + c[j * S + i] * d[(k - j) * S + i];
-            out[k * S + i] = acc;
+        if (i < S) {
+            i64 rem = S - i;
+            double acc[BLOCK] = {0.0};
+            for (i64 j = 0; j <= k; j++) {
+                const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
+                const double *cj = c + j * S + i, *dk = d + (k - j) * S + i;
+                for (i64 q = 0; q < rem; q++) acc[q] += aj[q] * bk[q] + cj[q] * dk[q];
+            }
+            for (i64 q = 0; q < rem; q++) out[k * S + i + q] = acc[q];
         }
     }
 }
@@ -546,8 +555,9 @@ int gf_evaluate_tangent(PROG_ARGS, const double *x, i64 Mx, i64 M, double *res, 
 
 /* ------------------------------------------------------------------ linear series systems */
 
-/* inverse of the n x n matrices J0 (S of them: J[(a * n + b) * M * S + i], coefficient 0) into inv (S, n, n),
- * Gauss-Jordan with partial pivoting; 2 when a pivot is exactly zero (numpy.linalg.inv raises there) */
+/* inverse of the n x n matrices J0 (S of them: J[(a * n + b) * M * S + i], coefficient 0) into inv (n, n, S):
+ * inv[(r * n + c) * S + i], Gauss-Jordan with partial pivoting; 2 when a pivot is exactly zero
+ * (numpy.linalg.inv raises there) */
 static int invert_constant(const double *J, i64 n, i64 M, i64 S, double *inv, double *aug) {
     i64 MS = M * S;
     for (i64 i = 0; i < S; i++) {
@@ -581,34 +591,42 @@ static int invert_constant(const double *J, i64 n, i64 M, i64 S, double *inv, do
             }
         }
         for (i64 r = 0; r < n; r++)
-            for (i64 c = 0; c < n; c++) inv[(i * n + r) * n + c] = aug[r * 2 * n + n + c];
+            for (i64 c = 0; c < n; c++) inv[(r * n + c) * S + i] = aug[r * 2 * n + n + c];
     }
     return 0;
 }
 
-/* D = J^-1 G order by order: D_m = J0^-1 (G_m - sum_{l=1..m} J_l D_{m-l}); J (n, n, M, S), G, D (n, M, S) */
-static void series_solve(const double *J, const double *inv, const double *G, double *D, i64 n, i64 M, i64 S,
-                         double *r) {
+/* D = J^-1 G order by order: D_m = J0^-1 (G_m - sum_{l=1..m} J_l D_{m-l}); J (n, n, M, S), G, D (n, M, S),
+ * inv (n, n, S); r: n S doubles.  Each node's sums in the order of a node-by-node loop (l, then b,
+ * ascending), vectorized over the nodes. */
+HOT static void series_solve(const double *J, const double *inv, const double *G, double *D, i64 n, i64 M, i64 S,
+                             double *r) {
     i64 MS = M * S;
-    for (i64 i = 0; i < S; i++)
-        for (i64 m = 0; m < M; m++) {
-            for (i64 a = 0; a < n; a++) {
-                double acc = G[a * MS + m * S + i];
-                for (i64 l = 1; l <= m; l++)
-                    for (i64 b = 0; b < n; b++) acc -= J[(a * n + b) * MS + l * S + i] * D[b * MS + (m - l) * S + i];
-                r[a] = acc;
-            }
-            for (i64 a = 0; a < n; a++) {
-                double acc = 0.0;
-                for (i64 b = 0; b < n; b++) acc += inv[(i * n + a) * n + b] * r[b];
-                D[a * MS + m * S + i] = acc;
+    for (i64 m = 0; m < M; m++) {
+        for (i64 a = 0; a < n; a++) {
+            double *ra = r + a * S;
+            const double *g = G + a * MS + m * S;
+            for (i64 i = 0; i < S; i++) ra[i] = g[i];
+            for (i64 l = 1; l <= m; l++)
+                for (i64 b = 0; b < n; b++) {
+                    const double *Jab = J + (a * n + b) * MS + l * S, *Db = D + b * MS + (m - l) * S;
+                    for (i64 i = 0; i < S; i++) ra[i] -= Jab[i] * Db[i];
+                }
+        }
+        for (i64 a = 0; a < n; a++) {
+            double *Da = D + a * MS + m * S;
+            for (i64 i = 0; i < S; i++) Da[i] = 0.0;
+            for (i64 b = 0; b < n; b++) {
+                const double *ib = inv + (a * n + b) * S, *rb = r + b * S;
+                for (i64 i = 0; i < S; i++) Da[i] += ib[i] * rb[i];
             }
         }
+    }
 }
 
 /* The series solve with the inverse of the constant term computed here: 2 at an exactly singular node. */
 int gf_series_solve(const double *J, const double *G, double *D, i64 n, i64 M, i64 S) {
-    double *inv = malloc((size_t)(S * n * n + 2 * n * n + n) * sizeof(double));
+    double *inv = malloc((size_t)(S * n * n + 2 * n * n + n * S) * sizeof(double));
     if (inv == NULL) return -1;
     int st = invert_constant(J, n, M, S, inv, inv + S * n * n);
     if (st == 0) series_solve(J, inv, G, D, n, M, S, inv + S * n * n + 2 * n * n);
@@ -634,12 +652,12 @@ int gf_warm_newton(PROG_ARGS, double *x, double *Jc, i64 M, i64 has_carried, dou
     Prog P = PROG_INIT;
     i64 MS = M * S, nMS = n * MS;
     i64 wsz = work_size(&P, M, 1);
-    i64 total = wsz + 3 * nMS /* G, before, D */ + S * n * n + 2 * n * n + n /* inverse */ + n * n * S /* J0 */
+    i64 total = wsz + 3 * nMS /* G, before, D */ + S * n * n + 2 * n * n + n * S /* inverse */ + n * n * S /* J0 */
                 + n * S /* x0 */;
     double *buf = malloc((size_t)total * sizeof(double));
     if (buf == NULL) return -1;
     double *work = buf, *G = work + wsz, *before = G + nMS, *D = before + nMS, *inv = D + nMS;
-    double *aug = inv + S * n * n, *r = aug + 2 * n * n, *J0 = r + n, *x0 = J0 + n * n * S;
+    double *aug = inv + S * n * n, *r = aug + 2 * n * n, *J0 = r + n * S, *x0 = J0 + n * n * S;
     int status = 1, have_inv = 0;
     int has_J = 0, proof = has_carried != 0;
     double bound = 1.0;
@@ -741,7 +759,7 @@ done:
 int gf_doubling(PROG_ARGS, double *x, i64 Mx, const i64 *orders, i64 norders, double *Jc) {
     Prog P = PROG_INIT;
     i64 wsz = work_size(&P, Mx, 1), nMS = n * Mx * S;
-    i64 total = wsz + 2 * nMS + S * n * n + 2 * n * n + n;
+    i64 total = wsz + 2 * nMS + S * n * n + 2 * n * n + n * S;
     double *buf = malloc((size_t)total * sizeof(double));
     if (buf == NULL) return -1;
     double *work = buf, *G = work + wsz, *D = G + nMS, *inv = D + nMS, *aug = inv + S * n * n, *r = aug + 2 * n * n;
@@ -765,13 +783,23 @@ int gf_doubling(PROG_ARGS, double *x, i64 Mx, const i64 *orders, i64 norders, do
  * o = c_(d1-1); o = o * s + c_p for p = d1 - 2 .. 0 (the operations of planners.plan._horner, without
  * contraction into fused multiply-adds: the same values). */
 int gf_horner(const double *c, i64 v, i64 d1, const i64 *idx, const double *s, i64 N, double *out) {
-    for (i64 q = 0; q < v; q++)
-        for (i64 t = 0; t < N; t++) {
-            const double *cp = c + (idx[t] * v + q) * d1;
-            double o = cp[d1 - 1], st = s[t];
-            for (i64 p = d1 - 2; p >= 0; p--) o = o * st + cp[p];
-            out[q * N + t] = o;
+    /* by runs of times in one interval (the usual sorted grid): the run's coefficients are scalars, the
+     * times a vector; each value's operations are those of one time at a time */
+    i64 t0 = 0;
+    while (t0 < N) {
+        i64 t1 = t0 + 1;
+        while (t1 < N && idx[t1] == idx[t0]) t1++;
+        for (i64 q = 0; q < v; q++) {
+            const double *cp = c + (idx[t0] * v + q) * d1;
+            double *o = out + q * N;
+            for (i64 t = t0; t < t1; t++) o[t] = cp[d1 - 1];
+            for (i64 p = d1 - 2; p >= 0; p--) {
+                double cq = cp[p];
+                for (i64 t = t0; t < t1; t++) o[t] = o[t] * s[t] + cq;
+            }
         }
+        t0 = t1;
+    }
     return 0;
 }
 

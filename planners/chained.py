@@ -838,10 +838,12 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
     j0, j1 = len(iterates), len(orders)
     if j0 >= j1 or not cached or program_backend() != "native":
         return
+    nodes = len(t_nodes)
     state = cached.get("native_stages")
+    if state is None and cached.get("programs") is not None:  # iterate 1: the buffers sized at its orders
+        state = _native_state(system, cached, cached["programs"], orders[j0], nodes, _first_neglecting_stage(system))
     if not state:
         return
-    nodes = len(t_nodes)
     slots, slot_h = [], []
     for h, st in state.items():
         for name in st.stage.unknowns:
@@ -892,18 +894,33 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
         a = np.ascontiguousarray(np.swapaxes(jac, 2, 3), dtype=float)
         keep.append(a)
         jac_ptrs[j0 - 1, i] = a.ctypes.data
+    # the outputs of iterates j0 .. j1 - 1 in three blocks (one allocation each), addressed by offsets
+    states = list(state.values())
+    sizes = [(orders[j] - slot_h[i] + 1) * nodes for j in range(j0, j1) for i in range(ns)]
+    nn = [len(states[i].stage.unknowns) ** 2 for i in newton_stages]
+    jsizes = [q * (orders[j] - states[i].h + 1) * nodes for j in range(j0, j1) for i, q in zip(newton_stages, nn)]
+    slot_buf, jac_buf = np.empty(sum(sizes)), np.empty(sum(jsizes))
+    cres_buf = np.empty((j1 - j0, len(newton_stages), nodes))
+    off = np.concatenate(([0], np.cumsum(sizes)[:-1])).astype(np.int64)
+    slot_ptrs[j0:] = (slot_buf.ctypes.data + 8 * off).reshape(j1 - j0, ns)
+    joff = np.concatenate(([0], np.cumsum(jsizes)[:-1])).astype(np.int64)
+    jac_ptrs[j0:, newton_stages] = (jac_buf.ctypes.data + 8 * joff).reshape(j1 - j0, len(newton_stages))
+    cres_ptrs[j0:, newton_stages] = cres_buf.ctypes.data + 8 * nodes * np.arange(
+        (j1 - j0) * len(newton_stages), dtype=np.int64
+    ).reshape(j1 - j0, len(newton_stages))
     out_slots, out_jac, out_cres = {}, {}, {}
+    q = 0
     for j in range(j0, j1):
         for i in range(ns):
-            a = out_slots[j, i] = np.empty((orders[j] - slot_h[i] + 1, nodes))
-            slot_ptrs[j, i] = a.ctypes.data
-        for i in newton_stages:
-            st = list(state.values())[i]
-            n = len(st.stage.unknowns)
-            a = out_jac[j, i] = np.empty((n, n, orders[j] - st.h + 1, nodes))
-            jac_ptrs[j, i] = a.ctypes.data
-            c = out_cres[j, i] = np.empty(nodes)
-            cres_ptrs[j, i] = c.ctypes.data
+            out_slots[j, i] = slot_buf[off[q] : off[q] + sizes[q]].reshape(-1, nodes)
+            q += 1
+    q = 0
+    for j in range(j0, j1):
+        for c, i in enumerate(newton_stages):
+            n = len(states[i].stage.unknowns)
+            out_jac[j, i] = jac_buf[joff[q] : joff[q] + jsizes[q]].reshape(n, n, -1, nodes)
+            out_cres[j, i] = cres_buf[j - j0, c]
+            q += 1
     steps = np.zeros((j1, nst), dtype=np.int64)
     seconds = np.zeros(j1)
     weights = cached.get("native_weights")
@@ -1130,7 +1147,7 @@ def generalized_parametrization(
     tol = system.newton_tol if newton_tol is None else newton_tol
     j = 0
     while j <= J:
-        if j >= 2 and guesses is None:  # the remaining iterates in one native call (when the plan is native)
+        if j >= 1 and guesses is None:  # the remaining iterates in one native call (when the plan is native)
             _native_run(system, t_nodes, iterates, orders, tol, timings)
             if len(iterates) > j:
                 for jj in range(j, len(iterates)):

@@ -421,9 +421,10 @@ class Plan:
             )
         return t_arr
 
-    def _evaluate_many(self, names: tuple, t, j: int = -1, derivative: int = 0) -> np.ndarray:
-        """(len(names), N) values at times ``t`` by the plan's formula between nodes."""
-        c = self._coefficients(tuple(names), j)
+    def _evaluate_many(self, names: tuple, t, j: int = -1, derivative: int = 0, c=None) -> np.ndarray:
+        """(len(names), N) values at times ``t`` by the plan's formula between nodes (``c``: their coefficients,
+        when the caller has them)."""
+        c = self._coefficients(tuple(names), j) if c is None else c
         t_arr = self._check_times(t)
         tn = self.t_nodes
         i = np.clip(np.searchsorted(tn, t_arr, side="right") - 1, 0, len(tn) - 2)
@@ -635,14 +636,22 @@ class Plan:
         t = np.linspace(self.t0, self.t1, n + 1)
         names = limit_columns(aircraft or self.aircraft)
         states = [v for v in names if v not in CONTROL_NAMES]
+        used = [c for c in CONTROL_NAMES if c in names]
+        cu = self._coefficients(CONTROL_NAMES, j)
+        if np.all(np.isfinite(cu)):  # what control_function then returns
+            # the piecewise polynomial's values are those of the plan's evaluation with the same coefficients;
+            # states and controls in one pass (each variable's own polynomial, zero-padded: the same values)
+            cu = cu[:, [CONTROL_NAMES.index(c) for c in used]]
+            cs = self._coefficients(tuple(states), j) if states else cu[:, :0]
+            c = np.zeros((cu.shape[0], cs.shape[1] + cu.shape[1], max(cs.shape[2], cu.shape[2])))
+            c[:, : cs.shape[1], : cs.shape[2]] = cs
+            c[:, cs.shape[1] :, : cu.shape[2]] = cu
+            return t, states + used, self._evaluate_many(tuple(states + used), t, j, c=c)
         f = self.control_function(j)
-        # the piecewise polynomial's values are those of the plan's evaluation with the same coefficients
-        U = self._evaluate_many(CONTROL_NAMES, t, j) if isinstance(f, PiecewisePolynomial) else None
-        if U is None:
-            U = np.array([f(x) for x in t]).T
-        used = [i for i, c in enumerate(CONTROL_NAMES) if c in names]
-        vals = np.concatenate([self._evaluate_many(tuple(states), t, j), U[used]]) if states else U[used]
-        return t, states + [CONTROL_NAMES[i] for i in used], vals
+        U = np.array([f(x) for x in t]).T
+        U = U[[CONTROL_NAMES.index(c) for c in used]]
+        vals = np.concatenate([self._evaluate_many(tuple(states), t, j), U]) if states else U
+        return t, states + used, vals
 
     def limit_violations(self, j: int = -1, aircraft: Aircraft | None = None) -> list:
         """Where iterate ``j`` leaves the aircraft's limits (:func:`gna.limits.limit_violations`).

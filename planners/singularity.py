@@ -84,6 +84,18 @@ class SingularityReport:
         return state
 
 
+class _Constants(dict):
+    """The real constant terms of a solution's series, each read on first use."""
+
+    def __init__(self, series) -> None:
+        super().__init__()
+        self._series = series
+
+    def __missing__(self, key):
+        v = self[key] = np.real(self._series[key]._c[0])
+        return v
+
+
 def _near_zero_times(t, v, name, what) -> list[str]:
     out = []
     scale = np.max(np.abs(v))
@@ -152,8 +164,8 @@ def monitor(plan, j: int = 0) -> SingularityReport:
     prob = plan.problem
     ac, env = prob.aircraft, prob.env
     sol = plan.iterates[j]
-    s = {k: np.real(v.coeffs[..., 0]) for k, v in sol.series.items()}
-    d1 = {k: np.real(sol.series[k].coeffs[..., 1]) for k in ("V", "gamma", "chi")}
+    s = _Constants(sol.series)  # the constant terms read (those of coeffs[..., 0]) when asked
+    d1 = {k: np.real(sol.series[k]._c[1]) for k in ("V", "gamma", "chi")}
     if j == 0:
         h = prob.h
     else:

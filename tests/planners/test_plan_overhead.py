@@ -88,3 +88,47 @@ def test_linear_combinations_broadcast_batches_and_constants():
         assert np.allclose(out[i].coeffs, ref.coeffs, rtol=1e-14, atol=1e-14)
     with pytest.raises(TypeError):
         Series.linear_combinations(w, [1.0, 2.0, 3.0, 4.0])
+
+
+@pytest.mark.parametrize("which", ["weave", "twin-otter-single-engine"])
+def test_limits_are_built_once_per_aircraft_and_checked_as_on_arrays(weave_plan, which):
+    """aircraft_limits is kept per aircraft object; limit_violations with constant bounds compared as numbers
+    and the engines' rating computed once gives the records of the bounds as arrays (Limit.bounds), on a
+    frame leaving several limits (the Twin Otter: two engines with a power rating)."""
+    from dataclasses import replace
+
+    from gna.limits import TrajectoryColumns, aircraft_limits, limit_violations
+
+    if which == "weave":
+        _, plan = weave_plan
+    else:
+        from planners.generalized import plan_scenario
+        from planners.scenario import load_scenario
+
+        plan = plan_scenario(load_scenario(which), J=1)
+    ac = plan.aircraft
+    assert aircraft_limits(ac) is aircraft_limits(ac)
+    other = replace(ac)
+    assert aircraft_limits(other) is not aircraft_limits(ac) and aircraft_limits(other) == aircraft_limits(ac)
+    t, cols, vals = plan._limit_arrays(-1, None)
+    vals = vals.copy()
+    vals[:, ::7] *= 3.0  # well outside: alpha, beta and the surfaces on both sides
+    vals[:, 5::11] *= -3.0
+    frame = TrajectoryColumns(t, cols, vals)
+    got = limit_violations(ac, frame, plan.env)
+    assert got
+    dt = np.diff(t, append=t[-1])
+    ref = []
+    for lim in aircraft_limits(ac):
+        if not set(lim.columns) <= set(cols):
+            continue
+        v = lim.value_of(frame, plan.env)
+        lo, hi = lim.bounds(frame)
+        for side, excess, bound in (("lower", lo - v, lo), ("upper", v - hi, hi)):
+            over = excess > 0
+            if over.any():
+                i = int(np.argmax(np.where(over, excess, -np.inf)))
+                ref.append((lim.name, side, float(bound[i]), float(v[i]), float(t[i]), float(np.sum(dt[over]))))
+    assert [(g.name, g.side, g.limit, g.worst, g.time) for g in got] == [r[:5] for r in ref]
+    span = float(t[-1] - t[0])
+    assert [g.fraction for g in got] == [r[5] / span for r in ref]
