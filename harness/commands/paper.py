@@ -39,6 +39,7 @@ from ..parallel import ForkPool, default_jobs, run_all
 from ..progress import stage
 from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
+from ..validation.validity import ValidityWarnings, check_plan, check_run
 from ..validation.verdicts import verdict_lines
 from ._args import iterations, worker_count
 from ._compare_args import add_compare_arguments, check_steps, compare_overrides
@@ -136,9 +137,9 @@ class _Scenario:
     the same flight (:func:`harness.validation.flights.reusable_open_loop`).
     """
 
-    def __init__(self, case, loops: tuple, root, shown, csv: bool, progress=None):
+    def __init__(self, case, loops: tuple, root, shown, csv: bool, progress=None, validity=None):
         self.case, self.loops, self.root, self.shown, self.csv = case, loops, root, shown, csv
-        self.progress = progress
+        self.progress, self.validity = progress, validity or ValidityWarnings()
         self.name = case.scenario
         self.lines = [f"=== {case.scenario}"]
         self.flights, self.runs, self.results, self.files = {}, {}, {}, {}
@@ -153,6 +154,8 @@ class _Scenario:
         with stage(self.progress, f"planning {self.case.scenario}"):
             planned = plan_case(self.case)
         self.name = planned.scenario.name
+        self.aircraft = planned.plan.aircraft
+        check_plan(self.validity, planned.plan)  # the validity box said aloud, once per quantity in the run
         for loop in self.loops:  # each case's flights submitted as soon as it is set up
             self.flights[loop] = case_flights(
                 replace(self.case, loop=loop), plan=planned.plan, scenario=planned.scenario
@@ -184,6 +187,7 @@ class _Scenario:
             self.files[loop] = out
             return
         self.runs[loop][key[3]] = out
+        check_run(self.validity, self.aircraft, out, f"{key[3]} flight of {self.name}, {loop} loop")
         runs = self.runs.get("closed")
         ref = self.case.engines[0]
         if runs is not None and "open" in self.loops and OPEN_LOOP not in runs and ref in self.runs["open"]:
@@ -239,7 +243,8 @@ def run(args) -> int:
     with out, ForkPool(args.jobs or default_jobs(), progress=progress) as pool:
         with stage(progress, "preparing the figures"):
             prepare_figures()  # one figure and its axes made here, inherited by every forked writer
-        scenarios = [_Scenario(case, loops, out.root, out.out, args.csv, progress) for case in cases]
+        validity = ValidityWarnings()
+        scenarios = [_Scenario(case, loops, out.root, out.out, args.csv, progress, validity) for case in cases]
         by_name = {}
         for sc in scenarios:
             sc.plan(pool)
