@@ -19,6 +19,10 @@ Ctrl-C (a run's staging folder removed; an ignored SIGHUP, under ``nohup``, stay
 these signals counts, a second one waits for its cleanup.  An option error (argparse's) is one line too, ``gflat <cmd>: error: <message> (see gflat <cmd>
 --help)``, exit status 2.  ``-v``/``-q`` set the level of the ``logging``
 messages (and of Python warnings, routed through ``logging``), on stderr.
+
+The long commands (:data:`PROGRESS_COMMANDS`) show their stages on stderr (:mod:`harness.progress`): the
+:class:`~harness.progress.Progress` is made and its first line shown as soon as the words are read, before the
+command's modules load, and handed to the command as ``args.progress``; ``-q`` silences it.
 """
 
 from __future__ import annotations

@@ -298,11 +298,12 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None, open_loop=None, 
     DomainError
         The plan is not feasible (Newton failed, or it leaves the physical domain): there is nothing to fly.
     """
-    with stage(progress, f"planning {case.scenario}" if plan is None else f"setting {case.scenario} up"):
+    what = getattr(case, "scenario", case)  # not a case: refused by case_flights
+    with stage(progress, f"planning {what}" if plan is None else f"setting {what} up"):
         flights = case_flights(case, plan=plan, scenario=scenario, open_loop=open_loop)
     runs = {}
     for name, fly_it in flights.flights.items():
-        with stage(progress, f"flying {case.scenario} ({case.loop} loop, {name})"):
+        with stage(progress, f"flying {what} ({case.loop} loop, {name})"):
             runs[name] = fly_it()
-    with stage(progress, f"comparing the engines of {case.scenario}"):
+    with stage(progress, f"comparing the engines of {what}"):
         return finish_case(flights, runs)
