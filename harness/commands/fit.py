@@ -344,11 +344,12 @@ def run(args) -> int:
     _check_reference(args)  # the reference condition and the output checked before the source is read
     ident = args.ident or _default_ident(args)
     out = output_file(args, Path(f"{ident}.toml"), "aircraft file")
-    from gna.fit.document import envelope_section, fitted_aircraft, fitted_document, render
-    from gna.fit.pipeline import fit_source, gna45_structure, structure_from_file
-    from gna.fit.quality import ReferenceCondition, trim_comparison
-
     progress = getattr(args, "progress", None)
+    with stage(progress, "loading the fitting modules"):
+        from gna.fit.document import envelope_section, fitted_aircraft, fitted_document, render
+        from gna.fit.pipeline import fit_source, gna45_structure, structure_from_file
+        from gna.fit.quality import ReferenceCondition, trim_comparison
+
     if args.source == "jsbsim":
         from gna.fit.sources.jsbsim_aero import JSBSimAeroSource, vehicle_sections
 
