@@ -298,9 +298,10 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None, open_loop=None, 
     DomainError
         The plan is not feasible (Newton failed, or it leaves the physical domain): there is nothing to fly.
     """
-    what = getattr(case, "scenario", case)  # not a case: refused by case_flights
+    what = getattr(scenario, "name", None) or getattr(case, "scenario", case)  # not a case: refused below
     with stage(progress, f"planning {what}" if plan is None else f"setting {what} up"):
         flights = case_flights(case, plan=plan, scenario=scenario, open_loop=open_loop)
+    what = flights.scenario.name
     runs = {}
     for name, fly_it in flights.flights.items():
         with stage(progress, f"flying {what} ({case.loop} loop, {name})"):

@@ -4,6 +4,7 @@ box); an aircraft file without ``[envelope]`` warns once that its validity is un
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import re
@@ -108,3 +109,15 @@ def test_a_flight_outside_the_box_warns_once_for_the_case(fast_case):
     (line,) = check_run(ValidityWarnings(), result.plan.aircraft, result.runs["jsbsim"], "jsbsim flight of fast")
     mach = float(re.search(r"Mach (\d\.\d+) at t", line)[1])
     assert math.isclose(mach, 0.88, abs_tol=0.01) and "(jsbsim flight of fast)" in line
+
+
+def test_compare_json_on_stdout_progress_and_one_warning_on_stderr(fast_case, tmp_path, monkeypatch, capsys):
+    path, _ = fast_case
+    monkeypatch.setenv("GFLAT_PROGRESS", "plain")
+    main(["compare", str(path), "--json", "--out", str(tmp_path / "cmp")])
+    out = capsys.readouterr()
+    assert json.loads(out.out)["runs"]  # stdout: the one JSON object, no progress line
+    stages = [line.split(": ", 1)[1] for line in out.err.splitlines() if line.startswith("[")]
+    assert stages[0] == "started" and any(s.startswith("flying f16c-fast (open loop, jsbsim) done in") for s in stages)
+    (line,) = _warned(out.err)  # the plan and both flights leave the box: said once
+    assert "(plan of f16c-fast, j = 2)" in line
