@@ -201,7 +201,6 @@ class Progress:
 
     def _start_live(self) -> None:
         from rich.console import Console
-        from rich.live import Live  # noqa: F401  (rich.progress below builds on it)
         from rich.progress import Progress as RichProgress
         from rich.progress import SpinnerColumn, TextColumn, TimeElapsedColumn
 
