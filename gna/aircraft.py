@@ -281,7 +281,8 @@ class Envelope:
 
     ``mach_min``/``mach_max`` bound the Mach number of the data the aerodynamics were fitted or published
     on, ``nz_min``/``nz_max`` the structural load factor; None leaves that side unchecked.  The checks of
-    all the limits are :mod:`gna.limits`.
+    all the limits are :mod:`gna.limits`.  ``declared`` is False when the aircraft file has no ``[envelope]``
+    table (the defaults assumed: :class:`gna.limits.ValidityWarnings` says its validity is unknown).
     """
 
     alpha_min: float = math.radians(-10.0)
@@ -293,6 +294,7 @@ class Envelope:
     mach_max: float | None = None
     nz_min: float | None = None
     nz_max: float | None = None
+    declared: bool = True
 
     def __post_init__(self):
         if not self.alpha_min < self.alpha_max:
@@ -478,6 +480,7 @@ def aircraft_from_dict(data: Mapping[str, Any], where: str = "aircraft file", pa
             control_limits=limits,
             source=str(v.get("source", "")),
             **{k: _plain(v, k, where + " [envelope]") for k in ("mach_min", "mach_max", "nz_min", "nz_max")},
+            declared="envelope" in data,
         )
     a = data["aero"]
     aero = TermTable.from_records(

@@ -20,14 +20,22 @@ value, its time and the share of the span (:class:`Violation`).  The limits:
 
 A bounded planner and the tracking feedback's saturation read the same
 records (:func:`control_ranges` gives the constant control ranges).
+
+The validity box of the aerodynamic data (:func:`validity_limits`: alpha, beta and Mach) is also said
+aloud: :class:`ValidityWarnings` warns once per command, aircraft and quantity when a trim, a plan or a
+flight leaves it (the worst value, its time, the box), and once that an aircraft's validity is unknown
+when its file has no ``[envelope]`` table.  A file without a Mach range is taken, for these warnings
+only, as valid up to :data:`SUBSONIC_MACH` (the GNA models are subsonic); the flyability verdict checks
+only the bounds the file gives.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 import weakref
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -555,6 +563,11 @@ def limit_violations(aircraft, frame, env=None) -> list[Violation]:
         In the order of :func:`aircraft_limits`; empty inside every limit.  The fraction of the span is
         the rectangle rule on the rows (each row counts until the next).
     """
+    return _violations(aircraft_limits(aircraft), frame, env)
+
+
+def _violations(limits, frame, env) -> list[Violation]:
+    """:func:`limit_violations` of the given limits."""
     if not isinstance(frame, TrajectoryColumns):  # the columns read once (a DataFrame's lookups cost more)
         frame = TrajectoryColumns.from_frame(frame)
     t = frame.index.to_numpy(dtype=float)
@@ -565,7 +578,7 @@ def limit_violations(aircraft, frame, env=None) -> list[Violation]:
     span = max(float(t[-1] - t[0]), 1e-300)
     out = []
     have = set(frame.columns)
-    for lim in aircraft_limits(aircraft):
+    for lim in limits:
         if lim.name == "nz":
             if "nz" not in have and (env is None or not set(lim.columns) <= have):
                 continue
@@ -608,3 +621,189 @@ def limit_violations(aircraft, frame, env=None) -> list[Violation]:
                 )
             )
     return out
+
+
+#: The Mach number an aircraft file without a Mach range (``[envelope] mach_min, mach_max``) is taken as valid
+#: up to, for :class:`ValidityWarnings` only: the GNA models are subsonic (the paper, after Grauer and Morelli
+#: 2014), and the subsonic regime ends near Mach 0.8, where transonic flow begins.
+SUBSONIC_MACH = 0.8
+
+#: The quantities of the validity box of the aerodynamic data.
+VALIDITY_NAMES: tuple[str, ...] = ("alpha", "beta", "mach")
+
+#: The trajectory columns :func:`validity_excursions` reads.
+VALIDITY_COLUMNS: tuple[str, ...] = ("z", "V", "alpha", "beta")
+
+
+def validity_limits(aircraft) -> tuple[Limit, ...]:
+    """The validity box of the aircraft's aerodynamic data: alpha, beta and Mach.
+
+    Parameters
+    ----------
+    aircraft : gna.aircraft.Aircraft
+
+    Returns
+    -------
+    tuple of Limit
+        ``alpha`` and ``beta`` as :func:`aircraft_limits`; ``mach`` the file's range, else ``0 ..``
+        :data:`SUBSONIC_MACH` (its ``source`` says it is assumed).
+    """
+    env = aircraft.envelope
+    out = [lim for lim in aircraft_limits(aircraft) if lim.name in VALIDITY_NAMES]
+    if not any(lim.name == "mach" for lim in out):
+        out.append(
+            Limit(
+                "mach",
+                "state",
+                "-",
+                0.0,
+                SUBSONIC_MACH,
+                "subsonic assumed: the aircraft file gives no [envelope] mach_min, mach_max",
+                _mach,
+                columns=("V", "z"),
+            )
+        )
+    if not getattr(env, "declared", True):
+        out = [lim if lim.name == "mach" else replace(lim, source="gflat's default, assumed") for lim in out]
+    return tuple(out)
+
+
+def validity_excursions(aircraft, frame, env=None) -> list[Violation]:
+    """Where a trajectory leaves the validity box of the aircraft's aerodynamic data (:func:`validity_limits`).
+
+    Parameters
+    ----------
+    aircraft : gna.aircraft.Aircraft
+    frame : pandas.DataFrame or TrajectoryColumns
+        Indexed by time [s], with the columns :data:`VALIDITY_COLUMNS` (``Mach`` read when there).
+    env : gna.atmosphere.Environment, optional
+        Unused (the speed of sound is ISA's); accepted as :func:`limit_violations`.
+
+    Returns
+    -------
+    list of Violation
+        One per quantity and side left.
+    """
+    return _violations(validity_limits(aircraft), frame, env)
+
+
+def _box_text(lim: Limit) -> str:
+    """A validity limit's range for people: ``alpha -5.0 .. 12.0 deg``, ``Mach 0 .. 0.8``."""
+    if lim.name == "beta":
+        return f"|beta| <= {math.degrees(lim.upper):.1f} deg"
+    if lim.unit == "rad":
+        return f"{lim.name} {math.degrees(lim.lower):.1f} .. {math.degrees(lim.upper):.1f} deg"
+    lo = "0" if not lim.lower else f"{lim.lower:g}"
+    hi = "no upper bound" if lim.upper is None else f"{lim.upper:g}"
+    return f"Mach {lo} .. {hi}"
+
+
+class ValidityWarnings:
+    """The validity box said aloud: one warning per aircraft and quantity left, however often it is left.
+
+    A command makes one and checks with it every trim, plan and flight it makes (:meth:`check`,
+    :meth:`check_point`); each warning is one line (logger ``gna.limits``, level WARNING) naming the
+    aircraft, the quantity, the worst value (degrees for angles), its time and what it was (``plan of
+    gtm-forward-slip, j = 6``), and the box's range and source.  An aircraft whose file has no
+    ``[envelope]`` table warns once that the validity of its data is unknown.  Nothing here changes a verdict.
+
+    Parameters
+    ----------
+    logger : logging.Logger, optional
+        Default ``logging.getLogger("gna.limits")``.
+
+    Attributes
+    ----------
+    said : list of str
+        Every warning given, in order.
+    """
+
+    def __init__(self, logger: logging.Logger | None = None) -> None:
+        self._log = logger or logging.getLogger("gna.limits")
+        self._done: set = set()
+        self.said: list[str] = []
+
+    def _say(self, key, text: str) -> str | None:
+        if key in self._done:
+            return None
+        self._done.add(key)
+        self.said.append(text)
+        self._log.warning("%s", text)
+        return text
+
+    def _unknown(self, aircraft) -> list[str]:
+        if getattr(aircraft.envelope, "declared", True):
+            return []
+        box = ", ".join(_box_text(lim) for lim in validity_limits(aircraft))
+        text = self._say(
+            (aircraft.id, "envelope"),
+            f"{aircraft.id}: its aircraft file has no [envelope] table: the validity of its aerodynamic data is "
+            f"unknown (assumed: {box})",
+        )
+        return [text] if text else []
+
+    def check(self, aircraft, frame, what: str, *, timed: bool = True) -> list[str]:
+        """Warn of the quantities of the validity box ``frame`` leaves, each once per aircraft.
+
+        Parameters
+        ----------
+        aircraft : gna.aircraft.Aircraft
+        frame : pandas.DataFrame or TrajectoryColumns
+            A trajectory indexed by time [s] (:func:`validity_excursions`).
+        what : str
+            What the trajectory is, in the line (``"JSBSim flight of gtm-forward-slip, open loop"``).
+        timed : bool
+            Name the worst value's time (False: a single steady point, a trim).
+
+        Returns
+        -------
+        list of str
+            The warnings given now (none for a quantity already warned of).
+        """
+        out = self._unknown(aircraft)
+        worst: dict[str, Violation] = {}
+        for v in validity_excursions(aircraft, frame):
+            if not math.isfinite(v.worst):
+                continue
+            if v.name not in worst or abs(v.worst - v.limit) > abs(worst[v.name].worst - worst[v.name].limit):
+                worst[v.name] = v
+        limits = {lim.name: lim for lim in validity_limits(aircraft)}
+        for name, v in worst.items():
+            if (aircraft.id, name) in self._done:
+                continue
+            lim = limits[name]
+            value = f"{math.degrees(v.worst):.2f} deg" if v.unit == "rad" else f"{v.worst:.3g}"
+            shown = "Mach" if name == "mach" else name
+            when = f" at t = {v.time:.4g} s" if timed else ""
+            text = self._say(
+                (aircraft.id, name),
+                f"{aircraft.id}: {shown} {value}{when} ({what}) outside the validity box of its aerodynamic data: "
+                f"{_box_text(lim)} ({lim.source})",
+            )
+            if text:
+                out.append(text)
+        return out
+
+    def check_point(self, aircraft, *, V: float, altitude: float, alpha: float, beta: float, what: str) -> list[str]:
+        """:meth:`check` of one steady point (a trim): airspeed, altitude and the wind angles.
+
+        Parameters
+        ----------
+        aircraft : gna.aircraft.Aircraft
+        V : float
+            Airspeed [m/s].
+        altitude : float
+            [m] (ISA's speed of sound there).
+        alpha, beta : float
+            [rad].
+        what : str
+            What the point is (``"trim"``).
+
+        Returns
+        -------
+        list of str
+        """
+        frame = TrajectoryColumns(
+            np.zeros(1), VALIDITY_COLUMNS, np.array([[-altitude], [V], [alpha], [beta]], dtype=float)
+        )
+        return self.check(aircraft, frame, what, timed=False)

@@ -22,6 +22,10 @@ Ctrl-C (a run's staging folder removed; an ignored SIGHUP, under ``nohup``, stay
 these signals counts, a second one waits for its cleanup.  An option error (argparse's) is one line too, ``gflat <cmd>: error: <message> (see gflat <cmd>
 --help)``, exit status 2.  ``-v``/``-q`` set the level of the ``logging``
 messages (and of Python warnings, routed through ``logging``), on stderr.
+
+The long commands (:data:`PROGRESS_COMMANDS`) show their stages on stderr (:mod:`harness.progress`): the
+:class:`~harness.progress.Progress` is made and its first line shown as soon as the words are read, before the
+command's modules load, and handed to the command as ``args.progress``; ``-q`` silences it.
 """
 
 from __future__ import annotations
@@ -38,6 +42,8 @@ import time
 from collections.abc import Sequence
 
 from gna.errors import GflatError, describe
+
+from .progress import Progress
 
 #: Exit statuses of ``gflat``, documented in ``gflat --help`` and the README.
 EXIT_CODES: dict[int, str] = {
@@ -176,6 +182,43 @@ def command_word(argv: Sequence[str]) -> str | None:
         if not word.startswith("-"):
             return word
     return None
+
+
+#: The long commands, whose stages are shown as they run (:mod:`harness.progress`): command -> the sub-commands
+#: that are (None: the command itself).
+PROGRESS_COMMANDS: dict[str, tuple[str, ...] | None] = {
+    "paper": None,
+    "compare": None,
+    "report": None,
+    "fit": ("jsbsim",),
+    "campaign": ("run",),
+}
+
+
+def progress_command(argv: Sequence[str]) -> str | None:
+    """The long command ``argv`` names (``"paper"``, ``"fit jsbsim"``), read before any command module loads.
+
+    Parameters
+    ----------
+    argv : sequence of str
+        The command-line words after ``gflat``.
+
+    Returns
+    -------
+    str or None
+        None for another command, ``--help``, or ``-q``/``--quiet`` (no progress).
+    """
+    words = list(argv)
+    if any(w in ("-h", "--help") or re.fullmatch(r"-q+", w) or w == "--quiet" for w in words):
+        return None
+    name = command_word(words)
+    if name not in PROGRESS_COMMANDS:
+        return None
+    subs = PROGRESS_COMMANDS[name]
+    if subs is None:
+        return name
+    sub = command_word(words[words.index(name) + 1 :])
+    return f"{name} {sub}" if sub in subs else None
 
 
 def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
@@ -338,15 +381,19 @@ def main(argv: list[str] | None = None) -> int:
         The exit status (:data:`EXIT_CODES`).
     """
     words = sys.argv[1:] if argv is None else list(argv)
-    with _signals_raise():
+    name = progress_command(words)
+    # the first progress line at once, before the command's modules (numpy, the planner, matplotlib) load
+    progress = Progress(name or "", mode="auto" if name else "off")
+    with _signals_raise(), progress:
         try:
-            parser = build_parser(words)
+            with progress.stage("loading the command's modules"):
+                parser = build_parser(words)
         except GflatError as exc:  # a setting read at import (e.g. GFLAT_SERIES_BACKEND)
             print(f"gflat: error: {exc}", file=sys.stderr)
             return 2
         except KeyboardInterrupt as exc:  # while the command's modules load
             return _interrupted(exc)
-        return _run(parser, words)
+        return _run(parser, words, progress)
 
 
 def _one_line(text: str) -> str:
@@ -364,15 +411,16 @@ def _interrupted(exc: KeyboardInterrupt) -> int:
     return 130
 
 
-def _run(parser: argparse.ArgumentParser, words: list[str]) -> int:
+def _run(parser: argparse.ArgumentParser, words: list[str], progress: Progress) -> int:
     """Parse ``words`` and run the command they name (:func:`main`'s body, SIGTERM raising meanwhile).
 
     With ``--json`` the command's printed text goes to stderr and its result (or, on an error or an
     interruption, ``{"command", "error", "exit_status"}``) is the one JSON object on stdout
-    (:mod:`harness.commands._json`).
+    (:mod:`harness.commands._json`).  The command reports its stages to ``args.progress``.
     """
     args = parser.parse_args(words)
     args.command_line = ["gflat", *words]  # recorded in manifests
+    args.progress = progress
     json_mode = bool(getattr(args, "json", False))
     args.json_stream = sys.stdout  # the command's JSON result goes here, whatever it prints meanwhile
     name = " ".join(

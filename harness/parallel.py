@@ -18,6 +18,10 @@ every callable in the parent, in the same order of priorities.
 A worker writes its own files directly, into the run's staging folder
 (:class:`harness.rundir.RunDir`: the forked child inherits its path); the
 parent alone commits the run.
+
+Given a :class:`harness.progress.Progress`, the pool shows each callable as a
+stage (its ``what``) while it runs, and the stages a worker reports itself (a
+figure drawn) come back through the worker's result pipe, before its result.
 """
 
 from __future__ import annotations
@@ -185,11 +189,13 @@ class _Terminated(BaseException):
     """Raised in a worker by SIGTERM (the parent ending it): unwinds its ``finally`` blocks (temporary files)."""
 
 
-def _child(conn, fn: Callable[[], Any], tmp: str | None = None) -> None:
+def _child(conn, fn: Callable[[], Any], tmp: str | None = None, progress=None) -> None:
     """Body of a worker: run ``fn``, send ``("ok", value)`` or ``("err", exception, traceback text)``, exit.
 
     ``tmp``: the pool's temporary folder, made the worker's default one (``tempfile.tempdir``: this process
-    only), so that whatever a worker ended at any moment leaves there goes with the pool.
+    only), so that whatever a worker ended at any moment leaves there goes with the pool.  ``progress``: the
+    pool's :class:`harness.progress.Progress` (this process's copy), made to send the stages ``fn`` finishes
+    (``("stage", name, seconds)``) through the pipe, ahead of the result.
 
     Ended by the parent (SIGTERM), the worker says nothing: its standard error
     goes to ``/dev/null`` at once, ``_Terminated`` unwinds ``fn``'s ``finally``
@@ -212,6 +218,8 @@ def _child(conn, fn: Callable[[], Any], tmp: str | None = None) -> None:
         signal.signal(signal.SIGTERM, terminate)
         if tmp is not None:
             tempfile.tempdir = tmp
+        if progress is not None:
+            progress.in_worker(conn.send)
         gc.freeze()  # the inherited objects are not scanned by this process's collections (nor copied by them)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, INTERRUPTS)  # blocked while the parent forked
         w0, c0 = time.perf_counter(), time.process_time()
@@ -254,6 +262,8 @@ class ForkPool:
     jobs : int
         Most children running at once; 1 (or no ``fork`` on the platform)
         runs the callables in the calling process.
+    progress : harness.progress.Progress, optional
+        Shows each callable with a ``what`` as a stage while it runs, and the stages a worker reports.
 
     Attributes
     ----------
@@ -264,7 +274,7 @@ class ForkPool:
         ``cpu_s`` (its process's CPU time) [s].
     """
 
-    def __init__(self, jobs: int):
+    def __init__(self, jobs: int, progress=None):
         if jobs < 1:
             raise InputError(f"jobs must be at least 1, got {jobs}")
         forkable = "fork" in multiprocessing.get_all_start_methods() and hasattr(signal, "pthread_sigmask")
@@ -274,6 +284,7 @@ class ForkPool:
         self._running: dict = {}  # parent end of the pipe -> (process, key, what)
         self._seq = 0
         self._tmp: str | None = None  # the workers' temporary folder, removed by close()
+        self._progress = progress
         self.log: list[dict] = []
 
     def __enter__(self) -> ForkPool:
@@ -317,7 +328,9 @@ class ForkPool:
                 _, _, key, fn, what = heapq.heappop(self._queue)
                 parent_end, child_end = self._ctx.Pipe(duplex=False)
                 try:
-                    proc = self._ctx.Process(target=_child, args=(child_end, fn, self._tmp), daemon=True)
+                    proc = self._ctx.Process(
+                        target=_child, args=(child_end, fn, self._tmp, self._progress), daemon=True
+                    )
                     proc.start()
                 except BaseException:
                     parent_end.close()
@@ -326,7 +339,7 @@ class ForkPool:
                 finally:
                     child_end.close()
                     del child_end
-                self._running[parent_end] = (proc, key, what)
+                self._running[parent_end] = (proc, key, what, self._begin(what))
                 del parent_end, proc
 
     def next_result(self) -> tuple[Any, Any]:
@@ -347,27 +360,42 @@ class ForkPool:
             raise InputError("no task pending")
         if self._ctx is None:
             _, _, key, fn, what = heapq.heappop(self._queue)
+            token = self._begin(what)
             w0, c0 = time.perf_counter(), time.process_time()
-            value = fn()
-            self.log.append({"what": what, "wall_s": time.perf_counter() - w0, "cpu_s": time.process_time() - c0})
+            try:
+                value = fn()
+            except BaseException:
+                self._end(token, None)  # no line for a callable that raised (cancelled)
+                raise
+            wall = time.perf_counter() - w0
+            self._end(token, wall)
+            self.log.append({"what": what, "wall_s": wall, "cpu_s": time.process_time() - c0})
             return key, value
-        ready = wait_connections(list(self._running))
-        # Ctrl-C waits while a finished child is collected and the next started, and the pipe and the Process
-        # dropped here end inside the block (a Connection's __del__ and a Process's finalizer are Python
-        # functions, where a KeyboardInterrupt would be printed and lost)
-        with InterruptsWait():
-            conn = min(ready, key=lambda c: list(self._running).index(c))
-            del ready
-            proc, key, what = self._running.pop(conn)
-            try:  # unpickled in this frame: a traceback rebuilt with the error (tblib) holds no pipe
-                msg = pickle.loads(conn.recv_bytes())
-            except (EOFError, OSError):
-                msg = None
-            conn.close()
-            proc.join()
-            exitcode = proc.exitcode
-            del conn, proc
-            self._start()
+        while True:  # a worker's stage reports first, then its result
+            ready = wait_connections(list(self._running))
+            # Ctrl-C waits while a finished child is collected and the next started, and the pipe and the Process
+            # dropped here end inside the block (a Connection's __del__ and a Process's finalizer are Python
+            # functions, where a KeyboardInterrupt would be printed and lost)
+            with InterruptsWait():
+                conn = min(ready, key=lambda c: list(self._running).index(c))
+                del ready
+                try:  # unpickled in this frame: a traceback rebuilt with the error (tblib) holds no pipe
+                    msg = pickle.loads(conn.recv_bytes())
+                except (EOFError, OSError):
+                    msg = None
+                if msg is not None and msg[0] == "stage":
+                    if self._progress is not None:
+                        self._progress.done(msg[1], msg[2])
+                    del conn, msg
+                    continue
+                proc, key, what, token = self._running.pop(conn)
+                conn.close()
+                proc.join()
+                exitcode = proc.exitcode
+                del conn, proc
+                self._end(token, None if msg is None or msg[0] == "err" else msg[-2])
+                self._start()
+            break
         if msg is None:
             raise GflatError(
                 f"a worker process ended without a result (exit code {exitcode})" + (f" while {what}" if what else "")
@@ -383,12 +411,26 @@ class ForkPool:
                 del exc, msg
         return key, msg[1]
 
+    def _begin(self, what: str):
+        """The progress token of a callable starting (None: no progress, or nothing to call it)."""
+        return self._progress.begin(what) if self._progress is not None and what else None
+
+    def _end(self, token, seconds: float | None) -> None:
+        """A callable's stage ended: finished in ``seconds`` (its worker's wall time), or cancelled (None)."""
+        if token is None:
+            return
+        if seconds is None:
+            self._progress.cancel(token)
+        else:
+            self._progress.end(token, seconds)
+
     def close(self) -> None:
         """End every running child (after an error or an interruption), drop the queue, remove the workers'
         temporary folder."""
         with InterruptsWait():  # a second Ctrl-C waits: no child left, no finalizer interrupted
             self._queue.clear()
-            for conn, (proc, _, _) in list(self._running.items()):
+            for conn, (proc, _, _, token) in list(self._running.items()):
+                self._end(token, None)
                 if proc.is_alive():
                     proc.terminate()
                 proc.join()
@@ -400,7 +442,7 @@ class ForkPool:
                 self._tmp = None
 
 
-def run_all(fns, jobs: int, what: str = "") -> list:
+def run_all(fns, jobs: int, what: str = "", progress=None) -> list:
     """Run zero-argument callables in a :class:`ForkPool` of ``jobs`` workers; their results in order.
 
     Parameters
@@ -410,7 +452,9 @@ def run_all(fns, jobs: int, what: str = "") -> list:
     jobs : int
         Most worker processes at once (1: in this process).
     what : str
-        What they do, for the message of a worker that dies (``"printing part 2 of the PDF"``).
+        What they do, for the message of a worker that dies (``"printing part 2 of the PDF"``) and the progress.
+    progress : harness.progress.Progress, optional
+        Shows each callable (with a ``what``) as a stage while it runs (:class:`ForkPool`).
 
     Returns
     -------
@@ -418,7 +462,7 @@ def run_all(fns, jobs: int, what: str = "") -> list:
         ``[fn() for fn in fns]``.
     """
     results = {}
-    with ForkPool(jobs) as pool:
+    with ForkPool(jobs, progress=progress) as pool:
         for i, fn in enumerate(fns):
             pool.submit(i, fn, what=f"{what} ({i + 1} of {len(fns)})" if what else "")
         while pool.pending:

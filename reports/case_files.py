@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from harness.artefacts import write_artefacts
+from harness.progress import stage
 
 from .figures import write_figures
 from .model import write_case_report
@@ -39,6 +40,7 @@ def write_case(
     plan: bool = True,
     manifest: bool = True,
     command_line: list | None = None,
+    progress=None,
 ) -> dict[str, Path | list[Path]]:
     """Write a case's figures and data (:func:`harness.artefacts.write_artefacts`) to a folder.
 
@@ -56,6 +58,8 @@ def write_case(
         Write ``manifest.json`` in the folder.
     command_line : list of str, optional
         The command recorded in the manifest (default ``sys.argv``).
+    progress : harness.progress.Progress, optional
+        Each figure drawn is a stage (:func:`reports.figures.write_figures`), and the case's files and report.
 
     Returns
     -------
@@ -74,13 +78,24 @@ def write_case(
         title=case_title(result),
         tolerances=tol,
         aircraft=result.plan.aircraft,
+        progress=progress,
     )
+    title = case_title(result)
     if result.closed_loop is not None:
-        figures.append(write_tracking_figure(result, out))
-    files = write_artefacts(
-        result, out, csv=csv, plan=plan, manifest=manifest, figures=[p.name for p in figures], command_line=command_line
-    )
-    report = write_case_report(result, out, figures=[p.name for p in figures])
+        with stage(progress, f"drawing tracking.png of {title}"):
+            figures.append(write_tracking_figure(result, out))
+    with stage(progress, f"writing the trajectories and tables of {title}"):
+        files = write_artefacts(
+            result,
+            out,
+            csv=csv,
+            plan=plan,
+            manifest=manifest,
+            figures=[p.name for p in figures],
+            command_line=command_line,
+        )
+    with stage(progress, f"writing the report model of {title}"):
+        report = write_case_report(result, out, figures=[p.name for p in figures])
     written: dict[str, Path | list[Path]] = {
         "figures": figures,
         "trajectories": files["trajectories"],

@@ -27,6 +27,7 @@ import pandas as pd
 from gna.errors import writing
 from gna.trajectory import UNITS
 from harness.metrics import DEFAULT_VARIABLES, differences, resolve_tolerances
+from harness.progress import stage
 
 #: Resolution of every figure [pixel per inch] and width of the sheet [in]: 1080 pixels, the page's width
 #: on screen, 150 pixels per inch on an A4 page.
@@ -891,6 +892,7 @@ def write_figures(
     title: str = "",
     tolerances=None,
     aircraft=None,
+    progress=None,
 ) -> list[Path]:
     """States and controls of every engine (and the reference), and the differences to the first engine.
 
@@ -909,15 +911,21 @@ def write_figures(
         :func:`harness.metrics.resolve_tolerances`).
     aircraft : gna.aircraft.Aircraft, optional
         Its limits, drawn on the controls (:func:`draw_controls`).
+    progress : harness.progress.Progress, optional
+        Each figure drawn is a stage (``drawing states.png of <title>``).
 
     Returns
     -------
     list of Path
         ``states.png``, ``controls.png`` and (with two runs or more) ``differences.png``.
     """
-    paths = [
-        draw_states(results, out_dir, reference=reference, title=title),
-        draw_controls(results, out_dir, reference=reference, aircraft=aircraft, title=title),
-    ]
-    diff = draw_differences(results, out_dir, tolerances=tolerances, title=title)
+    of = f" of {title}" if title else ""
+    with stage(progress, f"drawing states.png{of}"):
+        paths = [draw_states(results, out_dir, reference=reference, title=title)]
+    with stage(progress, f"drawing controls.png{of}"):
+        paths.append(draw_controls(results, out_dir, reference=reference, aircraft=aircraft, title=title))
+    if len(results) < 2:
+        return paths
+    with stage(progress, f"drawing differences.png{of}"):
+        diff = draw_differences(results, out_dir, tolerances=tolerances, title=title)
     return paths + ([diff] if diff is not None else [])

@@ -19,6 +19,7 @@ import math
 from pathlib import Path
 
 from gna.errors import InputError
+from harness.progress import stage
 from harness.recorded import confined, file_problem, href
 
 from .model import REPORT_JSON, load_case_models, read_json_object, write_text
@@ -695,6 +696,7 @@ def render_run(
     jobs: int = 1,
     run_all=None,
     manifest: dict | None = None,
+    progress=None,
 ) -> dict[str, Path]:
     """Render a run folder's reports: ``index.html``, a page per case, optionally the single file and the PDF.
 
@@ -717,6 +719,8 @@ def render_run(
     manifest : dict, optional
         The run's manifest the pages show (:func:`render_documents`; a command renders before its commit writes
         ``manifest.json``).
+    progress : harness.progress.Progress, optional
+        The HTML pages and the PDF are stages (the PDF's parts too, when ``run_all`` shows them).
 
     Returns
     -------
@@ -730,15 +734,17 @@ def render_run(
     """
     root = Path(run_dir)
     date = date or render_date()
-    docs = render_documents(root, date=date, embed=self_contained, manifest=manifest)
-    for path, text in docs.items():
-        write_text(path, text)
+    with stage(progress, "writing the HTML pages"):
+        docs = render_documents(root, date=date, embed=self_contained, manifest=manifest)
+        for path, text in docs.items():
+            write_text(path, text)
     out = {"index": root / INDEX_PAGE, "pages": [p for p in docs if p.name == CASE_PAGE]}
     if self_contained:
         out["single"] = root / SINGLE_PAGE
     if pdf:
         from .pdf import write_pdf
 
-        front, documents = pdf_documents(root, jobs if jobs > 1 else 1, date=date, manifest=manifest)
-        out["pdf"] = write_pdf(documents, root, root / PDF_FILE, run_all=run_all, front=front)
+        with stage(progress, f"writing {PDF_FILE}"):
+            front, documents = pdf_documents(root, jobs if jobs > 1 else 1, date=date, manifest=manifest)
+            out["pdf"] = write_pdf(documents, root, root / PDF_FILE, run_all=run_all, front=front)
     return out

@@ -7,12 +7,16 @@ KeyboardInterrupt), which its children then inherit as a user's terminal gives t
 
 The planner's native evaluator is compiled at once when the suite first needs it (``GFLAT_NATIVE_WAIT=1``),
 not in the background as for a first ``gflat plan``: every test plans on the default backend.
+
+The long commands' progress lines (:mod:`harness.progress`) are off (``GFLAT_PROGRESS=off``): the tests read
+the commands' own stderr; the tests of progress set the mode they test.
 """
 
 import os
 import signal
 
 os.environ.setdefault("GFLAT_NATIVE_WAIT", "1")
+os.environ.setdefault("GFLAT_PROGRESS", "off")
 
 pytest_plugins = ["pytester"]
 

@@ -160,6 +160,7 @@ LAYERS: dict[str, int] = {
     "harness.recorded": 3,  # a run's recorded files, confined and checked: read by reports and campaigns
     "harness.testing": 3,
     "harness.parallel": 3,  # worker processes and their bounds: imports only gna, used by campaigns and commands
+    "harness.progress": 3,  # a command's progress lines (rich): imports nothing of ours; reports, pools, commands
     "reports": 4,
     "harness.campaign": 4,
     "harness.commands": 5,

@@ -169,16 +169,6 @@ def _connect(where, timeout: float, scratch: Path | None = None):
     return box["client"], None
 
 
-def _progress(total: int, quiet: bool, label: str):
-    if quiet or total == 0:
-        return None
-    from tqdm import tqdm
-
-    return tqdm(
-        total=total, desc=label, unit="case", file=sys.stderr, dynamic_ncols=True, mininterval=0.5, smoothing=0.1
-    )
-
-
 def _local_pool(tasks, workers: int, commit):
     """Run tasks in a process pool, restarting it when a worker dies."""
     remaining = {t.case_id: t for t in tasks}
@@ -290,6 +280,7 @@ def run_campaign(
     quiet: bool = False,
     only=None,
     dask_timeout: float = DASK_TIMEOUT_S,
+    progress=None,
 ) -> dict:
     """Run (or resume) a campaign into a folder.
 
@@ -314,11 +305,13 @@ def run_campaign(
     retry_failed : bool
         Run the failed cases again (by default only the pending ones run).
     quiet : bool
-        No progress bar or note.
+        No note of the cases to run (nor of the untrusted ones).
     only : iterable of str, optional
         Run only these case ids (pending or failed; see :func:`rerun_case` for a done one).
     dask_timeout : float
         Seconds to wait for the Dask scheduler at an address [s].
+    progress : harness.progress.Progress, optional
+        Shows the cases ended, counted (a line per case when not on a terminal); default none.
 
     Returns
     -------
@@ -358,7 +351,7 @@ def run_campaign(
         with _dask_logs():
             client, _ = _connect(where, dask_timeout)  # an unreachable scheduler: nothing written
     try:
-        return _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only)
+        return _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only, progress)
     finally:
         if client is not None:
             with _dask_logs():
@@ -442,16 +435,16 @@ def untrusted(store, quiet: bool = False, *, reset: bool = False) -> dict:
     return bad
 
 
-def _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only) -> dict:
+def _run(camp, tasks, out, where, client, workers, retry_failed, quiet, only, progress) -> dict:
     with locked(_campaign_folder(out)) as path:  # a second run (or a report) refused meanwhile
         store = CampaignStore(path)
         try:
-            return _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only, store)
+            return _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only, store, progress)
         finally:
             store.close()
 
 
-def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only, store) -> dict:
+def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only, store, progress) -> dict:
     meta = store.meta()
     ident = {"name": camp.name, "seed": camp.seed}
     if camp.tracking is not None:  # --tracking: the design is part of what the folder holds
@@ -488,7 +481,7 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
         )
     versions = provenance()
     versions.pop("date_utc", None)
-    bar = _progress(len(todo), quiet, camp.name)
+    bar = progress.begin(f"campaign {camp.name}: cases", total=len(todo)) if progress is not None and todo else None
     tally = {"done": 0, "failed": 0}
     t0 = time.perf_counter()
 
@@ -496,8 +489,9 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
         store.commit(outcome, versions)
         tally[outcome["status"]] += 1
         if bar is not None:
-            bar.set_postfix(done=tally["done"], failed=tally["failed"], refresh=False)
-            bar.update(1)
+            progress.advance(
+                bar, f"{outcome['case_id']} {outcome['status']} ({tally['done']} done, {tally['failed']} failed)"
+            )
 
     try:
         if not todo:
@@ -511,7 +505,7 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
             _local_pool(todo, workers or os.cpu_count() or 1, commit)
     finally:
         if bar is not None:
-            bar.close()
+            progress.end(bar)
     counts = store.counts()
     return {
         **counts,

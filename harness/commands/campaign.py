@@ -234,7 +234,7 @@ def run(args) -> int:
                         },
                     )
                 return 0
-    quiet = bool(getattr(args, "quiet", 0))  # gflat's -q/--quiet: no progress bar
+    quiet = bool(getattr(args, "quiet", 0))  # gflat's -q/--quiet: no note (and no progress)
     timeout = {} if args.dask_timeout is None else {"dask_timeout": args.dask_timeout}
     res = run_campaign(
         camp,
@@ -245,6 +245,7 @@ def run(args) -> int:
         retry_failed=args.retry_failed,
         quiet=quiet,
         only=args.only,
+        progress=getattr(args, "progress", None),
         **timeout,
     )
     note = (

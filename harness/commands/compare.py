@@ -25,6 +25,7 @@ from reports.html import render_run
 from ..artefacts import run_manifest
 from ..engines import engine_names, engines_from_names
 from ..validation import ValidationCase, case_settings, run_case
+from ..validation.validity import ValidityWarnings, check_result
 from ..validation.verdicts import verdict_lines
 from ._args import iterations
 from ._compare_args import add_compare_arguments, check_steps, compare_overrides
@@ -116,11 +117,13 @@ def run(args) -> int:
     scenario = load_scenario(case.scenario, J=case.J)
     settings = case_settings(case, scenario)  # settings, work and destination checked before planning
     check_steps([(case, scenario, settings)], args.max_steps, "compare")
+    progress = getattr(args, "progress", None)
     with run_dir(args, scenario.name, args.loop, command="compare") as out:
-        result = run_case(case, scenario=scenario)
-        write_case(result, out.root, csv=args.csv, manifest=False)
+        result = run_case(case, scenario=scenario, progress=progress)
+        check_result(ValidityWarnings(), result)  # the validity box of the aerodynamic data said aloud (stderr)
+        write_case(result, out.root, csv=args.csv, manifest=False, progress=progress)
         record = run_manifest([result], command_line=getattr(args, "command_line", None))
-        render_run(out.root, pdf=False, manifest=record)  # the case page and an index of one
+        render_run(out.root, pdf=False, manifest=record, progress=progress)  # the case page and an index of one
         out.commit(record)
     verdict = result.verdict()
     if args.json:

@@ -32,6 +32,7 @@ from pathlib import Path
 
 from gna.errors import InputError
 
+from ..progress import stage
 from ._args import bounded_count, bounded_float, finite_float, nonnegative_int, positive_float, within
 from ._help import add_command
 from ._json import add_json, emit
@@ -396,22 +397,26 @@ def run(args) -> int:
     _check_reference(args)  # the reference condition and the output checked before the source is read
     ident = args.ident or _default_ident(args)
     out = output_file(args, Path(f"{ident}.toml"), "aircraft file")
-    from gna.fit.document import envelope_section, fitted_aircraft, fitted_document, render
-    from gna.fit.pipeline import fit_source, gna45_structure, structure_from_file
-    from gna.fit.quality import ReferenceCondition, trim_comparison
+    progress = getattr(args, "progress", None)
+    with stage(progress, "loading the fitting modules"):
+        from gna.fit.document import envelope_section, fitted_aircraft, fitted_document, render
+        from gna.fit.pipeline import fit_source, gna45_structure, structure_from_file
+        from gna.fit.quality import ReferenceCondition, trim_comparison
 
     if args.source == "jsbsim":
         from gna.fit.sources.jsbsim_aero import JSBSimAeroSource, vehicle_sections
 
-        src = JSBSimAeroSource(
-            args.model,
-            mach=args.mach,
-            altitude=args.altitude,
-            root=args.root,
-            surfaces=_surface_overrides(args.property),
-        )
+        with stage(progress, f"reading JSBSim's {args.model}"):
+            src = JSBSimAeroSource(
+                args.model,
+                mach=args.mach,
+                altitude=args.altitude,
+                root=args.root,
+                surfaces=_surface_overrides(args.property),
+            )
         args.mach, args.altitude = src.mach, src.altitude  # the defaults, written into the regenerating command
-        sections = vehicle_sections(src, measure=True)
+        with stage(progress, "measuring the engines"):
+            sections = vehicle_sections(src, measure=True)
         ranges = _ranges(args, src.envelope)
         reference = ReferenceCondition(src.V_ref, args.altitude, f"Mach {args.mach:g} at {args.altitude:g} m")
         limits = {k: math.degrees(max(abs(ranges[k][0]), abs(ranges[k][1]))) for k in ("dl", "dm", "dn")}
@@ -437,7 +442,8 @@ def run(args) -> int:
 
     design = _design(args, ranges)
     structure = structure_from_file(args.structure) if args.structure else gna45_structure()
-    result = fit_source(src, structure, design, check_envelope=not args.allow_extrapolation)
+    with stage(progress, "sampling the source and fitting the coefficients"):
+        result = fit_source(src, structure, design, check_envelope=not args.allow_extrapolation)
     envelope = envelope_section(design, limits, limits_source)
     if args.source == "jsbsim" and src.mach_range is not None:
         envelope["mach_min"], envelope["mach_max"] = (float(f"{m:.6g}") for m in src.mach_range)
@@ -447,7 +453,8 @@ def run(args) -> int:
         )
     name = args.name or f"{ident}, GNA fit to {src.name}"
     craft = fitted_aircraft(ident, name, sections, envelope, result.table, src.name)
-    trim = None if args.no_trim_check else trim_comparison(craft, src, reference)
+    with stage(progress, "trimming the fit and the source"):
+        trim = None if args.no_trim_check else trim_comparison(craft, src, reference)
     command = _command_line(args, ranges)
     doc = fitted_document(
         ident=ident,

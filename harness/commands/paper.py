@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from functools import partial
 
 from planners.scenario import load_scenario
 from reports.case_files import write_case
@@ -35,8 +36,10 @@ from reports.html import render_run
 
 from ..artefacts import cpu_split, cpu_time, run_manifest, write_plan_iterates
 from ..parallel import ForkPool, default_jobs, run_all
+from ..progress import stage
 from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
+from ..validation.validity import ValidityWarnings, check_plan, check_run
 from ..validation.verdicts import verdict_lines
 from ._args import iterations, worker_count
 from ._compare_args import add_compare_arguments, check_steps, compare_overrides
@@ -123,11 +126,11 @@ def _timed(fn):
     return timed
 
 
-def _write_task(result, root, sub: tuple, plan_sub: tuple | None, csv: bool):
+def _write_task(result, root, sub: tuple, plan_sub: tuple | None, csv: bool, progress=None):
     """A case folder's files (and the plan iterates with ``plan_sub``) written into the staging folder ``root``."""
 
     def write():
-        write_case(result, root.joinpath(*sub), csv=csv, plan=False, manifest=False)
+        write_case(result, root.joinpath(*sub), csv=csv, plan=False, manifest=False, progress=progress)
         if plan_sub is not None:
             write_plan_iterates(
                 root.joinpath(*plan_sub), result.plan, result.runs[result.reference_engine].df.index, csv=csv
@@ -145,8 +148,9 @@ class _Scenario:
     the same flight (:func:`harness.validation.flights.reusable_open_loop`).
     """
 
-    def __init__(self, case, loops: tuple, root, shown, csv: bool):
+    def __init__(self, case, loops: tuple, root, shown, csv: bool, progress=None, validity=None):
         self.case, self.loops, self.root, self.shown, self.csv = case, loops, root, shown, csv
+        self.progress, self.validity = progress, validity or ValidityWarnings()
         self.name = case.scenario
         self.lines = [f"=== {case.scenario}"]
         self.flights, self.runs, self.results, self.files = {}, {}, {}, {}
@@ -158,8 +162,11 @@ class _Scenario:
     def plan(self, pool: ForkPool) -> None:
         """Plan, write the plan's files, set the cases up and submit their flights."""
         t0, c0 = time.perf_counter(), time.process_time()
-        planned = plan_case(self.case)
+        with stage(self.progress, f"planning {self.case.scenario}"):
+            planned = plan_case(self.case)
         self.name = planned.scenario.name
+        self.aircraft = planned.plan.aircraft
+        check_plan(self.validity, planned.plan)  # the validity box said aloud, once per quantity in the run
         for loop in self.loops:  # each case's flights submitted as soon as it is set up
             self.flights[loop] = case_flights(
                 replace(self.case, loop=loop), plan=planned.plan, scenario=planned.scenario
@@ -194,6 +201,7 @@ class _Scenario:
             self.files[loop] = out
             return
         self.runs[loop][key[3]] = out
+        check_run(self.validity, self.aircraft, out, f"{key[3]} flight of {self.name}, {loop} loop")
         runs = self.runs.get("closed")
         ref = self.case.engines[0]
         if runs is not None and "open" in self.loops and OPEN_LOOP not in runs and ref in self.runs["open"]:
@@ -210,7 +218,7 @@ class _Scenario:
             plan_sub = (self.name, "plan") if lp == self.loops[0] else None
             pool.submit(
                 ("write", self.name, lp),
-                _timed(_write_task(result, self.root, (self.name, lp), plan_sub, self.csv)),
+                _timed(_write_task(result, self.root, (self.name, lp), plan_sub, self.csv, self.progress)),
                 priority=2,
                 what=f"writing the {lp}-loop files of {self.name}",
             )
@@ -238,15 +246,19 @@ def run(args) -> int:
     cases = paper_cases(args.J, **compare_overrides(args))
     loops = ("open", "closed") if args.loop == "both" else (args.loop,)
     planned = []
-    for case in cases:  # every scenario's [compare] table checked before any planning
-        scenario = load_scenario(case.scenario, J=case.J)
-        planned += [(replace(case, loop=loop), scenario, case_settings(case, scenario)) for loop in loops]
-    check_steps(planned, args.max_steps, "paper")  # and the work of every flight
+    progress = getattr(args, "progress", None)
+    with stage(progress, "reading the scenarios"):
+        for case in cases:  # every scenario's [compare] table checked before any planning
+            scenario = load_scenario(case.scenario, J=case.J)
+            planned += [(replace(case, loop=loop), scenario, case_settings(case, scenario)) for loop in loops]
+        check_steps(planned, args.max_steps, "paper")  # and the work of every flight
     out = run_dir(args, "paper", command="paper")  # the default, the tool's own folder: an earlier run replaced
     cpu0 = cpu_time()
-    with out, ForkPool(args.jobs or default_jobs()) as pool:
-        prepare_figures()  # one figure and its axes made here, inherited by every forked writer
-        scenarios = [_Scenario(case, loops, out.root, out.out, args.csv) for case in cases]
+    with out, ForkPool(args.jobs or default_jobs(), progress=progress) as pool:
+        with stage(progress, "preparing the figures"):
+            prepare_figures()  # one figure and its axes made here, inherited by every forked writer
+        validity = ValidityWarnings()
+        scenarios = [_Scenario(case, loops, out.root, out.out, args.csv, progress, validity) for case in cases]
         by_name = {}
         for sc in scenarios:
             sc.plan(pool)
@@ -325,11 +337,18 @@ def run(args) -> int:
             execution={"jobs": jobs, "how": how, "planning_s": {sc.name: sc.t_plan for sc in scenarios}, "tasks": log},
         )
         c0 = cpu_time()
-        report = render_run(out.root, jobs=jobs, run_all=run_all, manifest=record)  # from the saved report.json files
+        report = render_run(  # from the saved report.json files
+            out.root,
+            jobs=jobs,
+            run_all=partial(run_all, what="printing the PDF", progress=progress),
+            manifest=record,
+            progress=progress,
+        )
         record["execution"]["cpu_s"] = cpu_split(
             log, sum(sc.cpu_plan for sc in scenarios), cpu_time() - c0, cpu_time() - cpu0
         )
-        out.commit(record)
+        with stage(progress, "writing the manifest"):
+            out.commit(record)
     print(f"\nmanifest, plans, trajectories, figures, tables and report written to {out.out}/")
     failed = [c.scenario for c, ok in zip(cases, passed) if not ok]
     if rows:

@@ -35,6 +35,7 @@ from planners.systems.demos import DEMOS, is_chained_scenario, run_demo
 from planners.verify import open_loop_error
 
 from ..artefacts import file_record, json_safe, manifest, write_json, write_plan_iterates, write_trajectory
+from ..validation.validity import ValidityWarnings, check_plan
 from ._args import cost_bound, iterations
 from ._help import add_command
 from ._json import add_json, emit
@@ -430,6 +431,7 @@ def run(args) -> int:
         t0 = time.perf_counter()
         plan = plan_scenario(sc, max_cost=args.max_cost)
         elapsed = time.perf_counter() - t0
+        check_plan(ValidityWarnings(), plan)  # the validity box of the aerodynamic data said aloud (stderr)
         reason = infeasible_reason(plan)
         check = open_loop_error(plan) if args.verify and reason is None else None
         not_flown = f"not flown: the plan is not feasible: {reason}" if args.verify and reason is not None else None

@@ -22,6 +22,7 @@ import argparse
 import os
 import shutil
 import time
+from functools import partial
 from pathlib import Path
 
 from gna.errors import InputError, writing
@@ -124,7 +125,7 @@ def _listed(manifest: dict) -> list[tuple[str, int, str]]:
 
 
 def render_again(
-    folder: str | Path, *, self_contained: bool = False, pdf: bool = True, date: str | None = None
+    folder: str | Path, *, self_contained: bool = False, pdf: bool = True, date: str | None = None, progress=None
 ) -> dict[str, Path]:
     """Render the pages of the run ``folder`` is (or lies in) again, in a copy swapped in place of the run.
 
@@ -136,6 +137,8 @@ def render_again(
         As :func:`reports.html.render_run`.
     date : str, optional
         Render date printed on every page (default now, UTC).
+    progress : harness.progress.Progress, optional
+        The copy, the pages, the PDF (and its parts) are stages.
 
     Returns
     -------
@@ -157,6 +160,7 @@ def render_again(
             f"the runs of gflat paper and gflat compare{other}"
         )
     with RunDir(top, command=str(old.get("command")), replace=True, advice=None) as out:  # a foreign file: refused
+        copying = progress.begin(f"copying the run's {len(_listed(old))} files") if progress is not None else None
         for name, size, digest in _listed(old):
             src = confined(top, name, f"{top / MANIFEST} lists the file")
             problem = file_problem(src, size, digest)
@@ -168,6 +172,8 @@ def render_again(
                 problem = file_problem(dst, size, digest)  # the copy checked, not the file read before
             if problem is not None:
                 raise InputError(f"{src}, listed in its manifest, is {problem}: the run was changed since it ran")
+        if copying is not None:
+            progress.end(copying)
         try:
             pages = render_run(
                 out.root,
@@ -175,8 +181,9 @@ def render_again(
                 pdf=pdf,
                 date=date,
                 jobs=default_jobs(),
-                run_all=run_all,
+                run_all=partial(run_all, what="printing the PDF", progress=progress),
                 manifest=old,
+                progress=progress,
             )
         except InputError as exc:  # named as the run's files, not as their staged copies
             raise InputError(str(exc).replace(str(out.root), str(top))) from None
@@ -199,7 +206,9 @@ def run(args) -> int:
         The exit status (:data:`harness.cli.EXIT_CODES`).
     """
     t0 = time.perf_counter()
-    pages = render_again(args.dir, self_contained=args.self_contained, pdf=args.pdf)
+    pages = render_again(
+        args.dir, self_contained=args.self_contained, pdf=args.pdf, progress=getattr(args, "progress", None)
+    )
     if args.json:
         emit(
             args,

@@ -11,6 +11,7 @@ import sys
 
 from gna.aircraft import load_aircraft
 from gna.errors import ConvergenceError
+from gna.limits import ValidityWarnings
 from gna.trim import trim
 
 from ._args import finite_float, positive_float
@@ -78,10 +79,12 @@ def run(args) -> int:
             emit(args, {"aircraft": a.id, "converged": False, "message": str(exc)})
         print(f"gflat trim: no steady flight found: {exc}", file=sys.stderr)
         return 1
+    v = t.values  # the validity box of the aerodynamic data said aloud (stderr), once per quantity
+    what = f"trim at {v['V']:g} m/s, {t.altitude:g} m"
+    ValidityWarnings().check_point(a, V=v["V"], altitude=t.altitude, alpha=v["alpha"], beta=v["beta"], what=what)
     if args.json:
         emit(args, t.to_dict())
         return 0
-    v = t.values
     print(
         f"{a.id} trim ({t.model} model), altitude {t.altitude:g} m, density {t.density:.5g} kg/m^3: "
         f"converged in {t.iterations} Newton iterations"

@@ -21,6 +21,7 @@ from planners.scenario import load_scenario, with_tracking_design
 
 from ..engines import fly
 from ..metrics import DifferenceTable, difference_table, engine_tables, window_span
+from ..progress import stage
 from .case import ValidationCase
 from .flights import case_flights, finish_case
 from .provenance import provenance  # noqa: F401  (re-exported by the package)
@@ -260,7 +261,7 @@ def _self_convergence(engines, runs, problem, span, settings: CompareSettings):
     return half, tables
 
 
-def run_case(case: ValidationCase, *, plan=None, scenario=None, open_loop=None) -> CaseResult:
+def run_case(case: ValidationCase, *, plan=None, scenario=None, open_loop=None, progress=None) -> CaseResult:
     """Plan a case's scenario (once), fly it on every engine and tabulate the differences.
 
     Parameters
@@ -278,6 +279,8 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None, open_loop=None) 
         Closed loop: the open-loop case's run on the reference engine, reused
         as the open-loop curve instead of flying it again when it is the same
         flight (:func:`harness.validation.flights.case_flights`).
+    progress : harness.progress.Progress, optional
+        The plan, each flight and the tables are stages.
 
     Returns
     -------
@@ -301,5 +304,13 @@ def run_case(case: ValidationCase, *, plan=None, scenario=None, open_loop=None) 
     DomainError
         The plan is not feasible (Newton failed, or it leaves the physical domain): there is nothing to fly.
     """
-    flights = case_flights(case, plan=plan, scenario=scenario, open_loop=open_loop)
-    return finish_case(flights, {name: fly_it() for name, fly_it in flights.flights.items()})
+    what = getattr(scenario, "name", None) or getattr(case, "scenario", case)  # not a case: refused below
+    with stage(progress, f"planning {what}" if plan is None else f"setting {what} up"):
+        flights = case_flights(case, plan=plan, scenario=scenario, open_loop=open_loop)
+    what = flights.scenario.name
+    runs = {}
+    for name, fly_it in flights.flights.items():
+        with stage(progress, f"flying {what} ({case.loop} loop, {name})"):
+            runs[name] = fly_it()
+    with stage(progress, f"comparing the engines of {what}"):
+        return finish_case(flights, runs)

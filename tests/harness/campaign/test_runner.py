@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import signal
@@ -18,6 +19,7 @@ from gna.errors import InputError
 from harness.campaign import CampaignStore, rerun_case, run_campaign
 from harness.campaign.runner import parse_dask
 from harness.cli import main
+from harness.progress import Progress
 
 HERE = Path(__file__).parent
 TINY = HERE / "tiny.toml"
@@ -60,9 +62,20 @@ def _check_folder(folder, n: int) -> None:
 @pytest.fixture(scope="module")
 def inline(tmp_path_factory):
     out = tmp_path_factory.mktemp("camp") / "inline"
-    res = run_campaign(TINY, out, workers=1, quiet=True)
+    shown = io.StringIO()
+    res = run_campaign(TINY, out, workers=1, quiet=True, progress=Progress("campaign run", mode="plain", stream=shown))
     assert res["computed"] == 3 and res["done"] == 3
+    (out.parent / "progress.txt").write_text(shown.getvalue())  # test_progress_a_line_per_case
     return out
+
+
+def test_progress_a_line_per_case(inline):
+    lines = (inline.parent / "progress.txt").read_text().splitlines()
+    assert lines[0].endswith("gflat campaign run: started")
+    cases = [line.split(": cases ", 1)[1] for line in lines[1:4]]
+    assert [c.split(":")[0] for c in cases] == ["1/3", "2/3", "3/3"]
+    assert cases[-1].endswith("(3 done, 0 failed)")
+    assert "campaign tiny: cases done in" in lines[4]
 
 
 def test_run_status_resume_and_one_case_again(inline, capsys):
