@@ -56,6 +56,8 @@ def test_compare_json_contract(tmp_path, capsys):
         "recorded",
         "settings",
         "self_convergence",
+        "out",  # the run folder and its report (index.html)
+        "report",
     }
     assert set(d["runs"]) == {"inhouse", "jsbsim"} and set(d["differences"]) == {"jsbsim"}
     v = d["verdicts"]
