@@ -123,12 +123,15 @@ def _store_errors(command):
     return checked
 
 
-def _store(folder: str):
+def _store(folder: str, readonly: bool = True):
+    """The store of a campaign folder given on the command line; read-only unless ``readonly`` is false."""
     from harness.campaign.store import DB_NAME, CampaignStore
 
-    if not (Path(folder) / DB_NAME).is_file():
-        raise InputError(f"{folder} is not a campaign folder (no {DB_NAME})")
-    return CampaignStore(folder)
+    index = Path(folder) / DB_NAME
+    if not index.is_file() and not index.is_symlink():
+        held = f"{DB_NAME} is a folder" if index.is_dir() else f"no {DB_NAME}"
+        raise InputError(f"{folder} is not a campaign folder ({held})")
+    return CampaignStore(folder, readonly=readonly)
 
 
 @_store_errors
@@ -271,7 +274,7 @@ def report(args) -> int:
     _store(args.dir).close()
     folder = Path(args.dir).expanduser().resolve()
     with locked(folder):  # refused while a campaign run works there, and held meanwhile
-        st = CampaignStore(folder)
+        st = CampaignStore(folder, readonly=True)
         try:
             bad = untrusted(st, quiet=True)  # nothing unchecked is rendered
         finally:
