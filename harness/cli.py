@@ -362,6 +362,14 @@ def _interrupted(exc: KeyboardInterrupt) -> int:
 
 def _run(parser: argparse.ArgumentParser, words: list[str]) -> int:
     """Parse ``words`` and run the command they name (:func:`main`'s body, SIGTERM raising meanwhile)."""
+    if sys.stdout is None:  # started with its standard output closed (>&-): what it prints would be lost
+        if sys.stderr is not None:
+            print(
+                "gflat: error: the standard output is closed, so nothing gflat prints could be read: "
+                "run it with an open one (> FILE, or > /dev/null to discard it)",
+                file=sys.stderr,
+            )
+        return 2
     args = parser.parse_args(words)
     args.command_line = ["gflat", *words]  # recorded in manifests
     restore = _logging_state()

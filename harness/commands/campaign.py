@@ -20,7 +20,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from gna.errors import InputError, describe
+from gna.errors import InputError, describe, expand_home
 
 from ..campaign.checks import MAX_CASES, MAX_DASK_TIMEOUT_S
 from ._args import add_tracking, bounded_float, cost_bound, positive_int, worker_count
@@ -272,7 +272,7 @@ def report(args) -> int:
     from reports.campaign import render_campaign
 
     _store(args.dir).close()
-    folder = Path(args.dir).expanduser().resolve()
+    folder = expand_home(args.dir).resolve()
     with locked(folder):  # refused while a campaign run works there, and held meanwhile
         st = CampaignStore(folder, readonly=True)
         try:

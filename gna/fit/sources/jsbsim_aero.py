@@ -38,6 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gna.errors import expand_home
+
 from ... import units
 from ...aero import AeroState, Coefficients
 from ...errors import InputError, UnknownAircraftError
@@ -479,10 +481,10 @@ def resolve(model: str, root: str | Path | None = None) -> tuple[str, Path, Path
     InputError
         A path to an ``.xml`` file not laid out as ``<name>/<name>.xml``.
     """
-    base = Path(root).expanduser().resolve() if root is not None else default_root()  # JSBSim joins relative ones
+    base = expand_home(root).resolve() if root is not None else default_root()  # JSBSim joins relative ones
     if root is not None and not base.is_dir():
         raise InputError(f"JSBSim root {str(root)!r}: {base} is not a folder")
-    p = Path(model).expanduser()
+    p = expand_home(model)
     if p.suffix == ".xml":
         p = p.resolve()
         if not p.is_file():
