@@ -8,6 +8,8 @@ traceback.
 from __future__ import annotations
 
 import contextlib
+import os
+from pathlib import Path
 
 
 def describe(exc: BaseException) -> str:
@@ -105,3 +107,34 @@ def writing(path):
         yield
     except OSError as exc:
         raise InputError(f"cannot write {path}: {describe(exc)}") from None
+
+
+def expand_home(path) -> Path:
+    """``path`` with a leading ``~`` or ``~user`` expanded, as :meth:`pathlib.Path.expanduser`.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    InputError
+        The home folder cannot be found (``~nosuchuser``, or no ``HOME`` and no user entry): one line naming
+        the path, where ``expanduser`` raises a bare ``RuntimeError``.
+    """
+    text = str(path)
+    if (text == "~" or text.startswith("~/")) and os.environ.get("HOME") == "":
+        # expanduser would make '~/x' the root's '/x'
+        raise InputError(f"{text!r}: cannot expand '~': HOME is set but empty")
+    try:
+        return Path(path).expanduser()
+    except RuntimeError:
+        user = str(path).split("/", 1)[0]
+        raise InputError(
+            f"{str(path)!r}: cannot expand {user!r}: "
+            + ("no such user" if user != "~" else "the home folder is unknown (HOME is unset)")
+        ) from None

@@ -418,6 +418,14 @@ def _run(parser: argparse.ArgumentParser, words: list[str], progress: Progress) 
     interruption, ``{"command", "error", "exit_status"}``) is the one JSON object on stdout
     (:mod:`harness.commands._json`).  The command reports its stages to ``args.progress``.
     """
+    if sys.stdout is None:  # started with its standard output closed (>&-): what it prints would be lost
+        if sys.stderr is not None:
+            print(
+                "gflat: error: the standard output is closed, so nothing gflat prints could be read: "
+                "run it with an open one (> FILE, or > /dev/null to discard it)",
+                file=sys.stderr,
+            )
+        return 2
     args = parser.parse_args(words)
     args.command_line = ["gflat", *words]  # recorded in manifests
     args.progress = progress

@@ -130,6 +130,15 @@ def read_golden(path: Path, columns: Sequence[str] = ()) -> pd.DataFrame:
     except Exception as exc:  # pandas, pyarrow and the codecs raise many types for a damaged file
         cause = str(exc).strip().splitlines()[0] if str(exc).strip() else "no detail"
         raise _bad_golden(source, f"it cannot be read ({type(exc).__name__}: {cause})") from None
+    from gna.trajectory import CONTROL_NAMES, STATE_NAMES
+
+    foreign = [str(c) for c in df.columns if c not in STATE_NAMES + CONTROL_NAMES]
+    if foreign:  # never ignored: an edited file, or another tool's
+        raise _bad_golden(
+            source,
+            f"column {', '.join(map(repr, foreign))} is no trajectory column (a golden file has the states "
+            f"and controls {', '.join(STATE_NAMES + CONTROL_NAMES)})",
+        )
     missing = [c for c in columns if c not in df.columns]
     if missing:
         raise _bad_golden(
@@ -292,11 +301,14 @@ class GflatFlight:
         if self.regen:
             write_golden(self.golden, runs[engines[0]])
             return runs
+        unusable = None
         try:
             needed = [c for c in cols if c in STATE_NAMES + CONTROL_NAMES]  # the columns write_golden writes
             golden = read_golden(self.golden, needed) if self.has_golden() else None
         except GoldenError as exc:
-            pytest.fail(f"gflat_flight({sc.name!r}): {exc}", pytrace=False)
+            unusable = str(exc)
+        if unusable is not None:  # failed outside the except: the one message, not "during handling of ..."
+            pytest.fail(f"gflat_flight({sc.name!r}): {unusable}", pytrace=False)
         if golden is None:
             pytest.fail(
                 f"golden trajectory {self.golden} is missing; create it from the {engines[0]!r} run with "

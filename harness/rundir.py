@@ -43,7 +43,7 @@ import sys
 import uuid
 from pathlib import Path
 
-from gna.errors import InputError, describe
+from gna.errors import InputError, describe, expand_home
 
 from .artefacts import MANIFEST, enclosing_run, json_text, manifest_problem, read_manifest
 from .parallel import InterruptsWait
@@ -205,7 +205,7 @@ class RunDir:
         parents: bool = False,
         advice: str | None = "give another --out",
     ):
-        given = Path(out).expanduser()
+        given = expand_home(out)
         path = Path(os.path.abspath(given))
         if path == Path(path.anchor):
             raise InputError(f"output folder {given}: a file-system root is not an output folder; give --out DIR")

@@ -65,6 +65,19 @@ _UNOPS = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 #: flat outputs have tens of nodes; the bounds keep a pathological file from exhausting the parser's stack
 #: or the planner's time.
 MAX_TEXT = 4000
+
+#: Characters of an expression a message quotes (the rest elided: a message stays one readable line).
+SHOWN_CHARS = 80
+
+
+def _shown(text) -> str:
+    """``text`` quoted for a message, at most :data:`SHOWN_CHARS` characters of it."""
+    text = str(text)
+    if len(text) <= SHOWN_CHARS:
+        return repr(text)
+    return f"{text[:SHOWN_CHARS]!r}... ({len(text)} characters)"
+
+
 MAX_NODES = 2000
 MAX_DEPTH = 200
 
@@ -145,9 +158,9 @@ def compile_expression(
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
-        raise InputError(f"{where}: cannot parse {text!r} ({exc.msg})") from None
+        raise InputError(f"{where}: cannot parse {_shown(text)} ({exc.msg})") from None
     except (RecursionError, MemoryError):
-        raise InputError(f"{where}: expression nested too deeply to parse ({text[:60]!r}...)") from None
+        raise InputError(f"{where}: expression nested too deeply to parse ({_shown(text)})") from None
     n_nodes = sum(1 for _ in ast.walk(tree))
     if n_nodes > MAX_NODES or _depth(tree) > MAX_DEPTH:
         raise InputError(
@@ -161,7 +174,7 @@ def compile_expression(
         if isinstance(r, complex) or (isinstance(r, np.ndarray) and np.iscomplexobj(r)):
             at = f" at t = {t:g} s" if isinstance(t, (int, float)) else ""
             raise InputError(
-                f"{where}: {text!r} is not real{at} (a negative number to a fractional power: {a!r} ** {b!r})"
+                f"{where}: {_shown(text)} is not real{at} (a negative number to a fractional power: {a!r} ** {b!r})"
             )
         return r
 
@@ -179,7 +192,9 @@ def compile_expression(
             if node.id in names:
                 v = names[node.id]
                 return lambda t: v
-            raise InputError(f"{where}: unknown name {node.id!r} in {text!r}; use t, {', '.join(sorted(names))}")
+            raise InputError(
+                f"{where}: unknown name {_shown(node.id)} in {_shown(text)}; use t, {', '.join(sorted(names))}"
+            )
         if isinstance(node, ast.BinOp) and type(node.op) is ast.Pow:
             a, b = build(node.left), build(node.right)
             return lambda t: real_pow(a(t), b(t), t)
@@ -192,20 +207,20 @@ def compile_expression(
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and not node.keywords:
             if node.func.id not in FUNCTIONS:
                 raise InputError(
-                    f"{where}: unknown function {node.func.id!r} in {text!r}; allowed: {', '.join(sorted(FUNCTIONS))}"
+                    f"{where}: unknown function {_shown(node.func.id)} in {_shown(text)}; allowed: {', '.join(sorted(FUNCTIONS))}"
                 )
             f = FUNCTIONS[node.func.id]
             args = [build(a) for a in node.args]
             nargs = 2 if f is np.arctan2 else 1
             if len(args) != nargs:
-                raise InputError(f"{where}: {node.func.id} takes {nargs} argument(s) in {text!r}")
+                raise InputError(f"{where}: {node.func.id} takes {nargs} argument(s) in {_shown(text)}")
             if nargs == 1:
                 a0 = args[0]
                 return lambda t: f(a0(t))
             a0, a1 = args
             return lambda t: f(a0(t), a1(t))
         raise InputError(
-            f"{where}: construct {type(node).__name__} not allowed in {text!r} "
+            f"{where}: construct {type(node).__name__} not allowed in {_shown(text)} "
             f"(numbers, t, constants, + - * / **, and functions only)"
         )
 
@@ -217,7 +232,8 @@ def compile_expression(
         except InputError:
             raise
         except (ArithmeticError, ValueError, FloatingPointError, OverflowError) as exc:
-            raise InputError(f"{where}: {text!r} cannot be evaluated ({describe(exc)})") from None
+            cause = "a number too large for a float" if isinstance(exc, OverflowError) else describe(exc)
+            raise InputError(f"{where}: {_shown(text)} cannot be evaluated ({cause})") from None
         fn0 = fn
         fn = lambda t, c=const: c + 0.0 * t  # noqa: E731  keep the shape/type of t
         del fn0

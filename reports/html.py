@@ -13,12 +13,13 @@ from the render date.
 from __future__ import annotations
 
 import base64
+import contextlib
 import datetime
 import json
 import math
 from pathlib import Path
 
-from gna.errors import InputError
+from gna.errors import InputError, describe
 from harness.progress import stage
 from harness.recorded import confined, file_problem, href
 
@@ -582,19 +583,59 @@ def render_documents(
     cases, common = _run_context(root, date, manifest)
     env = _environment()
     docs = {}
-    index_views = [_case_view(root, f, m, root, False) for f, m in cases]
-    docs[root / INDEX_PAGE] = env.get_template("index.html").render(cases=index_views, **common)
-    for folder, model in cases:
+    for folder, model in cases:  # every case's model through its own page first: a damaged one is named
         page_dir = root / folder
-        view = _case_view(root, folder, model, page_dir, False)
-        docs[page_dir / CASE_PAGE] = env.get_template("case.html").render(
-            case=view, index=href(root / INDEX_PAGE, page_dir), **common
-        )
-    if embed:
-        single = root / SINGLE_PAGE
-        views = [_case_view(root, f, m, root, True) for f, m in cases]
-        docs[single] = env.get_template("single.html").render(cases=views, **common)
+        with _model_errors(root, [folder]):
+            view = _case_view(root, folder, model, page_dir, False)
+            docs[page_dir / CASE_PAGE] = env.get_template("case.html").render(
+                case=view, index=href(root / INDEX_PAGE, page_dir), **common
+            )
+    with _model_errors(root, [f for f, _ in cases]):
+        index_views = [_case_view(root, f, m, root, False) for f, m in cases]
+        docs = {root / INDEX_PAGE: _render(env.get_template("index.html"), root, index_views, common), **docs}
+        if embed:
+            views = [_case_view(root, f, m, root, True) for f, m in cases]
+            docs[root / SINGLE_PAGE] = _render(env.get_template("single.html"), root, views, common)
     return docs
+
+
+#: What a template or a view raises on a ``report.json`` whose inner structure is not a gflat report model's
+#: (a key missing, a value of another type, a table row too short): named in one line, never a traceback.
+def _model_error_types() -> tuple:
+    import jinja2
+
+    return (jinja2.TemplateError, KeyError, IndexError, TypeError, ValueError, AttributeError)
+
+
+@contextlib.contextmanager
+def _model_errors(root: Path, folders: list):
+    """Turn an error of a damaged saved model met while rendering into one :class:`InputError` line naming its
+    ``report.json`` (one case), or the run's (several: the culprit is not known)."""
+    try:
+        yield
+    except InputError:
+        raise
+    except _model_error_types() as exc:
+        where = (
+            f"{Path(root) / folders[0] / REPORT_JSON}"
+            if len(folders) == 1
+            else f"a {REPORT_JSON} of the {len(folders)} cases under {root}"
+        )
+        raise InputError(
+            f"{where}: not a gflat report model (cannot render it: {type(exc).__name__}: {describe(exc)}); "
+            f"render it again with gflat compare/paper"
+        ) from None
+
+
+def _render(template, root: Path, views: list, common: dict, **extra) -> str:
+    """``template`` rendered with ``cases=views``; on a damaged model, the case that fails alone is named."""
+    try:
+        return template.render(cases=views, **common, **extra)
+    except _model_error_types():
+        for v in views:
+            with _model_errors(root, [Path(v["folder"])]):
+                template.render(cases=[v], **common, **extra)
+        raise
 
 
 #: Weight of a figure in :func:`pdf_documents`' balance, in characters of HTML.
@@ -659,6 +700,11 @@ def pdf_documents(run_dir: str | Path, parts: int, *, date: str | None = None, m
     """
     root = Path(run_dir)
     cases, common = _run_context(root, date, manifest)
+    with _model_errors(root, [f for f, _ in cases]):
+        return _pdf_documents(root, cases, common, parts)
+
+
+def _pdf_documents(root: Path, cases: list, common: dict, parts: int):
     views = [_case_view(root, f, m, root, False) for f, m in cases]
     first: dict = {}
     for v in views:  # a scenario's later cases print its plan once: "as in the first case"
@@ -676,13 +722,14 @@ def pdf_documents(run_dir: str | Path, parts: int, *, date: str | None = None, m
         costs = [len(template.render(cases=[v], **plain)) + FIGURE_WEIGHT * len(v["model"]["figures"]) for v in views]
         starts = _split(costs, parts)
     starts.append(len(views))
-    documents = [template.render(cases=views[a:b], **plain) for a, b in zip(starts, starts[1:])]
+    documents = [_render(template, root, views[a:b], plain) for a, b in zip(starts, starts[1:])]
     ids = [v["model"]["id"] for v in views]
 
     def front(pages: dict) -> str:
-        return template.render(
-            cases=[], all_cases=views, later_ids=ids, pages=pages, **dict(common, pdf=True, last_part=False)
-        )
+        with _model_errors(root, [Path(v["folder"]) for v in views]):
+            return template.render(
+                cases=[], all_cases=views, later_ids=ids, pages=pages, **dict(common, pdf=True, last_part=False)
+            )
 
     return front, documents
 

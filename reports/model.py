@@ -49,6 +49,13 @@ MODEL_KEYS = {
     "provenance": dict,
 }
 
+#: Most figures a saved model may name (a case draws at most :data:`FIGURES`' few): a received ``report.json``
+#: naming thousands would make pages of tens of megabytes.
+MAX_FIGURES = 64
+
+#: Largest ``report.json`` or ``manifest.json`` read back [bytes] (a case's model is some tens of kilobytes).
+MAX_JSON_BYTES = 64 * 1024 * 1024
+
 #: Figures a case page shows, in order: file name -> caption (those present in the case folder).
 FIGURES: dict[str, str] = {
     "tracking.png": "The paper's four curves: flat plan J = 0 (red), closed loop (dark blue; the controls with "
@@ -342,6 +349,9 @@ def read_json_object(path: str | Path, what: str) -> dict:
     """
     path = Path(path)
     try:
+        size = path.stat().st_size
+        if size > MAX_JSON_BYTES:
+            raise InputError(f"{path}: not {what} ({size} bytes, above the bound of {MAX_JSON_BYTES} bytes)")
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: cannot read it: {describe(exc)}") from None
@@ -417,6 +427,11 @@ def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:
     for p in run_files(root, REPORT_JSON):
         model = read_json_object(p, "a gflat report model")
         bad = [k for k, t in MODEL_KEYS.items() if not isinstance(model.get(k), t)]
+        if not bad and len(model["figures"]) > MAX_FIGURES:
+            raise InputError(
+                f"{p}: not a gflat report model ({len(model['figures'])} figures, above the bound of {MAX_FIGURES}); "
+                f"render it again with gflat compare/paper"
+            )
         if bad:
             raise InputError(
                 f"{p}: not a gflat report model (missing or wrong type: {', '.join(bad)}); "

@@ -84,3 +84,28 @@ def test_k7_the_fixture_fails_clearly_on_truncated_and_empty_goldens(pytester, m
     empty.stdout.fnmatch_lines(["*test_twin_otter.csv is unusable: the file is empty*--gflat-regen*"])
     out = empty.stdout.str()
     assert "Traceback" not in out and "pandas" not in out
+
+
+# --- fourth round (docs/hardening.md) ------------------------------------------------------------------------
+
+
+def test_a_column_of_no_trajectory_is_refused_not_ignored(tmp_path):
+    path = tmp_path / "test_x.csv"
+    _good(path).assign(extra=1.0).to_csv(path, float_format="%.17g")
+    with pytest.raises(GoldenError, match=r"column 'extra' is no trajectory column .*--gflat-regen") as exc:
+        read_golden(path, STATE_NAMES)
+    assert "\n" not in str(exc.value)
+
+
+def test_the_fixture_fails_on_a_damaged_golden_with_one_message(pytester, monkeypatch):
+    monkeypatch.setenv("PYTEST_DISABLE_PLUGIN_AUTOLOAD", "1")
+    pytester.makepyfile(test_user=USER_TEST)
+    golden = pytester.path / "gflat_golden" / "test_user" / "test_twin_otter.csv"
+    pytester.runpytest_subprocess("-p", "harness.pytest_plugin", "-q", "--gflat-regen").assert_outcomes(passed=1)
+    text = golden.read_text()
+    golden.write_text(text.replace(",x,", ",X,", 1))
+    res = pytester.runpytest_subprocess("-p", "harness.pytest_plugin", "-q")
+    res.assert_outcomes(failed=1)
+    out = res.stdout.str()
+    assert "is unusable: column 'X' is no trajectory column" in out
+    assert "During handling of the above exception" not in out and "Traceback" not in out

@@ -584,3 +584,24 @@ def test_loader_docstrings(module_name):
     for name, fn, method in td.public_api(importlib.import_module(module_name)):
         problems += td.check_docstring(fn, name, skip_first=method)
     assert not problems, "\n".join(problems)
+
+
+# --- fourth round (docs/hardening.md) ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("-500 + 0*" + "(" * 1990 + "t" + ")" * 1990, "too many nested parentheses"),
+        ("-500 + 0*9**9**9", "cannot be evaluated (a number too large for a float)"),
+        ("-500 + " + "q" * 3000, "unknown name"),
+    ],
+)
+def test_an_expression_message_quotes_a_long_expression_shortened(text, words):
+    from planners.expressions import SHOWN_CHARS, compile_expression
+
+    with pytest.raises(InputError) as exc:
+        compile_expression(text, {}, "s.toml [flat_outputs] z")
+    msg = str(exc.value)
+    assert words in msg and "\n" not in msg
+    assert len(msg) < SHOWN_CHARS + 300, msg

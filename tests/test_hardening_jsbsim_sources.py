@@ -119,3 +119,32 @@ def test_k6_loadable_model_strips_only_the_io_children(tmp_path):
     shutil.copytree(default_root() / "aircraft" / "F4N", root / "aircraft" / "F4N")
     with loadable_model("F4N", root / "aircraft" / "F4N") as same:  # no such directives: the folder itself
         assert same == root / "aircraft" / "F4N"
+
+
+# --- fourth round (docs/hardening.md) ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("model", ["../../etc/passwd", "sub/F4N", "", "F4N/.."])
+def test_a_model_name_that_is_a_path_is_refused_before_any_file_is_named(model, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sub").mkdir()
+    assert main(["fit", "jsbsim", model, "--samples", "200", "--test", "50"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"gflat fit: error: JSBSim aircraft {model!r}: not an aircraft's name") and "\n" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sub"] and not any((tmp_path / "sub").iterdir())
+
+
+def test_a_property_factor_beyond_its_bounds_is_an_option_error(capsys):
+    for factor in ("1e308", "-1e-9"):
+        with pytest.raises(SystemExit) as stop:
+            main(["fit", "jsbsim", "F4N", "--property", f"dm=fcs/elevator-pos-rad:{factor}"])
+        assert stop.value.code == 2
+        err = capsys.readouterr().err.strip()
+        assert "argument --property: FACTOR" in err and "outside its bounds" in err and "\n" not in err
+
+
+def test_the_beta_help_gives_the_sideslip_default(capsys):
+    with pytest.raises(SystemExit):
+        main(["fit", "jsbsim", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "|sideslip| (default 15 within the aerodynamic tables' data)" in out

@@ -262,3 +262,42 @@ def test_a_re_render_on_a_full_disk_leaves_the_run_as_it_was(received):
     for f in json.loads((folder / MANIFEST).read_text())["files"]:
         assert file_problem(folder / f["path"], f["bytes"], f["sha256"]) is None
     assert sorted(p.name for p in folder.parent.iterdir()) == ["run"]
+
+
+# --- fourth round (docs/hardening.md): a model damaged inside, and one naming thousands of figures -----------
+
+
+def _edit_model(folder: Path, edit) -> None:
+    model = json.loads((folder / "report.json").read_text())
+    edit(model)
+    (folder / "report.json").write_text(json.dumps(model))
+    _reseal(folder)
+
+
+@pytest.mark.parametrize(
+    "edit, words",
+    [
+        (lambda m: m["tables"]["engines"][0].update(rows=[[1]]), ("IndexError",)),
+        (lambda m: m.update(plan={}), ("'J'",)),
+        (lambda m: m.update(runs={"inhouse": 5}), ("status",)),
+        (lambda m: m["settings"].clear(), ("dt_out",)),
+    ],
+)
+def test_a_model_damaged_inside_is_one_line_naming_its_file(received, capsys, edit, words):
+    folder, _ = received
+    _edit_model(folder, edit)
+    before = _walk(folder)
+    assert main(["report", str(folder), "--no-pdf", "--self-contained"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err
+    assert f"{folder / 'report.json'}: not a gflat report model (cannot render it" in err
+    assert all(w in err for w in words)
+    assert _walk(folder) == before  # the run as it was
+
+
+def test_a_model_naming_thousands_of_figures_is_refused_with_the_bound(received, capsys):
+    folder, _ = received
+    _edit_model(folder, lambda m: m.update(figures=m["figures"] * 1000))
+    assert main(["report", str(folder), "--no-pdf"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "figures, above the bound of 64" in err and "\n" not in err

@@ -8,6 +8,9 @@ wall-time budget ends as a timeout naming its time and the budget, and the campa
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -267,3 +270,50 @@ def test_messages_built_from_an_exception_never_end_empty(tmp_path, capsys, monk
     err = capsys.readouterr().err.strip()
     assert err == "gflat trim: error: cannot write the output: OSError (without a message)"
     assert not err.endswith(": ") and issubclass(InputError, GflatError)
+
+
+# --- fourth round (docs/hardening.md): home folders that cannot be expanded, a closed standard output ----------
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["plan", "x.toml", "--out", "~nosuchuser-gflat/x"],
+        ["fit", "gtm", "--out", "~nosuchuser-gflat/a.toml"],
+        ["report", "~nosuchuser-gflat/run"],
+        ["fit", "jsbsim", "~nosuchuser-gflat/F4N/F4N.xml"],
+    ],
+)
+def test_an_unknown_users_home_is_one_line(argv, capsys):
+    try:
+        rc = main(argv)
+    except SystemExit as stop:  # an option's error
+        rc = stop.code
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and "\n" not in err and "Traceback" not in err
+    assert "cannot expand '~nosuchuser-gflat': no such user" in err
+
+
+def test_an_empty_home_never_makes_a_path_of_the_root(monkeypatch, capsys):
+    monkeypatch.setenv("HOME", "")
+    with pytest.raises(SystemExit) as stop:
+        main(["plan", "x.toml", "--out", "~/x"])
+    assert stop.value.code == 2
+    assert "cannot expand '~': HOME is set but empty" in capsys.readouterr().err
+
+
+def test_a_closed_standard_output_is_an_error_not_a_silent_success():
+    proc = subprocess.run(
+        [sys.executable, "-m", "gflat", "aircraft"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1])),
+        preexec_fn=lambda: os.close(1),
+        check=False,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == (
+        "gflat: error: the standard output is closed, so nothing gflat prints could be read: run it with an open "
+        "one (> FILE, or > /dev/null to discard it)"
+    )

@@ -120,7 +120,7 @@ def campaign_summary(folder: str | Path) -> dict:
         largest magnitude first);
         ``failed`` (case id -> first line of the error).
     """
-    st = CampaignStore(folder)
+    st = CampaignStore(folder, readonly=True)
     try:
         meta, counts, rows = st.meta(), st.counts(), st.rows()
     finally:
@@ -308,7 +308,7 @@ def write_report(folder: str | Path, target: str | Path | None = None) -> tuple[
     outdir = Path(target) if target is not None else folder / "report"
     outdir.mkdir(parents=True, exist_ok=True)
     summary = campaign_summary(folder)
-    st = CampaignStore(folder)
+    st = CampaignStore(folder, readonly=True)
     try:
         rows = st.rows()
     finally:

@@ -30,7 +30,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
-from gna.errors import InputError, describe
+from gna.errors import InputError, describe, expand_home
 
 from ..artefacts import read_manifest
 from ..parallel import INTERRUPTS, InterruptsWait, check_workers
@@ -362,7 +362,7 @@ def _campaign_folder(out) -> Path:
     """The campaign folder checked (one line, nothing written) and made: not a file, not a gflat run's folder nor
     inside one (runs are never changed once written), not a non-empty folder without a campaign index (a folder
     of the user's is never adopted), its parent takes files."""
-    given = Path(out).expanduser()
+    given = expand_home(out)
     path = Path(os.path.abspath(given))
     if path.exists() and not path.is_dir():
         raise InputError(f"campaign folder {given}: a file of that name exists (not a folder)")

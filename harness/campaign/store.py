@@ -108,6 +108,7 @@ def locked(root: str | Path) -> Iterator[Path]:
         Another process holds the store (one line: wait for it to end), or the index cannot be opened.
     """
     root = Path(root)
+    _refuse_linked_index(root)
     try:
         fd = os.open(root / DB_NAME, os.O_RDWR | os.O_CREAT, 0o666)
     except OSError as exc:
@@ -124,6 +125,15 @@ def locked(root: str | Path) -> Iterator[Path]:
         yield root
     finally:
         os.close(fd)
+
+
+def _refuse_linked_index(root: Path) -> None:
+    """A campaign's index is a file of its folder: a link (followed, it would take every write elsewhere) is refused."""
+    if (root / DB_NAME).is_symlink():
+        raise InputError(
+            f"campaign folder {root}: its index {DB_NAME} is a symbolic link (a campaign's files stay in its "
+            f"folder, and a link is never followed): copy the file there instead, or use another folder"
+        )
 
 
 def _os_cause(path: Path) -> str:
@@ -148,6 +158,38 @@ def _dumps(obj) -> str:
     return json.dumps(obj, sort_keys=True, allow_nan=True)
 
 
+def _open_readonly(path: Path) -> sqlite3.Connection:
+    """A read-only connection to a campaign index, refused in one line unless it holds the campaign's tables."""
+    if not path.is_file():
+        raise InputError(
+            f"{path.parent} is not a campaign folder: {path} is {'a folder' if path.is_dir() else 'missing'}"
+        )
+    uri = path.resolve().as_uri()
+    db = None
+    # mode=rw: never created, and its WAL files are removed on close as a writer's; ro on a read-only medium, and
+    # immutable where not even SQLite's -shm can be made there
+    for query in ("?mode=rw", "?mode=ro", "?mode=ro&immutable=1"):
+        try:
+            db = sqlite3.connect(uri + query, uri=True, timeout=30.0, isolation_level=None)
+            tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+            if {"campaign", "cases"} <= tables:
+                db.execute("SELECT COUNT(*) FROM cases").fetchone()  # a read-only medium fails here, not later
+            break
+        except sqlite3.OperationalError as exc:
+            if db is not None:
+                db.close()
+            db, error = None, exc
+        except sqlite3.DatabaseError as exc:
+            raise InputError(f"cannot open the campaign index {path}: {describe(exc)}") from None
+    if db is None:
+        raise InputError(f"cannot open the campaign index {path}: {describe(error)}") from None
+    if not {"campaign", "cases"} <= tables:
+        db.close()
+        kind = "an empty file" if path.stat().st_size == 0 else "an SQLite file without the campaign's tables"
+        raise InputError(f"{path} is no campaign index ({kind}): not a campaign folder")
+    return db
+
+
 class CampaignStore:
     """The SQLite index and case folders of one campaign folder.
 
@@ -155,22 +197,31 @@ class CampaignStore:
     ----------
     root : str or Path
         The campaign folder (created when missing, with its parents).
+    readonly : bool
+        Only read the store (``campaign status``, the report's reading): nothing of gflat's is created or changed in the
+        folder, a read-only medium is read, and an index without the campaign's tables (an empty or foreign
+        SQLite file) is refused instead of being made a campaign's.
 
     Raises
     ------
     InputError
-        ``root`` is a file, or the database cannot be opened.
+        ``root`` is a file, its index a symbolic link, or the database cannot be opened (read-only: is no
+        campaign index).
     """
 
-    def __init__(self, root: str | Path):
+    def __init__(self, root: str | Path, readonly: bool = False):
         self.root = Path(root)
         if self.root.exists() and not self.root.is_dir():
             raise InputError(f"campaign folder {self.root} is a file")
+        _refuse_linked_index(self.root)
         if (self.root / "cases").is_symlink():
             raise InputError(
                 f"campaign folder {self.root}: its cases folder is a symbolic link (a campaign's files stay in its "
                 f"folder): remove the link, or use another folder"
             )
+        if readonly:
+            self.db = _open_readonly(self.root / DB_NAME)
+            return
         (self.root / "cases").mkdir(parents=True, exist_ok=True)
         try:
             self.db = sqlite3.connect(self.root / DB_NAME, timeout=30.0, isolation_level=None)
@@ -329,17 +380,20 @@ class CampaignStore:
         return self.root / "cases" / case_id
 
     def clean_stale(self) -> list[Path]:
-        """Remove temporary folders and the folders of cases not recorded as done (an interrupted commit).
+        """Remove temporary folders and the folders of this store's cases not recorded as done (an interrupted
+        commit).  A folder named after no case of the store is not the campaign's: it is left where it is.
 
         Returns
         -------
         list of Path
             The folders removed.
         """
-        done = {cid for cid, s in self.statuses().items() if s == "done"}
+        statuses = self.statuses()
+        undone = {cid for cid, s in statuses.items() if s != "done"}
         removed = []
         for p in (self.root / "cases").iterdir():
-            if p.name.startswith(".tmp-") or (p.is_dir() and p.name not in done):
+            temporary = p.name.startswith(".tmp-") and p.name[5:].rpartition("-")[0] in statuses
+            if temporary or (p.is_dir() and not p.is_symlink() and p.name in undone):
                 shutil.rmtree(p, ignore_errors=True)
                 removed.append(p)
         return removed

@@ -17,13 +17,21 @@ import argparse
 import os
 from pathlib import Path
 
-from gna.errors import InputError
+from gna.errors import InputError, expand_home
 
 from ..rundir import OutputFile, RunDir
 
 #: Where the command line writes a run when no ``--out`` is given: relative, so under the current folder (never
 #: in the installed package; ``tests/harness/test_json_output.py`` runs the commands from a folder of their own).
 DEFAULT_ROOT = Path("reports") / "out"
+
+
+def _expanded(text: str) -> Path:
+    """``text`` with ``~`` expanded; a home folder that cannot be found is an option error."""
+    try:
+        return expand_home(text)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def out_path(text: str) -> Path:
@@ -33,7 +41,7 @@ def out_path(text: str) -> Path:
         raise argparse.ArgumentTypeError("an empty path; give a folder's name (an empty one is no folder)")
     if text == "-":
         raise argparse.ArgumentTypeError("'-': gflat writes a run to a folder, not to the standard output")
-    return Path(text).expanduser()
+    return _expanded(text)
 
 
 def out_file(text: str) -> Path:
@@ -49,7 +57,7 @@ def out_file(text: str) -> Path:
         raise argparse.ArgumentTypeError(
             f"{text!r} ends with a '/', a folder's name; give the file's name (e.g. {text}<id>.toml)"
         )
-    return Path(text).expanduser()
+    return _expanded(text)
 
 
 def add_out(p: argparse.ArgumentParser, help: str, *, metavar: str = "DIR", required: bool = False) -> None:

@@ -20,7 +20,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from gna.errors import InputError, describe
+from gna.errors import InputError, describe, expand_home
 
 from ..campaign.checks import MAX_CASES, MAX_DASK_TIMEOUT_S
 from ._args import add_tracking, bounded_float, cost_bound, positive_int, worker_count
@@ -160,12 +160,15 @@ def _store_errors(command):
     return checked
 
 
-def _store(folder: str):
+def _store(folder: str, readonly: bool = True):
+    """The store of a campaign folder given on the command line; read-only unless ``readonly`` is false."""
     from harness.campaign.store import DB_NAME, CampaignStore
 
-    if not (Path(folder) / DB_NAME).is_file():
-        raise InputError(f"{folder} is not a campaign folder (no {DB_NAME})")
-    return CampaignStore(folder)
+    index = Path(folder) / DB_NAME
+    if not index.is_file() and not index.is_symlink():
+        held = f"{DB_NAME} is a folder" if index.is_dir() else f"no {DB_NAME}"
+        raise InputError(f"{folder} is not a campaign folder ({held})")
+    return CampaignStore(folder, readonly=readonly)
 
 
 @_store_errors
@@ -325,9 +328,9 @@ def report(args) -> int:
     from reports.campaign import render_campaign
 
     _store(args.dir).close()
-    folder = Path(args.dir).expanduser().resolve()
+    folder = expand_home(args.dir).resolve()
     with locked(folder):  # refused while a campaign run works there, and held meanwhile
-        st = CampaignStore(folder)
+        st = CampaignStore(folder, readonly=True)
         try:
             bad = untrusted(st, quiet=True)  # nothing unchecked is rendered
         finally:

@@ -48,6 +48,9 @@ MAX_RATE_HAT = 1.0
 #: Most sample points per block of a fit (``--samples``, ``--test``): a JSBSim point is one run_ic (about 1 ms),
 #: and the design matrix holds 45 regressors per point.
 MAX_FIT_POINTS = 200_000
+#: Largest |FACTOR| of ``--property VAR=PROP:FACTOR`` (and smallest 1 / it): a property in degrees is 57.3 x the
+#: rad, a normalised one a few units; beyond, the surface's sampled range collapses to nothing (1e308: 1e-310 rad).
+MAX_PROPERTY_FACTOR = 1e4
 
 
 def _surface_property(text: str) -> tuple[str, tuple[str, float | None]]:
@@ -65,6 +68,11 @@ def _surface_property(text: str) -> tuple[str, tuple[str, float | None]]:
             raise argparse.ArgumentTypeError(f"FACTOR must be a number in {text!r}") from None
         if not (math.isfinite(value) and value != 0.0):
             raise argparse.ArgumentTypeError(f"FACTOR must be finite and non-zero in {text!r}")
+        if not 1.0 / MAX_PROPERTY_FACTOR <= abs(value) <= MAX_PROPERTY_FACTOR:
+            raise argparse.ArgumentTypeError(
+                f"FACTOR {value:g} in {text!r} is outside its bounds: |FACTOR| from {1.0 / MAX_PROPERTY_FACTOR:g} "
+                f"to {MAX_PROPERTY_FACTOR:g} (a property is the surface's deflection in rad times FACTOR)"
+            )
     return var, (prop.strip(), value)
 
 
@@ -150,7 +158,7 @@ def register(sub) -> None:
         rhat=0.06,
         surfaces=None,
         band=math.degrees(0.1),
-        hint="-5 20 and 15 within the aerodynamic tables' data",
+        hint=("-5 20 within the aerodynamic tables' data", "15 within the aerodynamic tables' data"),
     )
     _common(j)
 
@@ -245,7 +253,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band, hint=None) -> None:
+def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band, hint: tuple | None = None) -> None:
     d = p.add_argument_group("sampling design (angles in degrees)")
     d.add_argument(
         "--alpha",
@@ -253,14 +261,14 @@ def _design_args(p, *, alpha, beta, phat, qhat, rhat, surfaces, band, hint=None)
         type=within(-MAX_ANGLE_DEG, MAX_ANGLE_DEG),
         default=alpha,
         metavar=("LO", "HI"),
-        help=f"angle-of-attack range (default {hint or f'{alpha[0]:g} {alpha[1]:g}'})",
+        help=f"angle-of-attack range (default {hint[0] if hint else f'{alpha[0]:g} {alpha[1]:g}'})",
     )
     d.add_argument(
         "--beta",
         type=bounded_float(MAX_ANGLE_DEG),
         default=beta,
         metavar="MAX",
-        help=f"|sideslip| (default {hint or beta})",
+        help=f"|sideslip| (default {hint[1] if hint else beta})",
     )
     d.add_argument(
         "--phat", type=bounded_float(MAX_RATE_HAT), default=phat, metavar="MAX", help=f"|p b/2V| (default {phat:g})"
@@ -525,7 +533,9 @@ def _default_ident(args) -> str:
     """The fitted aircraft's identifier without ``--id``: the JSBSim model's name (as
     :func:`gna.fit.sources.jsbsim_aero.resolve` reads it), ``gtm-fit``, the CSV file's stem."""
     if args.source == "jsbsim":
-        return (Path(args.model).stem if Path(args.model).suffix == ".xml" else args.model).lower()
+        from gna.fit.sources.jsbsim_aero import check_model_name
+
+        return (Path(args.model).stem if Path(args.model).suffix == ".xml" else check_model_name(args.model)).lower()
     return "gtm-fit" if args.source == "gtm" else Path(args.csv).stem
 
 

@@ -25,7 +25,7 @@ import time
 from functools import partial
 from pathlib import Path
 
-from gna.errors import InputError, writing
+from gna.errors import InputError, expand_home, writing
 from reports.html import render_date, render_run
 
 from ..artefacts import manifest_problem
@@ -90,7 +90,7 @@ def run_folder(folder: str | Path) -> tuple[Path, dict]:
         naming the nearest ``manifest.json`` and what is wrong with it (not JSON, not an object, another
         tool's, wrong types), or saying there is none.
     """
-    path = Path(folder).expanduser()
+    path = expand_home(folder)
     if not path.is_dir():
         what = "does not exist" if not os.path.lexists(path) else "is a file, not a folder"
         raise InputError(f"{folder} {what}: give the folder of a gflat paper or gflat compare run")

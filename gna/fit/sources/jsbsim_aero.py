@@ -38,6 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gna.errors import expand_home
+
 from ... import units
 from ...aero import AeroState, Coefficients
 from ...errors import InputError, UnknownAircraftError
@@ -427,6 +429,32 @@ def available_aircraft(root: Path) -> list[str]:
     return sorted(p.name for p in d.iterdir() if (p / f"{p.name}.xml").is_file())
 
 
+def check_model_name(model: str) -> str:
+    """``model`` when it is an aircraft's name (one folder name under ``<root>/aircraft``), not a path.
+
+    Parameters
+    ----------
+    model : str
+        What the user gave, not ending in ``.xml``.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InputError
+        A name with a ``/``, a ``..`` or other characters than a folder's (one line naming it): an aircraft
+        elsewhere is given as the path of its ``<name>/<name>.xml``.
+    """
+    if model and model not in (".", "..") and all(c.isalnum() or c in "._-+" for c in model):
+        return model
+    raise InputError(
+        f"JSBSim aircraft {model!r}: not an aircraft's name (one folder name under the JSBSim root's aircraft/); "
+        f"give a bundled name such as F4N, or the path of an aircraft file <name>/<name>.xml"
+    )
+
+
 def resolve(model: str, root: str | Path | None = None) -> tuple[str, Path, Path]:
     """Where a JSBSim aircraft's files are.
 
@@ -453,10 +481,10 @@ def resolve(model: str, root: str | Path | None = None) -> tuple[str, Path, Path
     InputError
         A path to an ``.xml`` file not laid out as ``<name>/<name>.xml``.
     """
-    base = Path(root).expanduser().resolve() if root is not None else default_root()  # JSBSim joins relative ones
+    base = expand_home(root).resolve() if root is not None else default_root()  # JSBSim joins relative ones
     if root is not None and not base.is_dir():
         raise InputError(f"JSBSim root {str(root)!r}: {base} is not a folder")
-    p = Path(model).expanduser()
+    p = expand_home(model)
     if p.suffix == ".xml":
         p = p.resolve()
         if not p.is_file():
@@ -464,6 +492,7 @@ def resolve(model: str, root: str | Path | None = None) -> tuple[str, Path, Path
         if p.parent.name != p.stem:
             raise InputError(f"JSBSim expects an aircraft file as <dir>/<name>/<name>.xml; got {p}")
         return p.stem, p.parent, base
+    check_model_name(model)
     if not (base / "aircraft" / model / f"{model}.xml").is_file():
         raise UnknownJSBSimAircraftError(str(model), available_aircraft(base), str(base))
     return model, base / "aircraft" / model, base
