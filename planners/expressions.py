@@ -178,7 +178,29 @@ def compile_expression(
             )
         return r
 
+    def constant(fn) -> float:
+        """The value of a part of the expression without t, or one line saying why it has none."""
+        try:
+            with np.errstate(all="raise"):
+                return fn(0.0)
+        except InputError:
+            raise
+        except (ArithmeticError, ValueError, FloatingPointError, OverflowError) as exc:
+            cause = "a number too large for a float" if isinstance(exc, OverflowError) else describe(exc)
+            raise InputError(f"{where}: {_shown(text)} cannot be evaluated ({cause})") from None
+
     def build(node) -> Callable:
+        """``node`` as a function of t; a part without t (``1/0`` in ``1/0 + t``) evaluated once, here, so that
+        it fails when the expression is read, not later while planning."""
+        fn = build_node(node)
+        if isinstance(node, (ast.Expression, ast.Constant, ast.Name)) or any(
+            isinstance(n, ast.Name) and n.id == "t" for n in ast.walk(node)
+        ):
+            return fn
+        v = constant(fn)
+        return lambda t: v
+
+    def build_node(node) -> Callable:
         nonlocal uses_t
         if isinstance(node, ast.Expression):
             return build(node.body)
@@ -226,14 +248,7 @@ def compile_expression(
 
     fn = build(tree)
     if not uses_t:
-        try:
-            with np.errstate(all="raise"):
-                const = fn(0.0)
-        except InputError:
-            raise
-        except (ArithmeticError, ValueError, FloatingPointError, OverflowError) as exc:
-            cause = "a number too large for a float" if isinstance(exc, OverflowError) else describe(exc)
-            raise InputError(f"{where}: {_shown(text)} cannot be evaluated ({cause})") from None
+        const = constant(fn)
         fn0 = fn
         fn = lambda t, c=const: c + 0.0 * t  # noqa: E731  keep the shape/type of t
         del fn0

@@ -72,3 +72,10 @@ def test_complex_values_are_refused():
     with pytest.raises(InputError, match=r"not real at t = 1 s"):
         f(1.0)
     assert compile_expression("(-2)**2 * t")(1.0) == 4.0
+
+
+@pytest.mark.parametrize("text", ["1/0 + t", "t*(1/0)", "1/0*t", "10**400*t", "t**(0**-1)"])
+def test_a_part_without_t_that_cannot_be_evaluated_is_refused_when_read(text):
+    # a new user's try (2026-12-02): the part without t failed only while planning, a traceback with exit 1
+    with pytest.raises(InputError, match="cannot be evaluated"):
+        compile_expression(text, where="x")
