@@ -251,7 +251,15 @@ class RunDir:
             except OSError as exc:
                 raise InputError(f"output folder {self.out}: cannot create {parent}: {_cause(exc)}") from None
         self._remove_stale()
-        self.root, self._fd = self._stage()
+        # An interruption arriving between the folder's mkdir and its record here waits for the record, and
+        # then removes the folder: the caller's `with` never saw this object, so its __exit__ would not.
+        try:
+            with InterruptsWait():
+                self.root, self._fd = self._stage()
+        except BaseException:
+            if getattr(self, "_fd", None) is not None:
+                self.close()
+            raise
 
     # ---- staging ---------------------------------------------------------------------------------
     def _pattern(self) -> str:
