@@ -371,12 +371,7 @@ def solve_collocation(sc, quick: bool, col_step: float) -> Outcome:
     f = ca.Function("f", [xs, us], [ca.vertcat(*eom.derivatives(ac, senv, s_sym, u_sym))])
     nz = body_load_factors(ac, senv, s_sym, eom.loads(ac, senv, s_sym, u_sym))[2]
     fnz = ca.Function("nz", [xs, us], [nz])
-    radau = np.array([k * d + i for k in range(n) for i in range(1, d + 1)])
-    Dg = np.zeros((P, d * n))
-    for k in range(n):
-        idx = k * d + np.arange(d + 1)
-        Dg[np.ix_(idx, k * d + np.arange(d))] = D[:, 1:] / h[k]
-    Dg_sp = ca.sparsify(ca.DM(Dg))
+    radau, Dg_sp = bc.radau_derivatives(D, h)
     dyn = ca.vec(ca.diag(ca.DM(1.0 / sx)) @ (ca.mtimes(X, Dg_sp) - f.map(len(radau))(X[:, radau], U[:, radau])))
     Ud = ca.mtimes(U, Dg_sp)  # control rates at the Radau points
     Ud0 = ca.mtimes(U[:, : d + 1], ca.DM(D[:, 0] / h[0]))  # and at t0

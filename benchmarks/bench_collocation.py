@@ -190,6 +190,32 @@ def radau_matrices(degree: int = DEGREE):
     return tau, D
 
 
+def radau_derivatives(D: np.ndarray, h: np.ndarray):
+    """The derivative of every point's value at the Radau points of a grid, as one sparse matrix.
+
+    Parameters
+    ----------
+    D : ndarray, shape (degree + 1, degree + 1)
+        :func:`radau_matrices`'s differentiation weights on [0, 1].
+    h : ndarray, shape (n,)
+        The intervals' lengths [s].
+
+    Returns
+    -------
+    radau : ndarray of int, shape (degree * n,)
+        The columns of the Radau points among the grid's ``degree * n + 1`` points (the start first).
+    Dg : casadi.DM, shape (degree * n + 1, degree * n)
+        ``X @ Dg``: the time derivative at the Radau points of the values ``X`` at every point [1/s].
+    """
+    d, n = D.shape[0] - 1, len(h)
+    radau = np.array([k * d + i for k in range(n) for i in range(1, d + 1)])
+    Dg = np.zeros((d * n + 1, d * n))
+    for k in range(n):
+        idx = k * d + np.arange(d + 1)
+        Dg[np.ix_(idx, k * d + np.arange(d))] = D[:, 1:] / h[k]
+    return radau, ca.sparsify(ca.DM(Dg))
+
+
 def _state_scales(aircraft, env, guess_states, guess_controls):
     """Typical magnitudes of the 12 states and 5 controls (objective weights, F's unit)."""
     sx = np.ones(12)
@@ -382,12 +408,7 @@ class CollocationProblem:
         )
         f = ca.Function("f", [xs, us], [ca.vertcat(*rhs)])
         # The equations at every Radau point: X @ Dg = f(X, U) there.
-        radau = np.array([k * d + i for k in range(n) for i in range(1, d + 1)])
-        Dg = np.zeros((P, d * n))
-        for k in range(n):
-            idx = k * d + np.arange(d + 1)
-            Dg[np.ix_(idx, k * d + np.arange(d))] = D[:, 1:] / h[k]
-        Dg_sp = ca.sparsify(ca.DM(Dg))
+        radau, Dg_sp = radau_derivatives(D, h)
         dyn = ca.mtimes(X, Dg_sp) - f.map(len(radau))(X[:, radau], U[:, radau])
         dyn = ca.vec(ca.diag(ca.DM(1.0 / sx)) @ dyn)
         self.n_dynamics = int(dyn.numel())

@@ -104,17 +104,7 @@ def run(args) -> int:
         else:
             print(f"{len(crafts)} JSBSim file(s) current in {root}")
         if json_mode:
-            emit(
-                args,
-                {
-                    "out": str(Path(root).absolute()),
-                    "check": True,
-                    "aircraft": [a.id for a in crafts],
-                    "current": not stale,
-                    "stale": stale,
-                    "files": [],
-                },
-            )
+            _emit(args, root, crafts, check=True, stale=stale, files=[])
         return 1 if stale else 0
     if args.out is None:  # the folder under the current one: other aircraft's files stay, each file replaced whole
         files = []
@@ -132,15 +122,20 @@ def run(args) -> int:
         for a, f in zip(crafts, files):
             print(f"{a.id}: {f}")
     if json_mode:
-        emit(
-            args,
-            {
-                "out": str(Path(root).absolute()),
-                "check": False,
-                "aircraft": [a.id for a in crafts],
-                "current": True,
-                "stale": [],
-                "files": [str(f) for f in files],
-            },
-        )
+        _emit(args, root, crafts, check=False, stale=[], files=files)
     return 0
+
+
+def _emit(args, root, crafts, *, check: bool, stale: list, files: list) -> None:
+    """The command's ``--json`` object (schema ``export-jsbsim``): the folder, the aircraft, their files."""
+    emit(
+        args,
+        {
+            "out": str(Path(root).absolute()),
+            "check": check,
+            "aircraft": [a.id for a in crafts],
+            "current": not stale,
+            "stale": stale,
+            "files": [str(f) for f in files],
+        },
+    )
