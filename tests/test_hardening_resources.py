@@ -222,7 +222,8 @@ def test_k4_a_case_past_its_budget_ends_as_a_timeout_and_the_campaign_goes_on(tm
     assert out["error"].startswith("timeout: the case ran ") and "over its budget of 0.001 s" in out["error"]
     folder = tmp_path / "camp"
     argv = ["campaign", "run", str(tmp_path / "tiny.toml"), "--out", str(folder), "--workers", "1", "--quiet"]
-    assert main(argv) == 0  # every case ran to its end (a timeout is an outcome), none is pending
+    assert main(argv) == 1  # every case ran to its end, none is pending, but a timeout leaves no result
+    assert "3 of 3 case(s) failed (an error or a timeout: no result)" in capsys.readouterr().err
     st = CampaignStore(folder)
     try:
         rows = st.rows()

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import json
+import shlex
 import sqlite3
 import sys
 from dataclasses import replace
@@ -57,7 +58,8 @@ def register(sub) -> None:
         help="run or resume a campaign",
         description="Run a campaign (a bundled one or a TOML file) into DIR, or resume it there: the cases done "
         "are skipped, the failed ones run again only with --retry-failed. The campaign file, every case and "
-        "--dask are checked before DIR is created or touched. Exit 1 while cases are pending.",
+        "--dask are checked before DIR is created or touched. Exit 1 while cases are pending or failed (an "
+        "error or a timeout: no result).",
         examples=[
             "gflat campaign run paper-dispersions --out camp --samples 4 --workers 2",
             "gflat campaign run my-campaign.toml --out camp --dask local:4 --json",
@@ -256,9 +258,15 @@ def run(args) -> int:
         f"{res['done']} done, {res['failed']} failed, {res['pending']} pending of {res['cases']} -> {res['folder']}"
     )
     print(note, file=sys.stderr if quiet else sys.stdout)
+    if res["failed"]:  # a case without a result is no success, whatever the others show
+        print(
+            f"gflat campaign run: {res['failed']} of {res['cases']} case(s) failed (an error or a timeout: no "
+            f"result): gflat campaign status {shlex.quote(str(res['folder']))}; --retry-failed runs them again",
+            file=sys.stderr,
+        )
     if args.json:
         emit(args, {**res, "reruns": reruns})
-    return 0 if res["pending"] == 0 else 1
+    return 0 if res["pending"] == 0 and res["failed"] == 0 else 1
 
 
 @_store_errors
