@@ -246,7 +246,13 @@ def _metrics(plan, runs, ctl, j, settings, flyable: dict, known=()) -> dict:
     verdicts = {
         "flyable": flyable,
         "tracking": tracking_verdict(
-            runs, ref, span, settings.tracking_tolerance, settings.settle_time, sat if ctl is not None else None
+            runs,
+            ref,
+            span,
+            settings.tracking_tolerance,
+            settings.settle_time,
+            sat if ctl is not None else None,
+            clipped=ctl is None or bool(getattr(ctl, "saturate", True)),
         ),
         "engines_agree": engines_agree_verdict(runs, tables),
     }

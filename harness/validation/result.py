@@ -188,6 +188,7 @@ class CaseResult:
                 tol,
                 settle,
                 self.saturated_s() if self.closed_loop is not None else None,
+                clipped=self.closed_loop is None or bool(getattr(self.closed_loop.controller, "saturate", True)),
             ),
             "engines_agree": engines_agree_verdict(self.runs, self.tables),
         }

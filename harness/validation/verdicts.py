@@ -98,6 +98,7 @@ def tracking_verdict(
     tolerance_m: float,
     settle_s: float,
     saturated_s: Mapping | None,
+    clipped: bool = True,
 ) -> dict:
     """Whether the feedback holds every engine on the flat outputs after the settle time.
 
@@ -115,8 +116,11 @@ def tracking_verdict(
     settle_s : float
         Time from t0 before the measure starts [s].
     saturated_s : mapping or None
-        Engine label -> ``{"any": s, ...}`` (:func:`harness.validation.closed.saturated_seconds`);
-        None open loop.
+        Engine label -> ``{"any": s, ...}`` (:func:`harness.validation.closed.saturated_seconds`):
+        the time commanded beyond a limit; None open loop.
+    clipped : bool
+        Whether the controller clipped its commands at the limits (scenario ``[tracking] saturate``); when
+        not, the runs flew the commands beyond them and the line says so.
 
     Returns
     -------
@@ -125,7 +129,7 @@ def tracking_verdict(
         ``settle_s``, ``engines`` (label -> ``status``,
         ``max_error_after_settle_m`` (None when not finite or the run ended
         before), ``saturated_s``, ``pass``), ``max_error_after_settle_m``
-        and ``saturated_s`` (the largest over the engines).
+        and ``saturated_s`` (the largest over the engines), ``clipped``.
     """
     if saturated_s is None:
         return {"pass": None, "applies": False, "reason": "open loop: no feedback to judge"}
@@ -146,6 +150,7 @@ def tracking_verdict(
         "engines": engines,
         "max_error_after_settle_m": None if None in errs else max(errs, default=None),
         "saturated_s": max((e["saturated_s"] for e in engines.values()), default=0.0),
+        "clipped": bool(clipped),
     }
 
 
@@ -295,10 +300,16 @@ def verdict_lines(verdicts: Mapping, judged: Mapping | None = None) -> list[str]
         lines.append(f"tracking: n/a ({trk['reason']})")
     else:
         err = trk["max_error_after_settle_m"]
+        beyond = trk["saturated_s"]
+        if not beyond:
+            commands = "commands within their limits"
+        elif trk.get("clipped", True):
+            commands = f"commands clipped at their limits {beyond:.2f} s"
+        else:  # the flight used what the aircraft cannot give: said, not hidden behind the PASS
+            commands = f"commands beyond their limits {beyond:.2f} s, flown unclipped ([tracking] saturate = false)"
         lines.append(
             f"tracking: {word(trk['pass'])} (largest distance to the flat outputs after {trk['settle_s']:g} s "
-            f"{'n/a' if err is None else f'{err:.3g} m'} against {trk['tolerance_m']:g} m; commands saturated "
-            f"{trk['saturated_s']:.2f} s)"
+            f"{'n/a' if err is None else f'{err:.3g} m'} against {trk['tolerance_m']:g} m; {commands})"
         )
     bad = [f"{k}: {', '.join(d['failing'])}" for k, d in agr["differences"].items() if d["failing"]]
     detail = "; ".join(([f"runs ended early: {', '.join(agr['incomplete'])}"] if agr["incomplete"] else []) + bad)

@@ -207,3 +207,29 @@ def test_comparison_flags_parse_into_case_settings():
     assert compare_overrides(build_parser().parse_args(["paper"])) == {}
     with pytest.raises(SystemExit):
         build_parser().parse_args(["paper", "--window", "nonsense"])
+
+
+def test_the_tracking_line_says_whether_commands_beyond_the_limits_were_flown_or_clipped():
+    from harness.validation.verdicts import verdict_lines
+
+    fly = {"pass": True, "violations": [], "infeasible": False}
+    agree = {"pass": True, "incomplete": [], "differences": {}}
+
+    def line(saturated_s, clipped):
+        trk = {
+            "pass": True,
+            "settle_s": 5.0,
+            "tolerance_m": 1.0,
+            "max_error_after_settle_m": 1e-5,
+            "saturated_s": saturated_s,
+            "clipped": clipped,
+        }
+        lines = verdict_lines({"flyable": fly, "tracking": trk, "engines_agree": agree})
+        return next(x for x in lines if x.startswith("tracking:"))
+
+    assert line(0.0, True).endswith("; commands within their limits)")
+    assert line(2.5, True).endswith("; commands clipped at their limits 2.50 s)")
+    # the paper's forward slip flies its -28 deg ailerons unclipped: the PASS does not hide it
+    assert line(120.0, False).endswith(
+        "; commands beyond their limits 120.00 s, flown unclipped ([tracking] saturate = false))"
+    )
