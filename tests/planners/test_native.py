@@ -248,6 +248,15 @@ def test_whole_plans_agree_with_the_numpy_path(name):
             close(rep.series_residual, it_n.reports[stage].series_residual, 1e-9)  # a check of each iterate
     assert ref.feasible == new.feasible
     assert ref.warnings == new.warnings
+    # the checks: the singularity table (native: the stage-2 program's Jacobian at order 0), the limit grid
+    assert ref.singularities.condition == new.singularities.condition
+    close(ref.singularities.table.to_numpy(), new.singularities.table.to_numpy())
+    assert ref.singularities.failures == new.singularities.failures
+    (t_r, c_r, v_r), (t_n, c_n, v_n) = ref._limit_arrays(-1, None), new._limit_arrays(-1, None)
+    assert c_r == c_n and np.array_equal(t_r, t_n)
+    for a, b in zip(v_r, v_n):
+        close(a, b)
+    assert [v.text() for v in ref.limit_violations()] == [v.text() for v in new.limit_violations()]
 
 
 def test_a_second_plan_of_a_problem_traces_nothing():
@@ -404,3 +413,35 @@ def test_a_first_use_compiles_in_the_background(tmp_path):
         env=env, capture_output=True, text=True, check=True,
     )  # fmt: skip
     assert again.stdout.strip() == "True"
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {},  # the weave: cond_beta, regular
+        {"flat_outputs": {"zeta": "mix", "zeta_value": "0", "f1": "1", "f2": "1"}, "time": {"t1": 10.0}},
+        {"flat_outputs": {"zeta": "mu", "zeta_value": "0.3*sin(t/5)"}, "time": {"t1": 10.0}},
+        {  # cond_beta numerically zero at every node (a failure)
+            "flat_outputs": {"x": "150*t", "y": "0", "z": "-3000 + 0.5*g0*t**2", "zeta": "beta", "zeta_value": "0"},
+            "time": {"t0": -3.0, "t1": 3.0, "step": 0.25},
+        },
+    ],
+)
+def test_the_singularity_monitor_on_the_native_jacobian_is_the_complex_steps(changes):
+    """The monitor's stage-2 Jacobian from the traced program at order 0 (forward mode, native) = the complex
+    step on the numpy model: the table to 1e-12, the same warnings and failures."""
+    import planners.singularity as SG
+    from planners.generalized import plan_scenario
+
+    from .conftest import make_scenario
+
+    plan = plan_scenario(make_scenario(**changes), J=1)
+    sol = plan.iterates[0]
+    assert C.program_backend() == "native" and sol._inputs.get("programs", {}).get(2, (None,))[0] is not None
+    new = SG.monitor(plan)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(C, "program_backend", lambda: None)
+        ref = SG.monitor(plan)
+    assert new.condition == ref.condition
+    close(ref.table.to_numpy(), new.table.to_numpy())
+    assert new.warnings == ref.warnings and new.failures == ref.failures
