@@ -937,9 +937,10 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
     )  # fmt: skip
     del keep
     t = np.asarray(t_nodes, dtype=float)
+    top = cached["known"]
     for j in range(j0, done):
         loss = cached["order"] - orders[j]
-        known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
+        known = _truncated(top, loss)
         reports = dict(cached["reports"])
         changed = False
         for i, (h, st) in enumerate(state.items()):
@@ -964,6 +965,18 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
             break
         iterates.append(NodeSolution(known, orders[j], reports, cached))
         timings[j] = float(seconds[j])
+
+
+def _truncated(series: Mapping, loss: int) -> dict:
+    """Every series of ``series`` truncated by ``loss`` orders (:meth:`Series.truncate`'s views, without its
+    checks where the order stays >= 0)."""
+    if not loss:
+        return dict(series)
+    out = {}
+    for n, v in series.items():
+        c = v._c
+        out[n] = Series._wrap(c[: c.shape[0] - loss]) if c.shape[0] > loss else v.truncate(v.order - loss)
+    return out
 
 
 def _lazy_residual_of(st, j, known, iterates, cached, loss, orders, nodes):
