@@ -645,6 +645,10 @@ def flat_parametrization(
         sol = _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h0)
         if sol is not None:
             return sol
+    if programs is not None and guess is None and not loss:
+        sol = _native_first_iterate(system, cached, programs, t_nodes, order, hat, tol, h0)
+        if sol is not None:
+            return sol
     known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
     derivs = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["derivs"].items()}
     reports = dict(cached["reports"])
@@ -802,6 +806,107 @@ def _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h
             if h < system.r and v.order >= 1:
                 values[name + "'"] = _LazyDerivative(v)
     known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
+    known.update(out)
+    return NodeSolution(known, order, reports, cached)
+
+
+def _native_first_iterate(system, cached, programs, t_nodes, order, hat, tol, h0):
+    """The first iterate's stages h >= h0 on the native evaluator and the plan's data buffers (:class:`_NativeStage`,
+    sized here for the later iterates too), without the series objects and evaluators between them: the steps of
+    :func:`_solve_stage` (a Newton stage from its :attr:`Stage.start`: the pointwise Newton, then the doubling
+    steps; a warm stage: Newton at the working order from :attr:`ChainedSystem.guess`; a closed form: its traced
+    program), with the same reports.  None (the caller takes the general path, whose result this is) when a stage
+    has no traced program yet (the first plan of a system and grid traces them there) or a check, a pointwise
+    Newton leaves a node above the tolerance (the memory restarts), or the native steps hand back (a singular
+    node, a warm start that needs the full scheme)."""
+    from . import newton as nw
+
+    if program_backend() != "native" or cached.get("native_stages") is not None:
+        return None
+    stages = list(enumerate(system.stages[h0 - 1 :], start=h0))
+    for h, stage in stages:
+        entry = programs.get(("solve", h) if stage.solve is not None else h)
+        if entry is None or entry[0] is None or stage.check is not None:
+            return None
+    nodes = len(t_nodes)
+    state = _native_state(system, cached, programs, order, nodes, h0)
+    if not state:
+        return None
+    t = np.asarray(t_nodes, dtype=float)
+    weights = cached.get("native_weights")
+    if weights is None:  # step^m, step the smallest node spacing (planners.newton._warm_newton's test)
+        dt = np.diff(t)
+        step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
+        weights = cached["native_weights"] = step ** np.arange(cached["order"] + 2, dtype=float)
+    values = {}
+    for n in system.neglected:
+        values[n] = _as_series((hat or {}).get(n, system.neglected_start(n)), nodes, 0)
+    out, reports = {}, dict(cached["reports"])
+    for h, st in state.items():
+        stage, k = st.stage, order - h
+        M = k + (2 if st.solve else 1)
+        if st.B.shape[1] < M:
+            return None
+        if any(name not in values for _r, name in st.var):
+            return None
+        B = st.data(M, 0, values)
+        if st.solve:
+            res = st.nat.evaluate(np.zeros((0, M, nodes)), B, M)
+            u = [Series._wrap(res[j, : k + 1]) for j in range(res.shape[0])]
+        else:
+            n = len(stage.unknowns)
+            x = np.zeros((n, M, nodes))
+            if stage.start is not None:  # the starting values of _solve_stage
+                data = {**cached["known"], **cached["derivs"], **out}
+                for name in stage.neglected:
+                    data[name] = values[name]
+                start = stage.start(_at_order(data, 0), t_nodes)
+            else:
+                start = [system.guess.get(name, 0.0) for name in stage.unknowns]
+            if len(start) != n:
+                return None
+            for j, c in enumerate(start):
+                x[j, 0] = np.broadcast_to(np.asarray(c, dtype=float), (nodes,))
+            if not stage.warm:  # the pointwise Newton, then the doubling steps
+                x0 = np.array(x[:, 0])
+                status, cres, its = st.nat.pointwise_newton(x0, B, tol, nw.PAPER_MAXITER)
+                if status != 0 or not np.all(cres <= tol):
+                    return None
+                x[:, 0] = x0
+                orders = nw.doubling_orders(k)
+                if not orders:
+                    return None
+                Jc = np.empty((n, n, M, nodes))
+                if st.nat.doubling(x, B, np.asarray(orders, dtype=np.int64), Jc) != 0:
+                    return None
+                steps = orders
+            elif k > 0:  # warm: Newton at the working order from the starting values
+                Jc = np.empty((n, n, M, nodes))
+                status, cres, nsteps = st.nat.warm_newton(
+                    x, B, Jc, False, tol, weights[:M], nw.WARM_MAXSTEPS, nw.CHORD_STEPS, nw.CHORD_PROOF
+                )
+                if status != 0:
+                    return None
+                its, steps = 0, [k] * nsteps
+            else:
+                return None
+            u = [Series._wrap(x[j]) for j in range(n)]
+            reports[f"stage{h}"] = nw.SeriesNewtonReport(
+                tuple(stage.unknowns),
+                t,
+                cres,
+                its,
+                _lazy_series_residual(st.nat, x, np.array(B[:, :M], order="C", copy=True), M),  # B is reused
+                steps,
+                jacobian=np.swapaxes(Jc, 2, 3),
+            )
+        if stage.post is not None:
+            u = list(stage.post(list(u)))
+        for name, v in zip(stage.unknowns, u):
+            values[name] = out[name] = v
+            if h < system.r and v.order >= 1:
+                values[name + "'"] = _LazyDerivative(v)
+    known = dict(cached["known"])
     known.update(out)
     return NodeSolution(known, order, reports, cached)
 
