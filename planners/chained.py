@@ -949,31 +949,12 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
         state = _native_state(system, cached, cached["programs"], orders[j0], nodes, _first_neglecting_stage(system))
     if not state:
         return
-    slots, slot_h = [], []
-    for h, st in state.items():
-        for name in st.stage.unknowns:
-            slots.append(name)
-            slot_h.append(h)
-    sid = {n: i for i, n in enumerate(slots)}
-    meta, ptrs, var_rows, static_rows, unk = [], [], [], [], []
-    for h, st in state.items():
-        stage = st.stage
-        for r, name in st.var:
-            base = name[:-1] if name.endswith("'") else name
-            if name in stage.neglected and name in sid:
-                var_rows.append((r, sid[name], 0, 1))  # the previous iterate's value
-            elif base in sid and slot_h[sid[base]] < h:
-                var_rows.append((r, sid[base], int(name != base), 0))
-            else:
-                return  # a datum the native iterates do not provide
-        static_rows.extend(st.static)
-        unk.extend(sid[n] for n in stage.unknowns)
-        nat = st.nat
-        n_unk = 0 if st.solve else len(stage.unknowns)
-        meta.append((int(st.solve), n_unk, nat.neq, nat.code.shape[0], nat.nreg, st.B.shape[0], st.B.shape[1],
-                     len(st.var), len(st.static), h))  # fmt: skip
-        ptrs.append((*(int(a.ctypes.data) for a in (nat.code, nat.params, nat.outs, nat.outs_unk)), st.B.ctypes.data))
-    newton_stages = [i for i, st in enumerate(state.values()) if not st.solve]
+    lay = _native_layout(state, cached, orders, j0, j1, nodes)
+    if lay is None:
+        return  # a datum the native iterates do not provide
+    slots, slot_h, sid, newton_stages = lay["slots"], lay["slot_h"], lay["sid"], lay["newton_stages"]
+    ptrs = lay["ptrs"].copy()
+    ptrs[:, 4] = [st.B.ctypes.data for st in state.values()]
     for st in state.values():  # the static rows as at iterate j0 - 1 or before (the native run zeroes them on)
         if cached["order"] - orders[j0] < st.loss:
             st.refill()
@@ -989,8 +970,9 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
         slot_ptrs[j0 - 1, i] = a.ctypes.data
     jac_ptrs = np.zeros((j1, nst), dtype=np.int64)
     cres_ptrs = np.zeros((j1, nst), dtype=np.int64)
+    states = list(state.values())
     for i in newton_stages:
-        st = list(state.values())[i]
+        st = states[i]
         rep = prev.reports.get(f"stage{st.h}")
         jac = getattr(rep, "jacobian", None)
         n = len(st.stage.unknowns)
@@ -1000,32 +982,12 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
         keep.append(a)
         jac_ptrs[j0 - 1, i] = a.ctypes.data
     # the outputs of iterates j0 .. j1 - 1 in three blocks (one allocation each), addressed by offsets
-    states = list(state.values())
-    sizes = [(orders[j] - slot_h[i] + 1) * nodes for j in range(j0, j1) for i in range(ns)]
-    nn = [len(states[i].stage.unknowns) ** 2 for i in newton_stages]
-    jsizes = [q * (orders[j] - states[i].h + 1) * nodes for j in range(j0, j1) for i, q in zip(newton_stages, nn)]
-    slot_buf, jac_buf = np.empty(sum(sizes)), np.empty(sum(jsizes))
+    sizes, off, jsizes, joff = lay["sizes"], lay["off"], lay["jsizes"], lay["joff"]
+    slot_buf, jac_buf = np.empty(lay["slot_total"]), np.empty(lay["jac_total"])
     cres_buf = np.empty((j1 - j0, len(newton_stages), nodes))
-    off = np.concatenate(([0], np.cumsum(sizes)[:-1])).astype(np.int64)
     slot_ptrs[j0:] = (slot_buf.ctypes.data + 8 * off).reshape(j1 - j0, ns)
-    joff = np.concatenate(([0], np.cumsum(jsizes)[:-1])).astype(np.int64)
     jac_ptrs[j0:, newton_stages] = (jac_buf.ctypes.data + 8 * joff).reshape(j1 - j0, len(newton_stages))
-    cres_ptrs[j0:, newton_stages] = cres_buf.ctypes.data + 8 * nodes * np.arange(
-        (j1 - j0) * len(newton_stages), dtype=np.int64
-    ).reshape(j1 - j0, len(newton_stages))
-    out_slots, out_jac, out_cres = {}, {}, {}
-    q = 0
-    for j in range(j0, j1):
-        for i in range(ns):
-            out_slots[j, i] = slot_buf[off[q] : off[q] + sizes[q]].reshape(-1, nodes)
-            q += 1
-    q = 0
-    for j in range(j0, j1):
-        for c, i in enumerate(newton_stages):
-            n = len(states[i].stage.unknowns)
-            out_jac[j, i] = jac_buf[joff[q] : joff[q] + jsizes[q]].reshape(n, n, -1, nodes)
-            out_cres[j, i] = cres_buf[j - j0, c]
-            q += 1
+    cres_ptrs[j0:, newton_stages] = cres_buf.ctypes.data + 8 * nodes * lay["cres_index"]
     steps = np.zeros((j1, nst), dtype=np.int64)
     seconds = np.zeros(j1)
     weights = cached.get("native_weights")
@@ -1034,12 +996,24 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
         dt = np.diff(t)
         step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
         weights = cached["native_weights"] = step ** np.arange(cached["order"] + 2, dtype=float)
-    arr = [np.array(v, dtype=np.int64).reshape(-1) for v in (meta, ptrs, var_rows, static_rows, slot_h, unk)]
     done = _native.iterates(
-        nst, *arr[:4], ns, arr[4], arr[5], nodes, j0, j1, np.array(orders, dtype=np.int64), cached["order"],
-        slot_ptrs, jac_ptrs, cres_ptrs, steps, seconds, tol, weights, nw.WARM_MAXSTEPS, nw.CHORD_STEPS,
-        nw.CHORD_PROOF,
+        nst, lay["meta"], ptrs.reshape(-1), lay["var_rows"], lay["static_rows"], ns, lay["slot_h_arr"],
+        lay["unk"], nodes, j0, j1, lay["orders"], cached["order"], slot_ptrs, jac_ptrs, cres_ptrs, steps, seconds,
+        tol, weights, nw.WARM_MAXSTEPS, nw.CHORD_STEPS, nw.CHORD_PROOF,
     )  # fmt: skip
+    out_slots, out_jac, out_cres = {}, {}, {}
+    q = 0
+    for j in range(j0, done):
+        for i in range(ns):
+            out_slots[j, i] = slot_buf[off[q] : off[q] + sizes[q]].reshape(-1, nodes)
+            q += 1
+    q = 0
+    for j in range(j0, done):
+        for c, i in enumerate(newton_stages):
+            n = len(states[i].stage.unknowns)
+            out_jac[j, i] = jac_buf[joff[q] : joff[q] + jsizes[q]].reshape(n, n, -1, nodes)
+            out_cres[j, i] = cres_buf[j - j0, c]
+            q += 1
     del keep
     t = np.asarray(t_nodes, dtype=float)
     top = cached["known"]
@@ -1070,6 +1044,72 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
             break
         iterates.append(NodeSolution(known, orders[j], reports, cached))
         timings[j] = float(seconds[j])
+
+
+def _native_layout(state, cached, orders, j0, j1, nodes):
+    """The arrays of :func:`_native_run` that depend on the stages' structure and the plan's orders only (the
+    slots, the stages' rows and programs, the output blocks' sizes and offsets), made once per programs (system
+    and grid), orders and buffer sizes (kept on the system beside its programs, which they point into), or None
+    when a stage reads a datum the native iterates do not provide."""
+    programs = cached.get("programs")
+    store = cached["system"].__dict__.setdefault("_native_layouts", {})  # a frozen dataclass: its __dict__ holds it
+    key = (id(programs), cached["order"], tuple(orders), j0, j1, nodes,
+           tuple((h, st.solve, st.B.shape) for h, st in state.items()))  # fmt: skip
+    hit = store.get(key)
+    if hit is not None and hit[0] is programs:
+        return hit[1]
+    slots, slot_h = [], []
+    for h, st in state.items():
+        for name in st.stage.unknowns:
+            slots.append(name)
+            slot_h.append(h)
+    sid = {n: i for i, n in enumerate(slots)}
+    meta, ptrs, var_rows, static_rows, unk = [], [], [], [], []
+    for h, st in state.items():
+        stage = st.stage
+        for r, name in st.var:
+            base = name[:-1] if name.endswith("'") else name
+            if name in stage.neglected and name in sid:
+                var_rows.append((r, sid[name], 0, 1))  # the previous iterate's value
+            elif base in sid and slot_h[sid[base]] < h:
+                var_rows.append((r, sid[base], int(name != base), 0))
+            else:
+                return None
+        static_rows.extend(st.static)
+        unk.extend(sid[n] for n in stage.unknowns)
+        nat = st.nat
+        n_unk = 0 if st.solve else len(stage.unknowns)
+        meta.append((int(st.solve), n_unk, nat.neq, nat.code.shape[0], nat.nreg, st.B.shape[0], st.B.shape[1],
+                     len(st.var), len(st.static), h))  # fmt: skip
+        ptrs.append((*(int(a.ctypes.data) for a in (nat.code, nat.params, nat.outs, nat.outs_unk)), 0))
+    states = list(state.values())
+    newton_stages = [i for i, st in enumerate(states) if not st.solve]
+    ns, nn = len(slots), [len(states[i].stage.unknowns) ** 2 for i in newton_stages]
+    sizes = [(orders[j] - slot_h[i] + 1) * nodes for j in range(j0, j1) for i in range(ns)]
+    jsizes = [q * (orders[j] - states[i].h + 1) * nodes for j in range(j0, j1) for i, q in zip(newton_stages, nn)]
+    lay = {
+        "slots": slots,
+        "slot_h": slot_h,
+        "sid": sid,
+        "newton_stages": newton_stages,
+        "ptrs": np.array(ptrs, dtype=np.int64).reshape(len(states), 5),
+        "sizes": sizes,
+        "jsizes": jsizes,
+        "off": np.concatenate(([0], np.cumsum(sizes)[:-1])).astype(np.int64),
+        "joff": np.concatenate(([0], np.cumsum(jsizes)[:-1])).astype(np.int64),
+        "slot_total": int(sum(sizes)),
+        "jac_total": int(sum(jsizes)),
+        "cres_index": np.arange((j1 - j0) * len(newton_stages), dtype=np.int64).reshape(j1 - j0, len(newton_stages)),
+        "orders": np.array(orders, dtype=np.int64),
+    }
+    for name, v in (("meta", meta), ("var_rows", var_rows), ("static_rows", static_rows), ("slot_h_arr", slot_h),
+                    ("unk", unk)):  # fmt: skip
+        lay[name] = np.array(v, dtype=np.int64).reshape(-1)
+    if programs is not None:  # the programs' code, parameters and outputs live as long as the programs
+        store[key] = (programs, lay)
+        while len(store) > 4 * PROGRAM_GRIDS:
+            store.pop(next(iter(store)))
+    return lay
 
 
 def _truncated(series: Mapping, loss: int) -> dict:
