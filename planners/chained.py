@@ -814,8 +814,8 @@ def _native_first_iterate(system, cached, programs, t_nodes, order, hat, tol, h0
     """The first iterate's stages h >= h0 on the native evaluator and the plan's data buffers (:class:`_NativeStage`,
     sized here for the later iterates too), without the series objects and evaluators between them: the steps of
     :func:`_solve_stage` (a Newton stage from its :attr:`Stage.start`: the pointwise Newton, then the doubling
-    steps; a warm stage: Newton at the working order from :attr:`ChainedSystem.guess`; a closed form: its traced
-    program), with the same reports.  None (the caller takes the general path, whose result this is) when a stage
+    steps; a warm stage: Newton at the working order; both from :attr:`Stage.start`, else :attr:`ChainedSystem.guess`;
+    a closed form: its traced program), with the same reports.  None (the caller takes the general path, whose result this is) when a stage
     has no traced program yet (the first plan of a system and grid traces them there) or a check, a pointwise
     Newton leaves a node above the tolerance (the memory restarts), or the native steps hand back (a singular
     node, a warm start that needs the full scheme)."""
