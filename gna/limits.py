@@ -596,9 +596,20 @@ def _violations(limits, frame, env) -> list[Violation]:
                 uppers[lim.upper_of] = lim.upper_of(frame)
             lo = -np.inf if lim.lower is None else float(lim.lower)
             hi = np.minimum(np.inf if lim.upper is None else lim.upper, uppers[lim.upper_of])
+        vmin = vmax = None
         for side, bound in (("lower", lo), ("upper", hi)):
-            if np.ndim(bound) == 0 and (np.isnan(bound) or bound == (-np.inf if side == "lower" else np.inf)):
-                continue  # unbounded on that side: no excess is positive
+            if np.ndim(bound) == 0:
+                if np.isnan(bound) or bound == (-np.inf if side == "lower" else np.inf):
+                    continue  # unbounded on that side: no excess is positive
+                # a constant bound: some excess is positive iff the extreme value (NaN ignored) passes it
+                if side == "lower":
+                    vmin = np.fmin.reduce(v) if vmin is None else vmin
+                    if not vmin < bound:
+                        continue
+                else:
+                    vmax = np.fmax.reduce(v) if vmax is None else vmax
+                    if not vmax > bound:
+                        continue
             excess = bound - v if side == "lower" else v - bound
             over = excess > 0
             if not over.any():

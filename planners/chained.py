@@ -645,6 +645,10 @@ def flat_parametrization(
         sol = _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h0)
         if sol is not None:
             return sol
+    if programs is not None and guess is None and not loss:
+        sol = _native_first_iterate(system, cached, programs, t_nodes, order, hat, tol, h0)
+        if sol is not None:
+            return sol
     known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
     derivs = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["derivs"].items()}
     reports = dict(cached["reports"])
@@ -806,6 +810,107 @@ def _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h
     return NodeSolution(known, order, reports, cached)
 
 
+def _native_first_iterate(system, cached, programs, t_nodes, order, hat, tol, h0):
+    """The first iterate's stages h >= h0 on the native evaluator and the plan's data buffers (:class:`_NativeStage`,
+    sized here for the later iterates too), without the series objects and evaluators between them: the steps of
+    :func:`_solve_stage` (a Newton stage from its :attr:`Stage.start`: the pointwise Newton, then the doubling
+    steps; a warm stage: Newton at the working order; both from :attr:`Stage.start`, else :attr:`ChainedSystem.guess`;
+    a closed form: its traced program), with the same reports.  None (the caller takes the general path, whose result this is) when a stage
+    has no traced program yet (the first plan of a system and grid traces them there) or a check, a pointwise
+    Newton leaves a node above the tolerance (the memory restarts), or the native steps hand back (a singular
+    node, a warm start that needs the full scheme)."""
+    from . import newton as nw
+
+    if program_backend() != "native" or cached.get("native_stages") is not None:
+        return None
+    stages = list(enumerate(system.stages[h0 - 1 :], start=h0))
+    for h, stage in stages:
+        entry = programs.get(("solve", h) if stage.solve is not None else h)
+        if entry is None or entry[0] is None or stage.check is not None:
+            return None
+    nodes = len(t_nodes)
+    state = _native_state(system, cached, programs, order, nodes, h0)
+    if not state:
+        return None
+    t = np.asarray(t_nodes, dtype=float)
+    weights = cached.get("native_weights")
+    if weights is None:  # step^m, step the smallest node spacing (planners.newton._warm_newton's test)
+        dt = np.diff(t)
+        step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
+        weights = cached["native_weights"] = step ** np.arange(cached["order"] + 2, dtype=float)
+    values = {}
+    for n in system.neglected:
+        values[n] = _as_series((hat or {}).get(n, system.neglected_start(n)), nodes, 0)
+    out, reports = {}, dict(cached["reports"])
+    for h, st in state.items():
+        stage, k = st.stage, order - h
+        M = k + (2 if st.solve else 1)
+        if st.B.shape[1] < M:
+            return None
+        if any(name not in values for _r, name in st.var):
+            return None
+        B = st.data(M, 0, values)
+        if st.solve:
+            res = st.nat.evaluate(np.zeros((0, M, nodes)), B, M)
+            u = [Series._wrap(res[j, : k + 1]) for j in range(res.shape[0])]
+        else:
+            n = len(stage.unknowns)
+            x = np.zeros((n, M, nodes))
+            if stage.start is not None:  # the starting values of _solve_stage
+                data = {**cached["known"], **cached["derivs"], **out}
+                for name in stage.neglected:
+                    data[name] = values[name]
+                start = stage.start(_at_order(data, 0), t_nodes)
+            else:
+                start = [system.guess.get(name, 0.0) for name in stage.unknowns]
+            if len(start) != n:
+                return None
+            for j, c in enumerate(start):
+                x[j, 0] = np.broadcast_to(np.asarray(c, dtype=float), (nodes,))
+            if not stage.warm:  # the pointwise Newton, then the doubling steps
+                x0 = np.array(x[:, 0])
+                status, cres, its = st.nat.pointwise_newton(x0, B, tol, nw.PAPER_MAXITER)
+                if status != 0 or not np.all(cres <= tol):
+                    return None
+                x[:, 0] = x0
+                orders = nw.doubling_orders(k)
+                if not orders:
+                    return None
+                Jc = np.empty((n, n, M, nodes))
+                if st.nat.doubling(x, B, np.asarray(orders, dtype=np.int64), Jc) != 0:
+                    return None
+                steps = orders
+            elif k > 0:  # warm: Newton at the working order from the starting values
+                Jc = np.empty((n, n, M, nodes))
+                status, cres, nsteps = st.nat.warm_newton(
+                    x, B, Jc, False, tol, weights[:M], nw.WARM_MAXSTEPS, nw.CHORD_STEPS, nw.CHORD_PROOF
+                )
+                if status != 0:
+                    return None
+                its, steps = 0, [k] * nsteps
+            else:
+                return None
+            u = [Series._wrap(x[j]) for j in range(n)]
+            reports[f"stage{h}"] = nw.SeriesNewtonReport(
+                tuple(stage.unknowns),
+                t,
+                cres,
+                its,
+                _lazy_series_residual(st.nat, x, np.array(B[:, :M], order="C", copy=True), M),  # B is reused
+                steps,
+                jacobian=np.swapaxes(Jc, 2, 3),
+            )
+        if stage.post is not None:
+            u = list(stage.post(list(u)))
+        for name, v in zip(stage.unknowns, u):
+            values[name] = out[name] = v
+            if h < system.r and v.order >= 1:
+                values[name + "'"] = _LazyDerivative(v)
+    known = dict(cached["known"])
+    known.update(out)
+    return NodeSolution(known, order, reports, cached)
+
+
 def _native_state(system, cached, programs, order, nodes, h0):
     """The plan's :class:`_NativeStage` per stage h >= h0 (made at the first iterate that asks, whose working
     orders size the buffers), or False when a stage has no native program."""
@@ -844,31 +949,12 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
         state = _native_state(system, cached, cached["programs"], orders[j0], nodes, _first_neglecting_stage(system))
     if not state:
         return
-    slots, slot_h = [], []
-    for h, st in state.items():
-        for name in st.stage.unknowns:
-            slots.append(name)
-            slot_h.append(h)
-    sid = {n: i for i, n in enumerate(slots)}
-    meta, ptrs, var_rows, static_rows, unk = [], [], [], [], []
-    for h, st in state.items():
-        stage = st.stage
-        for r, name in st.var:
-            base = name[:-1] if name.endswith("'") else name
-            if name in stage.neglected and name in sid:
-                var_rows.append((r, sid[name], 0, 1))  # the previous iterate's value
-            elif base in sid and slot_h[sid[base]] < h:
-                var_rows.append((r, sid[base], int(name != base), 0))
-            else:
-                return  # a datum the native iterates do not provide
-        static_rows.extend(st.static)
-        unk.extend(sid[n] for n in stage.unknowns)
-        nat = st.nat
-        n_unk = 0 if st.solve else len(stage.unknowns)
-        meta.append((int(st.solve), n_unk, nat.neq, nat.code.shape[0], nat.nreg, st.B.shape[0], st.B.shape[1],
-                     len(st.var), len(st.static), h))  # fmt: skip
-        ptrs.append((*(int(a.ctypes.data) for a in (nat.code, nat.params, nat.outs, nat.outs_unk)), st.B.ctypes.data))
-    newton_stages = [i for i, st in enumerate(state.values()) if not st.solve]
+    lay = _native_layout(state, cached, orders, j0, j1, nodes)
+    if lay is None:
+        return  # a datum the native iterates do not provide
+    slots, slot_h, sid, newton_stages = lay["slots"], lay["slot_h"], lay["sid"], lay["newton_stages"]
+    ptrs = lay["ptrs"].copy()
+    ptrs[:, 4] = [st.B.ctypes.data for st in state.values()]
     for st in state.values():  # the static rows as at iterate j0 - 1 or before (the native run zeroes them on)
         if cached["order"] - orders[j0] < st.loss:
             st.refill()
@@ -884,8 +970,9 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
         slot_ptrs[j0 - 1, i] = a.ctypes.data
     jac_ptrs = np.zeros((j1, nst), dtype=np.int64)
     cres_ptrs = np.zeros((j1, nst), dtype=np.int64)
+    states = list(state.values())
     for i in newton_stages:
-        st = list(state.values())[i]
+        st = states[i]
         rep = prev.reports.get(f"stage{st.h}")
         jac = getattr(rep, "jacobian", None)
         n = len(st.stage.unknowns)
@@ -895,32 +982,12 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
         keep.append(a)
         jac_ptrs[j0 - 1, i] = a.ctypes.data
     # the outputs of iterates j0 .. j1 - 1 in three blocks (one allocation each), addressed by offsets
-    states = list(state.values())
-    sizes = [(orders[j] - slot_h[i] + 1) * nodes for j in range(j0, j1) for i in range(ns)]
-    nn = [len(states[i].stage.unknowns) ** 2 for i in newton_stages]
-    jsizes = [q * (orders[j] - states[i].h + 1) * nodes for j in range(j0, j1) for i, q in zip(newton_stages, nn)]
-    slot_buf, jac_buf = np.empty(sum(sizes)), np.empty(sum(jsizes))
+    sizes, off, jsizes, joff = lay["sizes"], lay["off"], lay["jsizes"], lay["joff"]
+    slot_buf, jac_buf = np.empty(lay["slot_total"]), np.empty(lay["jac_total"])
     cres_buf = np.empty((j1 - j0, len(newton_stages), nodes))
-    off = np.concatenate(([0], np.cumsum(sizes)[:-1])).astype(np.int64)
     slot_ptrs[j0:] = (slot_buf.ctypes.data + 8 * off).reshape(j1 - j0, ns)
-    joff = np.concatenate(([0], np.cumsum(jsizes)[:-1])).astype(np.int64)
     jac_ptrs[j0:, newton_stages] = (jac_buf.ctypes.data + 8 * joff).reshape(j1 - j0, len(newton_stages))
-    cres_ptrs[j0:, newton_stages] = cres_buf.ctypes.data + 8 * nodes * np.arange(
-        (j1 - j0) * len(newton_stages), dtype=np.int64
-    ).reshape(j1 - j0, len(newton_stages))
-    out_slots, out_jac, out_cres = {}, {}, {}
-    q = 0
-    for j in range(j0, j1):
-        for i in range(ns):
-            out_slots[j, i] = slot_buf[off[q] : off[q] + sizes[q]].reshape(-1, nodes)
-            q += 1
-    q = 0
-    for j in range(j0, j1):
-        for c, i in enumerate(newton_stages):
-            n = len(states[i].stage.unknowns)
-            out_jac[j, i] = jac_buf[joff[q] : joff[q] + jsizes[q]].reshape(n, n, -1, nodes)
-            out_cres[j, i] = cres_buf[j - j0, c]
-            q += 1
+    cres_ptrs[j0:, newton_stages] = cres_buf.ctypes.data + 8 * nodes * lay["cres_index"]
     steps = np.zeros((j1, nst), dtype=np.int64)
     seconds = np.zeros(j1)
     weights = cached.get("native_weights")
@@ -929,17 +996,30 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
         dt = np.diff(t)
         step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
         weights = cached["native_weights"] = step ** np.arange(cached["order"] + 2, dtype=float)
-    arr = [np.array(v, dtype=np.int64).reshape(-1) for v in (meta, ptrs, var_rows, static_rows, slot_h, unk)]
     done = _native.iterates(
-        nst, *arr[:4], ns, arr[4], arr[5], nodes, j0, j1, np.array(orders, dtype=np.int64), cached["order"],
-        slot_ptrs, jac_ptrs, cres_ptrs, steps, seconds, tol, weights, nw.WARM_MAXSTEPS, nw.CHORD_STEPS,
-        nw.CHORD_PROOF,
+        nst, lay["meta"], ptrs.reshape(-1), lay["var_rows"], lay["static_rows"], ns, lay["slot_h_arr"],
+        lay["unk"], nodes, j0, j1, lay["orders"], cached["order"], slot_ptrs, jac_ptrs, cres_ptrs, steps, seconds,
+        tol, weights, nw.WARM_MAXSTEPS, nw.CHORD_STEPS, nw.CHORD_PROOF,
     )  # fmt: skip
+    out_slots, out_jac, out_cres = {}, {}, {}
+    q = 0
+    for j in range(j0, done):
+        for i in range(ns):
+            out_slots[j, i] = slot_buf[off[q] : off[q] + sizes[q]].reshape(-1, nodes)
+            q += 1
+    q = 0
+    for j in range(j0, done):
+        for c, i in enumerate(newton_stages):
+            n = len(states[i].stage.unknowns)
+            out_jac[j, i] = jac_buf[joff[q] : joff[q] + jsizes[q]].reshape(n, n, -1, nodes)
+            out_cres[j, i] = cres_buf[j - j0, c]
+            q += 1
     del keep
     t = np.asarray(t_nodes, dtype=float)
+    top = cached["known"]
     for j in range(j0, done):
         loss = cached["order"] - orders[j]
-        known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
+        known = _truncated(top, loss)
         reports = dict(cached["reports"])
         changed = False
         for i, (h, st) in enumerate(state.items()):
@@ -964,6 +1044,84 @@ def _native_run(system, t_nodes, iterates, orders, tol, timings):
             break
         iterates.append(NodeSolution(known, orders[j], reports, cached))
         timings[j] = float(seconds[j])
+
+
+def _native_layout(state, cached, orders, j0, j1, nodes):
+    """The arrays of :func:`_native_run` that depend on the stages' structure and the plan's orders only (the
+    slots, the stages' rows and programs, the output blocks' sizes and offsets), made once per programs (system
+    and grid), orders and buffer sizes (kept on the system beside its programs, which they point into), or None
+    when a stage reads a datum the native iterates do not provide."""
+    programs = cached.get("programs")
+    store = cached["system"].__dict__.setdefault("_native_layouts", {})  # a frozen dataclass: its __dict__ holds it
+    key = (id(programs), cached["order"], tuple(orders), j0, j1, nodes,
+           tuple((h, st.solve, st.B.shape) for h, st in state.items()))  # fmt: skip
+    hit = store.get(key)
+    if hit is not None and hit[0] is programs:
+        return hit[1]
+    slots, slot_h = [], []
+    for h, st in state.items():
+        for name in st.stage.unknowns:
+            slots.append(name)
+            slot_h.append(h)
+    sid = {n: i for i, n in enumerate(slots)}
+    meta, ptrs, var_rows, static_rows, unk = [], [], [], [], []
+    for h, st in state.items():
+        stage = st.stage
+        for r, name in st.var:
+            base = name[:-1] if name.endswith("'") else name
+            if name in stage.neglected and name in sid:
+                var_rows.append((r, sid[name], 0, 1))  # the previous iterate's value
+            elif base in sid and slot_h[sid[base]] < h:
+                var_rows.append((r, sid[base], int(name != base), 0))
+            else:
+                return None
+        static_rows.extend(st.static)
+        unk.extend(sid[n] for n in stage.unknowns)
+        nat = st.nat
+        n_unk = 0 if st.solve else len(stage.unknowns)
+        meta.append((int(st.solve), n_unk, nat.neq, nat.code.shape[0], nat.nreg, st.B.shape[0], st.B.shape[1],
+                     len(st.var), len(st.static), h))  # fmt: skip
+        ptrs.append((*(int(a.ctypes.data) for a in (nat.code, nat.params, nat.outs, nat.outs_unk)), 0))
+    states = list(state.values())
+    newton_stages = [i for i, st in enumerate(states) if not st.solve]
+    ns, nn = len(slots), [len(states[i].stage.unknowns) ** 2 for i in newton_stages]
+    sizes = [(orders[j] - slot_h[i] + 1) * nodes for j in range(j0, j1) for i in range(ns)]
+    jsizes = [q * (orders[j] - states[i].h + 1) * nodes for j in range(j0, j1) for i, q in zip(newton_stages, nn)]
+    lay = {
+        "slots": slots,
+        "slot_h": slot_h,
+        "sid": sid,
+        "newton_stages": newton_stages,
+        "ptrs": np.array(ptrs, dtype=np.int64).reshape(len(states), 5),
+        "sizes": sizes,
+        "jsizes": jsizes,
+        "off": np.concatenate(([0], np.cumsum(sizes)[:-1])).astype(np.int64),
+        "joff": np.concatenate(([0], np.cumsum(jsizes)[:-1])).astype(np.int64),
+        "slot_total": int(sum(sizes)),
+        "jac_total": int(sum(jsizes)),
+        "cres_index": np.arange((j1 - j0) * len(newton_stages), dtype=np.int64).reshape(j1 - j0, len(newton_stages)),
+        "orders": np.array(orders, dtype=np.int64),
+    }
+    for name, v in (("meta", meta), ("var_rows", var_rows), ("static_rows", static_rows), ("slot_h_arr", slot_h),
+                    ("unk", unk)):  # fmt: skip
+        lay[name] = np.array(v, dtype=np.int64).reshape(-1)
+    if programs is not None:  # the programs' code, parameters and outputs live as long as the programs
+        store[key] = (programs, lay)
+        while len(store) > 4 * PROGRAM_GRIDS:
+            store.pop(next(iter(store)))
+    return lay
+
+
+def _truncated(series: Mapping, loss: int) -> dict:
+    """Every series of ``series`` truncated by ``loss`` orders (:meth:`Series.truncate`'s views, without its
+    checks where the order stays >= 0)."""
+    if not loss:
+        return dict(series)
+    out = {}
+    for n, v in series.items():
+        c = v._c
+        out[n] = Series._wrap(c[: c.shape[0] - loss]) if c.shape[0] > loss else v.truncate(v.order - loss)
+    return out
 
 
 def _lazy_residual_of(st, j, known, iterates, cached, loss, orders, nodes):

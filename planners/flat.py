@@ -194,7 +194,9 @@ class FlatProblem:
 def _unwrap_constant(angle: Series) -> Series:
     """Make the constant terms of an angle continuous along the node axis."""
     c0 = np.real(angle.constant_term)
-    if np.all(np.abs(np.diff(c0)) < np.pi):  # np.unwrap's rule: no jump of pi or more, nothing to shift
+    if c0.ndim == 1 and bool((np.abs(c0[1:] - c0[:-1]) < np.pi).all()):  # np.diff's values, without its checks
+        return angle  # np.unwrap's rule: no jump of pi or more, nothing to shift
+    if np.all(np.abs(np.diff(c0)) < np.pi):
         return angle
     shift = np.unwrap(c0) - c0
     if np.any(shift != 0):
@@ -206,9 +208,11 @@ def _check_inputs(t_nodes, series: Mapping[str, Series | None]) -> None:
     """Refuse non-finite flat outputs and prescribed inputs, and flat outputs that make stage 1
     singular (V cos(gamma) = 0), naming the time and the value."""
     t_nodes = np.asarray(t_nodes, dtype=float)
-    for name, s in series.items():
-        if s is None:
-            continue
+    given = {name: s for name, s in series.items() if s is not None}
+    heads = [getattr(s, "_c", None) for s in given.values()]  # coefficient first: the first two, below
+    if all(c is not None and np.isfinite(c[:2]).all() for c in heads):
+        given = {}  # the usual case: every one finite, nothing to name
+    for name, s in given.items():
         c = np.real(np.asarray(s.coeffs[..., :2]))
         c = np.broadcast_to(c, (len(t_nodes),) + c.shape[-1:])
         bad = ~np.all(np.isfinite(c), axis=-1)
@@ -679,6 +683,14 @@ def _dynamic_pressure(env: Environment, z, V):
     return 0.5 * env.density(z) * V * V
 
 
+def _real(v) -> np.ndarray:
+    """The real part of a number or array as floats (a real float array as it is)."""
+    a = np.asarray(v)
+    if a.dtype == np.float64:
+        return a
+    return np.real(np.asarray(a, dtype=complex))
+
+
 def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:
     """Node-wise starting values for stage 2, from the kinematics of the flat outputs.
 
@@ -694,14 +706,14 @@ def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:
     """
     ac, env = problem.aircraft, problem.env
     m, g, S = ac.mass.mass, env.g, ac.geometry.S
-    V, gam, Vd, gd, chid = (np.real(np.asarray(d[k], dtype=complex)) for k in ("V", "gamma", "Vd", "gd", "chid"))
-    rho = np.real(env.density(np.real(np.asarray(d["z"], dtype=complex))))
+    V, gam, Vd, gd, chid = (_real(d[k]) for k in ("V", "gamma", "Vd", "gd", "chid"))
+    rho = np.real(env.density(_real(d["z"])))
     qS = 0.5 * rho * V * V * S
     fx = Vd + g * np.sin(gam)
     fy = V * np.cos(gam) * chid
     fz = -V * gd - g * np.cos(gam)
     kind = problem.zeta.kind
-    zv = np.real(np.asarray(d["zv"], dtype=complex)) + 0 * V
+    zv = _real(d["zv"]) + 0 * V
     start = dict(problem.start or {})
     if kind == "mu":
         mu = zv
@@ -727,8 +739,8 @@ def _stage2_guess(problem: FlatProblem, t_nodes, d: dict, hv) -> list:
     if kind == "beta":
         beta = zv
     elif kind == "mix":
-        f1 = np.real(np.asarray(d["f1"], dtype=complex)) + 0 * V
-        f2 = np.real(np.asarray(d["f2"], dtype=complex)) + 0 * V
+        f1 = _real(d["f1"]) + 0 * V
+        f2 = _real(d["f2"]) + 0 * V
         beta = (zv - f2 * mu) / np.where(f1 != 0, f1, 1.0) * (f1 != 0)
     else:
         # thrust output: beta = 0 is singular (eq. cond_F); without a calibration start on the beta > 0 branch

@@ -433,10 +433,18 @@ def domain_failures(plan: Plan) -> list[str]:
         each iterate with a node outside :data:`gna.trajectory.DOMAIN`.
     """
     t = plan.t_nodes
-    states = [np.array([_node_array(it.series[n], t.shape) for n in STATE_NAMES]) for it in plan.iterates]
+    states = [_node_states(it.series, t.shape) for it in plan.iterates]
     # All the iterates in one test (the usual case: every node inside); the message of each failed one.
     inside = inside_domain(np.concatenate(states, axis=1)).reshape(len(states), t.size)
     return [f"iterate j = {j}: {first_domain_violation(t, X)}" for j, X in enumerate(states) if not inside[j].all()]
+
+
+def _node_states(series, shape: tuple) -> np.ndarray:
+    """(12, nodes): the real constant terms of the states' node series."""
+    cs = [series[n]._c[0] for n in STATE_NAMES]
+    if all(c.shape == shape and c.dtype == np.float64 for c in cs):
+        return np.stack(cs)
+    return np.array([_node_array(series[n], shape) for n in STATE_NAMES])
 
 
 def _node_array(series, shape: tuple) -> np.ndarray:

@@ -393,21 +393,30 @@ class Plan:
                     raise InputError(f"unknown plan variable {n!r}; known: {', '.join(sol.series)}")
             tn = np.asarray(self.t_nodes, dtype=float)
             h = np.diff(tn)
-            polys = []
             # Hermite: the controls with the derivatives of the surfaces' order (e in the last iterate);
             # F's series is two orders longer (stage 2), but its extra derivatives changed the open-loop
             # accuracy by at most 6e-8 m on the paper's scenarios while adding 4 Horner steps to every call of
             # control_function (measured: docs/planning.md).
             k_controls = min((sol.series[n].order for n in CONTROL_NAMES if n in sol.series), default=None)
-            for n in names:
+            groups: dict = {}  # coefficient count -> [(column, coefficients (nodes, K + 1))]
+            for i, n in enumerate(names):
                 c = np.real(np.asarray(sol.series[n].coeffs))
                 c = np.broadcast_to(c, (len(tn), c.shape[-1]))
                 if self.interpolation == "hermite" and n in CONTROL_NAMES:
                     c = c[:, : k_controls + 1]
-                polys.append(interval_coefficients(c[:-1, None, :], c[1:, None, :], h, self.interpolation)[:, 0])
-            d = max(p.shape[-1] for p in polys)
+                groups.setdefault(c.shape[-1], []).append((i, c))
+            polys = []
+            m = len(tn) - 1
+            for items in groups.values():
+                # one formula evaluation per order: the variables one after the other along the interval axis
+                # (each variable's polynomials those of a call of its own, bit for bit; tested)
+                a = np.concatenate([c[:-1, None, :] for _, c in items])
+                b = np.concatenate([c[1:, None, :] for _, c in items])
+                p = interval_coefficients(a, b, np.tile(h, len(items)), self.interpolation)[:, 0]
+                polys.extend((i, p[q * m : (q + 1) * m]) for q, (i, _) in enumerate(items))
+            d = max(p.shape[-1] for _, p in polys)
             out = np.zeros((len(tn) - 1, len(names), d))
-            for i, p in enumerate(polys):
+            for i, p in polys:
                 out[:, i, : p.shape[-1]] = p
             cache[key] = out
         return cache[key]

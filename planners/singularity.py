@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from gna.eom import H_NAMES
 from gna.solve import jacobian
 
 from .flat import force_residuals
@@ -144,6 +145,49 @@ def _ranges(ts) -> str:
     return f"t = {ts[0]:.4g} .. {ts[-1]:.4g} s ({len(ts)} nodes)"
 
 
+def _native_jacobian(sol, s, d1, h, u) -> np.ndarray | None:
+    """The force equations' Jacobian ``(3, 4, nodes)`` in ``(alpha, beta, mu, F)`` at the nodes by the plan's traced
+    stage-2 program at order 0 on the native evaluator (forward mode on the same operations: the complex step's
+    values to rounding), or None (another backend, or no such program for this plan).
+
+    The program's data at the nodes are the constant terms the numpy evaluation reads: the flat outputs and stage
+    1's series of the iterate, ``c_1`` for a first derivative, the neglected terms ``h``; its first three outputs
+    are :func:`planners.flat.force_residuals`, its unknowns :data:`planners.flat.STAGE2_UNKNOWNS`."""
+    from . import chained
+    from .flat import STAGE2_UNKNOWNS
+
+    cached = getattr(sol, "_inputs", None)
+    if not cached or chained.program_backend() != "native":
+        return None
+    entry = (cached.get("programs") or {}).get(2)
+    prog = entry[0] if entry else None
+    system = cached.get("system")
+    stage = system.stages[1] if system is not None and len(system.stages) > 1 else None
+    if prog is None or stage is None or tuple(stage.unknowns) != STAGE2_UNKNOWNS or prog.n_unknowns != 4:
+        return None
+    hv = dict(zip(H_NAMES, h))
+    nodes = u.shape[1]
+    series = [*prog.data_names, *prog.extra]
+    D = np.empty((len(series), 1, nodes))
+    for r, n in enumerate(series):
+        if not isinstance(n, str):  # a series of the trace's own
+            v = np.real(n._c[0])
+        elif n in hv:
+            v = np.real(getattr(hv[n], "constant_term", hv[n]))
+        elif n.endswith("'") and n[:-1] in d1:
+            v = d1[n[:-1]]
+        elif n in sol.series:
+            v = s[n]
+        else:
+            known = cached["derivs"].get(n, cached["known"].get(n))
+            if known is None:
+                return None
+            v = np.real(known._c[0])
+        D[r, 0] = v
+    x = np.ascontiguousarray(u, dtype=float)[:, None, :]
+    return prog.native().evaluate_tangent(x, D, 1)[1][:3, :, 0, :]
+
+
 def monitor(plan, j: int = 0) -> SingularityReport:
     """Evaluate the singularity conditions at the nodes of iterate ``j``.
 
@@ -160,6 +204,13 @@ def monitor(plan, j: int = 0) -> SingularityReport:
         The determinant of the flat output's stage-2 system (eq. cond_beta, stalling_cond,
         cond_F, or the mixed 4x4), ``V cos(gamma)`` [m/s] and ``cos(beta)`` at the nodes, warnings, and
         failures where the determinant is numerically zero (:data:`SINGULAR`).
+
+    Notes
+    -----
+    The force equations' Jacobian at the nodes: on the native evaluator, for iterate 0, the plan's traced
+    stage-2 program's at order 0 (forward mode, the complex step's values to rounding); where that gives a
+    warning or a failure, and on the other backends, the complex step on the numpy model (the messages quote
+    the reference's values).
     """
     prob = plan.problem
     ac, env = prob.aircraft, prob.env
@@ -198,25 +249,33 @@ def monitor(plan, j: int = 0) -> SingularityReport:
         )
 
     u = np.stack([s["alpha"], s["beta"], s["mu"], s["F"]])
-    Jm = jacobian(fun, u, "complex-batched")  # (3, 4, nodes): one evaluation for the 4 columns
-    idx = {"alpha": 0, "beta": 1, "mu": 2, "F": 3}
-    if kind in ("beta", "mu", "F"):
-        free = [v for v in ("alpha", "beta", "mu", "F") if v != kind]
-        J3 = Jm[:, [idx[v] for v in free]]
-        det3 = np.linalg.det(np.moveaxis(J3, -1, 0))
-        if kind == "F":
-            name, what, pivot = "cond_F", "eq. cond_F: (alpha, mu) Jacobian with beta eliminated", Jm[2, idx["beta"]]
-        elif kind == "beta":
-            name, what, pivot = "cond_beta", "eq. cond_beta: (alpha, mu) Jacobian with F eliminated", Jm[0, idx["F"]]
-        else:
-            name, what, pivot = (
-                "stalling_cond",
-                "eq. stalling_cond: (alpha, beta) Jacobian with F eliminated",
-                Jm[0, idx["F"]],
-            )
-        with np.errstate(divide="ignore", invalid="ignore"):
-            cond = det3 / pivot
-    else:
+
+    def condition(Jm):
+        idx = {"alpha": 0, "beta": 1, "mu": 2, "F": 3}
+        if kind in ("beta", "mu", "F"):
+            free = [v for v in ("alpha", "beta", "mu", "F") if v != kind]
+            J3 = Jm[:, [idx[v] for v in free]]
+            det3 = np.linalg.det(np.moveaxis(J3, -1, 0))
+            if kind == "F":
+                name, what, pivot = (
+                    "cond_F",
+                    "eq. cond_F: (alpha, mu) Jacobian with beta eliminated",
+                    Jm[2, idx["beta"]],
+                )
+            elif kind == "beta":
+                name, what, pivot = (
+                    "cond_beta",
+                    "eq. cond_beta: (alpha, mu) Jacobian with F eliminated",
+                    Jm[0, idx["F"]],
+                )
+            else:
+                name, what, pivot = (
+                    "stalling_cond",
+                    "eq. stalling_cond: (alpha, beta) Jacobian with F eliminated",
+                    Jm[0, idx["F"]],
+                )
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return det3 / pivot, name, what
         t_nodes = plan.t_nodes
         f1, f2 = prob.zeta.f1(t_nodes), prob.zeta.f2(t_nodes)
         row = np.stack(np.broadcast_arrays(0.0 * t_nodes, f1 + 0 * t_nodes, f2 + 0 * t_nodes, 0.0 * t_nodes))
@@ -224,15 +283,25 @@ def monitor(plan, j: int = 0) -> SingularityReport:
         with np.errstate(divide="ignore", invalid="ignore"):
             # divided by the thrust pivot, as the other conditions: dimensionless like them
             cond = np.linalg.det(np.moveaxis(J4, -1, 0)) / Jm[0, idx["F"]]
-        name, what = "det4", "4x4 Jacobian of the mixed flat output, F eliminated"
+        return cond, "det4", "4x4 Jacobian of the mixed flat output, F eliminated"
+
+    t = plan.t_nodes
+    Jm = _native_jacobian(sol, s, d1, h, u) if j == 0 else None
+    if Jm is not None:
+        cond, name, what = condition(Jm)
+        warnings = _near_zero_times(t, cond, name, what)
+        if warnings or _singular_nodes(t, np.real(cond), name, what, kind):
+            Jm = None  # near a singularity the messages quote the complex step's values, as on the numpy path
+    if Jm is None:
+        Jm = jacobian(fun, u, "complex-batched")  # (3, 4, nodes): one evaluation for the 4 columns
+        cond, name, what = condition(Jm)
+        warnings = _near_zero_times(t, cond, name, what)
     vcg = s["V"] * np.cos(s["gamma"])
     cb = np.cos(s["beta"])
-    t = plan.t_nodes
 
     def table() -> pd.DataFrame:
         return pd.DataFrame({name: cond, "V_cos_gamma": vcg, "cos_beta": cb}, index=pd.Index(t, name="t"))
 
-    warnings = _near_zero_times(t, cond, name, what)
     if np.min(np.abs(vcg)) < 1.0:
         warnings.append(
             f"V cos(gamma) below 1 m/s at {_ranges(t[np.abs(vcg) < 1.0])} (stage 1 singular: vertical flight path)"

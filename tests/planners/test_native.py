@@ -248,6 +248,60 @@ def test_whole_plans_agree_with_the_numpy_path(name):
             close(rep.series_residual, it_n.reports[stage].series_residual, 1e-9)  # a check of each iterate
     assert ref.feasible == new.feasible
     assert ref.warnings == new.warnings
+    # the checks: the singularity table (native: the stage-2 program's Jacobian at order 0), the limit grid
+    assert ref.singularities.condition == new.singularities.condition
+    close(ref.singularities.table.to_numpy(), new.singularities.table.to_numpy())
+    assert ref.singularities.failures == new.singularities.failures
+    (t_r, c_r, v_r), (t_n, c_n, v_n) = ref._limit_arrays(-1, None), new._limit_arrays(-1, None)
+    assert c_r == c_n and np.array_equal(t_r, t_n)
+    for a, b in zip(v_r, v_n):
+        close(a, b)
+    assert [v.text() for v in ref.limit_violations()] == [v.text() for v in new.limit_violations()]
+
+
+@pytest.mark.parametrize("name", ["gtm-aileron-roll", "twin-otter-single-engine", "gtm-forward-slip"])
+def test_the_first_iterate_on_the_native_buffers_is_the_general_paths(name):
+    """A second plan of a problem runs its first iterate's stages h >= 2 on the plan's native buffers
+    (``_native_first_iterate``: its programs were traced by the first plan): every series, Newton report and
+    check bit for bit those of the general path (the first plan), and both within 1e-12 of the numpy path."""
+    from planners.generalized import plan_motion
+    from planners.scenario import load_scenario
+
+    sc = load_scenario(name)
+    prob = sc.problem()
+    calls = []
+    first = C._native_first_iterate
+
+    def counted(*a, **k):
+        out = first(*a, **k)
+        calls.append(out is not None)
+        return out
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(C, "_native_first_iterate", counted)
+        general = plan_motion(prob, sc.t_nodes, sc.J, e=getattr(sc, "e", 1), name=name)
+        lean = plan_motion(prob, sc.t_nodes, sc.J, e=getattr(sc, "e", 1), name=name)
+    assert calls == [False, True]  # the first plan traces on the general path, the second takes the buffers
+    assert len(general.iterates) == len(lean.iterates)
+    for it_g, it_l in zip(general.iterates, lean.iterates):
+        assert list(it_g) == list(it_l)
+        for var in it_g:
+            assert np.array_equal(it_g[var].coeffs, it_l[var].coeffs), var
+        assert set(it_g.reports) == set(it_l.reports)
+        for stage, rep in it_g.reports.items():
+            other = it_l.reports[stage]
+            assert rep.doubling_orders == other.doubling_orders
+            assert rep.constant_iterations == other.constant_iterations
+            assert np.array_equal(rep.constant_residual, other.constant_residual)
+            assert np.array_equal(rep.series_residual, other.series_residual)
+            assert rep.failures == other.failures and rep.warnings == other.warnings
+            assert np.array_equal(rep.jacobian, other.jacobian)
+    assert general.warnings == lean.warnings
+    assert np.array_equal(general.singularities.table.to_numpy(), lean.singularities.table.to_numpy())
+    ref = _plan(name, None)
+    for it_r, it_l in zip(ref.iterates, lean.iterates):
+        for var in it_r:
+            close(np.real(it_r[var].coeffs), np.real(it_l[var].coeffs))
 
 
 def test_a_second_plan_of_a_problem_traces_nothing():
@@ -404,3 +458,65 @@ def test_a_first_use_compiles_in_the_background(tmp_path):
         env=env, capture_output=True, text=True, check=True,
     )  # fmt: skip
     assert again.stdout.strip() == "True"
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {},  # the weave: cond_beta, regular
+        {"flat_outputs": {"zeta": "mix", "zeta_value": "0", "f1": "1", "f2": "1"}, "time": {"t1": 10.0}},
+        {"flat_outputs": {"zeta": "mu", "zeta_value": "0.3*sin(t/5)"}, "time": {"t1": 10.0}},
+        {  # cond_beta numerically zero at every node (a failure)
+            "flat_outputs": {"x": "150*t", "y": "0", "z": "-3000 + 0.5*g0*t**2", "zeta": "beta", "zeta_value": "0"},
+            "time": {"t0": -3.0, "t1": 3.0, "step": 0.25},
+        },
+    ],
+)
+def test_the_singularity_monitor_on_the_native_jacobian_is_the_complex_steps(changes):
+    """The monitor's stage-2 Jacobian from the traced program at order 0 (forward mode, native) = the complex
+    step on the numpy model: the table to 1e-12, the same warnings and failures."""
+    import planners.singularity as SG
+    from planners.generalized import plan_scenario
+
+    from .conftest import make_scenario
+
+    plan = plan_scenario(make_scenario(**changes), J=1)
+    sol = plan.iterates[0]
+    assert C.program_backend() == "native" and sol._inputs.get("programs", {}).get(2, (None,))[0] is not None
+    new = SG.monitor(plan)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(C, "program_backend", lambda: None)
+        ref = SG.monitor(plan)
+    assert new.condition == ref.condition
+    close(ref.table.to_numpy(), new.table.to_numpy())
+    assert new.warnings == ref.warnings and new.failures == ref.failures
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {"flat_outputs": {"zeta": "mix", "zeta_value": "0", "f1": "1", "f2": "1"}, "time": {"t1": 10.0}},
+        {  # stage 2 singular at every node: the pointwise Newton may leave nodes above the tolerance
+            "flat_outputs": {"x": "150*t", "y": "0", "z": "-3000 + 0.5*g0*t**2", "zeta": "beta", "zeta_value": "0"},
+            "time": {"t0": -3.0, "t1": 3.0, "step": 0.25},
+        },
+        {"flat_outputs": {"zeta": "F", "zeta_value": "30000"}, "time": {"t1": 6.0}, "generalized": {"J": 2}},
+    ],
+)
+def test_a_second_plan_is_the_first_bit_for_bit(changes):
+    """Whichever path the first iterate of a second plan takes (the native buffers, or the general path when
+    the pointwise Newton needs its memory restarts or the native steps hand back), it is the first plan's."""
+    from planners.generalized import plan_scenario
+
+    from .conftest import make_scenario
+
+    sc = make_scenario(**changes)
+    a, b = plan_scenario(sc), plan_scenario(sc)
+    assert len(a.iterates) == len(b.iterates)
+    for it_a, it_b in zip(a.iterates, b.iterates):
+        for var in it_a:
+            assert np.array_equal(it_a[var].coeffs, it_b[var].coeffs, equal_nan=True), var
+        for stage, rep in it_a.reports.items():
+            assert rep.doubling_orders == it_b.reports[stage].doubling_orders
+            assert rep.constant_iterations == it_b.reports[stage].constant_iterations
+    assert a.warnings == b.warnings

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from gna.simulate import ENVELOPE_VARIABLES
 from planners.flat import _path_terms, _stage3, _stage3_series, stage3
@@ -132,3 +134,27 @@ def test_limits_are_built_once_per_aircraft_and_checked_as_on_arrays(weave_plan,
     assert [(g.name, g.side, g.limit, g.worst, g.time) for g in got] == [r[:5] for r in ref]
     span = float(t[-1] - t[0])
     assert [g.fraction for g in got] == [r[5] / span for r in ref]
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    K=st.integers(0, 23),
+    n=st.integers(1, 40),
+    v=st.integers(1, 8),
+    interpolation=st.sampled_from(["hermite", "paper"]),
+    seed=st.integers(0, 10**6),
+)
+def test_interval_polynomials_stacked_along_the_intervals_are_each_variables_own(K, n, v, interpolation, seed):
+    """Plan._coefficients evaluates the formula once per order with the variables one after the other along the
+    interval axis: each variable's polynomials are bit for bit those of a call of its own."""
+    from planners.plan import interval_coefficients
+
+    rng = np.random.default_rng(seed)
+    c = rng.normal(size=(n + 1, v, K + 1)) * 10.0 ** rng.integers(-3, 4, size=(n + 1, v, K + 1))
+    h = rng.uniform(0.05, 8.0, n)
+    a = np.concatenate([c[:-1, i : i + 1] for i in range(v)])
+    b = np.concatenate([c[1:, i : i + 1] for i in range(v)])
+    stacked = interval_coefficients(a, b, np.tile(h, v), interpolation)
+    for i in range(v):
+        own = interval_coefficients(c[:-1, i : i + 1], c[1:, i : i + 1], h, interpolation)
+        assert np.array_equal(own, stacked[i * n : (i + 1) * n])
