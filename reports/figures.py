@@ -253,6 +253,7 @@ def _font_key(prop) -> tuple:
 #: by every renderer of the process (a sheet of another size has its own), inherited by forked workers.
 _TEXT_BITMAPS: dict = {}
 _TEXT_METRICS: dict = {}
+_FONT_HEIGHTS: dict = {}
 
 _CANVAS = None
 
@@ -294,6 +295,28 @@ def _canvas_class():
                 image, round(x + xo + d * _math.sin(a)), round(y + yo + d * _math.cos(a)) + 1, angle, gc
             )
             return None
+
+        def _get_font_height_metrics(self, prop):
+            # the font's ascent, descent and line gap, which matplotlib reads from its tables for every text laid
+            # out (matplotlib.text.Text._get_layout: the same formulas)
+            key = (_font_key(prop), self.dpi)
+            m = _FONT_HEIGHTS.get(key)
+            if m is None:
+                m = (None, None, None)
+                font = self._prepare_font(prop)
+                units = font.get_sfnt_table("head")
+                for table_name, gap, ascent, descent in (
+                    ("OS/2", "sTypoLineGap", "sTypoAscender", "sTypoDescender"),
+                    ("hhea", "lineGap", "ascent", "descent"),
+                ):
+                    table = font.get_sfnt_table(table_name)
+                    if table is None or units is None:
+                        continue
+                    scale = prop.get_size_in_points() * self.dpi / 72 / units["unitsPerEm"]
+                    m = (table[ascent] * scale, -table[descent] * scale, table[gap] * scale)
+                    break
+                _FONT_HEIGHTS[key] = m
+            return m
 
         def get_text_width_height_descent(self, s, prop, ismath):
             if ismath:
@@ -367,6 +390,11 @@ def png_bytes(rgba, text: dict[str, str] | None = None, level: int = 1) -> bytes
     return b"\x89PNG\r\n\x1a\n" + b"".join(chunks)
 
 
+def _no_ticklabel_bboxes(ticks, renderer) -> tuple[list, list]:
+    """No tick label extents (:class:`Sheet`: its axis labels are placed at fixed distances, no offset text)."""
+    return [], []
+
+
 class Sheet:
     """One Agg figure with :data:`MAX_PANELS` axes, reused for every figure a process draws.
 
@@ -386,6 +414,10 @@ class Sheet:
         self.axes = [self.fig.add_axes((0, 0, 0.1, 0.1)) for _ in range(MAX_PANELS)]
         self._state: dict = {}
         for ax in self.axes:
+            for axis in (ax.xaxis, ax.yaxis):
+                # the tick labels' extents place the axis label and the offset text: both are fixed here
+                # (set_label_coords, no offset), so not measured at every draw
+                axis._get_ticklabel_bboxes = _no_ticklabel_bboxes  # noqa: SLF001
             ax.set_autoscale_on(False)
             ax.grid(True, alpha=0.3)
             ax.xaxis.set_major_locator(ticker.MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
