@@ -96,13 +96,51 @@ def _passthrough():
     return RasterImage, original, staticmethod(get_png_data)
 
 
+def import_weasyprint():
+    """weasyprint, imported without a search of the system's library paths for each name it tries.
+
+    weasyprint loads pango, harfbuzz and fontconfig trying several names each; cffi looks a name that does not
+    load as it is up with ``ctypes.util.find_library``, which runs ``ldconfig`` (and compilers) in
+    subprocesses: most of the import's CPU.  The names weasyprint tries include each library's
+    file name (``libpango-1.0.so.0``), loaded directly; where one is only found by the search, weasyprint is
+    imported again the ordinary way.
+
+    Returns
+    -------
+    module
+        ``weasyprint``.
+    """
+    import contextlib
+    import ctypes.util
+    import io
+    import sys
+
+    if "weasyprint" in sys.modules:
+        return sys.modules["weasyprint"]
+    search = ctypes.util.find_library
+    ctypes.util.find_library = lambda name: None
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):  # weasyprint prints its advice before raising
+            import weasyprint
+
+        return weasyprint
+    except Exception:  # noqa: BLE001  (a library found by the search only)
+        for name in [m for m in sys.modules if m == "weasyprint" or m.startswith("weasyprint.")]:
+            del sys.modules[name]
+    finally:
+        ctypes.util.find_library = search
+    import weasyprint
+
+    return weasyprint
+
+
 def _print(html: str, base_url: str) -> bytes:
     import gc
 
-    import weasyprint
+    weasyprint = import_weasyprint()
 
-    gc.collect()
-    gc.freeze()  # the objects alive before printing are not scanned again by every collection
+    gc.freeze()  # the objects there before printing are not scanned again by every collection (nor collected first:
+    # a full collection of a command's heap costs more than the garbage it frees)
     cls, original, patched = _passthrough()
     cls._get_png_data = patched  # noqa: SLF001
     try:
@@ -240,7 +278,7 @@ def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path,
     path = Path(path)
     docs = [html] if isinstance(html, str) else list(html)
     base_url = str(Path(base_dir).resolve()) + os.sep
-    import weasyprint  # noqa: F401  (imported once here, not in every printing worker)
+    import_weasyprint()  # imported once here, not in every printing worker
 
     if len(docs) == 1 and front is None:
         data = _print(docs[0], base_url)

@@ -76,3 +76,29 @@ def test_pdf_is_no_larger_than_it_needs_to_be(report_run):
     )
     assert len(images) >= 1
     assert path.stat().st_size < 1.3 * figures + 400_000
+
+
+def test_weasyprint_imported_the_ordinary_way_when_a_library_needs_the_search(tmp_path, monkeypatch, capsys):
+    """A library found only by ``ctypes.util.find_library``: weasyprint imported again with it, quietly."""
+    import sys
+
+    from reports.pdf import import_weasyprint
+
+    fake = tmp_path / "weasyprint"
+    fake.mkdir()
+    (fake / "__init__.py").write_text(
+        "import ctypes.util\n"
+        "if ctypes.util.find_library('c') is None:\n"
+        "    print('WeasyPrint could not import some external libraries')\n"
+        "    raise OSError('cannot load library')\n"
+        "FOUND = True\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for name in [m for m in sys.modules if m == "weasyprint" or m.startswith("weasyprint.")]:
+        monkeypatch.delitem(sys.modules, name)
+    try:
+        module = import_weasyprint()
+        assert module.FOUND and module.__file__.startswith(str(fake))
+        assert "could not import" not in capsys.readouterr().out
+    finally:
+        sys.modules.pop("weasyprint", None)  # the fake (the real one, imported before, is put back)
