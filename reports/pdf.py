@@ -4,7 +4,8 @@ Each case starts a new page under a level-1 heading (a PDF bookmark) that
 carries its PASS/FAIL, its sections level-2 bookmarks; the figures are the
 case folder's PNG files, embedded as they are (not drawn again).  The cases
 come in documents cut at case boundaries (:func:`reports.html.pdf_documents`),
-printed concurrently in worker processes; the front matter (title, contents
+printed concurrently in worker processes (or already, by a command's workers as
+the cases are written: :func:`reports.html.pdf_part`); the front matter (title, contents
 with each case's page, summary, manifest) is printed once their pages are
 known, and everything is put end to end with pypdf, bookmarks and links kept,
 every page numbered ``k / N`` at its foot.
@@ -15,7 +16,7 @@ from __future__ import annotations
 import io
 import os
 import struct
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from gna.errors import writing
@@ -251,7 +252,33 @@ def _pages_of(data: bytes) -> tuple[int, dict]:
     }
 
 
-def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path, *, run_all=None, front=None) -> Path:
+def print_html(html: str, base_dir: str | Path) -> bytes:
+    """Print one HTML document to PDF (weasyprint; the figures' PNG data embedded as it is).
+
+    Parameters
+    ----------
+    html : str
+        The document.
+    base_dir : str or Path
+        Folder its relative image paths resolve against (nothing outside it is read).
+
+    Returns
+    -------
+    bytes
+        The PDF.
+    """
+    return _print(html, str(Path(base_dir).resolve()) + os.sep)
+
+
+def write_pdf(
+    html: str | Sequence[str],
+    base_dir: str | Path,
+    path: str | Path,
+    *,
+    run_all=None,
+    front=None,
+    printed: Mapping[str, bytes] | None = None,
+) -> Path:
     """Print an HTML document (or documents, end to end) to PDF with weasyprint.
 
     Parameters
@@ -269,6 +296,8 @@ def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path,
     front : callable, optional
         ``front(pages) -> str``: the front matter, given the 1-based page of each named destination of the
         documents (:func:`reports.html.pdf_documents`); printed after them, put first, every page numbered.
+    printed : mapping, optional
+        Documents printed already (:func:`print_html`): HTML -> PDF; a document found there is not printed again.
 
     Returns
     -------
@@ -281,13 +310,17 @@ def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path,
     import_weasyprint()  # imported once here, not in every printing worker
 
     if len(docs) == 1 and front is None:
-        data = _print(docs[0], base_url)
+        data = printed[docs[0]] if printed and docs[0] in printed else _print(docs[0], base_url)
     else:
-        prints = [lambda doc=doc: _print(doc, base_url) for doc in docs]
-        printed = list(run_all(prints, len(docs)) if run_all is not None and len(docs) > 1 else [p() for p in prints])
+        ready = dict(printed or {})
+        todo = [doc for doc in dict.fromkeys(docs) if doc not in ready]
+        prints = [lambda doc=doc: _print(doc, base_url) for doc in todo]
+        done = list(run_all(prints, len(todo)) if run_all is not None and len(todo) > 1 else [p() for p in prints])
+        ready.update(zip(todo, done))
+        pdfs = [ready[doc] for doc in docs]
         if front is not None:
             where, offset = {}, 0
-            for data in printed:
+            for data in pdfs:
                 n, dests = _pages_of(data)
                 where.update({name: offset + p for name, p in dests.items()})
                 offset += n
@@ -298,8 +331,8 @@ def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path,
                 if n == guess:
                     break
                 guess = n
-            printed = [first] + printed
-        data = _merge(printed, number=front is not None)
+            pdfs = [first] + pdfs
+        data = _merge(pdfs, number=front is not None)
     with writing(path):
         path.write_bytes(data)
     return path
