@@ -393,6 +393,16 @@ def png_bytes(rgba, text: dict[str, str] | None = None, level: int = 1) -> bytes
     return b"\x89PNG\r\n\x1a\n" + b"".join(chunks)
 
 
+def _ticks_in_view(axis) -> np.ndarray:
+    """The major tick locations of ``axis`` within its view (as matplotlib selects the ticks it draws)."""
+    locs = np.asarray(axis.get_major_locator()(), dtype=float)
+    lo, hi = sorted(axis.get_view_interval())
+    tr = axis.get_transform()
+    (a, b), t = tr.transform(np.array([lo, hi])), tr.transform(locs) if locs.size else locs
+    tol = 1e-10 * (b - a)
+    return locs[np.isfinite(t) & (t >= a - tol) & (t <= b + tol)]
+
+
 def _no_ticklabel_bboxes(ticks, renderer) -> tuple[list, list]:
     """No tick label extents (:class:`Sheet`: its axis labels are placed at fixed distances, no offset text)."""
     return [], []
@@ -422,7 +432,7 @@ class Sheet:
                 # (set_label_coords, no offset), so not measured at every draw
                 axis._get_ticklabel_bboxes = _no_ticklabel_bboxes  # noqa: SLF001
             ax.set_autoscale_on(False)
-            ax.grid(True, alpha=0.3)
+            ax.grid(False)  # drawn by grid() at saving time: one line per axis, not one per tick
             ax.xaxis.set_major_locator(ticker.MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
             ax.xaxis.set_major_formatter(self._plain())
             ax.xaxis.set_minor_locator(ticker.NullLocator())
@@ -600,6 +610,38 @@ class Sheet:
             frameon=False,
         )
 
+    def grid(self, ax) -> None:
+        """Draw the grid of ``ax`` at its major ticks as one line per axis (matplotlib's grid is a line per
+        tick, each an artist to draw), in matplotlib's grid style (``grid.color``, ``grid.linewidth``, alpha
+        0.3), under the data.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes
+            A panel of the sheet, its limits set.
+        """
+        from matplotlib import rcParams
+        from matplotlib.lines import Line2D
+
+        style = {
+            "color": rcParams["grid.color"],
+            "lw": rcParams["grid.linewidth"],
+            "ls": rcParams["grid.linestyle"],
+            "alpha": 0.3,
+            "zorder": 1.5,
+            "label": "_grid",
+        }
+        for axis, transform in ((ax.xaxis, ax.get_xaxis_transform("grid")), (ax.yaxis, ax.get_yaxis_transform("grid"))):
+            locs = _ticks_in_view(axis)
+            if not locs.size:
+                continue
+            at = np.repeat(locs, 3)
+            at[2::3] = np.nan
+            across = np.tile([0.0, 1.0, np.nan], locs.size)
+            x, y = (at, across) if axis is ax.xaxis else (across, at)
+            line = Line2D(x, y, transform=transform, **style)
+            ax.add_artist(line)
+
     def axis_labels(self) -> list[str]:
         """The label of every shown axis (``"name [unit]"``), in panel order, without repeats.
 
@@ -633,6 +675,9 @@ class Sheet:
         Path
             The file written.
         """
+        for ax in self.shown:
+            if ax.axison and ax.get_visible():
+                self.grid(ax)
         canvas = self.fig.canvas
         canvas.draw()
         data = png_bytes(canvas.buffer_rgba(), {AXES_KEY: json.dumps(self.axis_labels())})
