@@ -226,7 +226,7 @@ class _Scenario:
             if lp in self.results or any(name not in self.runs[lp] for name in cf.flights):
                 continue
             self.results[lp] = result = finish_case(cf, self.runs[lp])
-            result.saturated_s()  # judged here once: the forked writer inherits it (summary, report, verdict)
+            result.verdict()  # judged here once (and the saturation): the forked writer inherits it (summary, report)
             plan_sub = (self.name, "plan") if lp == self.loops[0] else None
             pool.submit(
                 ("write", self.name, lp),
