@@ -9,9 +9,11 @@ uses offset or multiplier notation (:class:`PlainFormatter`).
 Drawing is cheap by construction: every figure of a process is drawn on one
 reused figure object (:class:`Sheet`, Agg canvas, a grid of axes made once:
 matplotlib's axes and tick objects are its dominant cost), with fixed margins
-(no layout engine), each line reduced to what a pixel column can show
-(:func:`decimate`), and saved as an 8-bit RGB PNG: no alpha channel, the
-form a PDF embeds as it is (:mod:`reports.pdf` copies its compressed data).
+(no layout engine), each string rasterised once per process
+(:func:`_canvas_class`), the grid one line per axis, each line reduced to what
+a pixel column can show (:func:`decimate`), and saved as an 8-bit RGB PNG
+(:func:`png_bytes`): no alpha channel, the form a PDF embeds as it is
+(:mod:`reports.pdf` copies its compressed data).
 """
 
 from __future__ import annotations
@@ -269,8 +271,6 @@ def _canvas_class():
     global _CANVAS
     if _CANVAS is not None:
         return _CANVAS
-    import math as _math
-
     from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg, get_hinting_flag
 
     class TextCacheRenderer(RendererAgg):
@@ -290,9 +290,9 @@ def _canvas_class():
             image, d, xo, yo = hit
             if image.size == 0:
                 return None
-            a = _math.radians(angle)
+            a = math.radians(angle)
             self._renderer.draw_text_image(
-                image, round(x + xo + d * _math.sin(a)), round(y + yo + d * _math.cos(a)) + 1, angle, gc
+                image, round(x + xo + d * math.sin(a)), round(y + yo + d * math.cos(a)) + 1, angle, gc
             )
             return None
 

@@ -749,11 +749,9 @@ def _pdf_documents(root: Path, cases: list, common: dict, parts: int, groups=Non
     template = _environment().get_template("single.html")
     plain = dict(common, **PDF_PART)
     starts = _group_starts([v["folder"] for v in views], groups)
-    if starts is not None:
-        pass
-    elif parts <= 1 or len(views) <= 1:
+    if starts is None and (parts <= 1 or len(views) <= 1):
         starts = [0]
-    else:
+    elif starts is None:
         costs = [len(template.render(cases=[v], **plain)) + FIGURE_WEIGHT * len(v["model"]["figures"]) for v in views]
         starts = _split(costs, parts)
     starts.append(len(views))
