@@ -9,9 +9,11 @@ uses offset or multiplier notation (:class:`PlainFormatter`).
 Drawing is cheap by construction: every figure of a process is drawn on one
 reused figure object (:class:`Sheet`, Agg canvas, a grid of axes made once:
 matplotlib's axes and tick objects are its dominant cost), with fixed margins
-(no layout engine), each line reduced to what a pixel column can show
-(:func:`decimate`), and saved as an 8-bit RGB PNG: no alpha channel, the
-form a PDF embeds as it is (:mod:`reports.pdf` copies its compressed data).
+(no layout engine), each string rasterised once per process
+(:func:`_canvas_class`), the grid one line per axis, each line reduced to what
+a pixel column can show (:func:`decimate`), and saved as an 8-bit RGB PNG
+(:func:`png_bytes`): no alpha channel, the form a PDF embeds as it is
+(:mod:`reports.pdf` copies its compressed data).
 """
 
 from __future__ import annotations
@@ -236,6 +238,176 @@ def _formatters():
     return PlainFormatter, DecadeFormatter
 
 
+def _font_key(prop) -> tuple:
+    """What a text's rendering depends on of its font properties (a tuple: no hash of mutable state)."""
+    return (
+        tuple(prop.get_family()),
+        prop.get_style(),
+        prop.get_variant(),
+        prop.get_weight(),
+        prop.get_stretch(),
+        prop.get_size_in_points(),
+        prop.get_file(),
+    )
+
+
+#: Rendered strings (coverage bitmap, descent, offsets) and their metrics, by string, font, resolution: shared
+#: by every renderer of the process (a sheet of another size has its own), inherited by forked workers.
+_TEXT_BITMAPS: dict = {}
+_TEXT_METRICS: dict = {}
+_FONT_HEIGHTS: dict = {}
+
+_CANVAS = None
+
+
+def _canvas_class():
+    """The Agg canvas of the sheets: a renderer kept per image size, each string rendered once per process.
+
+    Matplotlib's Agg renderer lays out and rasterises every glyph of every text each time it is drawn, and
+    keeps its metrics per renderer (one per image size); tick labels, axis labels and legends repeat from
+    figure to figure, so each string is rasterised once, at a whole pixel, and its bitmap composited where it
+    is drawn (the way matplotlib drew text up to 3.9).
+    """
+    global _CANVAS
+    if _CANVAS is not None:
+        return _CANVAS
+    from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg, get_hinting_flag
+
+    class TextCacheRenderer(RendererAgg):
+        def draw_text(self, gc, x, y, s, prop, angle, ismath=False, mtext=None):
+            if ismath:
+                return super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
+            aa = bool(gc.get_antialiased())
+            key = (s, _font_key(prop), self.dpi, aa)
+            hit = _TEXT_BITMAPS.get(key)
+            if hit is None:
+                font = self._prepare_font(prop)
+                font.set_text(s, 0, flags=get_hinting_flag())
+                font.draw_glyphs_to_bitmap(antialiased=aa)
+                xo, yo = font.get_bitmap_offset()
+                hit = (np.array(font.get_image(), dtype=np.uint8), font.get_descent() / 64.0, xo / 64.0, yo / 64.0)
+                _TEXT_BITMAPS[key] = hit
+            image, d, xo, yo = hit
+            if image.size == 0:
+                return None
+            a = math.radians(angle)
+            self._renderer.draw_text_image(
+                image, round(x + xo + d * math.sin(a)), round(y + yo + d * math.cos(a)) + 1, angle, gc
+            )
+            return None
+
+        def _get_font_height_metrics(self, prop):
+            # the font's ascent, descent and line gap, which matplotlib reads from its tables for every text laid
+            # out (matplotlib.text.Text._get_layout: the same formulas)
+            key = (_font_key(prop), self.dpi)
+            m = _FONT_HEIGHTS.get(key)
+            if m is None:
+                m = (None, None, None)
+                font = self._prepare_font(prop)
+                units = font.get_sfnt_table("head")
+                for table_name, gap, ascent, descent in (
+                    ("OS/2", "sTypoLineGap", "sTypoAscender", "sTypoDescender"),
+                    ("hhea", "lineGap", "ascent", "descent"),
+                ):
+                    table = font.get_sfnt_table(table_name)
+                    if table is None or units is None:
+                        continue
+                    scale = prop.get_size_in_points() * self.dpi / 72 / units["unitsPerEm"]
+                    m = (table[ascent] * scale, -table[descent] * scale, table[gap] * scale)
+                    break
+                _FONT_HEIGHTS[key] = m
+            return m
+
+        def get_text_width_height_descent(self, s, prop, ismath):
+            if ismath:
+                return super().get_text_width_height_descent(s, prop, ismath)
+            key = (s, _font_key(prop), self.dpi)
+            m = _TEXT_METRICS.get(key)
+            if m is None:
+                m = _TEXT_METRICS[key] = super().get_text_width_height_descent(s, prop, ismath)
+            return m
+
+    class SheetCanvas(FigureCanvasAgg):
+        def __init__(self, figure):
+            super().__init__(figure)
+            self._renderers: dict = {}
+
+        def get_renderer(self):
+            w, h = self.get_width_height(physical=True)
+            key = (w, h, self.figure.dpi)
+            if self._lastKey != key:
+                if key not in self._renderers:
+                    self._renderers[key] = TextCacheRenderer(w, h, self.figure.dpi)
+                self.renderer = self._renderers[key]
+                self._lastKey = key
+            return self.renderer
+
+    _CANVAS = SheetCanvas
+    return _CANVAS
+
+
+def _png_chunk(kind: bytes, data: bytes) -> bytes:
+    import struct
+    import zlib
+
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+
+def png_bytes(rgba, text: dict[str, str] | None = None, level: int = 1) -> bytes:
+    """An 8-bit RGB PNG of an RGBA pixel buffer, its rows unfiltered, deflated at ``level``.
+
+    A figure is mostly flat colour: unfiltered rows deflated fast cost a third of a filtered, level-6 PNG's
+    encoding for about 25 % more bytes; the PDF embeds this data as it is (:func:`reports.pdf.png_stream`).
+
+    Parameters
+    ----------
+    rgba : array_like
+        Shape (height, width, 4), uint8 (an Agg canvas's ``buffer_rgba()``); the alpha channel is dropped.
+    text : dict, optional
+        Text chunks (``tEXt``, or ``iTXt`` when not Latin-1).
+    level : int
+        zlib compression level.
+
+    Returns
+    -------
+    bytes
+    """
+    import struct
+    import zlib
+
+    from PIL import Image
+
+    a = np.asarray(rgba, dtype=np.uint8)
+    h, w = a.shape[:2]
+    rgb = Image.frombuffer("RGBA", (w, h), np.ascontiguousarray(a), "raw", "RGBA", 0, 1).convert("RGB").tobytes()
+    rows = np.zeros((h, 1 + 3 * w), dtype=np.uint8)  # filter byte 0 (none) before each row
+    rows[:, 1:] = np.frombuffer(rgb, dtype=np.uint8).reshape(h, 3 * w)  # (PIL drops the alpha 10x faster)
+    chunks = [_png_chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))]
+    for key, value in (text or {}).items():
+        try:
+            chunks.append(_png_chunk(b"tEXt", key.encode("latin-1") + b"\0" + value.encode("latin-1")))
+        except UnicodeEncodeError:
+            chunks.append(_png_chunk(b"iTXt", key.encode("latin-1") + b"\0\0\0\0\0" + value.encode("utf-8")))
+    chunks.append(_png_chunk(b"IDAT", zlib.compress(rows.tobytes(), level)))
+    chunks.append(_png_chunk(b"IEND", b""))
+    return b"\x89PNG\r\n\x1a\n" + b"".join(chunks)
+
+
+def _ticks_in_view(axis) -> np.ndarray:
+    """The major tick locations of ``axis`` within its view (as matplotlib selects the ticks it draws)."""
+    locs = np.asarray(axis.get_major_locator()(), dtype=float)
+    lo, hi = sorted(axis.get_view_interval())
+    tr = axis.get_transform()
+    (a, b), t = tr.transform(np.array([lo, hi])), tr.transform(locs) if locs.size else locs
+    tol = 1e-10 * (b - a)
+    return locs[np.isfinite(t) & (t >= a - tol) & (t <= b + tol)]
+
+
+def _no_ticklabel_bboxes(ticks, renderer) -> tuple[list, list]:
+    """No tick label extents (:class:`Sheet`: its axis labels are placed at fixed distances, no offset text)."""
+    return [], []
+
+
 class Sheet:
     """One Agg figure with :data:`MAX_PANELS` axes, reused for every figure a process draws.
 
@@ -246,18 +418,21 @@ class Sheet:
 
     def __init__(self):
         from matplotlib import ticker
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
 
         self.fig = Figure(figsize=(WIDTH_IN, 4 * ROW_IN), dpi=DPI, layout=None)
-        FigureCanvasAgg(self.fig)
+        _canvas_class()(self.fig)
         self._plain, self._decades = _formatters()
         self._ticker = ticker
         self.axes = [self.fig.add_axes((0, 0, 0.1, 0.1)) for _ in range(MAX_PANELS)]
         self._state: dict = {}
         for ax in self.axes:
+            for axis in (ax.xaxis, ax.yaxis):
+                # the tick labels' extents place the axis label and the offset text: both are fixed here
+                # (set_label_coords, no offset), so not measured at every draw
+                axis._get_ticklabel_bboxes = _no_ticklabel_bboxes  # noqa: SLF001
             ax.set_autoscale_on(False)
-            ax.grid(True, alpha=0.3)
+            ax.grid(False)  # drawn by grid() at saving time: one line per axis, not one per tick
             ax.xaxis.set_major_locator(ticker.MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
             ax.xaxis.set_major_formatter(self._plain())
             ax.xaxis.set_minor_locator(ticker.NullLocator())
@@ -404,7 +579,13 @@ class Sheet:
         list of matplotlib.lines.Line2D
         """
         tt, yy = decimate(t, y, self.width_px)
-        return ax.plot(tt, yy, **kw)
+        if "color" not in kw:  # the axes' colour cycle
+            return ax.plot(tt, yy, **kw)
+        from matplotlib.lines import Line2D
+
+        line = Line2D(tt, yy, **kw)
+        ax.add_artist(line)  # not Axes.plot: no arguments to parse, no data limits (the sheet does not autoscale)
+        return [line]
 
     def legend(self, handles, labels, ncol: int | None = None) -> None:
         """Draw one legend for the figure, under its title.
@@ -428,6 +609,38 @@ class Sheet:
             fontsize=8,
             frameon=False,
         )
+
+    def grid(self, ax) -> None:
+        """Draw the grid of ``ax`` at its major ticks as one line per axis (matplotlib's grid is a line per
+        tick, each an artist to draw), in matplotlib's grid style (``grid.color``, ``grid.linewidth``, alpha
+        0.3), under the data.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes
+            A panel of the sheet, its limits set.
+        """
+        from matplotlib import rcParams
+        from matplotlib.lines import Line2D
+
+        style = {
+            "color": rcParams["grid.color"],
+            "lw": rcParams["grid.linewidth"],
+            "ls": rcParams["grid.linestyle"],
+            "alpha": 0.3,
+            "zorder": 1.5,
+            "label": "_grid",
+        }
+        for axis, transform in ((ax.xaxis, ax.get_xaxis_transform("grid")), (ax.yaxis, ax.get_yaxis_transform("grid"))):
+            locs = _ticks_in_view(axis)
+            if not locs.size:
+                continue
+            at = np.repeat(locs, 3)
+            at[2::3] = np.nan
+            across = np.tile([0.0, 1.0, np.nan], locs.size)
+            x, y = (at, across) if axis is ax.xaxis else (across, at)
+            line = Line2D(x, y, transform=transform, **style)
+            ax.add_artist(line)
 
     def axis_labels(self) -> list[str]:
         """The label of every shown axis (``"name [unit]"``), in panel order, without repeats.
@@ -462,18 +675,16 @@ class Sheet:
         Path
             The file written.
         """
-        from PIL import Image, PngImagePlugin
-
+        for ax in self.shown:
+            if ax.axison and ax.get_visible():
+                self.grid(ax)
         canvas = self.fig.canvas
         canvas.draw()
-        w, h = canvas.get_width_height()
-        image = Image.frombuffer("RGBA", (w, h), canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB")
-        info = PngImagePlugin.PngInfo()
-        info.add_text(AXES_KEY, json.dumps(self.axis_labels()))
+        data = png_bytes(canvas.buffer_rgba(), {AXES_KEY: json.dumps(self.axis_labels())})
         path = Path(out) / name
         with writing(path):
             path.parent.mkdir(parents=True, exist_ok=True)
-            image.save(path, format="PNG", pnginfo=info, compress_level=6)
+            path.write_bytes(data)
         return path
 
 

@@ -664,7 +664,9 @@ def _split(costs: list[float], parts: int) -> list[int]:
     return best[1]
 
 
-def pdf_documents(run_dir: str | Path, parts: int, *, date: str | None = None, manifest: dict | None = None):
+def pdf_documents(
+    run_dir: str | Path, parts: int, *, date: str | None = None, manifest: dict | None = None, groups=None
+):
     """The run's PDF as HTML documents to print separately: the cases cut into ``parts`` of about equal work,
     and the front matter (title, contents with page numbers, summary, manifest) made once their pages are known.
 
@@ -685,6 +687,10 @@ def pdf_documents(run_dir: str | Path, parts: int, *, date: str | None = None, m
         Render date (default now, UTC).
     manifest : dict, optional
         As :func:`render_documents`.
+    groups : sequence of sequence of str, optional
+        Case folders (relative to ``run_dir``) printed together, e.g. each scenario's cases
+        (:func:`pdf_part`): the documents cut there instead, when every group is a run of consecutive
+        cases and together they are the run's cases (else ignored).
 
     Returns
     -------
@@ -701,24 +707,51 @@ def pdf_documents(run_dir: str | Path, parts: int, *, date: str | None = None, m
     root = Path(run_dir)
     cases, common = _run_context(root, date, manifest)
     with _model_errors(root, [f for f, _ in cases]):
-        return _pdf_documents(root, cases, common, parts)
+        return _pdf_documents(root, cases, common, parts, groups)
 
 
-def _pdf_documents(root: Path, cases: list, common: dict, parts: int):
+def _pdf_views(root: Path, cases: list) -> list:
+    """The views of the PDF's cases (in run order): a scenario's later cases print its plan once, "as in the
+    first case" (``same_plan_as``)."""
     views = [_case_view(root, f, m, root, False) for f, m in cases]
     first: dict = {}
-    for v in views:  # a scenario's later cases print its plan once: "as in the first case"
+    for v in views:
         m = v["model"]
         key = (m["scenario"]["name"], m["plan"]["J"], m["scenario"].get("toml"))
         if key in first:
             v["same_plan_as"] = first[key]
         else:
             first[key] = {"id": m["id"], "title": m["title"]}
+    return views
+
+
+#: What a document of the PDF's cases is rendered with beyond the cases (single.html): no front matter, no
+#: footer; nothing of the run as a whole (its counts, date, manifest) is printed in it.
+PDF_PART = {"pdf": True, "front": False, "last_part": False, "incomplete": None}
+
+
+def _group_starts(folders: list[str], groups) -> list[int] | None:
+    """Start index of each group of case folders in the run order ``folders``; None when they do not cut it."""
+    if not groups:
+        return None
+    starts, at = [], 0
+    for group in groups:
+        group = [Path(f).as_posix() for f in group]
+        if not group or folders[at : at + len(group)] != group:
+            return None
+        starts.append(at)
+        at += len(group)
+    return starts if at == len(folders) else None
+
+
+def _pdf_documents(root: Path, cases: list, common: dict, parts: int, groups=None):
+    views = _pdf_views(root, cases)
     template = _environment().get_template("single.html")
-    plain = dict(common, pdf=True, front=False, last_part=False)
-    if parts <= 1 or len(views) <= 1:
+    plain = dict(common, **PDF_PART)
+    starts = _group_starts([v["folder"] for v in views], groups)
+    if starts is None and (parts <= 1 or len(views) <= 1):
         starts = [0]
-    else:
+    elif starts is None:
         costs = [len(template.render(cases=[v], **plain)) + FIGURE_WEIGHT * len(v["model"]["figures"]) for v in views]
         starts = _split(costs, parts)
     starts.append(len(views))
@@ -734,6 +767,40 @@ def _pdf_documents(root: Path, cases: list, common: dict, parts: int):
     return front, documents
 
 
+def pdf_part(run_dir: str | Path, folders) -> tuple[str, bytes]:
+    """Print the PDF pages of some of a run's cases, as soon as their files are written (a command's worker
+    while other cases fly): :func:`render_run` puts the part in the PDF when its document is the one it
+    would print (``printed``), else prints that again.
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        The run's folder (or staging folder).
+    folders : sequence of str
+        Case folders relative to ``run_dir``, consecutive in the run's order (e.g. a scenario's open- and
+        closed-loop cases): only their ``report.json`` files are read.
+
+    Returns
+    -------
+    (str, bytes)
+        The part's HTML document (:func:`pdf_documents`) and its PDF.
+
+    Raises
+    ------
+    InputError
+        A ``report.json`` missing or not a case model.
+    """
+    from .model import load_case_model
+    from .pdf import print_html
+
+    root = Path(run_dir)
+    cases = [(Path(f), load_case_model(root / f / REPORT_JSON)) for f in folders]
+    with _model_errors(root, [f for f, _ in cases]):
+        views = _pdf_views(root, cases)
+        html = _render(_environment().get_template("single.html"), root, views, PDF_PART)
+    return html, print_html(html, root)
+
+
 def render_run(
     run_dir: str | Path,
     *,
@@ -744,6 +811,7 @@ def render_run(
     run_all=None,
     manifest: dict | None = None,
     progress=None,
+    printed=None,
 ) -> dict[str, Path]:
     """Render a run folder's reports: ``index.html``, a page per case, optionally the single file and the PDF.
 
@@ -768,6 +836,9 @@ def render_run(
         ``manifest.json``).
     progress : harness.progress.Progress, optional
         The HTML pages and the PDF are stages (the PDF's parts too, when ``run_all`` shows them).
+    printed : sequence of (sequence of str, str, bytes), optional
+        Parts of the PDF printed already (:func:`pdf_part`): their case folders, HTML and PDF; the documents
+        are cut at their cases and a part is used when its HTML is the document's.
 
     Returns
     -------
@@ -792,6 +863,10 @@ def render_run(
         from .pdf import write_pdf
 
         with stage(progress, f"writing {PDF_FILE}"):
-            front, documents = pdf_documents(root, jobs if jobs > 1 else 1, date=date, manifest=manifest)
-            out["pdf"] = write_pdf(documents, root, root / PDF_FILE, run_all=run_all, front=front)
+            parts = list(printed or [])
+            front, documents = pdf_documents(
+                root, jobs if jobs > 1 else 1, date=date, manifest=manifest, groups=[g for g, _, _ in parts] or None
+            )
+            done = {html: data for _, html, data in parts}
+            out["pdf"] = write_pdf(documents, root, root / PDF_FILE, run_all=run_all, front=front, printed=done)
     return out

@@ -402,6 +402,39 @@ def _listed(root: Path) -> set | None:
     return {f["path"] for f in data["files"] if isinstance(f, dict) and isinstance(f.get("path"), str)}
 
 
+def load_case_model(path: str | Path) -> dict:
+    """One saved case model, checked as :func:`load_case_models` checks each.
+
+    Parameters
+    ----------
+    path : str or Path
+        A case's ``report.json``.
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    InputError
+        As :func:`load_case_models`.
+    """
+    p = Path(path)
+    model = read_json_object(p, "a gflat report model")
+    bad = [k for k, t in MODEL_KEYS.items() if not isinstance(model.get(k), t)]
+    if not bad and len(model["figures"]) > MAX_FIGURES:
+        raise InputError(
+            f"{p}: not a gflat report model ({len(model['figures'])} figures, above the bound of {MAX_FIGURES}); "
+            f"render it again with gflat compare/paper"
+        )
+    if bad:
+        raise InputError(
+            f"{p}: not a gflat report model (missing or wrong type: {', '.join(bad)}); "
+            f"render it again with gflat compare/paper"
+        )
+    return model
+
+
 def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:
     """The saved case models under a run folder, in a stable order (scenario folder, then open before closed).
 
@@ -423,22 +456,7 @@ def load_case_models(run_dir: str | Path) -> list[tuple[Path, dict]]:
         (:func:`run_files`).
     """
     root = Path(run_dir)
-    found = []
-    for p in run_files(root, REPORT_JSON):
-        model = read_json_object(p, "a gflat report model")
-        bad = [k for k, t in MODEL_KEYS.items() if not isinstance(model.get(k), t)]
-        if not bad and len(model["figures"]) > MAX_FIGURES:
-            raise InputError(
-                f"{p}: not a gflat report model ({len(model['figures'])} figures, above the bound of {MAX_FIGURES}); "
-                f"render it again with gflat compare/paper"
-            )
-        if bad:
-            raise InputError(
-                f"{p}: not a gflat report model (missing or wrong type: {', '.join(bad)}); "
-                f"render it again with gflat compare/paper"
-            )
-        rel = p.parent.relative_to(root)
-        found.append((rel, model))
+    found = [(p.parent.relative_to(root), load_case_model(p)) for p in run_files(root, REPORT_JSON)]
     order = {"open": 0, "closed": 1}
     found.sort(key=lambda item: (item[0].parent.as_posix(), order.get(item[1].get("loop"), 2), item[0].as_posix()))
     return found

@@ -4,7 +4,8 @@ Each case starts a new page under a level-1 heading (a PDF bookmark) that
 carries its PASS/FAIL, its sections level-2 bookmarks; the figures are the
 case folder's PNG files, embedded as they are (not drawn again).  The cases
 come in documents cut at case boundaries (:func:`reports.html.pdf_documents`),
-printed concurrently in worker processes; the front matter (title, contents
+printed concurrently in worker processes (or already, by a command's workers as
+the cases are written: :func:`reports.html.pdf_part`); the front matter (title, contents
 with each case's page, summary, manifest) is printed once their pages are
 known, and everything is put end to end with pypdf, bookmarks and links kept,
 every page numbered ``k / N`` at its foot.
@@ -15,7 +16,7 @@ from __future__ import annotations
 import io
 import os
 import struct
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from gna.errors import writing
@@ -96,13 +97,51 @@ def _passthrough():
     return RasterImage, original, staticmethod(get_png_data)
 
 
+def import_weasyprint():
+    """weasyprint, imported without a search of the system's library paths for each name it tries.
+
+    weasyprint loads pango, harfbuzz and fontconfig trying several names each; cffi looks a name that does not
+    load as it is up with ``ctypes.util.find_library``, which runs ``ldconfig`` (and compilers) in
+    subprocesses: most of the import's CPU.  The names weasyprint tries include each library's
+    file name (``libpango-1.0.so.0``), loaded directly; where one is only found by the search, weasyprint is
+    imported again the ordinary way.
+
+    Returns
+    -------
+    module
+        ``weasyprint``.
+    """
+    import contextlib
+    import ctypes.util
+    import io
+    import sys
+
+    if "weasyprint" in sys.modules:
+        return sys.modules["weasyprint"]
+    search = ctypes.util.find_library
+    ctypes.util.find_library = lambda name: None
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):  # weasyprint prints its advice before raising
+            import weasyprint
+
+        return weasyprint
+    except Exception:  # noqa: BLE001  (a library found by the search only)
+        for name in [m for m in sys.modules if m == "weasyprint" or m.startswith("weasyprint.")]:
+            del sys.modules[name]
+    finally:
+        ctypes.util.find_library = search
+    import weasyprint
+
+    return weasyprint
+
+
 def _print(html: str, base_url: str) -> bytes:
     import gc
 
-    import weasyprint
+    weasyprint = import_weasyprint()
 
-    gc.collect()
-    gc.freeze()  # the objects alive before printing are not scanned again by every collection
+    gc.freeze()  # the objects there before printing are not scanned again by every collection (nor collected first:
+    # a full collection of a command's heap costs more than the garbage it frees)
     cls, original, patched = _passthrough()
     cls._get_png_data = patched  # noqa: SLF001
     try:
@@ -213,7 +252,33 @@ def _pages_of(data: bytes) -> tuple[int, dict]:
     }
 
 
-def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path, *, run_all=None, front=None) -> Path:
+def print_html(html: str, base_dir: str | Path) -> bytes:
+    """Print one HTML document to PDF (weasyprint; the figures' PNG data embedded as it is).
+
+    Parameters
+    ----------
+    html : str
+        The document.
+    base_dir : str or Path
+        Folder its relative image paths resolve against (nothing outside it is read).
+
+    Returns
+    -------
+    bytes
+        The PDF.
+    """
+    return _print(html, str(Path(base_dir).resolve()) + os.sep)
+
+
+def write_pdf(
+    html: str | Sequence[str],
+    base_dir: str | Path,
+    path: str | Path,
+    *,
+    run_all=None,
+    front=None,
+    printed: Mapping[str, bytes] | None = None,
+) -> Path:
     """Print an HTML document (or documents, end to end) to PDF with weasyprint.
 
     Parameters
@@ -231,6 +296,8 @@ def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path,
     front : callable, optional
         ``front(pages) -> str``: the front matter, given the 1-based page of each named destination of the
         documents (:func:`reports.html.pdf_documents`); printed after them, put first, every page numbered.
+    printed : mapping, optional
+        Documents printed already (:func:`print_html`): HTML -> PDF; a document found there is not printed again.
 
     Returns
     -------
@@ -240,16 +307,20 @@ def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path,
     path = Path(path)
     docs = [html] if isinstance(html, str) else list(html)
     base_url = str(Path(base_dir).resolve()) + os.sep
-    import weasyprint  # noqa: F401  (imported once here, not in every printing worker)
+    import_weasyprint()  # imported once here, not in every printing worker
 
     if len(docs) == 1 and front is None:
-        data = _print(docs[0], base_url)
+        data = printed[docs[0]] if printed and docs[0] in printed else _print(docs[0], base_url)
     else:
-        prints = [lambda doc=doc: _print(doc, base_url) for doc in docs]
-        printed = list(run_all(prints, len(docs)) if run_all is not None and len(docs) > 1 else [p() for p in prints])
+        ready = dict(printed or {})
+        todo = [doc for doc in dict.fromkeys(docs) if doc not in ready]
+        prints = [lambda doc=doc: _print(doc, base_url) for doc in todo]
+        done = list(run_all(prints, len(todo)) if run_all is not None and len(todo) > 1 else [p() for p in prints])
+        ready.update(zip(todo, done))
+        pdfs = [ready[doc] for doc in docs]
         if front is not None:
             where, offset = {}, 0
-            for data in printed:
+            for data in pdfs:
                 n, dests = _pages_of(data)
                 where.update({name: offset + p for name, p in dests.items()})
                 offset += n
@@ -260,8 +331,8 @@ def write_pdf(html: str | Sequence[str], base_dir: str | Path, path: str | Path,
                 if n == guess:
                     break
                 guess = n
-            printed = [first] + printed
-        data = _merge(printed, number=front is not None)
+            pdfs = [first] + pdfs
+        data = _merge(pdfs, number=front is not None)
     with writing(path):
         path.write_bytes(data)
     return path

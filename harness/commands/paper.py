@@ -20,7 +20,10 @@ The plans are made in this process; the flights of the cases and the writing
 of their folders run in forked worker processes (``--jobs``,
 :class:`harness.parallel.ForkPool`), each writing its case's files directly
 into the run's staging folder; the closed loop's open-loop curve is the
-open-loop case's reference run (the same flight, flown once).
+open-loop case's reference run (the same flight, flown once).  A scenario's
+pages of the PDF are printed by a worker as soon as its cases are written
+(:func:`reports.html.pdf_part`), while other cases fly; the front matter is
+printed and the PDF put together at the end (:func:`reports.html.render_run`).
 """
 
 from __future__ import annotations
@@ -32,7 +35,8 @@ from functools import partial
 from planners.scenario import load_scenario
 from reports.case_files import write_case
 from reports.figures import prepare as prepare_figures
-from reports.html import render_run
+from reports.html import pdf_part, render_run
+from reports.pdf import import_weasyprint
 
 from ..artefacts import cpu_split, cpu_time, run_manifest, write_plan_iterates
 from ..parallel import ForkPool, default_jobs, run_all
@@ -199,6 +203,14 @@ class _Scenario:
         self.elapsed[loop] += dt
         if key[0] == "write":
             self.files[loop] = out
+            if self.done:  # the scenario's pages of the PDF printed now, while other cases fly
+                folders = [f"{self.name}/{lp}" for lp in self.loops]
+                pool.submit(
+                    ("pdf", self.name, None),
+                    partial(pdf_part, self.root, folders),
+                    priority=2,
+                    what=f"writing the PDF pages of {self.name}",
+                )
             return
         self.runs[loop][key[3]] = out
         check_run(self.validity, self.aircraft, out, f"{key[3]} flight of {self.name}, {loop} loop")
@@ -214,7 +226,7 @@ class _Scenario:
             if lp in self.results or any(name not in self.runs[lp] for name in cf.flights):
                 continue
             self.results[lp] = result = finish_case(cf, self.runs[lp])
-            result.saturated_s()  # judged here once: the forked writer inherits it (summary, report, verdict)
+            result.verdict()  # judged here once (and the saturation): the forked writer inherits it (summary, report)
             plan_sub = (self.name, "plan") if lp == self.loops[0] else None
             pool.submit(
                 ("write", self.name, lp),
@@ -255,19 +267,25 @@ def run(args) -> int:
     out = run_dir(args, "paper", command="paper")  # the default, the tool's own folder: an earlier run replaced
     cpu0 = cpu_time()
     with out, ForkPool(args.jobs or default_jobs(), progress=progress) as pool:
-        with stage(progress, "preparing the figures"):
+        c_prep = cpu_time()
+        with stage(progress, "preparing the figures and the PDF's printer"):
             prepare_figures()  # one figure and its axes made here, inherited by every forked writer
+            import_weasyprint()  # and the printer of the PDF's parts
+        cpu_prepare = cpu_time() - c_prep  # writing's, though spent here
         validity = ValidityWarnings()
         scenarios = [_Scenario(case, loops, out.root, out.out, args.csv, progress, validity) for case in cases]
         by_name = {}
         for sc in scenarios:
             sc.plan(pool)
             by_name[sc.name] = sc
-        emitted = 0
+        emitted, printed = 0, {}
         while emitted < len(scenarios):
             if not scenarios[emitted].done:
                 key, value = pool.next_result()
-                by_name[key[1]].receive(pool, key, value)
+                if key[0] == "pdf":
+                    printed[key[1]] = value
+                else:
+                    by_name[key[1]].receive(pool, key, value)
                 continue
             sc = scenarios[emitted]  # files written and lines printed in the scenarios' order
             emitted += 1
@@ -328,6 +346,9 @@ def run(args) -> int:
             )
             print("\n".join(f"  {line}" for line in verdict_lines(v["verdicts"], {"unrecorded": v["failures"]})))
             print(f"  four-curve figure: {out.out / name / 'closed' / 'tracking.png'}")
+        while pool.pending:  # the PDF parts still printing
+            key, value = pool.next_result()
+            printed[key[1]] = value
         jobs, log = pool.jobs, pool.log
         pool.close()
         how = "cases flown and written by forked worker processes" if jobs > 1 else "in one process"
@@ -343,9 +364,12 @@ def run(args) -> int:
             run_all=partial(run_all, what="printing the PDF", progress=progress),
             manifest=record,
             progress=progress,
+            printed=[
+                ([f"{sc.name}/{lp}" for lp in loops], *printed[sc.name]) for sc in scenarios if sc.name in printed
+            ],
         )
         record["execution"]["cpu_s"] = cpu_split(
-            log, sum(sc.cpu_plan for sc in scenarios), cpu_time() - c0, cpu_time() - cpu0
+            log, sum(sc.cpu_plan for sc in scenarios), cpu_time() - c0 + cpu_prepare, cpu_time() - cpu0
         )
         with stage(progress, "writing the manifest"):
             out.commit(record)

@@ -8,6 +8,7 @@ always travels with the tolerances that made it.  Nothing here writes files.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -174,6 +175,25 @@ class CaseResult:
             tables), and ``judged`` (:func:`~harness.validation.verdicts.judge`:
             what fails the exit status, what the scenario records).
         """
+        return copy.deepcopy(self._memo("_verdicts", self._verdicts))
+
+    def _memo(self, name: str, compute):
+        """``compute()``, kept while the result's runs, tables, settings and plan are the same objects (the
+        command, its files and its report each ask for the verdicts: judged once)."""
+        key = (
+            id(self.closed_loop),
+            tuple((label, id(res)) for label, res in self.runs.items()),
+            id(self.tables),
+            id(self.settings),
+            id(self.plan),
+        )
+        memo = self.__dict__.get(name)
+        if memo is None or memo[0] != key:
+            memo = (key, compute())
+            self.__dict__[name] = memo
+        return memo[1]
+
+    def _verdicts(self) -> dict:
         known = tuple(getattr(self.scenario, "known", ()) or ())
         s = self.settings
         tol = s.tracking_tolerance if s is not None else DEFAULT_TRACKING_TOLERANCE
@@ -217,6 +237,9 @@ class CaseResult:
             is the exit status's: no verdict fails that the scenario does not
             record (``[verdicts] known``); ``failures`` lists those that do.
         """
+        return copy.deepcopy(self._memo("_verdict", self._verdict))
+
+    def _verdict(self) -> dict:
         t0 = self.plan.t0
         whole = self.max_position_error_m()
         after = self.max_position_error_m((t0 + 5.0, None))

@@ -76,3 +76,56 @@ def test_pdf_is_no_larger_than_it_needs_to_be(report_run):
     )
     assert len(images) >= 1
     assert path.stat().st_size < 1.3 * figures + 400_000
+
+
+def test_weasyprint_imported_the_ordinary_way_when_a_library_needs_the_search(tmp_path, monkeypatch, capsys):
+    """A library found only by ``ctypes.util.find_library``: weasyprint imported again with it, quietly."""
+    import sys
+
+    from reports.pdf import import_weasyprint
+
+    fake = tmp_path / "weasyprint"
+    fake.mkdir()
+    (fake / "__init__.py").write_text(
+        "import ctypes.util\n"
+        "if ctypes.util.find_library('c') is None:\n"
+        "    print('WeasyPrint could not import some external libraries')\n"
+        "    raise OSError('cannot load library')\n"
+        "FOUND = True\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for name in [m for m in sys.modules if m == "weasyprint" or m.startswith("weasyprint.")]:
+        monkeypatch.delitem(sys.modules, name)
+    try:
+        module = import_weasyprint()
+        assert module.FOUND and module.__file__.startswith(str(fake))
+        assert "could not import" not in capsys.readouterr().out
+    finally:
+        sys.modules.pop("weasyprint", None)  # the fake (the real one, imported before, is put back)
+
+
+def test_pdf_parts_printed_as_the_cases_are_written_make_the_same_pdf(report_run, tmp_path, monkeypatch):
+    """gflat paper prints each scenario's pages in a worker (reports.html.pdf_part): the PDF put together from
+    them is the one printed at the end, and nothing but the front matter is printed again."""
+    import shutil
+
+    import reports.pdf
+    from reports.html import pdf_part, render_run
+
+    from .conftest import DATE, SCENARIO
+
+    root = tmp_path / "paper"
+    shutil.copytree(report_run.root, root)
+    folders = [f"{SCENARIO}/open", f"{SCENARIO}/closed"]
+    part = pdf_part(root, folders)
+    prints = []
+    real = reports.pdf._print
+    monkeypatch.setattr(reports.pdf, "_print", lambda html, base: prints.append(html) or real(html, base))
+    written = render_run(root, date=DATE, printed=[(folders, *part)])
+    assert len(prints) == 1 and "Contents" in prints[0]  # the front matter only
+    ours, theirs = pypdf.PdfReader(written["pdf"]), pypdf.PdfReader(report_run.written["pdf"])
+    assert _top_level(ours) == _top_level(theirs)
+    assert [p.extract_text() for p in ours.pages] == [p.extract_text() for p in theirs.pages]
+    prints.clear()
+    render_run(root, date=DATE, printed=[(folders, part[0] + " ", part[1])])  # another document: printed again
+    assert len(prints) == 2
