@@ -45,3 +45,38 @@ def test_the_sheet_is_reused_and_records_every_axis_label_with_its_unit(tmp_path
         path = s.save(tmp_path, f"f{rows}.png")
         assert recorded_axes(path) == ["alpha [deg]", "t [s]"]
     assert sum(ax.get_visible() for ax in s.axes) == 3  # the sheet's other axes hidden, kept
+
+
+def test_the_sheets_text_cache_draws_the_text_matplotlib_draws():
+    """The sheets' renderer rasterises each string once (reports.figures._canvas_class, on matplotlib's private
+    Agg methods): every text is drawn where and as matplotlib's own renderer draws it, to a pixel of rounding
+    (a matplotlib whose internals moved fails here, not in a reader's figure)."""
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from reports.figures import _canvas_class
+
+    def draw(canvas):
+        fig = Figure(figsize=(6, 3.5), dpi=100)
+        canvas(fig)
+        ax = fig.add_axes((0.15, 0.2, 0.8, 0.65))
+        t = np.linspace(0, 10, 200)
+        ax.plot(t, np.degrees(0.3 * np.sin(t)), label="beta [deg]")
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel("beta [deg]")  # rotated
+        ax.set_title("gtm-forward-slip: sideslip, unicode β μ")
+        ax.legend(loc="lower right")
+        fig.canvas.draw()
+        return np.asarray(fig.canvas.buffer_rgba())[:, :, :3].astype(int)
+
+    stock, cached = draw(FigureCanvasAgg), draw(_canvas_class())
+    ink_stock, ink_cached = (img.sum(axis=2) < 3 * 128 for img in (stock, cached))
+    # the same text in the same places: ink within a pixel of where matplotlib puts it
+    near = np.zeros_like(ink_stock)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            near |= np.roll(np.roll(ink_stock, dy, axis=0), dx, axis=1)
+    assert ink_cached.sum() > 0.9 * ink_stock.sum()
+    assert np.mean(near[ink_cached]) > 0.99
+    assert np.mean(np.any(stock != cached, axis=2)) < 0.05
