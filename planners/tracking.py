@@ -791,6 +791,61 @@ class TrackingController:
         gain = np.einsum("mjnk,mk->mjn", self.gain_poly[i], tau[:, None] ** np.arange(self.gain_poly.shape[-1]))
         return replace(self, samples=({v: m for m, v in enumerate(tt.tolist())}, ref, gain))
 
+    def sample_evaluator(self) -> Callable | None:
+        """The feedback at the m-th time of :meth:`at_times`, on Python floats: an engine's per-step call.
+
+        The same arithmetic as :meth:`output_and_derivative` at ``times[m]`` (the
+        same two matrix-vector products of the gains, every other operation one
+        IEEE operation on floats in the same order): the same numbers, bitwise,
+        without the array bookkeeping of a general call.
+
+        Returns
+        -------
+        callable or None
+            ``f(m, x, xc) -> (output, derivative)``: ``x`` the 12 states and ``xc``
+            the ``n_states`` integrals (sequences of float); the 5 corrections and
+            the ``n_states`` integrands as lists of float.  None without a table
+            (:meth:`at_times` not called) or with a chained system's integrands.
+        """
+        if self.samples is None or self.integrands is not None:
+            return None
+        _, ref_table, gain_table = self.samples
+        n_x, n_u = len(self.model_states), len(self.model_controls)
+        gain_x, gain_c = gain_table[:, :, :n_x], gain_table[:, :, n_x:]  # views: the products read the same memory
+        angles = [int(a) for a in self.angles]
+        zeta, saturate, anti_windup = self.zeta_index, self.saturate, self.anti_windup
+        lower, upper = self.lower.tolist(), self.upper.tolist()
+        windup = [[k for k in range(n_u) if self.windup_mask[p, k]] for p in range(self.n_states)]
+        pi, two_pi, cos, sin, array = math.pi, _TWO_PI, math.cos, math.sin, np.array
+
+        def evaluate(m: int, x, xc):
+            ref = ref_table[m].tolist()
+            e = [a - b for a, b in zip(x[:n_x], ref)]
+            for i in angles:
+                e[i] = (e[i] + pi) % two_pi - pi
+            du = [a + b for a, b in zip((gain_x[m] @ array(e)).tolist(), (gain_c[m] @ array(xc, dtype=float)).tolist())]
+            u = ref[n_x:]
+            c, s = cos(ref[_CHI]), sin(ref[_CHI])
+            rates = [c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2]]
+            if zeta >= 0:
+                rates.append(e[zeta])
+            if not saturate:
+                return du, rates
+            total = [a + b for a, b in zip(u, du)]
+            held = [v < lo or v > hi for v, lo, hi in zip(total, lower, upper)]
+            if anti_windup and True in held:
+                for p, inputs in enumerate(windup):
+                    if any(held[k] for k in inputs):
+                        rates[p] = 0.0
+            out = []
+            for v, lo, hi, a in zip(total, lower, upper, u):
+                v = lo if v < lo else v  # np.maximum then np.minimum: a NaN stays NaN
+                v = hi if v > hi else v
+                out.append(v - a)
+            return out, rates
+
+        return evaluate
+
     def _locate_many(self, t: np.ndarray):
         tt = np.clip(t, self.t_nodes[0], self.t_nodes[-1])
         i = np.clip(np.searchsorted(self.t_nodes, tt, side="right") - 1, 0, len(self.t_nodes) - 2)

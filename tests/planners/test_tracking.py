@@ -222,6 +222,38 @@ def test_controller_protocol_pickle_and_cost():
             assert np.allclose(a[0], b[0], rtol=1e-13, atol=1e-12) and np.allclose(a[1], b[1], rtol=1e-13, atol=1e-12)
 
 
+def test_sample_evaluator_gives_the_evaluation_bitwise(case):
+    """The engines' per-step call on floats (the table by index) is output_and_derivative, bit for bit:
+    unsaturated, saturated with the integrals held (anti-windup), and with a NaN state."""
+    from gna.controller import at_sample_times, evaluate, sample_evaluator
+
+    kind, plan, des = case
+    lam = [list(v) for v in des.lambdas]
+    rng = np.random.default_rng(3)
+    times = plan.t0 + (plan.t1 - plan.t0) * np.linspace(0.0, 1.0, 41)
+    for saturate in (False, True):
+        c = tr.tracking_controller(plan, lam, saturate=saturate)
+        assert sample_evaluator(c) is None  # no table yet
+        cs = at_sample_times(c, times)
+        f = sample_evaluator(cs)
+        for m in range(len(times)):
+            x = (
+                np.asarray(plan.state(times[m]), dtype=float)
+                + rng.normal(0.0, 1.0, 12) * np.r_[[5.0] * 3, 1.0, [0.05] * 5, [0.1] * 3]
+            )
+            x[5] += 2 * math.pi * rng.integers(-1, 2)  # wrapped angle differences
+            for xc in (rng.normal(0.0, 1.0, c.n_states), rng.normal(0.0, 1e3, c.n_states)):
+                out, der = f(m, x.tolist(), xc.tolist())
+                ref_out, ref_der = evaluate(cs, times[m], x, xc)
+                assert isinstance(out, list) and isinstance(der, list)
+                assert np.array_equal(np.array(out), ref_out) and np.array_equal(np.array(der), ref_der)
+        x[3] = math.nan
+        out, der = f(len(times) - 1, x.tolist(), xc.tolist())
+        ref_out, ref_der = evaluate(cs, times[-1], x, xc)
+        assert np.array_equal(np.array(out), ref_out, equal_nan=True)
+        assert np.array_equal(np.array(der), ref_der, equal_nan=True)
+
+
 def test_bad_lambdas_and_unsupported_outputs():
     plan = plan_scenario(load_scenario("twin-otter-single-engine"))
     with pytest.raises(InputError, match="lengths 3, 5, 5, 3"):
