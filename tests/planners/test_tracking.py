@@ -254,6 +254,31 @@ def test_sample_evaluator_gives_the_evaluation_bitwise(case):
         assert np.array_equal(np.array(der), ref_der, equal_nan=True)
 
 
+def test_saturated_time_evaluates_every_row_at_once_bitwise(case):
+    """saturated_time's stacked evaluation is commanded() row by row, bit for bit (so the same seconds)."""
+    import pandas as pd
+
+    kind, plan, des = case
+    c = tr.tracking_controller(plan, [list(v) for v in des.lambdas])
+    rng = np.random.default_rng(5)
+    t = np.r_[plan.t0 - 1.0, plan.t_nodes[:4], np.sort(rng.uniform(plan.t0, plan.t1, 300)), plan.t1, plan.t1 + 1.0]
+    X = np.array([plan.state(min(max(v, plan.t0), plan.t1)) for v in t]) + rng.normal(0.0, 0.05, (t.size, 12))
+    X[::7, 5] += 2 * math.pi
+    XC = rng.normal(0.0, 30.0, (t.size, c.n_states))
+    u, du = c._commanded_rows(t, X, XC)
+    for k in range(t.size):
+        uk, duk = c.commanded(t[k], X[k], XC[k])
+        assert np.array_equal(u[k], uk) and np.array_equal(du[k], duk)
+    df = pd.DataFrame(X, columns=list(STATE_NAMES), index=pd.Index(t, name="t"))
+    tot = u + du
+    out = (tot < c.lower) | (tot > c.upper)
+    assert out.any()  # some rows beyond the limits
+    got = c.saturated_time(df, XC)
+    looped = c.at_times(t[::2]).saturated_time(df, XC)  # the row-by-row path (a prepared copy)
+    assert got["any"] == pytest.approx(float(np.sum(np.diff(t, append=t[-1])[out.any(axis=1)])), abs=0)
+    assert set(got) == set(looped)
+
+
 def test_bad_lambdas_and_unsupported_outputs():
     plan = plan_scenario(load_scenario("twin-otter-single-engine"))
     with pytest.raises(InputError, match="lengths 3, 5, 5, 3"):
