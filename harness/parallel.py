@@ -26,6 +26,7 @@ figure drawn) come back through the worker's result pipe, before its result.
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import heapq
 import multiprocessing
@@ -285,6 +286,7 @@ class ForkPool:
         self._seq = 0
         self._tmp: str | None = None  # the workers' temporary folder, removed by close()
         self._progress = progress
+        self._held = 0  # > 0: inside held(), nothing starts
         self.log: list[dict] = []
 
     def __enter__(self) -> ForkPool:
@@ -292,6 +294,22 @@ class ForkPool:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+    @contextlib.contextmanager
+    def held(self):
+        """A ``with`` block whose submissions start only when it ends, highest priority first.
+
+        Without it the first callables submitted start at once, whatever the priorities of those
+        submitted next; a caller submitting several at a time (a case's flights) holds them, so that the
+        longest start first.
+        """
+        self._held += 1
+        try:
+            yield self
+        finally:
+            self._held -= 1
+            if not self._held:
+                self._start()
 
     @property
     def pending(self) -> int:
@@ -317,7 +335,7 @@ class ForkPool:
         self._start()
 
     def _start(self) -> None:
-        if self._ctx is None:
+        if self._ctx is None or self._held:
             return
         if self._tmp is None and self._queue:
             self._tmp = tempfile.mkdtemp(prefix="gflat-pool-")

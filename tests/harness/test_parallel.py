@@ -50,6 +50,23 @@ def test_pool_returns_every_result_and_raises_the_workers_errors(jobs):
             pool.next_result()
 
 
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_held_submissions_start_highest_priority_first(jobs):
+    """Submitted inside held(), nothing starts before the block ends; then the highest priorities first."""
+    with ForkPool(jobs) as pool:
+        with pool.held():
+            for i, p in enumerate((1.0, 5.0, -0.5, 3.0, 4.0)):
+                pool.submit(i, lambda i=i: i, priority=p, what=f"task {i}")
+            assert pool.pending == 5 and not pool._running
+        assert {v[1] for v in pool._running.values()} == ({1, 4} if jobs > 1 else set())
+        got = []
+        while pool.pending:
+            got.append(pool.next_result()[0])
+    assert sorted(got) == list(range(5))
+    if jobs == 1:  # in this process: exactly in the order of the priorities
+        assert got == [1, 4, 3, 0, 2]
+
+
 def test_errors_that_do_not_pickle_or_a_dying_worker_are_one_clear_error():
     with ForkPool(2) as pool:
         pool.submit("a", _raise(_Unpicklable("bad thing at t = 2 s", 3)))
