@@ -254,6 +254,21 @@ def test_sample_evaluator_gives_the_evaluation_bitwise(case):
         assert np.array_equal(np.array(der), ref_der, equal_nan=True)
 
 
+def test_the_kept_reference_is_never_the_callers(case):
+    """The last time's reference is kept (the engine asks for the feedforward, then the feedback): what a
+    caller gets is its own copy, and the kept one does not travel in a pickle."""
+    kind, plan, des = case
+    c = tr.tracking_controller(plan, [list(v) for v in des.lambdas])
+    t = 0.5 * (plan.t0 + plan.t1)
+    x, xc = np.asarray(plan.state(t), dtype=float) + 0.01, np.ones(c.n_states)
+    ref, (u, du), out = c.reference(t), c.commanded(t, x, xc), c.output(t, x, xc)
+    for a in (ref, u, du, out, c.controls(t)):
+        a[:] = 1e9
+    assert np.array_equal(c.reference(t), tr.tracking_controller(plan, [list(v) for v in des.lambdas]).reference(t))
+    assert not np.any(c.commanded(t, x, xc)[0] == 1e9) and not np.any(c.output(t, x, xc) == 1e9)
+    assert "_memo" not in pickle.loads(pickle.dumps(c)).__dict__
+
+
 def test_saturated_time_evaluates_every_row_at_once_bitwise(case):
     """saturated_time's stacked evaluation is commanded() row by row, bit for bit (so the same seconds)."""
     import pandas as pd
