@@ -271,6 +271,7 @@ def run(args) -> int:
         for sc in scenarios:
             sc.plan(pool)
             by_name[sc.name] = sc
+            pool.poll()  # a worker done meanwhile takes the next flight (the longest queued)
         with stage(progress, "preparing the figures"):  # while the first flights fly
             prepare_figures()  # one figure and its axes made here, inherited by every forked writer (none yet)
         emitted = 0

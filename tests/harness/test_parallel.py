@@ -67,6 +67,27 @@ def test_held_submissions_start_highest_priority_first(jobs):
         assert got == [1, 4, 3, 0, 2]
 
 
+def test_poll_collects_the_finished_workers_and_starts_the_next():
+    """poll() takes a finished worker's place at once; its results (and errors) come from next_result."""
+    with ForkPool(2) as pool:
+        with pool.held():
+            for i in range(4):
+                pool.submit(i, (lambda i=i: i) if i != 1 else _raise(DomainError("left at t = 3 s")), priority=-i)
+        deadline = time.monotonic() + 60.0
+        while len(pool._done) < 2 and time.monotonic() < deadline:
+            time.sleep(0.05)
+            pool.poll()
+        assert len(pool._done) >= 2 and pool.pending == 4 and not pool._queue  # tasks 2 and 3 started
+        got, errors = [], []
+        while pool.pending:
+            try:
+                got.append(pool.next_result()[0])
+            except DomainError as exc:
+                errors.append(str(exc))
+    assert sorted(got) == [0, 2, 3] and errors == ["left at t = 3 s"]
+    pool.poll()  # nothing running: nothing to do
+
+
 def test_errors_that_do_not_pickle_or_a_dying_worker_are_one_clear_error():
     with ForkPool(2) as pool:
         pool.submit("a", _raise(_Unpicklable("bad thing at t = 2 s", 3)))
