@@ -399,13 +399,18 @@ class JSBSimRun:
     def _open_loop(self) -> None:
         k_bad, write_step, stepped = self._first_bad(), self._open_loop_writer(), self._stepped
         ucols = self.U.T.tolist() if stepped is not None else None
-        run, check, out = self.fdm.run, self._check_run, self.out.tolist()
+        run, check, out = self.fdm.run, self.to_state.check, self.out.tolist()
+        readers, tlist = self.track_readers, self.times.tolist()
         for k in range(1, self.n + 1):
             self.k = k
             if k >= k_bad:
                 raise StepStop.control(k, self.U[:, k])
             write_step(k)
-            check(run(), k)
+            if not run():
+                raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
+            bad = check(tlist[k], [r() for r in readers])  # _check_run, inline
+            if bad is not None:
+                raise StepStop(k, bad.replace("{", "{{").replace("}", "}}"))
             if stepped is not None:
                 stepped(k, ucols[k])
             if out[k]:

@@ -274,15 +274,17 @@ class StateConverter:
             None inside the physical domain, else :func:`gna.trajectory.domain_violation`'s message (with
             ``bounds``: the CG at or below the ground, or outside the atmosphere model's altitudes, too).
         """
+        vt, gamma, psi_gt, alpha, beta, phi, theta = raw[:7]
+        z = -units.FT * raw[7] if len(raw) > 7 else 0.0  # the ground and the atmosphere's range tested too
         try:
-            x = list(self.track(*raw[:7]))
+            folded = self._track(gamma, psi_gt, alpha, beta, phi, theta)[0]
         except (ValueError, OverflowError):  # math functions of non-finite outputs
             x = [math.nan] * 12
-            x[3] = raw[0] * units.FT
-        if len(raw) > 7:
-            x[2] = -units.FT * raw[7]  # z from the altitude: the ground and the atmosphere's range tested too
-        if self._inside(x[2], x[3], x[4], x[6], x[7]):
-            return None
+            x[2], x[3] = z if len(raw) > 7 else math.nan, vt * units.FT
+        else:
+            if self._inside(z, vt * units.FT, folded, alpha, beta):
+                return None
+            x = [0.0, 0.0, z, vt * units.FT, folded, self._chi, alpha, beta, self._mu, 0.0, 0.0, 0.0]
         return domain_violation(t, x, self.bounds) or f"left the physical domain at t = {t:.6g} s"
 
     def step(self, t: float, raw: Sequence[float]) -> tuple[str | None, list | None]:
