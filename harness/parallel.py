@@ -336,12 +336,26 @@ class ForkPool:
         self._seq += 1
         self._start()
 
-    def _start(self) -> None:
+    def start_ahead(self, extra: int = 1) -> None:
+        """Start up to ``extra`` queued callables beyond ``jobs`` now, for a caller about to be busy a while.
+
+        While the caller does its own work (it collects no result), a worker that finishes leaves its CPU
+        idle until the caller's next :meth:`next_result` or :meth:`poll`; one more callable running meanwhile
+        takes that CPU.  The pool is back at ``jobs`` as the running ones finish.
+
+        Parameters
+        ----------
+        extra : int
+            Callables started beyond ``jobs`` at most.
+        """
+        self._start(self.jobs + max(int(extra), 0))
+
+    def _start(self, limit: int | None = None) -> None:
         if self._ctx is None or self._held:
             return
         if self._tmp is None and self._queue:
             self._tmp = tempfile.mkdtemp(prefix="gflat-pool-")
-        while self._queue and len(self._running) < self.jobs:
+        while self._queue and len(self._running) < (self.jobs if limit is None else limit):
             sys.stdout.flush()
             sys.stderr.flush()
             with InterruptsWait():  # no Ctrl-C before the child ignores it, nor in the pipe's finalizers

@@ -272,6 +272,7 @@ def run(args) -> int:
             sc.plan(pool)
             by_name[sc.name] = sc
             pool.poll()  # a worker done meanwhile takes the next flight (the longest queued)
+        pool.start_ahead()  # one flight more while this process prepares (a worker done meanwhile waits for it)
         with stage(progress, "preparing the figures"):  # while the first flights fly
             prepare_figures()  # one figure and its axes made here, inherited by every forked writer (none yet)
         emitted = 0

@@ -88,6 +88,22 @@ def test_poll_collects_the_finished_workers_and_starts_the_next():
     pool.poll()  # nothing running: nothing to do
 
 
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_start_ahead_runs_one_more_while_the_caller_is_busy(jobs):
+    with ForkPool(jobs) as pool:
+        with pool.held():
+            for i in range(5):
+                pool.submit(i, lambda i=i: i, priority=-i)
+        pool.start_ahead()
+        assert len(pool._running) == (jobs + 1 if jobs > 1 else 0)
+        assert {v[1] for v in pool._running.values()} == (set(range(jobs + 1)) if jobs > 1 else set())
+        got = []
+        while pool.pending:
+            got.append(pool.next_result()[0])
+            assert len(pool._running) <= max(jobs + 1, 1)
+    assert sorted(got) == list(range(5))
+
+
 def test_errors_that_do_not_pickle_or_a_dying_worker_are_one_clear_error():
     with ForkPool(2) as pool:
         pool.submit("a", _raise(_Unpicklable("bad thing at t = 2 s", 3)))
