@@ -261,6 +261,32 @@ def at_sample_times(controller: Controller | None, times: np.ndarray) -> Control
     return controller if prepare is None else prepare(times)
 
 
+def sample_evaluator(controller: Controller | None):
+    """A prepared controller's per-sample evaluation on floats, when it offers one.
+
+    A controller returned by :func:`at_sample_times` may define
+    ``sample_evaluator()`` returning ``f(m, x, xc) -> (output, derivative)``:
+    :func:`evaluate` at the m-th of those times, the same numbers, on
+    sequences of floats and returning lists (the tracking feedback reads its
+    table by index, without the array bookkeeping of a general call).
+
+    Parameters
+    ----------
+    controller : Controller or None
+        The feedback block, prepared by :func:`at_sample_times`.
+
+    Returns
+    -------
+    callable or None
+        ``f(m, x, xc)``: ``m`` the sample's index, ``x`` the 12 aircraft states and
+        ``xc`` the ``n_states`` controller states (sequences of float); the 5
+        corrections and the ``n_states`` derivatives as lists of float.  None when
+        the controller has none.
+    """
+    make = getattr(controller, "sample_evaluator", None)
+    return None if make is None else make()
+
+
 def checked_initial_state(controller: Controller, t0: float, x0: np.ndarray) -> np.ndarray:
     """A controller's initial state, checked: ``n_states`` finite values.
 

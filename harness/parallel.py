@@ -26,6 +26,8 @@ figure drawn) come back through the worker's result pipe, before its result.
 
 from __future__ import annotations
 
+import collections
+import contextlib
 import gc
 import heapq
 import multiprocessing
@@ -285,6 +287,8 @@ class ForkPool:
         self._seq = 0
         self._tmp: str | None = None  # the workers' temporary folder, removed by close()
         self._progress = progress
+        self._held = 0  # > 0: inside held(), nothing starts
+        self._done: collections.deque = collections.deque()  # (key, what, exit code, message) collected
         self.log: list[dict] = []
 
     def __enter__(self) -> ForkPool:
@@ -293,10 +297,26 @@ class ForkPool:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    @contextlib.contextmanager
+    def held(self):
+        """A ``with`` block whose submissions start only when it ends, highest priority first.
+
+        Without it the first callables submitted start at once, whatever the priorities of those
+        submitted next; a caller submitting several at a time (a case's flights) holds them, so that the
+        longest start first.
+        """
+        self._held += 1
+        try:
+            yield self
+        finally:
+            self._held -= 1
+            if not self._held:
+                self._start()
+
     @property
     def pending(self) -> int:
         """Callables submitted whose result has not been returned by :meth:`next_result` yet."""
-        return len(self._queue) + len(self._running)
+        return len(self._queue) + len(self._running) + len(self._done)
 
     def submit(self, key, fn: Callable[[], Any], *, priority: float = 0.0, what: str = "") -> None:
         """Queue ``fn`` (started at once if a worker is free).
@@ -316,12 +336,26 @@ class ForkPool:
         self._seq += 1
         self._start()
 
-    def _start(self) -> None:
-        if self._ctx is None:
+    def start_ahead(self, extra: int = 1) -> None:
+        """Start up to ``extra`` queued callables beyond ``jobs`` now, for a caller about to be busy a while.
+
+        While the caller does its own work (it collects no result), a worker that finishes leaves its CPU
+        idle until the caller's next :meth:`next_result` or :meth:`poll`; one more callable running meanwhile
+        takes that CPU.  The pool is back at ``jobs`` as the running ones finish.
+
+        Parameters
+        ----------
+        extra : int
+            Callables started beyond ``jobs`` at most.
+        """
+        self._start(self.jobs + max(int(extra), 0))
+
+    def _start(self, limit: int | None = None) -> None:
+        if self._ctx is None or self._held:
             return
         if self._tmp is None and self._queue:
             self._tmp = tempfile.mkdtemp(prefix="gflat-pool-")
-        while self._queue and len(self._running) < self.jobs:
+        while self._queue and len(self._running) < (self.jobs if limit is None else limit):
             sys.stdout.flush()
             sys.stderr.flush()
             with InterruptsWait():  # no Ctrl-C before the child ignores it, nor in the pipe's finalizers
@@ -343,7 +377,8 @@ class ForkPool:
                 del parent_end, proc
 
     def next_result(self) -> tuple[Any, Any]:
-        """The next finished callable's key and return value (the earliest started among those done).
+        """The next finished callable's key and return value (the earliest started among those done when
+        collected; those :meth:`poll` collected first, in its order).
 
         Returns
         -------
@@ -371,7 +406,7 @@ class ForkPool:
             self._end(token, wall)
             self.log.append({"what": what, "wall_s": wall, "cpu_s": time.process_time() - c0})
             return key, value
-        while True:  # a worker's stage reports first, then its result
+        while not self._done:  # a worker's stage reports first, then its result
             ready = wait_connections(list(self._running))
             # Ctrl-C waits while a finished child is collected and the next started, and the pipe and the Process
             # dropped here end inside the block (a Connection's __del__ and a Process's finalizer are Python
@@ -379,23 +414,9 @@ class ForkPool:
             with InterruptsWait():
                 conn = min(ready, key=lambda c: list(self._running).index(c))
                 del ready
-                try:  # unpickled in this frame: a traceback rebuilt with the error (tblib) holds no pipe
-                    msg = pickle.loads(conn.recv_bytes())
-                except (EOFError, OSError):
-                    msg = None
-                if msg is not None and msg[0] == "stage":
-                    if self._progress is not None:
-                        self._progress.done(msg[1], msg[2])
-                    del conn, msg
-                    continue
-                proc, key, what, token = self._running.pop(conn)
-                conn.close()
-                proc.join()
-                exitcode = proc.exitcode
-                del conn, proc
-                self._end(token, None if msg is None or msg[0] == "err" else msg[-2])
-                self._start()
-            break
+                self._take(conn)
+                del conn
+        key, what, exitcode, msg = self._done.popleft()
         if msg is None:
             raise GflatError(
                 f"a worker process ended without a result (exit code {exitcode})" + (f" while {what}" if what else "")
@@ -410,6 +431,44 @@ class ForkPool:
             finally:  # no cycle error -> traceback -> this frame -> error, left to the garbage collector
                 del exc, msg
         return key, msg[1]
+
+    def _take(self, conn) -> None:
+        """One message of the worker at ``conn`` (ready): a stage shown, or its result kept for
+        :meth:`next_result` and the next callable started.  Called with the interruptions waiting."""
+        try:  # unpickled in this frame: a traceback rebuilt with the error (tblib) holds no pipe
+            msg = pickle.loads(conn.recv_bytes())
+        except (EOFError, OSError):
+            msg = None
+        if msg is not None and msg[0] == "stage":
+            if self._progress is not None:
+                self._progress.done(msg[1], msg[2])
+            return
+        proc, key, what, token = self._running.pop(conn)
+        conn.close()
+        proc.join()
+        exitcode = proc.exitcode
+        del conn, proc
+        self._end(token, None if msg is None or msg[0] == "err" else msg[-2])
+        self._done.append((key, what, exitcode, msg))
+        self._start()
+
+    def poll(self) -> None:
+        """Collect the workers that have finished, without waiting, and start the next callables.
+
+        A caller busy between two :meth:`next_result` calls (planning, preparing) calls it so that a
+        finished worker's place is taken at once; the results wait for :meth:`next_result`, in the order
+        collected.
+        """
+        if self._ctx is None:
+            return
+        while self._running:
+            ready = wait_connections(list(self._running), timeout=0)
+            if not ready:
+                return
+            with InterruptsWait():
+                for conn in sorted(ready, key=lambda c: list(self._running).index(c)):
+                    self._take(conn)
+                del ready, conn
 
     def _begin(self, what: str):
         """The progress token of a callable starting (None: no progress, or nothing to call it)."""
@@ -429,6 +488,7 @@ class ForkPool:
         temporary folder."""
         with InterruptsWait():  # a second Ctrl-C waits: no child left, no finalizer interrupted
             self._queue.clear()
+            self._done.clear()
             for conn, (proc, _, _, token) in list(self._running.items()):
                 self._end(token, None)
                 if proc.is_alive():

@@ -726,9 +726,19 @@ class TrackingController:
         ndarray, shape (17,)
             The 12 states then ``(F, eta, dl, dm, dn)``.
         """
-        i, tau = self._locate(float(t))
+        return self._reference(float(t))[0].copy()
+
+    def _reference(self, t: float):
+        """``(reference at t, interval, t - t_i)``, the last time's kept: the engine asks for the feedforward
+        (:meth:`controls`) and then the feedback at the same time."""
+        memo = self.__dict__.get("_memo")
+        if memo is not None and memo[0] == t:
+            return memo[1]
+        i, tau = self._locate(t)
         pw = tau ** np.arange(self.reference_poly.shape[-1])
-        return self.reference_poly[i] @ pw
+        out = (self.reference_poly[i] @ pw, i, tau)
+        self.__dict__["_memo"] = (t, out, None)
+        return out
 
     def controls(self, t) -> np.ndarray:
         """Feedforward controls ``(F, eta, dl, dm, dn)`` at ``t`` (the reference the engine flies).
@@ -791,6 +801,84 @@ class TrackingController:
         gain = np.einsum("mjnk,mk->mjn", self.gain_poly[i], tau[:, None] ** np.arange(self.gain_poly.shape[-1]))
         return replace(self, samples=({v: m for m, v in enumerate(tt.tolist())}, ref, gain))
 
+    def sample_evaluator(self) -> Callable | None:
+        """The feedback at the m-th time of :meth:`at_times`, on Python floats: an engine's per-step call.
+
+        The same arithmetic as :meth:`output_and_derivative` at ``times[m]`` (the
+        same two matrix-vector products of the gains, every other operation one
+        IEEE operation on floats in the same order): the same numbers, bitwise,
+        without the array bookkeeping of a general call.
+
+        Returns
+        -------
+        callable or None
+            ``f(m, x, xc) -> (output, derivative)``: ``x`` the 12 states and ``xc``
+            the ``n_states`` integrals (sequences of float); the 5 corrections and
+            the ``n_states`` integrands as lists of float.  None without a table
+            (:meth:`at_times` not called) or with a chained system's integrands.
+        """
+        if self.samples is None or self.integrands is not None:
+            return None
+        _, ref_table, gain_table = self.samples
+        core = self._on_floats
+
+        def evaluate(m: int, x, xc):
+            _, _, out, rates = core(ref_table[m].tolist(), gain_table[m], x, xc)
+            return out, rates
+
+        return evaluate
+
+    def _on_floats(self, ref: list, gain: np.ndarray, x, xc) -> tuple[list, list, list, list]:
+        """:meth:`_evaluate`'s arithmetic on floats, given the reference and gains at the time (an aircraft's).
+
+        ``ref`` (n_x + n_u floats), ``gain`` (n_u, n) array, ``x`` the n_x states and ``xc`` the integrals
+        (sequences of float).  Returns ``(u, du, out, rates)`` as lists: every operation the IEEE operation
+        numpy does element by element, in the same order, and the two matrix-vector products of the gains
+        themselves, so the same numbers, bitwise.
+        """
+        n_x = len(self.model_states)
+        fixed = self.__dict__.get("_fl")
+        if fixed is None:
+            n_u = len(self.model_controls)
+            fixed = self.__dict__["_fl"] = (
+                [int(a) for a in self.angles],
+                self.lower.tolist(),
+                self.upper.tolist(),
+                [[k for k in range(n_u) if self.windup_mask[p, k]] for p in range(self.n_states)],
+            )
+        angles, lower, upper, windup = fixed
+        pi, two_pi = math.pi, _TWO_PI
+        e = [a - b for a, b in zip(x[:n_x], ref)]
+        for i in angles:
+            e[i] = (e[i] + pi) % two_pi - pi
+        du = [
+            a + b
+            for a, b in zip(
+                (gain[:, :n_x] @ np.array(e)).tolist(), (gain[:, n_x:] @ np.array(xc, dtype=float)).tolist()
+            )
+        ]
+        u = ref[n_x:]
+        c, s = math.cos(ref[_CHI]), math.sin(ref[_CHI])
+        rates = [c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2]]
+        if self.zeta_index >= 0:
+            rates.append(e[self.zeta_index])
+        if not self.saturate:
+            return u, du, du, rates
+        total = [a + b for a, b in zip(u, du)]
+        held = [v < lo or v > hi for v, lo, hi in zip(total, lower, upper)]
+        if self.anti_windup and True in held:
+            # Conditional integration: the integrals of a decoupling stage stop while one of its inputs
+            # is held at a limit (otherwise they wind up and the loop leaves the linear domain).
+            for p, inputs in enumerate(windup):
+                if any(held[k] for k in inputs):
+                    rates[p] = 0.0
+        out = []
+        for v, lo, hi, a in zip(total, lower, upper, u):
+            v = lo if v < lo else v  # np.maximum then np.minimum: a NaN stays NaN
+            v = hi if v > hi else v
+            out.append(v - a)
+        return u, du, out, rates
+
     def _locate_many(self, t: np.ndarray):
         tt = np.clip(t, self.t_nodes[0], self.t_nodes[-1])
         i = np.clip(np.searchsorted(self.t_nodes, tt, side="right") - 1, 0, len(self.t_nodes) - 2)
@@ -801,27 +889,31 @@ class TrackingController:
             m = self.samples[0].get(t)
             if m is not None:
                 return self.samples[1][m], self.samples[2][m]
-        i, tau = self._locate(float(t))
-        ref = self.reference_poly[i] @ (tau ** np.arange(self.reference_poly.shape[-1]))
-        return ref, self.gain_poly[i] @ (tau ** np.arange(self.gain_poly.shape[-1]))
+        t = float(t)
+        ref, i, tau = self._reference(t)
+        memo = self.__dict__["_memo"]
+        if memo[2] is None:
+            memo = self.__dict__["_memo"] = (
+                t,
+                memo[1],
+                self.gain_poly[i] @ (tau ** np.arange(self.gain_poly.shape[-1])),
+            )
+        return ref, memo[2]
 
     def _evaluate(self, t: float, x: np.ndarray, xc: np.ndarray):
         """Feedforward, unsaturated feedback, the correction applied and the integrands, from one
         evaluation of the reference and gains."""
         n_x = len(self.model_states)
         ref, gain = self._reference_and_gain(t)  # (n_x + n_u,), (n_u, n)
+        if self.integrands is None:  # the aircraft's, on floats: the engines call this at every step
+            x = np.asarray(x, dtype=float)[:n_x].tolist()
+            u, du, out, rates = self._on_floats(ref.tolist(), gain, x, np.asarray(xc, dtype=float))
+            return np.array(u), np.array(du), np.array(out), np.array(rates)
         e = np.asarray(x, dtype=float)[:n_x] - ref[:n_x]
         e[self.angles] = (e[self.angles] + math.pi) % _TWO_PI - math.pi
         du = gain[:, :n_x] @ e + gain[:, n_x:] @ np.asarray(xc, dtype=float)
-        u = ref[n_x:]
-        if self.integrands is None:  # the aircraft's, inline: the engines call this at every step
-            c, s = math.cos(ref[_CHI]), math.sin(ref[_CHI])
-            rates = [c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2]]
-            if self.zeta_index >= 0:
-                rates.append(e[self.zeta_index])
-            rates = np.array(rates)
-        else:
-            rates = self._rates(ref, e)
+        u = ref[n_x:].copy()  # the caller's: the reference is kept (_reference)
+        rates = self._rates(ref, e)
         if not self.saturate:
             return u, du, du, rates
         total = u + du
@@ -872,6 +964,23 @@ class TrackingController:
         """
         u, du, _, _ = self._evaluate(t, x, xc)
         return u, du
+
+    def _commanded_rows(self, t: np.ndarray, X: np.ndarray, XC: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`commanded` at every row: times (M,), states (M, n_x), integrals (M, n_states) -> (M, n_u) twice.
+
+        Row by row the same operations as :meth:`commanded` (the interval's powers of ``t - t_i``, the
+        same matrix-vector products, stacked), so the same numbers, bitwise.
+        """
+        n_x = len(self.model_states)
+        i, tau = self._locate_many(t)
+        pw = tau[:, None] ** np.arange(self.reference_poly.shape[-1])
+        ref = np.matmul(self.reference_poly[i], pw[:, :, None])[:, :, 0]
+        pw = tau[:, None] ** np.arange(self.gain_poly.shape[-1])
+        gain = np.matmul(self.gain_poly[i], pw[:, None, :, None])[..., 0]
+        e = X[:, :n_x] - ref[:, :n_x]
+        e[:, self.angles] = (e[:, self.angles] + math.pi) % _TWO_PI - math.pi
+        du = np.matmul(gain[:, :, :n_x], e[:, :, None])[..., 0] + np.matmul(gain[:, :, n_x:], XC[:, :, None])[..., 0]
+        return ref[:, n_x:], du
 
     def output(self, t: float, x: np.ndarray, xc: np.ndarray) -> np.ndarray:
         """Correction added to the feedforward: ``sat(u~ + K [dx; I]) - u~``.
@@ -995,11 +1104,16 @@ class TrackingController:
         xc = np.asarray(controller_states, dtype=float).reshape(len(df), self.n_states)
         t = df.index.to_numpy(dtype=float)
         X = df[list(self.model_states)].to_numpy(dtype=float)
-        out_of = np.zeros((len(t), len(self.model_controls)), dtype=bool)
-        for k in range(len(t)):
-            u, du = self.commanded(t[k], X[k], xc[k])
+        if self.samples is None:  # every row at once
+            u, du = self._commanded_rows(t, X, xc)
             tot = u + du
-            out_of[k] = (tot < self.lower) | (tot > self.upper)
+            out_of = (tot < self.lower) | (tot > self.upper)
+        else:  # a prepared copy reads its table at its sample times: the same values as an engine's
+            out_of = np.zeros((len(t), len(self.model_controls)), dtype=bool)
+            for k in range(len(t)):
+                u, du = self.commanded(t[k], X[k], xc[k])
+                tot = u + du
+                out_of[k] = (tot < self.lower) | (tot > self.upper)
         dt = np.diff(t, append=t[-1]) if len(t) else t
         res = {name: float(np.sum(dt[out_of[:, i]])) for i, name in enumerate(self.model_controls)}
         res["any"] = float(np.sum(dt[np.any(out_of, axis=1)]))
@@ -1008,6 +1122,8 @@ class TrackingController:
     def __getstate__(self):
         state = dict(self.__dict__)
         state.pop("_nl", None)
+        state.pop("_fl", None)
+        state.pop("_memo", None)
         return state
 
 

@@ -20,10 +20,13 @@ The plans are made in this process; the flights of the cases and the writing
 of their folders run in forked worker processes (``--jobs``,
 :class:`harness.parallel.ForkPool`), each writing its case's files directly
 into the run's staging folder; the closed loop's open-loop curve is the
-open-loop case's reference run (the same flight, flown once).  A scenario's
-pages of the PDF are printed by a worker as soon as its cases are written
-(:func:`reports.html.pdf_part`), while other cases fly; the front matter is
-printed and the PDF put together at the end (:func:`reports.html.render_run`).
+open-loop case's reference run (the same flight, flown once).  The flights
+start longest first (:func:`harness.validation.work.flight_work`), before any
+case's files are written, and the figures and the PDF's printer are prepared
+while the first fly.  A scenario's pages of the PDF are printed by a worker as
+soon as its cases are written (:func:`reports.html.pdf_part`), while other
+cases fly; the front matter is printed and the PDF put together at the end
+(:func:`reports.html.render_run`).
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
 from ..validation.validity import ValidityWarnings, check_plan, check_run
 from ..validation.verdicts import verdict_lines
+from ..validation.work import flight_work
 from ._args import iterations, worker_count
 from ._compare_args import add_compare_arguments, check_steps, compare_overrides
 from ._help import add_command
@@ -130,6 +134,12 @@ def _timed(fn):
     return timed
 
 
+def _write_priority(work: float) -> float:
+    """The pool priority of writing a case's files: below every flight's (its :func:`flight_work`, positive), so
+    that the flights go first, longest first, and the writes then, the case of most ``work`` first."""
+    return -1.0 / (1.0 + work)
+
+
 def _write_task(result, root, sub: tuple, plan_sub: tuple | None, csv: bool, progress=None):
     """A case folder's files (and the plan iterates with ``plan_sub``) written into the staging folder ``root``."""
 
@@ -171,14 +181,15 @@ class _Scenario:
         self.name = planned.scenario.name
         self.aircraft = planned.plan.aircraft
         check_plan(self.validity, planned.plan)  # the validity box said aloud, once per quantity in the run
-        for loop in self.loops:  # each case's flights submitted as soon as it is set up
-            self.flights[loop] = case_flights(
-                replace(self.case, loop=loop), plan=planned.plan, scenario=planned.scenario
-            )
-            self.runs[loop] = {}
-            for name in self.flights[loop].flights:
-                if not (loop == "closed" and name == OPEN_LOOP and "open" in self.loops):
-                    self._fly(pool, loop, name)  # the open-loop run waits for the open case's
+        with pool.held():  # the scenario's flights submitted as soon as it is set up, the longest started first
+            for loop in self.loops:
+                self.flights[loop] = case_flights(
+                    replace(self.case, loop=loop), plan=planned.plan, scenario=planned.scenario
+                )
+                self.runs[loop] = {}
+                for name in self.flights[loop].flights:
+                    if not (loop == "closed" and name == OPEN_LOOP and "open" in self.loops):
+                        self._fly(pool, loop, name)  # the open-loop run waits for the open case's
         folder = self.root / self.name / "plan"
         shown = self.shown / self.name / "plan"
         text, self.plan_summary = write_plan(
@@ -193,7 +204,7 @@ class _Scenario:
         pool.submit(
             ("fly", self.name, loop, name),
             _timed(self.flights[loop].flights[name]),
-            priority=1,
+            priority=flight_work(self.flights[loop], name),
             what=f"flying {self.name} ({loop} loop, {name})",
         )
 
@@ -231,7 +242,7 @@ class _Scenario:
             pool.submit(
                 ("write", self.name, lp),
                 _timed(_write_task(result, self.root, (self.name, lp), plan_sub, self.csv, self.progress)),
-                priority=2,
+                priority=_write_priority(sum(flight_work(cf, name) for name in cf.flights)),
                 what=f"writing the {lp}-loop files of {self.name}",
             )
 
@@ -267,17 +278,19 @@ def run(args) -> int:
     out = run_dir(args, "paper", command="paper")  # the default, the tool's own folder: an earlier run replaced
     cpu0 = cpu_time()
     with out, ForkPool(args.jobs or default_jobs(), progress=progress) as pool:
-        c_prep = cpu_time()
-        with stage(progress, "preparing the figures and the PDF's printer"):
-            prepare_figures()  # one figure and its axes made here, inherited by every forked writer
-            import_weasyprint()  # and the printer of the PDF's parts
-        cpu_prepare = cpu_time() - c_prep  # writing's, though spent here
         validity = ValidityWarnings()
         scenarios = [_Scenario(case, loops, out.root, out.out, args.csv, progress, validity) for case in cases]
         by_name = {}
         for sc in scenarios:
             sc.plan(pool)
             by_name[sc.name] = sc
+            pool.poll()  # a worker done meanwhile takes the next flight (the longest queued)
+        pool.start_ahead()  # one flight more while this process prepares (a worker done meanwhile waits for it)
+        c_prep = cpu_time()
+        with stage(progress, "preparing the figures and the PDF's printer"):  # while the first flights fly
+            prepare_figures()  # one figure and its axes made here, inherited by every forked writer (none yet)
+            import_weasyprint()  # and the printer of the PDF's parts
+        cpu_prepare = cpu_time() - c_prep  # writing's, though spent here
         emitted, printed = 0, {}
         while emitted < len(scenarios):
             if not scenarios[emitted].done:

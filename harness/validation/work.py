@@ -12,7 +12,15 @@ from gna.errors import InputError
 
 from ..engines.jsbsim.run import MAX_JSBSIM_DT
 
-__all__ = ["MAX_STEPS", "SAMPLE_COST", "COMPUTABLE_STEPS", "MAX_JSBSIM_DT", "flight_steps", "check_steps"]
+__all__ = [
+    "MAX_STEPS",
+    "SAMPLE_COST",
+    "COMPUTABLE_STEPS",
+    "MAX_JSBSIM_DT",
+    "flight_steps",
+    "flight_work",
+    "check_steps",
+]
 
 #: Default bound on a command's work (``--max-steps``): engine steps plus SAMPLE_COST x output samples of all
 #: its flights.  Measured on gtm-aileron-roll: a JSBSim step takes about 330 bytes and 10 us, an output sample
@@ -51,6 +59,41 @@ def flight_steps(case, scenario, settings) -> tuple[int, int]:
         jsbsim += [e for e in case.engines if str(e).startswith("jsbsim")] * 2  # a flight at dt / 2
         engines += [e for e in case.engines if str(e).startswith("jsbsim")]
     return steps * len(jsbsim), samples * len(engines)
+
+
+def flight_work(flights, name: str) -> float:
+    """The work of one flight of a case set up for flying, in the units of :func:`flight_steps`: what to fly first.
+
+    Parameters
+    ----------
+    flights : harness.validation.flights.CaseFlights
+        The case (:func:`harness.validation.flights.case_flights`).
+    name : str
+        One of its flights: an engine label, or the closed loop's open-loop or flat-plan flight (the
+        reference engine's).
+
+    Returns
+    -------
+    float
+        Engine steps + :data:`SAMPLE_COST` x output samples over the span: a JSBSim engine's
+        ``ceil(span / dt)`` steps, and in closed loop one more run of its models per feedback update
+        (:class:`harness.engines.jsbsim.JSBSimEngine`'s controller notes); the in-house engine's adaptive steps
+        are not counted (as in :func:`flight_steps`).  Used to start the longest flights first.
+    """
+    from .flights import OPEN_LOOP
+
+    plan, settings = flights.plan, flights.settings
+    span = plan.t1 - plan.t0
+    samples = int(span / settings.dt_out + 1e-9) + 1
+    engine = flights.engines.get(name, flights.engines[flights.case.engines[0]])
+    dt = getattr(engine, "dt", None)
+    steps = 0
+    if dt is not None:
+        steps = max(math.ceil(span / dt - 1e-9), 1)
+        if flights.closed_loop is not None and name != OPEN_LOOP:  # the feedback re-runs the models at every update
+            every = getattr(engine, "controller_dt", None)
+            steps += steps if every is None else max(math.ceil(span / every - 1e-9), 1)
+    return float(steps + SAMPLE_COST * samples)
 
 
 #: Engine steps + SAMPLE_COST x output samples beyond which a run is refused whatever ``--max-steps`` says

@@ -50,6 +50,60 @@ def test_pool_returns_every_result_and_raises_the_workers_errors(jobs):
             pool.next_result()
 
 
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_held_submissions_start_highest_priority_first(jobs):
+    """Submitted inside held(), nothing starts before the block ends; then the highest priorities first."""
+    with ForkPool(jobs) as pool:
+        with pool.held():
+            for i, p in enumerate((1.0, 5.0, -0.5, 3.0, 4.0)):
+                pool.submit(i, lambda i=i: i, priority=p, what=f"task {i}")
+            assert pool.pending == 5 and not pool._running
+        assert {v[1] for v in pool._running.values()} == ({1, 4} if jobs > 1 else set())
+        got = []
+        while pool.pending:
+            got.append(pool.next_result()[0])
+    assert sorted(got) == list(range(5))
+    if jobs == 1:  # in this process: exactly in the order of the priorities
+        assert got == [1, 4, 3, 0, 2]
+
+
+def test_poll_collects_the_finished_workers_and_starts_the_next():
+    """poll() takes a finished worker's place at once; its results (and errors) come from next_result."""
+    with ForkPool(2) as pool:
+        with pool.held():
+            for i in range(4):
+                pool.submit(i, (lambda i=i: i) if i != 1 else _raise(DomainError("left at t = 3 s")), priority=-i)
+        deadline = time.monotonic() + 60.0
+        while len(pool._done) < 2 and time.monotonic() < deadline:
+            time.sleep(0.05)
+            pool.poll()
+        assert len(pool._done) >= 2 and pool.pending == 4 and not pool._queue  # tasks 2 and 3 started
+        got, errors = [], []
+        while pool.pending:
+            try:
+                got.append(pool.next_result()[0])
+            except DomainError as exc:
+                errors.append(str(exc))
+    assert sorted(got) == [0, 2, 3] and errors == ["left at t = 3 s"]
+    pool.poll()  # nothing running: nothing to do
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_start_ahead_runs_one_more_while_the_caller_is_busy(jobs):
+    with ForkPool(jobs) as pool:
+        with pool.held():
+            for i in range(5):
+                pool.submit(i, lambda i=i: i, priority=-i)
+        pool.start_ahead()
+        assert len(pool._running) == (jobs + 1 if jobs > 1 else 0)
+        assert {v[1] for v in pool._running.values()} == (set(range(jobs + 1)) if jobs > 1 else set())
+        got = []
+        while pool.pending:
+            got.append(pool.next_result()[0])
+            assert len(pool._running) <= max(jobs + 1, 1)
+    assert sorted(got) == list(range(5))
+
+
 def test_errors_that_do_not_pickle_or_a_dying_worker_are_one_clear_error():
     with ForkPool(2) as pool:
         pool.submit("a", _raise(_Unpicklable("bad thing at t = 2 s", 3)))

@@ -67,3 +67,31 @@ def test_campaign_samples_bound(tmp_path, capsys):
     assert "9 cases, above the bound 5" in capsys.readouterr().err
     camp = load_campaign("paper-dispersions")
     assert check_samples(camp, None) == camp.samples * len(camp.cases) * len(camp.dispersions) <= MAX_CASES
+
+
+def test_flight_work_puts_the_closed_loop_jsbsim_flights_first():
+    """The paper's flights by flight_work: JSBSim's closed loop (two runs of the models per update) first, the
+    longest span first; the in-house flights counted by their output samples."""
+    from harness.commands.paper import paper_cases
+    from harness.validation import plan_case
+    from harness.validation.flights import FLAT_LOOP, case_flights
+    from harness.validation.work import flight_work
+
+    work = {}
+    for loop in ("open", "closed"):
+        for case in paper_cases(loop=loop):
+            planned = plan_case(case)
+            cf = case_flights(case, plan=planned.plan, scenario=planned.scenario)
+            span = planned.plan.t1 - planned.plan.t0
+            samples = int(span / cf.settings.dt_out + 1e-9) + 1
+            steps = round(span / cf.settings.jsbsim_dt)
+            for name in cf.flights:
+                work[(case.scenario, loop, name)] = flight_work(cf, name)
+            assert work[(case.scenario, loop, "inhouse")] == SAMPLE_COST * samples
+            assert (
+                work[(case.scenario, loop, "jsbsim")] == steps * (2 if loop == "closed" else 1) + SAMPLE_COST * samples
+            )
+            if loop == "closed":
+                assert work[(case.scenario, loop, FLAT_LOOP)] == SAMPLE_COST * samples  # the in-house reference's
+    first = max(work, key=work.get)
+    assert first == ("gtm-forward-slip", "closed", "jsbsim")

@@ -222,6 +222,78 @@ def test_controller_protocol_pickle_and_cost():
             assert np.allclose(a[0], b[0], rtol=1e-13, atol=1e-12) and np.allclose(a[1], b[1], rtol=1e-13, atol=1e-12)
 
 
+def test_sample_evaluator_gives_the_evaluation_bitwise(case):
+    """The engines' per-step call on floats (the table by index) is output_and_derivative, bit for bit:
+    unsaturated, saturated with the integrals held (anti-windup), and with a NaN state."""
+    from gna.controller import at_sample_times, evaluate, sample_evaluator
+
+    kind, plan, des = case
+    lam = [list(v) for v in des.lambdas]
+    rng = np.random.default_rng(3)
+    times = plan.t0 + (plan.t1 - plan.t0) * np.linspace(0.0, 1.0, 41)
+    for saturate in (False, True):
+        c = tr.tracking_controller(plan, lam, saturate=saturate)
+        assert sample_evaluator(c) is None  # no table yet
+        cs = at_sample_times(c, times)
+        f = sample_evaluator(cs)
+        for m in range(len(times)):
+            x = (
+                np.asarray(plan.state(times[m]), dtype=float)
+                + rng.normal(0.0, 1.0, 12) * np.r_[[5.0] * 3, 1.0, [0.05] * 5, [0.1] * 3]
+            )
+            x[5] += 2 * math.pi * rng.integers(-1, 2)  # wrapped angle differences
+            for xc in (rng.normal(0.0, 1.0, c.n_states), rng.normal(0.0, 1e3, c.n_states)):
+                out, der = f(m, x.tolist(), xc.tolist())
+                ref_out, ref_der = evaluate(cs, times[m], x, xc)
+                assert isinstance(out, list) and isinstance(der, list)
+                assert np.array_equal(np.array(out), ref_out) and np.array_equal(np.array(der), ref_der)
+        x[3] = math.nan
+        out, der = f(len(times) - 1, x.tolist(), xc.tolist())
+        ref_out, ref_der = evaluate(cs, times[-1], x, xc)
+        assert np.array_equal(np.array(out), ref_out, equal_nan=True)
+        assert np.array_equal(np.array(der), ref_der, equal_nan=True)
+
+
+def test_the_kept_reference_is_never_the_callers(case):
+    """The last time's reference is kept (the engine asks for the feedforward, then the feedback): what a
+    caller gets is its own copy, and the kept one does not travel in a pickle."""
+    kind, plan, des = case
+    c = tr.tracking_controller(plan, [list(v) for v in des.lambdas])
+    t = 0.5 * (plan.t0 + plan.t1)
+    x, xc = np.asarray(plan.state(t), dtype=float) + 0.01, np.ones(c.n_states)
+    ref, (u, du), out = c.reference(t), c.commanded(t, x, xc), c.output(t, x, xc)
+    for a in (ref, u, du, out, c.controls(t)):
+        a[:] = 1e9
+    assert np.array_equal(c.reference(t), tr.tracking_controller(plan, [list(v) for v in des.lambdas]).reference(t))
+    assert not np.any(c.commanded(t, x, xc)[0] == 1e9) and not np.any(c.output(t, x, xc) == 1e9)
+    assert "_memo" not in pickle.loads(pickle.dumps(c)).__dict__
+
+
+def test_saturated_time_evaluates_every_row_at_once_bitwise(case):
+    """saturated_time's stacked evaluation is commanded() row by row, bit for bit (so the same seconds)."""
+    import pandas as pd
+
+    kind, plan, des = case
+    c = tr.tracking_controller(plan, [list(v) for v in des.lambdas])
+    rng = np.random.default_rng(5)
+    t = np.r_[plan.t0 - 1.0, plan.t_nodes[:4], np.sort(rng.uniform(plan.t0, plan.t1, 300)), plan.t1, plan.t1 + 1.0]
+    X = np.array([plan.state(min(max(v, plan.t0), plan.t1)) for v in t]) + rng.normal(0.0, 0.05, (t.size, 12))
+    X[::7, 5] += 2 * math.pi
+    XC = rng.normal(0.0, 30.0, (t.size, c.n_states))
+    u, du = c._commanded_rows(t, X, XC)
+    for k in range(t.size):
+        uk, duk = c.commanded(t[k], X[k], XC[k])
+        assert np.array_equal(u[k], uk) and np.array_equal(du[k], duk)
+    df = pd.DataFrame(X, columns=list(STATE_NAMES), index=pd.Index(t, name="t"))
+    tot = u + du
+    out = (tot < c.lower) | (tot > c.upper)
+    assert out.any()  # some rows beyond the limits
+    got = c.saturated_time(df, XC)
+    looped = c.at_times(t[::2]).saturated_time(df, XC)  # the row-by-row path (a prepared copy)
+    assert got["any"] == pytest.approx(float(np.sum(np.diff(t, append=t[-1])[out.any(axis=1)])), abs=0)
+    assert set(got) == set(looped)
+
+
 def test_bad_lambdas_and_unsupported_outputs():
     plan = plan_scenario(load_scenario("twin-otter-single-engine"))
     with pytest.raises(InputError, match="lengths 3, 5, 5, 3"):

@@ -22,7 +22,15 @@ import numpy as np
 
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
-from gna.controller import Controller, as_controller, at_sample_times, checked_initial_state, evaluate, state_names
+from gna.controller import (
+    Controller,
+    as_controller,
+    at_sample_times,
+    checked_initial_state,
+    evaluate,
+    sample_evaluator,
+    state_names,
+)
 from gna.eom import CONTROL_NAMES
 from gna.errors import InputError, describe
 from gna.simulate import envelope_warnings
@@ -391,57 +399,88 @@ class JSBSimRun:
     def _open_loop(self) -> None:
         k_bad, write_step, stepped = self._first_bad(), self._open_loop_writer(), self._stepped
         ucols = self.U.T.tolist() if stepped is not None else None
-        run, check, out = self.fdm.run, self._check_run, self.out.tolist()
+        run, check, out = self.fdm.run, self.to_state.check, self.out.tolist()
+        readers, tlist = self.track_readers, self.times.tolist()
         for k in range(1, self.n + 1):
             self.k = k
             if k >= k_bad:
                 raise StepStop.control(k, self.U[:, k])
             write_step(k)
-            check(run(), k)
+            if not run():
+                raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
+            bad = check(tlist[k], [r() for r in readers])  # _check_run, inline
+            if bad is not None:
+                raise StepStop(k, bad.replace("{", "{{").replace("}", "}}"))
             if stepped is not None:
                 stepped(k, ucols[k])
             if out[k]:
                 self._record(k)
 
     def _closed_loop(self) -> None:
-        """Feedback sampled at every ``every``-th step without delay, held in between; AB2 on the states."""
+        """Feedback sampled at every ``every``-th step without delay, held in between; AB2 on the states.
+
+        At an update the 14 state outputs are read once (:meth:`.states.StateConverter.step`: the domain
+        test and the state); the controller states and derivatives are kept as floats, and a controller
+        offering :func:`gna.controller.sample_evaluator` is evaluated at the sample's index (the tracking
+        feedback's table) on them.  The same arithmetic as :func:`gna.controller.evaluate` on arrays.
+        """
         fdm, ctrl, every, stepped = self.fdm, self.controller, self.every, self._stepped
         hc = every * self.dt
         a1, a2 = 1.5 * hc, 0.5 * hc
         ucols, tlist, out = self.U.T.tolist(), self.times.tolist(), self.out.tolist()
         run, check, write, isfinite = fdm.run, self._check_run, self._write, math.isfinite
-        readers, scalar = self.state_readers, self.to_state.scalar
+        readers, convert = self.state_readers, self.to_state.step
+        suspend, resume = fdm.suspend_integration, fdm.resume_integration
         stateful, k_bad = bool(self.names), self._first_bad()
+        fast = sample_evaluator(ctrl)
+        if fast is None:
+            n_u, n_c = len(CONTROL_NAMES), int(ctrl.n_states)
+
+            def feedback(m, x, xc):
+                d, f = evaluate(ctrl, tlist[m * every], np.array(x), np.array(xc, dtype=float).reshape(n_c))
+                return d.reshape(n_u).tolist(), f.tolist()
+        else:
+            feedback = fast
+        xc = self.xc = np.asarray(self.xc, dtype=float).tolist()
+        f1 = None if self.f_prev is None else np.asarray(self.f_prev, dtype=float).tolist()
+        f2 = None
+        d = self.d
         for k in range(1, self.n + 1):
             self.k = k
             if k % every:
                 if k >= k_bad:
                     raise StepStop.control(k, ucols[k])
-                uk = [a + b for a, b in zip(ucols[k], self.d)]
+                uk = [a + b for a, b in zip(ucols[k], d)]
                 write(uk)
                 check(run(), k)
             else:
-                check(run(), k)
-                xk = scalar([r() for r in readers])
+                if not run():
+                    raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
+                bad, xk = convert(tlist[k], [r() for r in readers])
+                if bad is not None:
+                    raise StepStop(k, bad.replace("{", "{{").replace("}", "}}"))
                 if stateful:
-                    f1, f2 = self.f_prev, self.f_prev2
-                    self.xc = self.xc + (hc * f1 if f2 is None else a1 * f1 - a2 * f2)
-                    if not all(map(isfinite, self.xc.tolist())):
-                        bad = ", ".join(f"{n} = {v}" for n, v in zip(self.names, self.xc) if not isfinite(v))
+                    if f2 is None:
+                        xc = [x + hc * f for x, f in zip(xc, f1)]
+                    else:
+                        xc = [x + (a1 * f - a2 * g) for x, f, g in zip(xc, f1, f2)]
+                    self.xc = xc
+                    if not all(map(isfinite, xc)):
+                        bad = ", ".join(f"{n} = {v}" for n, v in zip(self.names, xc) if not isfinite(v))
                         raise StepStop(k, f"non-finite controller state at t = {{t}} ({bad})")
-                d, f_new = evaluate(ctrl, tlist[k], xk, self.xc)
-                self.d = d.tolist()
-                uk = [a + b for a, b in zip(ucols[k], self.d)]
-                if not all(isfinite(c) for c in uk):
+                d, f_new = feedback(k // every, xk, xc)
+                self.d = d
+                uk = [a + b for a, b in zip(ucols[k], d)]
+                if not all(map(isfinite, uk)):
                     raise StepStop.control(k, uk)
                 write(uk)
-                fdm.suspend_integration()
+                suspend()
                 try:
                     run()
                 finally:
-                    fdm.resume_integration()
+                    resume()
                 if stateful:
-                    self.f_prev2, self.f_prev = self.f_prev, f_new
+                    f2, f1 = f1, f_new
             if stepped is not None:
                 stepped(k, uk)
             if out[k]:

@@ -19,7 +19,7 @@ from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.eom import CONTROL_NAMES, STATE_NAMES
 from gna.frames import bank_from_euler
-from gna.trajectory import COLUMNS, DOMAIN, DomainBounds, domain_margins, domain_violation
+from gna.trajectory import COLUMNS, DOMAIN, DomainBounds, domain_violation
 
 from . import export as jx
 from .fdm import WGS84_A_FT, WGS84_B_FT
@@ -87,6 +87,42 @@ def align(angle: np.ndarray, reference: float) -> np.ndarray:
     return a
 
 
+def inside_test(bounds: DomainBounds = DOMAIN):
+    """:func:`gna.trajectory.domain_margins`' test on floats, for a step: every margin positive.
+
+    Parameters
+    ----------
+    bounds : DomainBounds
+        The domain.
+
+    Returns
+    -------
+    callable
+        ``inside(z, V, gamma, alpha, beta) -> bool`` [m, m/s, rad]: True exactly when every margin of
+        ``domain_margins`` is positive (False for a non-finite gamma or beta, or any margin NaN).
+    """
+    V_min, V_max, cos_min, alpha_max = bounds.V_min, bounds.V_max, bounds.cos_min, bounds.alpha_max
+    ground, h_min, h_max = bounds.ground, bounds.h_min, bounds.h_max
+    low, high = h_min != -math.inf, h_max != math.inf
+    isfinite, cos = math.isfinite, math.cos
+
+    def inside(z: float, V: float, gamma: float, alpha: float, beta: float) -> bool:
+        if not (isfinite(gamma) and isfinite(beta)):
+            return False
+        return (
+            V - V_min > 0
+            and V_max - V > 0
+            and cos(beta) - cos_min > 0
+            and cos(gamma) - cos_min > 0
+            and alpha_max - abs(alpha) > 0
+            and (ground is None or -z - ground > 0)
+            and (not low or -z - h_min > 0)
+            and (not high or h_max + z > 0)
+        )
+
+    return inside
+
+
 class StateConverter:
     """JSBSim raw outputs -> the 12 wind-frame states (scalar per step, or vectorised).
 
@@ -120,6 +156,8 @@ class StateConverter:
             self.rm = a * (1.0 - e2) / w**1.5  # meridian radius
             self.lat0, self.lon0 = lat0, lon0
         self._chi, self._mu = float(self.x0[5]), float(self.x0[8])
+        self._x0, self._y0 = float(self.x0[0]), float(self.x0[1])  # floats: the same sums as on numpy's
+        self._inside = inside_test(bounds)
 
     def _states(self, raw, sin, cos, atan2):
         lat, lon, h, vt, gamma, psi_gt, alpha, beta, phi, theta, psi, p, q, r = raw
@@ -201,6 +239,11 @@ class StateConverter:
             The 12 wind-frame states with the position and rates left at 0
             (for :func:`gna.trajectory.domain_margins`).
         """
+        gamma = self._track(gamma, psi_gt, alpha, beta, phi, theta)[0]
+        return (0.0, 0.0, 0.0, vt * units.FT, gamma, self._chi, alpha, beta, self._mu, 0.0, 0.0, 0.0)
+
+    def _track(self, gamma, psi_gt, alpha, beta, phi, theta) -> tuple[float, float]:
+        """:meth:`track`'s work: chi and mu continued; ``(gamma, mu)``, gamma folded at the vertical, mu as read."""
         sin, cos = math.sin, math.cos
         ca, sa, cb, sb = cos(alpha), sin(alpha), cos(beta), sin(beta)
         d1, d2, d3 = -sin(theta), sin(phi) * cos(theta), cos(phi) * cos(theta)
@@ -210,9 +253,9 @@ class StateConverter:
             # The track turned by more than pi/2 in one step near the vertical: the flight path went through
             # it (JSBSim's gamma folds back inside [-pi/2, pi/2], the wind-frame chart passes cos(gamma) = 0).
             gamma = math.copysign(0.5 * math.pi, gamma)
-        self._chi = chi = self._chi + dchi
-        self._mu = mu = self._mu + math.remainder(mu - self._mu, 2.0 * math.pi)
-        return (0.0, 0.0, 0.0, vt * units.FT, gamma, chi, alpha, beta, mu, 0.0, 0.0, 0.0)
+        self._chi = self._chi + dchi
+        self._mu = self._mu + math.remainder(mu - self._mu, 2.0 * math.pi)
+        return gamma, mu
 
     def check(self, t: float, raw: Sequence[float]) -> str | None:
         """One integration step: :meth:`track` on the :data:`TRACK_NODES` values, then the domain test.
@@ -231,17 +274,54 @@ class StateConverter:
             None inside the physical domain, else :func:`gna.trajectory.domain_violation`'s message (with
             ``bounds``: the CG at or below the ground, or outside the atmosphere model's altitudes, too).
         """
+        vt, gamma, psi_gt, alpha, beta, phi, theta = raw[:7]
+        z = -units.FT * raw[7] if len(raw) > 7 else 0.0  # the ground and the atmosphere's range tested too
         try:
-            x = list(self.track(*raw[:7]))
+            folded = self._track(gamma, psi_gt, alpha, beta, phi, theta)[0]
         except (ValueError, OverflowError):  # math functions of non-finite outputs
             x = [math.nan] * 12
-            x[3] = raw[0] * units.FT
-        if len(raw) > 7:
-            x[2] = -units.FT * raw[7]  # z from the altitude: the ground and the atmosphere's range tested too
-        for m in domain_margins(x, self.bounds):
-            if not m > 0:
-                return domain_violation(t, x, self.bounds) or f"left the physical domain at t = {t:.6g} s"
-        return None
+            x[2], x[3] = z if len(raw) > 7 else math.nan, vt * units.FT
+        else:
+            if self._inside(z, vt * units.FT, folded, alpha, beta):
+                return None
+            x = [0.0, 0.0, z, vt * units.FT, folded, self._chi, alpha, beta, self._mu, 0.0, 0.0, 0.0]
+        return domain_violation(t, x, self.bounds) or f"left the physical domain at t = {t:.6g} s"
+
+    def step(self, t: float, raw: Sequence[float]) -> tuple[str | None, list | None]:
+        """:meth:`check` then :meth:`scalar` on one reading of the 14 raw outputs (a feedback's sample).
+
+        The same numbers as the two calls in turn, each output read once: the
+        :data:`TRACK_NODES` and the altitude are among the 14 (mu, the same
+        formula on the same angles, is computed once).
+
+        Parameters
+        ----------
+        t : float
+            Time of the step [s].
+        raw : sequence of 14 float
+            Values of the position nodes and :data:`STATE_NODES`.
+
+        Returns
+        -------
+        (str, None) or (None, list of float)
+            :meth:`check`'s message outside the physical domain; else the 12 states.
+        """
+        lat, lon, h, vt, gamma, psi_gt, alpha, beta, phi, theta, psi, p, q, r = raw
+        try:
+            folded, mu = self._track(gamma, psi_gt, alpha, beta, phi, theta)
+        except (ValueError, OverflowError):  # math functions of non-finite outputs: check()'s own path
+            return self.check(t, (vt, gamma, psi_gt, alpha, beta, phi, theta, h)) or "", None
+        ft = units.FT
+        z, V = -ft * h, vt * ft
+        if not self._inside(z, V, folded, alpha, beta):
+            x = [0.0, 0.0, z, V, folded, self._chi, alpha, beta, self._mu, 0.0, 0.0, 0.0]
+            return domain_violation(t, x, self.bounds) or f"left the physical domain at t = {t:.6g} s", None
+        chi = self._chi + math.remainder(psi_gt - self._chi, 2.0 * math.pi)
+        mu = self._mu + math.remainder(mu - self._mu, 2.0 * math.pi)
+        self._chi, self._mu = chi, mu
+        x = self._x0 + ft * (self.rm + h) * (lat - self.lat0)
+        y = self._y0 + ft * (self.rn + h) * math.cos(lat if self.wgs84 is None else self.lat0) * (lon - self.lon0)
+        return None, [x, y, z, V, gamma, chi, alpha, beta, mu, p, q, r]
 
     def scalar(self, raw: Sequence[float]) -> np.ndarray:
         """One step (pure-Python arithmetic), chi and mu continued from the previous call.
