@@ -367,14 +367,24 @@ static void value_op(const Prog *P, const i64 *row, double *W, const double *x, 
     }
 }
 
+/* the dependency masks of planners._native.tangent_masks: bits 2.. and UNK_SHIFT.. of a row's unk */
+#define UNK_BITS 30
+#define UNK_SHIFT 32
+#define UNK_MASK ((((i64)1) << UNK_BITS) - 1)
+
 /* the tangent of one instruction, after its value (W holds the values, T the tangents) */
 static void tangent_op(const Prog *P, const i64 *row, const double *W, double *T, i64 M, double *tmp, double *tmp2) {
     i64 op = row[0], o = row[1], a = row[2], b = row[3], k = row[4], unk = row[5];
     i64 S = P->S, MS = M * S, n = P->n;
     const double *p = P->p;
-    int ta = unk == 1 || unk == 3, tb = unk == 2 || unk == 3;
+    /* unk: bit 0 operand a carries a tangent, bit 1 operand b; above (UNK_SHIFT, when n <= UNK_BITS) the
+     * unknowns each one's tangent depends on: a tangent known to be zero is neither computed nor read */
+    int ta0 = (unk & 1) != 0, tb0 = (unk & 2) != 0;
+    i64 ma = (unk >> 2) & UNK_MASK, mb = (unk >> UNK_SHIFT) & UNK_MASK, all = (unk >> 2) == 0;
     const double *Wo = W + o * MS, *Wa = W + a * MS, *Wb = W + b * MS;
     for (i64 d = 0; d < n; d++) {
+        int ta = all ? ta0 : (int)((ma >> d) & 1), tb = all ? tb0 : (int)((mb >> d) & 1);
+        if (!ta && !tb) continue;
         double *To = T + (o * n + d) * MS;
         const double *Ta = T + (a * n + d) * MS, *Tb = T + (b * n + d) * MS;
         switch (op) {
@@ -515,10 +525,14 @@ static void run(const Prog *P, const double *x, i64 Mx, i64 M, double *res, doub
     for (i64 j = 0; j < P->neq; j++) {
         s_copy(res + j * MS, W + P->outs[j] * MS, MS);
         if (jac != NULL) {
-            if (P->outs_unk[j])
-                s_copy(jac + j * n * MS, T + P->outs[j] * n * MS, n * MS);
-            else
-                s_fill(jac + j * n * MS, 0.0, n * MS);
+            i64 u = P->outs_unk[j], mask = (u >> 2) & UNK_MASK;
+            for (i64 d = 0; d < n; d++) {
+                double *dst = jac + (j * n + d) * MS;
+                if (u != 0 && ((u >> 2) == 0 || ((mask >> d) & 1)))
+                    s_copy(dst, T + (P->outs[j] * n + d) * MS, MS);
+                else
+                    s_fill(dst, 0.0, MS);
+            }
         }
     }
 }
