@@ -395,9 +395,7 @@ class NativeProgram:
 
     def __init__(self, program) -> None:
         self.lib = library()
-        self.code, self.outs_unk = tangent_masks(
-            program.code, program.n_unknowns, program.outputs, program.outputs_unk
-        )
+        self.code, self.outs_unk = tangent_masks(program.code, program.n_unknowns, program.outputs, program.outputs_unk)
         self.params = np.ascontiguousarray(program.params, dtype=float)
         if self.params.size == 0:
             self.params = np.zeros(1)
