@@ -33,7 +33,10 @@ enum {
 /* ------------------------------------------------------------------ series recurrences on (M, S) */
 
 /* The Cauchy products accumulate each coefficient of a block of BLOCK nodes in local variables (registers):
- * the same sum, in the same order (j ascending), as one node at a time. */
+ * the same sum, in the same order (j ascending), as one node at a time.  The last nodes (S not a multiple of
+ * BLOCK) are one more block ending at node S - 1, overlapping the one before: its nodes' sums are computed
+ * again, the same operations on the same operands, and written again with the same bits (the output distinct
+ * from the operands; else, and for S < BLOCK, node by node). */
 #define BLOCK 8
 #if defined(__GNUC__) && !defined(__clang__)
 #define HOT __attribute__((optimize("O3")))
@@ -41,18 +44,29 @@ enum {
 #define HOT
 #endif
 
+/* whether the M S doubles at o and at a do not overlap */
+static int disjoint(const double *o, const double *a, i64 MS) {
+    uintptr_t po = (uintptr_t)o, pa = (uintptr_t)a, len = (uintptr_t)MS * sizeof(double);
+    return po + len <= pa || pa + len <= po;
+}
+
+HOT static inline void mul_block(const double *a, const double *b, double *out, i64 k, i64 S, i64 i) {
+    double acc[BLOCK] = {0.0};
+    for (i64 j = 0; j <= k; j++) {
+        const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
+        for (int q = 0; q < BLOCK; q++) acc[q] += aj[q] * bk[q];
+    }
+    for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
+}
+
 HOT static void s_mul(const double *a, const double *b, double *out, i64 M, i64 S) {
+    int overlap = S > BLOCK && disjoint(out, a, M * S) && disjoint(out, b, M * S);
     for (i64 k = 0; k < M; k++) {
         i64 i = 0;
-        for (; i + BLOCK <= S; i += BLOCK) {
-            double acc[BLOCK] = {0.0};
-            for (i64 j = 0; j <= k; j++) {
-                const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
-                for (int q = 0; q < BLOCK; q++) acc[q] += aj[q] * bk[q];
-            }
-            for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
-        }
-        if (i < S) { /* the last nodes: independent sums side by side (each node's in the same order) */
+        for (; i + BLOCK <= S; i += BLOCK) mul_block(a, b, out, k, S, i);
+        if (i < S && overlap)
+            mul_block(a, b, out, k, S, S - BLOCK);
+        else if (i < S) { /* the last nodes: independent sums side by side (each node's in the same order) */
             i64 rem = S - i;
             double acc[BLOCK] = {0.0};
             for (i64 j = 0; j <= k; j++) {
@@ -73,20 +87,28 @@ static void s_mul_add(const double *a, const double *b, double *out, i64 M, i64 
         }
 }
 
+HOT static inline void mul2_block(const double *a, const double *b, const double *c, const double *d, double *out,
+                                  i64 k, i64 S, i64 i) {
+    double acc[BLOCK] = {0.0};
+    for (i64 j = 0; j <= k; j++) {
+        const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
+        const double *cj = c + j * S + i, *dk = d + (k - j) * S + i;
+        for (int q = 0; q < BLOCK; q++) acc[q] += aj[q] * bk[q] + cj[q] * dk[q];
+    }
+    for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
+}
+
 /* out = a * b + c * d (the tangent of a product: one pass) */
 HOT static void s_mul2(const double *a, const double *b, const double *c, const double *d, double *out, i64 M, i64 S) {
+    i64 MS = M * S;
+    int overlap = S > BLOCK && disjoint(out, a, MS) && disjoint(out, b, MS) && disjoint(out, c, MS)
+                  && disjoint(out, d, MS);
     for (i64 k = 0; k < M; k++) {
         i64 i = 0;
-        for (; i + BLOCK <= S; i += BLOCK) {
-            double acc[BLOCK] = {0.0};
-            for (i64 j = 0; j <= k; j++) {
-                const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
-                const double *cj = c + j * S + i, *dk = d + (k - j) * S + i;
-                for (int q = 0; q < BLOCK; q++) acc[q] += aj[q] * bk[q] + cj[q] * dk[q];
-            }
-            for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
-        }
-        if (i < S) {
+        for (; i + BLOCK <= S; i += BLOCK) mul2_block(a, b, c, d, out, k, S, i);
+        if (i < S && overlap)
+            mul2_block(a, b, c, d, out, k, S, S - BLOCK);
+        else if (i < S) {
             i64 rem = S - i;
             double acc[BLOCK] = {0.0};
             for (i64 j = 0; j <= k; j++) {
@@ -99,17 +121,31 @@ HOT static void s_mul2(const double *a, const double *b, const double *c, const 
     }
 }
 
-/* out = a / b (out distinct from b; may equal a) */
-static void s_div(const double *a, const double *b, double *out, i64 M, i64 S) {
+HOT static inline void div_block(const double *a, const double *b, double *out, i64 k, i64 S, i64 i) {
+    double acc[BLOCK];
+    for (int q = 0; q < BLOCK; q++) acc[q] = a[k * S + i + q];
+    for (i64 j = 1; j <= k; j++) {
+        const double *bj = b + j * S + i, *ok = out + (k - j) * S + i;
+        for (int q = 0; q < BLOCK; q++) acc[q] -= bj[q] * ok[q];
+    }
+    for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q] / b[i + q];
+}
+
+/* out = a / b (out distinct from b; may equal a): coefficient k is (a_k - sum_(j=1..k) b_j out_(k-j)) / b_0,
+ * j ascending, by blocks of nodes as the products (the overlapping last block only when out is not a) */
+HOT static void s_div(const double *a, const double *b, double *out, i64 M, i64 S) {
+    int overlap = S > BLOCK && disjoint(out, a, M * S);
     for (i64 k = 0; k < M; k++) {
-        double *o = out + k * S;
-        if (o != a + k * S)
-            for (i64 i = 0; i < S; i++) o[i] = a[k * S + i];
-        for (i64 j = 1; j <= k; j++) {
-            const double *bj = b + j * S, *ok = out + (k - j) * S;
-            for (i64 i = 0; i < S; i++) o[i] -= bj[i] * ok[i];
-        }
-        for (i64 i = 0; i < S; i++) o[i] /= b[i];
+        i64 i = 0;
+        for (; i + BLOCK <= S; i += BLOCK) div_block(a, b, out, k, S, i);
+        if (i < S && overlap)
+            div_block(a, b, out, k, S, S - BLOCK);
+        else
+            for (; i < S; i++) {
+                double acc = a[k * S + i];
+                for (i64 j = 1; j <= k; j++) acc -= b[j * S + i] * out[(k - j) * S + i];
+                out[k * S + i] = acc / b[i];
+            }
     }
 }
 
