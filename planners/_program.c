@@ -188,8 +188,26 @@ static void s_log(const double *u, double *out, i64 M, i64 S) {
     }
 }
 
-/* sin/cos (sign -1) or sinh/cosh (sign +1) */
-static void s_sincos(const double *u, double *s, double *c, double sign, i64 M, i64 S) {
+HOT static inline void sincos_block(const double *u, double *s, double *c, double sign, i64 k, i64 S, i64 i) {
+    /* the two sums one after the other (each one's terms in the order of the node-by-node loop; v = j u_j,
+     * the same value in both) */
+    double as[BLOCK] = {0.0}, ac[BLOCK] = {0.0};
+    for (i64 j = 1; j <= k; j++) {
+        const double *uj = u + j * S + i, *cj = c + (k - j) * S + i;
+        double jd = (double)j;
+        for (int q = 0; q < BLOCK; q++) as[q] += (jd * uj[q]) * cj[q];
+    }
+    for (i64 j = 1; j <= k; j++) {
+        const double *uj = u + j * S + i, *sj = s + (k - j) * S + i;
+        double jd = (double)j;
+        for (int q = 0; q < BLOCK; q++) ac[q] += (jd * uj[q]) * sj[q];
+    }
+    for (int q = 0; q < BLOCK; q++) s[k * S + i + q] = as[q] / (double)k;
+    for (int q = 0; q < BLOCK; q++) c[k * S + i + q] = sign * ac[q] / (double)k;
+}
+
+/* sin/cos (sign -1) or sinh/cosh (sign +1); the sums by blocks of nodes in registers as the products */
+HOT static void s_sincos(const double *u, double *s, double *c, double sign, i64 M, i64 S) {
     for (i64 i = 0; i < S; i++) {
         if (sign < 0) {
             s[i] = sin(u[i]);
@@ -199,18 +217,25 @@ static void s_sincos(const double *u, double *s, double *c, double sign, i64 M, 
             c[i] = cosh(u[i]);
         }
     }
+    int overlap = S > BLOCK && disjoint(s, u, M * S) && disjoint(c, u, M * S) && disjoint(s, c, M * S);
     for (i64 k = 1; k < M; k++) {
+        i64 i0 = 0;
+        for (; i0 + BLOCK <= S; i0 += BLOCK) sincos_block(u, s, c, sign, k, S, i0);
+        if (i0 < S && overlap) {
+            sincos_block(u, s, c, sign, k, S, S - BLOCK);
+            continue;
+        }
         double *sk = s + k * S, *ck = c + k * S;
-        for (i64 i = 0; i < S; i++) sk[i] = ck[i] = 0.0;
+        for (i64 i = i0; i < S; i++) sk[i] = ck[i] = 0.0;
         for (i64 j = 1; j <= k; j++) {
             const double *uj = u + j * S, *cj = c + (k - j) * S, *sj = s + (k - j) * S;
-            for (i64 i = 0; i < S; i++) {
+            for (i64 i = i0; i < S; i++) {
                 double v = j * uj[i];
                 sk[i] += v * cj[i];
                 ck[i] += v * sj[i];
             }
         }
-        for (i64 i = 0; i < S; i++) {
+        for (i64 i = i0; i < S; i++) {
             sk[i] /= (double)k;
             ck[i] = sign * ck[i] / (double)k;
         }
@@ -646,29 +671,63 @@ static int invert_constant(const double *J, i64 n, i64 M, i64 S, double *inv, do
     return 0;
 }
 
+/* series_solve's coefficient m at the BLOCK nodes from node i (r: the right-hand sides, n S) */
+HOT static inline void solve_block(const double *J, const double *inv, const double *G, double *D, i64 n, i64 M,
+                                   i64 S, double *r, i64 m, i64 i) {
+    i64 MS = M * S;
+    for (i64 a = 0; a < n; a++) {
+        double acc[BLOCK];
+        const double *g = G + a * MS + m * S + i;
+        for (int q = 0; q < BLOCK; q++) acc[q] = g[q];
+        for (i64 l = 1; l <= m; l++)
+            for (i64 b = 0; b < n; b++) {
+                const double *Jab = J + (a * n + b) * MS + l * S + i, *Db = D + b * MS + (m - l) * S + i;
+                for (int q = 0; q < BLOCK; q++) acc[q] -= Jab[q] * Db[q];
+            }
+        for (int q = 0; q < BLOCK; q++) r[a * S + i + q] = acc[q];
+    }
+    for (i64 a = 0; a < n; a++) {
+        double acc[BLOCK] = {0.0};
+        for (i64 b = 0; b < n; b++) {
+            const double *ib = inv + (a * n + b) * S + i, *rb = r + b * S + i;
+            for (int q = 0; q < BLOCK; q++) acc[q] += ib[q] * rb[q];
+        }
+        for (int q = 0; q < BLOCK; q++) D[a * MS + m * S + i + q] = acc[q];
+    }
+}
+
 /* D = J^-1 G order by order: D_m = J0^-1 (G_m - sum_{l=1..m} J_l D_{m-l}); J (n, n, M, S), G, D (n, M, S),
  * inv (n, n, S); r: n S doubles.  Each node's sums in the order of a node-by-node loop (l, then b,
- * ascending), vectorized over the nodes. */
+ * ascending), by blocks of nodes in registers as the products (the last block overlapping when D is apart
+ * from J and G). */
 HOT static void series_solve(const double *J, const double *inv, const double *G, double *D, i64 n, i64 M, i64 S,
                              double *r) {
     i64 MS = M * S;
+    int overlap = S > BLOCK && disjoint(D, G, n * MS) && !(J < D + n * MS && D < J + n * n * MS);
     for (i64 m = 0; m < M; m++) {
+        i64 i0 = 0;
+        for (; i0 + BLOCK <= S; i0 += BLOCK) solve_block(J, inv, G, D, n, M, S, r, m, i0);
+        if (i0 < S && overlap) {
+            solve_block(J, inv, G, D, n, M, S, r, m, S - BLOCK);
+            continue;
+        }
+        if (i0 == S) continue;
         for (i64 a = 0; a < n; a++) {
             double *ra = r + a * S;
             const double *g = G + a * MS + m * S;
-            for (i64 i = 0; i < S; i++) ra[i] = g[i];
+            for (i64 i = i0; i < S; i++) ra[i] = g[i];
             for (i64 l = 1; l <= m; l++)
                 for (i64 b = 0; b < n; b++) {
                     const double *Jab = J + (a * n + b) * MS + l * S, *Db = D + b * MS + (m - l) * S;
-                    for (i64 i = 0; i < S; i++) ra[i] -= Jab[i] * Db[i];
+                    for (i64 i = i0; i < S; i++) ra[i] -= Jab[i] * Db[i];
                 }
         }
         for (i64 a = 0; a < n; a++) {
             double *Da = D + a * MS + m * S;
-            for (i64 i = 0; i < S; i++) Da[i] = 0.0;
+            for (i64 i = i0; i < S; i++) Da[i] = 0.0;
             for (i64 b = 0; b < n; b++) {
                 const double *ib = inv + (a * n + b) * S, *rb = r + b * S;
-                for (i64 i = 0; i < S; i++) Da[i] += ib[i] * rb[i];
+                for (i64 i = i0; i < S; i++) Da[i] += ib[i] * rb[i];
             }
         }
     }
