@@ -33,7 +33,10 @@ enum {
 /* ------------------------------------------------------------------ series recurrences on (M, S) */
 
 /* The Cauchy products accumulate each coefficient of a block of BLOCK nodes in local variables (registers):
- * the same sum, in the same order (j ascending), as one node at a time. */
+ * the same sum, in the same order (j ascending), as one node at a time.  The last nodes (S not a multiple of
+ * BLOCK) are one more block ending at node S - 1, overlapping the one before: its nodes' sums are computed
+ * again, the same operations on the same operands, and written again with the same bits (the output distinct
+ * from the operands; else, and for S < BLOCK, node by node). */
 #define BLOCK 8
 #if defined(__GNUC__) && !defined(__clang__)
 #define HOT __attribute__((optimize("O3")))
@@ -41,18 +44,29 @@ enum {
 #define HOT
 #endif
 
+/* whether the M S doubles at o and at a do not overlap */
+static int disjoint(const double *o, const double *a, i64 MS) {
+    uintptr_t po = (uintptr_t)o, pa = (uintptr_t)a, len = (uintptr_t)MS * sizeof(double);
+    return po + len <= pa || pa + len <= po;
+}
+
+HOT static inline void mul_block(const double *a, const double *b, double *out, i64 k, i64 S, i64 i) {
+    double acc[BLOCK] = {0.0};
+    for (i64 j = 0; j <= k; j++) {
+        const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
+        for (int q = 0; q < BLOCK; q++) acc[q] += aj[q] * bk[q];
+    }
+    for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
+}
+
 HOT static void s_mul(const double *a, const double *b, double *out, i64 M, i64 S) {
+    int overlap = S > BLOCK && disjoint(out, a, M * S) && disjoint(out, b, M * S);
     for (i64 k = 0; k < M; k++) {
         i64 i = 0;
-        for (; i + BLOCK <= S; i += BLOCK) {
-            double acc[BLOCK] = {0.0};
-            for (i64 j = 0; j <= k; j++) {
-                const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
-                for (int q = 0; q < BLOCK; q++) acc[q] += aj[q] * bk[q];
-            }
-            for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
-        }
-        if (i < S) { /* the last nodes: independent sums side by side (each node's in the same order) */
+        for (; i + BLOCK <= S; i += BLOCK) mul_block(a, b, out, k, S, i);
+        if (i < S && overlap)
+            mul_block(a, b, out, k, S, S - BLOCK);
+        else if (i < S) { /* the last nodes: independent sums side by side (each node's in the same order) */
             i64 rem = S - i;
             double acc[BLOCK] = {0.0};
             for (i64 j = 0; j <= k; j++) {
@@ -73,20 +87,28 @@ static void s_mul_add(const double *a, const double *b, double *out, i64 M, i64 
         }
 }
 
+HOT static inline void mul2_block(const double *a, const double *b, const double *c, const double *d, double *out,
+                                  i64 k, i64 S, i64 i) {
+    double acc[BLOCK] = {0.0};
+    for (i64 j = 0; j <= k; j++) {
+        const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
+        const double *cj = c + j * S + i, *dk = d + (k - j) * S + i;
+        for (int q = 0; q < BLOCK; q++) acc[q] += aj[q] * bk[q] + cj[q] * dk[q];
+    }
+    for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
+}
+
 /* out = a * b + c * d (the tangent of a product: one pass) */
 HOT static void s_mul2(const double *a, const double *b, const double *c, const double *d, double *out, i64 M, i64 S) {
+    i64 MS = M * S;
+    int overlap = S > BLOCK && disjoint(out, a, MS) && disjoint(out, b, MS) && disjoint(out, c, MS)
+                  && disjoint(out, d, MS);
     for (i64 k = 0; k < M; k++) {
         i64 i = 0;
-        for (; i + BLOCK <= S; i += BLOCK) {
-            double acc[BLOCK] = {0.0};
-            for (i64 j = 0; j <= k; j++) {
-                const double *aj = a + j * S + i, *bk = b + (k - j) * S + i;
-                const double *cj = c + j * S + i, *dk = d + (k - j) * S + i;
-                for (int q = 0; q < BLOCK; q++) acc[q] += aj[q] * bk[q] + cj[q] * dk[q];
-            }
-            for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q];
-        }
-        if (i < S) {
+        for (; i + BLOCK <= S; i += BLOCK) mul2_block(a, b, c, d, out, k, S, i);
+        if (i < S && overlap)
+            mul2_block(a, b, c, d, out, k, S, S - BLOCK);
+        else if (i < S) {
             i64 rem = S - i;
             double acc[BLOCK] = {0.0};
             for (i64 j = 0; j <= k; j++) {
@@ -99,17 +121,31 @@ HOT static void s_mul2(const double *a, const double *b, const double *c, const 
     }
 }
 
-/* out = a / b (out distinct from b; may equal a) */
-static void s_div(const double *a, const double *b, double *out, i64 M, i64 S) {
+HOT static inline void div_block(const double *a, const double *b, double *out, i64 k, i64 S, i64 i) {
+    double acc[BLOCK];
+    for (int q = 0; q < BLOCK; q++) acc[q] = a[k * S + i + q];
+    for (i64 j = 1; j <= k; j++) {
+        const double *bj = b + j * S + i, *ok = out + (k - j) * S + i;
+        for (int q = 0; q < BLOCK; q++) acc[q] -= bj[q] * ok[q];
+    }
+    for (int q = 0; q < BLOCK; q++) out[k * S + i + q] = acc[q] / b[i + q];
+}
+
+/* out = a / b (out distinct from b; may equal a): coefficient k is (a_k - sum_(j=1..k) b_j out_(k-j)) / b_0,
+ * j ascending, by blocks of nodes as the products (the overlapping last block only when out is not a) */
+HOT static void s_div(const double *a, const double *b, double *out, i64 M, i64 S) {
+    int overlap = S > BLOCK && disjoint(out, a, M * S);
     for (i64 k = 0; k < M; k++) {
-        double *o = out + k * S;
-        if (o != a + k * S)
-            for (i64 i = 0; i < S; i++) o[i] = a[k * S + i];
-        for (i64 j = 1; j <= k; j++) {
-            const double *bj = b + j * S, *ok = out + (k - j) * S;
-            for (i64 i = 0; i < S; i++) o[i] -= bj[i] * ok[i];
-        }
-        for (i64 i = 0; i < S; i++) o[i] /= b[i];
+        i64 i = 0;
+        for (; i + BLOCK <= S; i += BLOCK) div_block(a, b, out, k, S, i);
+        if (i < S && overlap)
+            div_block(a, b, out, k, S, S - BLOCK);
+        else
+            for (; i < S; i++) {
+                double acc = a[k * S + i];
+                for (i64 j = 1; j <= k; j++) acc -= b[j * S + i] * out[(k - j) * S + i];
+                out[k * S + i] = acc / b[i];
+            }
     }
 }
 
@@ -152,8 +188,26 @@ static void s_log(const double *u, double *out, i64 M, i64 S) {
     }
 }
 
-/* sin/cos (sign -1) or sinh/cosh (sign +1) */
-static void s_sincos(const double *u, double *s, double *c, double sign, i64 M, i64 S) {
+HOT static inline void sincos_block(const double *u, double *s, double *c, double sign, i64 k, i64 S, i64 i) {
+    /* the two sums one after the other (each one's terms in the order of the node-by-node loop; v = j u_j,
+     * the same value in both) */
+    double as[BLOCK] = {0.0}, ac[BLOCK] = {0.0};
+    for (i64 j = 1; j <= k; j++) {
+        const double *uj = u + j * S + i, *cj = c + (k - j) * S + i;
+        double jd = (double)j;
+        for (int q = 0; q < BLOCK; q++) as[q] += (jd * uj[q]) * cj[q];
+    }
+    for (i64 j = 1; j <= k; j++) {
+        const double *uj = u + j * S + i, *sj = s + (k - j) * S + i;
+        double jd = (double)j;
+        for (int q = 0; q < BLOCK; q++) ac[q] += (jd * uj[q]) * sj[q];
+    }
+    for (int q = 0; q < BLOCK; q++) s[k * S + i + q] = as[q] / (double)k;
+    for (int q = 0; q < BLOCK; q++) c[k * S + i + q] = sign * ac[q] / (double)k;
+}
+
+/* sin/cos (sign -1) or sinh/cosh (sign +1); the sums by blocks of nodes in registers as the products */
+HOT static void s_sincos(const double *u, double *s, double *c, double sign, i64 M, i64 S) {
     for (i64 i = 0; i < S; i++) {
         if (sign < 0) {
             s[i] = sin(u[i]);
@@ -163,18 +217,25 @@ static void s_sincos(const double *u, double *s, double *c, double sign, i64 M, 
             c[i] = cosh(u[i]);
         }
     }
+    int overlap = S > BLOCK && disjoint(s, u, M * S) && disjoint(c, u, M * S) && disjoint(s, c, M * S);
     for (i64 k = 1; k < M; k++) {
+        i64 i0 = 0;
+        for (; i0 + BLOCK <= S; i0 += BLOCK) sincos_block(u, s, c, sign, k, S, i0);
+        if (i0 < S && overlap) {
+            sincos_block(u, s, c, sign, k, S, S - BLOCK);
+            continue;
+        }
         double *sk = s + k * S, *ck = c + k * S;
-        for (i64 i = 0; i < S; i++) sk[i] = ck[i] = 0.0;
+        for (i64 i = i0; i < S; i++) sk[i] = ck[i] = 0.0;
         for (i64 j = 1; j <= k; j++) {
             const double *uj = u + j * S, *cj = c + (k - j) * S, *sj = s + (k - j) * S;
-            for (i64 i = 0; i < S; i++) {
+            for (i64 i = i0; i < S; i++) {
                 double v = j * uj[i];
                 sk[i] += v * cj[i];
                 ck[i] += v * sj[i];
             }
         }
-        for (i64 i = 0; i < S; i++) {
+        for (i64 i = i0; i < S; i++) {
             sk[i] /= (double)k;
             ck[i] = sign * ck[i] / (double)k;
         }
@@ -367,14 +428,24 @@ static void value_op(const Prog *P, const i64 *row, double *W, const double *x, 
     }
 }
 
+/* the dependency masks of planners._native.tangent_masks: bits 2.. and UNK_SHIFT.. of a row's unk */
+#define UNK_BITS 30
+#define UNK_SHIFT 32
+#define UNK_MASK ((((i64)1) << UNK_BITS) - 1)
+
 /* the tangent of one instruction, after its value (W holds the values, T the tangents) */
 static void tangent_op(const Prog *P, const i64 *row, const double *W, double *T, i64 M, double *tmp, double *tmp2) {
     i64 op = row[0], o = row[1], a = row[2], b = row[3], k = row[4], unk = row[5];
     i64 S = P->S, MS = M * S, n = P->n;
     const double *p = P->p;
-    int ta = unk == 1 || unk == 3, tb = unk == 2 || unk == 3;
+    /* unk: bit 0 operand a carries a tangent, bit 1 operand b; above (UNK_SHIFT, when n <= UNK_BITS) the
+     * unknowns each one's tangent depends on: a tangent known to be zero is neither computed nor read */
+    int ta0 = (unk & 1) != 0, tb0 = (unk & 2) != 0;
+    i64 ma = (unk >> 2) & UNK_MASK, mb = (unk >> UNK_SHIFT) & UNK_MASK, all = (unk >> 2) == 0;
     const double *Wo = W + o * MS, *Wa = W + a * MS, *Wb = W + b * MS;
     for (i64 d = 0; d < n; d++) {
+        int ta = all ? ta0 : (int)((ma >> d) & 1), tb = all ? tb0 : (int)((mb >> d) & 1);
+        if (!ta && !tb) continue;
         double *To = T + (o * n + d) * MS;
         const double *Ta = T + (a * n + d) * MS, *Tb = T + (b * n + d) * MS;
         switch (op) {
@@ -515,10 +586,14 @@ static void run(const Prog *P, const double *x, i64 Mx, i64 M, double *res, doub
     for (i64 j = 0; j < P->neq; j++) {
         s_copy(res + j * MS, W + P->outs[j] * MS, MS);
         if (jac != NULL) {
-            if (P->outs_unk[j])
-                s_copy(jac + j * n * MS, T + P->outs[j] * n * MS, n * MS);
-            else
-                s_fill(jac + j * n * MS, 0.0, n * MS);
+            i64 u = P->outs_unk[j], mask = (u >> 2) & UNK_MASK;
+            for (i64 d = 0; d < n; d++) {
+                double *dst = jac + (j * n + d) * MS;
+                if (u != 0 && ((u >> 2) == 0 || ((mask >> d) & 1)))
+                    s_copy(dst, T + (P->outs[j] * n + d) * MS, MS);
+                else
+                    s_fill(dst, 0.0, MS);
+            }
         }
     }
 }
@@ -596,29 +671,63 @@ static int invert_constant(const double *J, i64 n, i64 M, i64 S, double *inv, do
     return 0;
 }
 
+/* series_solve's coefficient m at the BLOCK nodes from node i (r: the right-hand sides, n S) */
+HOT static inline void solve_block(const double *J, const double *inv, const double *G, double *D, i64 n, i64 M,
+                                   i64 S, double *r, i64 m, i64 i) {
+    i64 MS = M * S;
+    for (i64 a = 0; a < n; a++) {
+        double acc[BLOCK];
+        const double *g = G + a * MS + m * S + i;
+        for (int q = 0; q < BLOCK; q++) acc[q] = g[q];
+        for (i64 l = 1; l <= m; l++)
+            for (i64 b = 0; b < n; b++) {
+                const double *Jab = J + (a * n + b) * MS + l * S + i, *Db = D + b * MS + (m - l) * S + i;
+                for (int q = 0; q < BLOCK; q++) acc[q] -= Jab[q] * Db[q];
+            }
+        for (int q = 0; q < BLOCK; q++) r[a * S + i + q] = acc[q];
+    }
+    for (i64 a = 0; a < n; a++) {
+        double acc[BLOCK] = {0.0};
+        for (i64 b = 0; b < n; b++) {
+            const double *ib = inv + (a * n + b) * S + i, *rb = r + b * S + i;
+            for (int q = 0; q < BLOCK; q++) acc[q] += ib[q] * rb[q];
+        }
+        for (int q = 0; q < BLOCK; q++) D[a * MS + m * S + i + q] = acc[q];
+    }
+}
+
 /* D = J^-1 G order by order: D_m = J0^-1 (G_m - sum_{l=1..m} J_l D_{m-l}); J (n, n, M, S), G, D (n, M, S),
  * inv (n, n, S); r: n S doubles.  Each node's sums in the order of a node-by-node loop (l, then b,
- * ascending), vectorized over the nodes. */
+ * ascending), by blocks of nodes in registers as the products (the last block overlapping when D is apart
+ * from J and G). */
 HOT static void series_solve(const double *J, const double *inv, const double *G, double *D, i64 n, i64 M, i64 S,
                              double *r) {
     i64 MS = M * S;
+    int overlap = S > BLOCK && disjoint(D, G, n * MS) && !(J < D + n * MS && D < J + n * n * MS);
     for (i64 m = 0; m < M; m++) {
+        i64 i0 = 0;
+        for (; i0 + BLOCK <= S; i0 += BLOCK) solve_block(J, inv, G, D, n, M, S, r, m, i0);
+        if (i0 < S && overlap) {
+            solve_block(J, inv, G, D, n, M, S, r, m, S - BLOCK);
+            continue;
+        }
+        if (i0 == S) continue;
         for (i64 a = 0; a < n; a++) {
             double *ra = r + a * S;
             const double *g = G + a * MS + m * S;
-            for (i64 i = 0; i < S; i++) ra[i] = g[i];
+            for (i64 i = i0; i < S; i++) ra[i] = g[i];
             for (i64 l = 1; l <= m; l++)
                 for (i64 b = 0; b < n; b++) {
                     const double *Jab = J + (a * n + b) * MS + l * S, *Db = D + b * MS + (m - l) * S;
-                    for (i64 i = 0; i < S; i++) ra[i] -= Jab[i] * Db[i];
+                    for (i64 i = i0; i < S; i++) ra[i] -= Jab[i] * Db[i];
                 }
         }
         for (i64 a = 0; a < n; a++) {
             double *Da = D + a * MS + m * S;
-            for (i64 i = 0; i < S; i++) Da[i] = 0.0;
+            for (i64 i = i0; i < S; i++) Da[i] = 0.0;
             for (i64 b = 0; b < n; b++) {
                 const double *ib = inv + (a * n + b) * S, *rb = r + b * S;
-                for (i64 i = 0; i < S; i++) Da[i] += ib[i] * rb[i];
+                for (i64 i = i0; i < S; i++) Da[i] += ib[i] * rb[i];
             }
         }
     }

@@ -99,6 +99,34 @@ def test_operations_and_tangents_agree_with_numpy(name, order, nodes, seed):
 
 
 @SET
+@given(
+    name=st.sampled_from(sorted(FUNCTIONS)),
+    order=st.integers(0, 9),
+    nodes=st.integers(1, 19),
+    seed=st.integers(0, 10**6),
+)
+def test_the_tangent_masks_change_no_value(name, order, nodes, seed):
+    """The dependency masks (planners._native.tangent_masks: the tangents known to be zero skipped) give the
+    values of the full forward mode, every residual and Jacobian entry equal (an exact zero's sign aside)."""
+    fun = FUNCTIONS[name]
+    rng = np.random.default_rng(seed)
+    a, b, d = (rand_series(rng, order, nodes) for _ in range(3))
+    prog, reason = trace(lambda v: fun(v["a"], v["b"], v["d"]), ("a", "b"), {"d": d}, {"d"})
+    assert prog is not None, reason
+    masked = NA.NativeProgram(prog)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(NA, "tangent_masks", lambda code, n, outs, outs_unk: (np.array(code), np.array(outs_unk)))
+        full = NA.NativeProgram(prog)
+    assert not np.array_equal(masked.code, full.code)  # two unknowns: the masks are written
+    data = prog.data_array({"d": d}, order, nodes)
+    x = np.ascontiguousarray(np.stack([a.coeffs, b.coeffs]).swapaxes(1, 2))
+    for M in (1, order + 1):
+        G, J = masked.evaluate_tangent(x, data, M)
+        Gf, Jf = full.evaluate_tangent(x, data, M)
+        assert np.array_equal(G, Gf) and np.array_equal(J, Jf)
+
+
+@SET
 @given(order=st.integers(1, 16), nodes=st.integers(1, 11), seed=st.integers(0, 10**6))
 def test_the_derivative_op_is_exact_to_one_order_less(order, nodes, seed):
     """A closed-form stage's time derivatives (the DERIV op): its first ``order`` coefficients are those of
