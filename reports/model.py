@@ -422,6 +422,8 @@ def load_case_model(path: str | Path) -> dict:
     p = Path(path)
     model = read_json_object(p, "a gflat report model")
     bad = [k for k, t in MODEL_KEYS.items() if not isinstance(model.get(k), t)]
+    if "scenario" not in bad and not isinstance(model["scenario"].get("name"), str):
+        bad.append("scenario.name")  # the run's pages order and name the cases by it
     if not bad and len(model["figures"]) > MAX_FIGURES:
         raise InputError(
             f"{p}: not a gflat report model ({len(model['figures'])} figures, above the bound of {MAX_FIGURES}); "

@@ -128,6 +128,20 @@ def test_a_corrupt_or_misshapen_model_is_one_clear_error(report_run, tmp_path, c
         assert model.read_text() == text
 
 
+def test_a_model_whose_scenario_has_no_name_is_one_clear_error(report_run, tmp_path):
+    # a new user's fuzz of the nested keys: "scenario": {"a": 1} ended in a KeyError traceback
+    copy = tmp_path / "run"
+    shutil.copytree(report_run.root, copy)
+    model = copy / SCENARIO / CASE_FOLDERS["open"] / "report.json"
+    data = json.loads(model.read_text())
+    for scenario in ({"a": 1}, {"name": ["x"]}):
+        data["scenario"] = scenario
+        model.write_text(json.dumps(data))
+        with pytest.raises(InputError, match=r"missing or wrong type: scenario\.name") as exc:
+            render_run(copy, pdf=False)
+        assert str(model) in str(exc.value) and "\n" not in str(exc.value)
+
+
 def test_settings_are_on_off_and_an_undefined_delta_is_a_dash(report_run):
     assert (fmt(True), fmt(False), cell(True, "passed"), cell(False, "passed")) == ("on", "off", "pass", "FAIL")
     assert cell("nan", "delta_pct") == cell(None, "delta_pct") == "\u2013" and cell(0.5, "delta_pct") == "0.5"
