@@ -325,7 +325,7 @@ def run_sample(task: SampleTask) -> dict:
     except CaseTimeout:
         took = time.perf_counter() - t_start
         out["error"] = (
-            f"timeout: the case ran {took:.1f} s, over its budget of {task.budget_s:g} s "
+            f"timeout: the case ran {took:.3g} s, over its budget of {task.budget_s:g} s "
             f"(case_budget_s in the campaign file, --case-budget S); stopped, the campaign goes on"
         )
         out["timings"] = {"budget_s": task.budget_s}
