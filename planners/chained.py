@@ -637,14 +637,18 @@ def _static_part(system, zeta, t_nodes, order, tol, carry, h0) -> dict:
 
     For the system's default flat outputs on the compiled programs these series are kept on the system (as its
     programs are), keyed by everything they are computed from besides the system itself: the grid, the order,
-    the tolerance, ``carry`` and the program backend; the system is that of a frozen problem
+    the tolerance, ``carry``, the program backend and the series kernels; the system is that of a frozen problem
     (:func:`planners.flat.aircraft_system`), and the series are read-only (:meth:`Series._wrap`).  The stage-2
     starting values of iterate 0 are kept with them (``"starts"``, filled by :func:`_native_first_iterate`)."""
-    backend = program_backend()
+    from . import series
+
+    compiled = compiled_programs()
     store = key = None
-    if zeta is None and backend is not None:
+    if zeta is None and compiled:
         store = system.__dict__.setdefault("_static_parts", {})  # a frozen dataclass: its __dict__ holds it
-        key = (t_nodes.shape, t_nodes.tobytes(), order, tol, bool(carry), backend)
+        # everything the series below are computed from besides the system: the grid, the order, the stage
+        # tolerance, carry, the program backend and the series kernels (both switchable within a process)
+        key = (t_nodes.shape, t_nodes.tobytes(), order, tol, bool(carry), program_backend(), series._K)
         hit = store.pop(key, None)
         if hit is not None:
             store[key] = hit  # the latest last
@@ -666,7 +670,7 @@ def _static_part(system, zeta, t_nodes, order, tol, carry, h0) -> dict:
     if missing:
         raise InputError(f"{system.name}: no function given for the flat output(s) {', '.join(missing)}")
     known, derivs, reports = {}, {}, {}
-    first = _programs_of(system, zeta, t_nodes, {}) if backend is not None else None
+    first = _programs_of(system, zeta, t_nodes, {}) if compiled else None
     for z, h in system.flat_outputs.items():
         k = order - int(h) + 1
         _add_known(known, derivs, [z], [_as_series(funcs[z](Series.variable(t_nodes, k)), nodes, k)])

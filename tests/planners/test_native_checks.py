@@ -218,3 +218,27 @@ def test_a_changed_problem_never_reads_another_problems_static_part():
         assert np.array_equal(p1.iterates[-1][var].coeffs, p2.iterates[-1][var].coeffs)
     ref = plan_motion(prob, sc.t_nodes, 1, e=1)
     assert not np.array_equal(ref.iterates[-1]["F"].coeffs, p1.iterates[-1]["F"].coeffs)
+
+
+def test_another_backend_in_the_same_process_computes_its_own_static_part():
+    """The numpy reference switched on within a process (the collocation benchmark's: the series kernels and the
+    compiled programs off) after native plans of the same problem: the plan of a fresh problem on that path, bit
+    for bit (nothing kept by the native plans is read)."""
+    import planners.series as S
+    from planners.generalized import plan_motion
+    from planners.scenario import load_scenario
+
+    sc = load_scenario("twin-otter-single-engine")
+    prob = sc.problem()
+    plan_motion(prob, sc.t_nodes, 1, e=1)
+    plan_motion(prob, sc.t_nodes, 1, e=1)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(S, "_K", S._NumpyKernels)
+        mp.setattr(C, "compiled_programs", lambda: False)
+        got = plan_motion(prob, sc.t_nodes, 1, e=1)
+        ref = plan_motion(
+            sc.problem().__class__(**{k: getattr(prob, k) for k in prob.__dataclass_fields__}), sc.t_nodes, 1, e=1
+        )
+    for it_g, it_r in zip(got.iterates, ref.iterates):
+        for var in it_r:
+            assert np.array_equal(it_g[var].coeffs, it_r[var].coeffs), var
