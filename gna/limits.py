@@ -544,7 +544,7 @@ class TrajectoryColumns:
         return self.index.t.size
 
 
-def limit_violations(aircraft, frame, env=None) -> list[Violation]:
+def limit_violations(aircraft, frame, env=None, scan: Callable | None = None) -> list[Violation]:
     """Where a trajectory leaves the aircraft's limits, one record per limit and side.
 
     Parameters
@@ -556,6 +556,8 @@ def limit_violations(aircraft, frame, env=None) -> list[Violation]:
         reads ``nz`` when the frame has it, else computes it from every state and control with ``env``).
     env : gna.atmosphere.Environment, optional
         Needed only to compute ``nz``; without it (and without an ``nz`` column) that limit is skipped.
+    scan : callable, optional
+        Another implementation of :func:`scan_sides` (the same results: a compiled one); default that.
 
     Returns
     -------
@@ -563,21 +565,57 @@ def limit_violations(aircraft, frame, env=None) -> list[Violation]:
         In the order of :func:`aircraft_limits`; empty inside every limit.  The fraction of the span is
         the rectangle rule on the rows (each row counts until the next).
     """
-    return _violations(aircraft_limits(aircraft), frame, env)
+    return _violations(aircraft_limits(aircraft), frame, env, scan)
 
 
-def _violations(limits, frame, env) -> list[Violation]:
+def scan_sides(t: np.ndarray, sides: list) -> list:
+    """Which sides of the limits a trajectory leaves, and where: the test of :func:`limit_violations`.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Times [s].
+    sides : list of (Limit, str, ndarray, float or ndarray)
+        The limit, its side (``"lower"``, ``"upper"``), the bounded quantity (shape (n,)) and the bound on that
+        side (a number, ``-inf``/``inf`` or NaN where unbounded, or an array of shape (n,)).
+
+    Returns
+    -------
+    list
+        Per side: None when no row is beyond the bound (its excess, ``bound - v`` below or ``v - bound``
+        above, > 0), else ``(i, first, last)``: the row of the largest excess (the first of equal ones), the
+        first and the last row beyond it.
+    """
+    out = []
+    for _lim, side, v, bound in sides:
+        if np.ndim(bound) == 0:
+            if np.isnan(bound) or bound == (-np.inf if side == "lower" else np.inf):
+                out.append(None)  # unbounded on that side: no excess is positive
+                continue
+            # a constant bound: some excess is positive iff the extreme value (NaN ignored) passes it
+            if not (np.fmin.reduce(v) < bound if side == "lower" else np.fmax.reduce(v) > bound):
+                out.append(None)
+                continue
+        excess = bound - v if side == "lower" else v - bound
+        over = excess > 0
+        if not over.any():
+            out.append(None)
+            continue
+        rows = np.flatnonzero(over)
+        out.append((int(np.argmax(np.where(over, excess, -np.inf))), int(rows[0]), int(rows[-1])))
+    return out
+
+
+def _violations(limits, frame, env, scan=None) -> list[Violation]:
     """:func:`limit_violations` of the given limits."""
     if not isinstance(frame, TrajectoryColumns):  # the columns read once (a DataFrame's lookups cost more)
         frame = TrajectoryColumns.from_frame(frame)
     t = frame.index.to_numpy(dtype=float)
     if t.size == 0:
         return []
-    dt = None
     uppers: dict = {}
-    span = max(float(t[-1] - t[0]), 1e-300)
-    out = []
     have = set(frame.columns)
+    sides = []
     for lim in limits:
         if lim.name == "nz":
             if "nz" not in have and (env is None or not set(lim.columns) <= have):
@@ -588,49 +626,39 @@ def _violations(limits, frame, env) -> list[Violation]:
         elif not set(lim.columns) <= have:
             continue
         v = lim.value_of(frame, env)
+        lo = -np.inf if lim.lower is None else float(lim.lower)
         if lim.upper_of is None:  # constant bounds: compared as numbers (the same tests as on arrays of them)
-            lo = -np.inf if lim.lower is None else float(lim.lower)
             hi = np.inf if lim.upper is None else float(lim.upper)
         else:  # a varying upper bound (the engines' rating): computed once per function
             if lim.upper_of not in uppers:
                 uppers[lim.upper_of] = lim.upper_of(frame)
-            lo = -np.inf if lim.lower is None else float(lim.lower)
             hi = np.minimum(np.inf if lim.upper is None else lim.upper, uppers[lim.upper_of])
-        vmin = vmax = None
-        for side, bound in (("lower", lo), ("upper", hi)):
-            if np.ndim(bound) == 0:
-                if np.isnan(bound) or bound == (-np.inf if side == "lower" else np.inf):
-                    continue  # unbounded on that side: no excess is positive
-                # a constant bound: some excess is positive iff the extreme value (NaN ignored) passes it
-                if side == "lower":
-                    vmin = np.fmin.reduce(v) if vmin is None else vmin
-                    if not vmin < bound:
-                        continue
-                else:
-                    vmax = np.fmax.reduce(v) if vmax is None else vmax
-                    if not vmax > bound:
-                        continue
-            excess = bound - v if side == "lower" else v - bound
-            over = excess > 0
-            if not over.any():
-                continue
-            if dt is None:
-                dt = np.diff(t, append=t[-1])
-            i = int(np.argmax(np.where(over, excess, -np.inf)))
-            out.append(
-                Violation(
-                    name=lim.name,
-                    limit=float(bound if np.ndim(bound) == 0 else bound[i]),
-                    worst=float(v[i]),
-                    time=float(t[i]),
-                    fraction=float(np.sum(dt[over])) / span if t.size > 1 else 1.0,
-                    first=float(t[over][0]),
-                    last=float(t[over][-1]),
-                    unit=lim.unit,
-                    side=side,
-                    source=lim.source,
-                )
+        sides.append((lim, "lower", v, lo))
+        sides.append((lim, "upper", v, hi))
+    out = []
+    dt = None
+    span = max(float(t[-1] - t[0]), 1e-300)
+    for (lim, side, v, bound), hit in zip(sides, (scan or scan_sides)(t, sides)):
+        if hit is None:
+            continue
+        i, first, last = hit
+        if dt is None:
+            dt = np.diff(t, append=t[-1])
+        over = (bound - v if side == "lower" else v - bound) > 0
+        out.append(
+            Violation(
+                name=lim.name,
+                limit=float(bound if np.ndim(bound) == 0 else bound[i]),
+                worst=float(v[i]),
+                time=float(t[i]),
+                fraction=float(np.sum(dt[over])) / span if t.size > 1 else 1.0,
+                first=float(t[first]),
+                last=float(t[last]),
+                unit=lim.unit,
+                side=side,
+                source=lim.source,
             )
+        )
     return out
 
 

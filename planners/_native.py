@@ -18,6 +18,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import hashlib
+import math
 import os
 import platform
 import shutil
@@ -174,6 +175,8 @@ def _declare(lib) -> None:
     lib.gf_warm_newton.argtypes = prog + [P, P, I, I, D, P, I, I, D, P, P]
     lib.gf_doubling.argtypes = prog + [P, I, P, I, P]
     lib.gf_horner.argtypes = [P, I, I, P, P, I, P]
+    lib.gf_grid_horner.argtypes = [P, I, I, I, P, I, P, I, P]
+    lib.gf_limit_scan.argtypes = [I, I, P, P, P, P, P, P]
     lib.gf_pointwise_newton.argtypes = prog + [P, D, I, P, P]
     lib.gf_pointwise_newton.restype = ctypes.c_int
     lib.gf_iterates.argtypes = [I, P, P, P, P, I, P, P, I, I, I, P, I, P, P, P, P, P, D, P, I, I, D]
@@ -185,6 +188,8 @@ def _declare(lib) -> None:
         lib.gf_warm_newton,
         lib.gf_doubling,
         lib.gf_horner,
+        lib.gf_grid_horner,
+        lib.gf_limit_scan,
     ):
         f.restype = ctypes.c_int
 
@@ -491,6 +496,101 @@ def horner(c: np.ndarray, i: np.ndarray, s: np.ndarray) -> np.ndarray | None:
     out = np.empty((c.shape[1], s.size))
     lib.gf_horner(_ptr(c), c.shape[1], c.shape[2], _ptr(i), _ptr(s), s.size, _ptr(out))
     return out
+
+
+def loaded():
+    """The native library when it is loaded already (None otherwise: nothing is compiled or loaded here).
+
+    Returns
+    -------
+    ctypes.CDLL or None
+    """
+    return _STATE["lib"] if _STATE["tried"] else None
+
+
+def grid_horner(c: np.ndarray, tn: np.ndarray, t: np.ndarray, out: np.ndarray, pad: bool = False) -> bool:
+    """Interval polynomials on many times, each in its interval of the nodes, by Horner's rule in native code.
+
+    The values of ``planners.plan._horner(c[i], t - tn[i], 0)`` with ``i = clip(searchsorted(tn, t, "right") - 1,
+    0, len(tn) - 2)``, bit for bit; with ``pad``, those of ``c`` zero-padded to a higher degree (for finite offsets).
+
+    Parameters
+    ----------
+    c : ndarray, shape (len(tn) - 1, v, d + 1)
+        Coefficients in ascending powers of the offset from the interval's start.
+    tn : ndarray, shape (nodes,)
+        The nodes [s], increasing, at least two.
+    t : ndarray, shape (N,)
+        The times [s].
+    out : ndarray, shape (v, N)
+        Written (C-contiguous rows: a slice of rows of a larger C-contiguous array will do).
+    pad : bool
+        Start from a padded zero (the reference evaluates ``c`` padded with zero coefficients).
+
+    Returns
+    -------
+    bool
+        False without the library (``out`` untouched).
+    """
+    lib = loaded()
+    if lib is None:
+        return False
+    c = np.ascontiguousarray(c, dtype=float)
+    tn = np.ascontiguousarray(tn, dtype=float)
+    t = np.ascontiguousarray(t, dtype=float)
+    if not (out.flags.c_contiguous and out.dtype == np.float64 and out.shape == (c.shape[1], t.size)):
+        raise ValueError("grid_horner: out must be a C-contiguous float array of shape (v, N)")
+    if c.shape[0] != tn.size - 1 or tn.size < 2:
+        raise ValueError("grid_horner: one polynomial per interval of at least two nodes")
+    if lib.gf_grid_horner(_ptr(c), c.shape[1], c.shape[2], int(pad), _ptr(tn), tn.size, _ptr(t), t.size, _ptr(out)):
+        raise MemoryError("grid_horner: no memory for the offsets")
+    return True
+
+
+def limit_scan(t: np.ndarray, sides: list) -> list:
+    """:func:`gna.limits.scan_sides` in native code (the same results), or numpy's without the library.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Times [s].
+    sides : list of (Limit, str, ndarray, float or ndarray)
+        As :func:`gna.limits.scan_sides`.
+
+    Returns
+    -------
+    list
+        Per side: None, or ``(i, first, last)``.
+    """
+    from gna.limits import scan_sides
+
+    lib = loaded()
+    n = len(sides)
+    if lib is None or not n:
+        return scan_sides(t, sides)
+    N = t.size
+    ints = np.zeros((4, n), dtype=np.int64)  # the quantities' and bounds' addresses, the bounds' kinds, the sides
+    vp, kind, lower, bp = ints
+    bc = np.zeros(n)
+    held, p = None, 0
+    for q, (_lim, side, v, bound) in enumerate(sides):
+        if v is not held:  # a limit's two sides read one quantity: its address once
+            if not (type(v) is np.ndarray and v.dtype == np.float64 and v.shape == (N,) and v.flags.c_contiguous):
+                return scan_sides(t, sides)
+            held, p = v, v.ctypes.data
+        vp[q] = p
+        lower[q] = side == "lower"
+        if type(bound) is np.ndarray:
+            if not (bound.dtype == np.float64 and bound.shape == (N,) and bound.flags.c_contiguous):
+                return scan_sides(t, sides)
+            kind[q], bp[q] = 2, bound.ctypes.data
+        else:
+            b = float(bound)
+            if not (math.isnan(b) or b == (-math.inf if side == "lower" else math.inf)):
+                kind[q], bc[q] = 1, b  # else unbounded on that side: skipped
+    res = np.empty((n, 4), dtype=np.int64)
+    lib.gf_limit_scan(N, n, *(a.ctypes.data for a in (vp, kind, lower, bc, bp, res)))
+    return [None if r[0] == 0 else (r[1], r[2], r[3]) for r in res.tolist()]
 
 
 def iterates(*args) -> int:

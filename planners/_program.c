@@ -1140,3 +1140,124 @@ i64 gf_iterates(i64 nst, const i64 *meta, const i64 *ptrs, const i64 *var_rows, 
     }
     return j1;
 }
+
+/* ------------------------------------------------------------------ a plan's limits on its fine grid */
+
+/* The interval of time x among the nodes tn (nn >= 2): numpy's clip(searchsorted(tn, x, "right") - 1, 0, nn - 2)
+ * (a NaN sorts after every node). */
+static i64 grid_interval(const double *tn, i64 nn, double x) {
+    if (isnan(x)) return nn - 2;
+    i64 lo = 0, hi = nn; /* the count of nodes <= x, by bisection */
+    while (lo < hi) {
+        i64 mid = lo + (hi - lo) / 2;
+        if (tn[mid] <= x)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    i64 i = lo - 1;
+    return i < 0 ? 0 : (i > nn - 2 ? nn - 2 : i);
+}
+
+/* Whether grid_interval(tn, nn, x) is i, in two comparisons (tn increasing). */
+static int in_interval(const double *tn, i64 nn, double x, i64 i) {
+    if (isnan(x)) return i == nn - 2;
+    return (i == 0 || tn[i] <= x) && (i == nn - 2 || x < tn[i + 1]);
+}
+
+/* out (v rows of stride N): the interval polynomials c (nn - 1, v, d1) at the times t (N), each time in its interval
+ * (grid_interval) at the offset t - tn[i], by Horner's rule as gf_horner (the same operations, so the same values).
+ * pad: the caller's reference zero-pads these polynomials to a higher degree; its Horner steps on the padded zeros
+ * leave +0 (for finite offsets), so the evaluation starts from o = +0 and takes one step more: the padded values
+ * bit for bit, without their steps. */
+int gf_grid_horner(const double *c, i64 v, i64 d1, i64 pad, const double *tn, i64 nn, const double *t, i64 N,
+                   double *out) {
+    double *s = (double *)malloc((size_t)(N > 0 ? N : 1) * sizeof(double));
+    if (!s) return 1;
+    i64 t0 = 0;
+    while (t0 < N) { /* by runs of times in one interval: the coefficients scalars, the times a vector */
+        i64 i = grid_interval(tn, nn, t[t0]);
+        i64 t1 = t0 + 1;
+        while (t1 < N && in_interval(tn, nn, t[t1], i)) t1++;
+        double ti = tn[i];
+        for (i64 q = t0; q < t1; q++) s[q] = t[q] - ti;
+        for (i64 r = 0; r < v; r++) {
+            const double *cp = c + (i * v + r) * d1;
+            double *o = out + r * N;
+            double top = pad ? 0.0 : cp[d1 - 1];
+            i64 p0 = pad ? d1 - 1 : d1 - 2;
+            i64 q = t0;
+            for (; q + BLOCK <= t1; q += BLOCK) { /* a block of times in registers through all the steps */
+                double acc[BLOCK], sb[BLOCK];
+                for (int b = 0; b < BLOCK; b++) {
+                    acc[b] = top;
+                    sb[b] = s[q + b];
+                }
+                for (i64 p = p0; p >= 0; p--) {
+                    double cq = cp[p];
+                    for (int b = 0; b < BLOCK; b++) acc[b] = acc[b] * sb[b] + cq;
+                }
+                for (int b = 0; b < BLOCK; b++) o[q + b] = acc[b];
+            }
+            for (; q < t1; q++) {
+                double a = top;
+                for (i64 p = p0; p >= 0; p--) a = a * s[q] + cp[p];
+                o[q] = a;
+            }
+        }
+        t0 = t1;
+    }
+    free(s);
+    return 0;
+}
+
+/* The count of rows whose excess (lower: b - v, upper: v - b; b the constant bq, or the array bnd) is > 0: a
+ * comparison and an integer sum per row (vectorized). */
+static i64 count_over(const double *v, const double *bnd, double bq, i64 N, int lower) {
+    i64 c = 0;
+    if (bnd && lower)
+        for (i64 k = 0; k < N; k++) c += (bnd[k] - v[k]) > 0.0;
+    else if (bnd)
+        for (i64 k = 0; k < N; k++) c += (v[k] - bnd[k]) > 0.0;
+    else if (lower)
+        for (i64 k = 0; k < N; k++) c += (bq - v[k]) > 0.0;
+    else
+        for (i64 k = 0; k < N; k++) c += (v[k] - bq) > 0.0;
+    return c;
+}
+
+/* The sides of a plan's limits on its grid (gna.limits.scan_sides, the test of gna.limits.limit_violations):
+ * side q of nsides reads the quantity at pointer vp[q] (N values) and its bound: kind[q] 0 none (skipped),
+ * 1 the constant bc[q], 2 the array at pointer bp[q] (N values); lower[q] says the side.  excess = bound - v on
+ * a lower side, v - bound on an upper one; a row is over when its excess is > 0 (never a NaN).  First the count of
+ * rows over (vectorized), then, only where there are some, the rows: res[4 q ..] the count, the row of the largest
+ * excess (the first of equal ones, numpy.argmax), the first and the last row over (-1 without one). */
+int gf_limit_scan(i64 N, i64 nsides, const i64 *vp, const i64 *kind, const i64 *lower, const double *bc,
+                  const i64 *bp, i64 *res) {
+    for (i64 q = 0; q < nsides; q++) {
+        i64 count = 0, worst = -1, first = -1, last = -1;
+        const double *v = (const double *)(intptr_t)vp[q];
+        int lo = lower[q] != 0;
+        const double *b = kind[q] == 2 ? (const double *)(intptr_t)bp[q] : NULL;
+        double bq = bc[q], best = 0.0;
+        if (kind[q] != 0) count = count_over(v, b, bq, N, lo);
+        if (count > 0)
+            for (i64 k = 0; k < N; k++) {
+                double bk = b ? b[k] : bq;
+                double e = lo ? bk - v[k] : v[k] - bk;
+                if (e > 0.0) {
+                    if (first < 0 || e > best) {
+                        best = e;
+                        worst = k;
+                    }
+                    if (first < 0) first = k;
+                    last = k;
+                }
+            }
+        res[4 * q] = count;
+        res[4 * q + 1] = worst;
+        res[4 * q + 2] = first;
+        res[4 * q + 3] = last;
+    }
+    return 0;
+}

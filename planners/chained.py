@@ -596,7 +596,6 @@ def flat_parametrization(
     tol = system.newton_tol if newton_tol is None else newton_tol
     if order < system.r:
         raise InputError(f"{system.name}: order {order} below the number of stages {system.r}")
-    nodes = len(t_nodes)
     h0 = _first_neglecting_stage(system)
     cached = guess._inputs if isinstance(guess, NodeSolution) else None
     if not (
@@ -606,39 +605,7 @@ def flat_parametrization(
         and cached["order"] >= order
         and np.array_equal(cached["t_nodes"], t_nodes)
     ):
-        funcs = _flat_outputs(system, zeta)
-        missing = [z for z in system.flat_outputs if z not in funcs]
-        if missing:
-            raise InputError(f"{system.name}: no function given for the flat output(s) {', '.join(missing)}")
-        known, derivs, reports = {}, {}, {}
-        first = _programs_of(system, zeta, t_nodes, {}) if compiled_programs() else None
-        for z, h in system.flat_outputs.items():
-            k = order - int(h) + 1
-            _add_known(known, derivs, [z], [_as_series(funcs[z](Series.variable(t_nodes, k)), nodes, k)])
-        for name, f in system.inputs.items():
-            _add_known(known, derivs, [name], [_as_series(f(Series.variable(t_nodes, order)), nodes, order)])
-        for h, stage in enumerate(system.stages[: h0 - 1], start=1):
-            static0 = set(known) | set(derivs)  # the stages before the first with neglected terms: static data
-            u, rep = _solve_stage(
-                system, h, stage, known, derivs, None, None, t_nodes, order, tol, carry, first, static0
-            )
-            _add_known(known, derivs, stage.unknowns, u)
-            if rep is not None:
-                reports[f"stage{h}"] = rep
-        if system.derived is not None:  # data of the stages, not variables of the solution
-            more = _derived_compiled(system, first, known, order, nodes)
-            derivs.update(system.derived(dict(known), order) if more is None else more)
-        cached = {
-            "system": system,
-            "zeta": zeta,
-            "order": order,
-            "t_nodes": t_nodes.copy(),
-            "known": known,
-            "derivs": derivs,
-            "reports": reports,
-        }
-        if first is not None:
-            cached["programs"] = first
+        cached = _static_part(system, zeta, t_nodes, order, tol, carry, h0)
     loss = cached["order"] - order  # every reused series loses the order the flat outputs lose
     programs = _programs_of(system, zeta, t_nodes, cached) if compiled_programs() else None
     if programs is not None and carry and isinstance(guess, NodeSolution) and guess._inputs is cached:
@@ -661,6 +628,87 @@ def flat_parametrization(
         if rep is not None:
             reports[f"stage{h}"] = rep
     return NodeSolution(known, order, reports, cached)
+
+
+def _static_part(system, zeta, t_nodes, order, tol, carry, h0) -> dict:
+    """The part of :func:`flat_parametrization` that reads neither the neglected terms nor a previous iterate:
+    the flat outputs and prescribed inputs on series, the stages before the first with neglected terms and the
+    derived series, as a plan's ``cached`` inputs (a new dict per plan: the plan's native buffers go there).
+
+    For the system's default flat outputs on the compiled programs these series are kept on the system (as its
+    programs are), keyed by everything they are computed from besides the system itself: the grid, the order,
+    the tolerance, ``carry``, the program backend and the series kernels; the system is that of a frozen problem
+    (:func:`planners.flat.aircraft_system`), and the series are read-only (:meth:`Series._wrap`).  The stage-2
+    starting values of iterate 0 are kept with them (``"starts"``, filled by :func:`_native_first_iterate`)."""
+    from . import series
+
+    compiled = compiled_programs()
+    store = key = None
+    if zeta is None and compiled:
+        store = system.__dict__.setdefault("_static_parts", {})  # a frozen dataclass: its __dict__ holds it
+        # everything the series below are computed from besides the system: the grid, the order, the stage
+        # tolerance, carry, the program backend and the series kernels (both switchable within a process)
+        key = (t_nodes.shape, t_nodes.tobytes(), order, tol, bool(carry), program_backend(), series._K)
+        hit = store.pop(key, None)
+        if hit is not None:
+            store[key] = hit  # the latest last
+            programs = _programs_of(system, zeta, t_nodes, {})
+            return {
+                "system": system,
+                "zeta": zeta,
+                "order": order,
+                "t_nodes": t_nodes.copy(),
+                "known": dict(hit["known"]),
+                "derivs": dict(hit["derivs"]),
+                "reports": dict(hit["reports"]),
+                "programs": programs,
+                "starts": hit["starts"],
+            }
+    nodes = len(t_nodes)
+    funcs = _flat_outputs(system, zeta)
+    missing = [z for z in system.flat_outputs if z not in funcs]
+    if missing:
+        raise InputError(f"{system.name}: no function given for the flat output(s) {', '.join(missing)}")
+    known, derivs, reports = {}, {}, {}
+    first = _programs_of(system, zeta, t_nodes, {}) if compiled else None
+    for z, h in system.flat_outputs.items():
+        k = order - int(h) + 1
+        _add_known(known, derivs, [z], [_as_series(funcs[z](Series.variable(t_nodes, k)), nodes, k)])
+    for name, f in system.inputs.items():
+        _add_known(known, derivs, [name], [_as_series(f(Series.variable(t_nodes, order)), nodes, order)])
+    for h, stage in enumerate(system.stages[: h0 - 1], start=1):
+        static0 = set(known) | set(derivs)  # the stages before the first with neglected terms: static data
+        u, rep = _solve_stage(system, h, stage, known, derivs, None, None, t_nodes, order, tol, carry, first, static0)
+        _add_known(known, derivs, stage.unknowns, u)
+        if rep is not None:
+            reports[f"stage{h}"] = rep
+    if system.derived is not None:  # data of the stages, not variables of the solution
+        more = _derived_compiled(system, first, known, order, nodes)
+        derivs.update(system.derived(dict(known), order) if more is None else more)
+    cached = {
+        "system": system,
+        "zeta": zeta,
+        "order": order,
+        "t_nodes": t_nodes.copy(),
+        "known": known,
+        "derivs": derivs,
+        "reports": reports,
+    }
+    if first is not None:
+        cached["programs"] = first
+    if store is not None and all(
+        isinstance(v, Series) and not v._c.flags.writeable for v in (*known.values(), *derivs.values())
+    ):
+        cached["starts"] = {}
+        store[key] = {
+            "known": dict(known),
+            "derivs": dict(derivs),
+            "reports": dict(reports),
+            "starts": cached["starts"],
+        }
+        while len(store) > PROGRAM_GRIDS:
+            store.pop(next(iter(store)))
+    return cached
 
 
 class _NativeStage:
@@ -856,11 +904,20 @@ def _native_first_iterate(system, cached, programs, t_nodes, order, hat, tol, h0
         else:
             n = len(stage.unknowns)
             x = np.zeros((n, M, nodes))
-            if stage.start is not None:  # the starting values of _solve_stage
+            # the starting values of _solve_stage; with the neglected terms at the system's start values and no
+            # stage of this iterate before, a function of the static series only: kept with them
+            starts = cached.get("starts") if not hat and not out else None
+            start = None if starts is None else starts.get(h)
+            if start is not None:
+                pass
+            elif stage.start is not None:
                 data = {**cached["known"], **cached["derivs"], **out}
                 for name in stage.neglected:
                     data[name] = values[name]
                 start = stage.start(_at_order(data, 0), t_nodes)
+                if starts is not None:
+                    start = tuple(_frozen(c) for c in start)
+                    starts[h] = start
             else:
                 start = [system.guess.get(name, 0.0) for name in stage.unknowns]
             if len(start) != n:
@@ -909,6 +966,13 @@ def _native_first_iterate(system, cached, programs, t_nodes, order, hat, tol, h0
     known = dict(cached["known"])
     known.update(out)
     return NodeSolution(known, order, reports, cached)
+
+
+def _frozen(c) -> np.ndarray:
+    """A read-only float copy of a starting value (kept for the later plans of a problem)."""
+    a = np.array(c, dtype=float)
+    a.flags.writeable = False
+    return a
 
 
 def _native_state(system, cached, programs, order, nodes, h0):

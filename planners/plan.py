@@ -652,6 +652,16 @@ class Plan:
             # states and controls in one pass (each variable's own polynomial, zero-padded: the same values)
             cu = cu[:, [CONTROL_NAMES.index(c) for c in used]]
             cs = self._coefficients(tuple(states), j) if states else cu[:, :0]
+            from . import _native
+
+            if _native.loaded() is not None:  # each group at its own degree, natively: the padded values
+                d = max(cs.shape[2], cu.shape[2])
+                vals = np.empty((cs.shape[1] + cu.shape[1], t.size))
+                tn = np.asarray(self.t_nodes, dtype=float)
+                for rows, cg in ((slice(0, cs.shape[1]), cs), (slice(cs.shape[1], None), cu)):
+                    if cg.shape[1]:
+                        _native.grid_horner(cg, tn, t, vals[rows], pad=cg.shape[2] < d)
+                return t, states + used, vals
             c = np.zeros((cu.shape[0], cs.shape[1] + cu.shape[1], max(cs.shape[2], cu.shape[2])))
             c[:, : cs.shape[1], : cs.shape[2]] = cs
             c[:, cs.shape[1] :, : cu.shape[2]] = cu
@@ -679,8 +689,11 @@ class Plan:
         """
         from gna.limits import TrajectoryColumns, limit_violations
 
+        from . import _native
+
         ac = aircraft or self.aircraft
-        return limit_violations(ac, TrajectoryColumns(*self._limit_arrays(j, ac)), self.env)
+        scan = _native.limit_scan if _native.loaded() is not None else None  # the same records
+        return limit_violations(ac, TrajectoryColumns(*self._limit_arrays(j, ac)), self.env, scan)
 
     def node_values(self, j: int = -1) -> tuple[State, Controls]:
         """States and controls at the nodes (constant terms of the series).
