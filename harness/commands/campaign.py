@@ -257,8 +257,7 @@ def run(args) -> int:
         f"{res['computed']} computed in {res['elapsed_s']:.1f} s, {res['skipped']} skipped; "
         f"{res['done']} done, {res['failed']} failed, {res['pending']} pending of {res['cases']} -> {res['folder']}"
     )
-    if not quiet:  # -q: errors only (the counts stay in --json and gflat campaign status)
-        print(note)
+    print(note, file=sys.stderr if quiet else sys.stdout)  # -q: the counts on stderr, apart from --json
     if res["failed"]:  # a case without a result is no success, whatever the others show
         print(
             f"gflat campaign run: {res['failed']} of {res['cases']} case(s) failed (an error or a timeout: no "
