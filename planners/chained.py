@@ -798,11 +798,7 @@ def _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h
     if not state:
         return None
     t = np.asarray(t_nodes, dtype=float)
-    weights = cached.get("native_weights")
-    if weights is None:  # step^m, step the smallest node spacing (planners.newton._warm_newton's test)
-        dt = np.diff(t)
-        step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
-        weights = cached["native_weights"] = step ** np.arange(cached["order"] + 2, dtype=float)
+    weights = _native_weights(cached, t)
     values = dict(hat or {})
     for n in system.neglected:
         if n not in values:
@@ -881,11 +877,7 @@ def _native_first_iterate(system, cached, programs, t_nodes, order, hat, tol, h0
     if not state:
         return None
     t = np.asarray(t_nodes, dtype=float)
-    weights = cached.get("native_weights")
-    if weights is None:  # step^m, step the smallest node spacing (planners.newton._warm_newton's test)
-        dt = np.diff(t)
-        step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
-        weights = cached["native_weights"] = step ** np.arange(cached["order"] + 2, dtype=float)
+    weights = _native_weights(cached, t)
     values = {}
     for n in system.neglected:
         values[n] = _as_series((hat or {}).get(n, system.neglected_start(n)), nodes, 0)
@@ -1392,3 +1384,14 @@ def generalized_parametrization(
         prev = sol
         j += 1
     return ChainedPlan(system, t_nodes, iterates, timings)
+
+
+def _native_weights(cached: dict, t: np.ndarray) -> np.ndarray:
+    """step^m for m = 0 .. order + 1, step the smallest node spacing (planners.newton._warm_newton's test), kept
+    in ``cached``."""
+    weights = cached.get("native_weights")
+    if weights is None:
+        dt = np.diff(t)
+        step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
+        weights = cached["native_weights"] = step ** np.arange(cached["order"] + 2, dtype=float)
+    return weights
