@@ -252,7 +252,12 @@ runpy.run_module("harness.cli", run_name="__main__")
 """
 
 
-def _start(tmp_path, args, event="none", at="", name="run", preexec_fn=None, **extra):
+def _hangup_default() -> None:
+    """SIGHUP as a terminal's session gives it, also when the suite runs under ``nohup`` (inherited ignored)."""
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+
+
+def _start(tmp_path, args, event="none", at="", name="run", preexec_fn=_hangup_default, **extra):
     driver = tmp_path / "driver.py"
     driver.write_text(DRIVER)
     env = dict(os.environ, PYTHONPATH=str(ROOT), STOP_EVENT=event, STOP_AT=at, MPLBACKEND="Agg", **extra)
