@@ -843,12 +843,7 @@ def _native_iterate(system, cached, programs, t_nodes, order, hat, guess, tol, h
                 [k] * steps,
                 jacobian=np.swapaxes(Jc, 2, 3),
             )
-        if stage.post is not None:
-            u = list(stage.post(list(u)))
-        for name, v in zip(stage.unknowns, u):
-            values[name] = out[name] = v
-            if h < system.r and v.order >= 1:
-                values[name + "'"] = _LazyDerivative(v)
+        _keep_stage(system, h, stage, u, values, out)
     known = {n: v.truncate(v.order - loss) if loss else v for n, v in cached["known"].items()}
     known.update(out)
     return NodeSolution(known, order, reports, cached)
@@ -949,12 +944,7 @@ def _native_first_iterate(system, cached, programs, t_nodes, order, hat, tol, h0
                 steps,
                 jacobian=np.swapaxes(Jc, 2, 3),
             )
-        if stage.post is not None:
-            u = list(stage.post(list(u)))
-        for name, v in zip(stage.unknowns, u):
-            values[name] = out[name] = v
-            if h < system.r and v.order >= 1:
-                values[name + "'"] = _LazyDerivative(v)
+        _keep_stage(system, h, stage, u, values, out)
     known = dict(cached["known"])
     known.update(out)
     return NodeSolution(known, order, reports, cached)
@@ -1395,3 +1385,14 @@ def _native_weights(cached: dict, t: np.ndarray) -> np.ndarray:
         step = float(np.min(dt)) if t.size > 1 and np.all(dt > 0) else 1.0
         weights = cached["native_weights"] = step ** np.arange(cached["order"] + 2, dtype=float)
     return weights
+
+
+def _keep_stage(system, h: int, stage, u: list, values: dict, out: dict) -> None:
+    """A native stage's solved unknowns (after :attr:`Stage.post`) kept in ``values`` and ``out``, with the lazy
+    derivatives the later stages read (stages below ``system.r``)."""
+    if stage.post is not None:
+        u = list(stage.post(list(u)))
+    for name, v in zip(stage.unknowns, u):
+        values[name] = out[name] = v
+        if h < system.r and v.order >= 1:
+            values[name + "'"] = _LazyDerivative(v)
