@@ -181,7 +181,7 @@ def _local_pool(tasks, workers: int, commit):
             # block's end (its Python handler would otherwise run in an at-fork callback, which swallows what
             # it raises, and the run would go on), and the workers start with it blocked until they run.
             with InterruptsWait():
-                futures = [pool.submit(run_sample, t) for t in remaining.values()]
+                futures = [pool.submit(_case_in_worker, t) for t in remaining.values()]
             for fut in as_completed(futures):
                 outcome = fut.result()
                 commit(outcome)
@@ -202,9 +202,43 @@ def _local_pool(tasks, workers: int, commit):
     return list(remaining)
 
 
+class _WorkerEnded(BaseException):
+    """Raised in a pool worker by the runner's SIGTERM (:func:`_end_workers`): unwinds the case, then the worker
+    leaves (:func:`_case_in_worker`)."""
+
+
+def _worker_ends(signum, frame) -> None:
+    """A pool worker's SIGTERM: its standard error to ``/dev/null`` (the terminal belongs to the runner's line);
+    in a case, :class:`_WorkerEnded` raised, so that the case's ``finally`` blocks run before
+    :func:`_case_in_worker` leaves; waiting for a case, the process leaves at once."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 2)
+    os.close(devnull)
+    while frame is not None:
+        if frame.f_code is _case_in_worker.__code__:
+            raise _WorkerEnded()
+        frame = frame.f_back
+    os._exit(128 + signum)
+
+
 def _worker_starts() -> None:
-    """A pool worker's first step: the interruptions blocked while the pool forked it are delivered again."""
+    """A pool worker's first step: its own handlers, then the interruptions blocked while the pool forked it
+    delivered again.  Forked inside :class:`harness.parallel.InterruptsWait`, the worker inherits handlers that
+    only record a signal (the block's end that would act on them never comes in the worker): Ctrl-C is
+    ignored (the runner ends its workers) and SIGTERM ends the worker (:func:`_worker_ends`); with the recording
+    handler a worker went on with its case until killed ``WORKER_END_S`` later."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _worker_ends)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, INTERRUPTS)
+
+
+def _case_in_worker(task) -> dict:
+    """:func:`harness.campaign.execute.run_sample` in a pool worker; ended meanwhile, the worker leaves at once
+    (``os._exit``) once the case has unwound, rather than return to the pool's loop."""
+    try:
+        return run_sample(task)
+    except _WorkerEnded:
+        os._exit(128 + signal.SIGTERM)
 
 
 def _end_workers(pool) -> None:

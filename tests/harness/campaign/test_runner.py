@@ -557,3 +557,51 @@ def test_a_local_dask_cluster_keeps_its_scratch_files_in_the_campaign_folder(tmp
     assert res.returncode == 0, res.stderr
     assert list(tmp.iterdir()) == []  # nothing outside the campaign folder
     assert not (out / ".dask-scratch").exists()  # removed when the cluster ended
+
+
+def _case_waits(task):
+    """A case that takes as long as the test wants: it waits on the file named by the task, a case's
+    ``finally`` recorded in that file (the case unwound)."""
+    path = Path(task)
+    try:
+        path.write_text("running")
+        while True:
+            time.sleep(0.01)
+    finally:
+        path.write_text("unwound")
+
+
+@pytest.mark.parametrize("in_case", [True, False], ids=["in-a-case", "waiting-for-one"])
+def test_a_pool_worker_ended_by_the_runner_leaves_at_once(tmp_path, monkeypatch, in_case):
+    # The runner ends its workers with SIGTERM (_end_workers). Forked inside InterruptsWait (as _local_pool
+    # does), a worker inherited handlers that only record the signal: it went on with its case until killed
+    # WORKER_END_S later (a Ctrl-C of a campaign took 10-20 s to end). It must leave by the signal itself
+    # (143), after the case's finally blocks ran, or at once when it waits for a case.
+    from concurrent.futures import ProcessPoolExecutor
+
+    import harness.campaign.runner as runner
+    from harness.cli import _signals_raise
+    from harness.parallel import InterruptsWait
+
+    monkeypatch.setattr(runner, "run_sample", _case_waits)  # inherited by the forked worker
+    mark = tmp_path / "case"
+    with _signals_raise():  # the worker forked as under `gflat campaign run` (runner._local_pool)
+        pool = ProcessPoolExecutor(max_workers=1, initializer=runner._worker_starts)
+        with InterruptsWait():
+            started = pool.submit(int, 0)
+        started.result()
+    try:
+        if in_case:
+            pool.submit(runner._case_in_worker, str(mark))
+            _until(lambda: mark.exists() and mark.read_text() == "running", "the case's start")
+        # else: the worker started, now waiting for a case
+        (proc,) = pool._processes.values()
+        proc.terminate()
+        proc.join(300)  # ends on the process's end; a worker that stayed would be killed by the runner
+        assert proc.exitcode == 143
+        if in_case:
+            assert mark.read_text() == "unwound"
+    finally:
+        for p in list(getattr(pool, "_processes", {}).values()):
+            p.kill()
+        pool.shutdown(wait=False, cancel_futures=True)
