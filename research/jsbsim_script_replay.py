@@ -25,7 +25,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from harness.engines import fly  # noqa: E402
+from harness.engines import JSBSimEngine, fly  # noqa: E402
 from harness.engines.jsbsim.script import export_script, replay  # noqa: E402
 from planners.generalized import plan_scenario  # noqa: E402
 from planners.scenario import load_scenario  # noqa: E402
@@ -49,7 +49,9 @@ def main(names) -> None:
     for name in names:
         sc = load_scenario(name)
         plan = plan_scenario(sc)
-        engine = fly(["jsbsim"], sc.aircraft, None, plan, (plan.t0, plan.t1), env=sc.env, dt_out=0.025)["jsbsim"].df
+        # Stock JSBSim's positions carry the round-off of its inertial position: the engine's uncorrected ones.
+        raw = {"jsbsim": JSBSimEngine(compensate_roundoff=False)}
+        engine = fly(raw, sc.aircraft, None, plan, (plan.t0, plan.t1), env=sc.env, dt_out=0.025)["jsbsim"].df
         fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
         for table_dt, label in ((None, "tables at every JSBSim step"), (5 / 480, "tables every 5 steps (1/96 s)")):
             with tempfile.TemporaryDirectory() as tmp:

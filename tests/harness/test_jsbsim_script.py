@@ -8,7 +8,7 @@ import pytest
 
 from gna.errors import InputError
 from harness.cli import main
-from harness.engines import fly
+from harness.engines import JSBSimEngine, fly
 from harness.engines.jsbsim.script import export_script, replay
 from planners.generalized import plan_scenario
 from planners.scenario import load_scenario
@@ -43,13 +43,32 @@ def test_replay_agrees_with_the_engine(roll, tmp_path, table_dt):
     sc, plan = roll
     b = export_script(tmp_path / "out", sc.name, sc.aircraft, plan, env=sc.env, table_dt=table_dt)
     replayed = replay(b)
-    engine = fly(["jsbsim"], sc.aircraft, None, plan, (plan.t0, plan.t1), env=sc.env, dt_out=b.dt_out)["jsbsim"].df
+    # Stock JSBSim's CSV carries the round-off of its inertial position, which the engine corrects by default
+    # (harness.engines.jsbsim.roundoff): the replay is compared with the engine's uncorrected positions.
+    runs = fly(
+        {"raw": JSBSimEngine(compensate_roundoff=False), "jsbsim": "jsbsim"},
+        sc.aircraft,
+        None,
+        plan,
+        (plan.t0, plan.t1),
+        env=sc.env,
+        dt_out=b.dt_out,
+    )
+    engine = runs["raw"].df
     n, pos, ang = _max_differences(replayed, engine)
     assert n == engine.index.size  # every output time replayed
-    # The engine's samples exactly: round-off (altitude quantised by the 1e11 ft planet, 4.6e-6 m);
+    # The engine's samples exactly: round-off (altitude read on the 1e11 ft planet, 4.6e-6 m);
     # 5-step tables: linear interpolation of the controls between the nodes.
     assert pos < (1e-5 if table_dt is None else 2e-3)
     assert ang < (1e-9 if table_dt is None else 1e-4)
+    # The correction moves the position only (by the accumulated round-off, here 1.9e-5 m), never the angles.
+    corrected = runs["jsbsim"].df
+    shift = np.linalg.norm(corrected[["x", "y", "z"]].to_numpy() - engine[["x", "y", "z"]].to_numpy(), axis=1)
+    largest = runs["jsbsim"].settings.extra["position_roundoff"]["largest_m"]
+    assert 0 < shift.max() <= largest * (1 + 1e-6) + 1e-9 < 1e-4
+    assert np.array_equal(
+        corrected[["V", "gamma", "chi", "alpha", "beta", "mu"]], engine[["V", "gamma", "chi", "alpha", "beta", "mu"]]
+    )
 
 
 def test_files_and_cli(tmp_path, capsys):

@@ -54,6 +54,12 @@ class JSBSimEngine:
         Controller update interval [s], rounded to a whole number of steps
         (the value used is recorded in ``settings.controller_dt``); default
         every step.  The feedback is held between updates.
+    compensate_roundoff : bool
+        On the flat planet, correct the position read by the round-off of
+        JSBSim's inertial position (:mod:`harness.engines.jsbsim.roundoff`:
+        a steady vertical speed is otherwise flown at a multiple of 2.2 mm/s
+        at 1/480 s); the largest correction is recorded in
+        ``settings.extra["position_roundoff"]``.  Ignored on the WGS84 Earth.
 
     Notes
     -----
@@ -80,7 +86,9 @@ class JSBSimEngine:
     ``y = y0 + (R + h) cos(lat) lon`` (spherical arcs, so that level flight on
     the huge sphere is level in NED), ``z = -h``.  On the WGS84 Earth the
     meridian and normal radii of curvature at the initial latitude are used.
-    ``chi`` and ``mu`` are unwrapped and start at ``x0``'s values.
+    ``chi`` and ``mu`` are unwrapped and start at ``x0``'s values.  On the flat
+    planet the position is that of JSBSim's integration without the round-off
+    of its inertial position (``compensate_roundoff``).
     """
 
     dt: float = 1.0 / 480.0
@@ -90,6 +98,7 @@ class JSBSimEngine:
     latitude: float = 0.0
     longitude: float = 0.0
     controller_dt: float | None = None
+    compensate_roundoff: bool = True
 
     def __post_init__(self):
         check_steps(self.dt, self.controller_dt)

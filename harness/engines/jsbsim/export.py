@@ -61,7 +61,8 @@ from .xmlwriter import XMLWriter, comment_text, number_text
 FORMAT_VERSION = 1
 
 #: Radius of the flat-earth planet [ft]: balances the sphere's curvature (errors ~ V^2 t^2 / R, 3e-4 m in
-#: 10 s at 150 m/s with 1e10 ft) against ECEF round-off (~R * 1e-16 per step); see docs/jsbsim.md.
+#: 10 s at 150 m/s with 1e10 ft) against ECEF round-off (~R * 1e-16 per step; its accumulation along a steady climb
+#: is corrected by :mod:`.roundoff`); see docs/jsbsim.md.
 PLANET_RADIUS_FT = 1.0e11
 
 #: JSBSim's pound-per-slug factor: it computes the mass as ``emptywt / SLUG_TO_LB``.

@@ -20,6 +20,7 @@ from contextlib import ExitStack
 
 import numpy as np
 
+from gna import units
 from gna.aircraft import Aircraft
 from gna.atmosphere import Environment
 from gna.controller import (
@@ -50,6 +51,7 @@ from gna.trajectory import (
 from ..base import EngineError
 from .fdm import import_jsbsim
 from .grid import output_grid, resample_result
+from .roundoff import ECI_POSITION, ECI_VELOCITY, PositionRoundoff
 from .states import (
     DERIVED_NODES,
     STATE_NODES,
@@ -204,6 +206,7 @@ class JSBSimRun:
         self.k = 0
         self.fdm = self.capture = None
         self.load_problems: list[str] = []
+        self.roundoff: PositionRoundoff | None = None  # set by start() on a flat planet
 
     @classmethod
     def fly(
@@ -323,7 +326,8 @@ class JSBSimRun:
         bounds = domain_bounds(self.env)  # the atmosphere's altitude range, and with ground effect the ground
         track = TRACK_NODES + self.pos_nodes[2:]  # the CG's altitude: every domain test at every step
         self.track_readers = [self._node(p).get_double_value for p in track]
-        self.to_state = StateConverter(self.x0, self.fdm["inertial/sea-level-radius_ft"], self.geo, bounds)
+        self.radius_ft = float(self.fdm["inertial/sea-level-radius_ft"])
+        self.to_state = StateConverter(self.x0, self.radius_ft, self.geo, bounds)
         t0, u0 = float(self.times[0]), self.U[:, 0]
         self.d = [0.0] * 5
         self.xc = np.zeros(0)
@@ -339,12 +343,20 @@ class JSBSimRun:
         self._write(self.applied0)
         self.fdm.set_sim_time(t0)
         self._initialize()
+        if self.geo is None and getattr(self.engine, "compensate_roundoff", True):
+            self.roundoff = PositionRoundoff(
+                [self._node(p).get_double_value for p in ECI_POSITION],
+                [self._node(p).get_double_value for p in ECI_VELOCITY],
+                self.engine.integrators.translational_position,
+                self.dt,
+            )
         if self.out[0]:
             self._record(0)
 
     def _record(self, k: int) -> None:
         self.turns.append((self.to_state.chi, self.to_state.mu))
-        self.raw_states.append([r() for r in self.state_readers])
+        raw = [r() for r in self.state_readers]
+        self.raw_states.append(raw if self.roundoff is None else self.roundoff.correct(raw, self.radius_ft))
         self.raw_derived.append([r() for r in self.derived_readers])
         self.index.append(k)
         self.fb.append(self.d)
@@ -401,6 +413,7 @@ class JSBSimRun:
         ucols = self.U.T.tolist() if stepped is not None else None
         run, check, out = self.fdm.run, self.to_state.check, self.out.tolist()
         readers, tlist = self.track_readers, self.times.tolist()
+        advance = None if self.roundoff is None else self.roundoff.advance
         for k in range(1, self.n + 1):
             self.k = k
             if k >= k_bad:
@@ -408,6 +421,8 @@ class JSBSimRun:
             write_step(k)
             if not run():
                 raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
+            if advance is not None:
+                advance()
             bad = check(tlist[k], [r() for r in readers])  # _check_run, inline
             if bad is not None:
                 raise StepStop(k, bad.replace("{", "{{").replace("}", "}}"))
@@ -431,6 +446,7 @@ class JSBSimRun:
         run, check, write, isfinite = fdm.run, self._check_run, self._write, math.isfinite
         readers, convert = self.state_readers, self.to_state.step
         suspend, resume = fdm.suspend_integration, fdm.resume_integration
+        rc, radius = self.roundoff, self.radius_ft
         stateful, k_bad = bool(self.names), self._first_bad()
         fast = sample_evaluator(ctrl)
         if fast is None:
@@ -452,11 +468,18 @@ class JSBSimRun:
                     raise StepStop.control(k, ucols[k])
                 uk = [a + b for a, b in zip(ucols[k], d)]
                 write(uk)
-                check(run(), k)
+                ok = run()
+                if rc is not None and ok:
+                    rc.advance()
+                check(ok, k)
             else:
                 if not run():
                     raise StepStop(k, "JSBSim asked to stop (run() returned false) at t = {t}")
-                bad, xk = convert(tlist[k], [r() for r in readers])
+                raw = [r() for r in readers]
+                if rc is not None:
+                    rc.advance()
+                    rc.correct(raw, radius)  # the feedback sees the position without JSBSim's round-off
+                bad, xk = convert(tlist[k], raw)
                 if bad is not None:
                     raise StepStop(k, bad.replace("{", "{{").replace("}", "}}"))
                 if stateful:
@@ -550,6 +573,12 @@ class JSBSimRun:
                 "steps": self.n,
                 **extra,
                 "control_timing": "u(t_k) written before the run() reaching t_k; u(t0) before run_ic()",
+                # JSBSim's inertial-position round-off taken out of the positions (harness.engines.jsbsim.roundoff):
+                # on a flat planet unless the engine's compensate_roundoff is false; the largest correction [m].
+                "position_roundoff": {
+                    "corrected": self.roundoff is not None,
+                    "largest_m": None if self.roundoff is None else self.roundoff.largest * units.FT,
+                },
                 "wall_time_s": {**wall, "conversion": time.perf_counter() - t_post},
             },
         )

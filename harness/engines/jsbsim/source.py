@@ -161,6 +161,9 @@ class JSBSimSourceEngine:
         JSBSim root (``aircraft/``, ``engine/``); default the jsbsim package's.
     controller_dt : float, optional
         Controller update interval [s] (as :class:`harness.engines.JSBSimEngine`); default every step.
+    compensate_roundoff : bool
+        Correct the position read by the round-off of JSBSim's inertial position (as
+        :class:`harness.engines.JSBSimEngine`).
     """
 
     dt: float = 1.0 / 480.0
@@ -170,6 +173,7 @@ class JSBSimSourceEngine:
     throttle_points: int = 41
     root: str | None = None
     controller_dt: float | None = None
+    compensate_roundoff: bool = True
     name: ClassVar[str] = "jsbsim-source"
 
     def __post_init__(self):
