@@ -5,7 +5,11 @@ import importlib.metadata
 import tomllib
 from pathlib import Path
 
+import numpy  # noqa: F401  (C extensions load once per process: imported before the in-process runs, whose
+import pandas  # noqa: F401   module snapshot would drop them and the next run import them again)
+import pyarrow  # noqa: F401
 import pytest
+import scipy.integrate  # noqa: F401
 
 import harness.pytest_plugin  # noqa: F401  (loaded in-process by the runs below with -p)
 
