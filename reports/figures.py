@@ -425,6 +425,8 @@ class Sheet:
         for ax in self.axes:
             ax.set_autoscale_on(False)
             ax.grid(False)  # drawn by grid() at saving time: one line per axis, not one per tick
+            if ax.patch.get_facecolor() == self.fig.patch.get_facecolor():
+                ax.patch.set_visible(False)  # the figure's own colour: drawn for nothing
             self._no_axis_ticks(ax)
             self._labels[ax] = {"x": [], "y": []}
         self.shown: list = []
