@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from gna.errors import writing
-from gna.trajectory import UNITS
+from gna.trajectory import POSITION, UNITS
 from harness.metrics import DEFAULT_VARIABLES, differences, resolve_tolerances
 from harness.progress import stage
 
@@ -1162,6 +1162,31 @@ DIFFERENCE_GROUPS: dict[str, tuple[str, ...]] = {
 }
 
 
+def _difference_of(a, b):
+    """The common times of two runs [s] and a function ``variable -> b - a`` there, as
+    :func:`harness.metrics.differences` (its formula: the position's distance, angles wrapped), the runs aligned once
+    for every variable (the one-variable function aligns them at each call)."""
+    from harness.metrics.tables import _difference
+
+    A, B = a.df, b.df
+    ta, tb = np.asarray(A.index, dtype=float), np.asarray(B.index, dtype=float)
+    if ta.size == tb.size and np.array_equal(ta, tb):
+        ia = ib = slice(None)
+        t = ta
+    else:
+        t, ia, ib = np.intersect1d(ta, tb, assume_unique=True, return_indices=True)
+
+    def diff(variable: str) -> np.ndarray:
+        cols = ("x", "y", "z") if variable == POSITION else (variable,)
+        if not all(c in A.columns and c in B.columns for c in cols):
+            return differences(a, b, variable).to_numpy(float)  # its error, said once
+        pa = {c: A[c].to_numpy(float)[ia] for c in cols}
+        pb = {c: B[c].to_numpy(float)[ib] for c in cols}
+        return np.asarray(_difference(variable, pa, pb), dtype=float)
+
+    return t, diff
+
+
 def draw_differences(results: Mapping, out, *, tolerances=None, title: str = "", name: str = "differences.png"):
     """Absolute differences of every run to the first (log scale), one panel per kind of quantity, the
     tolerances dotted in red.
@@ -1189,17 +1214,18 @@ def draw_differences(results: Mapping, out, *, tolerances=None, title: str = "",
     axes = s.panels(2, 2, f"{title}: differences to {labels[0]}", height_in=2.6)
     ref = results[labels[0]]
     span = _span(results, None)
+    aligned = {lab: _difference_of(ref, results[lab]) for lab in labels[1:]}
     for ax, (group, names) in zip(axes, DIFFERENCE_GROUPS.items()):
         s.log(ax)
         drawn, unit = [], ""
         for j, lab in enumerate(labels[1:]):
+            t, d = aligned[lab]
             for c, var in enumerate(names):
                 k, unit = plot_scale(var)
-                d = differences(ref, results[lab], var)
-                y = np.maximum(np.abs(d.to_numpy(float)) * k, 1e-16)
+                y = np.maximum(np.abs(d(var)) * k, 1e-16)
                 shown = "h" if var == "z" else var
                 who = shown if len(labels) == 2 else f"{shown}, {lab}"
-                s.line(ax, _t(d), y, color=f"C{c}", ls=RUN_STYLES[j % len(RUN_STYLES)], lw=1.0, label=who)
+                s.line(ax, t, y, color=f"C{c}", ls=RUN_STYLES[j % len(RUN_STYLES)], lw=1.0, label=who)
                 drawn.append(y)
         for value in sorted({tol[v] * plot_scale(v)[0] for v in names if v in tol}):
             ax.axhline(value, color="r", ls=":", lw=1.2, label="tolerance")
