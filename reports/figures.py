@@ -124,11 +124,12 @@ def decimate(t, y, width_px: int):
         return t, y
     k = -(-n // bins)
     pad = np.concatenate([y, np.full(k * bins - n, y[-1])]).reshape(bins, k)
-    base = np.arange(bins) * k
-    keep = np.concatenate(
-        [base, base + pad.argmin(axis=1), base + pad.argmax(axis=1), np.minimum(base + k - 1, n - 1), [n - 1]]
-    )
-    keep = np.unique(np.minimum(keep, n - 1))
+    lo, hi = pad.argmin(axis=1), pad.argmax(axis=1)
+    idx = np.empty((bins, 4), dtype=np.int64)  # per column: first, extrema in time order, last (no sort needed)
+    idx[:, 0], idx[:, 1], idx[:, 2], idx[:, 3] = 0, np.minimum(lo, hi), np.maximum(lo, hi), k - 1
+    idx += (np.arange(bins) * k)[:, None]
+    keep = np.append(np.minimum(idx.ravel(), n - 1), n - 1)  # non-decreasing
+    keep = keep[np.concatenate([[True], np.diff(keep) > 0])]
     return t[keep], y[keep]
 
 
