@@ -9,9 +9,11 @@ uses offset or multiplier notation (:func:`_plain`, the sheet's own ticks: :meth
 Drawing is cheap by construction: every figure of a process is drawn on one
 reused figure object (:class:`Sheet`, Agg canvas, a grid of axes made once:
 matplotlib's axes and tick objects are its dominant cost), with fixed margins
-(no layout engine), each string rasterised once per process
-(:func:`_canvas_class`), the grid one line per axis, each line reduced to what
-a pixel column can show (:func:`decimate`), and saved as an 8-bit RGB PNG
+(no layout engine), its own tick labels (no tick objects, no tick marks: the
+grid shows the ticks, :meth:`Sheet.ticks`), each string rasterised once per
+process (:func:`_canvas_class`; the usual ones before the writers fork,
+:func:`prepare`), the grid one line per axis, each line reduced to what a
+pixel column can show (:func:`decimate`), and saved as an 8-bit RGB PNG
 (:func:`png_bytes`): no alpha channel, the form a PDF embeds as it is
 (:mod:`reports.pdf` copies its compressed data).
 """
@@ -401,7 +403,7 @@ class Sheet:
 
     :meth:`panels` lays out a grid of ``rows x cols`` of its axes for the
     next figure (the others hidden), each emptied of the previous figure's
-    artists but keeping its tick objects; :meth:`save` draws and writes it.
+    artists but keeping its tick labels; :meth:`save` draws and writes it.
     """
 
     def __init__(self):
