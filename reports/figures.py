@@ -4,14 +4,16 @@ Fed by result objects only (mappings label -> :class:`gna.simulate.SimulationRes
 a reference DataFrame); no pyplot, hence no global figure state.  Angles are
 drawn in degrees and rates in deg/s, everything else in SI units
 (:data:`gna.trajectory.UNITS`); every axis label carries its unit, no axis
-uses offset or multiplier notation (:class:`PlainFormatter`).
+uses offset or multiplier notation (:func:`_plain`, the sheet's own ticks: :meth:`Sheet.ticks`).
 
 Drawing is cheap by construction: every figure of a process is drawn on one
 reused figure object (:class:`Sheet`, Agg canvas, a grid of axes made once:
 matplotlib's axes and tick objects are its dominant cost), with fixed margins
-(no layout engine), each string rasterised once per process
-(:func:`_canvas_class`), the grid one line per axis, each line reduced to what
-a pixel column can show (:func:`decimate`), and saved as an 8-bit RGB PNG
+(no layout engine), its own tick labels (no tick objects, no tick marks: the
+grid shows the ticks, :meth:`Sheet.ticks`), each string rasterised once per
+process (:func:`_canvas_class`; the usual ones before the writers fork,
+:func:`prepare`), the grid one line per axis, each line reduced to what a
+pixel column can show (:func:`decimate`), and saved as an 8-bit RGB PNG
 (:func:`png_bytes`): no alpha channel, the form a PDF embeds as it is
 (:mod:`reports.pdf` copies its compressed data).
 """
@@ -27,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from gna.errors import writing
-from gna.trajectory import UNITS
+from gna.trajectory import POSITION, UNITS
 from harness.metrics import DEFAULT_VARIABLES, differences, resolve_tolerances
 from harness.progress import stage
 
@@ -124,11 +126,12 @@ def decimate(t, y, width_px: int):
         return t, y
     k = -(-n // bins)
     pad = np.concatenate([y, np.full(k * bins - n, y[-1])]).reshape(bins, k)
-    base = np.arange(bins) * k
-    keep = np.concatenate(
-        [base, base + pad.argmin(axis=1), base + pad.argmax(axis=1), np.minimum(base + k - 1, n - 1), [n - 1]]
-    )
-    keep = np.unique(np.minimum(keep, n - 1))
+    lo, hi = pad.argmin(axis=1), pad.argmax(axis=1)
+    idx = np.empty((bins, 4), dtype=np.int64)  # per column: first, extrema in time order, last (no sort needed)
+    idx[:, 0], idx[:, 1], idx[:, 2], idx[:, 3] = 0, np.minimum(lo, hi), np.maximum(lo, hi), k - 1
+    idx += (np.arange(bins) * k)[:, None]
+    keep = np.append(np.minimum(idx.ravel(), n - 1), n - 1)  # non-decreasing
+    keep = keep[np.concatenate([[True], np.diff(keep) > 0])]
     return t[keep], y[keep]
 
 
@@ -214,30 +217,6 @@ def _decades(values: Sequence[float]) -> list[str]:
     return out
 
 
-def _formatters():
-    from matplotlib import ticker
-
-    class PlainFormatter(ticker.Formatter):
-        """Tick labels without offset or multiplier (``1e-5+1.503329e2`` never appears)."""
-
-        def __call__(self, x, pos=None):
-            return _plain([x])[0]
-
-        def format_ticks(self, values):
-            return _plain(values)
-
-    class DecadeFormatter(ticker.Formatter):
-        """Decade tick labels of a log axis in plain text (no mathtext to lay out)."""
-
-        def __call__(self, x, pos=None):
-            return _decades([x])[0]
-
-        def format_ticks(self, values):
-            return _decades(values)
-
-    return PlainFormatter, DecadeFormatter
-
-
 def _font_key(prop) -> tuple:
     """What a text's rendering depends on of its font properties (a tuple: no hash of mutable state)."""
     return (
@@ -271,22 +250,27 @@ def _canvas_class():
     global _CANVAS
     if _CANVAS is not None:
         return _CANVAS
+    from matplotlib import rcParams
     from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg, get_hinting_flag
 
     class TextCacheRenderer(RendererAgg):
+        def _rasterise(self, font, key) -> tuple:
+            # the string laid out in ``font`` (set_text) as a coverage bitmap, its descent and offsets [pixel]
+            font.draw_glyphs_to_bitmap(antialiased=key[3])
+            xo, yo = font.get_bitmap_offset()
+            hit = (np.array(font.get_image(), dtype=np.uint8), font.get_descent() / 64.0, xo / 64.0, yo / 64.0)
+            _TEXT_BITMAPS[key] = hit
+            return hit
+
         def draw_text(self, gc, x, y, s, prop, angle, ismath=False, mtext=None):
             if ismath:
                 return super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
-            aa = bool(gc.get_antialiased())
-            key = (s, _font_key(prop), self.dpi, aa)
+            key = (s, _font_key(prop), self.dpi, bool(gc.get_antialiased()))
             hit = _TEXT_BITMAPS.get(key)
             if hit is None:
                 font = self._prepare_font(prop)
                 font.set_text(s, 0, flags=get_hinting_flag())
-                font.draw_glyphs_to_bitmap(antialiased=aa)
-                xo, yo = font.get_bitmap_offset()
-                hit = (np.array(font.get_image(), dtype=np.uint8), font.get_descent() / 64.0, xo / 64.0, yo / 64.0)
-                _TEXT_BITMAPS[key] = hit
+                hit = self._rasterise(font, key)
             image, d, xo, yo = hit
             if image.size == 0:
                 return None
@@ -321,10 +305,19 @@ def _canvas_class():
         def get_text_width_height_descent(self, s, prop, ismath):
             if ismath:
                 return super().get_text_width_height_descent(s, prop, ismath)
-            key = (s, _font_key(prop), self.dpi)
+            fk = _font_key(prop)
+            key = (s, fk, self.dpi)
             m = _TEXT_METRICS.get(key)
             if m is None:
-                m = _TEXT_METRICS[key] = super().get_text_width_height_descent(s, prop, ismath)
+                # matplotlib's measure (RendererAgg.get_text_width_height_descent), and the string rasterised from
+                # the same layout for its drawing, which follows (laying a string out is the dear part)
+                font = self._prepare_font(prop)
+                font.set_text(s, 0.0, flags=get_hinting_flag())
+                w, h = font.get_width_height()
+                m = _TEXT_METRICS[key] = (w / 64.0, h / 64.0, font.get_descent() / 64.0)
+                drawn = (s, fk, self.dpi, bool(rcParams["text.antialiased"]))
+                if drawn not in _TEXT_BITMAPS:
+                    self._rasterise(font, drawn)
             return m
 
     class SheetCanvas(FigureCanvasAgg):
@@ -393,9 +386,11 @@ def png_bytes(rgba, text: dict[str, str] | None = None, level: int = 1) -> bytes
     return b"\x89PNG\r\n\x1a\n" + b"".join(chunks)
 
 
-def _ticks_in_view(axis) -> np.ndarray:
-    """The major tick locations of ``axis`` within its view (as matplotlib selects the ticks it draws)."""
-    locs = np.asarray(axis.get_major_locator()(), dtype=float)
+def _in_view(locs, ax, which: str) -> np.ndarray:
+    """The tick locations ``locs`` within the view of the ``which`` (``"x"``, ``"y"``) axis of ``ax``, as matplotlib
+    selects the ticks it draws (within a 1e-10 share of the view, in the axis's scale)."""
+    locs = np.asarray(locs, dtype=float)
+    axis = ax.xaxis if which == "x" else ax.yaxis
     lo, hi = sorted(axis.get_view_interval())
     tr = axis.get_transform()
     (a, b), t = tr.transform(np.array([lo, hi])), tr.transform(locs) if locs.size else locs
@@ -403,17 +398,12 @@ def _ticks_in_view(axis) -> np.ndarray:
     return locs[np.isfinite(t) & (t >= a - tol) & (t <= b + tol)]
 
 
-def _no_ticklabel_bboxes(ticks, renderer) -> tuple[list, list]:
-    """No tick label extents (:class:`Sheet`: its axis labels are placed at fixed distances, no offset text)."""
-    return [], []
-
-
 class Sheet:
     """One Agg figure with :data:`MAX_PANELS` axes, reused for every figure a process draws.
 
     :meth:`panels` lays out a grid of ``rows x cols`` of its axes for the
     next figure (the others hidden), each emptied of the previous figure's
-    artists but keeping its tick objects; :meth:`save` draws and writes it.
+    artists but keeping its tick labels; :meth:`save` draws and writes it.
     """
 
     def __init__(self):
@@ -422,23 +412,37 @@ class Sheet:
 
         self.fig = Figure(figsize=(WIDTH_IN, 4 * ROW_IN), dpi=DPI, layout=None)
         _canvas_class()(self.fig)
-        self._plain, self._decades = _formatters()
         self._ticker = ticker
         self.axes = [self.fig.add_axes((0, 0, 0.1, 0.1)) for _ in range(MAX_PANELS)]
-        self._state: dict = {}
+        # the ticks are the sheet's (:meth:`ticks`): matplotlib's axes draw none (its tick objects, five artists
+        # each, laid out at every draw, were half the cost of a figure); tick marks are not drawn, the grid
+        # shows where the ticks are
+        self._x_locator = ticker.MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10])
+        self._y_locators = {
+            "linear": (ticker.MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]), _plain),
+            "log": (ticker.LogLocator(base=10.0, numticks=6), _decades),
+        }
+        self._labels: dict = {}
+        self._x_labelled: dict = {}
+        self._y_scale: dict = {}
         for ax in self.axes:
-            for axis in (ax.xaxis, ax.yaxis):
-                # the tick labels' extents place the axis label and the offset text: both are fixed here
-                # (set_label_coords, no offset), so not measured at every draw
-                axis._get_ticklabel_bboxes = _no_ticklabel_bboxes  # noqa: SLF001
             ax.set_autoscale_on(False)
             ax.grid(False)  # drawn by grid() at saving time: one line per axis, not one per tick
-            ax.xaxis.set_major_locator(ticker.MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
-            ax.xaxis.set_major_formatter(self._plain())
-            ax.xaxis.set_minor_locator(ticker.NullLocator())
+            if ax.patch.get_facecolor() == self.fig.patch.get_facecolor():
+                ax.patch.set_visible(False)  # the figure's own colour: drawn for nothing
+            self._no_axis_ticks(ax)
+            self._labels[ax] = {"x": [], "y": []}
         self.shown: list = []
         self.time_row: dict = {}
         self.width_px = 300
+
+    def _no_axis_ticks(self, ax) -> None:
+        ticker = self._ticker
+        for axis in (ax.xaxis, ax.yaxis):
+            axis.set_major_locator(ticker.NullLocator())
+            axis.set_minor_locator(ticker.NullLocator())
+            axis.set_major_formatter(ticker.NullFormatter())
+            axis.set_minor_formatter(ticker.NullFormatter())
 
     def panels(self, rows: int, cols: int, title: str, *, height_in: float = ROW_IN, hspace_in=None) -> list:
         """The axes of the next figure, ``rows x cols`` of them in reading order, empty.
@@ -495,13 +499,13 @@ class Sheet:
             ax.xaxis.set_label_coords(0.5, -LABEL_GAP_IN["x"] / height_in)
             self.time_row[ax] = i + cols >= n  # the bottom panel of its column: the time axis labelled
         self.shown = self.axes[:n]
-        self.shown = self.axes[:n]
         return list(self.shown)
 
     def _clear(self, ax) -> None:
-        """Remove the previous figure's artists from ``ax``, keep its axis and tick objects (each setting
-        changed only when it differs: a change is applied to every tick object)."""
-        for artist in list(ax.lines) + list(ax.collections) + list(ax.texts) + list(ax.patches):
+        """Remove the previous figure's artists from ``ax``, keep its axis objects and the sheet's tick labels."""
+        keep = set(self._labels[ax]["x"] + self._labels[ax]["y"])
+        texts = [t for t in ax.texts if t not in keep]
+        for artist in list(ax.lines) + list(ax.collections) + texts + list(ax.patches):
             artist.remove()
         if ax.get_legend() is not None:
             ax.get_legend().remove()
@@ -524,9 +528,7 @@ class Sheet:
         on : bool
             Whether its x tick labels are drawn.
         """
-        if self._state.get((id(ax), "labelbottom")) != on:
-            ax.tick_params(axis="x", labelbottom=on)
-            self._state[(id(ax), "labelbottom")] = on
+        self._x_labelled[ax] = on
 
     def linear(self, ax) -> None:
         """Give ``ax`` a linear y axis with plain tick labels (at most six).
@@ -536,31 +538,97 @@ class Sheet:
         ax : matplotlib.axes.Axes
             A panel of the sheet.
         """
-        if self._state.get((id(ax), "y")) == "linear":
+        if self._y_scale.get(ax) == "linear":
             return
         ax.set_yscale("linear")
-        t = self._ticker
-        ax.yaxis.set_major_locator(t.MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]))
-        ax.yaxis.set_major_formatter(self._plain())
-        ax.yaxis.set_minor_locator(t.NullLocator())
-        self._state[(id(ax), "y")] = "linear"
+        self._no_axis_ticks(ax)  # (a scale sets its own locators)
+        self._y_scale[ax] = "linear"
 
     def log(self, ax) -> None:
-        """Give ``ax`` a log y axis with decade ticks only (no minor ticks: each tick is an object to draw).
+        """Give ``ax`` a log y axis with decade ticks only (no minor ticks).
 
         Parameters
         ----------
         ax : matplotlib.axes.Axes
             A panel of the sheet.
         """
-        if self._state.get((id(ax), "y")) == "log":
+        if self._y_scale.get(ax) == "log":
             return
         ax.set_yscale("log")
-        t = self._ticker
-        ax.yaxis.set_major_locator(t.LogLocator(base=10.0, numticks=6))
-        ax.yaxis.set_major_formatter(self._decades())
-        ax.yaxis.set_minor_locator(t.NullLocator())
-        self._state[(id(ax), "y")] = "log"
+        self._no_axis_ticks(ax)
+        self._y_scale[ax] = "log"
+
+    def tick_locations(self, ax) -> tuple[np.ndarray, list[str], np.ndarray, list[str]]:
+        """The ticks of ``ax`` within its view and their labels, x then y (as matplotlib's locators and the
+        sheet's formatters place them: :func:`_plain` on a linear axis, :func:`_decades` on a log one).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes
+            A panel of the sheet, its limits set.
+
+        Returns
+        -------
+        (ndarray, list of str, ndarray, list of str)
+        """
+        out = []
+        for which, (locator, fmt) in (
+            ("x", (self._x_locator, _plain)),
+            ("y", self._y_locators[self._y_scale.get(ax, "linear")]),
+        ):
+            lo, hi = sorted((ax.get_xlim if which == "x" else ax.get_ylim)())
+            locs = np.asarray(locator.tick_values(lo, hi), dtype=float)
+            labels = dict(zip(locs.tolist(), fmt(locs)))  # formatted together: the step sets the digits
+            shown = _in_view(locs, ax, which)
+            out += [shown, [labels[v] for v in shown.tolist()]]
+        return tuple(out)
+
+    def _tick_label(self, ax, which: str, i: int):
+        """The ``i``-th tick label of the ``which`` axis of ``ax``: a text made once, as matplotlib's tick
+        label (its font size, colour, alignment and distance to the axis: tick length and pad)."""
+        pool = self._labels[ax][which]
+        while len(pool) <= i:
+            from matplotlib import rcParams
+            from matplotlib.text import Text
+
+            name = f"{which}tick"
+            pad = rcParams[f"{name}.major.pad"] + rcParams[f"{name}.major.size"]  # an outward tick's
+            tr, va, ha = ax.get_xaxis_text1_transform(pad) if which == "x" else ax.get_yaxis_text1_transform(pad)
+            colour = rcParams[f"{name}.labelcolor"]
+            if colour == "inherit":
+                colour = rcParams[f"{name}.color"]
+            text = Text(0.0, 0.0, "", fontsize=rcParams[f"{name}.labelsize"], color=colour, va=va, ha=ha)
+            text.set_transform(tr)
+            ax.add_artist(text)
+            text.set_clip_on(False)  # (add_artist clips to the axes)
+            pool.append(text)
+        return pool[i]
+
+    def ticks(self, ax) -> tuple[np.ndarray, np.ndarray]:
+        """Set the tick labels of ``ax`` for its limits (the x ones unless :meth:`x_ticks_labelled` said no).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes
+            A panel of the sheet, its limits set.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            The x and y tick locations (where the grid is drawn).
+        """
+        xs, xl, ys, yl = self.tick_locations(ax)
+        if not self._x_labelled.get(ax, True):
+            xl = []
+        for which, locs, labels in (("x", xs, xl), ("y", ys, yl)):
+            for i, (v, text) in enumerate(zip(locs.tolist(), labels)):
+                t = self._tick_label(ax, which, i)
+                t.set_position((v, 0.0) if which == "x" else (0.0, v))
+                t.set_text(text)
+                t.set_visible(True)
+            for t in self._labels[ax][which][len(labels) :]:
+                t.set_visible(False)
+        return xs, ys
 
     def line(self, ax, t, y, **kw):
         """Draw ``y(t)`` decimated to the panel's pixel columns (:func:`decimate`).
@@ -610,19 +678,23 @@ class Sheet:
             frameon=False,
         )
 
-    def grid(self, ax) -> None:
-        """Draw the grid of ``ax`` at its major ticks as one line per axis (matplotlib's grid is a line per
-        tick, each an artist to draw), in matplotlib's grid style (``grid.color``, ``grid.linewidth``, alpha
-        0.3), under the data.
+    def grid(self, ax, xs=None, ys=None) -> None:
+        """Draw the grid of ``ax`` at its ticks as one line per axis (matplotlib's grid is a line per tick, each
+        an artist to draw), in matplotlib's grid style (``grid.color``, ``grid.linewidth``, alpha 0.3), under
+        the data.
 
         Parameters
         ----------
         ax : matplotlib.axes.Axes
             A panel of the sheet, its limits set.
+        xs, ys : array_like, optional
+            The tick locations (default :meth:`tick_locations`).
         """
         from matplotlib import rcParams
         from matplotlib.lines import Line2D
 
+        if xs is None or ys is None:
+            xs, _, ys, _ = self.tick_locations(ax)
         style = {
             "color": rcParams["grid.color"],
             "lw": rcParams["grid.linewidth"],
@@ -631,14 +703,17 @@ class Sheet:
             "zorder": 1.5,
             "label": "_grid",
         }
-        for axis, transform in ((ax.xaxis, ax.get_xaxis_transform("grid")), (ax.yaxis, ax.get_yaxis_transform("grid"))):
-            locs = _ticks_in_view(axis)
+        for locs, transform, vertical in (
+            (xs, ax.get_xaxis_transform("grid"), True),
+            (ys, ax.get_yaxis_transform("grid"), False),
+        ):
+            locs = np.asarray(locs, dtype=float)
             if not locs.size:
                 continue
             at = np.repeat(locs, 3)
             at[2::3] = np.nan
             across = np.tile([0.0, 1.0, np.nan], locs.size)
-            x, y = (at, across) if axis is ax.xaxis else (across, at)
+            x, y = (at, across) if vertical else (across, at)
             line = Line2D(x, y, transform=transform, **style)
             ax.add_artist(line)
 
@@ -675,9 +750,12 @@ class Sheet:
         Path
             The file written.
         """
-        for ax in self.shown:
-            if ax.axison and ax.get_visible():
-                self.grid(ax)
+        for ax in self.axes:
+            if ax in self.shown and ax.axison and ax.get_visible():
+                self.grid(ax, *self.ticks(ax))
+            else:
+                for t in self._labels[ax]["x"] + self._labels[ax]["y"]:
+                    t.set_visible(False)
         canvas = self.fig.canvas
         canvas.draw()
         data = png_bytes(canvas.buffer_rgba(), {AXES_KEY: json.dumps(self.axis_labels())})
@@ -704,11 +782,46 @@ def sheet() -> Sheet:
     return _SHEET
 
 
+#: Tick labels made for every panel ahead of the figures (:func:`prepare`; more are made when a panel needs them).
+PREPARED_TICKS = 7
+
+
+def _common_strings() -> list[tuple[str, str | float]]:
+    """The strings every case's figures draw, each with its font size: axis labels, legend entries, the usual
+    tick labels (decades, the time axis, round numbers)."""
+    from matplotlib import rcParams
+
+    from harness.engines import engine_names
+
+    from .report_figures import SINGULARITY_UNITS
+    from .tracking import TRACKING_VARIABLES
+
+    axis = ["t [s]", "h = -z [m]", "|position - plan| [m]", "x (north) [m]", "y (east) [m]", "F [N]"]
+    axis += [label(v, plot_scale(v)[1]) for v in STATE_PANELS + TRACKING_VARIABLES]
+    axis += [label(f"thrust[{i}]", "N") for i in range(1, 5)] + [
+        label(n, plot_scale(n)[1]) for n in ("eta", "dl", "dm", "dn")
+    ]
+    axis += [label(f"|d {g}|", plot_scale(names[-1])[1]) for g, names in DIFFERENCE_GROUPS.items()]
+    axis += ["|position - flat outputs| [m]"] + [label(c, u) for c, u in SINGULARITY_UNITS.items()]
+    legend = ["plan", "limit", "flat plan J = 0", "open loop, generalized controls", "closed loop, feedforward J = 0"]
+    legend += list(engine_names())
+    differences = ["h" if v == "z" else v for names in DIFFERENCE_GROUPS.values() for v in names] + ["tolerance"]
+    ticks = _decades([10.0**e for e in range(-16, 5)]) + [str(v) for v in range(0, 301, 25)]
+    ticks += [str(v) for v in range(-100, 101, 10)] + [str(v) for v in range(-5, 6)]
+    ticks += _plain(np.arange(-1.0, 1.01, 0.5)) + _plain(np.arange(-1.0, 1.01, 0.25))
+    ticks += [str(v) for v in range(-1000, 1001, 200)] + [str(v) for v in range(-6000, 6001, 1000)]
+    sizes = (rcParams["axes.labelsize"], 8, 7, rcParams["ytick.labelsize"])
+    return [(text, size) for texts, size in zip((axis, legend, differences, ticks), sizes) for text in texts]
+
+
 def prepare() -> None:
-    """Make this process's sheet and draw it once, so that forked workers inherit its axes and tick objects.
+    """Make this process's sheet, its tick labels, and draw it once, and rasterise the strings every case draws
+    (:func:`_common_strings`), so that forked workers inherit them.
 
     Cheaper than each worker making its own: call it before forking the workers that draw figures.
     """
+    from matplotlib.font_manager import FontProperties
+
     s = sheet()
     axes = s.panels(4, 3, "")
     t = np.linspace(0.0, 1.0, 3)
@@ -716,7 +829,13 @@ def prepare() -> None:
         ax.plot(t, t)
         ax.set_xlim(0, 1)
         ax.set_ylim(0, 1)
+        for i in range(PREPARED_TICKS):
+            s._tick_label(ax, "x", i)  # noqa: SLF001  (the sheet's own)
+            s._tick_label(ax, "y", i)  # noqa: SLF001
     s.fig.canvas.draw()
+    renderer = s.fig.canvas.get_renderer()
+    for text, size in _common_strings():
+        renderer.get_text_width_height_descent(text, FontProperties(size=size), False)
 
 
 def recorded_axes(path: str | Path) -> list[str] | None:
@@ -1046,6 +1165,31 @@ DIFFERENCE_GROUPS: dict[str, tuple[str, ...]] = {
 }
 
 
+def _difference_of(a, b):
+    """The common times of two runs [s] and a function ``variable -> b - a`` there, as
+    :func:`harness.metrics.differences` (its formula: the position's distance, angles wrapped), the runs aligned once
+    for every variable (the one-variable function aligns them at each call)."""
+    from harness.metrics.tables import _difference
+
+    A, B = a.df, b.df
+    ta, tb = np.asarray(A.index, dtype=float), np.asarray(B.index, dtype=float)
+    if ta.size == tb.size and np.array_equal(ta, tb):
+        ia = ib = slice(None)
+        t = ta
+    else:
+        t, ia, ib = np.intersect1d(ta, tb, assume_unique=True, return_indices=True)
+
+    def diff(variable: str) -> np.ndarray:
+        cols = ("x", "y", "z") if variable == POSITION else (variable,)
+        if not all(c in A.columns and c in B.columns for c in cols):
+            return differences(a, b, variable).to_numpy(float)  # its error, said once
+        pa = {c: A[c].to_numpy(float)[ia] for c in cols}
+        pb = {c: B[c].to_numpy(float)[ib] for c in cols}
+        return np.asarray(_difference(variable, pa, pb), dtype=float)
+
+    return t, diff
+
+
 def draw_differences(results: Mapping, out, *, tolerances=None, title: str = "", name: str = "differences.png"):
     """Absolute differences of every run to the first (log scale), one panel per kind of quantity, the
     tolerances dotted in red.
@@ -1073,17 +1217,18 @@ def draw_differences(results: Mapping, out, *, tolerances=None, title: str = "",
     axes = s.panels(2, 2, f"{title}: differences to {labels[0]}", height_in=2.6)
     ref = results[labels[0]]
     span = _span(results, None)
+    aligned = {lab: _difference_of(ref, results[lab]) for lab in labels[1:]}
     for ax, (group, names) in zip(axes, DIFFERENCE_GROUPS.items()):
         s.log(ax)
         drawn, unit = [], ""
         for j, lab in enumerate(labels[1:]):
+            t, d = aligned[lab]
             for c, var in enumerate(names):
                 k, unit = plot_scale(var)
-                d = differences(ref, results[lab], var)
-                y = np.maximum(np.abs(d.to_numpy(float)) * k, 1e-16)
+                y = np.maximum(np.abs(d(var)) * k, 1e-16)
                 shown = "h" if var == "z" else var
                 who = shown if len(labels) == 2 else f"{shown}, {lab}"
-                s.line(ax, _t(d), y, color=f"C{c}", ls=RUN_STYLES[j % len(RUN_STYLES)], lw=1.0, label=who)
+                s.line(ax, t, y, color=f"C{c}", ls=RUN_STYLES[j % len(RUN_STYLES)], lw=1.0, label=who)
                 drawn.append(y)
         for value in sorted({tol[v] * plot_scale(v)[0] for v in names if v in tol}):
             ax.axhline(value, color="r", ls=":", lw=1.2, label="tolerance")
