@@ -132,5 +132,12 @@ def _diameter(points: np.ndarray) -> float:
             points = points[ConvexHull(points, qhull_options="QJ").vertices]
         except (QhullError, ValueError):
             pass
+    # only points far enough from the centroid can end a pair longer than a distance already found (``found``):
+    # |p - q| <= r_p + r_q with r the distance to the centroid, so a longer pair has r_p > found - max r (a
+    # straight path keeps its two ends); the pairs kept are the same distances, the largest the same float
+    r = np.sqrt(np.sum((points - points.mean(axis=0)) ** 2, axis=1))
+    found = float(np.max(cdist(points[np.argmax(r)][None, :], points)))
+    keep = r >= found - float(np.max(r)) - 1e-9 * (found + float(np.max(r)))
+    points = points[keep] if np.count_nonzero(keep) >= 2 else points
     step = max(1, 2_000_000 // len(points))  # blocks of at most 2e6 pairs
-    return max(float(np.max(cdist(points[i : i + step], points))) for i in range(0, len(points), step))
+    return max(found, *(float(np.max(cdist(points[i : i + step], points))) for i in range(0, len(points), step)))
