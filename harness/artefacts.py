@@ -517,11 +517,44 @@ def file_record(path: str | Path | None) -> dict | None:
         return None
 
 
-def _version(pkg: str) -> str | None:
+@functools.cache
+def package_version(pkg: str) -> str | None:
+    """The installed version of a distribution (read once per process: the installed packages do not change
+    under a running command).
+
+    Parameters
+    ----------
+    pkg : str
+        Distribution name, e.g. ``"jsbsim"``.
+
+    Returns
+    -------
+    str or None
+        None when it is not installed.
+    """
     try:
         return importlib.metadata.version(pkg)
     except importlib.metadata.PackageNotFoundError:
         return None
+
+
+@functools.cache
+def source_commit() -> str | None:
+    """The git commit of gflat's source tree (``git rev-parse HEAD``, run once per process: the code running is
+    the one imported).
+
+    Returns
+    -------
+    str or None
+        None outside a git checkout, or without git.
+    """
+    try:
+        r = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=Path(__file__).resolve().parent, capture_output=True, text=True, timeout=5
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return r.stdout.strip() if r.returncode == 0 and r.stdout.strip() else None
 
 
 def manifest(*, inputs: dict | None = None, cases: list | None = None, command_line: list | None = None) -> dict:
@@ -545,22 +578,17 @@ def manifest(*, inputs: dict | None = None, cases: list | None = None, command_l
         ``command_line``, ``inputs``, ``cases``.
     """
     out = {
-        "gflat": _version("gflat"),
-        "jsbsim": _version("jsbsim"),
+        "gflat": package_version("gflat"),
+        "jsbsim": package_version("jsbsim"),
         "numpy": np.__version__,
-        "scipy": _version("scipy"),
+        "scipy": package_version("scipy"),
         "pandas": pd.__version__,
-        "pyarrow": _version("pyarrow"),
+        "pyarrow": package_version("pyarrow"),
         "python": platform.python_version(),
     }
-    try:
-        r = subprocess.run(
-            ["git", "rev-parse", "HEAD"], cwd=Path(__file__).resolve().parent, capture_output=True, text=True, timeout=5
-        )
-        if r.returncode == 0 and r.stdout.strip():
-            out["git_commit"] = r.stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        pass
+    commit = source_commit()
+    if commit is not None:
+        out["git_commit"] = commit
     out["date_utc"] = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
     out["command_line"] = list(sys.argv if command_line is None else command_line)
     out["inputs"] = {k: v for k, v in (inputs or {}).items() if v is not None}
