@@ -15,6 +15,7 @@ from __future__ import annotations
 import base64
 import contextlib
 import datetime
+import functools
 import json
 import math
 from pathlib import Path
@@ -402,7 +403,10 @@ def verdict_cells(model: dict) -> list[dict]:
     return out
 
 
+@functools.cache
 def _environment():
+    """This process's jinja2 environment of the report templates (made on first use; a forked worker inherits
+    its parent's, with the templates it compiled: :func:`prepare`)."""
     import jinja2
 
     env = jinja2.Environment(
@@ -427,6 +431,17 @@ def _environment():
     env.filters["verdict_cells"] = verdict_cells
     env.filters["tojson_pretty"] = lambda obj: json.dumps(obj, indent=2, sort_keys=False)
     return env
+
+
+def prepare() -> None:
+    """Compile every report template in this process, so that forked workers inherit them compiled.
+
+    Each page rendered, and each part of the PDF, then costs its rendering only: call it before forking the
+    workers that render (:mod:`harness.commands.paper` does, with :func:`reports.figures.prepare`).
+    """
+    env = _environment()
+    for name in env.list_templates(extensions=("html", "css")):
+        env.get_template(name)
 
 
 def _data_uri(path: Path) -> str:

@@ -39,6 +39,7 @@ from planners.scenario import load_scenario
 from reports.case_files import write_case
 from reports.figures import prepare as prepare_figures
 from reports.html import pdf_part, render_run
+from reports.html import prepare as prepare_pages
 from reports.pdf import import_weasyprint
 
 from ..artefacts import cpu_split, cpu_time, run_manifest, write_plan_iterates
@@ -289,6 +290,7 @@ def run(args) -> int:
         c_prep = cpu_time()
         with stage(progress, "preparing the figures and the PDF's printer"):  # while the first flights fly
             prepare_figures()  # one figure and its axes made here, inherited by every forked writer (none yet)
+            prepare_pages()  # the report templates compiled here once, inherited by the PDF's printers
             import_weasyprint()  # and the printer of the PDF's parts
         cpu_prepare = cpu_time() - c_prep  # writing's, though spent here
         emitted, printed = 0, {}

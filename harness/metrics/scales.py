@@ -120,17 +120,26 @@ def percent_scale(variable: str, reference) -> float:
 
 
 def _diameter(points: np.ndarray) -> float:
-    """Largest distance between two of the points (rows): over the vertices of their convex hull."""
+    """Largest distance between two of the points (rows): over the far ones, then the vertices of their convex
+    hull."""
     if points.size == 0 or np.any(np.isnan(points)):
         return float("nan")
     from scipy.spatial import ConvexHull, QhullError
     from scipy.spatial.distance import cdist
 
     points = points - points[0]
+    # only points far enough from the centroid can end a pair longer than a distance already found (``found``):
+    # |p - q| <= r_p + r_q with r the distance to the centroid, so a longer pair has r_p > found - max r (a
+    # straight path keeps its two ends, a circle all of its points); the largest distance is the same float
+    r = np.sqrt(np.sum((points - points.mean(axis=0)) ** 2, axis=1))
+    found = float(np.max(cdist(points[np.argmax(r)][None, :], points)))
+    keep = r >= found - float(np.max(r)) - 1e-9 * (found + float(np.max(r)))
+    if np.count_nonzero(keep) >= 2:
+        points = points[keep]
     if len(points) > 64:
         try:  # QJ: joggled input, so a level (planar) or straight (linear) path still has a hull
             points = points[ConvexHull(points, qhull_options="QJ").vertices]
         except (QhullError, ValueError):
             pass
     step = max(1, 2_000_000 // len(points))  # blocks of at most 2e6 pairs
-    return max(float(np.max(cdist(points[i : i + step], points))) for i in range(0, len(points), step))
+    return max(found, *(float(np.max(cdist(points[i : i + step], points))) for i in range(0, len(points), step)))

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import datetime
-import importlib.metadata
 import platform
-import subprocess
-from pathlib import Path
 
 import numpy as np
+
+from ..artefacts import package_version, source_commit
 
 
 def provenance() -> dict:
@@ -21,25 +20,11 @@ def provenance() -> dict:
         package is not installed), ``date_utc`` (ISO 8601, seconds) and
         ``git_commit`` of the source tree (None outside a git checkout).
     """
-
-    def version(pkg):
-        try:
-            return importlib.metadata.version(pkg)
-        except importlib.metadata.PackageNotFoundError:
-            return None
-
-    try:
-        r = subprocess.run(
-            ["git", "rev-parse", "HEAD"], cwd=Path(__file__).resolve().parent, capture_output=True, text=True, timeout=5
-        )
-        commit = r.stdout.strip() if r.returncode == 0 else None
-    except (OSError, subprocess.SubprocessError):
-        commit = None
     return {
-        "gflat": version("gflat"),
-        "jsbsim": version("jsbsim"),
+        "gflat": package_version("gflat"),
+        "jsbsim": package_version("jsbsim"),
         "numpy": np.__version__,
         "python": platform.python_version(),
         "date_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "git_commit": commit or None,
+        "git_commit": source_commit(),
     }
