@@ -1169,7 +1169,7 @@ def _difference_of(a, b):
     """The common times of two runs [s] and a function ``variable -> b - a`` there, as
     :func:`harness.metrics.differences` (its formula: the position's distance, angles wrapped), the runs aligned once
     for every variable (the one-variable function aligns them at each call)."""
-    from harness.metrics.tables import _difference
+    from harness.metrics.tables import difference
 
     A, B = a.df, b.df
     ta, tb = np.asarray(A.index, dtype=float), np.asarray(B.index, dtype=float)
@@ -1185,7 +1185,7 @@ def _difference_of(a, b):
             return differences(a, b, variable).to_numpy(float)  # its error, said once
         pa = {c: A[c].to_numpy(float)[ia] for c in cols}
         pb = {c: B[c].to_numpy(float)[ib] for c in cols}
-        return np.asarray(_difference(variable, pa, pb), dtype=float)
+        return np.asarray(difference(variable, pa, pb), dtype=float)
 
     return t, diff
 

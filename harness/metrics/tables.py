@@ -380,7 +380,7 @@ def difference_table(
 
     rows = []
     for v in variables:
-        d = _difference(v, Av, Bv)
+        d = difference(v, Av, Bv)
         ad = np.abs(d)
         if np.all(np.isnan(ad)):
             mx, tm, rms = float("nan"), float("nan"), float("nan")
@@ -409,8 +409,22 @@ def _reference(variable: str, A: Mapping):
     return A[variable]
 
 
-def _difference(variable: str, A: Mapping, B: Mapping):
-    """``B - A`` for one variable: distance for the position, wrapped into (-pi, pi] for angles."""
+def difference(variable: str, A: Mapping, B: Mapping):
+    """``B - A`` of one variable on samples already aligned: the one formula of every difference table and figure.
+
+    Parameters
+    ----------
+    variable : str
+        A state or control name, or ``"position"``.
+    A, B : mapping
+        Column name -> array (or Series) of the same samples; ``x``, ``y``, ``z`` [m] for the position.
+
+    Returns
+    -------
+    array or Series
+        The difference in the variable's unit; the distance between the positions [m] for ``"position"``;
+        wrapped into [-pi, pi) [rad] for angles.
+    """
     if variable == POSITION:
         return np.sqrt(sum((B[c] - A[c]) ** 2 for c in ("x", "y", "z")))
     d = B[variable] - A[variable]
@@ -448,5 +462,5 @@ def differences(a, b, variable: str) -> pd.Series:
     if missing:
         raise InputError(f"cannot compare {', '.join(missing)}: not a column of both trajectories")
     common = A.index.intersection(B.index)
-    d = _difference(variable, {c: A.loc[common, c] for c in cols}, {c: B.loc[common, c] for c in cols})
+    d = difference(variable, {c: A.loc[common, c] for c in cols}, {c: B.loc[common, c] for c in cols})
     return pd.Series(np.asarray(d, dtype=float), index=common, name=variable)
