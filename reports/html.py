@@ -423,7 +423,6 @@ def _environment():
     env.filters["cell"] = cell
     env.filters["header"] = header
     env.filters["shown_table"] = shown_table
-    env.filters["side_by_side"] = side_by_side
     env.filters["text"] = text
     env.filters["setting"] = setting
     env.filters["quantity"] = quantity
