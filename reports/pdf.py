@@ -26,7 +26,8 @@ from gna.errors import InputError, writing
 #: The Typst template of every PDF report (in ``reports/templates``).
 TEMPLATE = "report.typ"
 
-#: Text width of an A4 page with the template's margins [mm], and the height a figure may take [mm].
+#: Text width of an A4 page with the template's margins [mm], and the height a figure may take [mm] (a figure is
+#: at most its size at 96 pixels per inch, as a browser shows it).
 TEXT_WIDTH_MM, FIGURE_HEIGHT_MM = 184.0, 215.0
 
 #: Degrees per radian (the HTML templates' factor: the same digits).
@@ -145,7 +146,8 @@ def run_file(root: Path, path: Path, what: str) -> str:
 def _figure(root: Path, path: Path, caption, what: str) -> dict:
     rel = run_file(root, path, what)
     w, h = png_size(path)
-    width = min(1.0, FIGURE_HEIGHT_MM / (TEXT_WIDTH_MM * h / w))
+    # at most its size at 96 pixels per inch (a browser's), the text's width, and FIGURE_HEIGHT_MM tall
+    width = min(TEXT_WIDTH_MM, w * 25.4 / 96, FIGURE_HEIGHT_MM * w / h) / TEXT_WIDTH_MM
     return {"kind": "figure", "path": rel, "caption": caption, "width": round(width, 4)}
 
 
@@ -323,7 +325,7 @@ def _case_blocks(c: dict, label: str, shared_label: str | None) -> list:
     out.append(_heading(2, "Scenario"))
     pairs = [
         ("name", sc["name"]),
-        ("description", sc["description"]),
+        ("description", " ".join(str(sc["description"]).split())),  # prose, as the HTML shows it
         ("aircraft", f"{sc['aircraft']['id']}: {sc['aircraft']['name']}"),
         ("span", f"t = {fmt(sc['span_s'][0])} .. {fmt(sc['span_s'][1])} s, nodes every {fmt(sc['node_step_s'])} s"),
     ] + [(f"flat output {k}", _s(v, "code")) for k, v in sc["flat_outputs"].items()]
