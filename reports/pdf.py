@@ -72,10 +72,46 @@ def _par(*spans, size: str | None = None) -> dict:
     return b
 
 
+#: Font sizes of the tables [pt] (the template's ``sizes``), smallest last.
+TABLE_PT = {"normal": 8.5, "small": 7.5, "tiny": 6.8}
+
+#: Text width of a landscape A4 page [mm]; a cell's padding either side [pt]; an average character [em]
+#: of the template's font (Libertinus Serif: digits 0.5 em, a bold heading's letters a little more).
+LANDSCAPE_WIDTH_MM, CELL_PAD_PT, CHAR_EM = 271.0, 3.0, 0.56
+
+
+def _plain(span) -> str:
+    if isinstance(span, list):
+        return "".join(_plain(x) for x in span)
+    if isinstance(span, dict):
+        return span.get("t", "")
+    return str(span)
+
+
+def _least_width_pt(columns, rows, size: str) -> float:
+    """The narrowest a table can be laid out [pt]: each column as wide as its longest word (Typst breaks lines
+    at spaces, never inside a number)."""
+    em = TABLE_PT[size] * CHAR_EM
+    total = 0.0
+    for i, c in enumerate(columns):
+        words = [w for cell in [c] + [r[i] for r in rows if i < len(r)] for w in _plain(cell).split()]
+        total += max((len(w) for w in words), default=0) * em + 2 * CELL_PAD_PT
+    return total
+
+
 def _table(columns, rows, align, *, widths=None, size: str = "normal", header: bool = True) -> dict:
+    """A table block; a table too wide for the page at ``size`` printed smaller, or on a landscape page."""
     b = {"kind": "table", "columns": list(columns), "rows": [list(r) for r in rows], "align": list(align)}
     if widths is not None:
         b["widths"] = list(widths)
+    text_pt = TEXT_WIDTH_MM / 25.4 * 72
+    if _least_width_pt(b["columns"], b["rows"], size) > text_pt:
+        fits = [z for z in ("small", "tiny") if _least_width_pt(b["columns"], b["rows"], z) <= text_pt]
+        if fits:
+            size = fits[0]
+        else:
+            b["landscape"] = True
+            b.pop("widths", None)
     if size != "normal":
         b["size"] = size
     if not header:

@@ -188,3 +188,22 @@ def test_typst_reads_nothing_outside_its_root(copied):
     msg = str(err.value)
     assert msg.startswith(f"cannot write {out}: Typst could not print it (") and "\n" not in msg
     assert not out.exists() and SECRET not in msg
+
+
+def test_a_table_too_wide_for_the_page_is_printed_smaller_or_on_a_landscape_page(tmp_path):
+    """A table's narrowest layout (its longest words, numbers never broken) decides its font size, and a table
+    too wide even in the smallest goes on a landscape page of its own; the text after it back in portrait."""
+    from reports import pdf
+
+    cols = ["t [s]", "variable", "unit"] + [f"J = {j} [unit]" for j in range(13)]
+    narrow = pdf._table(cols[:5], [["0", "alpha", "deg", "1.5", "2.5"]], "llrrr")
+    tiny = pdf._table(cols[:12], [["0", "alpha", "deg"] + ["-27.6439412"] * 9] * 4, "llr" + "r" * 9, size="small")
+    wide = pdf._table(cols, [["0", "alpha", "deg"] + ["-27.6439412"] * 13] * 4, "llr" + "r" * 13, size="small")
+    assert "size" not in narrow and "landscape" not in narrow
+    assert tiny["size"] == "tiny" and "landscape" not in tiny
+    assert wide.get("landscape") is True
+    view = {"title": "t", "date": "2000-01-01T00:00:00+00:00", "blocks": [pdf._par("before"), wide, pdf._par("after")]}
+    reader = pypdf.PdfReader(pdf.write_pdf(view, tmp_path, tmp_path / "wide.pdf"))
+    shapes = [(float(p.mediabox.width) > float(p.mediabox.height), p.extract_text()) for p in reader.pages]
+    assert [s for s, _ in shapes] == [False, True, False]
+    assert "before" in shapes[0][1] and "J = 12 [unit]" in shapes[1][1] and "after" in shapes[2][1]
