@@ -136,7 +136,7 @@ def render_again(
     date : str, optional
         Render date printed on every page (default now, UTC).
     progress : harness.progress.Progress, optional
-        The copy, the pages, the PDF (and its parts) are stages.
+        The copy, the pages and the PDF are stages.
 
     Returns
     -------
