@@ -717,7 +717,12 @@ def print_pdf(view: dict, root: str | Path, path: str | Path) -> bytes:
     InputError
         Typst could not print it (one line naming ``path`` and the cause).
     """
-    import typst
+    try:
+        import typst
+    except ImportError as exc:  # a broken installation: named, never a traceback
+        raise InputError(
+            f"cannot write {path}: the typst package cannot be imported ({exc}): pip install typst"
+        ) from None
 
     source = (Path(__file__).parent / "templates" / TEMPLATE).read_bytes()
     data = json.dumps(view, allow_nan=False, ensure_ascii=False)

@@ -207,3 +207,14 @@ def test_a_table_too_wide_for_the_page_is_printed_smaller_or_on_a_landscape_page
     shapes = [(float(p.mediabox.width) > float(p.mediabox.height), p.extract_text()) for p in reader.pages]
     assert [s for s, _ in shapes] == [False, True, False]
     assert "before" in shapes[0][1] and "J = 12 [unit]" in shapes[1][1] and "after" in shapes[2][1]
+
+
+def test_the_pdf_depends_on_the_models_and_the_render_date_only(copied, report_run):
+    """Typst's embedded fonts and the render date as the PDF's own: the same run rendered again on the same
+    date gives the same bytes (another machine too: no system font is used)."""
+    from .conftest import DATE
+
+    root, _ = copied
+    first = render_run(root, date=DATE)["pdf"].read_bytes()
+    assert render_run(root, date=DATE)["pdf"].read_bytes() == first
+    assert first == report_run.written["pdf"].read_bytes()  # the fixture's, rendered in its own folder
