@@ -30,6 +30,9 @@ TEMPLATE = "report.typ"
 #: at most its size at 96 pixels per inch, as a browser shows it).
 TEXT_WIDTH_MM, FIGURE_HEIGHT_MM = 184.0, 215.0
 
+#: Most pixels of a figure printed (Typst decodes every figure; gflat's have about 1e6).
+MAX_FIGURE_PIXELS = 25_000_000
+
 #: Degrees per radian (the HTML templates' factor: the same digits).
 DEG = 57.29577951308232
 
@@ -104,14 +107,15 @@ def _table(columns, rows, align, *, widths=None, size: str = "normal", header: b
     b = {"kind": "table", "columns": list(columns), "rows": [list(r) for r in rows], "align": list(align)}
     if widths is not None:
         b["widths"] = list(widths)
-    text_pt = TEXT_WIDTH_MM / 25.4 * 72
-    if _least_width_pt(b["columns"], b["rows"], size) > text_pt:
-        fits = [z for z in ("small", "tiny") if _least_width_pt(b["columns"], b["rows"], z) <= text_pt]
+    portrait, landscape = (mm / 25.4 * 72 for mm in (TEXT_WIDTH_MM, LANDSCAPE_WIDTH_MM))
+    if _least_width_pt(b["columns"], b["rows"], size) > portrait:
+        fits = [z for z in ("small", "tiny") if _least_width_pt(b["columns"], b["rows"], z) <= portrait]
         if fits:
             size = fits[0]
-        else:
+        else:  # on a landscape page, in the largest size that fits there (else the smallest)
             b["landscape"] = True
             b.pop("widths", None)
+            size = next((z for z in (size, "tiny") if _least_width_pt(b["columns"], b["rows"], z) <= landscape), "tiny")
     if size != "normal":
         b["size"] = size
     if not header:
@@ -168,14 +172,21 @@ def run_file(root: Path, path: Path, what: str) -> str:
     Raises
     ------
     InputError
-        A link, a file outside the run once resolved, or no PNG file.
+        A link, a file outside the run once resolved, no PNG file, or one of more than
+        :data:`MAX_FIGURE_PIXELS` pixels.
     """
     base = Path(root).resolve()
     p = Path(path)
     if p.is_symlink() or not p.is_file() or not p.resolve().is_relative_to(base):
         raise InputError(f"{what} {p.name}: not a regular file inside the run {root} (never printed)")
-    if png_size(p) is None:
+    size = png_size(p)
+    if size is None:
         raise InputError(f"{what} {p.name}: not a PNG file")
+    if size[0] * size[1] > MAX_FIGURE_PIXELS:  # a small file can hold a huge image, all decoded to print it
+        raise InputError(
+            f"{what} {p.name}: {size[0]} x {size[1]} pixels, above the bound of {MAX_FIGURE_PIXELS:.0e} "
+            f"(a gflat figure has about 1e6)"
+        )
     return "/" + p.resolve().relative_to(base).as_posix()
 
 

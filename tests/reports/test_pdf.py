@@ -173,6 +173,14 @@ def test_a_figure_linked_out_of_the_run_is_never_printed(copied):
     (root / "x.png").write_text("not a PNG")
     with pytest.raises(InputError, match="x.png: not a PNG file"):
         run_file(root, root / "x.png", "the figure")
+    import struct
+    import zlib
+
+    ihdr = struct.pack(">IIBBBBB", 100_000, 100_000, 8, 2, 0, 0, 0)  # a header is all it takes to claim the size
+    chunk = struct.pack(">I", 13) + b"IHDR" + ihdr + struct.pack(">I", zlib.crc32(b"IHDR" + ihdr))
+    (root / "bomb.png").write_bytes(b"\x89PNG\r\n\x1a\n" + chunk)
+    with pytest.raises(InputError, match="bomb.png: 100000 x 100000 pixels, above the bound"):
+        run_file(root, root / "bomb.png", "the figure")
 
 
 def test_typst_reads_nothing_outside_its_root(copied):
