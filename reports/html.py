@@ -667,7 +667,7 @@ def _pdf_cases(root: Path, cases: list) -> list:
         if key in first:
             c["same_plan_as"] = first[key]
         else:
-            first[key] = {"id": m["id"], "title": m["title"]}
+            first[key] = {"id": m["id"], "title": m["title"], "index": len(out)}
         out.append(c)
     return out
 

@@ -494,7 +494,8 @@ def run_view(cases: list, common: dict) -> dict:
     cases : list of dict
         The cases in run order: ``model`` (:func:`reports.model.case_model`), ``root`` (the run's folder),
         ``figures`` (figure file -> its path, confined to the run), ``report_json`` (for messages) and, for a
-        scenario's later cases, ``same_plan_as`` (the first case's ``id`` and ``title``).
+        scenario's later cases, ``same_plan_as`` (the first case's ``id``, ``title`` and ``index`` in
+        ``cases``).
     common : dict
         ``date``, ``manifest`` (or None), ``n_pass``, ``n``, ``incomplete`` (or None).
 
@@ -512,7 +513,7 @@ def run_view(cases: list, common: dict) -> dict:
     """
     from .html import fmt, verdict_cells
 
-    labels = {c["model"]["id"]: f"case-{i}" for i, c in reversed(list(enumerate(cases)))}
+    labels = [f"case-{i}" for i in range(len(cases))]  # the view's own: two cases of one id stay two
     n_pass, n = common["n_pass"], common["n"]
     blocks = []
     if common.get("incomplete"):
@@ -535,17 +536,17 @@ def run_view(cases: list, common: dict) -> dict:
     manifest = common.get("manifest")
     blocks.append(_heading(2, "Contents"))
     rows = [
-        {"label": labels[c["model"]["id"]], "title": str(c["model"]["title"]), "passed": bool(c["model"]["passed"])}
-        for c in cases
+        {"label": label, "title": str(c["model"]["title"]), "passed": bool(c["model"]["passed"])}
+        for c, label in zip(cases, labels)
     ]
     if manifest:
         rows.append({"label": "manifest", "title": "Manifest", "passed": None})
     blocks.append({"kind": "contents", "rows": rows})
     blocks.append(_heading(2, "Summary"))
     rows = []
-    for c in cases:
+    for c, label in zip(cases, labels):
         m = c["model"]
-        row = [_s(m["scenario"]["name"], "link", to=labels[m["id"]]), m["scenario"]["aircraft"]["id"], m["loop"]]
+        row = [_s(m["scenario"]["name"], "link", to=label), m["scenario"]["aircraft"]["id"], m["loop"]]
         row += [fmt(m["plan"]["J"]), ", ".join(m["engines"])]
         row += [[_state(v["state"]), {"t": "", "s": "br"}, _s(v["worst"], "small")] for v in verdict_cells(m)]
         rows.append(row + [_badge(m["passed"])])
@@ -566,9 +567,9 @@ def run_view(cases: list, common: dict) -> dict:
                 v = manifest[k]
                 pairs.append((k, " ".join(str(x) for x in v) if isinstance(v, (list, tuple)) else fmt(v)))
         blocks.append(_keyvalue(pairs))
-    for c in cases:
+    for c, label in zip(cases, labels):
         shared = c.get("same_plan_as")
-        blocks += _case_blocks(c, labels[c["model"]["id"]], labels.get(shared["id"]) if shared else None)
+        blocks += _case_blocks(c, label, labels[shared["index"]] if shared and "index" in shared else None)
     return {"title": f"gflat validation report: {n_pass}/{n} cases pass", "date": common["date"], "blocks": blocks}
 
 

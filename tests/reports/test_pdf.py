@@ -142,12 +142,14 @@ def test_hostile_strings_of_a_report_json_print_as_text(copied):
     model["scenario"]["toml"] = HOSTILE + "\n" + model["scenario"]["toml"]
     model["warnings"] = [HOSTILE]
     model["title"] = "roll #panic() *x*"
+    model["id"] = json.loads((root / SCENARIO / "closed" / "report.json").read_text())["id"]  # two cases, one id
     p.write_text(json.dumps(model))
     written = render_run(root, date="2000-01-01T00:00:00+00:00")
     reader = pypdf.PdfReader(written["pdf"])
     text = re.sub(r"\s+", " ", _text(reader))
     assert text.count('#read("/etc/passwd") *bold* #panic("boom")') >= 3, text[:3000]
-    assert "roll #panic() *x*: PASS" in [t for t, _ in _top_level(reader)]
+    sections = _top_level(reader)
+    assert len(sections) == 3 and sections[1][0] == "roll #panic() *x*: PASS" and sections[1][1] < sections[2][1]
     assert "root:" not in text
 
 
