@@ -2,9 +2,8 @@
 
 Runs ``gflat paper`` once in this process (flights included) to get its six case results, then, each round,
 writes the six case folders in forked workers as the command does (:class:`harness.parallel.ForkPool`, two
-workers by default), prints each scenario's pages of the PDF (:func:`reports.html.pdf_part`, where the tree
-has it) and renders the pages and the PDF (:func:`reports.html.render_run`), into a fresh folder; prints the
-CPU of each part (the processes' and their children's, :func:`harness.artefacts.cpu_time`) per round::
+workers by default), then renders the pages and the PDF (:func:`reports.html.render_run`, in this process),
+into a fresh folder; prints the CPU of each part (the processes' and their children's, :func:`harness.artefacts.cpu_time`) per round::
 
     python benchmarks/bench_writing.py [--rounds 3] [--jobs 2] [--json]
 
@@ -19,7 +18,6 @@ import json
 import shutil
 import tempfile
 import time
-from functools import partial
 from pathlib import Path
 
 
@@ -34,7 +32,7 @@ def main() -> None:
     import reports.html as html
     from harness.artefacts import cpu_time
     from harness.cli import main as gflat
-    from harness.parallel import ForkPool, run_all
+    from harness.parallel import ForkPool
 
     tasks = []
     write_task = paper._write_task
@@ -68,18 +66,7 @@ def main() -> None:
                     pool.next_result()
             cases = cpu_time() - c0
             c1 = cpu_time()
-            printed = None
-            if hasattr(html, "pdf_part"):
-                groups = {}
-                for _, sub, _ in tasks:
-                    groups.setdefault(sub[0], []).append("/".join(sub))
-                with ForkPool(args.jobs) as pool:
-                    for name, folders in groups.items():
-                        pool.submit(name, partial(html.pdf_part, root, folders), what="printing")
-                    got = dict(pool.next_result() for _ in groups)
-                printed = [(folders, *got[name]) for name, folders in groups.items()]
-            kw = {"printed": printed} if printed is not None else {}
-            html.render_run(root, jobs=args.jobs, run_all=partial(run_all, what="printing"), manifest=manifest, **kw)
+            html.render_run(root, manifest=manifest)
             pdf = cpu_time() - c1
             rounds.append({"cases_cpu_s": cases, "pages_and_pdf_cpu_s": pdf, "write_cpu_s": cases + pdf})
             print("  " + ", ".join(f"{k} {v:.2f}" for k, v in rounds[-1].items()))

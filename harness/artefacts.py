@@ -680,8 +680,8 @@ def cpu_split(tasks, plan_s: float, render_s: float, total_s: float) -> dict:
     plan_s : float
         CPU of planning (and writing the plans' files) [s].
     render_s : float
-        CPU of rendering the pages and printing the PDF, its worker processes included, and of preparing the
-        figures and the printer in the command's process [s].
+        CPU of rendering the pages and printing the PDF, and of preparing the figures in the command's
+        process [s].
     total_s : float
         CPU of the whole run, its worker processes included [s].
 

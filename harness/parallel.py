@@ -512,7 +512,7 @@ def run_all(fns, jobs: int, what: str = "", progress=None) -> list:
     jobs : int
         Most worker processes at once (1: in this process).
     what : str
-        What they do, for the message of a worker that dies (``"printing part 2 of the PDF"``) and the progress.
+        What they do, for the message of a worker that dies (``"walking a margin ladder"``) and the progress.
     progress : harness.progress.Progress, optional
         Shows each callable (with a ``what``) as a stage while it runs (:class:`ForkPool`).
 

@@ -24,8 +24,9 @@ model
     signed differences).
 html, pdf, templates/
     The run's ``index.html``, a ``case.html`` per case, the single-file
-    ``report.html`` and ``report.pdf``, rendered with jinja2 (and weasyprint)
-    from the saved models only (:func:`html.render_run`, ``gflat report DIR``).
+    ``report.html`` rendered with jinja2, and ``report.pdf`` printed by Typst
+    (``templates/report.typ``, given a JSON view: :mod:`pdf`), from the saved
+    models only (:func:`html.render_run`, ``gflat report DIR``).
 
 Rooms to come: campaign summaries (one table over many cases).
 """

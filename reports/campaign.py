@@ -1,4 +1,4 @@
-"""The campaign report page (HTML, and its PDF) from a campaign's summary (jinja2, the run reports' style).
+"""The campaign report page (HTML by jinja2, its PDF by Typst) from a campaign's summary, in the run reports' style.
 
 :func:`render_campaign` writes ``DIR/report/index.html`` (pass rate, the
 figures of :func:`harness.campaign.report.write_report`, per case group the
@@ -51,7 +51,8 @@ def render_campaign(
         The report folder holding the figures, where the pages go (default ``folder/report``; ``gflat campaign
         report`` gives its staging folder, put in place of ``report/`` whole); it sits in ``folder``.
     pdf : bool
-        Also write ``report.pdf`` (:func:`reports.pdf.write_pdf`).
+        Also write ``report.pdf``, printed by Typst (:func:`reports.pdf.campaign_view`,
+        :func:`reports.pdf.write_pdf`).
     date : str, optional
         Render date (default now, UTC).
 
@@ -102,8 +103,7 @@ def render_campaign(
     write_text(index, env.get_template("campaign.html").render(**context))
     result = {"index": index, "pages": pages}
     if pdf:
-        from .pdf import write_pdf
+        from .pdf import campaign_view, write_pdf
 
-        single = env.get_template("campaign.html").render(**dict(context, pdf=False))
-        result["pdf"] = write_pdf(single, out, out / "report.pdf")
+        result["pdf"] = write_pdf(campaign_view(context, out), out, out / "report.pdf")
     return result

@@ -14,8 +14,8 @@ grid shows the ticks, :meth:`Sheet.ticks`), each string rasterised once per
 process (:func:`_canvas_class`; the usual ones before the writers fork,
 :func:`prepare`), the grid one line per axis, each line reduced to what a
 pixel column can show (:func:`decimate`), and saved as an 8-bit RGB PNG
-(:func:`png_bytes`): no alpha channel, the form a PDF embeds as it is
-(:mod:`reports.pdf` copies its compressed data).
+(:func:`png_bytes`): no alpha channel (the PDF, :mod:`reports.pdf`, embeds
+the same pixels).
 """
 
 from __future__ import annotations
@@ -350,7 +350,7 @@ def png_bytes(rgba, text: dict[str, str] | None = None, level: int = 1) -> bytes
     """An 8-bit RGB PNG of an RGBA pixel buffer, its rows unfiltered, deflated at ``level``.
 
     A figure is mostly flat colour: unfiltered rows deflated fast cost a third of a filtered, level-6 PNG's
-    encoding for about 25 % more bytes; the PDF embeds this data as it is (:func:`reports.pdf.png_stream`).
+    encoding for about 25 % more bytes (Typst compresses the pixels again in the PDF: :mod:`reports.pdf`).
 
     Parameters
     ----------

@@ -4,7 +4,9 @@
 :class:`harness.rundir.RunDir`, before the run is put in place): ``index.html`` (a PASS/FAIL table of
 every case with links), one ``report.html`` per case folder, optionally a
 self-contained ``report.html`` at the top (every case, images embedded as data
-URIs: one file to mail) and ``report.pdf`` (:mod:`reports.pdf`).  The models
+URIs: one file to mail) and ``report.pdf`` (printed by Typst from a JSON view of
+the same models, formatted by the same helpers: :func:`pdf_view`,
+:mod:`reports.pdf`).  The models
 are read back from disk (:func:`reports.model.load_case_models`), so rendering
 at the end of a run and ``gflat report DIR`` later give the same bytes apart
 from the render date.
@@ -421,7 +423,6 @@ def _environment():
     env.filters["cell"] = cell
     env.filters["header"] = header
     env.filters["shown_table"] = shown_table
-    env.filters["side_by_side"] = side_by_side
     env.filters["text"] = text
     env.filters["setting"] = setting
     env.filters["quantity"] = quantity
@@ -434,10 +435,10 @@ def _environment():
 
 
 def prepare() -> None:
-    """Compile every report template in this process, so that forked workers inherit them compiled.
+    """Compile every HTML report template in this process (forked workers inherit them compiled).
 
-    Each page rendered, and each part of the PDF, then costs its rendering only: call it before forking the
-    workers that render (:mod:`harness.commands.paper` does, with :func:`reports.figures.prepare`).
+    Each page rendered then costs its rendering only: :mod:`harness.commands.paper` calls it, with
+    :func:`reports.figures.prepare`, while the first flights fly.
     """
     env = _environment()
     for name in env.list_templates(extensions=("html", "css")):
@@ -653,167 +654,61 @@ def _render(template, root: Path, views: list, common: dict, **extra) -> str:
         raise
 
 
-#: Weight of a figure in :func:`pdf_documents`' balance, in characters of HTML.
-FIGURE_WEIGHT = 3000
+def _pdf_cases(root: Path, cases: list) -> list:
+    """The cases of the PDF (in run order) as :func:`reports.pdf.run_view` takes them: a scenario's later cases
+    print its plan once, "as in the first case" (``same_plan_as``)."""
+    out, first = [], {}
+    for folder, m in cases:
+        case_dir = root / folder
+        with _model_errors(root, [folder]):
+            figures = dict(zip((f["file"] for f in m["figures"]), _figures(case_dir, m)))
+            c = {"model": m, "root": root, "figures": figures, "report_json": str(case_dir / REPORT_JSON)}
+            key = (m["scenario"]["name"], m["plan"]["J"], m["scenario"].get("toml"))
+        if key in first:
+            c["same_plan_as"] = first[key]
+        else:
+            first[key] = {"id": m["id"], "title": m["title"], "index": len(out)}
+        out.append(c)
+    return out
 
 
-def _split(costs: list[float], parts: int) -> list[int]:
-    """Start index of each of ``parts`` contiguous groups of ``costs`` minimising the largest group's sum."""
-    n = len(costs)
-    parts = max(1, min(parts, n))
-    best: tuple[float, list[int]] = (float("inf"), [0])
-
-    def search(start: int, left: int, acc: list[int], worst: float):
-        nonlocal best
-        if worst >= best[0]:
-            return
-        if left == 1:
-            total = max(worst, sum(costs[start:]))
-            if total < best[0]:
-                best = (total, acc)
-            return
-        for cut in range(start + 1, n - left + 2):
-            search(cut, left - 1, acc + [cut], max(worst, sum(costs[start:cut])))
-
-    search(0, parts, [0], 0.0)
-    return best[1]
-
-
-def pdf_documents(
-    run_dir: str | Path, parts: int, *, date: str | None = None, manifest: dict | None = None, groups=None
-):
-    """The run's PDF as HTML documents to print separately: the cases cut into ``parts`` of about equal work,
-    and the front matter (title, contents with page numbers, summary, manifest) made once their pages are known.
-
-    Each case starts a new page in print, so the printed documents put end to end
-    (:func:`reports.pdf.write_pdf`: front matter first) are the pages of one report.  A scenario's later
-    cases (the closed loop after the open loop) refer to the first for the scenario file, the plan's
-    convergence table and its singularity monitor, which are the same.  The front matter
-    carries empty anchors named after every case, so that its links are printed; a case's own destination
-    of the same name replaces the anchor's when the documents are put together.
+def pdf_view(run_dir: str | Path, *, date: str | None = None, manifest: dict | None = None) -> dict:
+    """The run's PDF report as the JSON view its Typst template prints (:func:`reports.pdf.run_view`): title,
+    contents with each case's page, summary, manifest, then each case on a new page.
 
     Parameters
     ----------
     run_dir : str or Path
         A run folder holding ``report.json`` files.
-    parts : int
-        Documents the cases are cut into (fewer when the run has fewer cases).
     date : str, optional
         Render date (default now, UTC).
     manifest : dict, optional
         As :func:`render_documents`.
-    groups : sequence of sequence of str, optional
-        Case folders (relative to ``run_dir``) printed together, e.g. each scenario's cases
-        (:func:`pdf_part`): the documents cut there instead, when every group is a run of consecutive
-        cases and together they are the run's cases (else ignored).
 
     Returns
     -------
-    (callable, list of str)
-        ``front(pages) -> str``, the front matter's HTML given the page number (1-based, in the whole
-        report) of each case id and of ``"manifest"``; and the cases' documents.  Resolve their links and
-        images against ``run_dir``.
+    dict
+        The view (JSON data only: its strings are shown as text, its figures are paths inside ``run_dir``).
 
     Raises
     ------
     InputError
-        No ``report.json`` under ``run_dir``.
+        No ``report.json`` under ``run_dir``, a damaged one (named), a figure that is no regular PNG file of
+        the run.
     """
+    from .pdf import run_view
+
     root = Path(run_dir)
     cases, common = _run_context(root, date, manifest)
-    with _model_errors(root, [f for f, _ in cases]):
-        return _pdf_documents(root, cases, common, parts, groups)
-
-
-def _pdf_views(root: Path, cases: list) -> list:
-    """The views of the PDF's cases (in run order): a scenario's later cases print its plan once, "as in the
-    first case" (``same_plan_as``)."""
-    views = [_case_view(root, f, m, root, False) for f, m in cases]
-    first: dict = {}
-    for v in views:
-        m = v["model"]
-        key = (m["scenario"]["name"], m["plan"]["J"], m["scenario"].get("toml"))
-        if key in first:
-            v["same_plan_as"] = first[key]
-        else:
-            first[key] = {"id": m["id"], "title": m["title"]}
-    return views
-
-
-#: What a document of the PDF's cases is rendered with beyond the cases (single.html): no front matter, no
-#: footer; nothing of the run as a whole (its counts, date, manifest) is printed in it.
-PDF_PART = {"pdf": True, "front": False, "last_part": False, "incomplete": None}
-
-
-def _group_starts(folders: list[str], groups) -> list[int] | None:
-    """Start index of each group of case folders in the run order ``folders``; None when they do not cut it."""
-    if not groups:
-        return None
-    starts, at = [], 0
-    for group in groups:
-        group = [Path(f).as_posix() for f in group]
-        if not group or folders[at : at + len(group)] != group:
-            return None
-        starts.append(at)
-        at += len(group)
-    return starts if at == len(folders) else None
-
-
-def _pdf_documents(root: Path, cases: list, common: dict, parts: int, groups=None):
-    views = _pdf_views(root, cases)
-    template = _environment().get_template("single.html")
-    plain = dict(common, **PDF_PART)
-    starts = _group_starts([v["folder"] for v in views], groups)
-    if starts is None and (parts <= 1 or len(views) <= 1):
-        starts = [0]
-    elif starts is None:
-        costs = [len(template.render(cases=[v], **plain)) + FIGURE_WEIGHT * len(v["model"]["figures"]) for v in views]
-        starts = _split(costs, parts)
-    starts.append(len(views))
-    documents = [_render(template, root, views[a:b], plain) for a, b in zip(starts, starts[1:])]
-    ids = [v["model"]["id"] for v in views]
-
-    def front(pages: dict) -> str:
-        with _model_errors(root, [Path(v["folder"]) for v in views]):
-            return template.render(
-                cases=[], all_cases=views, later_ids=ids, pages=pages, **dict(common, pdf=True, last_part=False)
-            )
-
-    return front, documents
-
-
-def pdf_part(run_dir: str | Path, folders) -> tuple[str, bytes]:
-    """Print the PDF pages of some of a run's cases, as soon as their files are written (a command's worker
-    while other cases fly): :func:`render_run` puts the part in the PDF when its document is the one it
-    would print (``printed``), else prints that again.
-
-    Parameters
-    ----------
-    run_dir : str or Path
-        The run's folder (or staging folder).
-    folders : sequence of str
-        Case folders relative to ``run_dir``, consecutive in the run's order (e.g. a scenario's open- and
-        closed-loop cases): only their ``report.json`` files are read.
-
-    Returns
-    -------
-    (str, bytes)
-        The part's HTML document (:func:`pdf_documents`) and its PDF.
-
-    Raises
-    ------
-    InputError
-        A ``report.json`` missing or not a case model.
-    """
-    from .model import load_case_model
-    from .pdf import print_html
-
-    root = Path(run_dir)
-    cases = [(Path(f), load_case_model(root / f / REPORT_JSON)) for f in folders]
-    with _model_errors(root, [f for f, _ in cases]):
-        views = _pdf_views(root, cases)
-        html = _render(_environment().get_template("single.html"), root, views, PDF_PART)
-    return html, print_html(html, root)
+    views = _pdf_cases(root, cases)
+    try:
+        with _model_errors(root, [f for f, _ in cases]):
+            return run_view(views, common)
+    except InputError:
+        for folder, m in cases:  # the case that fails alone named
+            with _model_errors(root, [folder]):
+                run_view(_pdf_cases(root, [(folder, m)]), dict(common, n=1, n_pass=int(bool(m["passed"]))))
+        raise
 
 
 def render_run(
@@ -822,11 +717,8 @@ def render_run(
     self_contained: bool = False,
     pdf: bool = True,
     date: str | None = None,
-    jobs: int = 1,
-    run_all=None,
     manifest: dict | None = None,
     progress=None,
-    printed=None,
 ) -> dict[str, Path]:
     """Render a run folder's reports: ``index.html``, a page per case, optionally the single file and the PDF.
 
@@ -837,23 +729,15 @@ def render_run(
     self_contained : bool
         Also write the single-file ``report.html`` (images embedded) at the top of ``run_dir``.
     pdf : bool
-        Also write ``report.pdf`` (:func:`reports.pdf.write_pdf`).
+        Also write ``report.pdf``, printed by Typst in this process (:func:`pdf_view`,
+        :func:`reports.pdf.write_pdf`).
     date : str, optional
         Render date printed on every page (default now, UTC).
-    jobs : int
-        Parts the PDF is printed in, concurrently through ``run_all`` (:func:`document_parts`,
-        :func:`reports.pdf.write_pdf`); 1 prints it in one piece.
-    run_all : callable, optional
-        ``run_all(callables, jobs)`` -> their results in order (a command gives
-        :func:`harness.parallel.run_all`); default: one after the other here.
     manifest : dict, optional
         The run's manifest the pages show (:func:`render_documents`; a command renders before its commit writes
         ``manifest.json``).
     progress : harness.progress.Progress, optional
-        The HTML pages and the PDF are stages (the PDF's parts too, when ``run_all`` shows them).
-    printed : sequence of (sequence of str, str, bytes), optional
-        Parts of the PDF printed already (:func:`pdf_part`): their case folders, HTML and PDF; the documents
-        are cut at their cases and a part is used when its HTML is the document's.
+        The HTML pages and the PDF are stages.
 
     Returns
     -------
@@ -863,7 +747,8 @@ def render_run(
     Raises
     ------
     InputError
-        No ``report.json`` under ``run_dir``.
+        No ``report.json`` under ``run_dir``, a damaged one, a figure outside the run, or a PDF Typst could not
+        print (one line).
     """
     root = Path(run_dir)
     date = date or render_date()
@@ -878,10 +763,5 @@ def render_run(
         from .pdf import write_pdf
 
         with stage(progress, f"writing {PDF_FILE}"):
-            parts = list(printed or [])
-            front, documents = pdf_documents(
-                root, jobs if jobs > 1 else 1, date=date, manifest=manifest, groups=[g for g, _, _ in parts] or None
-            )
-            done = {html: data for _, html, data in parts}
-            out["pdf"] = write_pdf(documents, root, root / PDF_FILE, run_all=run_all, front=front, printed=done)
+            out["pdf"] = write_pdf(pdf_view(root, date=date, manifest=manifest), root, root / PDF_FILE)
     return out

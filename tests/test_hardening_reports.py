@@ -20,7 +20,7 @@ from gna.errors import InputError
 from harness.cli import main
 from harness.recorded import confined, file_problem, href, safe_name, sha256
 from harness.rundir import MANIFEST
-from reports.html import render_run
+from reports.html import pdf_view, render_run
 
 from .harness.test_validation import SHORT
 
@@ -79,7 +79,7 @@ def _everything(where: Path) -> str:
 
 def _refused(folder: Path, capsys, *words) -> str:
     before = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file() and not p.is_symlink()}
-    assert main(["report", str(folder), "--self-contained", "--no-pdf"]) == 2
+    assert main(["report", str(folder), "--self-contained"]) == 2  # the PDF too: refused before anything is printed
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1, err
     for w in words:
@@ -129,8 +129,10 @@ def test_a_folder_link_out_of_the_run_is_never_followed(received, capsys):
     _refused(folder, capsys, "holds plan, which is not a file of its gflat run")
     _reseal(folder)  # listed now: a link is no file of a run
     _refused(folder, capsys, "lists the file 'plan': a symbolic link leading out of the folder")
-    render_run(folder, self_contained=True, pdf=False)  # a plain folder: the link's files are not listed
+    render_run(folder, self_contained=True, pdf=True)  # a plain folder: the link's files are not listed
     assert "id_rsa" not in _everything(folder) and SECRET not in _everything(folder)
+    text = _pdf_text(folder / "report.pdf")  # the PDF's text (its streams are compressed)
+    assert "Provenance" in text and "id_rsa" not in text and SECRET not in text
 
 
 @pytest.mark.parametrize(
@@ -175,7 +177,14 @@ def test_a_data_file_named_as_a_url_is_a_relative_link(received):
     model["figures"][0]["caption"] = '"><img src=x onerror=alert(1)>'
     (folder / "report.json").write_text(json.dumps(model))
     _reseal(folder)
-    assert main(["report", str(folder), "--self-contained", "--no-pdf"]) == 0
+    assert main(["report", str(folder), "--self-contained"]) == 0
+    pdf = pytest.importorskip("pypdf").PdfReader(folder / "report.pdf")
+    text = _pdf_text(folder / "report.pdf")
+    assert "<script>alert('title')</script>" in text and '"><img src=x onerror=alert(1)>' in text  # as text
+    for page in pdf.pages:  # the PDF's links all internal (no URI, no launch, no file)
+        for annot in page.get("/Annots") or []:
+            action = annot.get_object().get("/A")
+            assert action is None or action.get_object().get("/S") == "/GoTo", action
     for page in ("index.html", "case.html", "report.html"):
         html = (folder / page).read_text()
         assert "<script>" not in html and "<img src=x" not in html  # every model text escaped
@@ -189,6 +198,11 @@ def test_a_data_file_named_as_a_url_is_a_relative_link(received):
             assert not re.match(r"^[A-Za-z][A-Za-z0-9+.-]*:", url) and not url.startswith("/"), (page, attr, url)
             assert (folder / _unquote(url)).resolve().is_relative_to(folder), url
     assert 'href="javascript%3Aalert%281%29"' in (folder / "case.html").read_text()
+
+
+def _pdf_text(path: Path) -> str:
+    pypdf = pytest.importorskip("pypdf")
+    return re.sub(r"\s+", " ", "\n".join(p.extract_text() for p in pypdf.PdfReader(path).pages))
 
 
 def _unquote(url: str) -> str:
@@ -293,6 +307,9 @@ def test_a_model_damaged_inside_is_one_line_naming_its_file(received, capsys, ed
     assert f"{folder / 'report.json'}: not a gflat report model (cannot render it" in err
     assert all(w in err for w in words)
     assert _walk(folder) == before  # the run as it was
+    with pytest.raises(InputError, match="report.json: not a gflat report model") as exc:  # the PDF's view too
+        pdf_view(folder)
+    assert "\n" not in str(exc.value)
 
 
 def test_a_model_naming_thousands_of_figures_is_refused_with_the_bound(received, capsys):

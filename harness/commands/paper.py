@@ -22,28 +22,24 @@ of their folders run in forked worker processes (``--jobs``,
 into the run's staging folder; the closed loop's open-loop curve is the
 open-loop case's reference run (the same flight, flown once).  The flights
 start longest first (:func:`harness.validation.work.flight_work`), before any
-case's files are written, and the figures and the PDF's printer are prepared
-while the first fly.  A scenario's pages of the PDF are printed by a worker as
-soon as its cases are written (:func:`reports.html.pdf_part`), while other
-cases fly; the front matter is printed and the PDF put together at the end
-(:func:`reports.html.render_run`).
+case's files are written, and the figures are prepared while the first fly.
+The pages and the PDF (printed by Typst, in this process) are rendered at the
+end from the saved ``report.json`` files (:func:`reports.html.render_run`).
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import replace
-from functools import partial
 
 from planners.scenario import load_scenario
 from reports.case_files import write_case
 from reports.figures import prepare as prepare_figures
-from reports.html import pdf_part, render_run
 from reports.html import prepare as prepare_pages
-from reports.pdf import import_weasyprint
+from reports.html import render_run
 
 from ..artefacts import cpu_split, cpu_time, run_manifest, write_plan_iterates
-from ..parallel import ForkPool, default_jobs, run_all
+from ..parallel import ForkPool, default_jobs
 from ..progress import stage
 from ..validation import ValidationCase, case_settings, plan_case
 from ..validation.flights import OPEN_LOOP, case_flights, finish_case, reusable_open_loop
@@ -215,14 +211,6 @@ class _Scenario:
         self.elapsed[loop] += dt
         if key[0] == "write":
             self.files[loop] = out
-            if self.done:  # the scenario's pages of the PDF printed now, while other cases fly
-                folders = [f"{self.name}/{lp}" for lp in self.loops]
-                pool.submit(
-                    ("pdf", self.name, None),
-                    partial(pdf_part, self.root, folders),
-                    priority=2,
-                    what=f"writing the PDF pages of {self.name}",
-                )
             return
         self.runs[loop][key[3]] = out
         check_run(self.validity, self.aircraft, out, f"{key[3]} flight of {self.name}, {loop} loop")
@@ -288,19 +276,15 @@ def run(args) -> int:
             pool.poll()  # a worker done meanwhile takes the next flight (the longest queued)
         pool.start_ahead()  # one flight more while this process prepares (a worker done meanwhile waits for it)
         c_prep = cpu_time()
-        with stage(progress, "preparing the figures and the PDF's printer"):  # while the first flights fly
+        with stage(progress, "preparing the figures"):  # while the first flights fly
             prepare_figures()  # one figure and its axes made here, inherited by every forked writer (none yet)
-            prepare_pages()  # the report templates compiled here once, inherited by the PDF's printers
-            import_weasyprint()  # and the printer of the PDF's parts
+            prepare_pages()  # the HTML templates compiled while the flights fly
         cpu_prepare = cpu_time() - c_prep  # writing's, though spent here
-        emitted, printed = 0, {}
+        emitted = 0
         while emitted < len(scenarios):
             if not scenarios[emitted].done:
                 key, value = pool.next_result()
-                if key[0] == "pdf":
-                    printed[key[1]] = value
-                else:
-                    by_name[key[1]].receive(pool, key, value)
+                by_name[key[1]].receive(pool, key, value)
                 continue
             sc = scenarios[emitted]  # files written and lines printed in the scenarios' order
             emitted += 1
@@ -361,9 +345,6 @@ def run(args) -> int:
             )
             print("\n".join(f"  {line}" for line in verdict_lines(v["verdicts"], {"unrecorded": v["failures"]})))
             print(f"  four-curve figure: {out.out / name / 'closed' / 'tracking.png'}")
-        while pool.pending:  # the PDF parts still printing
-            key, value = pool.next_result()
-            printed[key[1]] = value
         jobs, log = pool.jobs, pool.log
         pool.close()
         how = "cases flown and written by forked worker processes" if jobs > 1 else "in one process"
@@ -373,16 +354,7 @@ def run(args) -> int:
             execution={"jobs": jobs, "how": how, "planning_s": {sc.name: sc.t_plan for sc in scenarios}, "tasks": log},
         )
         c0 = cpu_time()
-        report = render_run(  # from the saved report.json files
-            out.root,
-            jobs=jobs,
-            run_all=partial(run_all, what="printing the PDF", progress=progress),
-            manifest=record,
-            progress=progress,
-            printed=[
-                ([f"{sc.name}/{lp}" for lp in loops], *printed[sc.name]) for sc in scenarios if sc.name in printed
-            ],
-        )
+        report = render_run(out.root, manifest=record, progress=progress)  # from the saved report.json files
         record["execution"]["cpu_s"] = cpu_split(
             log, sum(sc.cpu_plan for sc in scenarios), cpu_time() - c0 + cpu_prepare, cpu_time() - cpu0
         )

@@ -22,14 +22,12 @@ import argparse
 import os
 import shutil
 import time
-from functools import partial
 from pathlib import Path
 
 from gna.errors import InputError, expand_home, writing
 from reports.html import render_date, render_run
 
 from ..artefacts import manifest_problem
-from ..parallel import default_jobs, run_all
 from ..recorded import confined, file_problem
 from ..rundir import MANIFEST, RunDir, read_manifest
 from ._help import add_command
@@ -138,7 +136,7 @@ def render_again(
     date : str, optional
         Render date printed on every page (default now, UTC).
     progress : harness.progress.Progress, optional
-        The copy, the pages, the PDF (and its parts) are stages.
+        The copy, the pages and the PDF are stages.
 
     Returns
     -------
@@ -180,8 +178,6 @@ def render_again(
                 self_contained=self_contained,
                 pdf=pdf,
                 date=date,
-                jobs=default_jobs(),
-                run_all=partial(run_all, what="printing the PDF", progress=progress),
                 manifest=old,
                 progress=progress,
             )

@@ -137,8 +137,8 @@ def test_paper_in_workers_writes_the_files_of_one_process(short_scenario, tmp_pa
         assert main(["paper", "--jobs", str(jobs), "--out", str(root)]) == 0
         outs[jobs] = capsys.readouterr().out
         execution = json.loads((root / "manifest.json").read_text())["execution"]
-        # 2 + 3 flights, 2 case folders, the scenario's pages of the PDF
-        assert execution["jobs"] == jobs and len(execution["tasks"]) == 8
+        # 2 + 3 flights, 2 case folders (the pages and the PDF are this process's)
+        assert execution["jobs"] == jobs and len(execution["tasks"]) == 7
     files = {
         j: sorted(p.relative_to(tmp_path / f"jobs{j}") for p in (tmp_path / f"jobs{j}").rglob("*") if p.is_file())
         for j in (1, 2)
