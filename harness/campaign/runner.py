@@ -537,9 +537,12 @@ def _run_in(camp, tasks, out, where, client, workers, retry_failed, quiet, only,
                 commit(run_sample(t))
         else:
             _local_pool(todo, workers or os.cpu_count() or 1, commit)
-    finally:
-        if bar is not None:
-            progress.end(bar)
+    except BaseException:
+        if bar is not None:  # an error or an interruption: no "cases done" line
+            progress.cancel(bar)
+        raise
+    if bar is not None:
+        progress.end(bar)
     counts = store.counts()
     return {
         **counts,

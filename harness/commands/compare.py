@@ -123,7 +123,7 @@ def run(args) -> int:
         check_result(ValidityWarnings(), result)  # the validity box of the aerodynamic data said aloud (stderr)
         write_case(result, out.root, csv=args.csv, manifest=False, progress=progress)
         record = run_manifest([result], command_line=getattr(args, "command_line", None))
-        render_run(out.root, pdf=False, manifest=record, progress=progress)  # the case page and an index of one
+        render_run(out.root, manifest=record, progress=progress)  # the case page, an index of one and the PDF
         out.commit(record)
     verdict = result.verdict()
     if args.json:

@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 from gna.errors import InputError
+from gna.schema import find_file
 from planners.generalized import plan_scenario
 from planners.scenario import list_scenarios, load_scenario
 from planners.systems.demos import DEMOS, is_chained_scenario, run_demo
@@ -426,6 +427,12 @@ def run(args) -> int:
             print(f"gflat plan: the plan is not feasible: {demo.summary['failure']}", file=sys.stderr)
             return 1
         return 0
+    bundled = list_scenarios()
+    if find_file(args.scenario, {n: Path(n) for n in bundled}, "scenario") is None:  # a bare name, not bundled
+        raise InputError(
+            f"unknown scenario {str(args.scenario)!r}; bundled scenarios: {', '.join(bundled)}; chained systems: "
+            f"{', '.join(DEMOS)} (or give the path of a .toml file)"
+        )
     sc = load_scenario(args.scenario, J=args.J)
     with run_dir(args, sc.name, "plan", command="plan") as out:  # checked before planning
         t0 = time.perf_counter()
