@@ -67,7 +67,9 @@ def test_plan_command_writes_outputs(tmp_path, capsys):
 
 def test_plan_unknown_scenario(capsys):
     assert main(["plan", "barrel-roll"]) == 2
-    assert "unknown scenario 'barrel-roll'" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "unknown scenario 'barrel-roll'" in err
+    assert "gtm-aileron-roll" in err and "car-two-trailers" in err  # every name gflat plan takes
 
 
 def test_compare_command_prints_tables(tmp_path, capsys):
@@ -86,6 +88,7 @@ def test_compare_command_prints_tables(tmp_path, capsys):
     plan_part = out.split("[inhouse against the plan")[1]
     assert "overall: PASS" not in plan_part  # an informative table has no verdict line
     assert (tmp_path / "out" / "states.png").is_file()
+    assert (tmp_path / "out" / "report.pdf").read_bytes()[:5] == b"%PDF-"  # as docs/cli.md says
     assert main(["compare", str(scen), "--engines", "inhouse"]) == 2
 
 
