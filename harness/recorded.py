@@ -153,7 +153,7 @@ def file_problem(path: str | Path, size=None, digest=None) -> str | None:
     Returns
     -------
     str or None
-        ``"missing"``, ``"a symbolic link"``, ``"not a regular file"``, ``"truncated (N of M bytes)"``,
+        ``"missing"``, ``"a symbolic link"``, ``"not a regular file"``, ``"shorter than recorded (N of M bytes: truncated or rewritten)"``,
         ``"N bytes, M recorded"``, ``"changed since it was recorded (sha256 differs)"``, ``"unreadable (...)"``.
     """
     path = Path(path)
@@ -169,7 +169,9 @@ def file_problem(path: str | Path, size=None, digest=None) -> str | None:
         return "not a regular file"
     if size is not None and st.st_size != size:
         return (
-            f"truncated ({st.st_size} of {size} bytes)" if st.st_size < size else f"{st.st_size} bytes, {size} recorded"
+            f"shorter than recorded ({st.st_size} of {size} bytes: truncated or rewritten)"
+            if st.st_size < size
+            else f"{st.st_size} bytes, {size} recorded"
         )
     if digest is not None:
         try:

@@ -231,7 +231,7 @@ def test_confinement_primitives(tmp_path):
         with pytest.raises(InputError, match=cause):
             confined(root, bad)
     assert file_problem(root / "a.txt", 3, sha256(root / "a.txt")) is None
-    assert file_problem(root / "a.txt", 5) == "truncated (3 of 5 bytes)"
+    assert file_problem(root / "a.txt", 5) == "shorter than recorded (3 of 5 bytes: truncated or rewritten)"
     assert file_problem(root / "a.txt", 2) == "3 bytes, 2 recorded"
     assert file_problem(root / "a.txt", 3, "0" * 64) == "changed since it was recorded (sha256 differs)"
     assert file_problem(root / "b.txt") == "missing" and file_problem(root / "up") == "a symbolic link"

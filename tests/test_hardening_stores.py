@@ -76,7 +76,7 @@ def _flip(p: Path) -> None:
 
 
 DAMAGE = {
-    "truncated": (_truncate, "its file inhouse.parquet is truncated ("),
+    "truncated": (_truncate, "its file inhouse.parquet is shorter than recorded ("),
     "deleted": (lambda p: p.unlink(), "its file inhouse.parquet is missing"),
     "changed in place": (_flip, "its file inhouse.parquet is changed since it was recorded (sha256 differs)"),
     "folder deleted": (lambda p: shutil.rmtree(p.parent), "its file inhouse.parquet is missing"),
@@ -103,7 +103,7 @@ def test_a_damaged_case_is_refused_by_the_report_and_computed_again_on_resume(fo
 def test_only_replaces_a_truncated_parquet(folder, capsys):
     _truncate(folder / "cases" / CASE / "jsbsim.parquet")
     rc, err = _run(folder, capsys, "--quiet", "--only", CASE)
-    assert rc == 0 and "its file jsbsim.parquet is truncated" in err and "1 computed" in err
+    assert rc == 0 and "its file jsbsim.parquet is shorter than recorded" in err and "1 computed" in err
     _check_folder(folder, 2)
     cmd = ["campaign", "run", str(TINY), "--out", str(folder), "--samples", "2", "--quiet", "--only", CASE]
     assert main(cmd) == 0  # a sound case: computed aside and compared with the store

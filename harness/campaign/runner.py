@@ -203,42 +203,44 @@ def _local_pool(tasks, workers: int, commit):
 
 
 class _WorkerEnded(BaseException):
-    """Raised in a pool worker by the runner's SIGTERM (:func:`_end_workers`): unwinds the case, then the worker
-    leaves (:func:`_case_in_worker`)."""
+    """Raised in a pool worker by the runner's SIGTERM (:func:`_end_workers`) during a case: unwinds the case,
+    then the worker leaves (:func:`_case_in_worker`)."""
 
 
 def _worker_ends(signum, frame) -> None:
-    """A pool worker's SIGTERM: its standard error to ``/dev/null`` (the terminal belongs to the runner's line);
-    in a case, :class:`_WorkerEnded` raised, so that the case's ``finally`` blocks run before
-    :func:`_case_in_worker` leaves; waiting for a case, the process leaves at once."""
+    """A pool worker's SIGTERM during a case: its standard error to ``/dev/null`` (the terminal belongs to the
+    runner's line), then :class:`_WorkerEnded` raised, so that the case's ``finally`` blocks run."""
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 2)
     os.close(devnull)
-    while frame is not None:
-        if frame.f_code is _case_in_worker.__code__:
-            raise _WorkerEnded()
-        frame = frame.f_back
-    os._exit(128 + signum)
+    raise _WorkerEnded()
 
 
 def _worker_starts() -> None:
     """A pool worker's first step: its own handlers, then the interruptions blocked while the pool forked it
     delivered again.  Forked inside :class:`harness.parallel.InterruptsWait`, the worker inherits handlers that
-    only record a signal (the block's end that would act on them never comes in the worker): Ctrl-C is
-    ignored (the runner ends its workers) and SIGTERM ends the worker (:func:`_worker_ends`); with the recording
-    handler a worker went on with its case until killed ``WORKER_END_S`` later."""
+    only record a signal (the block's end that would act on them never comes in the worker; with them a worker
+    went on with its case until killed ``WORKER_END_S`` later): Ctrl-C is ignored (the runner ends its
+    workers) and SIGTERM, between cases, ends the worker at once (the default action: a Python handler would
+    wait for the main thread, which may be blocked reading the pool's queue while the signal went to the
+    worker's queue-feeding thread); during a case :func:`_case_in_worker` unwinds it first."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, _worker_ends)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, INTERRUPTS)
 
 
 def _case_in_worker(task) -> dict:
-    """:func:`harness.campaign.execute.run_sample` in a pool worker; ended meanwhile, the worker leaves at once
-    (``os._exit``) once the case has unwound, rather than return to the pool's loop."""
+    """:func:`harness.campaign.execute.run_sample` in a pool worker.  Ended meanwhile (SIGTERM), the case's
+    ``finally`` blocks run (:func:`_worker_ends`, the handler while the case runs: the main thread runs Python
+    code then, whichever thread the signal reached) and the worker leaves at once (``os._exit``), rather than
+    return to the pool's loop, which would take the interruption for the case's error and wait for the next."""
+    signal.signal(signal.SIGTERM, _worker_ends)
     try:
         return run_sample(task)
     except _WorkerEnded:
         os._exit(128 + signal.SIGTERM)
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _end_workers(pool) -> None:

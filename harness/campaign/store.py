@@ -476,7 +476,7 @@ class CampaignStore:
         Returns
         -------
         str or None
-            The cause, e.g. ``"its file inhouse.parquet is truncated (812 of 40960 bytes)"``,
+            The cause, e.g. ``"its file inhouse.parquet is shorter than recorded (812 of 40960 bytes: truncated or rewritten)"``,
             ``"it is recorded done without metrics"``.
         """
         try:

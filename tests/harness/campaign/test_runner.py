@@ -575,8 +575,9 @@ def _case_waits(task):
 def test_a_pool_worker_ended_by_the_runner_leaves_at_once(tmp_path, monkeypatch, in_case):
     # The runner ends its workers with SIGTERM (_end_workers). Forked inside InterruptsWait (as _local_pool
     # does), a worker inherited handlers that only record the signal: it went on with its case until killed
-    # WORKER_END_S later (a Ctrl-C of a campaign took 10-20 s to end). It must leave by the signal itself
-    # (143), after the case's finally blocks ran, or at once when it waits for a case.
+    # WORKER_END_S later (a Ctrl-C of a campaign took 10-20 s to end). It must leave by the signal itself, after
+    # the case's finally blocks ran, or at once when it waits for a case (where a Python handler could wait
+    # forever: the signal may reach the queue-feeding thread while the main thread is blocked reading the queue).
     from concurrent.futures import ProcessPoolExecutor
 
     import harness.campaign.runner as runner
@@ -598,7 +599,10 @@ def test_a_pool_worker_ended_by_the_runner_leaves_at_once(tmp_path, monkeypatch,
         (proc,) = pool._processes.values()
         proc.terminate()
         proc.join(300)  # ends on the process's end; a worker that stayed would be killed by the runner
-        assert proc.exitcode == 143
+        assert not _alive(proc.pid)  # ended by the signal alone (nothing else ends it here)
+        # in a case: 143, the worker's own exit once the case unwound; waiting for one: the signal's default
+        # action. None: the pool's manager thread reaped the worker first (it waits for its workers too).
+        assert proc.exitcode in (143 if in_case else -signal.SIGTERM, None), proc.exitcode
         if in_case:
             assert mark.read_text() == "unwound"
     finally:
