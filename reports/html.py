@@ -373,7 +373,9 @@ def verdict_cells(model: dict) -> list[dict]:
     for name, heading in VERDICT_HEADINGS.items():
         v = verdicts.get(name)
         if v is None or v.get("pass") is None:
-            out.append({"name": name, "heading": heading, "state": "n/a", "worst": "-"})
+            out.append(
+                {"name": name, "heading": heading, "state": "n/a", "worst": ""}
+            )  # not judged: the state's dash alone
             continue
         failing = any(f == name or f.startswith(name + ":") for f in failures)
         state = "pass" if v["pass"] else ("fail" if failing else "recorded")

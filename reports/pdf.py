@@ -536,8 +536,8 @@ def run_view(cases: list, common: dict) -> dict:
         {"label": label, "title": str(c["model"]["title"]), "passed": bool(c["model"]["passed"])}
         for c, label in zip(cases, labels)
     ]
-    if manifest:
-        rows.append({"label": "manifest", "title": "Manifest", "passed": None})
+    if manifest:  # in the front matter, before the cases: listed first, the contents in page order
+        rows.insert(0, {"label": "manifest", "title": "Manifest", "passed": None})
     blocks.append({"kind": "contents", "rows": rows})
     blocks.append(_heading(2, "Summary"))
     rows = []
