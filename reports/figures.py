@@ -866,55 +866,6 @@ def recorded_axes(path: str | Path) -> list[str] | None:
     return [str(x) for x in labels] if isinstance(labels, list) else None
 
 
-def save_figure(fig, out, name: str, dpi: int = DPI) -> Path:
-    """Save a matplotlib figure (not a :class:`Sheet`) as ``name`` in the folder ``out`` (made when missing).
-
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-        The figure.
-    out : str or Path
-        Output folder.
-    name : str
-        File name; its suffix sets the format.
-    dpi : int
-        Resolution.
-
-    Returns
-    -------
-    Path
-        The file written.
-    """
-    fmt = Path(name).suffix.lstrip(".") or None
-    path = Path(out) / name
-    with writing(path):
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=dpi, format=fmt)
-    return path
-
-
-def grid_margins(fig) -> None:
-    """Place a figure's grid of axes (one ``fig.subplots(nrows, ncols)``) with the fixed margins :data:`MARGINS_IN`.
-
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-    """
-    w, h = fig.get_size_inches()
-    nrows, ncols = fig.axes[0].get_subplotspec().get_gridspec().get_geometry()
-    m = MARGINS_IN
-    ax_w = (w - m["left"] - m["right"] - (ncols - 1) * m["wspace"]) / ncols
-    ax_h = (h - m["bottom"] - m["top"] - (nrows - 1) * m["hspace"]) / nrows
-    fig.subplots_adjust(
-        left=m["left"] / w,
-        right=1 - m["right"] / w,
-        bottom=m["bottom"] / h,
-        top=1 - m["top"] / h,
-        wspace=m["wspace"] / ax_w,
-        hspace=m["hspace"] / ax_h,
-    )
-
-
 # --------------------------------------------------------------------------- the case figures
 
 
