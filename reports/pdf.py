@@ -175,9 +175,11 @@ def run_file(root: Path, path: Path, what: str) -> str:
         A link, a file outside the run once resolved, no PNG file, or one of more than
         :data:`MAX_FIGURE_PIXELS` pixels.
     """
+    from .html import _run_file
+
     base = Path(root).resolve()
     p = Path(path)
-    if p.is_symlink() or not p.is_file() or not p.resolve().is_relative_to(base):
+    if not _run_file(base, p):  # the pages' rule for a file of the run
         raise InputError(f"{what} {p.name}: not a regular file inside the run {root} (never printed)")
     size = png_size(p)
     if size is None:
