@@ -307,30 +307,19 @@ def augmented(df: pd.DataFrame) -> pd.DataFrame:
         atmosphere).
     """
     out = df.copy()
-    for name, values in _added_columns(df).items():
-        out[name] = values
-    return out
-
-
-def _added_columns(df: pd.DataFrame) -> dict[str, np.ndarray]:
-    """The columns :func:`augmented` adds to ``df``, in its order (none when ``df`` lacks a state, or is empty)."""
     need = ("z", "V", "gamma", "chi", "alpha", "beta", "mu")
-    if not all(c in df.columns for c in need) or df.empty:
-        return {}
-    g, c, m, a, b = (df[k].to_numpy(float) for k in ("gamma", "chi", "mu", "alpha", "beta"))
-    V = df["V"].to_numpy(float)
-    h = -df["z"].to_numpy(float)
+    if not all(c in out.columns for c in need) or out.empty:
+        return out
+    g, c, m, a, b = (out[k].to_numpy(float) for k in ("gamma", "chi", "mu", "alpha", "beta"))
+    V = out["V"].to_numpy(float)
+    out["h"] = -out["z"].to_numpy(float)
     eul = _euler_angles(g, c, m, a, b)
-    return {
-        "h": h,
-        "phi": eul[:, 0],
-        "theta": eul[:, 1],
-        "psi": eul[:, 2],
-        "u": V * np.cos(a) * np.cos(b),
-        "v": V * np.sin(b),
-        "w": V * np.sin(a) * np.cos(b),
-        "Mach": V / speed_of_sound(h),
-    }
+    out["phi"], out["theta"], out["psi"] = eul[:, 0], eul[:, 1], eul[:, 2]
+    out["u"] = V * np.cos(a) * np.cos(b)
+    out["v"] = V * np.sin(b)
+    out["w"] = V * np.sin(a) * np.cos(b)
+    out["Mach"] = V / speed_of_sound(out["h"].to_numpy(float))
+    return out
 
 
 def units_of(columns) -> dict[str, str]:
@@ -363,48 +352,10 @@ def trajectory_table(df: pd.DataFrame, metadata: dict | None = None):
     -------
     pyarrow.Table
     """
-    return _trajectory_table(df, {}, metadata)
-
-
-def _trajectory_table(df: pd.DataFrame, added: dict, metadata: dict | None):
-    """:func:`trajectory_table` of ``df`` with the columns ``added`` (name -> array) set, as
-    :func:`augmented` sets them: of NumPy numbers, built from the arrays directly (the table, its schema and
-    its ``pandas`` metadata those :meth:`pyarrow.Table.from_pandas` makes of the frame)."""
     import pyarrow as pa
 
-    index = df.index
-    names = ["t", *df.columns, *(c for c in added if c not in df.columns)]
-    f64 = np.dtype(float)
-    if (
-        df.attrs
-        or isinstance(index, pd.MultiIndex)
-        or index.dtype != f64
-        or any(d != f64 for d in df.dtypes)
-        or any(not isinstance(c, str) for c in names)
-        or len(set(names)) < len(names)
-        or index.name in names[1:]
-        or "index" in names[1:]
-    ):
-        flat = df.assign(**added).reset_index() if added else df.reset_index()
-        flat = flat.rename(columns={flat.columns[0]: "t"})
-        return _frame_table(flat, metadata)
-    block = df.to_numpy(dtype=float)
-    values = [index.to_numpy(), *(added[c] if c in added else block[:, i] for i, c in enumerate(df.columns))]
-    values += [added[c] for c in names[1 + len(df.columns) :]]
-    units = units_of(names)
-    fields = [pa.field(c, pa.float64(), metadata={"unit": units[c]}) for c in names]
-    meta = {"gflat.units": json.dumps(units)}
-    if metadata:
-        meta["gflat"] = json.dumps(json_safe(metadata))
-    meta["pandas"] = _pandas_metadata(tuple(names), tuple(fields))
-    arrays = [pa.array(np.asarray(v, dtype=float), type=pa.float64(), from_pandas=True) for v in values]
-    return pa.Table.from_arrays(arrays, schema=pa.schema(fields, metadata=meta))
-
-
-def _frame_table(flat: pd.DataFrame, metadata: dict | None):
-    """A flat frame (time first, named ``t``) as a pyarrow Table through :meth:`pyarrow.Table.from_pandas`."""
-    import pyarrow as pa
-
+    flat = df.reset_index()
+    flat = flat.rename(columns={flat.columns[0]: "t"})
     units = units_of(flat.columns)
     fields = [
         pa.field(str(c), pa.float64() if flat[c].dtype.kind in "fiu" else pa.string(), metadata={"unit": units[c]})
@@ -415,17 +366,6 @@ def _frame_table(flat: pd.DataFrame, metadata: dict | None):
         meta["gflat"] = json.dumps(json_safe(metadata))
     schema = pa.schema(fields, metadata=meta)
     return pa.Table.from_pandas(flat, schema=schema, preserve_index=False)
-
-
-@functools.lru_cache(maxsize=32)
-def _pandas_metadata(names: tuple, fields: tuple) -> bytes:
-    """The ``pandas`` schema metadata :meth:`pyarrow.Table.from_pandas` writes for a frame of float64 columns
-    ``names`` (no index, no attributes) as the float ``fields``: it depends on them only, not on the values (made
-    once per layout, from an empty frame)."""
-    import pyarrow as pa
-
-    empty = pd.DataFrame({n: np.empty(0) for n in names})
-    return pa.Table.from_pandas(empty, schema=pa.schema(list(fields)), preserve_index=False).schema.metadata[b"pandas"]
 
 
 #: Options of the trajectories' Parquet files: plain encoding (a dictionary of float samples, nearly all
@@ -460,12 +400,11 @@ def write_trajectory(
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    added = _added_columns(df)
-    table = _trajectory_table(df, added, metadata)
+    full = augmented(df)
+    table = trajectory_table(full, metadata)
     pq.write_table(table, out / f"{name}.parquet", **PARQUET_OPTIONS)
     paths = [out / f"{name}.parquet"]
     if csv:
-        full = augmented(df)
         full.reset_index().rename(columns=lambda c: "t" if c in ("index", full.index.name) else c).to_csv(
             out / f"{name}.csv", index=False, float_format="%.12g"
         )

@@ -1,4 +1,4 @@
-"""Trajectory files: the table built from the arrays is the one pandas' conversion makes, and reads back."""
+"""Trajectory files: the table is the one pandas' conversion makes of the augmented frame, and reads back."""
 
 from __future__ import annotations
 
@@ -26,8 +26,8 @@ def _trajectory(n: int = 40) -> pd.DataFrame:
 
 
 def _by_pandas(df: pd.DataFrame, metadata: dict) -> pa.Table:
-    """The table :meth:`pyarrow.Table.from_pandas` makes of the augmented frame (how the files were made before
-    they were built from the arrays)."""
+    """The table :meth:`pyarrow.Table.from_pandas` makes of the augmented frame, built here independently of
+    :func:`harness.artefacts.trajectory_table` (its units and metadata)."""
     flat = augmented(df).reset_index()
     flat = flat.rename(columns={flat.columns[0]: "t"})
     units = units_of(flat.columns)
