@@ -240,6 +240,21 @@ def _busy_children(pid: int, n: int) -> list[int]:
     return kids if len(kids) >= n else []
 
 
+def _where_waiting(pid: int) -> str:
+    """Each thread's state and kernel wait channel of ``pid`` and of its children (a hang's diagnosis)."""
+    out = []
+    for p in [pid, *_children(pid)]:
+        threads = []
+        for task in sorted(Path(f"/proc/{p}/task").glob("*")):
+            try:
+                state = (task / "stat").read_text().rsplit(")", 1)[1].split()[0]
+                threads.append(f"{task.name} {state} {(task / 'wchan').read_text() or '-'}")
+            except OSError:
+                continue
+        out.append(f"pid {p}: " + "; ".join(threads))
+    return " | ".join(out)
+
+
 def _alive(pid: int) -> bool:
     try:
         state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
@@ -464,7 +479,10 @@ def test_ctrl_c_in_a_process_pool_ends_at_once_and_the_run_resumes(tmp_path):
         workers = _until(lambda: _busy_children(proc.pid, 2))  # the two workers inside their first cases
         proc.send_signal(signal.SIGINT)  # to gflat alone (`timeout -s INT`, `kill -INT`): the
         #                                                   workers go on unless gflat ends them
-        code = proc.wait(120)
+        try:
+            code = proc.wait(120)
+        except subprocess.TimeoutExpired:  # a hang seen once under load: say where each process waits
+            pytest.fail(f"gflat still running 120 s after SIGINT: {_where_waiting(proc.pid)}")
         alive = [w for w in workers if _alive(w)]
     finally:
         if proc.poll() is None:
